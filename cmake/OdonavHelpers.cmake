@@ -1,0 +1,25 @@
+# Helpers shared by every CMakeLists.txt of the project.
+
+# odonav_add_gtest(<name> SOURCES <files...> LIBS <targets...> [LABELS <labels...>] [ENVIRONMENT <VAR=...>...])
+# Builds bin/odonav-test-<name> and registers each of its GoogleTest cases with CTest.
+# Every test runs with SKIP_DEFAULT_XML=1 so a stray DEFAULT_FASTRTPS_PROFILES.xml cannot change it,
+# and with the loopback-only profile as the default Fast DDS profile.
+function(odonav_add_gtest name)
+  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS;LABELS;ENVIRONMENT" ${ARGN})
+  set(target odonav-test-${name})
+  add_executable(${target} ${ARG_SOURCES})
+  target_link_libraries(${target} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gmock GTest::gtest_main)
+  target_compile_definitions(${target} PRIVATE
+    ODONAV_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    ODONAV_BINARY_DIR="${PROJECT_BINARY_DIR}"
+    ODONAV_SHARED_DIR="${PROJECT_SOURCE_DIR}/../shared")
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 300)
+  endif()
+  gtest_discover_tests(${target}
+    DISCOVERY_MODE PRE_TEST
+    PROPERTIES
+      TIMEOUT ${ARG_TIMEOUT}
+      LABELS "${ARG_LABELS}"
+      ENVIRONMENT "SKIP_DEFAULT_XML=1;FASTRTPS_DEFAULT_PROFILES_FILE=${PROJECT_SOURCE_DIR}/deploy/profiles/loopback.xml;${ARG_ENVIRONMENT}")
+endfunction()

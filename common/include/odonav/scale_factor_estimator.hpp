@@ -1,0 +1,52 @@
+#pragma once
+// The odometer scale-factor estimators of ALGORITHM.md §3, behind one interface so they can be
+// compared side by side on the same samples.
+//
+// Regression (ALGORITHM.md §2):  y_k = K * phi_k + e_k
+//   phi_k: pulses counted over the sample interval [pulses] (>0 for accepted samples)
+//   y_k:   distance along the odometer axis over the interval from GNSS velocity [m]
+//   K:     odometer scale factor [m/pulse]
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <Eigen/Dense>
+
+namespace odonav {
+
+/// One regression sample, built by the sample builder (sample_builder.hpp).
+struct ScaleFactorSample {
+  double t_s = 0.0;          ///< end of the interval (a GNSS epoch), seconds.
+  double phi_pulses = 0.0;   ///< pulse increment over the interval.
+  double y_m = 0.0;          ///< distance from GNSS velocity over the interval, metres.
+  double dt_s = 0.0;         ///< interval length, seconds.
+  /// GNSS position at t_s in a local ENU frame (metres); used by the coarse S/N calibration only.
+  Eigen::Vector3d gnss_position_enu_m = Eigen::Vector3d::Zero();
+  bool straight = true;      ///< the yaw-rate gate says this interval was on a straight line.
+};
+
+/// What every estimator reports.
+struct ScaleFactorEstimate {
+  bool valid = false;               ///< false until the estimator has a value.
+  double k_m_per_pulse = 0.0;       ///< K estimate.
+  double sigma_m_per_pulse = 0.0;   ///< one-sigma of K (0 when unknown).
+  double forgetting_factor = 1.0;   ///< lambda applied at the last update (1 for RLS / windows).
+  double window_fill = 0.0;         ///< held samples / window capacity, 0..1 (1 for growing memory).
+  bool converged = false;           ///< sigma below the convergence threshold.
+  uint64_t samples_used = 0;        ///< samples given to update() since reset.
+};
+
+class ScaleFactorEstimator {
+ public:
+  virtual ~ScaleFactorEstimator() = default;
+  /// Short stable name: "rls", "ff_rls", "lm_rls", "vff_lm_rls", "coarse".
+  virtual std::string name() const = 0;
+  /// Feeds one accepted sample.
+  virtual void update(const ScaleFactorSample& sample) = 0;
+  /// Current estimate.
+  virtual ScaleFactorEstimate estimate() const = 0;
+  /// Forgets everything; the next estimate is invalid until new samples arrive.
+  virtual void reset() = 0;
+};
+
+}  // namespace odonav
