@@ -47,6 +47,17 @@ class ScaleFactorEstimator {
   virtual ScaleFactorEstimate estimate() const = 0;
   /// Forgets everything; the next estimate is invalid until new samples arrive.
   virtual void reset() = 0;
+
+  // Added by the estimators work (every estimator implements them): a restarted service resumes
+  // from the last state instead of re-converging for L samples; DDS persistence keeps samples
+  // only, not estimator internals (FAST_DDS_NOTES.md).
+  /// The complete internal state as versioned text (doubles in hex-float, so a restored estimator
+  /// continues bit-identically), with the estimator name, its parameters and a checksum.
+  virtual std::string save_state() const = 0;
+  /// Restores a save_state() text. Throws std::runtime_error naming the reason when the text is
+  /// corrupt, of another version, of another estimator, or saved with different parameters; the
+  /// state is then unchanged.
+  virtual void restore_state(const std::string& state) = 0;
 };
 
 }  // namespace odonav

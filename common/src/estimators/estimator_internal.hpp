@@ -1,0 +1,66 @@
+#pragma once
+// Private helpers shared by the estimator sources: input checks, the noise model, and the text
+// format of save_state() / restore_state(). Not installed, not part of the API.
+//
+// State text, version 1: one "key value..." line each, first line "odonav-scale-factor-state 1",
+// second "estimator <name>", parameters as "param.<name> <value>", doubles in C99 hex-float (%a, so
+// the round trip is exact), last line "checksum <FNV-1a 64 of every byte before that line>".
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "odonav/estimators.hpp"
+
+namespace odonav::estimators_internal {
+
+/// Throws std::invalid_argument naming the estimator, the sample time and the bad field when a
+/// value is not finite or phi_pulses <= 0 (accepted samples always move forward).
+void check_sample(const std::string& estimator, const ScaleFactorSample& sample);
+
+/// Model residual variance [m^2]: (sigma_v T)^2 / 2 + K^2 / 6 (GNSS velocity noise over one
+/// interval plus the difference of two uniform pulse quantisation errors), at least floor^2.
+double model_sigma_y2_m2(const ScaleFactorEstimatorParams& params, double k_m_per_pulse);
+
+/// The estimate of a least-squares estimator with total sums (prior included) s_pp [pulse^2] and
+/// s_py [pulse m]: K = s_py / s_pp, sigma = sigma_y / sqrt(s_pp), converged per the params.
+/// Invalid when no sample is held (has_samples false) or s_pp is not positive.
+ScaleFactorEstimate least_squares_estimate(const ScaleFactorEstimatorParams& params, bool has_samples,
+                                           double s_pp, double s_py, double sigma_y_m, uint64_t samples_used,
+                                           double forgetting_factor, double window_fill);
+
+/// converged rule shared by every estimator: sigma / |K| < converged_rel_sigma and enough samples.
+bool is_converged(const ScaleFactorEstimatorParams& params, double k, double sigma, uint64_t samples_used);
+
+class StateWriter {
+ public:
+  explicit StateWriter(const std::string& estimator_name);
+  void put(const std::string& key, double value);
+  void put_u64(const std::string& key, uint64_t value);
+  void put_row(const std::string& key, const std::vector<double>& values);
+  void put_params(const ScaleFactorEstimatorParams& params);
+  std::string finish();
+
+ private:
+  std::string text_;
+};
+
+class StateReader {
+ public:
+  /// Parses and checks header, version, checksum and estimator name; throws std::runtime_error.
+  StateReader(const std::string& text, const std::string& estimator_name);
+  double get(const std::string& key) const;
+  uint64_t get_u64(const std::string& key) const;
+  /// All rows stored under key, in order; each must have `width` values.
+  std::vector<std::vector<double>> rows(const std::string& key, std::size_t width) const;
+  /// Throws std::runtime_error when a parameter differs from the saved one (names it).
+  void check_params(const ScaleFactorEstimatorParams& params) const;
+
+ private:
+  const std::vector<std::string>& values(const std::string& key) const;
+  std::string estimator_;
+  std::map<std::string, std::vector<std::string>> single_;
+  std::map<std::string, std::vector<std::vector<std::string>>> rows_;
+};
+
+}  // namespace odonav::estimators_internal

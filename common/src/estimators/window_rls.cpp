@@ -1,0 +1,185 @@
+// LM-RLS and VFF-LM-RLS: a sliding window of the last L accepted samples, exact and O(1) per sample
+// (ALGORITHM.md §3). The window sums are scaled by lambda on every update, so a sample that entered
+// when the running log-weight was Lambda_i has weight exp(Lambda - Lambda_i) now: the product of the
+// lambdas applied since, not lambda^L. That is the weight it must be removed with.
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "estimator_internal.hpp"
+#include "odonav/estimators.hpp"
+
+namespace odonav {
+
+using namespace estimators_internal;
+
+WindowRlsEstimator::WindowRlsEstimator(const ScaleFactorEstimatorParams& params, bool variable_forgetting)
+    : params_(params),
+      variable_forgetting_(variable_forgetting),
+      capacity_(params.window_length),
+      resum_interval_(params.resum_interval == 0 ? params.window_length : params.resum_interval),
+      residual_scale_(params.sigma_y_floor_m, params.sigma_y_ewma_alpha) {
+  params_.validate();
+  buffer_.resize(capacity_);
+}
+
+const WindowRlsEstimator::Entry& WindowRlsEstimator::entry(std::size_t age_index) const {
+  return buffer_[(oldest_ + age_index) % capacity_];
+}
+
+double WindowRlsEstimator::vff_c_m2(double k_m_per_pulse) const {
+  if (params_.vff_c_m2 > 0.0) return params_.vff_c_m2;
+  return params_.vff_kappa * model_sigma_y2_m2(params_, k_m_per_pulse);
+}
+
+void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
+  check_sample(name(), sample);
+  const double phi = sample.phi_pulses;
+  const double y = sample.y_m;
+  const double w0 = params_.prior_weight_pulses2;
+  const double s_pp_total = s_pp_ + w0;
+
+  double lambda = 1.0;
+  if (held_ > 0 && s_pp_total > 0.0) {
+    const double k_prev = (s_py_ + w0 * params_.k_prior_m_per_pulse) / s_pp_total;
+    const double eps = y - k_prev * phi;       // a-priori error: follows the identification result
+    const double s = 1.0 + phi * phi / s_pp_total;
+    residual_scale_.add(eps, s);
+    // Ordinary RLS while the window fills (fewer than L held), the VFF law afterwards.
+    if (variable_forgetting_ && held_ == capacity_) {
+      const double c = vff_c_m2(k_prev);
+      lambda = std::clamp(1.0 - eps * eps / (s * static_cast<double>(capacity_) * c), params_.lambda_min, 1.0);
+    }
+  }
+
+  if (lambda != 1.0) {
+    log_weight_ += std::log(lambda);
+    s_pp_ *= lambda;
+    s_py_ *= lambda;
+  }
+  s_pp_ += phi * phi;
+  s_py_ += phi * y;
+
+  const Entry newest{phi, y, log_weight_};
+  if (held_ == capacity_) {
+    const Entry& old = buffer_[oldest_];
+    const double beta = variable_forgetting_ ? std::exp(log_weight_ - old.log_weight) : 1.0;
+    s_pp_ -= beta * old.phi * old.phi;
+    s_py_ -= beta * old.phi * old.y;
+    buffer_[oldest_] = newest;
+    oldest_ = (oldest_ + 1) % capacity_;
+  } else {
+    buffer_[(oldest_ + held_) % capacity_] = newest;
+    ++held_;
+  }
+  last_lambda_ = lambda;
+  ++samples_used_;
+  if (++since_resum_ >= resum_interval_) resum();
+}
+
+void WindowRlsEstimator::resum() {
+  // Re-base the log-weights on the current Lambda: each stored Lambda_i becomes Lambda_i - Lambda
+  // (>= 0, since ln(lambda) <= 0) and Lambda becomes 0; weights exp(0 - Lambda_i) are unchanged.
+  // Lambda therefore stays within resum_interval * |ln lambda_min| and exp() never under/overflows.
+  const double base = log_weight_;
+  double s_pp = 0.0;
+  double s_py = 0.0;
+  for (std::size_t i = 0; i < held_; ++i) {
+    Entry& e = buffer_[(oldest_ + i) % capacity_];
+    e.log_weight -= base;
+    const double w = variable_forgetting_ ? std::exp(-e.log_weight) : 1.0;
+    s_pp += w * e.phi * e.phi;
+    s_py += w * e.phi * e.y;
+  }
+  log_weight_ = 0.0;
+  s_pp_ = s_pp;
+  s_py_ = s_py;
+  since_resum_ = 0;
+}
+
+WindowSums WindowRlsEstimator::window_sums() const { return WindowSums{s_pp_, s_py_, held_}; }
+
+WindowSums WindowRlsEstimator::exact_window_sums() const {
+  WindowSums sums;
+  sums.held = held_;
+  for (std::size_t i = 0; i < held_; ++i) {
+    const Entry& e = entry(i);
+    const double w = variable_forgetting_ ? std::exp(log_weight_ - e.log_weight) : 1.0;
+    sums.s_pp += w * e.phi * e.phi;
+    sums.s_py += w * e.phi * e.y;
+  }
+  return sums;
+}
+
+ScaleFactorEstimate WindowRlsEstimator::estimate() const {
+  const double w0 = params_.prior_weight_pulses2;
+  return least_squares_estimate(params_, held_ > 0, s_pp_ + w0, s_py_ + w0 * params_.k_prior_m_per_pulse,
+                                residual_scale_.sigma_m(), samples_used_, last_lambda_,
+                                static_cast<double>(held_) / static_cast<double>(capacity_));
+}
+
+void WindowRlsEstimator::reset() {
+  oldest_ = 0;
+  held_ = 0;
+  s_pp_ = 0.0;
+  s_py_ = 0.0;
+  log_weight_ = 0.0;
+  last_lambda_ = 1.0;
+  since_resum_ = 0;
+  samples_used_ = 0;
+  residual_scale_.reset();
+}
+
+std::string WindowRlsEstimator::save_state() const {
+  StateWriter out(name());
+  out.put_params(params_);
+  out.put("s_pp", s_pp_);
+  out.put("s_py", s_py_);
+  out.put("log_weight", log_weight_);
+  out.put("last_lambda", last_lambda_);
+  out.put_u64("since_resum", since_resum_);
+  out.put_u64("samples_used", samples_used_);
+  out.put_u64("residual_count", residual_scale_.count());
+  out.put("residual_variance", residual_scale_.variance_m2());
+  out.put_u64("held", held_);
+  for (std::size_t i = 0; i < held_; ++i) out.put_row("row", {entry(i).phi, entry(i).y, entry(i).log_weight});
+  return out.finish();
+}
+
+void WindowRlsEstimator::restore_state(const std::string& state) {
+  const StateReader in(state, name());
+  in.check_params(params_);
+  const auto rows = in.rows("row", 3);
+  const uint64_t held = in.get_u64("held");
+  const std::string where = "estimator state for '" + name() + "': ";
+  if (held != rows.size())
+    throw std::runtime_error(where + "held = " + std::to_string(held) + " but " + std::to_string(rows.size()) +
+                             " buffer rows");
+  if (held > capacity_) throw std::runtime_error(where + "more buffer rows than the window length");
+  const uint64_t since_resum = in.get_u64("since_resum");
+  if (since_resum >= resum_interval_) throw std::runtime_error(where + "since_resum out of range");
+  const double residual_variance = in.get("residual_variance");
+  if (!(residual_variance >= 0.0)) throw std::runtime_error(where + "negative residual variance");
+  for (const auto& r : rows)
+    if (!std::isfinite(r[0]) || !std::isfinite(r[1]) || !std::isfinite(r[2]))
+      throw std::runtime_error(where + "non-finite buffer value");
+  const double s_pp = in.get("s_pp");
+  const double s_py = in.get("s_py");
+  const double log_weight = in.get("log_weight");
+  const double last_lambda = in.get("last_lambda");
+  const uint64_t samples_used = in.get_u64("samples_used");
+  const uint64_t residual_count = in.get_u64("residual_count");
+  // All read and checked: commit.
+  s_pp_ = s_pp;
+  s_py_ = s_py;
+  log_weight_ = log_weight;
+  last_lambda_ = last_lambda;
+  since_resum_ = since_resum;
+  samples_used_ = samples_used;
+  residual_scale_.set_state(residual_count, residual_variance);
+  oldest_ = 0;
+  held_ = held;
+  for (std::size_t i = 0; i < held; ++i) buffer_[i] = Entry{rows[i][0], rows[i][1], rows[i][2]};
+}
+
+}  // namespace odonav

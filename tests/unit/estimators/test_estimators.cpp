@@ -1,0 +1,682 @@
+// Scale-factor estimators: each recursive estimator against a brute-force weighted batch least-squares
+// solution after every update, the O(1) window sums against an exact re-summation after 10^7
+// samples, tracking of a 3 % step of K (windows and the Kalman filter recover, growing-memory RLS
+// does not), the VFF law recomputed independently, the coarse S/N method on exact geometry, sigma
+// calibration, the factory and parameter errors, and save/restore.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "odonav/estimators.hpp"
+
+using namespace odonav;
+
+namespace {
+
+ScaleFactorSample make_sample(double t_s, double phi, double y, double dt_s = 0.1) {
+  ScaleFactorSample s;
+  s.t_s = t_s;
+  s.phi_pulses = phi;
+  s.y_m = y;
+  s.dt_s = dt_s;
+  return s;
+}
+
+// A drive at 10 Hz with real pulse quantisation: the pulse counter accumulates distance / K(t) and
+// phi is the increment of its integer part; y is the true distance plus Gaussian noise (the GNSS
+// velocity error). Speed ~8 m/s with K = 0.01 m/pulse gives phi ~ 80 pulses.
+struct Drive {
+  std::vector<ScaleFactorSample> samples;
+  std::vector<double> k_true;
+};
+
+Drive simulate_drive(std::size_t n, double k0, std::size_t step_at, double step_rel, double sigma_y_m,
+                     unsigned seed, bool quantise = true) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma_y_m);
+  std::uniform_real_distribution<double> speed_jitter(-0.5, 0.5);
+  Drive d;
+  double counter = 0.0;
+  double previous_count = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double k = i >= step_at ? k0 * (1.0 + step_rel) : k0;
+    const double distance_m = (8.0 + speed_jitter(rng)) * 0.1;
+    counter += distance_m / k;
+    const double count = quantise ? std::floor(counter) : counter;
+    d.samples.push_back(make_sample(0.1 * static_cast<double>(i + 1), count - previous_count, distance_m + noise(rng)));
+    d.k_true.push_back(k);
+    previous_count = count;
+  }
+  return d;
+}
+
+double relative_error(double value, double reference) { return std::abs(value - reference) / std::abs(reference); }
+
+// Brute-force weighted batch least squares: K = (w0 K0 + sum w phi y) / (w0 + sum w phi^2).
+struct BatchSums {
+  double s_pp = 0.0;
+  double s_py = 0.0;
+};
+BatchSums batch_sums(const std::vector<ScaleFactorSample>& samples, const std::vector<double>& weights) {
+  BatchSums b;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    b.s_pp += weights[i] * samples[i].phi_pulses * samples[i].phi_pulses;
+    b.s_py += weights[i] * samples[i].phi_pulses * samples[i].y_m;
+  }
+  return b;
+}
+
+// Random regression data with jumps of K (so the VFF really varies lambda) and occasional outliers.
+std::vector<ScaleFactorSample> random_regression_data(std::size_t n, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> phi(30.0, 130.0);
+  std::normal_distribution<double> noise(0.0, 0.004);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<ScaleFactorSample> out;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double k = i < n / 3 ? 0.0100 : i < 2 * n / 3 ? 0.0105 : 0.0102;
+    const double p = phi(rng);
+    double y = k * p + noise(rng);
+    if (unit(rng) < 0.02) y += 0.05;  // GNSS velocity outlier
+    out.push_back(make_sample(0.1 * static_cast<double>(i + 1), p, y));
+  }
+  return out;
+}
+
+// Weights of each estimator over samples 0..k (inclusive), product-wise from the applied lambdas.
+std::vector<double> brute_force_weights(const std::string& name, std::size_t k, std::size_t window,
+                                        double ff_lambda, const std::vector<double>& applied_lambda) {
+  std::vector<double> w(k + 1, 0.0);
+  for (std::size_t i = 0; i <= k; ++i) {
+    if (name == "rls") {
+      w[i] = 1.0;
+    } else if (name == "ff_rls") {
+      double product = 1.0;
+      for (std::size_t j = i + 1; j <= k; ++j) product *= ff_lambda;
+      w[i] = product;
+    } else if (name == "lm_rls") {
+      w[i] = (k - i < window) ? 1.0 : 0.0;
+    } else {  // vff_lm_rls: in the window, the product of the lambdas applied after it entered
+      if (k - i >= window) continue;
+      double product = 1.0;
+      for (std::size_t j = i + 1; j <= k; ++j) product *= applied_lambda[j];
+      w[i] = product;
+    }
+  }
+  return w;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------
+// Exactness against brute-force weighted batch LS after every update.
+
+class BatchEquivalence : public ::testing::TestWithParam<std::tuple<std::string, bool>> {};
+
+TEST_P(BatchEquivalence, EqualsWeightedBatchLeastSquaresAfterEveryUpdate) {
+  const auto& [name, with_prior] = GetParam();
+  ScaleFactorEstimatorParams params;
+  params.window_length = 50;
+  params.forgetting_factor = 0.97;
+  params.resum_interval = 37;  // not a divisor of anything here: re-summation at odd moments
+  if (with_prior) {
+    params.k_prior_m_per_pulse = 0.011;
+    params.prior_weight_pulses2 = 500.0;
+  }
+  const double w0 = params.prior_weight_pulses2;
+  const double k0 = params.k_prior_m_per_pulse;
+  auto estimator = make_scale_factor_estimator(name, params);
+  const std::vector<ScaleFactorSample> data = random_regression_data(600, 11);
+  std::vector<double> applied_lambda;
+  for (std::size_t k = 0; k < data.size(); ++k) {
+    estimator->update(data[k]);
+    const ScaleFactorEstimate e = estimator->estimate();
+    applied_lambda.push_back(e.forgetting_factor);
+    const std::vector<ScaleFactorSample> seen(data.begin(), data.begin() + static_cast<long>(k) + 1);
+    const BatchSums b = batch_sums(seen, brute_force_weights(name, k, params.window_length,
+                                                             params.forgetting_factor, applied_lambda));
+    const double k_batch = (w0 * k0 + b.s_py) / (w0 + b.s_pp);
+    ASSERT_TRUE(e.valid) << name << " sample " << k;
+    ASSERT_LT(relative_error(e.k_m_per_pulse, k_batch), 1e-9) << name << " sample " << k;
+    EXPECT_EQ(e.samples_used, k + 1);
+    if (auto* window = dynamic_cast<WindowRlsEstimator*>(estimator.get())) {
+      ASSERT_LT(relative_error(window->window_sums().s_pp, b.s_pp), 1e-9) << name << " sample " << k;
+      EXPECT_EQ(window->window_sums().held, std::min<std::size_t>(k + 1, params.window_length));
+      EXPECT_DOUBLE_EQ(e.window_fill, static_cast<double>(std::min<std::size_t>(k + 1, 50)) / 50.0);
+    }
+  }
+  if (name == "vff_lm_rls") {
+    // The brute force above is only meaningful if lambda really varied.
+    const double smallest = *std::min_element(applied_lambda.begin(), applied_lambda.end());
+    const auto below_one = std::count_if(applied_lambda.begin(), applied_lambda.end(), [](double l) { return l < 1.0; });
+    EXPECT_LE(smallest, params.lambda_min + 1e-15);
+    EXPECT_GT(below_one, 100);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllRecursive, BatchEquivalence,
+                         ::testing::Combine(::testing::Values("rls", "ff_rls", "lm_rls", "vff_lm_rls"),
+                                            ::testing::Bool()),
+                         [](const auto& info) {
+                           return std::get<0>(info.param) + (std::get<1>(info.param) ? "_prior" : "_no_prior");
+                         });
+
+TEST(VffLmRls, ForgettingFactorFollowsTheFortescueLawComputedIndependently) {
+  // lambda_k = clamp(1 - eps^2 / (s L C), lambda_min, 1) once L samples are held, with the a-priori
+  // error and s from the brute-force weighted sums before sample k, and C from the documented model.
+  for (double c_m2 : {0.0, 2e-4}) {
+    ScaleFactorEstimatorParams params;
+    params.window_length = 40;
+    params.vff_c_m2 = c_m2;
+    VffLmRlsEstimator estimator(params);
+    const std::vector<ScaleFactorSample> data = random_regression_data(400, 5);
+    std::vector<double> applied;
+    for (std::size_t k = 0; k < data.size(); ++k) {
+      double expected = 1.0;
+      if (k >= params.window_length) {
+        const std::vector<ScaleFactorSample> seen(data.begin(), data.begin() + static_cast<long>(k));
+        const BatchSums b =
+            batch_sums(seen, brute_force_weights("vff_lm_rls", k - 1, params.window_length, 1.0, applied));
+        const double k_prev = b.s_py / b.s_pp;
+        const double eps = data[k].y_m - k_prev * data[k].phi_pulses;
+        const double s = 1.0 + data[k].phi_pulses * data[k].phi_pulses / b.s_pp;
+        const double sigma_y2 = std::max(std::pow(0.05 * 0.1, 2) / 2.0 + k_prev * k_prev / 6.0, 1e-6);
+        const double c = c_m2 > 0.0 ? c_m2 : 4.0 * sigma_y2;
+        expected = std::clamp(1.0 - eps * eps / (s * 40.0 * c), 0.95, 1.0);
+      }
+      estimator.update(data[k]);
+      applied.push_back(estimator.estimate().forgetting_factor);
+      ASSERT_NEAR(applied.back(), expected, 1e-9) << "sample " << k << " C " << c_m2;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Long-run numerical stability: 10^7 samples, O(1) sums against an exact re-summation.
+
+namespace {
+// splitmix64: a cheap, fixed-seed generator so 10^7 samples cost little beyond the estimator.
+struct FastUniform {
+  uint64_t state;
+  double operator()() {  // uniform in [-1, 1)
+    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return static_cast<double>(z >> 11) * 0x1.0p-52 - 1.0;
+  }
+};
+
+void run_ten_million(const std::string& name) {
+  ScaleFactorEstimatorParams params;  // L = 100, M = L, lambda_min = 0.95
+  auto estimator = make_scale_factor_estimator(name, params);
+  auto* window = dynamic_cast<WindowRlsEstimator*>(estimator.get());
+  ASSERT_NE(window, nullptr);
+  FastUniform unit{2024};
+  double k_true = 0.01;
+  double max_abs_log_weight = 0.0;
+  std::size_t lambda_below_one = 0;
+  // 99 samples past a multiple of M: the sums have been downdated 99 times since the last
+  // re-summation, the worst point of the cycle.
+  const std::size_t n = 10000000 + 99;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i % 100000 == 0) k_true = 0.01 * (1.0 + 0.03 * unit());  // steps keep the VFF working
+    const double phi = 80.0 + 10.0 * unit();
+    estimator->update(make_sample(0.1 * static_cast<double>(i + 1), phi, k_true * phi + 0.0087 * unit()));
+    if ((i & 15) == 0) {
+      max_abs_log_weight = std::max(max_abs_log_weight, std::abs(window->log_weight()));
+      if (estimator->estimate().forgetting_factor < 1.0) ++lambda_below_one;
+    }
+  }
+  const WindowSums fast = window->window_sums();
+  const WindowSums exact = window->exact_window_sums();
+  EXPECT_LT(relative_error(fast.s_pp, exact.s_pp), 1e-9) << name;
+  EXPECT_LT(relative_error(fast.s_py, exact.s_py), 1e-9) << name;
+  EXPECT_LT(relative_error(fast.s_py / fast.s_pp, exact.s_py / exact.s_pp), 1e-9) << name;
+  EXPECT_LT(relative_error(estimator->estimate().k_m_per_pulse, k_true), 2e-3) << name;
+  // Re-basing keeps Lambda within M |ln lambda_min| (M = L = 100).
+  EXPECT_LE(max_abs_log_weight, 100.0 * std::abs(std::log(0.95)) + 1e-9) << name;
+  if (name == "vff_lm_rls") {
+    EXPECT_GT(lambda_below_one, 1000u) << "the law was active, not a bare window";
+    EXPECT_GT(max_abs_log_weight, 0.0);
+  }
+  std::printf("[ info ] %s after %zu samples: |dS_pp|/S_pp = %.3g, |dS_py|/S_py = %.3g, max|Lambda| = %.3g\n",
+              name.c_str(), n, relative_error(fast.s_pp, exact.s_pp), relative_error(fast.s_py, exact.s_py),
+              max_abs_log_weight);
+}
+}  // namespace
+
+TEST(WindowRls, LmRlsTenMillionSamplesStayWithin1e9OfExactResummation) { run_ten_million("lm_rls"); }
+TEST(WindowRls, VffLmRlsTenMillionSamplesStayWithin1e9OfExactResummation) { run_ten_million("vff_lm_rls"); }
+
+// ---------------------------------------------------------------------------------------------------
+// Tracking a 3 % step of K.
+
+TEST(Tracking, WindowsRecoverFromA3PercentStepWithinLSamplesGrowingRlsDoesNot) {
+  const std::size_t step_at = 3000;  // 300 s of steady driving first: RLS is saturated by then
+  const double k0 = 0.01;
+  const Drive drive = simulate_drive(step_at + 1000, k0, step_at, 0.03, 0.005, 77);
+  ScaleFactorEstimatorParams params;  // L = 100
+  const std::size_t check_at = step_at + params.window_length - 1;  // the L-th sample after the step
+  std::vector<std::string> names = {"rls", "lm_rls", "vff_lm_rls", "kf_rw"};
+  for (const std::string& name : names) {
+    auto estimator = make_scale_factor_estimator(name, params);
+    double lambda_min_seen = 1.0, lambda_min_after_step = 1.0;
+    double first_lambda_below_one_at = -1.0;
+    std::size_t settled_at = 0;  // first sample after the step from which |error| < 0.5 % for good
+    for (std::size_t i = 0; i < drive.samples.size(); ++i) {
+      estimator->update(drive.samples[i]);
+      const ScaleFactorEstimate e = estimator->estimate();
+      lambda_min_seen = std::min(lambda_min_seen, e.forgetting_factor);
+      if (i >= step_at && i <= check_at) lambda_min_after_step = std::min(lambda_min_after_step, e.forgetting_factor);
+      if (e.forgetting_factor < 1.0 && first_lambda_below_one_at < 0.0) first_lambda_below_one_at = static_cast<double>(i);
+      if (i >= step_at && relative_error(e.k_m_per_pulse, drive.k_true[i]) >= 0.005) settled_at = i + 1;
+      if (i == step_at - 1) {
+        EXPECT_LT(relative_error(e.k_m_per_pulse, k0), 0.004) << name << " before the step";
+      }
+      if (i == check_at) {
+        const double error = relative_error(e.k_m_per_pulse, drive.k_true[i]);
+        std::printf("[ info ] %s: relative K error %zu samples after the 3 %% step: %.4f %%\n", name.c_str(),
+                    params.window_length, 100.0 * error);
+        if (name == "rls") {
+          EXPECT_GT(error, 0.02) << "growing-memory RLS must still be far off (data saturation)";
+        } else {
+          EXPECT_LT(error, 0.005) << name;
+        }
+      }
+    }
+    std::printf("[ info ] %s: within 0.5 %% for good from %zu samples after the step\n", name.c_str(),
+                settled_at - step_at);
+    if (name != "rls") {
+      EXPECT_LE(settled_at - step_at, params.window_length) << name;
+    }
+    if (name == "vff_lm_rls") {
+      EXPECT_GE(first_lambda_below_one_at, static_cast<double>(params.window_length))
+          << "lambda must be 1 while the window fills";
+      EXPECT_LT(lambda_min_after_step, 0.99) << "the step must pull lambda down";
+      EXPECT_GE(lambda_min_seen, params.lambda_min);
+    }
+  }
+}
+
+TEST(Tracking, KalmanRandomWalkIsQuieterThanTheWindowInSteadyStateAndDetectsTheStepOnce) {
+  const std::size_t step_at = 3000;
+  const Drive drive = simulate_drive(6000, 0.01, step_at, 0.03, 0.005, 4242);
+  ScaleFactorEstimatorParams params;
+  LmRlsEstimator window(params);
+  KfRandomWalkEstimator kalman(params);
+  double window_sq = 0.0, kalman_sq = 0.0;
+  std::size_t n = 0;
+  uint64_t changes_before_step = 0;
+  for (std::size_t i = 0; i < drive.samples.size(); ++i) {
+    window.update(drive.samples[i]);
+    kalman.update(drive.samples[i]);
+    if (i == step_at - 1) changes_before_step = kalman.changes_detected();
+    const bool steady = (i >= 1000 && i < step_at) || i >= step_at + 1000;
+    if (steady) {
+      window_sq += std::pow(window.estimate().k_m_per_pulse / drive.k_true[i] - 1.0, 2);
+      kalman_sq += std::pow(kalman.estimate().k_m_per_pulse / drive.k_true[i] - 1.0, 2);
+      ++n;
+    }
+  }
+  const double window_rms = std::sqrt(window_sq / static_cast<double>(n));
+  const double kalman_rms = std::sqrt(kalman_sq / static_cast<double>(n));
+  std::printf("[ info ] steady-state relative K rms: lm_rls %.5f %%, kf_rw %.5f %%\n", 100 * window_rms,
+              100 * kalman_rms);
+  EXPECT_LT(kalman_rms, 0.5 * window_rms);
+  EXPECT_EQ(changes_before_step, 0u) << "no false alarm in 300 s of steady driving";
+  EXPECT_EQ(kalman.changes_detected(), 1u);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Sigma and convergence.
+
+TEST(Sigma, ReportedSigmaMatchesTheScatterOverIndependentRuns) {
+  // Without pulse quantisation the residuals are white: sigma_y must be found online (~0.005 m) and
+  // sigma_K must describe the actual scatter of K over 300 independent runs. With quantisation the
+  // residuals also carry K (frac_{k-1} - frac_k): variance K^2/6 per sample, but consecutive terms
+  // cancel in the sums (a cumulative counter loses no pulse), so sigma_K is then conservative.
+  ScaleFactorEstimatorParams params;
+  params.sigma_y_ewma_alpha = 0.01;
+  for (const bool quantise : {false, true}) {
+    const double expected_sigma_y = std::sqrt(0.005 * 0.005 + (quantise ? 0.01 * 0.01 / 6.0 : 0.0));
+    double sum_sq_error = 0.0, sum_sigma = 0.0, sum_sigma_y = 0.0;
+    const int runs = 300;
+    for (int r = 0; r < runs; ++r) {
+      const Drive drive = simulate_drive(150, 0.01, 1000000, 0.0, 0.005, 1000 + static_cast<unsigned>(r), quantise);
+      RlsEstimator rls(params);
+      for (const ScaleFactorSample& s : drive.samples) rls.update(s);
+      const ScaleFactorEstimate e = rls.estimate();
+      sum_sq_error += std::pow(e.k_m_per_pulse - 0.01, 2);
+      sum_sigma += e.sigma_m_per_pulse;
+      sum_sigma_y += e.sigma_m_per_pulse * std::sqrt(rls.data_s_pp());
+    }
+    const double scatter = std::sqrt(sum_sq_error / runs);
+    const double mean_sigma = sum_sigma / runs;
+    std::printf("[ info ] RLS over 150 samples, quantised %d: K scatter %.3g, mean reported sigma %.3g m/pulse, "
+                "mean sigma_y %.4g m\n", quantise, scatter, mean_sigma, sum_sigma_y / runs);
+    EXPECT_NEAR(sum_sigma_y / runs, expected_sigma_y, 0.05 * expected_sigma_y) << quantise;
+    if (quantise) {
+      EXPECT_GT(mean_sigma / scatter, 1.0);
+      EXPECT_LT(mean_sigma / scatter, 1.0 * expected_sigma_y / 0.005 + 0.15);
+    } else {
+      EXPECT_NEAR(mean_sigma / scatter, 1.0, 0.12);
+    }
+  }
+}
+
+TEST(Sigma, ConvergedNeedsSmallRelativeSigmaAndMinSamples) {
+  // sigma_K / K ~ 0.0065 / (80 sqrt(n)) / 0.01 < 0.001 needs n > ~66 samples.
+  const Drive drive = simulate_drive(300, 0.01, 1000000, 0.0, 0.005, 9);
+  ScaleFactorEstimatorParams params;
+  RlsEstimator rls(params);
+  std::size_t converged_at = 0;
+  for (std::size_t i = 0; i < drive.samples.size(); ++i) {
+    rls.update(drive.samples[i]);
+    const ScaleFactorEstimate e = rls.estimate();
+    const bool rule = e.samples_used >= params.min_samples && e.sigma_m_per_pulse / e.k_m_per_pulse < 0.001;
+    EXPECT_EQ(e.converged, rule);
+    if (e.converged && converged_at == 0) converged_at = i + 1;
+  }
+  EXPECT_GT(converged_at, 40u);
+  EXPECT_LT(converged_at, 110u);
+  // A huge floor makes convergence impossible; min_samples blocks it on few clean samples.
+  params.sigma_y_floor_m = 1.0;
+  RlsEstimator floored(params);
+  for (const ScaleFactorSample& s : drive.samples) floored.update(s);
+  EXPECT_FALSE(floored.estimate().converged);
+  ScaleFactorEstimatorParams few;
+  few.min_samples = 50;
+  RlsEstimator clean(few);
+  for (int i = 0; i < 49; ++i) clean.update(make_sample(0.1 * (i + 1), 80000.0, 800.0));
+  EXPECT_FALSE(clean.estimate().converged);
+  clean.update(make_sample(5.0, 80000.0, 800.0));
+  EXPECT_TRUE(clean.estimate().converged);
+}
+
+TEST(Estimators, InvalidUntilTheFirstSampleAndAfterReset) {
+  ScaleFactorEstimatorParams params;
+  params.prior_weight_pulses2 = 1.0;
+  params.k_prior_m_per_pulse = 0.0125;
+  for (const std::string& name : estimator_names()) {
+    auto estimator = make_scale_factor_estimator(name, params);
+    EXPECT_FALSE(estimator->estimate().valid) << name;
+    EXPECT_EQ(estimator->name(), name);
+    if (name == "coarse") continue;
+    estimator->update(make_sample(0.1, 80.0, 0.8));
+    EXPECT_TRUE(estimator->estimate().valid) << name;
+    // One sample at 80 pulses and a weight-1 prior: K = (0.0125 + 80 * 0.8) / (1 + 6400).
+    if (name != "kf_rw") {
+      EXPECT_NEAR(estimator->estimate().k_m_per_pulse, (0.0125 + 64.0) / 6401.0, 1e-15) << name;
+    }
+    estimator->reset();
+    EXPECT_FALSE(estimator->estimate().valid) << name;
+    EXPECT_EQ(estimator->estimate().samples_used, 0u) << name;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Coarse S/N.
+
+TEST(Coarse, StraightRunsGiveKEqualsSOverNExactly) {
+  // Exact geometry: along each straight leg the GNSS position advances K * (pulses) along a fixed
+  // 3-D direction, so every rightly delimited run has S / N = K. Any wrong rule (counting the first
+  // sample's pulses without its start point, keeping pulses across a gap, bridging a turn) changes K.
+  const double k = 0.0123;
+  ScaleFactorEstimatorParams params;  // coarse_min_length_m = 100
+  CoarseEstimator coarse(params);
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> pulses(60, 90);
+  Eigen::Vector3d position(1000.0, -200.0, 30.0);
+  double t = 50.0;
+  double expected_s = 0.0, expected_n = 0.0;
+  auto leg = [&](const Eigen::Vector3d& direction, int count, bool straight, bool counted_run, bool skip_first) {
+    for (int i = 0; i < count; ++i) {
+      const double phi = pulses(rng);
+      t += 0.1;
+      position += direction.normalized() * (k * phi);
+      ScaleFactorSample s = make_sample(t, phi, k * phi);
+      s.gnss_position_enu_m = position;
+      s.straight = straight;
+      coarse.update(s);
+      if (counted_run && !(skip_first && i == 0)) expected_n += phi;
+    }
+  };
+  // Leg 1: 200 samples straight, the very first sample only marks the start (no earlier position).
+  leg(Eigen::Vector3d(1.0, 2.0, 0.1), 1, true, true, true);
+  const Eigen::Vector3d run1_start = position;
+  leg(Eigen::Vector3d(1.0, 2.0, 0.1), 199, true, true, false);
+  EXPECT_FALSE(coarse.estimate().valid) << "the open run (> 100 m) is not complete yet";
+  expected_s += (position - run1_start).norm();
+  // A turn: three non-straight samples close run 1.
+  leg(Eigen::Vector3d(0.0, 1.0, 0.0), 1, false, false, false);
+  ASSERT_TRUE(coarse.estimate().valid);
+  EXPECT_NEAR(coarse.estimate().k_m_per_pulse, k, 1e-12 * k);
+  leg(Eigen::Vector3d(-1.0, 1.0, 0.0), 2, false, false, false);
+  // Leg 2: starts where the turn ended (contiguous), 150 samples, counted with all its pulses.
+  const Eigen::Vector3d run2_start = position;
+  leg(Eigen::Vector3d(-2.0, 0.5, -0.05), 150, true, true, false);
+  const Eigen::Vector3d run2_end = position;
+  // Gap: 20 samples gated out (not given to the estimator) while driving straight on.
+  for (int i = 0; i < 20; ++i) {
+    t += 0.1;
+    position += Eigen::Vector3d(-2.0, 0.5, -0.05).normalized() * (k * pulses(rng));
+  }
+  expected_s += (run2_end - run2_start).norm();
+  // After the gap: the first sample only marks the start; 120 samples more.
+  leg(Eigen::Vector3d(-2.0, 0.5, -0.05), 1, true, true, true);
+  const Eigen::Vector3d run3_start = position;
+  leg(Eigen::Vector3d(-2.0, 0.5, -0.05), 120, true, true, false);
+  expected_s += (position - run3_start).norm();
+  leg(Eigen::Vector3d(0.0, -1.0, 0.0), 1, false, false, false);
+  // A short run (about 40 samples ~ 37 m < 100 m): not counted.
+  leg(Eigen::Vector3d(0.0, -1.0, 0.0), 40, true, false, false);
+  leg(Eigen::Vector3d(1.0, 0.0, 0.0), 1, false, false, false);
+
+  const ScaleFactorEstimate e = coarse.estimate();
+  ASSERT_TRUE(e.valid);
+  EXPECT_EQ(coarse.runs_counted(), 3u);
+  EXPECT_NEAR(coarse.total_length_m(), expected_s, 1e-9);
+  EXPECT_DOUBLE_EQ(coarse.total_pulses(), expected_n);
+  EXPECT_NEAR(e.k_m_per_pulse, k, 1e-12 * k);
+  EXPECT_NEAR(e.sigma_m_per_pulse, std::sqrt(6.0) * params.coarse_position_sigma_m / expected_n, 1e-18);
+}
+
+TEST(Coarse, ATurnInsideTheGateWouldBiasK) {
+  // Sanity of the test above: a run whose "straight" flag hid a 90 deg corner gives S < path, K low.
+  const double k = 0.01;
+  ScaleFactorEstimatorParams params;
+  CoarseEstimator coarse(params);
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  double t = 0.0;
+  for (int i = 0; i < 401; ++i) {
+    position += (i <= 200 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY()) * (k * 80.0);
+    t += 0.1;
+    ScaleFactorSample s = make_sample(t, 80.0, 0.8);
+    s.gnss_position_enu_m = position;
+    coarse.update(s);
+  }
+  ScaleFactorSample end = make_sample(t + 0.1, 80.0, 0.8);
+  end.straight = false;
+  coarse.update(end);
+  ASSERT_TRUE(coarse.estimate().valid);
+  EXPECT_NEAR(coarse.estimate().k_m_per_pulse, k * std::sqrt(2.0) / 2.0, 1e-6 * k);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Factory, parameters, bad input.
+
+TEST(Factory, UnknownNameListsTheValidOnes) {
+  try {
+    make_scale_factor_estimator("vff", ScaleFactorEstimatorParams{});
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("'vff'"), std::string::npos) << message;
+    for (const std::string& name : estimator_names()) EXPECT_NE(message.find(name), std::string::npos) << message;
+  }
+  const std::vector<std::string> expected = {"rls", "ff_rls", "lm_rls", "vff_lm_rls", "coarse", "kf_rw"};
+  EXPECT_EQ(estimator_names(), expected);
+}
+
+TEST(Factory, InvalidParametersAreNamed) {
+  struct Case {
+    const char* name;
+    void (*apply)(ScaleFactorEstimatorParams&);
+  };
+  const Case cases[] = {
+      {"forgetting_factor", [](ScaleFactorEstimatorParams& p) { p.forgetting_factor = 1.5; }},
+      {"forgetting_factor", [](ScaleFactorEstimatorParams& p) { p.forgetting_factor = 0.0; }},
+      {"window_length", [](ScaleFactorEstimatorParams& p) { p.window_length = 0; }},
+      {"lambda_min", [](ScaleFactorEstimatorParams& p) { p.lambda_min = -0.1; }},
+      {"vff_c_m2", [](ScaleFactorEstimatorParams& p) { p.vff_c_m2 = -1.0; }},
+      {"vff_kappa", [](ScaleFactorEstimatorParams& p) { p.vff_kappa = std::nan(""); }},
+      {"sigma_y_floor_m", [](ScaleFactorEstimatorParams& p) { p.sigma_y_floor_m = 0.0; }},
+      {"prior_weight_pulses2", [](ScaleFactorEstimatorParams& p) { p.prior_weight_pulses2 = -1.0; }},
+      {"k_prior_m_per_pulse", [](ScaleFactorEstimatorParams& p) { p.k_prior_m_per_pulse = HUGE_VAL; }},
+      {"converged_rel_sigma", [](ScaleFactorEstimatorParams& p) { p.converged_rel_sigma = 0.0; }},
+      {"min_samples", [](ScaleFactorEstimatorParams& p) { p.min_samples = 0; }},
+      {"sample_interval_s", [](ScaleFactorEstimatorParams& p) { p.sample_interval_s = 0.0; }},
+      {"coarse_min_length_m", [](ScaleFactorEstimatorParams& p) { p.coarse_min_length_m = -5.0; }},
+      {"kf_change_threshold", [](ScaleFactorEstimatorParams& p) { p.kf_change_threshold = 0.0; }},
+  };
+  EXPECT_NO_THROW(ScaleFactorEstimatorParams{}.validate());
+  for (const Case& c : cases) {
+    ScaleFactorEstimatorParams params;
+    c.apply(params);
+    try {
+      make_scale_factor_estimator("vff_lm_rls", params);
+      ADD_FAILURE() << c.name << ": no exception";
+    } catch (const std::invalid_argument& error) {
+      EXPECT_NE(std::string(error.what()).find(c.name), std::string::npos) << error.what();
+    }
+  }
+}
+
+TEST(Estimators, BadSamplesAreRejectedWithWhereAndWhatAndLeaveTheStateAlone) {
+  for (const std::string& name : estimator_names()) {
+    auto estimator = make_scale_factor_estimator(name, ScaleFactorEstimatorParams{});
+    for (int i = 0; i < 5; ++i) {
+      ScaleFactorSample s = make_sample(0.1 * (i + 1), 80.0, 0.8);
+      s.gnss_position_enu_m = Eigen::Vector3d(0.8 * (i + 1), 0.0, 0.0);
+      estimator->update(s);
+    }
+    const std::string before = estimator->save_state();
+    struct Bad {
+      ScaleFactorSample sample;
+      const char* field;
+    };
+    std::vector<Bad> bad;
+    bad.push_back({make_sample(12.5, 0.0, 0.8), "phi_pulses"});
+    bad.push_back({make_sample(12.5, -3.0, 0.8), "phi_pulses"});
+    bad.push_back({make_sample(12.5, 80.0, std::nan("")), "y_m"});
+    bad.push_back({make_sample(12.5, 80.0, 0.8, -0.1), "dt_s"});
+    ScaleFactorSample bad_position = make_sample(12.5, 80.0, 0.8);
+    bad_position.gnss_position_enu_m.y() = HUGE_VAL;
+    bad.push_back({bad_position, "gnss_position_enu_m.north"});
+    for (const Bad& b : bad) {
+      try {
+        estimator->update(b.sample);
+        ADD_FAILURE() << name << " accepted a bad " << b.field;
+      } catch (const std::invalid_argument& error) {
+        const std::string message = error.what();
+        EXPECT_NE(message.find(b.field), std::string::npos) << message;
+        EXPECT_NE(message.find(name), std::string::npos) << message;
+        EXPECT_NE(message.find("12.5"), std::string::npos) << message;
+      }
+    }
+    EXPECT_EQ(estimator->save_state(), before) << name;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Save / restore.
+
+TEST(SaveRestore, RestoredEstimatorContinuesBitIdentically) {
+  const Drive drive = simulate_drive(800, 0.01, 400, 0.03, 0.005, 31);
+  ScaleFactorEstimatorParams params;
+  params.window_length = 60;
+  params.coarse_min_length_m = 20.0;
+  for (const std::string& name : estimator_names()) {
+    auto original = make_scale_factor_estimator(name, params);
+    Eigen::Vector3d position = Eigen::Vector3d::Zero();
+    std::vector<ScaleFactorSample> samples = drive.samples;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      position.x() += samples[i].y_m;
+      samples[i].gnss_position_enu_m = position;
+      samples[i].straight = (i / 50) % 4 != 3;  // straight runs with turns for the coarse method
+    }
+    for (std::size_t i = 0; i < 333; ++i) original->update(samples[i]);
+    const std::string state = original->save_state();
+    auto restored = make_scale_factor_estimator(name, params);
+    restored->restore_state(state);
+    EXPECT_EQ(restored->save_state(), state) << name;
+    for (std::size_t i = 333; i < samples.size(); ++i) {
+      original->update(samples[i]);
+      restored->update(samples[i]);
+      const ScaleFactorEstimate a = original->estimate(), b = restored->estimate();
+      ASSERT_EQ(a.valid, b.valid) << name << " " << i;
+      ASSERT_EQ(a.k_m_per_pulse, b.k_m_per_pulse) << name << " " << i;  // bit-identical on purpose
+      ASSERT_EQ(a.sigma_m_per_pulse, b.sigma_m_per_pulse) << name << " " << i;
+      ASSERT_EQ(a.forgetting_factor, b.forgetting_factor) << name << " " << i;
+      ASSERT_EQ(a.samples_used, b.samples_used) << name << " " << i;
+    }
+    EXPECT_TRUE(original->estimate().valid) << name;
+  }
+}
+
+TEST(SaveRestore, CorruptOrMismatchedStateIsRefusedWithAReason) {
+  ScaleFactorEstimatorParams params;
+  VffLmRlsEstimator source(params);
+  const Drive drive = simulate_drive(150, 0.01, 1000, 0.0, 0.005, 8);
+  for (const ScaleFactorSample& s : drive.samples) source.update(s);
+  const std::string state = source.save_state();
+
+  VffLmRlsEstimator target(params);
+  target.update(make_sample(0.1, 80.0, 0.8));
+  const std::string target_before = target.save_state();
+  auto expect_refused = [&](ScaleFactorEstimator& estimator, const std::string& text, const std::string& reason) {
+    try {
+      estimator.restore_state(text);
+      ADD_FAILURE() << "accepted: " << reason;
+    } catch (const std::runtime_error& error) {
+      EXPECT_NE(std::string(error.what()).find(reason), std::string::npos) << error.what();
+    }
+  };
+  std::string flipped = state;
+  flipped[state.size() / 2] = flipped[state.size() / 2] == '1' ? '2' : '1';
+  expect_refused(target, flipped, "checksum mismatch");
+  expect_refused(target, state.substr(0, state.size() / 2), "checksum");
+  expect_refused(target, "", "no checksum");
+  EXPECT_EQ(target.save_state(), target_before) << "a refused restore leaves the state alone";
+
+  LmRlsEstimator other_kind(params);
+  expect_refused(other_kind, state, "saved by estimator 'vff_lm_rls'");
+  ScaleFactorEstimatorParams other_params = params;
+  other_params.window_length = 50;
+  VffLmRlsEstimator other_window(other_params);
+  expect_refused(other_window, state, "window_length");
+  // Another version, with a valid checksum, is refused by version.
+  std::string v2 = state.substr(0, state.rfind("checksum "));
+  v2.replace(v2.find(" 1\n"), 3, " 2\n");
+  {
+    uint64_t hash = 1469598103934665603ull;
+    for (unsigned char c : v2) {
+      hash ^= c;
+      hash *= 1099511628211ull;
+    }
+    char buffer[40];
+    std::snprintf(buffer, sizeof buffer, "%016llx", static_cast<unsigned long long>(hash));
+    v2 += std::string("checksum ") + buffer + "\n";
+  }
+  expect_refused(target, v2, "unsupported state version 2");
+  target.restore_state(state);
+  EXPECT_EQ(target.estimate().k_m_per_pulse, source.estimate().k_m_per_pulse);
+}
