@@ -112,11 +112,25 @@ class DatasetError : public std::runtime_error {
 };
 
 /// Reads a dataset directory. Validates every rule of DATASET.md. Throws DatasetError.
+/// Beyond DATASET.md: fields may carry surrounding spaces; an empty optional field means absent
+/// (direction 1, fix 1, no std, NaN in truth); INS ve/vn/vu come all or none (header and row);
+/// pitch must lie in [-90, 90] deg; a duplicate or empty header name is a file error. A row with
+/// more fields than the header is a BadRow with an empty column; with fewer, it names the first
+/// missing column. Bad rows are logged (spdlog warn, the first 10 per file, then a count).
 Dataset read_dataset(const std::string& dir, BadRowPolicy policy, DatasetReadReport* report = nullptr);
 
 /// Writes a dataset directory (created if missing): odometer.csv, gnss.csv, ins.csv when present,
 /// truth.csv when present, meta.json. Numbers written with enough digits to read back exactly
 /// (t with 1 us resolution or better; angles to 1e-9 deg). Throws DatasetError on I/O failure.
+/// Details: doubles are written in shortest round-trip form, so read_dataset gives back the same
+/// bits; an angle is written as the degree value d with deg_to_rad(d) == the radian value whenever
+/// such a d exists (always for values that were read from a file; for arbitrary radians about 9 %
+/// have none and come back within 1 ulp). Optional columns (pos_std_m, vel_std_mps, INS ve/vn/vu,
+/// each truth column) are written only when some row has them; absent values are empty fields.
+/// A longitude outside [-pi, pi] is wrapped; a latitude or pitch outside [-pi/2, pi/2] or a
+/// non-finite value is a DatasetError naming file, row and column, and then nothing is written.
+/// A stale ins.csv / truth.csv is removed when the dataset has none. meta.json carries the unknown
+/// keys of meta.raw_json; the known keys come from the struct.
 void write_dataset(const std::string& dir, const Dataset& dataset);
 
 /// Counter increment from `from` to `to`, modulo 2^32 (a wrap is not a jump).
