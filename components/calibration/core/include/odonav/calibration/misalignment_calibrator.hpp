@@ -1,0 +1,158 @@
+#pragma once
+// Odometer-to-INS installation misalignment calibration (ALGORITHM.md §1), middleware-free.
+//
+// Per valid GNSS epoch: V_b = C_n^b V_n (body forward-left-up, m/s) with the INS attitude
+// interpolated to the epoch. For motion along the odometer axis V_b = v (cos a_h cos a_p,
+// sin a_h cos a_p, sin a_p) (DATASET.md conventions), so two scalar least-squares regressions on the
+// K-free regressor phi = V_forward give
+//   theta_h = V_left / V_forward = tan a_h               ->  a_h = atan(theta_h)
+//   theta_p = V_up   / V_forward = tan a_p / cos a_h      ->  a_p = atan(theta_p cos a_h)
+// (exact inversions, not small-angle). The regressions are RLS with forgetting factor 1 and no
+// prior, which is exactly the batch least squares theta = sum(y phi) / sum(phi^2): it is kept as those
+// running sums (order-independent up to rounding, O(1) per epoch).
+// One-sigma: sigma_theta = s / sqrt(sum phi^2), s = residual standard deviation of the regression
+// (sqrt(RSS / (n - 1)), floored at residual_std_floor_mps), mapped to angles through the derivative of
+// the inversion.
+//
+// Event time: as the sample builder (sample_builder.hpp): add_gnss / add_ins in increasing time per
+// stream, process_until(watermark_s) with the contract that every input stamped <= watermark_s has
+// been added; one output per GNSS epoch (also for gated epochs, carrying the current values, so a
+// downstream stream has a watermark), bit-identical whatever the interleaving of the add_* calls.
+// freeze() / unfreeze() / reset() act on the epochs processed after the call.
+#include <cstdint>
+#include <deque>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "odonav/dataset.hpp"
+#include "odonav/frames.hpp"
+#include "odonav/stream_buffers.hpp"
+
+namespace odonav {
+
+struct MisalignmentCalibratorParams {
+  /// False when the recording has no INS: nothing can be calibrated (state stays waiting).
+  bool use_ins = true;
+  /// Minimum forward speed V_b,forward (m/s, > 0). Default 3: below it GNSS velocity noise dominates
+  /// the ratio V_left / V_forward.
+  double min_speed_mps = 3.0;
+  /// Straight-line gate: |yaw rate| from the INS heading over [t - h, t + h] below this (rad/s).
+  /// Default 3 deg/s: side slip in turns and an uncompensated lever arm (omega x l) corrupt V_left.
+  double max_yaw_rate_rad_s = 3.0 * kDegToRad;
+  /// h above (s, > 0). Default 0.25.
+  double yaw_rate_half_window_s = 0.25;
+  /// GNSS antenna position in the INS body frame (forward-left-up, metres, from the INS reference
+  /// point). When set, omega x l (omega from the INS attitude rates over [t - h, t + h]) is subtracted
+  /// from the antenna velocity. When unset (default), the straight-line gate is what protects.
+  std::optional<Eigen::Vector3d> lever_arm_body_m;
+  /// Converged when both sigmas are below this (rad) with at least min_samples epochs used.
+  /// Defaults 0.02 deg and 100 epochs.
+  double converged_sigma_rad = 0.02 * kDegToRad;
+  uint64_t min_samples = 100;
+  /// Floor of the residual standard deviation (m/s, > 0), so a few lucky residuals cannot claim
+  /// precision. Default 0.005.
+  double residual_std_floor_mps = 0.005;
+  /// Longest INS gap across which attitude is interpolated (s). Default 1.
+  double max_bracket_s = 1.0;
+};
+
+enum class CalibrationState {
+  kWaiting,      ///< no epoch used yet (or no INS at all).
+  kCalibrating,  ///< estimating, not converged.
+  kConverged,    ///< both sigmas below the threshold with enough samples.
+  kFrozen,       ///< values held by freeze(); epochs are not used.
+};
+const char* to_string(CalibrationState state);
+
+/// What happened to one GNSS epoch.
+enum class CalibrationEpochStatus {
+  kUsed,        ///< entered both regressions.
+  kNoIns,       ///< use_ins is false: calibration impossible.
+  kInvalidFix,  ///< GNSS fix 0 or 6.
+  kNoAttitude,  ///< no INS attitude can be interpolated at the epoch.
+  kReversing,   ///< V_b,forward < 0.
+  kLowSpeed,    ///< V_b,forward below min_speed_mps.
+  kTurning,     ///< |yaw rate| above max_yaw_rate_rad_s.
+  kFrozen,      ///< frozen: epoch not used.
+};
+const char* to_string(CalibrationEpochStatus status);
+
+struct MisalignmentCounters {
+  uint64_t epochs = 0;
+  uint64_t used = 0;
+  uint64_t no_ins = 0;
+  uint64_t invalid_fix = 0;
+  uint64_t no_attitude = 0;
+  uint64_t reversing = 0;
+  uint64_t low_speed = 0;
+  uint64_t turning = 0;
+  uint64_t frozen = 0;
+};
+
+/// One output per GNSS epoch.
+struct MisalignmentOutput {
+  double t_s = 0.0;
+  CalibrationState state = CalibrationState::kWaiting;
+  CalibrationEpochStatus epoch_status = CalibrationEpochStatus::kUsed;
+  Misalignment misalignment;         ///< current estimate (rad); zero until an epoch is used.
+  double sigma_heading_rad = std::numeric_limits<double>::infinity();  ///< one-sigma of a_h.
+  double sigma_pitch_rad = std::numeric_limits<double>::infinity();    ///< one-sigma of a_p.
+  uint64_t samples_used = 0;
+  bool converged = false;
+  /// Why the state is what it is, in words (e.g. "no INS: the misalignment needs the INS attitude").
+  std::string reason;
+};
+
+class MisalignmentCalibrator {
+ public:
+  /// Throws std::invalid_argument naming the parameter when params are out of range.
+  explicit MisalignmentCalibrator(const MisalignmentCalibratorParams& params = {});
+
+  /// Streams, each in strictly increasing time; throw StreamInputError on bad input.
+  void add_gnss(const GnssSample& sample);
+  void add_ins(const InsSample& sample);  ///< ignored when use_ins is false.
+
+  /// Processes every buffered GNSS epoch stamped <= watermark_s whose attitude is final.
+  std::vector<MisalignmentOutput> process_until(double watermark_s);
+  /// End of data: processes everything left.
+  std::vector<MisalignmentOutput> finish();
+
+  /// Holds the current values; later epochs are not used until unfreeze().
+  void freeze();
+  void unfreeze();
+  /// Forgets all samples (state waiting); counters are kept.
+  void reset();
+
+  /// The current estimate, as the last output would carry it (t_s is that of the last epoch).
+  MisalignmentOutput current() const;
+  const MisalignmentCounters& counters() const { return counters_; }
+
+ private:
+  struct Regression {
+    double sum_phi2 = 0.0, sum_phi_y = 0.0, sum_y2 = 0.0;
+    double theta() const { return sum_phi2 > 0.0 ? sum_phi_y / sum_phi2 : 0.0; }
+    double residual_sum_squares() const;
+  };
+  MisalignmentOutput process_epoch(const GnssSample& gnss);
+
+  MisalignmentCalibratorParams params_;
+  AttitudeBuffer attitude_;
+  std::deque<GnssSample> pending_gnss_;
+  std::optional<double> last_gnss_t_s_;
+  double watermark_s_ = -std::numeric_limits<double>::infinity();
+  Regression heading_, pitch_;
+  uint64_t samples_used_ = 0;
+  bool frozen_ = false;
+  double last_t_s_ = 0.0;
+  MisalignmentCounters counters_;
+};
+
+/// Estimated angular rate of the body (rad/s, body frame FLU) between two attitudes dt_s apart,
+/// evaluated at the attitude `mid`: the axial vector of C_mid^T (C_after - C_before) / dt_s, with C = C_b^n.
+Eigen::Vector3d body_rate_rad_s(const Attitude& before, const Attitude& mid, const Attitude& after, double dt_s);
+
+}  // namespace odonav

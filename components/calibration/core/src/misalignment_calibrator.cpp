@@ -1,0 +1,194 @@
+#include "odonav/calibration/misalignment_calibrator.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace odonav {
+
+const char* to_string(CalibrationState state) {
+  switch (state) {
+    case CalibrationState::kWaiting: return "waiting";
+    case CalibrationState::kCalibrating: return "calibrating";
+    case CalibrationState::kConverged: return "converged";
+    case CalibrationState::kFrozen: return "frozen";
+  }
+  return "unknown";
+}
+
+const char* to_string(CalibrationEpochStatus status) {
+  switch (status) {
+    case CalibrationEpochStatus::kUsed: return "used";
+    case CalibrationEpochStatus::kNoIns: return "no_ins";
+    case CalibrationEpochStatus::kInvalidFix: return "invalid_fix";
+    case CalibrationEpochStatus::kNoAttitude: return "no_attitude";
+    case CalibrationEpochStatus::kReversing: return "reversing";
+    case CalibrationEpochStatus::kLowSpeed: return "low_speed";
+    case CalibrationEpochStatus::kTurning: return "turning";
+    case CalibrationEpochStatus::kFrozen: return "frozen";
+  }
+  return "unknown";
+}
+
+Eigen::Vector3d body_rate_rad_s(const Attitude& before, const Attitude& mid, const Attitude& after, double dt_s) {
+  const Eigen::Matrix3d c_dot = (body_to_enu(after) - body_to_enu(before)) / dt_s;
+  const Eigen::Matrix3d omega = body_to_enu(mid).transpose() * c_dot;  // ~ skew(omega_b)
+  // Antisymmetric part: the finite difference adds a small symmetric error that is not a rotation.
+  return Eigen::Vector3d(0.5 * (omega(2, 1) - omega(1, 2)), 0.5 * (omega(0, 2) - omega(2, 0)),
+                         0.5 * (omega(1, 0) - omega(0, 1)));
+}
+
+double MisalignmentCalibrator::Regression::residual_sum_squares() const {
+  if (!(sum_phi2 > 0.0)) return 0.0;
+  // sum (y - theta phi)^2 at the least-squares theta; clamp the rounding of the difference.
+  return std::max(0.0, sum_y2 - sum_phi_y * sum_phi_y / sum_phi2);
+}
+
+MisalignmentCalibrator::MisalignmentCalibrator(const MisalignmentCalibratorParams& p)
+    : params_(p), attitude_(p.max_bracket_s) {
+  auto require = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(std::string("MisalignmentCalibratorParams: ") + what);
+  };
+  require(p.min_speed_mps > 0.0, "min_speed_mps must be > 0");
+  require(p.max_yaw_rate_rad_s > 0.0, "max_yaw_rate_rad_s must be > 0");
+  require(p.yaw_rate_half_window_s > 0.0, "yaw_rate_half_window_s must be > 0");
+  require(p.converged_sigma_rad > 0.0, "converged_sigma_rad must be > 0");
+  require(p.residual_std_floor_mps > 0.0, "residual_std_floor_mps must be > 0");
+  require(p.max_bracket_s > 0.0, "max_bracket_s must be > 0");
+  require(!p.lever_arm_body_m || p.lever_arm_body_m->allFinite(), "lever_arm_body_m must be finite");
+}
+
+void MisalignmentCalibrator::add_gnss(const GnssSample& sample) {
+  detail::check_stream_time("gnss", sample.t_s, last_gnss_t_s_);
+  check_gnss_sample("gnss", sample);
+  last_gnss_t_s_ = sample.t_s;
+  pending_gnss_.push_back(sample);
+}
+
+void MisalignmentCalibrator::add_ins(const InsSample& sample) {
+  if (params_.use_ins) attitude_.add(sample);
+}
+
+std::vector<MisalignmentOutput> MisalignmentCalibrator::process_until(double watermark_s) {
+  if (std::isnan(watermark_s)) throw std::invalid_argument("MisalignmentCalibrator::process_until: watermark is NaN");
+  if (watermark_s > watermark_s_) watermark_s_ = watermark_s;
+  std::vector<MisalignmentOutput> out;
+  const double h = params_.yaw_rate_half_window_s;
+  while (!pending_gnss_.empty() && pending_gnss_.front().t_s <= watermark_s_) {
+    const double t = pending_gnss_.front().t_s;
+    if (params_.use_ins && (attitude_.state_at(t, watermark_s_) == BracketState::kPending ||
+                            attitude_.state_at(t + h, watermark_s_) == BracketState::kPending))
+      break;
+    out.push_back(process_epoch(pending_gnss_.front()));
+    pending_gnss_.pop_front();
+    // The next epoch is later; its yaw window starts no earlier than t_next - h > t - h.
+    attitude_.drop_before(t - h);
+  }
+  return out;
+}
+
+std::vector<MisalignmentOutput> MisalignmentCalibrator::finish() {
+  return process_until(std::numeric_limits<double>::infinity());
+}
+
+void MisalignmentCalibrator::freeze() { frozen_ = true; }
+void MisalignmentCalibrator::unfreeze() { frozen_ = false; }
+void MisalignmentCalibrator::reset() {
+  heading_ = Regression{};
+  pitch_ = Regression{};
+  samples_used_ = 0;
+}
+
+MisalignmentOutput MisalignmentCalibrator::current() const {
+  MisalignmentOutput o;
+  o.t_s = last_t_s_;
+  o.samples_used = samples_used_;
+  if (samples_used_ > 0) {
+    const double theta_h = heading_.theta(), theta_p = pitch_.theta();
+    const double a_h = std::atan(theta_h);
+    const double a_p = std::atan(theta_p * std::cos(a_h));
+    o.misalignment = Misalignment{a_h, a_p};
+    if (samples_used_ >= 2) {
+      const double dof = static_cast<double>(samples_used_ - 1);
+      const double s_h = std::max(params_.residual_std_floor_mps, std::sqrt(heading_.residual_sum_squares() / dof));
+      const double s_p = std::max(params_.residual_std_floor_mps, std::sqrt(pitch_.residual_sum_squares() / dof));
+      const double sigma_theta_h = s_h / std::sqrt(heading_.sum_phi2);
+      const double sigma_theta_p = s_p / std::sqrt(pitch_.sum_phi2);
+      // d atan(x)/dx = 1 / (1 + x^2); a_p depends on theta_p through x = theta_p cos a_h.
+      const double x_p = theta_p * std::cos(a_h);
+      o.sigma_heading_rad = sigma_theta_h / (1.0 + theta_h * theta_h);
+      o.sigma_pitch_rad = sigma_theta_p * std::cos(a_h) / (1.0 + x_p * x_p);
+    }
+  }
+  o.converged = samples_used_ >= params_.min_samples && o.sigma_heading_rad < params_.converged_sigma_rad &&
+                o.sigma_pitch_rad < params_.converged_sigma_rad;
+  if (!params_.use_ins) {
+    o.state = CalibrationState::kWaiting;
+    o.reason = "no INS: the misalignment needs the INS attitude";
+  } else if (frozen_) {
+    o.state = CalibrationState::kFrozen;
+    o.reason = "frozen by command";
+  } else if (samples_used_ == 0) {
+    o.state = CalibrationState::kWaiting;
+    o.reason = "waiting for a straight drive above the minimum speed with valid GNSS";
+  } else if (o.converged) {
+    o.state = CalibrationState::kConverged;
+    o.reason = "both sigmas below the threshold";
+  } else {
+    o.state = CalibrationState::kCalibrating;
+    o.reason = samples_used_ < params_.min_samples ? "collecting samples" : "sigma above the threshold";
+  }
+  return o;
+}
+
+MisalignmentOutput MisalignmentCalibrator::process_epoch(const GnssSample& g) {
+  ++counters_.epochs;
+  last_t_s_ = g.t_s;
+  auto finish_epoch = [&](CalibrationEpochStatus s, uint64_t& counter) {
+    ++counter;
+    MisalignmentOutput o = current();
+    o.epoch_status = s;
+    return o;
+  };
+  if (!params_.use_ins) return finish_epoch(CalibrationEpochStatus::kNoIns, counters_.no_ins);
+  if (frozen_) return finish_epoch(CalibrationEpochStatus::kFrozen, counters_.frozen);
+  if (!g.valid()) return finish_epoch(CalibrationEpochStatus::kInvalidFix, counters_.invalid_fix);
+
+  const double h = params_.yaw_rate_half_window_s;
+  const std::optional<Attitude> att = attitude_.attitude_at(g.t_s, watermark_s_);
+  if (!att) return finish_epoch(CalibrationEpochStatus::kNoAttitude, counters_.no_attitude);
+  // The rate window [t - h, t + h], one-sided where the INS record starts or ends.
+  std::optional<Attitude> before = attitude_.attitude_at(g.t_s - h, watermark_s_);
+  std::optional<Attitude> after = attitude_.attitude_at(g.t_s + h, watermark_s_);
+  double window_s = 2.0 * h;
+  if (!before && !after) return finish_epoch(CalibrationEpochStatus::kNoAttitude, counters_.no_attitude);
+  if (!before) {
+    before = att;
+    window_s = h;
+  } else if (!after) {
+    after = att;
+    window_s = h;
+  }
+  const Eigen::Vector3d omega_b = body_rate_rad_s(*before, *att, *after, window_s);
+  // The yaw rate about the navigation vertical (heading is clockwise, so the sign flips; only |.| matters).
+  const double yaw_rate = wrap_pi(after->heading_rad - before->heading_rad) / window_s;
+
+  Eigen::Vector3d v_b = enu_to_body(*att) * g.vel_enu_mps;
+  if (params_.lever_arm_body_m) v_b -= omega_b.cross(*params_.lever_arm_body_m);
+
+  if (v_b.x() < 0.0) return finish_epoch(CalibrationEpochStatus::kReversing, counters_.reversing);
+  if (v_b.x() < params_.min_speed_mps) return finish_epoch(CalibrationEpochStatus::kLowSpeed, counters_.low_speed);
+  if (std::abs(yaw_rate) > params_.max_yaw_rate_rad_s)
+    return finish_epoch(CalibrationEpochStatus::kTurning, counters_.turning);
+
+  const double phi = v_b.x();
+  heading_.sum_phi2 += phi * phi;
+  heading_.sum_phi_y += phi * v_b.y();
+  heading_.sum_y2 += v_b.y() * v_b.y();
+  pitch_.sum_phi2 += phi * phi;
+  pitch_.sum_phi_y += phi * v_b.z();
+  pitch_.sum_y2 += v_b.z() * v_b.z();
+  ++samples_used_;
+  return finish_epoch(CalibrationEpochStatus::kUsed, counters_.used);
+}
+
+}  // namespace odonav

@@ -1,0 +1,156 @@
+#pragma once
+// SINS/odometer dead reckoning (ALGORITHM.md §4), middleware-free.
+//
+// Per odometer interval [t_{j-1}, t_j] (units: s, m, pulses, rad):
+//   dS_m = (K dN dir, 0, 0)                  odometer frame; dN = count increment, modulo 2^32
+//   dS_b = C_m^b dS_m                         misalignment in force at t_j (exact rotation)
+//   dS_n = C_b^n(attitude at (t_{j-1} + t_j) / 2) dS_b          (3-D mode)
+//   dS_n = |dS| dir (sin psi_odo, cos psi_odo, 0),  psi_odo = heading - a_h   (2-D mode: pitch and
+//          height ignored, so the whole odometer distance is laid on the horizontal; on a slope of
+//          angle p the 2-D track is longer than the true horizontal track by 1/cos p, and the height
+//          stays at the start height, while the 3-D mode follows the slope)
+//   position = move_geodetic(position, dS_n)  (WGS-84 radii of curvature)
+// K in force at t_j: the latest add_scale_factor() stamped <= t_j, else params.nominal_k.
+// Start: the first valid GNSS fix (fix not 0/6) at which the odometer count can be interpolated;
+// the antenna position is moved to the INS reference point when a lever arm is configured (INS
+// attitude at the fix; without INS the GNSS course with pitch = roll = 0 if moving, else unmoved).
+// Without INS (params.use_ins = false, degraded mode): horizontal only, along the GNSS course
+// atan2(ve, vn) interpolated to mid-interval while GNSS is valid and moving, held otherwise; the
+// course is the direction of motion already, so |dS| is laid along it whatever the direction flag.
+//
+// GNSS reference for the error at t_j: the antenna position interpolated linearly (in the local
+// ENU frame of the DR origin) between the two valid GNSS epochs bracketing t_j when they are at most
+// gnss_max_gap_s apart (or the epoch at exactly t_j). Interpolating instead of taking the nearest
+// epoch matters: at 10 Hz GNSS and 10 m/s the nearest epoch is up to 0.5 m away from the vehicle.
+//
+// Event time: as sample_builder.hpp. One output per odometer sample after the start, emitted once
+// its attitude, GNSS reference and K / misalignment streams are complete up to the watermark.
+#include <cstdint>
+#include <deque>
+#include <limits>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "odonav/dataset.hpp"
+#include "odonav/frames.hpp"
+#include "odonav/geodesy.hpp"
+#include "odonav/stream_buffers.hpp"
+
+namespace odonav {
+
+/// Where the K in use comes from.
+enum class ScaleFactorSource {
+  kNominal,     ///< the configured nominal value (no other K received yet).
+  kIdentified,  ///< identified online from GNSS.
+  kCommanded,   ///< set by an operator command.
+};
+const char* to_string(ScaleFactorSource source);
+
+enum class DeadReckoningMode { k3D, k2D };
+
+struct DeadReckonerParams {
+  /// K used before any add_scale_factor() (m/pulse, > 0).
+  double nominal_k_m_per_pulse = 0.0125;
+  DeadReckoningMode mode = DeadReckoningMode::k3D;
+  /// False without INS: degraded mode (GNSS course, horizontal only).
+  bool use_ins = true;
+  /// GNSS antenna position in the body frame (forward-left-up, m) from the INS reference point;
+  /// the DR tracks the reference point. Unset: the antenna is the reference point.
+  std::optional<Eigen::Vector3d> lever_arm_body_m;
+  /// Longest gap between odometer / INS samples across which they are interpolated (s). Default 1.
+  double max_bracket_s = 1.0;
+  /// Longest gap between two GNSS epochs across which the reference is interpolated (s). Default 0.5.
+  double gnss_max_gap_s = 0.5;
+  /// Degraded mode: the GNSS course is used only at horizontal speed >= this (m/s). Default 1.
+  double course_min_speed_mps = 1.0;
+  /// %D is NaN while the distance travelled is below this (m). Default 1.
+  double percent_min_distance_m = 1.0;
+};
+
+/// One output per odometer sample after the start.
+struct DeadReckoningOutput {
+  double t_s = 0.0;
+  Geodetic position;                                 ///< WGS-84 (rad, rad, m) of the reference point.
+  Eigen::Vector3d enu_m = Eigen::Vector3d::Zero();   ///< local ENU (m) w.r.t. the DR origin.
+  double heading_rad = 0.0;        ///< body heading (INS) or GNSS course (degraded) used, [0, 2 pi).
+  double distance_m = 0.0;         ///< odometer distance travelled since the start, sum |dS| (m).
+  double k_m_per_pulse = 0.0;      ///< K used for the interval ending here.
+  ScaleFactorSource k_source = ScaleFactorSource::kNominal;
+  bool degraded = false;           ///< no INS: heading from the GNSS course.
+  bool heading_held = false;       ///< the heading was not measured for this interval (held).
+  bool gnss_reference = false;     ///< a GNSS reference existed at t_s.
+  double horizontal_error_m = std::numeric_limits<double>::quiet_NaN();   ///< |DR - GNSS| horizontal.
+  double error_percent_distance = std::numeric_limits<double>::quiet_NaN();  ///< 100 error / distance.
+};
+
+struct DeadReckonerCounters {
+  uint64_t odometer_samples = 0;       ///< processed (including those before the start).
+  uint64_t outputs = 0;
+  uint64_t before_start = 0;           ///< odometer samples before the DR start, not output.
+  uint64_t unknown_direction = 0;      ///< intervals with direction 0, taken as forward.
+  uint64_t reversing = 0;              ///< intervals with direction -1.
+  uint64_t heading_held = 0;           ///< intervals without a measured heading (held).
+  uint64_t distance_lost = 0;          ///< intervals with no heading at all yet: not integrated.
+};
+
+class DeadReckoner {
+ public:
+  /// Throws std::invalid_argument naming the parameter when params are out of range.
+  explicit DeadReckoner(const DeadReckonerParams& params = {});
+
+  /// Streams, each in strictly increasing time; throw StreamInputError on bad input.
+  void add_odometer(const OdometerSample& sample);
+  void add_ins(const InsSample& sample);  ///< ignored when use_ins is false.
+  void add_gnss(const GnssSample& sample);
+  /// K (m/pulse, > 0) in force from t_s on, and where it comes from.
+  void add_scale_factor(double t_s, double k_m_per_pulse, ScaleFactorSource source);
+  /// Misalignment (rad) in force from t_s on (zero before the first).
+  void add_misalignment(double t_s, const Misalignment& misalignment);
+
+  /// Emits, in time order, the output of every odometer sample stamped <= watermark_s whose inputs
+  /// are final. Contract: every input stamped <= watermark_s has been added.
+  std::vector<DeadReckoningOutput> process_until(double watermark_s);
+  /// End of data: processes everything left.
+  std::vector<DeadReckoningOutput> finish();
+
+  bool started() const { return frame_.has_value(); }
+  /// The DR origin (reference point at the start), once started.
+  std::optional<Geodetic> origin() const;
+  const DeadReckonerCounters& counters() const { return counters_; }
+
+ private:
+  struct KInForce {
+    double k_m_per_pulse;
+    ScaleFactorSource source;
+  };
+  enum class Readiness { kReady, kWait };
+  Readiness try_start(double t_j);
+  std::optional<Eigen::Vector3d> gnss_reference_enu(double t_s, const std::optional<Attitude>& att) const;
+  std::optional<Eigen::Vector3d> gnss_velocity_at(double t_s) const;
+  bool gnss_final_at(double t_s) const;
+  Eigen::Vector3d lever_arm_enu(const Attitude& att) const;
+  DeadReckoningOutput step(const OdometerBuffer::Entry& sample);
+
+  DeadReckonerParams params_;
+  OdometerBuffer odometer_;
+  AttitudeBuffer attitude_;
+  std::deque<double> pending_odometer_t_s_;
+  std::deque<GnssSample> gnss_;
+  std::optional<double> last_gnss_t_s_;
+  StepHistory<KInForce> k_history_{"scale_factor"};
+  StepHistory<Misalignment> misalignment_{"misalignment"};
+  double watermark_s_ = -std::numeric_limits<double>::infinity();
+
+  std::optional<LocalEnuFrame> frame_;
+  Geodetic position_;
+  double last_t_s_ = 0.0;
+  double last_count_ = 0.0;
+  double distance_m_ = 0.0;
+  std::optional<double> held_heading_rad_;
+  std::optional<Attitude> last_attitude_;
+  DeadReckonerCounters counters_;
+};
+
+}  // namespace odonav

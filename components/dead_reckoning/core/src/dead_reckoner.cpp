@@ -1,0 +1,300 @@
+#include "odonav/dead_reckoning/dead_reckoner.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace odonav {
+
+const char* to_string(ScaleFactorSource source) {
+  switch (source) {
+    case ScaleFactorSource::kNominal: return "nominal";
+    case ScaleFactorSource::kIdentified: return "identified";
+    case ScaleFactorSource::kCommanded: return "commanded";
+  }
+  return "unknown";
+}
+
+DeadReckoner::DeadReckoner(const DeadReckonerParams& p)
+    : params_(p), odometer_(p.max_bracket_s), attitude_(p.max_bracket_s) {
+  auto require = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(std::string("DeadReckonerParams: ") + what);
+  };
+  require(std::isfinite(p.nominal_k_m_per_pulse) && p.nominal_k_m_per_pulse > 0.0,
+          "nominal_k_m_per_pulse must be finite and > 0");
+  require(p.max_bracket_s > 0.0, "max_bracket_s must be > 0");
+  require(p.gnss_max_gap_s > 0.0, "gnss_max_gap_s must be > 0");
+  require(p.course_min_speed_mps >= 0.0, "course_min_speed_mps must be >= 0");
+  require(p.percent_min_distance_m >= 0.0, "percent_min_distance_m must be >= 0");
+  require(!p.lever_arm_body_m || p.lever_arm_body_m->allFinite(), "lever_arm_body_m must be finite");
+}
+
+void DeadReckoner::add_odometer(const OdometerSample& sample) {
+  odometer_.add(sample);
+  pending_odometer_t_s_.push_back(sample.t_s);
+}
+
+void DeadReckoner::add_ins(const InsSample& sample) {
+  if (params_.use_ins) attitude_.add(sample);
+}
+
+void DeadReckoner::add_gnss(const GnssSample& sample) {
+  detail::check_stream_time("gnss", sample.t_s, last_gnss_t_s_);
+  check_gnss_sample("gnss", sample);
+  last_gnss_t_s_ = sample.t_s;
+  gnss_.push_back(sample);
+}
+
+void DeadReckoner::add_scale_factor(double t_s, double k, ScaleFactorSource source) {
+  if (!std::isfinite(k) || !(k > 0.0)) {
+    std::ostringstream m;
+    m << "scale_factor: at t=" << t_s << " s, K=" << k << " m/pulse must be finite and > 0";
+    throw StreamInputError(m.str());
+  }
+  k_history_.add(t_s, KInForce{k, source});
+}
+
+void DeadReckoner::add_misalignment(double t_s, const Misalignment& m) {
+  if (!std::isfinite(m.heading_rad) || !std::isfinite(m.pitch_rad)) {
+    std::ostringstream s;
+    s << "misalignment: at t=" << t_s << " s, angles are not finite";
+    throw StreamInputError(s.str());
+  }
+  misalignment_.add(t_s, m);
+}
+
+std::optional<Geodetic> DeadReckoner::origin() const {
+  if (!frame_) return std::nullopt;
+  return frame_->origin();
+}
+
+Eigen::Vector3d DeadReckoner::lever_arm_enu(const Attitude& att) const {
+  return params_.lever_arm_body_m ? Eigen::Vector3d(body_to_enu(att) * *params_.lever_arm_body_m)
+                                  : Eigen::Vector3d::Zero();
+}
+
+bool DeadReckoner::gnss_final_at(double t_s) const {
+  return (last_gnss_t_s_ && *last_gnss_t_s_ >= t_s) || watermark_s_ >= t_s + params_.gnss_max_gap_s;
+}
+
+namespace {
+// Indices of the GNSS epochs bracketing t_s (last <= t_s, first >= t_s), both valid and close enough.
+bool gnss_bracket(const std::deque<GnssSample>& g, double t_s, double max_gap_s, std::size_t& lo, std::size_t& hi) {
+  std::size_t i = 0;
+  while (i < g.size() && g[i].t_s < t_s) ++i;
+  if (i == g.size()) return false;
+  if (g[i].t_s == t_s) {
+    lo = hi = i;
+    return g[i].valid();
+  }
+  if (i == 0) return false;
+  lo = i - 1;
+  hi = i;
+  return g[lo].valid() && g[hi].valid() && g[hi].t_s - g[lo].t_s <= max_gap_s;
+}
+}  // namespace
+
+std::optional<Eigen::Vector3d> DeadReckoner::gnss_velocity_at(double t_s) const {
+  std::size_t lo = 0, hi = 0;
+  if (!gnss_bracket(gnss_, t_s, params_.gnss_max_gap_s, lo, hi)) return std::nullopt;
+  if (lo == hi) return gnss_[lo].vel_enu_mps;
+  const double f = (t_s - gnss_[lo].t_s) / (gnss_[hi].t_s - gnss_[lo].t_s);
+  return Eigen::Vector3d(gnss_[lo].vel_enu_mps + f * (gnss_[hi].vel_enu_mps - gnss_[lo].vel_enu_mps));
+}
+
+std::optional<Eigen::Vector3d> DeadReckoner::gnss_reference_enu(double t_s, const std::optional<Attitude>& att) const {
+  std::size_t lo = 0, hi = 0;
+  if (!gnss_bracket(gnss_, t_s, params_.gnss_max_gap_s, lo, hi)) return std::nullopt;
+  Eigen::Vector3d p = frame_->to_enu(gnss_[lo].position);
+  if (lo != hi) {
+    const double f = (t_s - gnss_[lo].t_s) / (gnss_[hi].t_s - gnss_[lo].t_s);
+    p += f * (frame_->to_enu(gnss_[hi].position) - p);
+  }
+  if (att) p -= lever_arm_enu(*att);
+  return p;
+}
+
+DeadReckoner::Readiness DeadReckoner::try_start(double t_j) {
+  const bool need_attitude = params_.use_ins && params_.lever_arm_body_m.has_value();
+  while (!gnss_.empty() && gnss_.front().t_s <= t_j) {
+    const GnssSample& g = gnss_.front();
+    // A candidate rejected here can never become valid later (its bracket is final): drop it.
+    if (!g.valid()) {
+      gnss_.pop_front();
+      continue;
+    }
+    const std::optional<double> count = odometer_.count_at(g.t_s, watermark_s_);
+    if (!count) {
+      gnss_.pop_front();
+      continue;
+    }
+    std::optional<Attitude> att;
+    if (need_attitude) {
+      const BracketState st = attitude_.state_at(g.t_s, watermark_s_);
+      if (st == BracketState::kPending) return Readiness::kWait;
+      if (st == BracketState::kMissing) {
+        gnss_.pop_front();
+        continue;
+      }
+      att = attitude_.attitude_at(g.t_s, watermark_s_);
+    } else if (!params_.use_ins && params_.lever_arm_body_m &&
+               g.vel_enu_mps.head<2>().norm() >= params_.course_min_speed_mps) {
+      // Degraded mode: the lever arm turned by the GNSS course (pitch and roll unknown, taken as 0).
+      att = Attitude{gnss_course_rad(g.vel_enu_mps), 0.0, 0.0};
+    }
+    Geodetic reference = g.position;
+    if (att) reference = move_geodetic(g.position, -lever_arm_enu(*att));
+    frame_.emplace(reference);
+    position_ = reference;
+    last_t_s_ = g.t_s;
+    last_count_ = *count;
+    distance_m_ = 0.0;
+    if (!params_.use_ins && g.vel_enu_mps.head<2>().norm() >= params_.course_min_speed_mps)
+      held_heading_rad_ = gnss_course_rad(g.vel_enu_mps);
+    return Readiness::kReady;
+  }
+  return Readiness::kReady;
+}
+
+std::vector<DeadReckoningOutput> DeadReckoner::process_until(double watermark_s) {
+  if (std::isnan(watermark_s)) throw std::invalid_argument("DeadReckoner::process_until: watermark is NaN");
+  if (watermark_s > watermark_s_) watermark_s_ = watermark_s;
+  std::vector<DeadReckoningOutput> out;
+  while (!pending_odometer_t_s_.empty() && pending_odometer_t_s_.front() <= watermark_s_) {
+    const double t_j = pending_odometer_t_s_.front();
+    if (!frame_) {
+      if (try_start(t_j) == Readiness::kWait) break;
+      if (!frame_) {
+        ++counters_.odometer_samples;
+        ++counters_.before_start;
+        pending_odometer_t_s_.pop_front();
+        odometer_.drop_before(t_j);
+        attitude_.drop_before(t_j);
+        continue;
+      }
+    }
+    if (t_j <= last_t_s_) {  // at or before the start fix: nothing to integrate
+      ++counters_.odometer_samples;
+      ++counters_.before_start;
+      pending_odometer_t_s_.pop_front();
+      continue;
+    }
+    const double mid = 0.5 * (last_t_s_ + t_j);
+    if (params_.use_ins) {
+      if (attitude_.state_at(mid, watermark_s_) == BracketState::kPending) break;
+      if (params_.lever_arm_body_m && attitude_.state_at(t_j, watermark_s_) == BracketState::kPending) break;
+    }
+    if (!gnss_final_at(t_j)) break;
+
+    const OdometerBuffer::Entry* entry = nullptr;
+    for (const auto& e : odometer_.entries()) {  // near the front: earlier samples are pruned
+      if (e.t_s == t_j) {
+        entry = &e;
+        break;
+      }
+    }
+    out.push_back(step(*entry));
+    pending_odometer_t_s_.pop_front();
+    // What later intervals (starting at t_j) can still need.
+    odometer_.drop_before(t_j);
+    attitude_.drop_before(t_j);
+    while (gnss_.size() >= 2 && gnss_[1].t_s <= t_j) gnss_.pop_front();
+    k_history_.drop_before(t_j);
+    misalignment_.drop_before(t_j);
+  }
+  return out;
+}
+
+std::vector<DeadReckoningOutput> DeadReckoner::finish() {
+  return process_until(std::numeric_limits<double>::infinity());
+}
+
+DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
+  ++counters_.odometer_samples;
+  ++counters_.outputs;
+  DeadReckoningOutput o;
+  o.t_s = sample.t_s;
+  const double t_j = sample.t_s;
+  const double mid = 0.5 * (last_t_s_ + t_j);
+  const double count = static_cast<double>(sample.count);
+  const double pulses = count - last_count_;  // >= 0: increments are modulo 2^32
+  int direction = sample.direction;
+  if (direction == 0) {
+    ++counters_.unknown_direction;
+    direction = 1;  // unknown is taken as forward, the common case; counted so it can be audited
+  } else if (direction < 0) {
+    ++counters_.reversing;
+  }
+  const KInForce k = k_history_.at_or_before(t_j).value_or(KInForce{params_.nominal_k_m_per_pulse, ScaleFactorSource::kNominal});
+  o.k_m_per_pulse = k.k_m_per_pulse;
+  o.k_source = k.source;
+  const Misalignment mis = misalignment_.at_or_before(t_j).value_or(Misalignment{});
+  const double ds = k.k_m_per_pulse * pulses * direction;
+
+  Eigen::Vector3d ds_n = Eigen::Vector3d::Zero();
+  bool have_heading = true;
+  if (params_.use_ins) {
+    std::optional<Attitude> att = attitude_.attitude_at(mid, watermark_s_);
+    if (att) {
+      last_attitude_ = att;
+    } else {
+      o.heading_held = true;
+      ++counters_.heading_held;
+      att = last_attitude_;
+    }
+    if (att) {
+      if (params_.mode == DeadReckoningMode::k3D) {
+        ds_n = body_to_enu(*att) * odometer_to_body(mis) * Eigen::Vector3d(ds, 0.0, 0.0);
+      } else {
+        // heading is clockwise from north, a_h counter-clockwise: the odometer axis points at psi - a_h.
+        const double psi = att->heading_rad - mis.heading_rad;
+        ds_n = Eigen::Vector3d(ds * std::sin(psi), ds * std::cos(psi), 0.0);
+      }
+      o.heading_rad = wrap_two_pi(att->heading_rad);
+    } else {
+      have_heading = false;
+    }
+  } else {
+    o.degraded = true;
+    const std::optional<Eigen::Vector3d> v = gnss_velocity_at(mid);
+    if (v && v->head<2>().norm() >= params_.course_min_speed_mps) {
+      held_heading_rad_ = gnss_course_rad(*v);
+    } else {
+      o.heading_held = true;
+      ++counters_.heading_held;
+    }
+    if (held_heading_rad_) {
+      const double c = *held_heading_rad_;
+      ds_n = Eigen::Vector3d(std::abs(ds) * std::sin(c), std::abs(ds) * std::cos(c), 0.0);
+      o.heading_rad = c;
+    } else {
+      have_heading = false;
+    }
+  }
+  if (!have_heading) ++counters_.distance_lost;
+  position_ = move_geodetic(position_, ds_n);
+  distance_m_ += std::abs(ds);
+  last_t_s_ = t_j;
+  last_count_ = count;
+
+  o.position = position_;
+  o.enu_m = frame_->to_enu(position_);
+  o.distance_m = distance_m_;
+  std::optional<Attitude> att_now;
+  if (params_.lever_arm_body_m) {
+    if (params_.use_ins)
+      att_now = attitude_.attitude_at(t_j, watermark_s_);
+    else if (held_heading_rad_)
+      att_now = Attitude{*held_heading_rad_, 0.0, 0.0};
+  }
+  const std::optional<Eigen::Vector3d> ref = gnss_reference_enu(t_j, att_now);
+  if (ref) {
+    o.gnss_reference = true;
+    o.horizontal_error_m = std::hypot(o.enu_m.x() - ref->x(), o.enu_m.y() - ref->y());
+    if (distance_m_ >= params_.percent_min_distance_m && distance_m_ > 0.0)
+      o.error_percent_distance = 100.0 * o.horizontal_error_m / distance_m_;
+  }
+  return o;
+}
+
+}  // namespace odonav

@@ -1,0 +1,311 @@
+// Dead reckoner (ALGORITHM.md §4) on synthetic drives with exact K and attitude.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/dead_reckoning/drift_evaluator.hpp"
+#include "synthetic_drive.hpp"
+
+using namespace odonav;
+using namespace odonav::synthetic;
+
+namespace {
+
+constexpr double kK = 0.0125;
+
+// One lap of a circle whose circumference is exactly 25600 pulses (320 m), driven at 10 m/s with
+// the odometer sampled at every 16th pulse edge (50 Hz), so the odometer itself carries no
+// quantisation error and the DR must close the loop to the integration error alone.
+SensorConfig lap_config() {
+  SensorConfig c;
+  c.duration_s = 32.0;
+  c.k_m_per_pulse = kK;
+  c.misalignment = Misalignment{deg_to_rad(0.8), deg_to_rad(-0.5)};
+  return c;
+}
+Trajectory lap() { return circle(320.0 / (2.0 * kPi), 10.0, deg_to_rad(20.0)); }
+
+std::vector<DeadReckoningOutput> run_all(const SyntheticData& d, const DeadReckonerParams& p,
+                                         const std::optional<Misalignment>& mis = std::nullopt,
+                                         DeadReckonerCounters* counters = nullptr) {
+  DeadReckoner dr(p);
+  if (mis) dr.add_misalignment(0.0, *mis);
+  for (const auto& s : d.odometer) dr.add_odometer(s);
+  for (const auto& s : d.ins) dr.add_ins(s);
+  for (const auto& s : d.gnss) dr.add_gnss(s);
+  auto out = dr.finish();
+  if (counters) *counters = dr.counters();
+  return out;
+}
+
+DeadReckonerParams exact_k() {
+  DeadReckonerParams p;
+  p.nominal_k_m_per_pulse = kK;
+  return p;
+}
+
+}  // namespace
+
+TEST(DeadReckoner, CircleWithExactKAndAttitudeClosesWithinMillimetres) {
+  const SensorConfig c = lap_config();
+  DeadReckonerCounters n;
+  const auto out = run_all(simulate(lap(), c), exact_k(), c.misalignment, &n);
+  ASSERT_EQ(out.size(), 1600u);  // every odometer sample after the start fix at t = 0
+  EXPECT_EQ(n.before_start, 1u);
+  const DeadReckoningOutput& end = out.back();
+  EXPECT_NEAR(end.t_s, 32.0, 1e-9);
+  EXPECT_NEAR(end.distance_m, 320.0, 1e-9);
+  EXPECT_LT(end.enu_m.norm(), 2e-3);                 // back at the start
+  EXPECT_LT(end.horizontal_error_m, 2e-3);           // and on the GNSS fix there
+  double max_err = 0.0;
+  for (const auto& o : out) max_err = std::max(max_err, o.horizontal_error_m);
+  // Between 10 Hz fixes the GNSS reference is a chord: up to 1 m^2 / (8 R) = 2.5 mm off the arc.
+  EXPECT_LT(max_err, 4e-3);
+  EXPECT_EQ(end.k_source, ScaleFactorSource::kNominal);
+}
+
+TEST(DeadReckoner, CounterWrapChangesNothing) {
+  SensorConfig c = lap_config();
+  const auto a = run_all(simulate(lap(), c), exact_k(), c.misalignment);
+  c.pulse_offset = 4294967295u - 10000u;  // wraps 40 % into the lap
+  const auto b = run_all(simulate(lap(), c), exact_k(), c.misalignment);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].enu_m, b[i].enu_m) << i;
+    EXPECT_EQ(a[i].distance_m, b[i].distance_m) << i;
+  }
+}
+
+TEST(DeadReckoner, OnePercentKErrorGivesOnePercentOfDistanceAlongTrack) {
+  SensorConfig c;
+  c.duration_s = 100.0;
+  c.k_m_per_pulse = kK;
+  const SyntheticData d = simulate(straight(deg_to_rad(60.0), 0.0, 10.0, 0.0), c);  // 1000 m
+  DeadReckonerParams p;
+  p.nominal_k_m_per_pulse = 1.01 * kK;
+  const auto out = run_all(d, p);
+  const DeadReckoningOutput& end = out.back();
+  // Along track 1 % long: 10 m over 1000 m; %D is relative to the odometer distance (1010 m).
+  EXPECT_NEAR(end.horizontal_error_m, 10.0, 0.02);
+  EXPECT_NEAR(end.error_percent_distance, 100.0 * 0.01 / 1.01, 0.003);
+  const Eigen::Vector3d along(std::sin(deg_to_rad(60.0)), std::cos(deg_to_rad(60.0)), 0.0);
+  EXPECT_NEAR(end.enu_m.dot(along), 1010.0, 0.02);
+
+  // The identified K from t = 50 s on stops the growth: the error stays at the 5 m of the first half.
+  DeadReckoner dr(p);
+  dr.add_scale_factor(50.0, kK, ScaleFactorSource::kIdentified);
+  for (const auto& s : d.odometer) dr.add_odometer(s);
+  for (const auto& s : d.ins) dr.add_ins(s);
+  for (const auto& s : d.gnss) dr.add_gnss(s);
+  const auto fixed = dr.finish();
+  EXPECT_NEAR(fixed.back().horizontal_error_m, 5.0, 0.02);
+  EXPECT_EQ(fixed.back().k_source, ScaleFactorSource::kIdentified);
+  EXPECT_EQ(fixed.back().k_m_per_pulse, kK);
+  EXPECT_EQ(fixed[1000].k_source, ScaleFactorSource::kNominal);  // t = 20 s
+
+  DriftEvaluator eval(100.0);
+  for (const auto& o : out) eval.add(o.distance_m, o.horizontal_error_m);
+  const DriftSummary s = eval.summary();
+  EXPECT_NEAR(s.final_percent, 100.0 * 0.01 / 1.01, 0.003);
+  EXPECT_NEAR(s.max_percent, 100.0 * 0.01 / 1.01, 0.01);
+}
+
+TEST(DeadReckoner, OneDegreeHeadingMisalignmentGives175PercentUntilApplied) {
+  SensorConfig c;
+  c.duration_s = 100.0;
+  c.k_m_per_pulse = kK;
+  c.misalignment = Misalignment{deg_to_rad(1.0), 0.0};
+  const SyntheticData d = simulate(straight(deg_to_rad(200.0), 0.0, 10.0, 0.0), c);
+  const auto raw = run_all(d, exact_k());
+  // The DR runs 1 deg off the track: chord 2 sin(0.5 deg) = 1.745 % of the distance.
+  EXPECT_NEAR(raw.back().error_percent_distance, 200.0 * std::sin(deg_to_rad(0.5)), 0.005);
+  const auto fixed = run_all(d, exact_k(), c.misalignment);
+  // What is left: up to one pulse of quantisation (1.25 cm) and the simulator's straight line in the
+  // origin's tangent plane versus the DR's constant local bearing (meridian convergence, ~3 cm over
+  // this 1 km at 52.5 deg latitude): 0.005 % of 1 km is 5 cm.
+  EXPECT_LT(fixed.back().error_percent_distance, 0.005);
+}
+
+TEST(DeadReckoner, ThreeDFollowsTheSlopeTwoDLaysTheFullDistanceFlat) {
+  SensorConfig c;
+  c.duration_s = 50.0;
+  c.k_m_per_pulse = kK;
+  const double slope = deg_to_rad(5.0);
+  const SyntheticData d = simulate(straight(0.0, slope, 10.0, 0.0), c);  // 500 m up a 5 deg slope
+  const auto o3 = run_all(d, exact_k());
+  EXPECT_NEAR(o3.back().enu_m.z(), 500.0 * std::sin(slope), 0.02);
+  EXPECT_LT(o3.back().horizontal_error_m, 0.02);
+  DeadReckonerParams p2 = exact_k();
+  p2.mode = DeadReckoningMode::k2D;
+  const auto o2 = run_all(d, p2);
+  // 2-D: the height is held and the whole 500 m is laid on the horizontal, 1 / cos(5 deg) too long.
+  EXPECT_NEAR(o2.back().position.height_m, c.origin.height_m, 1e-9);
+  EXPECT_NEAR(o2.back().enu_m.head<2>().norm(), 500.0, 0.03);  // enu z: earth curvature only (2 cm)
+  EXPECT_NEAR(o2.back().horizontal_error_m, 500.0 * (1.0 - std::cos(slope)), 0.02);
+}
+
+TEST(DeadReckoner, LeverArmMovesTheStartAndTheReferenceToTheInsPoint) {
+  SensorConfig c;
+  c.duration_s = 30.0;
+  c.k_m_per_pulse = kK;
+  c.lever_arm_body_m = Eigen::Vector3d(1.5, 0.5, 2.0);
+  const SyntheticData d = simulate(circle(80.0, 8.0, 0.0), c);
+  DeadReckonerParams p = exact_k();
+  p.lever_arm_body_m = c.lever_arm_body_m;
+  DeadReckoner dr(p);
+  for (const auto& s : d.odometer) dr.add_odometer(s);
+  for (const auto& s : d.ins) dr.add_ins(s);
+  for (const auto& s : d.gnss) dr.add_gnss(s);
+  const auto out = dr.finish();
+  const LocalEnuFrame truth_frame(c.origin);
+  EXPECT_LT(truth_frame.to_enu(*dr.origin()).norm(), 1e-6);  // the INS point, not the antenna
+  double max_err = 0.0;
+  for (const auto& o : out) max_err = std::max(max_err, o.horizontal_error_m);
+  EXPECT_LT(max_err, kK + 0.005);  // one pulse of quantisation plus the GNSS chord
+  // Without the lever arm the DR carries the start offset C(0) l rigidly while the antenna offset
+  // turns with the vehicle: the error is the horizontal part of (C(0) - C(t)) l.
+  const auto raw = run_all(d, exact_k());
+  const Eigen::Vector3d drift = body_to_enu(d.ins.front().attitude) * c.lever_arm_body_m -
+                                body_to_enu(d.ins.back().attitude) * c.lever_arm_body_m;
+  EXPECT_GT(drift.head<2>().norm(), 2.0);
+  EXPECT_NEAR(raw.back().horizontal_error_m, drift.head<2>().norm(), kK + 0.005);
+}
+
+TEST(DeadReckoner, WithoutInsUsesTheGnssCourseAndHoldsItInAnOutage) {
+  SensorConfig c;
+  c.duration_s = 40.0;
+  c.k_m_per_pulse = kK;
+  SyntheticData d = simulate(straight(deg_to_rad(45.0), 0.0, 10.0, 0.0), c);
+  for (auto& g : d.gnss)
+    if (g.t_s > 20.05 && g.t_s < 35.05) g.fix = 0;  // 15 s outage
+  DeadReckonerParams p = exact_k();
+  p.use_ins = false;
+  DeadReckonerCounters n;
+  const auto out = run_all(d, p, std::nullopt, &n);
+  EXPECT_TRUE(out.back().degraded);
+  EXPECT_NEAR(rad_to_deg(out.back().heading_rad), 45.0, 1e-9);
+  EXPECT_LT(out.back().horizontal_error_m, 0.02);
+  const DeadReckoningOutput& in_outage = out[1500];  // t = 30 s
+  EXPECT_TRUE(in_outage.heading_held);
+  EXPECT_FALSE(in_outage.gnss_reference);
+  EXPECT_TRUE(std::isnan(in_outage.error_percent_distance));
+  EXPECT_GT(n.heading_held, 700u);
+}
+
+TEST(DeadReckoner, PercentIsUndefinedBelowOneMetre) {
+  SensorConfig c;
+  c.duration_s = 2.0;
+  const auto out = run_all(simulate(straight(0.0, 0.0, 5.0, 0.0), c), exact_k());
+  EXPECT_TRUE(std::isnan(out[3].error_percent_distance));  // 0.08 s, 0.4 m
+  EXPECT_FALSE(std::isnan(out[20].error_percent_distance));
+}
+
+TEST(DeadReckoner, DifferentInterleavingsGiveBitIdenticalOutputs) {
+  SensorConfig c = lap_config();
+  c.velocity_noise_mps = 0.05;
+  const SyntheticData d = simulate(lap(), c);
+  auto feed_controls = [&](DeadReckoner& dr) {
+    dr.add_misalignment(0.0, Misalignment{});
+    dr.add_misalignment(10.0, c.misalignment);
+    dr.add_scale_factor(5.0, 1.002 * kK, ScaleFactorSource::kIdentified);
+    dr.add_scale_factor(20.0, kK, ScaleFactorSource::kCommanded);
+  };
+  DeadReckonerParams p;
+  p.lever_arm_body_m = Eigen::Vector3d(0.3, 0.0, 1.0);
+  DeadReckoner a(p);
+  feed_controls(a);
+  for (const auto& s : d.gnss) a.add_gnss(s);
+  for (const auto& s : d.odometer) a.add_odometer(s);
+  for (const auto& s : d.ins) a.add_ins(s);
+  const auto oa = a.finish();
+
+  DeadReckoner b(p);
+  feed_controls(b);
+  std::vector<DeadReckoningOutput> ob;
+  std::mt19937 rng(21);
+  std::size_t io = 0, ig = 0, ii = 0;
+  double wo = -1, wg = -1, wi = -1;
+  while (io < d.odometer.size() || ig < d.gnss.size() || ii < d.ins.size()) {
+    const int which = std::uniform_int_distribution<int>(0, 2)(rng);
+    const int burst = std::uniform_int_distribution<int>(1, 50)(rng);
+    for (int k = 0; k < burst; ++k) {
+      if (which == 0 && io < d.odometer.size()) { b.add_odometer(d.odometer[io]); wo = d.odometer[io++].t_s; }
+      if (which == 1 && ig < d.gnss.size()) { b.add_gnss(d.gnss[ig]); wg = d.gnss[ig++].t_s; }
+      if (which == 2 && ii < d.ins.size()) { b.add_ins(d.ins[ii]); wi = d.ins[ii++].t_s; }
+    }
+    const double inf = std::numeric_limits<double>::infinity();
+    for (const auto& o : b.process_until(std::min({io < d.odometer.size() ? wo : inf,
+                                                   ig < d.gnss.size() ? wg : inf, ii < d.ins.size() ? wi : inf})))
+      ob.push_back(o);
+  }
+  for (const auto& o : b.finish()) ob.push_back(o);
+  ASSERT_EQ(oa.size(), ob.size());
+  ASSERT_EQ(oa.size(), 1600u);
+  for (std::size_t i = 0; i < oa.size(); ++i) {
+    EXPECT_EQ(oa[i].t_s, ob[i].t_s);
+    EXPECT_EQ(oa[i].enu_m, ob[i].enu_m) << i;
+    EXPECT_EQ(oa[i].position.lat_rad, ob[i].position.lat_rad) << i;
+    EXPECT_EQ(oa[i].k_source, ob[i].k_source) << i;
+    EXPECT_EQ(oa[i].horizontal_error_m, ob[i].horizontal_error_m) << i;
+  }
+  EXPECT_EQ(oa[100].k_source, ScaleFactorSource::kNominal);      // 2 s
+  EXPECT_EQ(oa[500].k_source, ScaleFactorSource::kIdentified);   // 10 s
+  EXPECT_EQ(oa.back().k_source, ScaleFactorSource::kCommanded);
+}
+
+TEST(DriftEvaluator, FinalAndMaximumPercentAboveTheMinimumDistance) {
+  DriftEvaluator e(100.0);
+  e.add(50.0, 5.0);   // below 100 m: ignored
+  e.add(200.0, 2.0);  // 1 %
+  e.add(300.0, std::numeric_limits<double>::quiet_NaN());  // no reference
+  e.add(400.0, 2.0);  // 0.5 %
+  const DriftSummary s = e.summary();
+  EXPECT_EQ(s.points, 2u);
+  EXPECT_DOUBLE_EQ(s.final_percent, 0.5);
+  EXPECT_DOUBLE_EQ(s.max_percent, 1.0);
+  EXPECT_DOUBLE_EQ(s.max_percent_distance_m, 200.0);
+}
+
+TEST(DriftEvaluator, AgainstATruthTrack) {
+  SensorConfig c;
+  c.duration_s = 60.0;
+  c.k_m_per_pulse = kK;
+  const Trajectory tr = straight(deg_to_rad(10.0), 0.0, 10.0, 0.0);
+  const SyntheticData d = simulate(tr, c);
+  const LocalEnuFrame frame(c.origin);
+  std::vector<TruthSample> truth;
+  for (int i = 0; i <= 600; ++i) {
+    TruthSample t;
+    t.t_s = 0.1 * i;
+    t.position = frame.to_geodetic(tr.enu_m(t.t_s));
+    truth.push_back(t);
+  }
+  const TruthTrack track(truth);
+  DeadReckonerParams p;
+  p.nominal_k_m_per_pulse = 0.995 * kK;
+  DriftEvaluator eval;
+  for (const auto& o : run_all(d, p)) {
+    const auto ref = track.position_at(o.t_s);
+    ASSERT_TRUE(ref.has_value());
+    eval.add(o.distance_m, horizontal_distance_m(o.position, *ref));
+  }
+  EXPECT_NEAR(eval.summary().final_percent, 100.0 * 0.005 / 0.995, 0.003);
+  EXPECT_FALSE(track.position_at(61.0).has_value());
+}
+
+TEST(DeadReckoner, BadInputIsRejectedWithClearErrors) {
+  DeadReckonerParams bad;
+  bad.nominal_k_m_per_pulse = 0.0;
+  EXPECT_THROW(DeadReckoner{bad}, std::invalid_argument);
+  DeadReckoner dr;
+  EXPECT_THROW(dr.add_scale_factor(1.0, std::numeric_limits<double>::infinity(), ScaleFactorSource::kCommanded),
+               StreamInputError);
+  dr.add_odometer({1.0, 5u, 1});
+  try {
+    dr.add_odometer({0.5, 6u, 1});
+    FAIL();
+  } catch (const StreamInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("odometer"), std::string::npos);
+  }
+}
