@@ -1,0 +1,275 @@
+#include "core/course.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "odonav/frames.hpp"
+
+namespace odonav::sim {
+
+namespace {
+
+Eigen::Vector2d direction(double heading_rad) { return {std::sin(heading_rad), std::cos(heading_rad)}; }
+
+// Displacement along a segment of constant curvature after length_m, from heading heading_rad.
+Eigen::Vector2d segment_displacement(double heading_rad, double curvature_per_m, double length_m) {
+  if (curvature_per_m == 0.0) return length_m * direction(heading_rad);
+  const double end = heading_rad + curvature_per_m * length_m;
+  return Eigen::Vector2d(std::cos(heading_rad) - std::cos(end), std::sin(end) - std::sin(heading_rad)) /
+         curvature_per_m;
+}
+
+void check_segment(const CourseSegment& seg, std::size_t index) {
+  if (!(seg.length_m > 0.0) || !std::isfinite(seg.length_m) || !std::isfinite(seg.curvature_per_m) ||
+      !(seg.target_speed_mps > 0.0)) {
+    std::ostringstream msg;
+    msg << "course segment " << index << ": length_m (" << seg.length_m << ") and target_speed_mps ("
+        << seg.target_speed_mps << ") must be > 0 and curvature_per_m finite";
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+}  // namespace
+
+void Course::build(double start_heading_rad) {
+  start_s_m_.clear();
+  start_heading_rad_.clear();
+  start_pos_m_.clear();
+  double s = 0.0, heading = start_heading_rad;
+  Eigen::Vector2d pos = Eigen::Vector2d::Zero();
+  for (std::size_t i = 0; i < segments_.size(); ++i) {
+    check_segment(segments_[i], i);
+    start_s_m_.push_back(s);
+    start_heading_rad_.push_back(heading);
+    start_pos_m_.push_back(pos);
+    pos += segment_displacement(heading, segments_[i].curvature_per_m, segments_[i].length_m);
+    heading += segments_[i].curvature_per_m * segments_[i].length_m;
+    s += segments_[i].length_m;
+  }
+  lap_length_m_ = s;
+  lap_turning_rad_ = heading - start_heading_rad;
+}
+
+Course Course::straight(double length_m, double heading_rad, double speed_mps) {
+  Course c;
+  c.segments_ = {CourseSegment{length_m, 0.0, speed_mps}};
+  c.closed_ = false;
+  c.build(heading_rad);
+  return c;
+}
+
+Course Course::closed_loop(std::vector<CourseSegment> segments, double start_heading_rad, std::size_t free_a,
+                           std::size_t free_b) {
+  if (free_a >= segments.size() || free_b >= segments.size() || free_a == free_b ||
+      segments[free_a].curvature_per_m != 0.0 || segments[free_b].curvature_per_m != 0.0) {
+    throw std::invalid_argument("Course::closed_loop: free_a and free_b must be two different straight segments");
+  }
+  Course c;
+  c.segments_ = std::move(segments);
+  c.closed_ = true;
+  // Lengths of straights do not change headings, so the displacement is linear in the two free
+  // lengths: d_fixed + L_a * dir(h_a) + L_b * dir(h_b) = 0.
+  c.segments_[free_a].length_m = 1.0;
+  c.segments_[free_b].length_m = 1.0;
+  c.build(start_heading_rad);
+  const double turns = c.lap_turning_rad_ / (2.0 * kPi);
+  if (std::abs(turns - std::round(turns)) > 1e-9 || std::round(turns) == 0.0) {
+    throw std::invalid_argument("Course::closed_loop: the segments turn " + std::to_string(turns) +
+                                " times; a closed lap needs a non-zero whole number");
+  }
+  const Eigen::Vector2d da = direction(c.start_heading_rad_[free_a]);
+  const Eigen::Vector2d db = direction(c.start_heading_rad_[free_b]);
+  Eigen::Vector2d d_fixed = Eigen::Vector2d::Zero();
+  {
+    double heading = start_heading_rad;
+    for (std::size_t i = 0; i < c.segments_.size(); ++i) {
+      if (i != free_a && i != free_b) {
+        d_fixed += segment_displacement(heading, c.segments_[i].curvature_per_m, c.segments_[i].length_m);
+      }
+      heading += c.segments_[i].curvature_per_m * c.segments_[i].length_m;
+    }
+  }
+  Eigen::Matrix2d a;
+  a.col(0) = da;
+  a.col(1) = db;
+  if (std::abs(a.determinant()) < 1e-6) {
+    throw std::invalid_argument("Course::closed_loop: the two free straights are parallel");
+  }
+  const Eigen::Vector2d lengths = a.inverse() * (-d_fixed);
+  if (!(lengths.x() > 1.0) || !(lengths.y() > 1.0)) {
+    std::ostringstream msg;
+    msg << "Course::closed_loop: solved free straight lengths " << lengths.x() << " m and " << lengths.y()
+        << " m; both must be positive: lengthen or shorten the fixed segments";
+    throw std::invalid_argument(msg.str());
+  }
+  c.segments_[free_a].length_m = lengths.x();
+  c.segments_[free_b].length_m = lengths.y();
+  c.build(start_heading_rad);
+  return c;
+}
+
+Course Course::training_ground() {
+  const double deg = kPi / 180.0;
+  // Arc helper: a right turn of angle_deg (negative: left) on radius_m, at a speed the driver would
+  // like (cornering limits it further in SpeedProfile).
+  auto arc = [deg](double angle_deg, double radius_m, double speed_mps) {
+    const double sign = angle_deg >= 0 ? 1.0 : -1.0;
+    return CourseSegment{std::abs(angle_deg) * deg * radius_m, sign / radius_m, speed_mps};
+  };
+  auto straight = [](double length_m, double speed_mps) { return CourseSegment{length_m, 0.0, speed_mps}; };
+  std::vector<CourseSegment> s = {
+      straight(600.0, 14.0),  // 0: north-bound main straight
+      arc(90.0, 60.0, 12.0),  // 1: -> east
+      straight(400.0, 12.0),  // 2
+      arc(-40.0, 50.0, 10.0), // 3: S-bend, left ...
+      arc(40.0, 50.0, 10.0),  // 4: ... and right again, -> east
+      straight(1.0, 14.6),    // 5: free length (east)
+      arc(90.0, 12.0, 5.0),   // 6: sharp turn -> south
+      straight(500.0, 5.0),   // 7: rough section, slow
+      straight(1.0, 14.0),    // 8: free length (south)
+      arc(45.0, 80.0, 12.0),  // 9: -> south-west
+      straight(350.0, 12.0),  // 10
+      arc(45.0, 80.0, 12.0),  // 11: -> west
+      straight(700.0, 14.6),  // 12
+      arc(60.0, 40.0, 10.0),  // 13: -> north-north-west
+      straight(300.0, 10.0),  // 14
+      arc(30.0, 15.0, 6.0),   // 15: sharp turn -> north, back to the start
+  };
+  return closed_loop(std::move(s), 0.0, 5, 8);
+}
+
+CoursePoint Course::at(double s_m) const {
+  double s = std::max(0.0, s_m);
+  double heading_offset = 0.0;
+  if (closed_) {
+    const double lap = std::floor(s / lap_length_m_);
+    s -= lap * lap_length_m_;
+    heading_offset = lap * lap_turning_rad_;
+  }
+  std::size_t i = static_cast<std::size_t>(std::upper_bound(start_s_m_.begin(), start_s_m_.end(), s) -
+                                           start_s_m_.begin()) - 1;
+  const CourseSegment& seg = segments_[i];
+  const double u = s - start_s_m_[i];  // for an open road may exceed the segment: runs on straight
+  CoursePoint p;
+  p.target_speed_mps = seg.target_speed_mps;
+  if (!closed_ && u > seg.length_m) {
+    const double end_heading = start_heading_rad_[i] + seg.curvature_per_m * seg.length_m;
+    p.heading_rad = end_heading + heading_offset;
+    p.curvature_per_m = 0.0;
+    p.position_m = start_pos_m_[i] + segment_displacement(start_heading_rad_[i], seg.curvature_per_m, seg.length_m) +
+                   (u - seg.length_m) * direction(end_heading);
+    return p;
+  }
+  p.heading_rad = start_heading_rad_[i] + seg.curvature_per_m * u + heading_offset;
+  p.curvature_per_m = seg.curvature_per_m;
+  p.position_m = start_pos_m_[i] + segment_displacement(start_heading_rad_[i], seg.curvature_per_m, u);
+  return p;
+}
+
+TerrainProfile::TerrainProfile(double grade, std::vector<Undulation> hills, std::vector<Undulation> cross_slopes,
+                               const Course& course)
+    : grade_(course.closed() ? 0.0 : grade), hills_(std::move(hills)), cross_(std::move(cross_slopes)) {
+  for (auto* list : {&hills_, &cross_}) {
+    for (Undulation& u : *list) {
+      if (!(u.wavelength_m > 0.0) || !std::isfinite(u.amplitude)) {
+        throw std::invalid_argument("terrain undulation: wavelength_m must be > 0 and amplitude finite");
+      }
+      if (course.closed()) {
+        const double n = std::max(1.0, std::round(course.lap_length_m() / u.wavelength_m));
+        u.wavelength_m = course.lap_length_m() / n;
+      }
+    }
+  }
+}
+
+double TerrainProfile::height_m(double s_m) const {
+  double h = grade_ * s_m;
+  // Each wave starts at zero height so the road starts at the start height.
+  for (const Undulation& u : hills_) {
+    h += u.amplitude * (std::sin(2.0 * kPi * s_m / u.wavelength_m + u.phase_rad) - std::sin(u.phase_rad));
+  }
+  return h;
+}
+
+double TerrainProfile::slope(double s_m) const {
+  double d = grade_;
+  for (const Undulation& u : hills_) {
+    d += u.amplitude * 2.0 * kPi / u.wavelength_m * std::cos(2.0 * kPi * s_m / u.wavelength_m + u.phase_rad);
+  }
+  return d;
+}
+
+double TerrainProfile::cross_slope_rad(double s_m) const {
+  double r = 0.0;
+  for (const Undulation& u : cross_) r += u.amplitude * std::sin(2.0 * kPi * s_m / u.wavelength_m + u.phase_rad);
+  return r;
+}
+
+SpeedProfile::SpeedProfile(const Course& course, double total_length_m, const DriverLimits& limits,
+                           double grid_step_m)
+    : total_length_m_(total_length_m) {
+  if (!(grid_step_m > 0.0) || !(total_length_m >= 4.0 * grid_step_m) || !std::isfinite(total_length_m)) {
+    throw std::invalid_argument("SpeedProfile: total_length_m (" + std::to_string(total_length_m) +
+                                ") must be finite and at least 4 grid steps of " + std::to_string(grid_step_m) + " m");
+  }
+  if (!(limits.accel_mps2 > 0.0) || !(limits.decel_mps2 > 0.0) || !(limits.lateral_accel_mps2 > 0.0) ||
+      !(limits.speed_variation_mps >= 0.0)) {
+    throw std::invalid_argument("SpeedProfile: accel_mps2, decel_mps2, lateral_accel_mps2 must be > 0, "
+                                "speed_variation_mps >= 0");
+  }
+  const std::size_t n = static_cast<std::size_t>(std::ceil(total_length_m / grid_step_m)) + 1;
+  step_m_ = total_length_m / static_cast<double>(n - 1);
+  node_speed_mps_.assign(n, 0.0);
+  auto limit_at = [&](double s) {
+    const CoursePoint p = course.at(s);
+    // Slow wander so the speed is never perfectly constant (two incommensurate wavelengths).
+    const double wander = limits.speed_variation_mps *
+                          (0.6 * std::sin(2.0 * kPi * s / 350.0) + 0.4 * std::sin(2.0 * kPi * s / 90.0 + 1.0));
+    double v = std::max(0.5, p.target_speed_mps + wander);
+    if (p.curvature_per_m != 0.0) v = std::min(v, std::sqrt(limits.lateral_accel_mps2 / std::abs(p.curvature_per_m)));
+    return v;
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const double s = step_m_ * static_cast<double>(i);
+    // The node's limit covers the cells either side (segments are longer than a step), so v^2,
+    // linear in between, cannot exceed a limit anywhere in a cell that touches an arc.
+    node_speed_mps_[i] = std::min({limit_at(s - step_m_), limit_at(s - 0.5 * step_m_), limit_at(s),
+                                   limit_at(s + 0.5 * step_m_), limit_at(s + step_m_)});
+  }
+  node_speed_mps_.front() = 0.0;
+  node_speed_mps_.back() = 0.0;
+  for (std::size_t i = 1; i < n; ++i) {
+    node_speed_mps_[i] = std::min(node_speed_mps_[i],
+                                  std::sqrt(node_speed_mps_[i - 1] * node_speed_mps_[i - 1] + 2.0 * limits.accel_mps2 * step_m_));
+  }
+  for (std::size_t i = n - 1; i-- > 0;) {
+    node_speed_mps_[i] = std::min(node_speed_mps_[i],
+                                  std::sqrt(node_speed_mps_[i + 1] * node_speed_mps_[i + 1] + 2.0 * limits.decel_mps2 * step_m_));
+  }
+  node_time_s_.assign(n, 0.0);
+  for (std::size_t i = 1; i < n; ++i) {
+    // Constant acceleration in a cell: time = 2 ds / (v0 + v1), finite even from standstill.
+    node_time_s_[i] = node_time_s_[i - 1] + 2.0 * step_m_ / (node_speed_mps_[i - 1] + node_speed_mps_[i]);
+  }
+}
+
+SpeedProfile::State SpeedProfile::at(double time_s) const {
+  State st;
+  if (time_s <= 0.0) return st;
+  if (time_s >= node_time_s_.back()) {
+    st.s_m = total_length_m_;
+    return st;
+  }
+  const std::size_t i = static_cast<std::size_t>(
+                            std::upper_bound(node_time_s_.begin(), node_time_s_.end(), time_s) - node_time_s_.begin()) - 1;
+  const double v0 = node_speed_mps_[i], v1 = node_speed_mps_[i + 1];
+  const double a = (v1 * v1 - v0 * v0) / (2.0 * step_m_);
+  const double tau = time_s - node_time_s_[i];
+  st.speed_mps = std::max(0.0, v0 + a * tau);
+  st.s_m = std::min(step_m_ * static_cast<double>(i) + v0 * tau + 0.5 * a * tau * tau, step_m_ * static_cast<double>(i + 1));
+  return st;
+}
+
+}  // namespace odonav::sim

@@ -1,0 +1,479 @@
+#include "core/simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+
+namespace odonav::sim {
+
+namespace {
+
+// One independent random stream per sensor, derived from the seed (splitmix64), so that changing
+// e.g. the GNSS rate does not change the INS noise, and each stream draws in a fixed order.
+std::mt19937_64 make_stream(std::uint64_t seed, std::uint64_t stream_id) {
+  std::uint64_t z = seed + 0x9E3779B97F4A7C15ull * (stream_id + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return std::mt19937_64(z ^ (z >> 31));
+}
+
+void require(bool ok, const std::string& field, const std::string& rule) {
+  if (!ok) throw std::invalid_argument("SimulationConfig." + field + ": " + rule);
+}
+
+// Rate ratio truth/sensor, which must be a whole number so sensor epochs fall on truth rows.
+int rate_ratio(double truth_rate_hz, double sensor_rate_hz, const std::string& field) {
+  require(std::isfinite(sensor_rate_hz) && sensor_rate_hz > 0.0 && sensor_rate_hz <= truth_rate_hz, field,
+          "must be > 0 and <= truth_rate_hz");
+  const double r = truth_rate_hz / sensor_rate_hz;
+  require(std::abs(r - std::round(r)) < 1e-9, field, "must divide truth_rate_hz a whole number of times");
+  return static_cast<int>(std::round(r));
+}
+
+// Exact body attitude whose odometer axis points along the direction of travel (course azimuth
+// heading_rad, path pitch pitch_rad) for the given body roll: C_b^n(att) * C_m^b * e1 = u.
+// Starts from the small-angle answer and corrects heading and pitch by the remaining angular
+// error; the map is the identity up to terms of misalignment * roll, so a few passes reach 1e-15.
+Attitude body_attitude_for_motion(double heading_rad, double pitch_rad, double roll_rad, const Misalignment& mis) {
+  const Eigen::Vector3d m = odometer_axis_in_body(mis);
+  Attitude att{heading_rad + mis.heading_rad, pitch_rad - mis.pitch_rad, roll_rad};
+  for (int pass = 0; pass < 8; ++pass) {
+    const Eigen::Vector3d u = body_to_enu(att) * m;
+    const double heading_now = std::atan2(u.x(), u.y());
+    const double pitch_now = std::asin(std::clamp(u.z(), -1.0, 1.0));
+    att.heading_rad += wrap_pi(heading_rad - heading_now);
+    att.pitch_rad += pitch_rad - pitch_now;
+  }
+  return att;
+}
+
+bool in_outage(const std::vector<GnssOutage>& outages, double t_rel_s) {
+  for (const GnssOutage& o : outages) {
+    if (t_rel_s >= o.start_s && t_rel_s < o.end_s) return true;
+  }
+  return false;
+}
+
+// Internal per-truth-row state that the sensors are built from.
+struct TruthRow {
+  double t_rel_s = 0.0;
+  Geodetic position;
+  Attitude attitude;       // unwrapped heading
+  Eigen::Vector3d vel_enu_mps = Eigen::Vector3d::Zero();
+  double speed_mps = 0.0;  // along the track
+  double k_base_m_per_pulse = 0.0;
+  double k_true_m_per_pulse = 0.0;  // base divided by (1 + slip)
+  double distance_m = 0.0;
+  std::uint32_t pulses = 0;
+};
+
+}  // namespace
+
+std::vector<std::string> scenario_names() { return {"straight", "ring", "terrain"}; }
+
+SimulationConfig scenario_config(const std::string& name) {
+  SimulationConfig c;
+  c.scenario = name;
+  if (name == "straight") {
+    c.description = "straight calibration run: about 200 s at about 10 m/s on a straight road, start and stop";
+    c.course = CourseKind::kStraight;
+    c.hills = {Undulation{1.5, 400.0, 0.0}};
+    c.cross_slopes = {Undulation{0.5 * kDegToRad, 300.0, 0.0}};
+    return c;
+  }
+  if (name == "ring" || name == "terrain") {
+    c.course = CourseKind::kTrainingGround;
+    c.laps = 2;
+    c.road_grade = 0.0;
+    // Pitch up to about 4-5 deg: 2*pi*A/lambda is 0.044 and 0.038 for these.
+    c.hills = {Undulation{4.0, 570.0, 0.0}, Undulation{1.2, 200.0, 0.5}};
+    c.cross_slopes = {Undulation{1.5 * kDegToRad, 300.0, 0.0}};
+    if (name == "ring") {
+      c.description = "training-ground ring: two clockwise laps, arcs 12-80 m radius, speeds 3-15 m/s";
+      return c;
+    }
+    c.description =
+        "terrain: ring course with K steps (+3 % at 250 s, -2 % at 500 s), track slip in turns, a 120 s GNSS "
+        "outage and GNSS velocity outliers";
+    c.k_steps = {KStep{250.0, 1.03}, KStep{500.0, 0.98}};
+    // 2 % more pulses per metre at 0.45 rad/s yaw rate (a 12-15 m radius turn at 5-6 m/s).
+    c.turn_slip_per_radps = 0.05;
+    c.turn_slip_max = 0.03;
+    c.gnss_outages = {GnssOutage{560.0, 680.0}};
+    c.gnss_velocity_outliers = 6;
+    return c;
+  }
+  std::string names;
+  for (const std::string& n : scenario_names()) names += (names.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("unknown scenario '" + name + "'; known scenarios: " + names);
+}
+
+void validate(const SimulationConfig& c) {
+  require(std::isfinite(c.truth_rate_hz) && c.truth_rate_hz > 0.0 && c.truth_rate_hz <= 10000.0, "truth_rate_hz",
+          "must be in (0, 10000]");
+  require(c.substeps >= 1 && c.substeps <= 1000, "substeps", "must be in [1, 1000]");
+  rate_ratio(c.truth_rate_hz, c.odometer_rate_hz, "odometer_rate_hz");
+  rate_ratio(c.truth_rate_hz, c.gnss_rate_hz, "gnss_rate_hz");
+  rate_ratio(c.truth_rate_hz, c.ins_rate_hz, "ins_rate_hz");
+  require(c.course == CourseKind::kStraight || c.laps >= 1, "laps", "must be >= 1");
+  require(std::isfinite(c.straight_length_m) && c.straight_length_m >= 10.0, "straight_length_m", "must be >= 10 m");
+  require(std::isfinite(c.straight_speed_mps) && c.straight_speed_mps > 0.0 && c.straight_speed_mps < 40.0,
+          "straight_speed_mps", "must be in (0, 40) m/s");
+  require(std::isfinite(c.straight_heading_rad), "straight_heading_rad", "must be finite");
+  require(std::isfinite(c.duration_s) && c.duration_s >= 0.0 && c.duration_s <= 7.0 * 86400.0, "duration_s",
+          "must be in [0, 604800] s (0: natural length)");
+  require(std::isfinite(c.standstill_start_s) && c.standstill_start_s >= 0.0, "standstill_start_s", "must be >= 0");
+  require(std::isfinite(c.standstill_end_s) && c.standstill_end_s >= 0.0, "standstill_end_s", "must be >= 0");
+  require(std::isfinite(c.road_grade) && std::abs(c.road_grade) < 0.3, "road_grade", "must be in (-0.3, 0.3)");
+  require(std::isfinite(c.roll_per_lateral_accel_rad), "roll_per_lateral_accel_rad", "must be finite");
+  require(std::isfinite(c.roll_time_constant_s) && c.roll_time_constant_s > 0.0, "roll_time_constant_s", "must be > 0");
+  require(std::isfinite(c.start.lat_rad) && std::abs(c.start.lat_rad) < 89.0 * kDegToRad, "start.lat_rad",
+          "must be within +-89 deg");
+  require(std::isfinite(c.start.lon_rad) && std::isfinite(c.start.height_m), "start", "lon and height must be finite");
+  require(std::isfinite(c.start_time_s) && c.start_time_s >= 0.0, "start_time_s", "must be >= 0");
+  require(std::isfinite(c.k_nominal_m_per_pulse) && c.k_nominal_m_per_pulse > 0.0, "k_nominal_m_per_pulse", "must be > 0");
+  require(std::isfinite(c.k_true_m_per_pulse) && c.k_true_m_per_pulse > 0.0, "k_true_m_per_pulse", "must be > 0");
+  for (std::size_t i = 0; i < c.k_steps.size(); ++i) {
+    require(std::isfinite(c.k_steps[i].t_s) && c.k_steps[i].t_s >= 0.0 && std::isfinite(c.k_steps[i].factor) &&
+                c.k_steps[i].factor > 0.5 && c.k_steps[i].factor < 2.0,
+            "k_steps[" + std::to_string(i) + "]", "t_s must be >= 0 and factor in (0.5, 2)");
+    require(i == 0 || c.k_steps[i].t_s > c.k_steps[i - 1].t_s, "k_steps[" + std::to_string(i) + "]",
+            "times must increase");
+  }
+  require(std::isfinite(c.turn_slip_per_radps) && c.turn_slip_per_radps >= 0.0, "turn_slip_per_radps", "must be >= 0");
+  require(std::isfinite(c.turn_slip_threshold_radps) && c.turn_slip_threshold_radps >= 0.0, "turn_slip_threshold_radps",
+          "must be >= 0");
+  require(std::isfinite(c.turn_slip_max) && c.turn_slip_max >= 0.0 && c.turn_slip_max < 0.5, "turn_slip_max",
+          "must be in [0, 0.5)");
+  require(std::isfinite(c.misalignment.heading_rad) && std::abs(c.misalignment.heading_rad) < 10.0 * kDegToRad &&
+              std::isfinite(c.misalignment.pitch_rad) && std::abs(c.misalignment.pitch_rad) < 10.0 * kDegToRad,
+          "misalignment", "angles must be within +-10 deg");
+  require(c.lever_arm_m.allFinite() && c.lever_arm_m.norm() < 20.0, "lever_arm_m", "must be finite, under 20 m");
+  require(std::isfinite(c.gnss_latency_s) && c.gnss_latency_s >= 0.0 && c.gnss_latency_s < 10.0, "gnss_latency_s",
+          "must be in [0, 10) s");
+  for (double v : {c.gnss_pos_gm_std_m, c.gnss_pos_white_std_m, c.gnss_vertical_factor, c.gnss_vel_std_mps,
+                   c.gnss_vel_up_std_mps, c.ins_heading_bias_rad, c.ins_heading_noise_rad, c.ins_tilt_noise_rad}) {
+    require(std::isfinite(v), "noise parameters", "gnss_* and ins_* must be finite");
+  }
+  require(c.gnss_pos_gm_std_m >= 0.0 && c.gnss_pos_white_std_m >= 0.0 && c.gnss_vertical_factor >= 0.0 &&
+              c.gnss_vel_std_mps >= 0.0 && c.gnss_vel_up_std_mps >= 0.0,
+          "gnss noise", "standard deviations must be >= 0");
+  require(std::isfinite(c.gnss_pos_gm_tau_s) && c.gnss_pos_gm_tau_s > 0.0, "gnss_pos_gm_tau_s", "must be > 0");
+  require(c.ins_heading_noise_rad >= 0.0 && c.ins_tilt_noise_rad >= 0.0, "ins noise", "must be >= 0");
+  for (std::size_t i = 0; i < c.gnss_outages.size(); ++i) {
+    require(std::isfinite(c.gnss_outages[i].start_s) && std::isfinite(c.gnss_outages[i].end_s) &&
+                c.gnss_outages[i].start_s >= 0.0 && c.gnss_outages[i].end_s > c.gnss_outages[i].start_s,
+            "gnss_outages[" + std::to_string(i) + "]", "needs 0 <= start_s < end_s");
+  }
+  require(c.gnss_velocity_outliers >= 0 && c.gnss_velocity_outliers <= 1000, "gnss_velocity_outliers",
+          "must be in [0, 1000]");
+  require(std::isfinite(c.gnss_outlier_min_mps) && std::isfinite(c.gnss_outlier_max_mps) &&
+              c.gnss_outlier_min_mps > 0.0 && c.gnss_outlier_max_mps >= c.gnss_outlier_min_mps,
+          "gnss_outlier_min_mps/max_mps", "need 0 < min <= max");
+}
+
+Dataset simulate(const SimulationConfig& cfg) {
+  validate(cfg);
+
+  // ---- the road and the drive ----
+  const Course course = cfg.course == CourseKind::kStraight
+                            ? Course::straight(cfg.straight_length_m, cfg.straight_heading_rad, cfg.straight_speed_mps)
+                            : Course::training_ground();
+  const TerrainProfile terrain(cfg.road_grade, cfg.hills, cfg.cross_slopes, course);
+  int laps = cfg.laps;
+  double road_length_m = course.closed() ? laps * course.lap_length_m() : cfg.straight_length_m;
+  SpeedProfile profile(course, road_length_m, cfg.driver);
+  auto natural_duration = [&]() { return cfg.standstill_start_s + profile.duration_s() + cfg.standstill_end_s; };
+  if (cfg.duration_s > 0.0) {
+    // Lengthen the drive until it lasts at least duration_s; the data are cut there.
+    while (natural_duration() < cfg.duration_s) {
+      const double factor = cfg.duration_s / natural_duration();
+      if (course.closed()) {
+        laps = std::max(laps + 1, static_cast<int>(std::ceil(laps * factor * 0.98)));
+        road_length_m = laps * course.lap_length_m();
+      } else {
+        road_length_m *= std::max(1.05, factor);
+      }
+      profile = SpeedProfile(course, road_length_m, cfg.driver);
+    }
+  }
+  const double total_time_s = cfg.duration_s > 0.0 ? cfg.duration_s : natural_duration();
+
+  // ---- truth, integrated on the ellipsoid ----
+  const double truth_dt_s = 1.0 / cfg.truth_rate_hz;
+  const double sub_dt_s = truth_dt_s / cfg.substeps;
+  const std::size_t n_rows = static_cast<std::size_t>(std::floor(total_time_s * cfg.truth_rate_hz + 1e-9)) + 1;
+  auto k_base_at = [&](double t_rel_s) {
+    double k = cfg.k_true_m_per_pulse;
+    for (const KStep& st : cfg.k_steps) {
+      if (t_rel_s >= st.t_s) k *= st.factor;
+    }
+    return k;
+  };
+  auto slip_at = [&](double yaw_rate_radps) {
+    return std::min(cfg.turn_slip_max,
+                    cfg.turn_slip_per_radps * std::max(0.0, std::abs(yaw_rate_radps) - cfg.turn_slip_threshold_radps));
+  };
+  auto drive_state = [&](double t_rel_s) { return profile.at(t_rel_s - cfg.standstill_start_s); };
+  auto roll_target = [&](double s_m, double speed_mps) {
+    // Outward body roll in turns (right turn: left side down = negative roll) plus the ground's.
+    return terrain.cross_slope_rad(s_m) -
+           cfg.roll_per_lateral_accel_rad * speed_mps * speed_mps * course.at(s_m).curvature_per_m;
+  };
+
+  std::vector<TruthRow> rows;
+  rows.reserve(n_rows);
+  Geodetic pos = cfg.start;
+  double distance_m = 0.0, pulse_phase = 0.0;
+  double s_prev = 0.0, v_prev = 0.0;
+  double roll_rad = roll_target(0.0, 0.0);
+  const double roll_blend = 1.0 - std::exp(-sub_dt_s / cfg.roll_time_constant_s);
+  for (std::size_t k = 0; k < n_rows; ++k) {
+    const double t_rel = static_cast<double>(k) / cfg.truth_rate_hz;  // division: 413.4, not 413.40000000000003
+    SpeedProfile::State st = drive_state(t_rel);
+    if (k > 0) {
+      for (int j = 1; j <= cfg.substeps; ++j) {
+        const double t_sub =
+            j == cfg.substeps ? t_rel : static_cast<double>(k - 1) / cfg.truth_rate_hz + j * sub_dt_s;
+        const double t_mid = t_sub - 0.5 * sub_dt_s;
+        const SpeedProfile::State now = drive_state(t_sub);
+        const double ds_h = now.s_m - s_prev;
+        const CoursePoint mid = course.at(0.5 * (s_prev + now.s_m));
+        const double dh = terrain.height_m(now.s_m) - terrain.height_m(s_prev);
+        pos = move_geodetic(pos, Eigen::Vector3d(ds_h * std::sin(mid.heading_rad), ds_h * std::cos(mid.heading_rad), dh));
+        pos.height_m = cfg.start.height_m + terrain.height_m(now.s_m);  // exact, no accumulation
+        const double dd = std::hypot(ds_h, dh);
+        distance_m += dd;
+        const double yaw_rate_mid = 0.5 * (v_prev + now.speed_mps) * mid.curvature_per_m;
+        pulse_phase += dd * (1.0 + slip_at(yaw_rate_mid)) / k_base_at(t_mid);
+        roll_rad += (roll_target(now.s_m, now.speed_mps) - roll_rad) * roll_blend;
+        s_prev = now.s_m;
+        v_prev = now.speed_mps;
+      }
+      st = SpeedProfile::State{s_prev, v_prev};
+    }
+    const CoursePoint cp = course.at(st.s_m);
+    const double slope = terrain.slope(st.s_m);
+    TruthRow r;
+    r.t_rel_s = t_rel;
+    r.position = pos;
+    r.attitude = body_attitude_for_motion(cp.heading_rad, std::atan(slope), roll_rad, cfg.misalignment);
+    r.vel_enu_mps = st.speed_mps * Eigen::Vector3d(std::sin(cp.heading_rad), std::cos(cp.heading_rad), slope);
+    r.speed_mps = r.vel_enu_mps.norm();
+    r.k_base_m_per_pulse = k_base_at(t_rel);
+    r.k_true_m_per_pulse = r.k_base_m_per_pulse / (1.0 + slip_at(st.speed_mps * cp.curvature_per_m));
+    r.distance_m = distance_m;
+    // The counter shows whole pulses, modulo 2^32.
+    r.pulses = static_cast<std::uint32_t>(
+        (static_cast<std::uint64_t>(cfg.counter_start) + static_cast<std::uint64_t>(std::floor(pulse_phase))) &
+        0xFFFFFFFFull);
+    rows.push_back(r);
+  }
+
+  Dataset ds;
+  ds.truth.reserve(rows.size());
+  for (const TruthRow& r : rows) {
+    TruthSample ts;
+    ts.t_s = cfg.start_time_s + r.t_rel_s;
+    ts.position = r.position;
+    ts.attitude = r.attitude;
+    ts.attitude.heading_rad = wrap_two_pi(r.attitude.heading_rad);
+    ts.k_true_m_per_pulse = r.k_true_m_per_pulse;
+    ts.distance_m = r.distance_m;
+    ds.truth.push_back(ts);
+  }
+
+  // ---- odometer ----
+  const int odo_every = rate_ratio(cfg.truth_rate_hz, cfg.odometer_rate_hz, "odometer_rate_hz");
+  for (std::size_t k = 0; k < rows.size(); k += odo_every) {
+    ds.odometer.push_back(OdometerSample{cfg.start_time_s + rows[k].t_rel_s, rows[k].pulses, 1});
+  }
+
+  // ---- INS: true attitude + heading bias + white noise ----
+  {
+    std::mt19937_64 rng = make_stream(cfg.seed, 2);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    const int every = rate_ratio(cfg.truth_rate_hz, cfg.ins_rate_hz, "ins_rate_hz");
+    for (std::size_t k = 0; k < rows.size(); k += every) {
+      const double nh = normal(rng), np = normal(rng), nr = normal(rng);  // fixed draw order
+      InsSample s;
+      s.t_s = cfg.start_time_s + rows[k].t_rel_s;
+      s.attitude.heading_rad =
+          wrap_two_pi(rows[k].attitude.heading_rad + cfg.ins_heading_bias_rad + cfg.ins_heading_noise_rad * nh);
+      s.attitude.pitch_rad = rows[k].attitude.pitch_rad + cfg.ins_tilt_noise_rad * np;
+      s.attitude.roll_rad = rows[k].attitude.roll_rad + cfg.ins_tilt_noise_rad * nr;
+      ds.ins.push_back(s);
+    }
+  }
+
+  // ---- GNSS at the antenna ----
+  const int gnss_every = rate_ratio(cfg.truth_rate_hz, cfg.gnss_rate_hz, "gnss_rate_hz");
+  std::vector<std::size_t> epoch_rows;
+  for (std::size_t k = 0; k < rows.size(); k += gnss_every) epoch_rows.push_back(k);
+
+  // Outlier epochs first, from their own stream: moving (> 2 m/s), GNSS valid, at least 5 s apart.
+  struct Outlier {
+    std::size_t epoch;
+    Eigen::Vector2d error_en_mps;
+  };
+  std::vector<Outlier> outliers;
+  if (cfg.gnss_velocity_outliers > 0) {
+    std::mt19937_64 rng = make_stream(cfg.seed, 3);
+    std::vector<std::size_t> candidates;
+    for (std::size_t e = 1; e + 1 < epoch_rows.size(); ++e) {
+      const TruthRow& r = rows[epoch_rows[e]];
+      if (r.speed_mps > 2.0 && !in_outage(cfg.gnss_outages, r.t_rel_s)) candidates.push_back(e);
+    }
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    const double min_gap = 5.0 * cfg.gnss_rate_hz;
+    for (int tries = 0; tries < 1000 && !candidates.empty() &&
+                        outliers.size() < static_cast<std::size_t>(cfg.gnss_velocity_outliers);
+         ++tries) {
+      const std::size_t pick = std::min(candidates.size() - 1,
+                                        static_cast<std::size_t>(unit(rng) * static_cast<double>(candidates.size())));
+      const double magnitude = cfg.gnss_outlier_min_mps + (cfg.gnss_outlier_max_mps - cfg.gnss_outlier_min_mps) * unit(rng);
+      const double angle = 2.0 * kPi * unit(rng);
+      const std::size_t e = candidates[pick];
+      const bool too_close = std::any_of(outliers.begin(), outliers.end(), [&](const Outlier& o) {
+        return std::abs(static_cast<double>(o.epoch) - static_cast<double>(e)) < min_gap;
+      });
+      if (!too_close) outliers.push_back(Outlier{e, magnitude * Eigen::Vector2d(std::sin(angle), std::cos(angle))});
+    }
+    std::sort(outliers.begin(), outliers.end(), [](const Outlier& a, const Outlier& b) { return a.epoch < b.epoch; });
+  }
+
+  {
+    std::mt19937_64 rng = make_stream(cfg.seed, 1);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    const double dt = 1.0 / cfg.gnss_rate_hz;
+    const double phi = std::exp(-dt / cfg.gnss_pos_gm_tau_s);
+    const double drive = std::sqrt(1.0 - phi * phi);
+    const Eigen::Vector3d gm_std(cfg.gnss_pos_gm_std_m, cfg.gnss_pos_gm_std_m,
+                                 cfg.gnss_pos_gm_std_m * cfg.gnss_vertical_factor);
+    const Eigen::Vector3d white_std(cfg.gnss_pos_white_std_m, cfg.gnss_pos_white_std_m,
+                                    cfg.gnss_pos_white_std_m * cfg.gnss_vertical_factor);
+    const Eigen::Vector3d vel_std(cfg.gnss_vel_std_mps, cfg.gnss_vel_std_mps, cfg.gnss_vel_up_std_mps);
+    // The correlated error starts in its stationary distribution (a receiver that has been on).
+    Eigen::Vector3d gm;
+    for (int a = 0; a < 3; ++a) gm[a] = gm_std[a] * normal(rng);
+    const double pos_std = std::hypot(cfg.gnss_pos_gm_std_m, cfg.gnss_pos_white_std_m);
+    std::optional<Geodetic> last_valid;
+    std::size_t next_outlier = 0;
+    for (std::size_t e = 0; e < epoch_rows.size(); ++e) {
+      const std::size_t k = epoch_rows[e];
+      const TruthRow& r = rows[k];
+      if (e > 0) {
+        for (int a = 0; a < 3; ++a) gm[a] = phi * gm[a] + drive * gm_std[a] * normal(rng);
+      }
+      Eigen::Vector3d white, vel_noise;
+      for (int a = 0; a < 3; ++a) white[a] = white_std[a] * normal(rng);
+      for (int a = 0; a < 3; ++a) vel_noise[a] = vel_std[a] * normal(rng);
+
+      const Eigen::Vector3d lever_enu = body_to_enu(r.attitude) * cfg.lever_arm_m;
+      // Lever-arm velocity d(C_b^n l)/dt by central difference over the neighbouring truth rows
+      // (10 ms): the truncation error is ~ (omega dt)^2 / 6 relative, far below the noise.
+      const std::size_t k0 = k > 0 ? k - 1 : k, k1 = k + 1 < rows.size() ? k + 1 : k;
+      Eigen::Vector3d lever_vel = Eigen::Vector3d::Zero();
+      if (k1 > k0) {
+        lever_vel = (body_to_enu(rows[k1].attitude) * cfg.lever_arm_m - body_to_enu(rows[k0].attitude) * cfg.lever_arm_m) /
+                    ((rows[k1].t_rel_s - rows[k0].t_rel_s));
+      }
+      GnssSample g;
+      g.t_s = cfg.start_time_s + r.t_rel_s + cfg.gnss_latency_s;
+      if (in_outage(cfg.gnss_outages, r.t_rel_s)) {
+        // No solution: the receiver repeats its last position, reports no velocity, fix 0.
+        g.position = last_valid ? *last_valid : move_geodetic(r.position, lever_enu);
+        g.vel_enu_mps.setZero();
+        g.fix = 0;
+        g.pos_std_m = 999.0;
+        g.vel_std_mps = 999.0;
+      } else {
+        g.position = move_geodetic(move_geodetic(r.position, lever_enu), gm + white);
+        g.vel_enu_mps = r.vel_enu_mps + lever_vel + vel_noise;
+        if (next_outlier < outliers.size() && outliers[next_outlier].epoch == e) {
+          g.vel_enu_mps.head<2>() += outliers[next_outlier].error_en_mps;
+          ++next_outlier;
+        }
+        g.fix = 1;
+        g.pos_std_m = pos_std;
+        g.vel_std_mps = cfg.gnss_vel_std_mps;
+        last_valid = g.position;
+      }
+      ds.gnss.push_back(g);
+    }
+  }
+
+  // ---- meta ----
+  const TruthRow& last = rows.back();
+  const double s_end = drive_state(last.t_rel_s).s_m;
+  nlohmann::json sim;
+  sim["scenario"] = cfg.scenario;
+  sim["seed"] = cfg.seed;
+  sim["course"] = course.closed() ? "training_ground" : "straight";
+  sim["lap_length_m"] = course.lap_length_m();
+  sim["laps_planned"] = course.closed() ? laps : 1;
+  sim["laps_completed"] = course.closed() ? static_cast<int>(std::floor(s_end / course.lap_length_m() + 1e-9)) : 0;
+  sim["clockwise"] = course.closed() && course.lap_turning_rad() > 0.0;
+  sim["duration_s"] = last.t_rel_s;
+  sim["distance_m"] = last.distance_m;
+  sim["start_time_s"] = cfg.start_time_s;
+  sim["k_true_initial_m_per_pulse"] = cfg.k_true_m_per_pulse;
+  nlohmann::json steps = nlohmann::json::array();
+  {
+    double k = cfg.k_true_m_per_pulse;
+    for (const KStep& st : cfg.k_steps) {
+      steps.push_back({{"t_s", cfg.start_time_s + st.t_s}, {"k_before", k}, {"k_after", k * st.factor}});
+      k *= st.factor;
+    }
+  }
+  sim["k_steps"] = steps;
+  sim["turn_slip"] = {{"per_radps", cfg.turn_slip_per_radps},
+                      {"threshold_radps", cfg.turn_slip_threshold_radps},
+                      {"max", cfg.turn_slip_max}};
+  nlohmann::json outages = nlohmann::json::array();
+  for (const GnssOutage& o : cfg.gnss_outages) {
+    outages.push_back({cfg.start_time_s + o.start_s, cfg.start_time_s + o.end_s});
+  }
+  sim["gnss_outages"] = outages;
+  nlohmann::json outlier_list = nlohmann::json::array();
+  for (const Outlier& o : outliers) {
+    outlier_list.push_back({{"t_s", ds.gnss[o.epoch].t_s},
+                            {"error_ve_mps", o.error_en_mps.x()},
+                            {"error_vn_mps", o.error_en_mps.y()}});
+  }
+  sim["gnss_velocity_outliers"] = outlier_list;
+  sim["lever_arm_m"] = {cfg.lever_arm_m.x(), cfg.lever_arm_m.y(), cfg.lever_arm_m.z()};
+  sim["gnss_latency_s"] = cfg.gnss_latency_s;
+  sim["gnss_rate_hz"] = cfg.gnss_rate_hz;
+  sim["gnss_pos_gm_std_m"] = cfg.gnss_pos_gm_std_m;
+  sim["gnss_pos_gm_tau_s"] = cfg.gnss_pos_gm_tau_s;
+  sim["gnss_pos_white_std_m"] = cfg.gnss_pos_white_std_m;
+  sim["gnss_vel_std_mps"] = cfg.gnss_vel_std_mps;
+  sim["ins_heading_bias_deg"] = rad_to_deg(cfg.ins_heading_bias_rad);
+  sim["ins_heading_noise_deg"] = rad_to_deg(cfg.ins_heading_noise_rad);
+  sim["ins_tilt_noise_deg"] = rad_to_deg(cfg.ins_tilt_noise_rad);
+  sim["counter_start"] = cfg.counter_start;
+
+  ds.meta.format = "odonav-dataset/1";
+  ds.meta.vehicle_id = cfg.vehicle_id;
+  ds.meta.description = cfg.description;
+  ds.meta.k_nominal_m_per_pulse = cfg.k_nominal_m_per_pulse;
+  ds.meta.truth_misalignment_heading_deg = rad_to_deg(cfg.misalignment.heading_rad);
+  ds.meta.truth_misalignment_pitch_deg = rad_to_deg(cfg.misalignment.pitch_rad);
+  nlohmann::json meta;
+  meta["format"] = ds.meta.format;
+  meta["vehicle_id"] = ds.meta.vehicle_id;
+  meta["description"] = ds.meta.description;
+  meta["odometer"] = {{"k_nominal_m_per_pulse", cfg.k_nominal_m_per_pulse}};
+  meta["truth"] = {{"misalignment_heading_deg", *ds.meta.truth_misalignment_heading_deg},
+                   {"misalignment_pitch_deg", *ds.meta.truth_misalignment_pitch_deg}};
+  meta["simulation"] = sim;
+  ds.meta.raw_json = meta.dump(2);
+  return ds;
+}
+
+}  // namespace odonav::sim
