@@ -1,0 +1,89 @@
+#pragma once
+// The DDS participant of a process, created from an XML participant profile, with the odonav QoS
+// profiles (qos.xml) loaded. Every failing step throws std::runtime_error naming the file, the
+// profile and the domain, so a misconfigured deployment says what is wrong.
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace odonav::dds {
+
+/// Where the participant comes from.
+struct ParticipantOptions {
+  /// Fast DDS XML file holding the participant profile. Empty: the file named by the environment
+  /// variable FASTRTPS_DEFAULT_PROFILES_FILE (an error if that is unset too).
+  std::string profiles_file;
+  /// Name of the <participant profile_name="..."> in profiles_file.
+  std::string participant_profile = "loopback_only";
+  /// Fast DDS XML file with the data_writer / data_reader profiles. Empty: "qos.xml" in the
+  /// directory of profiles_file (deploy/profiles/ keeps both side by side).
+  std::string qos_file;
+  /// DDS domain id, 0..232. Participants only see each other within one domain.
+  int domain_id = 0;
+  /// Participant name shown by discovery tools (e.g. "odonav-gateway"). Empty: the profile's.
+  std::string participant_name;
+};
+
+namespace detail {
+/// The DDS entities of a participant. Shared by the Participant and its endpoints, so the
+/// participant is torn down only after its last endpoint is gone, whatever the destruction order.
+class ParticipantCore {
+ public:
+  ParticipantCore(eprosima::fastdds::dds::DomainParticipant* participant, std::string description);
+  ~ParticipantCore();
+  ParticipantCore(const ParticipantCore&) = delete;
+  ParticipantCore& operator=(const ParticipantCore&) = delete;
+
+  eprosima::fastdds::dds::DomainParticipant& participant() const { return *participant_; }
+  eprosima::fastdds::dds::Publisher& publisher() const { return *publisher_; }
+  eprosima::fastdds::dds::Subscriber& subscriber() const { return *subscriber_; }
+  /// "participant profile 'p' of file 'f', QoS file 'q', domain d", for error messages.
+  const std::string& description() const { return description_; }
+
+  /// The topic `topic_name` of `type`, registering the type and creating the topic on first use.
+  /// Throws if registration or creation fails, or if the topic exists with another type.
+  eprosima::fastdds::dds::Topic& topic(const std::string& topic_name,
+                                       eprosima::fastdds::dds::TypeSupport type);
+
+ private:
+  eprosima::fastdds::dds::DomainParticipant* participant_;
+  eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
+  eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
+  std::string description_;
+  std::mutex mutex_;  // topic creation and type registration
+};
+}  // namespace detail
+
+/// A DDS domain participant of a process (one per process is the usual case).
+/// Teardown: delete_contained_entities(), then delete_participant, once the Participant and all
+/// endpoints created from it are destroyed.
+class Participant {
+ public:
+  /// Loads the participant profile file and the QoS file, then creates the participant.
+  /// Throws std::runtime_error naming what failed: a file missing or not parseable, an unknown
+  /// participant profile, a domain id out of 0..232, or participant creation refused.
+  explicit Participant(const ParticipantOptions& options);
+
+  const std::string& profiles_file() const { return profiles_file_; }
+  const std::string& qos_file() const { return qos_file_; }
+  int domain_id() const { return domain_id_; }
+
+  /// The Fast DDS participant, for what this thin layer does not wrap.
+  eprosima::fastdds::dds::DomainParticipant& native() const { return core_->participant(); }
+  /// Shared with the endpoints (see detail::ParticipantCore).
+  const std::shared_ptr<detail::ParticipantCore>& core() const { return core_; }
+
+ private:
+  std::string profiles_file_;
+  std::string qos_file_;
+  int domain_id_ = 0;
+  std::shared_ptr<detail::ParticipantCore> core_;
+};
+
+}  // namespace odonav::dds

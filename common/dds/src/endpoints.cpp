@@ -1,0 +1,154 @@
+#include "odonav/dds/endpoints.hpp"
+
+#include <fastdds/dds/core/status/StatusMask.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+#include <spdlog/spdlog.h>
+
+#include <stdexcept>
+
+namespace odonav::dds::detail {
+
+using eprosima::fastdds::dds::DataReader;
+using eprosima::fastdds::dds::DataReaderQos;
+using eprosima::fastdds::dds::DataWriter;
+using eprosima::fastdds::dds::DataWriterQos;
+using eprosima::fastdds::dds::StatusMask;
+using eprosima::fastrtps::types::ReturnCode_t;
+
+namespace {
+eprosima::fastrtps::Duration_t to_duration(std::chrono::milliseconds timeout) {
+  const auto ms = timeout.count() < 0 ? 0 : timeout.count();
+  return eprosima::fastrtps::Duration_t(static_cast<int32_t>(ms / 1000),
+                                        static_cast<uint32_t>((ms % 1000) * 1000000));
+}
+}  // namespace
+
+// ---- MatchCounter ----
+
+void MatchCounter::set(int current_count) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    count_ = current_count < 0 ? 0 : static_cast<std::size_t>(current_count);
+  }
+  changed_.notify_all();
+}
+
+std::size_t MatchCounter::count() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return count_;
+}
+
+bool MatchCounter::wait_for(std::size_t n, std::chrono::milliseconds timeout) const {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return changed_.wait_for(lock, timeout, [&] { return count_ >= n; });
+}
+
+// ---- WriterBase ----
+
+WriterBase::WriterBase(const Participant& participant, const std::string& topic_name,
+                       const std::string& qos_profile, eprosima::fastdds::dds::TypeSupport type)
+    : core_(participant.core()), topic_name_(topic_name) {
+  auto& publisher = core_->publisher();
+  DataWriterQos qos;
+  if (publisher.get_datawriter_qos_from_profile(qos_profile, qos) != ReturnCode_t::RETCODE_OK) {
+    throw std::runtime_error("odonav::dds::Writer: no data_writer QoS profile named '" + qos_profile +
+                             "' for topic '" + topic_name + "' (" + core_->description() + ")");
+  }
+  auto& topic = core_->topic(topic_name, type);
+  writer_ = publisher.create_datawriter_with_profile(&topic, qos_profile, this,
+                                                     StatusMask::publication_matched());
+  if (writer_ == nullptr) {
+    throw std::runtime_error("odonav::dds::Writer: cannot create the writer of topic '" + topic_name +
+                             "' with profile '" + qos_profile + "' (inconsistent QoS? see the Fast DDS log; " +
+                             core_->description() + ")");
+  }
+}
+
+WriterBase::~WriterBase() {
+  if (core_->publisher().delete_datawriter(writer_) != ReturnCode_t::RETCODE_OK) {
+    spdlog::error("odonav::dds: cannot delete the writer of topic '{}'", topic_name_);
+  }
+}
+
+bool WriterBase::write_untyped(void* sample) { return writer_->write(sample); }
+
+bool WriterBase::wait_for_acknowledgments(std::chrono::milliseconds timeout) {
+  return writer_->wait_for_acknowledgments(to_duration(timeout)) == ReturnCode_t::RETCODE_OK;
+}
+
+void WriterBase::on_publication_matched(DataWriter* /*writer*/,
+                                        const eprosima::fastdds::dds::PublicationMatchedStatus& status) {
+  matched_.set(status.current_count);
+}
+
+// ---- ReaderBase ----
+
+ReaderBase::ReaderBase(const Participant& participant, const std::string& topic_name,
+                       const std::string& qos_profile, eprosima::fastdds::dds::TypeSupport type)
+    : core_(participant.core()), topic_name_(topic_name), qos_profile_(qos_profile) {
+  DataReaderQos qos;
+  if (core_->subscriber().get_datareader_qos_from_profile(qos_profile, qos) != ReturnCode_t::RETCODE_OK) {
+    throw std::runtime_error("odonav::dds::Reader: no data_reader QoS profile named '" + qos_profile +
+                             "' for topic '" + topic_name + "' (" + core_->description() + ")");
+  }
+  topic_ = &core_->topic(topic_name, type);
+}
+
+void ReaderBase::open(bool listen_for_data, bool listen_for_deadline) {
+  StatusMask mask = StatusMask::subscription_matched();
+  // Without a data callback the listener must not consume samples: take() does.
+  if (listen_for_data) mask << StatusMask::data_available();
+  if (listen_for_deadline) mask << StatusMask::requested_deadline_missed();
+  reader_ = core_->subscriber().create_datareader_with_profile(topic_, qos_profile_, this, mask);
+  if (reader_ == nullptr) {
+    throw std::runtime_error("odonav::dds::Reader: cannot create the reader of topic '" + topic_name_ +
+                             "' with profile '" + qos_profile_ + "' (inconsistent QoS? see the Fast DDS log; " +
+                             core_->description() + ")");
+  }
+}
+
+void ReaderBase::close() {
+  {
+    std::lock_guard<std::recursive_mutex> lock(state_mutex_);
+    if (closed_) return;
+    closed_ = true;
+  }
+  if (reader_ == nullptr) return;
+  // Deleting waits for a callback in progress (it holds the reader's mutex); later ones are
+  // refused by closed_.
+  reader_->set_listener(nullptr);
+  if (core_->subscriber().delete_datareader(reader_) != ReturnCode_t::RETCODE_OK) {
+    spdlog::error("odonav::dds: cannot delete the reader of topic '{}'", topic_name_);
+  }
+  reader_ = nullptr;
+}
+
+ReaderBase::~ReaderBase() { close(); }
+
+bool ReaderBase::wait_for_data(std::chrono::milliseconds timeout) {
+  return reader_->wait_for_unread_message(to_duration(timeout));
+}
+
+void ReaderBase::on_subscription_matched(DataReader* /*reader*/,
+                                         const eprosima::fastdds::dds::SubscriptionMatchedStatus& status) {
+  matched_.set(status.current_count);
+}
+
+void ReaderBase::on_data_available(DataReader* /*reader*/) {
+  {
+    std::lock_guard<std::recursive_mutex> lock(state_mutex_);
+    if (closed_) return;
+  }
+  handle_data_available();
+}
+
+void ReaderBase::on_requested_deadline_missed(
+    DataReader* /*reader*/, const eprosima::fastdds::dds::RequestedDeadlineMissedStatus& status) {
+  std::lock_guard<std::recursive_mutex> lock(state_mutex_);
+  if (closed_) return;
+  // Fires every period for a silent instance: report the first one only.
+  if (silence_.on_deadline_missed(status.last_instance_handle)) instance_went_silent(status.last_instance_handle);
+}
+
+}  // namespace odonav::dds::detail

@@ -1,0 +1,133 @@
+#include "odonav/dds/participant.hpp"
+
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
+#include <spdlog/spdlog.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <stdexcept>
+
+namespace odonav::dds {
+
+using eprosima::fastdds::dds::DomainParticipant;
+using eprosima::fastdds::dds::DomainParticipantFactory;
+using eprosima::fastdds::dds::DomainParticipantQos;
+using eprosima::fastrtps::types::ReturnCode_t;
+
+namespace {
+
+constexpr int kMaxDomainId = 232;  // RTPS port mapping limit with the default port parameters
+
+std::string directory_of(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  if (slash == std::string::npos) return ".";
+  if (slash == 0) return "/";
+  return path.substr(0, slash);
+}
+
+// Fast DDS only logs why an XML file failed; check readability first for a precise message.
+void load_xml_file(const std::string& path, const char* what) {
+  if (!std::ifstream(path).good()) {
+    throw std::runtime_error(std::string("odonav::dds::Participant: cannot read the ") + what +
+                             " file '" + path + "' (missing or not readable)");
+  }
+  if (DomainParticipantFactory::get_instance()->load_XML_profiles_file(path) != ReturnCode_t::RETCODE_OK) {
+    throw std::runtime_error(std::string("odonav::dds::Participant: Fast DDS rejected the ") + what +
+                             " file '" + path + "' (not a valid Fast DDS XML profiles file; see the Fast DDS log)");
+  }
+}
+
+}  // namespace
+
+namespace detail {
+
+ParticipantCore::ParticipantCore(DomainParticipant* participant, std::string description)
+    : participant_(participant), description_(std::move(description)) {
+  publisher_ = participant_->create_publisher(eprosima::fastdds::dds::PUBLISHER_QOS_DEFAULT);
+  subscriber_ = participant_->create_subscriber(eprosima::fastdds::dds::SUBSCRIBER_QOS_DEFAULT);
+  if (publisher_ == nullptr || subscriber_ == nullptr) {
+    participant_->delete_contained_entities();
+    DomainParticipantFactory::get_instance()->delete_participant(participant_);
+    throw std::runtime_error("odonav::dds::Participant: cannot create the publisher/subscriber of " +
+                             description_);
+  }
+}
+
+ParticipantCore::~ParticipantCore() {
+  // Endpoints hold this core, so none is left: delete what remains (topics, publisher, subscriber).
+  if (participant_->delete_contained_entities() != ReturnCode_t::RETCODE_OK) {
+    spdlog::error("odonav::dds: delete_contained_entities failed for {}", description_);
+  }
+  if (DomainParticipantFactory::get_instance()->delete_participant(participant_) != ReturnCode_t::RETCODE_OK) {
+    spdlog::error("odonav::dds: delete_participant failed for {}", description_);
+  }
+}
+
+eprosima::fastdds::dds::Topic& ParticipantCore::topic(const std::string& topic_name,
+                                                      eprosima::fastdds::dds::TypeSupport type) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string type_name = type.get_type_name();
+  if (participant_->find_type(type_name).empty()) {
+    if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK) {
+      throw std::runtime_error("odonav::dds: cannot register type '" + type_name + "' in " + description_);
+    }
+  }
+  if (auto* existing = participant_->lookup_topicdescription(topic_name)) {
+    auto* topic = dynamic_cast<eprosima::fastdds::dds::Topic*>(existing);
+    if (topic == nullptr || existing->get_type_name() != type_name) {
+      throw std::runtime_error("odonav::dds: topic '" + topic_name + "' already exists with type '" +
+                               existing->get_type_name() + "', not '" + type_name + "' (" + description_ + ")");
+    }
+    return *topic;
+  }
+  auto* topic = participant_->create_topic(topic_name, type_name, eprosima::fastdds::dds::TOPIC_QOS_DEFAULT);
+  if (topic == nullptr) {
+    throw std::runtime_error("odonav::dds: cannot create topic '" + topic_name + "' of type '" + type_name +
+                             "' in " + description_);
+  }
+  return *topic;
+}
+
+}  // namespace detail
+
+Participant::Participant(const ParticipantOptions& options) : domain_id_(options.domain_id) {
+  profiles_file_ = options.profiles_file;
+  if (profiles_file_.empty()) {
+    const char* env = std::getenv("FASTRTPS_DEFAULT_PROFILES_FILE");
+    if (env == nullptr || *env == '\0') {
+      throw std::runtime_error(
+          "odonav::dds::Participant: no participant profiles file given and "
+          "FASTRTPS_DEFAULT_PROFILES_FILE is not set");
+    }
+    profiles_file_ = env;
+  }
+  qos_file_ = options.qos_file.empty() ? directory_of(profiles_file_) + "/qos.xml" : options.qos_file;
+  const std::string description = "participant profile '" + options.participant_profile + "' of file '" +
+                                  profiles_file_ + "', QoS file '" + qos_file_ + "', domain " +
+                                  std::to_string(domain_id_);
+  if (domain_id_ < 0 || domain_id_ > kMaxDomainId) {
+    throw std::runtime_error("odonav::dds::Participant: domain id " + std::to_string(domain_id_) +
+                             " is outside 0.." + std::to_string(kMaxDomainId) + " (" + description + ")");
+  }
+
+  load_xml_file(profiles_file_, "participant profiles");
+  load_xml_file(qos_file_, "QoS profiles");
+
+  auto* factory = DomainParticipantFactory::get_instance();
+  DomainParticipantQos qos;
+  if (factory->get_participant_qos_from_profile(options.participant_profile, qos) != ReturnCode_t::RETCODE_OK) {
+    throw std::runtime_error("odonav::dds::Participant: no participant profile named '" +
+                             options.participant_profile + "' in '" + profiles_file_ +
+                             "' (or in another loaded XML file)");
+  }
+  if (!options.participant_name.empty()) qos.name(options.participant_name);
+  DomainParticipant* participant = factory->create_participant(domain_id_, qos);
+  if (participant == nullptr) {
+    throw std::runtime_error("odonav::dds::Participant: Fast DDS could not create the participant from " +
+                             description + " (see the Fast DDS log)");
+  }
+  core_ = std::make_shared<detail::ParticipantCore>(participant, description);
+}
+
+}  // namespace odonav::dds

@@ -1,0 +1,325 @@
+// The contract's static side: qos.xml and loopback.xml say what idl/README.md says, and every ROS
+// .msg twin describes exactly the bytes the generated type puts on the wire.
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "message_fields.hpp"
+#include "odonav/dds/participant.hpp"
+#include "odonav/topics.hpp"
+
+using namespace eprosima::fastdds::dds;
+namespace topics = odonav::topics;
+
+namespace {
+
+const std::string kProfilesDir = std::string(ODONAV_SOURCE_DIR) + "/deploy/profiles";
+
+odonav::dds::ParticipantOptions loopback_options() {
+  odonav::dds::ParticipantOptions options;
+  options.profiles_file = kProfilesDir + "/loopback.xml";
+  options.domain_id = 10;
+  options.participant_name = "odonav-test-profiles";
+  return options;
+}
+
+constexpr double kNoDeadline = std::numeric_limits<double>::infinity();
+
+// What idl/README.md promises for each profile.
+struct ExpectedQos {
+  ReliabilityQosPolicyKind reliability;
+  DurabilityQosPolicyKind durability;
+  int depth;
+  double deadline_s;
+};
+
+const std::map<std::string, ExpectedQos>& expected_qos() {
+  static const std::map<std::string, ExpectedQos> table{
+      {topics::kSensorWriterProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
+      {topics::kSensorReaderProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
+      {topics::kEstimateWriterProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 1.0}},
+      {topics::kEstimateReaderProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 1.0}},
+      {topics::kDeadReckoningWriterProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
+      {topics::kDeadReckoningReaderProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
+      {topics::kHealthWriterProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 3.0}},
+      {topics::kHealthReaderProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 3.0}},
+      {topics::kCommandWriterProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 10, kNoDeadline}},
+      {topics::kCommandReaderProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 10, kNoDeadline}},
+      {topics::kGroundBestEffortReaderProfile, {BEST_EFFORT_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 100, kNoDeadline}},
+  };
+  return table;
+}
+
+double seconds_of(const eprosima::fastrtps::Duration_t& d) {
+  return d == eprosima::fastrtps::c_TimeInfinite ? kNoDeadline : d.to_ns() * 1e-9;
+}
+
+template <class Qos>
+void expect_qos(const std::string& profile, const Qos& qos) {
+  const ExpectedQos& e = expected_qos().at(profile);
+  EXPECT_EQ(qos.reliability().kind, e.reliability) << profile;
+  EXPECT_EQ(qos.durability().kind, e.durability) << profile;
+  EXPECT_EQ(qos.history().kind, KEEP_LAST_HISTORY_QOS) << profile;
+  EXPECT_EQ(qos.history().depth, e.depth) << profile;
+  EXPECT_EQ(seconds_of(qos.deadline().period), e.deadline_s) << profile;
+}
+
+}  // namespace
+
+TEST(QosProfiles, EveryProfileHasTheDocumentedQosAndTopicsMatchTheirReaders) {
+  odonav::dds::Participant participant(loopback_options());
+  auto& publisher = participant.core()->publisher();
+  auto& subscriber = participant.core()->subscriber();
+  for (const auto& spec : topics::kAllTopics) {
+    SCOPED_TRACE(spec.name);
+    DataWriterQos w;
+    DataReaderQos r, ground;
+    ASSERT_EQ(publisher.get_datawriter_qos_from_profile(spec.writer_profile, w), ReturnCode_t::RETCODE_OK);
+    ASSERT_EQ(subscriber.get_datareader_qos_from_profile(spec.reader_profile, r), ReturnCode_t::RETCODE_OK);
+    ASSERT_EQ(subscriber.get_datareader_qos_from_profile(topics::kGroundBestEffortReaderProfile, ground),
+              ReturnCode_t::RETCODE_OK);
+    expect_qos(spec.writer_profile, w);
+    expect_qos(spec.reader_profile, r);
+    expect_qos(topics::kGroundBestEffortReaderProfile, ground);
+    // DDS request/offer rules, so the vehicle reader and the ground reader both match the writer.
+    for (const DataReaderQos* reader : {&r, &ground}) {
+      EXPECT_GE(w.reliability().kind, reader->reliability().kind);
+      EXPECT_GE(w.durability().kind, reader->durability().kind);
+      EXPECT_LE(seconds_of(w.deadline().period), seconds_of(reader->deadline().period));
+    }
+  }
+}
+
+TEST(QosProfiles, LoopbackParticipantKeepsEverythingOnLoopback) {
+  DomainParticipantQos qos;
+  odonav::dds::Participant participant(loopback_options());  // loads the file
+  ASSERT_EQ(DomainParticipantFactory::get_instance()->get_participant_qos_from_profile(
+                topics::kLoopbackParticipantProfile, qos),
+            ReturnCode_t::RETCODE_OK);
+  EXPECT_FALSE(qos.transport().use_builtin_transports);
+  ASSERT_EQ(qos.transport().user_transports.size(), 2u);
+  int udp = 0, shm = 0;
+  for (const auto& transport : qos.transport().user_transports) {
+    if (auto* u = dynamic_cast<eprosima::fastdds::rtps::UDPv4TransportDescriptor*>(transport.get())) {
+      ++udp;
+      EXPECT_EQ(u->interfaceWhiteList, std::vector<std::string>{"127.0.0.1"});
+      EXPECT_GE(u->maxInitialPeersRange, 10u) << "room for ~10 participants on one host";
+    } else if (dynamic_cast<eprosima::fastdds::rtps::SharedMemTransportDescriptor*>(transport.get())) {
+      ++shm;
+    }
+  }
+  EXPECT_EQ(udp, 1);
+  EXPECT_EQ(shm, 1);
+  const auto& peers = qos.wire_protocol().builtin.initialPeersList;
+  ASSERT_EQ(peers.size(), 1u);
+  for (const auto& locator : peers) {
+    EXPECT_EQ(eprosima::fastrtps::rtps::IPLocator::toIPv4string(locator), "127.0.0.1");
+  }
+  EXPECT_EQ(qos.wire_protocol().builtin.discovery_config.leaseDuration.seconds, 5);
+}
+
+// ---- .msg twins against the wire ----
+
+namespace {
+
+struct MsgField {
+  std::string type;  // e.g. "float64", "std_msgs/Header", "Counter"
+  std::string name;
+  bool is_sequence = false;
+};
+
+// Replaces a .msg file's fields ("pkg/Type" -> fields) to show the check catches wrong twins.
+std::map<std::string, std::vector<MsgField>> g_mutated_msg;
+
+// Fields of idl/<package>/msg/<type>.msg in order; constants (NAME=value) and comments skipped.
+std::vector<MsgField> read_msg(const std::string& package, const std::string& type) {
+  const auto mutated = g_mutated_msg.find(package + "/" + type);
+  if (mutated != g_mutated_msg.end()) return mutated->second;
+  const std::string path = std::string(ODONAV_SOURCE_DIR) + "/idl/" + package + "/msg/" + type + ".msg";
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read " + path);
+  std::vector<MsgField> fields;
+  std::string line;
+  while (std::getline(in, line)) {
+    line = line.substr(0, line.find('#'));
+    std::istringstream words(line);
+    MsgField f;
+    if (!(words >> f.type >> f.name)) continue;
+    if (f.name.find('=') != std::string::npos) continue;  // a constant: not serialized
+    if (f.type.size() > 2 && f.type.compare(f.type.size() - 2, 2, "[]") == 0) {
+      f.is_sequence = true;
+      f.type.resize(f.type.size() - 2);
+    }
+    fields.push_back(f);
+  }
+  return fields;
+}
+
+// Reads XCDR1 little endian (what Fast DDS 2.9 writes), alignment relative to the body start.
+class CdrReader {
+ public:
+  CdrReader(const unsigned char* data, std::size_t size) : data_(data), size_(size) {}
+  template <class V>
+  V read() {
+    pos_ = (pos_ + sizeof(V) - 1) / sizeof(V) * sizeof(V);
+    if (pos_ + sizeof(V) > size_) throw std::runtime_error("read past the end at byte " + std::to_string(pos_));
+    V v;
+    std::memcpy(&v, data_ + pos_, sizeof(V));
+    pos_ += sizeof(V);
+    return v;
+  }
+  std::string read_string() {
+    const auto length = read<std::uint32_t>();  // including the terminating NUL
+    if (length == 0 || pos_ + length > size_) throw std::runtime_error("bad string length at byte " + std::to_string(pos_));
+    if (data_[pos_ + length - 1] != 0) throw std::runtime_error("string not NUL terminated at byte " + std::to_string(pos_));
+    std::string s(reinterpret_cast<const char*>(data_ + pos_), length - 1);
+    pos_ += length;
+    return s;
+  }
+  std::size_t position() const { return pos_; }
+
+ private:
+  const unsigned char* data_;
+  std::size_t size_;
+  std::size_t pos_ = 0;
+};
+
+void decode(const std::string& package, const std::string& type, CdrReader& in, const std::string& prefix,
+            odonav::test::Fields& out);
+
+void decode_value(const std::string& package, const std::string& type, CdrReader& in, const std::string& path,
+                  odonav::test::Fields& out) {
+  using odonav::test::text;
+  if (type == "bool") {
+    const auto b = in.read<std::uint8_t>();
+    if (b > 1) throw std::runtime_error(path + ": bool byte " + std::to_string(b));
+    out.emplace_back(path, text(b == 1));
+  } else if (type == "int8") {
+    out.emplace_back(path, text(in.read<std::int8_t>()));
+  } else if (type == "uint8" || type == "byte") {
+    out.emplace_back(path, text(in.read<std::uint8_t>()));
+  } else if (type == "int32") {
+    out.emplace_back(path, text(in.read<std::int32_t>()));
+  } else if (type == "uint32") {
+    out.emplace_back(path, text(in.read<std::uint32_t>()));
+  } else if (type == "float64") {
+    out.emplace_back(path, text(in.read<double>()));
+  } else if (type == "string") {
+    out.emplace_back(path, text(in.read_string()));
+  } else if (type.find('/') != std::string::npos) {  // "pkg/Type"
+    decode(type.substr(0, type.find('/')), type.substr(type.find('/') + 1), in, path + ".", out);
+  } else if (!type.empty() && std::isupper(static_cast<unsigned char>(type[0]))) {  // same package
+    decode(package, type, in, path + ".", out);
+  } else {
+    throw std::runtime_error(path + ": type '" + type + "' not handled by this test decoder");
+  }
+}
+
+void decode(const std::string& package, const std::string& type, CdrReader& in, const std::string& prefix,
+            odonav::test::Fields& out) {
+  for (const MsgField& f : read_msg(package, type)) {
+    if (f.is_sequence) {
+      const auto n = in.read<std::uint32_t>();
+      for (std::uint32_t i = 0; i < n; ++i) {
+        decode_value(package, f.type, in, prefix + f.name + "[" + std::to_string(i) + "]", out);
+      }
+    } else {
+      decode_value(package, f.type, in, prefix + f.name, out);
+    }
+  }
+}
+
+struct Decoded {
+  odonav::test::Fields fields;
+  std::size_t bytes_read = 0;
+  std::size_t bytes_total = 0;
+};
+
+/// Serializes `sample` with its generated type and decodes the bytes with the .msg twin.
+template <class T>
+Decoded serialize_and_decode(const topics::TopicSpec& spec, const T& sample) {
+  typename odonav::dds::DdsType<T>::PubSubType type;
+  EXPECT_EQ(type.getName(), std::string(spec.dds_type_name));
+  eprosima::fastrtps::rtps::SerializedPayload_t payload(type.getSerializedSizeProvider(const_cast<T*>(&sample))());
+  if (!type.serialize(const_cast<T*>(&sample), &payload) || payload.length < 4) {
+    throw std::runtime_error("serialization failed");
+  }
+  if (payload.data[0] != 0x00 || payload.data[1] != 0x01) {  // encapsulation CDR_LE (XCDR1)
+    throw std::runtime_error("unexpected encapsulation");
+  }
+  const std::string ros_type = spec.ros_type_name;  // "odonav/msg/Type"
+  CdrReader in(payload.data + 4, payload.length - 4);
+  Decoded d;
+  decode("odonav", ros_type.substr(ros_type.rfind('/') + 1), in, "", d.fields);
+  d.bytes_read = in.position();
+  d.bytes_total = payload.length - 4;
+  return d;
+}
+
+template <class T>
+void expect_msg_twin_matches_wire(const topics::TopicSpec& spec, const T& sample) {
+  SCOPED_TRACE(spec.ros_type_name);
+  const Decoded d = serialize_and_decode(spec, sample);
+  EXPECT_EQ(d.bytes_read, d.bytes_total) << "the .msg twin does not cover every byte";
+  EXPECT_EQ(d.fields, odonav::test::fields(sample));
+}
+
+}  // namespace
+
+TEST(MsgTwins, EveryMsgFileDescribesTheCdrLayoutOfItsIdlType) {
+  expect_msg_twin_matches_wire(topics::kOdometer, odonav::test::make_odometer());
+  expect_msg_twin_matches_wire(topics::kInsAttitude, odonav::test::make_ins_attitude());
+  expect_msg_twin_matches_wire(topics::kGnssFix, odonav::test::make_gnss_fix());
+  expect_msg_twin_matches_wire(topics::kMisalignment, odonav::test::make_misalignment());
+  expect_msg_twin_matches_wire(topics::kScaleFactor, odonav::test::make_scale_factor());
+  expect_msg_twin_matches_wire(topics::kDeadReckoning, odonav::test::make_dead_reckoning());
+  expect_msg_twin_matches_wire(topics::kHealth, odonav::test::make_health_sample());
+  expect_msg_twin_matches_wire(topics::kCommand, odonav::test::make_command());
+}
+
+TEST(MsgTwins, TheCheckCatchesSwappedMissingAndMistypedFields) {
+  // The same bytes read with a wrong twin must not pass.
+  const auto sample = odonav::test::make_ins_attitude();
+  const std::vector<MsgField> twin = read_msg("odonav", "InsAttitude");
+  ASSERT_EQ(twin[3].name, "pitch_rad");
+  ASSERT_EQ(twin[4].name, "roll_rad");
+  ASSERT_EQ(twin[5].name, "velocity_east_mps");
+  ASSERT_EQ(twin.back().name, "valid");
+
+  // Two float64 fields swapped: every byte read, values land in the wrong fields.
+  std::vector<MsgField> swapped = twin;
+  std::swap(swapped[3], swapped[4]);
+  g_mutated_msg["odonav/InsAttitude"] = swapped;
+  const Decoded d_swapped = serialize_and_decode(topics::kInsAttitude, sample);
+  EXPECT_EQ(d_swapped.bytes_read, d_swapped.bytes_total);
+  EXPECT_NE(d_swapped.fields, odonav::test::fields(sample));
+
+  // The last field (a 1-byte bool) forgotten: one byte left unread.
+  std::vector<MsgField> missing = twin;
+  missing.pop_back();
+  g_mutated_msg["odonav/InsAttitude"] = missing;
+  const Decoded d_missing = serialize_and_decode(topics::kInsAttitude, sample);
+  EXPECT_EQ(d_missing.bytes_read + 1, d_missing.bytes_total);
+
+  // A float64 declared uint32: its value and the alignment of what follows go wrong.
+  std::vector<MsgField> mistyped = twin;
+  mistyped[5].type = "uint32";
+  g_mutated_msg["odonav/InsAttitude"] = mistyped;
+  const Decoded d_mistyped = serialize_and_decode(topics::kInsAttitude, sample);
+  EXPECT_NE(d_mistyped.fields, odonav::test::fields(sample));
+
+  g_mutated_msg.clear();
+}
