@@ -4,7 +4,7 @@
 //   odonav::Options opts("odonav-offline", "Runs calibration, identification and DR over a dataset.");
 //   opts.add_positional("dataset", "dataset directory");
 //   opts.add_double("vff-c", 4.0, "VFF residual scale", 0.0, 1e6);
-//   if (opts.parse(argc, argv, std::cout) == odonav::ParseResult::kHelp) return 0;
+//   if (opts.parse(argc, argv, odonav::tool_output()) == odonav::ParseResult::kHelp) return 0;
 //   double c = opts.get_double("vff-c");
 //
 // Syntax: `--name=value` or `--name value`; a bool option is `--name`, `--name=true|false` or

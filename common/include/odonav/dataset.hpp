@@ -61,6 +61,10 @@ struct DatasetMeta {
   std::optional<double> k_nominal_m_per_pulse;
   std::optional<double> truth_misalignment_heading_deg;
   std::optional<double> truth_misalignment_pitch_deg;
+  /// "gnss": {"lever_arm_m": [x, y, z]}: the GNSS antenna in the INS body frame (forward-left-up, m)
+  /// from the INS reference point: installation geometry measured on the vehicle (configuration, not
+  /// truth). odonav-offline uses it when --lever-arm is not given.
+  std::optional<Eigen::Vector3d> gnss_lever_arm_m;
   /// The whole meta.json text as read (so writers can carry unknown keys through); empty if none.
   std::string raw_json;
 };

@@ -98,4 +98,15 @@ inline Attitude interpolate_attitude(const Attitude& a, const Attitude& b, doubl
   return r;
 }
 
+/// Angular rate of the body (rad/s, body frame FLU) between two attitudes dt_s apart, evaluated at
+/// the attitude `mid`: the axial vector of C_mid^T (C_after - C_before) / dt_s, with C = C_b^n.
+/// dt_s > 0; the attitudes a few tens of milliseconds apart (a finite difference).
+inline Eigen::Vector3d body_rate_rad_s(const Attitude& before, const Attitude& mid, const Attitude& after, double dt_s) {
+  const Eigen::Matrix3d c_dot = (body_to_enu(after) - body_to_enu(before)) / dt_s;
+  const Eigen::Matrix3d omega = body_to_enu(mid).transpose() * c_dot;  // ~ skew(omega_b)
+  // Antisymmetric part: the finite difference adds a small symmetric error that is not a rotation.
+  return Eigen::Vector3d(0.5 * (omega(2, 1) - omega(1, 2)), 0.5 * (omega(0, 2) - omega(2, 0)),
+                         0.5 * (omega(1, 0) - omega(0, 1)));
+}
+
 }  // namespace odonav

@@ -57,12 +57,21 @@ ScaleFactorEstimate CoarseEstimator::estimate() const {
   e.samples_used = samples_used_;
   e.forgetting_factor = 1.0;
   e.window_fill = 1.0;
-  if (runs_counted_ == 0) return e;
+  // The run still open counts as soon as it is long enough: a drive that ends on its straight (the
+  // calibration run itself) never sees a sample that closes it.
+  double length_m = total_length_m_, pulses = total_pulses_;
+  std::size_t runs = runs_counted_;
+  const double open_length_m = run_open_ ? (run_end_m_ - run_start_m_).norm() : 0.0;
+  if (run_open_ && open_length_m >= params_.coarse_min_length_m && run_pulses_ > 0.0) {
+    length_m += open_length_m;
+    pulses += run_pulses_;
+    ++runs;
+  }
+  if (runs == 0) return e;
   e.valid = true;
-  e.k_m_per_pulse = total_length_m_ / total_pulses_;
+  e.k_m_per_pulse = length_m / pulses;
   // Each run has two independent end-point position errors.
-  e.sigma_m_per_pulse =
-      std::sqrt(2.0 * static_cast<double>(runs_counted_)) * params_.coarse_position_sigma_m / total_pulses_;
+  e.sigma_m_per_pulse = std::sqrt(2.0 * static_cast<double>(runs)) * params_.coarse_position_sigma_m / pulses;
   e.converged = is_converged(params_, e.k_m_per_pulse, e.sigma_m_per_pulse, samples_used_);
   return e;
 }

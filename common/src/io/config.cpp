@@ -1,5 +1,6 @@
 // Command-line flags and `key = value` config files (see odonav/config.hpp).
 #include "odonav/config.hpp"
+#include "odonav/tool_output.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -228,7 +229,7 @@ ParseResult Options::parse(int argc, const char* const* argv, std::ostream& help
   return parse(args, help_out);
 }
 
-ParseResult Options::parse(int argc, const char* const* argv) { return parse(argc, argv, std::cout); }
+ParseResult Options::parse(int argc, const char* const* argv) { return parse(argc, argv, tool_output()); }
 
 ParseResult Options::parse(const std::vector<std::string>& args, std::ostream& help_out) {
   if (parsed_) throw std::logic_error("Options: parse() called twice");

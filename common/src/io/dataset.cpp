@@ -444,6 +444,13 @@ DatasetMeta read_meta(const std::string& path) {
   meta.k_nominal_m_per_pulse = read_meta_number(root, "odometer", "k_nominal_m_per_pulse", path);
   meta.truth_misalignment_heading_deg = read_meta_number(root, "truth", "misalignment_heading_deg", path);
   meta.truth_misalignment_pitch_deg = read_meta_number(root, "truth", "misalignment_pitch_deg", path);
+  if (root.contains("gnss") && root["gnss"].is_object() && root["gnss"].contains("lever_arm_m")) {
+    const nlohmann::json& arm = root["gnss"]["lever_arm_m"];
+    if (!arm.is_array() || arm.size() != 3 || !arm[0].is_number() || !arm[1].is_number() || !arm[2].is_number())
+      throw DatasetError(path + ": key 'gnss.lever_arm_m' must be an array of three numbers [x, y, z] in metres");
+    meta.gnss_lever_arm_m = Eigen::Vector3d(arm[0].get<double>(), arm[1].get<double>(), arm[2].get<double>());
+    if (!meta.gnss_lever_arm_m->allFinite()) throw DatasetError(path + ": key 'gnss.lever_arm_m' is not finite");
+  }
   if (meta.format != "odonav-dataset/1") {
     spdlog::warn("{}: format '{}' is not 'odonav-dataset/1'; reading it as format v1", path, meta.format);
   }
@@ -683,6 +690,10 @@ std::string meta_json(const std::string& path, const DatasetMeta& meta) {
   set_meta_number(root, "odometer", "k_nominal_m_per_pulse", meta.k_nominal_m_per_pulse);
   set_meta_number(root, "truth", "misalignment_heading_deg", meta.truth_misalignment_heading_deg);
   set_meta_number(root, "truth", "misalignment_pitch_deg", meta.truth_misalignment_pitch_deg);
+  if (meta.gnss_lever_arm_m) {
+    if (!meta.gnss_lever_arm_m->allFinite()) throw DatasetError(path + ": cannot write a non-finite lever arm");
+    root["gnss"]["lever_arm_m"] = {meta.gnss_lever_arm_m->x(), meta.gnss_lever_arm_m->y(), meta.gnss_lever_arm_m->z()};
+  }
   for (const auto* value : {&meta.k_nominal_m_per_pulse, &meta.truth_misalignment_heading_deg,
                             &meta.truth_misalignment_pitch_deg}) {
     if (*value && !std::isfinite(**value)) throw DatasetError(path + ": cannot write a non-finite number");

@@ -85,6 +85,8 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
   require(p.innovation_k_change_fraction >= 0.0, "innovation_k_change_fraction must be >= 0");
   require(p.innovation_max_consecutive_rejections >= 1, "innovation_max_consecutive_rejections must be >= 1");
   require(p.max_bracket_s > 0.0, "max_bracket_s must be > 0");
+  require(!p.lever_arm_body_m || p.lever_arm_body_m->allFinite(), "lever_arm_body_m must be finite");
+  require(p.lever_arm_rate_half_window_s > 0.0, "lever_arm_rate_half_window_s must be > 0");
 }
 
 void SampleBuilder::add_odometer(const OdometerSample& sample) { odometer_.add(sample); }
@@ -128,12 +130,16 @@ std::vector<SampleBuilderEpoch> SampleBuilder::process_until(double watermark_s,
     // Wait until the epoch's odometer count and attitude are final (see stream_buffers.hpp).
     if (odometer_.state_at(t, watermark_s_) == BracketState::kPending) break;
     if (params_.use_ins && attitude_.state_at(t, watermark_s_) == BracketState::kPending) break;
+    if (compensates_lever_arm() &&
+        attitude_.state_at(t + params_.lever_arm_rate_half_window_s, watermark_s_) == BracketState::kPending)
+      break;
     out.push_back(process_epoch(pending_gnss_.front()));
     pending_gnss_.pop_front();
     // Everything before this epoch is no longer needed: the next interval starts here and the
     // chain start keeps its own copy of what it needs.
     odometer_.drop_before(t);
-    attitude_.drop_before(t);
+    // Keep the INS window [t - h, ...] for the next epoch's body rate (lever arm).
+    attitude_.drop_before(compensates_lever_arm() ? t - params_.lever_arm_rate_half_window_s : t);
     misalignment_.drop_before(t);
     k_estimates_.drop_before(t);
     if (on_epoch) on_epoch(out.back());
@@ -143,6 +149,26 @@ std::vector<SampleBuilderEpoch> SampleBuilder::process_until(double watermark_s,
 
 std::vector<SampleBuilderEpoch> SampleBuilder::finish(const EpochCallback& on_epoch) {
   return process_until(std::numeric_limits<double>::infinity(), on_epoch);
+}
+
+bool SampleBuilder::compensates_lever_arm() const { return params_.use_ins && params_.lever_arm_body_m.has_value(); }
+
+Eigen::Vector3d SampleBuilder::reference_point_velocity(const GnssSample& g, const Attitude& att) const {
+  if (!compensates_lever_arm()) return g.vel_enu_mps;
+  const double h = params_.lever_arm_rate_half_window_s;
+  std::optional<Attitude> before = attitude_.attitude_at(g.t_s - h, watermark_s_);
+  std::optional<Attitude> after = attitude_.attitude_at(g.t_s + h, watermark_s_);
+  double window_s = 2.0 * h;
+  if (!before && !after) return g.vel_enu_mps;  // no rate: leave uncompensated (isolated INS sample)
+  if (!before) {
+    before = att;
+    window_s = h;
+  } else if (!after) {
+    after = att;
+    window_s = h;
+  }
+  const Eigen::Vector3d omega_b = body_rate_rad_s(*before, att, *after, window_s);
+  return g.vel_enu_mps - body_to_enu(att) * omega_b.cross(*params_.lever_arm_body_m);
 }
 
 double SampleBuilder::forward_speed(const Eigen::Vector3d& v, const Attitude& att, const Misalignment& mis) const {
@@ -194,7 +220,8 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
     att = *a;
   }
   const Misalignment mis = misalignment_.at_or_before(g.t_s).value_or(Misalignment{});
-  const double v = forward_speed(g.vel_enu_mps, att, mis);
+  const Eigen::Vector3d vel_enu_mps = reference_point_velocity(g, att);
+  const double v = forward_speed(vel_enu_mps, att, mis);
   r.forward_speed_mps = v;
   if (v < 0.0) return bad_epoch(EpochStatus::kNegativeSpeed);
 
@@ -206,7 +233,7 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
       return bad_epoch(EpochStatus::kSpeedJump);
   }
 
-  const GoodEpoch here{g.t_s, g.vel_enu_mps, att, *count_now};
+  const GoodEpoch here{g.t_s, vel_enu_mps, att, *count_now};
   EpochStatus status = EpochStatus::kAccepted;
   bool velocity_good = true;
   if (!chain_start_) {

@@ -473,6 +473,7 @@ Dataset simulate(const SimulationConfig& cfg) {
                    {"misalignment_pitch_deg", *ds.meta.truth_misalignment_pitch_deg}};
   meta["simulation"] = sim;
   ds.meta.raw_json = meta.dump(2);
+  ds.meta.gnss_lever_arm_m = cfg.lever_arm_m;
   return ds;
 }
 

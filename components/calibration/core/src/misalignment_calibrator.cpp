@@ -29,13 +29,6 @@ const char* to_string(CalibrationEpochStatus status) {
   return "unknown";
 }
 
-Eigen::Vector3d body_rate_rad_s(const Attitude& before, const Attitude& mid, const Attitude& after, double dt_s) {
-  const Eigen::Matrix3d c_dot = (body_to_enu(after) - body_to_enu(before)) / dt_s;
-  const Eigen::Matrix3d omega = body_to_enu(mid).transpose() * c_dot;  // ~ skew(omega_b)
-  // Antisymmetric part: the finite difference adds a small symmetric error that is not a rotation.
-  return Eigen::Vector3d(0.5 * (omega(2, 1) - omega(1, 2)), 0.5 * (omega(0, 2) - omega(2, 0)),
-                         0.5 * (omega(1, 0) - omega(0, 1)));
-}
 
 double MisalignmentCalibrator::Regression::residual_sum_squares() const {
   if (!(sum_phi2 > 0.0)) return 0.0;

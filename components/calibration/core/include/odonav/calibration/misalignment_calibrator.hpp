@@ -151,8 +151,6 @@ class MisalignmentCalibrator {
   MisalignmentCounters counters_;
 };
 
-/// Estimated angular rate of the body (rad/s, body frame FLU) between two attitudes dt_s apart,
-/// evaluated at the attitude `mid`: the axial vector of C_mid^T (C_after - C_before) / dt_s, with C = C_b^n.
-Eigen::Vector3d body_rate_rad_s(const Attitude& before, const Attitude& mid, const Attitude& after, double dt_s);
+// body_rate_rad_s() lives in frames.hpp (the sample builder uses it too).
 
 }  // namespace odonav

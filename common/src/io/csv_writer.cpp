@@ -1,0 +1,100 @@
+#include "odonav/csv_writer.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+#include "text_util.hpp"
+
+namespace odonav {
+
+CsvWriter::CsvWriter(const std::string& path, std::vector<std::string> columns)
+    : path_(path), columns_(std::move(columns)) {
+  file_ = std::fopen(path.c_str(), "wb");
+  if (!file_) throw std::runtime_error(path + ": cannot create: " + std::strerror(errno));
+  for (std::size_t i = 0; i < columns_.size(); ++i) {
+    if (i) buffer_ += ',';
+    buffer_ += columns_[i];
+  }
+  buffer_ += '\n';
+}
+
+CsvWriter::~CsvWriter() {
+  if (file_) {
+    flush_buffer();
+    std::fclose(file_);
+  }
+}
+
+void CsvWriter::separator() {
+  if (fields_in_row_++) buffer_ += ',';
+}
+
+CsvWriter& CsvWriter::field(double value) {
+  separator();
+  if (std::isfinite(value)) buffer_ += io_detail::format_double(value);
+  return *this;
+}
+
+CsvWriter& CsvWriter::field(const std::optional<double>& value) {
+  return value ? field(*value) : empty();
+}
+
+CsvWriter& CsvWriter::field(int64_t value) {
+  separator();
+  buffer_ += std::to_string(value);
+  return *this;
+}
+
+CsvWriter& CsvWriter::field(uint64_t value) {
+  separator();
+  buffer_ += std::to_string(value);
+  return *this;
+}
+
+CsvWriter& CsvWriter::field(bool value) {
+  separator();
+  buffer_ += value ? '1' : '0';
+  return *this;
+}
+
+CsvWriter& CsvWriter::field(const std::string& value) {
+  separator();
+  buffer_ += value;
+  return *this;
+}
+
+CsvWriter& CsvWriter::empty() {
+  separator();
+  return *this;
+}
+
+void CsvWriter::end_row() {
+  if (fields_in_row_ != columns_.size())
+    throw std::logic_error(path_ + ": row " + std::to_string(rows_ + 1) + " has " + std::to_string(fields_in_row_) +
+                           " fields, header has " + std::to_string(columns_.size()));
+  buffer_ += '\n';
+  fields_in_row_ = 0;
+  ++rows_;
+  if (buffer_.size() > (1u << 16)) flush_buffer();
+}
+
+void CsvWriter::flush_buffer() {
+  if (!file_ || buffer_.empty()) return;
+  const std::size_t n = std::fwrite(buffer_.data(), 1, buffer_.size(), file_);
+  const bool ok = n == buffer_.size();
+  buffer_.clear();
+  if (!ok) throw std::runtime_error(path_ + ": write failed: " + std::strerror(errno));
+}
+
+void CsvWriter::close() {
+  if (!file_) return;
+  flush_buffer();
+  const bool ok = std::fflush(file_) == 0;
+  std::fclose(file_);
+  file_ = nullptr;
+  if (!ok) throw std::runtime_error(path_ + ": write failed: " + std::strerror(errno));
+}
+
+}  // namespace odonav

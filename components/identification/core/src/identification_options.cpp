@@ -1,0 +1,52 @@
+#include "odonav/identification/identification_options.hpp"
+
+#include <stdexcept>
+
+namespace odonav {
+
+void add_identification_options(Options& o) {
+  const IdentificationParams d;
+  std::vector<std::string> names = estimator_names();
+  o.add_choice("estimator", d.estimator_name, names, "scale-factor estimator published and used by dead reckoning");
+  o.add_int("window", static_cast<int64_t>(d.estimator.window_length),
+            "window length L of lm_rls / vff_lm_rls, in accepted samples (L x GNSS period ~ memory)", 2, 1000000);
+  o.add_double("lambda-min", d.estimator.lambda_min, "lower bound of the variable forgetting factor", 0.5, 1.0);
+  o.add_double("vff-kappa", d.estimator.vff_kappa, "VFF: C = kappa * sigma_y^2 when --vff-c is 0", 1e-3, 1e6);
+  o.add_double("vff-c", d.estimator.vff_c_m2, "VFF: residual variance scale C (m^2); 0 = automatic", 0.0, 1e6);
+  o.add_double("ff-lambda", d.estimator.forgetting_factor, "constant forgetting factor of ff_rls", 0.5, 1.0);
+  o.add_double("converged-rel-sigma", d.estimator.converged_rel_sigma,
+               "K is 'converged' when sigma_K / K is below this", 1e-6, 1.0);
+  o.add_double("min-speed", d.builder.min_speed_mps, "gate: minimum speed at both ends of a sample (m/s)", 0.0, 100.0);
+  o.add_double("max-yaw-rate-deg-s", rad_to_deg(d.builder.max_yaw_rate_rad_s),
+               "gate: maximum |yaw rate| over a sample (deg/s)", 0.1, 1000.0);
+  o.add_double("innovation-n-sigma", d.builder.innovation_n_sigma, "gate: GNSS velocity outlier threshold (sigmas)",
+               1.0, 1000.0);
+  o.add_double("gnss-velocity-sigma", d.builder.gnss_velocity_sigma_mps,
+               "one-sigma GNSS velocity noise assumed by the outlier gate (m/s)", 1e-4, 10.0);
+  o.add_double("max-interval-s", d.builder.max_interval_s, "gate: longest GNSS interval a sample may span (s)", 0.01,
+               100.0);
+}
+
+IdentificationParams identification_params_from(const Options& o) {
+  IdentificationParams p;
+  p.estimator_name = o.get_string("estimator");
+  p.estimator.window_length = static_cast<std::size_t>(o.get_int("window"));
+  p.estimator.lambda_min = o.get_double("lambda-min");
+  p.estimator.vff_kappa = o.get_double("vff-kappa");
+  p.estimator.vff_c_m2 = o.get_double("vff-c");
+  p.estimator.forgetting_factor = o.get_double("ff-lambda");
+  p.estimator.converged_rel_sigma = o.get_double("converged-rel-sigma");
+  p.builder.min_speed_mps = o.get_double("min-speed");
+  p.builder.max_yaw_rate_rad_s = deg_to_rad(o.get_double("max-yaw-rate-deg-s"));
+  p.builder.innovation_n_sigma = o.get_double("innovation-n-sigma");
+  p.builder.gnss_velocity_sigma_mps = o.get_double("gnss-velocity-sigma");
+  p.builder.max_interval_s = o.get_double("max-interval-s");
+  try {
+    p.estimator.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("identification parameters: ") + e.what());
+  }
+  return p;
+}
+
+}  // namespace odonav

@@ -1,0 +1,61 @@
+#pragma once
+// odonav-offline's pipeline without middleware: calibration -> identification -> dead reckoning over
+// a whole dataset, each stage consuming the previous stage's time-stamped outputs exactly as the DDS
+// components consume the published topics (same cores, same consumer rules), so both give the same
+// numbers on the same data.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "odonav/calibration/misalignment_calibrator.hpp"
+#include "odonav/dataset.hpp"
+#include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/identification/identification_core.hpp"
+
+namespace odonav::offline {
+
+struct OfflineParams {
+  MisalignmentCalibratorParams calibration;
+  IdentificationParams identification;
+  DeadReckonerParams dead_reckoning;  ///< nominal_k is the K before identification converges.
+  /// K for the "coarse" DR run (m/pulse). Unset: the coarse S/N estimate of this dataset (its final
+  /// value, as a calibration run done before the drive would give), or the nominal K without one.
+  std::optional<double> coarse_k_m_per_pulse;
+  std::string coarse_k_origin;  ///< where coarse_k_m_per_pulse came from, for the summary.
+};
+
+struct OfflineResult {
+  std::vector<MisalignmentOutput> misalignment;      ///< one per GNSS epoch.
+  std::vector<IdentificationOutput> identification;  ///< one per GNSS epoch.
+  std::vector<std::string> estimator_names;          ///< order of IdentificationOutput::all.
+  std::vector<DeadReckoningOutput> dr_online;        ///< DR with the identified K.
+  std::vector<DeadReckoningOutput> dr_coarse;        ///< DR with the coarse K.
+  double coarse_k_m_per_pulse = 0.0;
+  std::string coarse_k_origin;
+  SampleBuilderCounters builder_counters;
+  MisalignmentCounters calibration_counters;
+  DeadReckonerCounters dr_counters;
+};
+
+/// Runs the three stages. Throws StreamInputError / std::invalid_argument on bad input or params.
+OfflineResult run_offline(const Dataset& dataset, const OfflineParams& params);
+
+/// The coarse S/N K of a dataset (its final coarse estimate), or nullopt if it has no usable
+/// straight run. Runs calibration and identification as run_offline does.
+std::optional<double> coarse_k_of(const Dataset& dataset, const OfflineParams& params);
+
+}  // namespace odonav::offline
+
+#include "output_files.hpp"
+
+namespace odonav::offline {
+
+/// The output rows of a run (what the files hold). Misalignment and scale-factor rows convert the
+/// cores' outputs exactly as the DDS nodes convert them into messages and the recorder back to rows.
+MisalignmentRow to_row(const MisalignmentOutput& m);
+ScaleFactorRow to_row(const IdentificationOutput& k, const std::string& main_estimator,
+                      const std::vector<std::string>& estimator_names);
+DeadReckoningRow to_row(const DeadReckoningOutput& dr);
+OutputRows to_output_rows(const OfflineResult& result, const std::string& main_estimator);
+
+}  // namespace odonav::offline

@@ -1,0 +1,250 @@
+#include "output_files.hpp"
+
+#include <sys/stat.h>
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <stdexcept>
+
+#include "odonav/frames.hpp"
+
+namespace odonav::offline {
+namespace {
+std::optional<double> finite_or_empty(double v) {
+  return std::isfinite(v) ? std::optional<double>(v) : std::nullopt;
+}
+
+std::vector<std::string> scale_factor_header() {
+  std::vector<std::string> h{"t"};
+  for (const std::string& c : scale_factor_estimator_columns()) h.push_back(c);
+  for (const char* c : {"lambda_vff_lm_rls", "estimator", "k_m_per_pulse", "sigma_m_per_pulse", "forgetting_factor",
+                        "window_fill", "converged", "samples_accepted", "samples_rejected", "epoch_status"})
+    h.push_back(c);
+  return h;
+}
+}  // namespace
+
+const std::vector<std::string>& scale_factor_estimator_columns() {
+  static const std::vector<std::string> columns{"k_rls", "k_ff_rls", "k_lm_rls", "k_vff_lm_rls", "k_coarse", "k_kf_rw"};
+  return columns;
+}
+
+MisalignmentCsv::MisalignmentCsv(const std::string& path)
+    : csv_(path, {"t", "heading_deg", "pitch_deg", "heading_std_deg", "pitch_std_deg", "converged", "state",
+                  "samples_used"}) {}
+
+void MisalignmentCsv::write(const MisalignmentRow& r) {
+  csv_.field(r.t_s)
+      .field(rad_to_deg(r.heading_rad))
+      .field(rad_to_deg(r.pitch_rad))
+      .field(finite_or_empty(rad_to_deg(r.heading_std_rad)))
+      .field(finite_or_empty(rad_to_deg(r.pitch_std_rad)))
+      .field(r.converged)
+      .field(r.state)
+      .field(r.samples_used);
+  csv_.end_row();
+}
+
+ScaleFactorCsv::ScaleFactorCsv(const std::string& path) : csv_(path, scale_factor_header()) {}
+
+void ScaleFactorCsv::write(const ScaleFactorRow& r) {
+  csv_.field(r.t_s);
+  for (const std::string& column : scale_factor_estimator_columns()) {
+    std::optional<double> k;
+    for (const auto& [name, value] : r.k_by_estimator)
+      if ("k_" + name == column) k = value;
+    csv_.field(k);
+  }
+  csv_.field(r.lambda_vff_lm_rls)
+      .field(r.estimator)
+      .field(r.k_m_per_pulse)
+      .field(r.sigma_m_per_pulse)
+      .field(r.forgetting_factor)
+      .field(r.window_fill)
+      .field(r.converged)
+      .field(r.samples_accepted)
+      .field(r.samples_rejected)
+      .field(r.epoch_status);
+  csv_.end_row();
+}
+
+DeadReckoningCsv::DeadReckoningCsv(const std::string& path)
+    : csv_(path, {"t", "lat_deg", "lon_deg", "height_m", "distance_m", "k_m_per_pulse", "k_source", "east_m",
+                  "north_m", "up_m", "heading_deg", "horizontal_error_m", "error_percent"}) {}
+
+void DeadReckoningCsv::write(const DeadReckoningRow& r) {
+  csv_.field(r.t_s)
+      .field(rad_to_deg(r.lat_rad))
+      .field(rad_to_deg(r.lon_rad))
+      .field(r.height_m)
+      .field(r.distance_m)
+      .field(r.k_m_per_pulse)
+      .field(r.k_source)
+      .field(r.east_m)
+      .field(r.north_m)
+      .field(r.up_m)
+      .field(rad_to_deg(r.heading_rad))
+      .field(finite_or_empty(r.horizontal_error_m))
+      .field(finite_or_empty(r.error_percent));
+  csv_.end_row();
+}
+
+}  // namespace odonav::offline
+
+// ---- reading back --------------------------------------------------------------------------------
+
+namespace odonav::offline {
+namespace {
+
+class CsvTable {
+ public:
+  explicit CsvTable(const std::string& path) : path_(path) {
+    std::ifstream in(path);
+    if (!in) throw std::runtime_error(path + ": cannot open");
+    std::string line;
+    if (!std::getline(in, line)) throw std::runtime_error(path + ": empty file (no header)");
+    header_ = split(line);
+    for (std::size_t i = 0; i < header_.size(); ++i) index_[header_[i]] = i;
+    std::size_t line_no = 1;
+    while (std::getline(in, line)) {
+      ++line_no;
+      if (line.empty()) continue;
+      rows_.push_back(split(line));
+      line_numbers_.push_back(line_no);
+      if (rows_.back().size() != header_.size())
+        throw std::runtime_error(path + ":" + std::to_string(line_no) + ": " + std::to_string(rows_.back().size()) +
+                                 " fields, header has " + std::to_string(header_.size()));
+    }
+  }
+  std::size_t size() const { return rows_.size(); }
+  const std::string& text(std::size_t row, const std::string& column) const {
+    auto it = index_.find(column);
+    if (it == index_.end()) throw std::runtime_error(path_ + ": missing column '" + column + "'");
+    return rows_[row][it->second];
+  }
+  bool has(const std::string& column) const { return index_.count(column) > 0; }
+  std::optional<double> optional_number(std::size_t row, const std::string& column) const {
+    const std::string& t = text(row, column);
+    if (t.empty()) return std::nullopt;
+    double v = 0.0;
+    const auto res = std::from_chars(t.data(), t.data() + t.size(), v);
+    if (res.ec != std::errc() || res.ptr != t.data() + t.size())
+      throw std::runtime_error(path_ + ":" + std::to_string(line_numbers_[row]) + ": column '" + column +
+                               "': not a number: '" + t + "'");
+    return v;
+  }
+  double number(std::size_t row, const std::string& column, double if_empty = std::numeric_limits<double>::quiet_NaN()) const {
+    return optional_number(row, column).value_or(if_empty);
+  }
+
+ private:
+  static std::vector<std::string> split(const std::string& line) {
+    std::vector<std::string> out(1);
+    for (char c : line) {
+      if (c == ',') out.emplace_back();
+      else if (c != '\r') out.back() += c;
+    }
+    return out;
+  }
+  std::string path_;
+  std::vector<std::string> header_;
+  std::map<std::string, std::size_t> index_;
+  std::vector<std::vector<std::string>> rows_;
+  std::vector<std::size_t> line_numbers_;
+};
+
+std::vector<DeadReckoningRow> read_dead_reckoning(const std::string& path) {
+  const CsvTable t(path);
+  std::vector<DeadReckoningRow> rows(t.size());
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    DeadReckoningRow& r = rows[i];
+    r.t_s = t.number(i, "t");
+    r.lat_rad = deg_to_rad(t.number(i, "lat_deg"));
+    r.lon_rad = deg_to_rad(t.number(i, "lon_deg"));
+    r.height_m = t.number(i, "height_m");
+    r.distance_m = t.number(i, "distance_m");
+    r.k_m_per_pulse = t.number(i, "k_m_per_pulse");
+    r.k_source = t.text(i, "k_source");
+    r.east_m = t.number(i, "east_m");
+    r.north_m = t.number(i, "north_m");
+    r.up_m = t.number(i, "up_m");
+    r.heading_rad = deg_to_rad(t.number(i, "heading_deg"));
+    r.horizontal_error_m = t.number(i, "horizontal_error_m");
+    r.error_percent = t.number(i, "error_percent");
+  }
+  return rows;
+}
+
+bool file_exists(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0;
+}
+
+}  // namespace
+
+OutputRows read_output_rows(const std::string& dir) {
+  OutputRows out;
+  {
+    const CsvTable t(dir + "/misalignment.csv");
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      MisalignmentRow r;
+      r.t_s = t.number(i, "t");
+      r.heading_rad = deg_to_rad(t.number(i, "heading_deg"));
+      r.pitch_rad = deg_to_rad(t.number(i, "pitch_deg"));
+      r.heading_std_rad = deg_to_rad(t.number(i, "heading_std_deg"));
+      r.pitch_std_rad = deg_to_rad(t.number(i, "pitch_std_deg"));
+      r.converged = t.number(i, "converged", 0.0) != 0.0;
+      r.state = t.text(i, "state");
+      r.samples_used = static_cast<uint64_t>(t.number(i, "samples_used", 0.0));
+      out.misalignment.push_back(r);
+    }
+  }
+  {
+    const CsvTable t(dir + "/scale_factor.csv");
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      ScaleFactorRow r;
+      r.t_s = t.number(i, "t");
+      for (const std::string& c : scale_factor_estimator_columns())
+        if (t.has(c)) r.k_by_estimator.emplace_back(c.substr(2), t.optional_number(i, c));
+      r.lambda_vff_lm_rls = t.optional_number(i, "lambda_vff_lm_rls");
+      r.estimator = t.text(i, "estimator");
+      r.k_m_per_pulse = t.optional_number(i, "k_m_per_pulse");
+      r.sigma_m_per_pulse = t.optional_number(i, "sigma_m_per_pulse");
+      r.forgetting_factor = t.number(i, "forgetting_factor", 1.0);
+      r.window_fill = t.number(i, "window_fill", 0.0);
+      r.converged = t.number(i, "converged", 0.0) != 0.0;
+      r.samples_accepted = static_cast<uint64_t>(t.number(i, "samples_accepted", 0.0));
+      r.samples_rejected = static_cast<uint64_t>(t.number(i, "samples_rejected", 0.0));
+      r.epoch_status = t.text(i, "epoch_status");
+      out.scale_factor.push_back(r);
+    }
+  }
+  out.dead_reckoning = read_dead_reckoning(dir + "/dead_reckoning.csv");
+  if (file_exists(dir + "/dead_reckoning_coarse.csv"))
+    out.dead_reckoning_coarse = read_dead_reckoning(dir + "/dead_reckoning_coarse.csv");
+  return out;
+}
+
+}  // namespace odonav::offline
+
+namespace odonav::offline {
+void write_output_rows(const std::string& dir, const OutputRows& rows) {
+  MisalignmentCsv mis(dir + "/misalignment.csv");
+  for (const auto& r : rows.misalignment) mis.write(r);
+  mis.close();
+  ScaleFactorCsv sf(dir + "/scale_factor.csv");
+  for (const auto& r : rows.scale_factor) sf.write(r);
+  sf.close();
+  DeadReckoningCsv dr(dir + "/dead_reckoning.csv");
+  for (const auto& r : rows.dead_reckoning) dr.write(r);
+  dr.close();
+  if (!rows.dead_reckoning_coarse.empty()) {
+    DeadReckoningCsv coarse(dir + "/dead_reckoning_coarse.csv");
+    for (const auto& r : rows.dead_reckoning_coarse) coarse.write(r);
+    coarse.close();
+  }
+}
+}  // namespace odonav::offline

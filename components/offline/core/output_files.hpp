@@ -1,0 +1,122 @@
+#pragma once
+// The output files of odonav-offline, and of the distributed pipeline's recorder (deploy/launch):
+// the same files and columns from both, so a user can run either and compare them directly.
+//
+//   misalignment.csv        t, heading_deg, pitch_deg, heading_std_deg, pitch_std_deg, converged,
+//                           state, samples_used                        (one row per GNSS epoch)
+//   scale_factor.csv        t, k_rls, k_ff_rls, k_lm_rls, k_vff_lm_rls, k_coarse, k_kf_rw,
+//                           lambda_vff_lm_rls, estimator, k_m_per_pulse, sigma_m_per_pulse,
+//                           forgetting_factor, window_fill, converged, samples_accepted,
+//                           samples_rejected, epoch_status               (one row per GNSS epoch)
+//     k_<name>: that estimator's K (m/pulse), empty until it has a value or when it did not run;
+//     the columns after lambda_vff_lm_rls describe the main (published) estimator.
+//   dead_reckoning.csv,     t, lat_deg, lon_deg, height_m, distance_m, k_m_per_pulse, k_source,
+//   dead_reckoning_coarse.csv  east_m, north_m, up_m, heading_deg, horizontal_error_m,
+//                           error_percent                               (one row per odometer sample)
+// Numbers are written in the shortest form that reads back to the same double; unknown values are
+// empty fields.
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "odonav/csv_writer.hpp"
+
+namespace odonav::offline {
+
+/// The estimator columns of scale_factor.csv, in order.
+const std::vector<std::string>& scale_factor_estimator_columns();
+
+/// One misalignment.csv row (angles in radians here, degrees in the file).
+struct MisalignmentRow {
+  double t_s = 0.0;
+  double heading_rad = 0.0;
+  double pitch_rad = 0.0;
+  double heading_std_rad = 0.0;  ///< NaN/inf when unknown (written empty).
+  double pitch_std_rad = 0.0;
+  bool converged = false;
+  std::string state;
+  uint64_t samples_used = 0;
+};
+
+/// One scale_factor.csv row.
+struct ScaleFactorRow {
+  double t_s = 0.0;
+  /// K per estimator name (names of scale_factor_estimator_columns() without "k_"); nullopt = empty.
+  std::vector<std::pair<std::string, std::optional<double>>> k_by_estimator;
+  std::optional<double> lambda_vff_lm_rls;
+  std::string estimator;  ///< main estimator
+  std::optional<double> k_m_per_pulse;
+  std::optional<double> sigma_m_per_pulse;
+  double forgetting_factor = 1.0;
+  double window_fill = 0.0;
+  bool converged = false;
+  uint64_t samples_accepted = 0;
+  uint64_t samples_rejected = 0;
+  std::string epoch_status;
+};
+
+/// One dead_reckoning.csv row (angles in radians here, degrees in the file).
+struct DeadReckoningRow {
+  double t_s = 0.0;
+  double lat_rad = 0.0, lon_rad = 0.0, height_m = 0.0;
+  double distance_m = 0.0;
+  double k_m_per_pulse = 0.0;
+  std::string k_source;
+  double east_m = 0.0, north_m = 0.0, up_m = 0.0;
+  double heading_rad = 0.0;
+  double horizontal_error_m = 0.0;  ///< NaN when no GNSS reference (written empty).
+  double error_percent = 0.0;       ///< NaN when undefined (written empty).
+};
+
+/// Writers; each constructor creates the file with its header (throws std::runtime_error naming it).
+class MisalignmentCsv {
+ public:
+  explicit MisalignmentCsv(const std::string& path);
+  void write(const MisalignmentRow& row);
+  void close() { csv_.close(); }
+ private:
+  CsvWriter csv_;
+};
+
+class ScaleFactorCsv {
+ public:
+  explicit ScaleFactorCsv(const std::string& path);
+  void write(const ScaleFactorRow& row);
+  void close() { csv_.close(); }
+ private:
+  CsvWriter csv_;
+};
+
+class DeadReckoningCsv {
+ public:
+  explicit DeadReckoningCsv(const std::string& path);
+  void write(const DeadReckoningRow& row);
+  void close() { csv_.close(); }
+ private:
+  CsvWriter csv_;
+};
+
+}  // namespace odonav::offline
+
+namespace odonav::offline {
+
+/// Everything the output files hold, read back (for odonav-evaluate and the pipeline's summary).
+struct OutputRows {
+  std::vector<MisalignmentRow> misalignment;
+  std::vector<ScaleFactorRow> scale_factor;
+  std::vector<DeadReckoningRow> dead_reckoning;
+  std::vector<DeadReckoningRow> dead_reckoning_coarse;  ///< empty when the file is absent.
+};
+
+/// Reads the output files of a folder (dead_reckoning_coarse.csv optional). Throws
+/// std::runtime_error naming the file, line and column on a missing file or a malformed value.
+OutputRows read_output_rows(const std::string& dir);
+
+}  // namespace odonav::offline
+
+namespace odonav::offline {
+/// Writes misalignment.csv, scale_factor.csv, dead_reckoning.csv and (when it has rows)
+/// dead_reckoning_coarse.csv into dir (which must exist). Throws std::runtime_error naming the file.
+void write_output_rows(const std::string& dir, const OutputRows& rows);
+}  // namespace odonav::offline

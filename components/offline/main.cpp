@@ -1,0 +1,180 @@
+// odonav-offline: runs calibration -> identification -> dead reckoning over a dataset directory
+// without DDS, writes the output files and summary.json, prints a summary. See README.md.
+#include <sys/stat.h>
+
+#include <chrono>
+#include <fstream>
+
+#include "odonav/calibration/calibration_options.hpp"
+#include "odonav/config.hpp"
+#include "odonav/dataset.hpp"
+#include "odonav/dead_reckoning/dead_reckoning_options.hpp"
+#include "odonav/identification/identification_options.hpp"
+#include "odonav/logging.hpp"
+#include "odonav/stream_buffers.hpp"
+#include "odonav/tool_output.hpp"
+#include "offline_runner.hpp"
+#include "summary.hpp"
+
+namespace {
+
+constexpr double kDefaultNominalK = 0.0125;  // m/pulse, when neither --nominal-k nor meta.json gives one
+
+bool make_directory(const std::string& dir) {
+  std::string partial;
+  for (std::size_t i = 0; i <= dir.size(); ++i) {
+    if (i == dir.size() || dir[i] == '/') {
+      if (!partial.empty()) {
+        struct stat st {};
+        if (::stat(partial.c_str(), &st) != 0 && ::mkdir(partial.c_str(), 0755) != 0) return false;
+      }
+    }
+    if (i < dir.size()) partial += dir[i];
+  }
+  struct stat st {};
+  return ::stat(dir.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+std::string base_name(std::string path) {
+  while (path.size() > 1 && path.back() == '/') path.pop_back();
+  const auto slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  odonav::Options opts("odonav-offline",
+                       "Runs misalignment calibration, scale-factor identification (every estimator side by "
+                       "side) and dead reckoning (with the identified K and with a coarse K) over a dataset "
+                       "directory (DATASET.md), without DDS. Writes misalignment.csv, scale_factor.csv, "
+                       "dead_reckoning.csv, dead_reckoning_coarse.csv and summary.json into --out, and prints a "
+                       "summary; with truth.csv it also evaluates against the truth.");
+  opts.add_positional("dataset", "dataset directory");
+  opts.add_string("out", "", "output directory (created if missing); required");
+  opts.add_choice("on-bad-row", "fail", {"fail", "skip"}, "a bad input row stops the run (fail) or is skipped and counted");
+  opts.add_double("coarse-k", 0.0, "K for the coarse DR run (m/pulse); 0 = see --coarse-k-from", 0.0, 10.0);
+  opts.add_string("coarse-k-from", "",
+                  "dataset whose coarse S/N calibration gives the coarse K (e.g. a 'straight' run); empty = this "
+                  "dataset's own coarse S/N estimate");
+  opts.add_string("log-level", "", "trace, debug, info, warn, error, critical, off (default: $ODONAV_LOG_LEVEL or info)");
+  odonav::add_identification_options(opts);
+  odonav::add_calibration_options(opts);
+  odonav::add_dead_reckoning_options(opts);
+  odonav::add_lever_arm_option(opts);
+
+  try {
+    if (opts.parse(argc, argv) == odonav::ParseResult::kHelp) return 0;
+  } catch (const odonav::ConfigError& e) {
+    odonav::setup_logging("offline", "");
+    spdlog::error("{}", e.what());
+    spdlog::error("see odonav-offline --help");
+    return 2;
+  }
+  std::shared_ptr<spdlog::logger> log;
+  try {
+    log = odonav::setup_logging("offline", opts.get_string("log-level"));
+  } catch (const odonav::ConfigError& e) {
+    odonav::setup_logging("offline", "info");
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+  const std::string dataset_dir = opts.get_string("dataset");
+  const std::string out_dir = opts.get_string("out");
+  if (out_dir.empty()) {
+    spdlog::error("--out is required (the folder for the output files)");
+    return 2;
+  }
+
+  odonav::offline::OfflineParams params;
+  try {
+    params.identification = odonav::identification_params_from(opts);
+    params.calibration = odonav::calibration_params_from(opts);
+    params.dead_reckoning = odonav::dead_reckoning_params_from(opts);
+    params.dead_reckoning.lever_arm_body_m = odonav::lever_arm_from(opts);
+  } catch (const odonav::ConfigError& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+
+  try {
+    const auto t_start = std::chrono::steady_clock::now();
+    odonav::DatasetReadReport report;
+    const odonav::Dataset dataset =
+        odonav::read_dataset(dataset_dir, odonav::parse_bad_row_policy(opts.get_string("on-bad-row")), &report);
+    if (report.total_bad() > 0) {
+      for (const auto& f : report.files)
+        if (f.rows_bad) spdlog::warn("{}: skipped {} bad rows (kept {})", f.file, f.rows_bad, f.rows_read);
+    }
+    if (!dataset.has_ins()) spdlog::warn("{}: no ins.csv: degraded mode (no misalignment; DR on the GNSS course)", dataset_dir);
+    if (!params.dead_reckoning.lever_arm_body_m && dataset.meta.gnss_lever_arm_m) {
+      const Eigen::Vector3d& l = *dataset.meta.gnss_lever_arm_m;
+      spdlog::info("GNSS lever arm from meta.json: ({}, {}, {}) m (forward, left, up)", l.x(), l.y(), l.z());
+      params.dead_reckoning.lever_arm_body_m = l;
+      params.calibration.lever_arm_body_m = l;
+    }
+    params.identification.builder.lever_arm_body_m = params.dead_reckoning.lever_arm_body_m;
+    if (params.dead_reckoning.nominal_k_m_per_pulse <= 0.0)
+      params.dead_reckoning.nominal_k_m_per_pulse = dataset.meta.k_nominal_m_per_pulse.value_or(kDefaultNominalK);
+
+    if (opts.get_double("coarse-k") > 0.0) {
+      params.coarse_k_m_per_pulse = opts.get_double("coarse-k");
+      params.coarse_k_origin = "--coarse-k";
+    } else if (!opts.get_string("coarse-k-from").empty()) {
+      const std::string from = opts.get_string("coarse-k-from");
+      const odonav::Dataset calibration_run = odonav::read_dataset(from, odonav::BadRowPolicy::kFail);
+      const auto k = odonav::offline::coarse_k_of(calibration_run, params);
+      if (!k) {
+        spdlog::error("{}: no straight run long enough for a coarse S/N calibration", from);
+        return 1;
+      }
+      params.coarse_k_m_per_pulse = *k;
+      params.coarse_k_origin = "coarse S/N of " + base_name(from);
+    }
+
+    const auto t_read = std::chrono::steady_clock::now();
+    const odonav::offline::OfflineResult result = odonav::offline::run_offline(dataset, params);
+    const odonav::offline::OutputRows rows =
+        odonav::offline::to_output_rows(result, params.identification.estimator_name);
+    const auto t_done = std::chrono::steady_clock::now();
+    const double elapsed_s = std::chrono::duration<double>(t_done - t_start).count();
+    spdlog::info("read {:.3f} s, processed {:.3f} s ({} odometer, {} GNSS, {} INS rows)",
+                 std::chrono::duration<double>(t_read - t_start).count(),
+                 std::chrono::duration<double>(t_done - t_read).count(), dataset.odometer.size(), dataset.gnss.size(),
+                 dataset.ins.size());
+
+    if (!make_directory(out_dir)) {
+      spdlog::error("{}: cannot create the output directory", out_dir);
+      return 1;
+    }
+    odonav::offline::write_output_rows(out_dir, rows);
+    odonav::offline::SummaryOptions summary_options;
+    summary_options.dataset_name = base_name(dataset_dir);
+    summary_options.coarse_k_origin = result.coarse_k_origin;
+    summary_options.elapsed_s = elapsed_s;
+    nlohmann::json summary = odonav::offline::make_summary(dataset, rows, summary_options);
+    summary["gates"] = {{"epochs", result.builder_counters.epochs},
+                        {"accepted", result.builder_counters.accepted},
+                        {"invalid_fix", result.builder_counters.invalid_fix},
+                        {"speed_jump", result.builder_counters.speed_jump},
+                        {"min_speed", result.builder_counters.min_speed},
+                        {"yaw_rate", result.builder_counters.yaw_rate},
+                        {"gap", result.builder_counters.gap},
+                        {"innovation", result.builder_counters.innovation},
+                        {"reversing", result.builder_counters.reversing}};
+    summary["bad_rows_skipped"] = report.total_bad();
+    std::ofstream(out_dir + "/summary.json") << summary.dump(2) << "\n";
+    odonav::offline::print_summary(summary, odonav::tool_output());
+    spdlog::info("outputs in {}", out_dir);
+    return 0;
+  } catch (const odonav::DatasetError& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  } catch (const odonav::StreamInputError& e) {
+    spdlog::error("bad input: {}", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+}
