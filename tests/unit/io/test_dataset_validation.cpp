@@ -422,8 +422,8 @@ TEST(DatasetValidation, BadRowPolicyNames) {
 }
 
 TEST(DatasetValidation, SmartLocBerlinReadsWithoutBadRows) {
-  const std::string dir = ODONAV_SHARED_DIR "/data/smartloc-berlin";
-  if (!std::filesystem::is_directory(dir)) GTEST_SKIP() << dir << " is absent";
+  const std::string dir = ODONAV_SOURCE_DIR "/tests/data/smartloc-berlin";
+  ASSERT_TRUE(std::filesystem::is_directory(dir)) << dir << " is part of the repository";
   DatasetReadReport report;
   const Dataset ds = read_dataset(dir, BadRowPolicy::kFail, &report);
   EXPECT_EQ(report.total_bad(), 0u);
