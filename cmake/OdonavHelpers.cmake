@@ -16,10 +16,13 @@ function(odonav_add_gtest name)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
+  # PROPERTIES takes key/value pairs: a list value must keep its ';' escaped or only its first
+  # element survives.
+  string(REPLACE ";" "\\;" _labels "${ARG_LABELS}")
   gtest_discover_tests(${target}
     DISCOVERY_MODE PRE_TEST
     PROPERTIES
       TIMEOUT ${ARG_TIMEOUT}
-      LABELS "${ARG_LABELS}"
+      LABELS "${_labels}"
       ENVIRONMENT "SKIP_DEFAULT_XML=1;FASTRTPS_DEFAULT_PROFILES_FILE=${PROJECT_SOURCE_DIR}/deploy/profiles/loopback.xml;${ARG_ENVIRONMENT}")
 endfunction()
