@@ -59,6 +59,14 @@ WriterBase::WriterBase(const Participant& participant, const std::string& topic_
   writer_ = publisher.create_datawriter_with_profile(&topic, qos_profile, this,
                                                      StatusMask::publication_matched());
   if (writer_ == nullptr) {
+    if (const auto& security = core_->security()) {
+      // Access control returns nullptr for a topic the permissions do not grant (FAST_DDS_NOTES.md).
+      throw std::runtime_error("odonav::dds::Writer: cannot create the writer of topic '" + topic_name +
+                               "': the DDS Security permissions of identity '" + security->identity +
+                               "' (" + security->permissions_file + ") do not allow publishing it, or profile '" +
+                               qos_profile + "' is inconsistent (see the Fast DDS log; " + core_->description() +
+                               ")");
+    }
     throw std::runtime_error("odonav::dds::Writer: cannot create the writer of topic '" + topic_name +
                              "' with profile '" + qos_profile + "' (inconsistent QoS? see the Fast DDS log; " +
                              core_->description() + ")");
@@ -102,6 +110,13 @@ void ReaderBase::open(bool listen_for_data, bool listen_for_deadline) {
   if (listen_for_deadline) mask << StatusMask::requested_deadline_missed();
   reader_ = core_->subscriber().create_datareader_with_profile(topic_, qos_profile_, this, mask);
   if (reader_ == nullptr) {
+    if (const auto& security = core_->security()) {
+      throw std::runtime_error("odonav::dds::Reader: cannot create the reader of topic '" + topic_name_ +
+                               "': the DDS Security permissions of identity '" + security->identity + "' (" +
+                               security->permissions_file + ") do not allow subscribing to it, or profile '" +
+                               qos_profile_ + "' is inconsistent (see the Fast DDS log; " + core_->description() +
+                               ")");
+    }
     throw std::runtime_error("odonav::dds::Reader: cannot create the reader of topic '" + topic_name_ +
                              "' with profile '" + qos_profile_ + "' (inconsistent QoS? see the Fast DDS log; " +
                              core_->description() + ")");

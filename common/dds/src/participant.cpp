@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <fstream>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 namespace odonav::dds {
 
@@ -38,12 +40,36 @@ void load_xml_file(const std::string& path, const char* what) {
   }
 }
 
+// Sets each (name, value) in the participant's property policy, replacing a property of the same
+// name the XML profile may already carry (the layer's material wins over the profile's).
+void add_or_replace_properties(DomainParticipantQos& qos,
+                               const std::vector<std::pair<std::string, std::string>>& properties) {
+  auto& list = qos.properties().properties();
+  for (const auto& [name, value] : properties) {
+    bool replaced = false;
+    for (auto& p : list) {
+      if (p.name() == name) {
+        p.value() = value;
+        replaced = true;
+      }
+    }
+    if (!replaced) list.emplace_back(name, value);
+  }
+}
+
+bool has_property(const DomainParticipantQos& qos, const std::string& name) {
+  for (const auto& p : qos.properties().properties())
+    if (p.name() == name) return true;
+  return false;
+}
+
 }  // namespace
 
 namespace detail {
 
-ParticipantCore::ParticipantCore(DomainParticipant* participant, std::string description)
-    : participant_(participant), description_(std::move(description)) {
+ParticipantCore::ParticipantCore(DomainParticipant* participant, std::string description,
+                                 std::optional<SecurityMaterial> security)
+    : participant_(participant), description_(std::move(description)), security_(std::move(security)) {
   publisher_ = participant_->create_publisher(eprosima::fastdds::dds::PUBLISHER_QOS_DEFAULT);
   subscriber_ = participant_->create_subscriber(eprosima::fastdds::dds::SUBSCRIBER_QOS_DEFAULT);
   if (publisher_ == nullptr || subscriber_ == nullptr) {
@@ -103,9 +129,16 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
     profiles_file_ = env;
   }
   qos_file_ = options.qos_file.empty() ? directory_of(profiles_file_) + "/qos.xml" : options.qos_file;
-  const std::string description = "participant profile '" + options.participant_profile + "' of file '" +
-                                  profiles_file_ + "', QoS file '" + qos_file_ + "', domain " +
-                                  std::to_string(domain_id_);
+  std::optional<SecurityMaterial> security;
+  try {
+    security = resolve_security_material(options.security_dir, options.security_identity, options.participant_name);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(std::string("odonav::dds::Participant: ") + e.what());
+  }
+  std::string description = "participant profile '" + options.participant_profile + "' of file '" +
+                            profiles_file_ + "', QoS file '" + qos_file_ + "', domain " +
+                            std::to_string(domain_id_);
+  if (security) description += ", " + security->describe();
   if (domain_id_ < 0 || domain_id_ > kMaxDomainId) {
     throw std::runtime_error("odonav::dds::Participant: domain id " + std::to_string(domain_id_) +
                              " is outside 0.." + std::to_string(kMaxDomainId) + " (" + description + ")");
@@ -122,12 +155,31 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
                              "' (or in another loaded XML file)");
   }
   if (!options.participant_name.empty()) qos.name(options.participant_name);
+  if (security) {
+    check_security_material(*security);
+    add_or_replace_properties(qos, security_properties(*security));
+  } else if (has_property(qos, "dds.sec.auth.plugin") &&
+             !has_property(qos, "dds.sec.auth.builtin.PKI-DH.identity_certificate")) {
+    // secure.xml names the plugins and the shared files only: the identity comes from the layer.
+    throw std::runtime_error("odonav::dds::Participant: " + description +
+                             " enables DDS Security but names no identity certificate: give the security "
+                             "directory (--security-dir or " + std::string(kSecurityDirEnv) + ")");
+  }
   DomainParticipant* participant = factory->create_participant(domain_id_, qos);
   if (participant == nullptr) {
+    std::string why = " (see the Fast DDS log)";
+    if (security) {
+      // Fast DDS 2.9 refuses a secure participant without saying why (FAST_DDS_NOTES.md).
+      why = " (DDS Security refused it: check that the certificate is signed by identity_ca.cert.pem and "
+            "matches key.pem, that governance and permissions are signed by permissions_ca.cert.pem, that "
+            "the permissions subject_name is the certificate subject in RFC 2253 order (CN=...,O=...,C=...) "
+            "and still valid, and that they grant domain " + std::to_string(domain_id_) + "; see the Fast DDS log)";
+    }
     throw std::runtime_error("odonav::dds::Participant: Fast DDS could not create the participant from " +
-                             description + " (see the Fast DDS log)");
+                             description + why);
   }
-  core_ = std::make_shared<detail::ParticipantCore>(participant, description);
+  if (security) spdlog::info("odonav::dds: participant in domain {} uses {}", domain_id_, security->describe());
+  core_ = std::make_shared<detail::ParticipantCore>(participant, description, security);
 }
 
 }  // namespace odonav::dds

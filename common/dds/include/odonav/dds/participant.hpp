@@ -10,7 +10,10 @@
 
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
+
+#include "odonav/dds/security.hpp"
 
 namespace odonav::dds {
 
@@ -28,6 +31,11 @@ struct ParticipantOptions {
   int domain_id = 0;
   /// Participant name shown by discovery tools (e.g. "odonav-gateway"). Empty: the profile's.
   std::string participant_name;
+  /// DDS Security material directory (layout: security.hpp). Empty: $ODONAV_SECURITY_DIR; if that
+  /// is unset or empty too, the participant is exactly what the profile says (no security added).
+  std::string security_dir;
+  /// Identity in security_dir. Empty: $ODONAV_SECURITY_IDENTITY, else participant_name.
+  std::string security_identity;
 };
 
 namespace detail {
@@ -35,7 +43,9 @@ namespace detail {
 /// participant is torn down only after its last endpoint is gone, whatever the destruction order.
 class ParticipantCore {
  public:
-  ParticipantCore(eprosima::fastdds::dds::DomainParticipant* participant, std::string description);
+  /// security: the DDS Security material the participant was created with, if any.
+  ParticipantCore(eprosima::fastdds::dds::DomainParticipant* participant, std::string description,
+                  std::optional<SecurityMaterial> security = std::nullopt);
   ~ParticipantCore();
   ParticipantCore(const ParticipantCore&) = delete;
   ParticipantCore& operator=(const ParticipantCore&) = delete;
@@ -45,6 +55,8 @@ class ParticipantCore {
   eprosima::fastdds::dds::Subscriber& subscriber() const { return *subscriber_; }
   /// "participant profile 'p' of file 'f', QoS file 'q', domain d", for error messages.
   const std::string& description() const { return description_; }
+  /// The DDS Security material in use, nullopt for a participant without the layer's security.
+  const std::optional<SecurityMaterial>& security() const { return security_; }
 
   /// The topic `topic_name` of `type`, registering the type and creating the topic on first use.
   /// Throws if registration or creation fails, or if the topic exists with another type.
@@ -56,6 +68,7 @@ class ParticipantCore {
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   std::string description_;
+  std::optional<SecurityMaterial> security_;
   std::mutex mutex_;  // topic creation and type registration
 };
 }  // namespace detail
@@ -65,14 +78,19 @@ class ParticipantCore {
 /// endpoints created from it are destroyed.
 class Participant {
  public:
-  /// Loads the participant profile file and the QoS file, then creates the participant.
+  /// Loads the participant profile file and the QoS file, then creates the participant. With
+  /// DDS Security material (options or environment, see ParticipantOptions::security_dir), adds
+  /// the dds.sec.* properties (security_properties) on top of the profile's.
   /// Throws std::runtime_error naming what failed: a file missing or not parseable, an unknown
-  /// participant profile, a domain id out of 0..232, or participant creation refused.
+  /// participant profile, a domain id out of 0..232, a security file missing or an identity that
+  /// is not a plain name, or participant creation refused (with security: the likely reasons).
   explicit Participant(const ParticipantOptions& options);
 
   const std::string& profiles_file() const { return profiles_file_; }
   const std::string& qos_file() const { return qos_file_; }
   int domain_id() const { return domain_id_; }
+  /// The DDS Security material added by the layer (nullopt: none; the profile may still have its own).
+  const std::optional<SecurityMaterial>& security() const { return core_->security(); }
 
   /// The Fast DDS participant, for what this thin layer does not wrap.
   eprosima::fastdds::dds::DomainParticipant& native() const { return core_->participant(); }
