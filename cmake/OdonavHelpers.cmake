@@ -19,10 +19,18 @@ function(odonav_add_gtest name)
   # PROPERTIES takes key/value pairs: a list value must keep its ';' escaped or only its first
   # element survives.
   string(REPLACE ";" "\\;" _labels "${ARG_LABELS}")
+  # Multi-process tests (label "integration") run one at a time: each starts several DDS processes
+  # that pace themselves on event time with bounded waits, and two such runs on a 2-core machine
+  # starve each other. Unit tests still run in parallel.
+  set(_serial FALSE)
+  if("integration" IN_LIST ARG_LABELS)
+    set(_serial TRUE)
+  endif()
   gtest_discover_tests(${target}
     DISCOVERY_MODE PRE_TEST
     PROPERTIES
       TIMEOUT ${ARG_TIMEOUT}
       LABELS "${_labels}"
+      RUN_SERIAL ${_serial}
       ENVIRONMENT "SKIP_DEFAULT_XML=1;FASTRTPS_DEFAULT_PROFILES_FILE=${PROJECT_SOURCE_DIR}/deploy/profiles/loopback.xml;${ARG_ENVIRONMENT}")
 endfunction()

@@ -17,8 +17,7 @@ constexpr uint64_t kMisalignmentMinSamplesToApply = 100;
 inline bool misalignment_applicable(bool converged, uint64_t samples_used) {
   return converged || samples_used >= kMisalignmentMinSamplesToApply;
 }
-/// Kept for callers written against the first rule; same as misalignment_applicable(converged, 0).
-inline bool misalignment_applicable(bool converged) { return converged; }
+
 
 /// Dead reckoning applies an identified K once its estimator says converged (sigma small enough);
 /// before, it uses the nominal K. An unconverged K from the first seconds can be off by percents.

@@ -27,9 +27,11 @@ std::vector<TimedValue> reference_k(const Dataset& d, const json& sim, std::vect
   std::vector<TimedValue> ref;
   if (sim.contains("k_true_initial_m_per_pulse") && sim.contains("k_steps")) {
     const double t0 = d.odometer.empty() ? 0.0 : d.odometer.front().t_s;
+    const double t_end = d.odometer.empty() ? 0.0 : d.odometer.back().t_s;
     ref.push_back({t0, sim["k_true_initial_m_per_pulse"].get<double>()});
     for (const json& s : sim["k_steps"]) {
       KStep step{s["t_s"].get<double>(), s["k_before"].get<double>(), s["k_after"].get<double>()};
+      if (step.t_s > t_end) break;  // a drive cut short (--duration-s) never reaches this step
       steps->push_back(step);
       ref.push_back({step.t_s, step.k_after_m_per_pulse});
     }

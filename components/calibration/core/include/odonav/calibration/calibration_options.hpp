@@ -7,6 +7,7 @@
 
 #include "odonav/calibration/misalignment_calibrator.hpp"
 #include "odonav/config.hpp"
+#include "odonav/lever_arm_option.hpp"
 
 namespace odonav {
 
@@ -14,10 +15,5 @@ namespace odonav {
 void add_calibration_options(Options& options);
 MisalignmentCalibratorParams calibration_params_from(const Options& options);
 
-/// Declares --lever-arm "x,y,z" (GNSS antenna in the INS body frame, forward-left-up, metres; empty =
-/// none). Shared by calibration and dead reckoning.
-void add_lever_arm_option(Options& options);
-/// Parses --lever-arm; throws ConfigError naming it when malformed.
-std::optional<Eigen::Vector3d> lever_arm_from(const Options& options);
 
 }  // namespace odonav

@@ -1,0 +1,150 @@
+#pragma once
+// What every odonav DDS component process shares (issue 4): the common flags, the participant and
+// health publisher, the operator command subscription, SIGINT/SIGTERM handling, and ONE worker
+// thread fed through a queue so the cores never run inside DDS listener threads.
+//
+//   int main(int argc, char** argv) {
+//     return odonav::dds::run_component(argc, argv, "odonav-calibration", "...",
+//         [](odonav::Options& o) { /* declare the core's own options */ },
+//         [](const odonav::Options& o, odonav::dds::ComponentRuntime& rt) { /* build node, run */ });
+//   }
+//
+// Exit codes: 0 normal end (also after SIGINT/SIGTERM and --help), 2 bad configuration (a flag,
+// the config file, a profile file or profile name, a domain id: the message names it), 1 any other
+// failure.
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "odonav/config.hpp"
+#include "odonav/dds/endpoints.hpp"
+#include "odonav/dds/health.hpp"
+#include "odonav/dds/participant.hpp"
+#include "odonav/msg/Command.h"
+
+namespace odonav::dds {
+
+/// Settings every component takes from its flags.
+struct ComponentSettings {
+  std::string component;     ///< e.g. "odonav-calibration": health key, command target, logger name.
+  std::string vehicle_id;    ///< key of everything published; only this vehicle's inputs are used.
+  ParticipantOptions participant;
+  double max_wait_s = 2.0;   ///< event-time alignment: how long an input may lag silently (s).
+  std::string log_level;     ///< empty: ODONAV_LOG_LEVEL or info.
+};
+
+/// Declares --domain (0..232, default 0), --profile (participant XML file; empty =
+/// $FASTRTPS_DEFAULT_PROFILES_FILE), --profile-name (default "loopback_only"), --vehicle-id
+/// (default "vehicle-01"), --max-wait-s (s, (0, 3600], default 2) and --log-level.
+void add_component_options(Options& options);
+/// Reads them back. Throws ConfigError naming the flag when a value is unusable (empty vehicle id,
+/// no profile file and FASTRTPS_DEFAULT_PROFILES_FILE unset).
+ComponentSettings component_settings_from(const Options& options, const std::string& component);
+
+/// Monotonic wall clock (s, arbitrary origin): for maximum waits and rates.
+double steady_now_s();
+/// UNIX time (s): the stamp of Health messages ("component clock at publication").
+double unix_now_s();
+
+/// SIGINT / SIGTERM as a flag. Construct it in main() BEFORE any other thread exists (it blocks the
+/// two signals for the calling thread, and threads created afterwards inherit that), so the
+/// signals are received only by its own waiting thread, never in the middle of middleware code.
+class StopSignals {
+ public:
+  StopSignals();
+  ~StopSignals();
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+  bool stop_requested() const { return stop_.load(); }
+  /// The signal received (SIGINT, SIGTERM), 0 if none.
+  int signal_number() const { return signal_.load(); }
+  /// Requests the stop as a signal would (tests, fatal conditions).
+  void request_stop() { stop_.store(true); }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::atomic<int> signal_{0};
+  std::atomic<bool> quit_{false};
+  std::thread waiter_;
+};
+
+/// The participant, health publisher and command subscription of one component, and its worker
+/// queue. The component's own readers post their samples here (post()); run() executes them, in
+/// order, on the calling thread (the worker), and calls the tick function after each batch and at
+/// least every tick period, until a stop is requested.
+class ComponentRuntime {
+ public:
+  /// Executes one operator command addressed to this component (on the worker thread); returns the
+  /// acknowledgement carried by the following Health messages.
+  using CommandHandler = std::function<CommandAck(const odonav::msg::Command& command)>;
+
+  /// Creates the participant (named after the component), the health writer and the command
+  /// reader. Throws std::runtime_error naming the profile file, profile name or domain on failure.
+  ComponentRuntime(const ComponentSettings& settings, StopSignals& stop);
+  ~ComponentRuntime();
+  ComponentRuntime(const ComponentRuntime&) = delete;
+  ComponentRuntime& operator=(const ComponentRuntime&) = delete;
+
+  const ComponentSettings& settings() const { return settings_; }
+  Participant& participant() { return *participant_; }
+  HealthPublisher& health() { return *health_; }
+  StopSignals& stop_signals() { return stop_; }
+
+  /// Handles the Command topic for this vehicle and component (set once, before run()).
+  void set_command_handler(CommandHandler handler);
+
+  /// Queues a task for the worker thread. Thread-safe (reader callbacks call it).
+  void post(std::function<void()> task);
+  /// Tasks waiting in the queue.
+  std::size_t queue_depth() const;
+
+  /// Worker loop: runs posted tasks, and `tick` after each batch of tasks and at least every
+  /// tick_period, until a stop is requested. Returns then (queued tasks stay queued).
+  void run(const std::function<void()>& tick, std::chrono::milliseconds tick_period = std::chrono::milliseconds(100));
+  /// Runs every task queued now (after the readers are gone: the drain).
+  void run_pending();
+
+  /// Publishes Health if a second has passed since the last (force: now, e.g. a state change; also
+  /// forced once after each command so its acknowledgement is seen at once).
+  /// Counters are the caller's; the acknowledgement is the last command's.
+  void publish_health(odonav::msg::HealthState state, odonav::msg::HealthLevel level, const std::string& reason,
+                      const HealthCounters& counters, bool force = false);
+
+ private:
+  void on_command(const odonav::msg::Command& command);
+
+  ComponentSettings settings_;
+  StopSignals& stop_;
+  std::unique_ptr<Participant> participant_;
+  std::unique_ptr<HealthPublisher> health_;
+  CommandHandler command_handler_;
+  bool ack_pending_ = false;  // worker thread: a command was acknowledged, tell it at once
+  std::unique_ptr<Reader<odonav::msg::Command>> commands_;
+
+  mutable std::mutex queue_mutex_;
+  std::condition_variable queue_changed_;
+  std::deque<std::function<void()>> queue_;
+};
+
+/// The main() of a component: declares the common options and the component's own (declare),
+/// parses argv (--help prints the usage and returns 0), sets up logging (spdlog, stderr), creates
+/// the runtime and calls run(options, runtime). Maps errors to exit codes (see the file comment)
+/// after logging them; `run`'s return value is the exit code otherwise.
+int run_component(int argc, char** argv, const std::string& component, const std::string& description,
+                  const std::function<void(Options&)>& declare,
+                  const std::function<int(const Options&, ComponentRuntime&)>& run);
+
+/// Waits (bounded by timeout) until every matched reader acknowledged what `writer` wrote; logs a
+/// warning naming the topic when it did not. Returns whether everything was acknowledged.
+bool wait_for_acknowledgments_logged(detail::WriterBase& writer, std::chrono::milliseconds timeout);
+
+}  // namespace odonav::dds

@@ -1,0 +1,235 @@
+#pragma once
+// Shared by the calibration, identification and dead-reckoning nodes (header-only, so odonav_dds
+// itself does not depend on the estimation libraries; users link odonav_samples):
+// - sensor messages -> core samples (header stamp -> seconds with the layer's time helpers);
+// - NodeInput: one input stream through the EventTimeAligner into a core, counting every sample
+//   that is not fed (late, backwards, refused by the core) instead of crashing;
+// - health counters and reasons of the inputs;
+// - EstimatePublisher: writes a node's estimates and republishes the last one as a heartbeat
+//   when nothing was published for a second (the estimate topics' 1 s deadline contract,
+//   idl/README.md, and the liveness signal consumers' maximum waits rely on).
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "odonav/dataset.hpp"
+#include "odonav/dds/endpoints.hpp"
+#include "odonav/dds/health.hpp"
+#include "odonav/dds/time.hpp"
+#include "odonav/event_time_aligner.hpp"
+#include "odonav/frames.hpp"
+#include "odonav/msg/GnssFix.h"
+#include "odonav/msg/InsAttitude.h"
+#include "odonav/msg/Odometer.h"
+#include "odonav/stream_buffers.hpp"
+
+namespace odonav::dds {
+
+// ---- messages -> samples (frames and units: idl/README.md; samples: dataset.hpp) ----
+
+/// Odometer message -> sample: t_s = header stamp (s), raw pulses, direction (-1, 0, +1 as sent;
+/// the core rejects other values). Throws std::invalid_argument for a non-normalized stamp.
+inline OdometerSample odometer_sample_from(const odonav::msg::Odometer& m) {
+  OdometerSample s;
+  s.t_s = to_seconds(m.header().stamp());
+  s.pulses = m.pulses();
+  s.direction = m.direction();
+  return s;
+}
+
+/// GnssFix message -> sample: degrees -> radians, ENU velocity (m/s), accuracies (-1 = unknown ->
+/// absent), fix quality (a fix the producer marked not valid is taken as fix 0, invalid).
+inline GnssSample gnss_sample_from(const odonav::msg::GnssFix& m) {
+  GnssSample s;
+  s.t_s = to_seconds(m.header().stamp());
+  s.position = Geodetic{deg_to_rad(m.latitude_deg()), deg_to_rad(m.longitude_deg()), m.height_m()};
+  s.vel_enu_mps = Eigen::Vector3d(m.velocity_east_mps(), m.velocity_north_mps(), m.velocity_up_mps());
+  if (m.position_std_m() >= 0.0) s.pos_std_m = m.position_std_m();
+  if (m.velocity_std_mps() >= 0.0) s.vel_std_mps = m.velocity_std_mps();
+  s.fix = m.valid() ? static_cast<int>(m.fix_quality()) : 0;
+  return s;
+}
+
+/// InsAttitude message -> sample (radians; velocity only when velocity_valid).
+inline InsSample ins_sample_from(const odonav::msg::InsAttitude& m) {
+  InsSample s;
+  s.t_s = to_seconds(m.header().stamp());
+  s.attitude = Attitude{m.heading_rad(), m.pitch_rad(), m.roll_rad()};
+  if (m.velocity_valid())
+    s.vel_enu_mps = Eigen::Vector3d(m.velocity_east_mps(), m.velocity_north_mps(), m.velocity_up_mps());
+  return s;
+}
+
+// ---- inputs ----
+
+/// One input stream of a node. Worker thread only.
+struct NodeInput {
+  std::string name;                        ///< stream name in counters and reasons ("gnss", ...).
+  EventTimeAligner::StreamId id = 0;       ///< its stream in the node's aligner.
+  bool estimate = false;                   ///< an estimate topic: repeated stamps are heartbeats.
+  uint64_t refused = 0;                    ///< refused by the core or with a bad stamp.
+  uint64_t dropped_invalid = 0;            ///< dropped by the node before the aligner (e.g. INS not valid).
+  std::string last_problem;                ///< why the last sample was not fed, in words.
+  std::optional<double> last_problem_wall_s;  ///< when (steady clock, s).
+  uint64_t problems = 0;                   ///< samples not fed for any reason but heartbeats.
+
+  /// Records a sample that was not fed, with the reason (logged, rate-limited).
+  void note_problem(const std::string& why, double now_s) {
+    ++problems;
+    last_problem = why;
+    last_problem_wall_s = now_s;
+    if (problems <= 10 || problems % 1000 == 0)
+      spdlog::warn("{}: sample not used ({} so far): {}", name, problems, why);
+  }
+};
+
+/// Passes one sample stamped `stamp` through the aligner and, if accepted, to feed(t_s) (which
+/// adds it to the core(s)). Never throws on input: bad stamps, late or backwards samples, and
+/// samples the core refuses (StreamInputError / std::invalid_argument) are counted on `in`.
+template <class Feed>
+SampleAdmission admit_sample(EventTimeAligner& aligner, NodeInput& in, const builtin_interfaces::msg::Time& stamp,
+                             double now_s, Feed&& feed) {
+  double t_s = 0.0;
+  try {
+    t_s = to_seconds(stamp);
+  } catch (const std::invalid_argument& e) {
+    ++in.refused;
+    in.note_problem(e.what(), now_s);
+    return SampleAdmission::kInvalid;
+  }
+  const SampleAdmission a = aligner.on_sample(in.id, t_s, now_s);
+  std::ostringstream why;
+  why.precision(15);
+  switch (a) {
+    case SampleAdmission::kAccepted:
+      try {
+        feed(t_s);
+      } catch (const std::invalid_argument& e) {  // StreamInputError and parameter checks
+        ++in.refused;
+        in.note_problem(e.what(), now_s);
+      }
+      return a;
+    case SampleAdmission::kRepeated:
+      if (in.estimate) return a;  // heartbeat of a live producer
+      why << "time did not increase (t=" << t_s << " s, as the previous sample)";
+      break;
+    case SampleAdmission::kBackwards:
+      why << "time went backwards (t=" << t_s << " s)";
+      break;
+    case SampleAdmission::kLate:
+      why << "late: t=" << t_s << " s is not after what was already processed (" << aligner.processed_s()
+          << " s)";
+      break;
+    case SampleAdmission::kInvalid:
+      why << "time stamp is not finite";
+      break;
+  }
+  in.note_problem(why.str(), now_s);
+  return a;
+}
+
+/// Appends "<name>_in", "<name>_late", "<name>_rejected", "<name>_absent_events",
+/// "<name>_silent_s" for one input.
+inline void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, const NodeInput& in,
+                                  double now_s) {
+  const EventTimeAligner::StreamStatus st = aligner.status(in.id, now_s);
+  const double rejected = static_cast<double>(st.backwards + st.invalid + in.refused + in.dropped_invalid +
+                                              (in.estimate ? 0 : st.repeated));
+  c.emplace_back(in.name + "_in", static_cast<double>(st.accepted));
+  c.emplace_back(in.name + "_late", static_cast<double>(st.late));
+  c.emplace_back(in.name + "_rejected", rejected);
+  c.emplace_back(in.name + "_absent_events", static_cast<double>(st.absent_events));
+  c.emplace_back(in.name + "_silent_s", std::round(st.silent_for_s * 10.0) / 10.0);
+  if (in.estimate) c.emplace_back(in.name + "_skipped_epochs", static_cast<double>(st.skipped_pacing_epochs));
+}
+
+/// "no gnss for 12 s" for the first of `inputs` that is absent now, else nullopt.
+inline std::optional<std::string> absent_reason(const EventTimeAligner& aligner,
+                                                const std::vector<const NodeInput*>& inputs, double now_s) {
+  for (const NodeInput* in : inputs) {
+    const EventTimeAligner::StreamStatus st = aligner.status(in->id, now_s);
+    if (st.absent) {
+      std::ostringstream m;
+      m << "no " << in->name << " for " << static_cast<long long>(std::floor(st.silent_for_s)) << " s";
+      return m.str();
+    }
+  }
+  return std::nullopt;
+}
+
+/// "waiting for gnss" for the first of `inputs` that never delivered a sample, else nullopt.
+inline std::optional<std::string> waiting_reason(const EventTimeAligner& aligner,
+                                                 const std::vector<const NodeInput*>& inputs, double now_s) {
+  for (const NodeInput* in : inputs)
+    if (!aligner.status(in->id, now_s).last_t_s) return "waiting for " + in->name;
+  return std::nullopt;
+}
+
+/// "rejected 12 ins samples: time went backwards ..." when one of `inputs` had a sample not fed
+/// within the last recent_s seconds (steady clock), else nullopt.
+inline std::optional<std::string> rejection_reason(const std::vector<const NodeInput*>& inputs, double now_s,
+                                                   double recent_s = 10.0) {
+  for (const NodeInput* in : inputs) {
+    if (in->last_problem_wall_s && now_s - *in->last_problem_wall_s <= recent_s) {
+      std::ostringstream m;
+      m << "rejected " << in->problems << " " << in->name << " samples: " << in->last_problem;
+      return m.str();
+    }
+  }
+  return std::nullopt;
+}
+
+// ---- outputs ----
+
+/// Writes one estimate topic; republishes the last estimate (same stamp: consumers see a repeat,
+/// i.e. a heartbeat) when nothing was written for heartbeat_period_s of wall clock.
+template <class T>
+class EstimatePublisher {
+ public:
+  EstimatePublisher(const Participant& participant, const std::string& topic_name, const std::string& qos_profile,
+                    double heartbeat_period_s = 1.0)
+      : writer_(participant, topic_name, qos_profile), heartbeat_period_s_(heartbeat_period_s) {}
+
+  /// Writes a new estimate at now_s (steady clock, s).
+  void publish(const T& message, double now_s) {
+    if (!writer_.write(message)) {
+      ++write_failures_;
+      spdlog::warn("{}: write refused by the middleware ({} so far)", writer_.topic_name(), write_failures_);
+    }
+    last_ = message;
+    last_write_s_ = now_s;
+    // KEEP_LAST 1: a burst (catching up, the drain) must give the transport time to deliver.
+    if (++published_ % 100 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  /// Republishes the last estimate if the period has passed since the last write.
+  void heartbeat_if_due(double now_s) {
+    if (!last_ || now_s - last_write_s_ < heartbeat_period_s_) return;
+    writer_.write(*last_);
+    last_write_s_ = now_s;
+    ++heartbeats_;
+  }
+  Writer<T>& writer() { return writer_; }
+  uint64_t published() const { return published_; }
+  uint64_t heartbeats() const { return heartbeats_; }
+  uint64_t write_failures() const { return write_failures_; }
+  const std::optional<T>& last() const { return last_; }
+
+ private:
+  Writer<T> writer_;
+  double heartbeat_period_s_;
+  std::optional<T> last_;
+  double last_write_s_ = 0.0;
+  uint64_t published_ = 0;
+  uint64_t heartbeats_ = 0;
+  uint64_t write_failures_ = 0;
+};
+
+}  // namespace odonav::dds

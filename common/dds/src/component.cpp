@@ -1,0 +1,232 @@
+// Component scaffolding: flags, signals, worker queue, health and commands (see component.hpp).
+#include "odonav/dds/component.hpp"
+
+#include <pthread.h>
+#include <signal.h>
+#include <time.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <stdexcept>
+
+#include "odonav/logging.hpp"
+#include "odonav/topics.hpp"
+
+namespace odonav::dds {
+
+void add_component_options(Options& o) {
+  o.add_int("domain", 0, "DDS domain id; components of one vehicle share it", 0, 232);
+  o.add_string("profile", "",
+               "Fast DDS XML file with the participant profile (qos.xml is read from its directory); "
+               "empty = $FASTRTPS_DEFAULT_PROFILES_FILE");
+  o.add_string("profile-name", topics::kLoopbackParticipantProfile, "participant profile name in --profile");
+  o.add_string("vehicle-id", "vehicle-01", "vehicle whose topics are read and written (the DDS key)");
+  o.add_double("max-wait-s", 2.0,
+               "event time: an input silent this long (wall clock, s) while the others are ahead is treated "
+               "as absent",
+               0.01, 3600.0);
+  o.add_string("log-level", "", std::string("log level (") + kLogLevelNames + "); empty = $ODONAV_LOG_LEVEL or info");
+}
+
+ComponentSettings component_settings_from(const Options& o, const std::string& component) {
+  ComponentSettings s;
+  s.component = component;
+  s.vehicle_id = o.get_string("vehicle-id");
+  if (s.vehicle_id.empty()) throw ConfigError("--vehicle-id: must not be empty");
+  s.participant.profiles_file = o.get_string("profile");
+  if (s.participant.profiles_file.empty()) {
+    const char* env = std::getenv("FASTRTPS_DEFAULT_PROFILES_FILE");
+    if (env == nullptr || *env == '\0')
+      throw ConfigError("--profile: not given and FASTRTPS_DEFAULT_PROFILES_FILE is not set (use e.g. "
+                        "--profile deploy/profiles/loopback.xml)");
+    s.participant.profiles_file = env;
+  }
+  s.participant.participant_profile = o.get_string("profile-name");
+  if (s.participant.participant_profile.empty()) throw ConfigError("--profile-name: must not be empty");
+  s.participant.domain_id = static_cast<int>(o.get_int("domain"));
+  s.participant.participant_name = component;
+  s.max_wait_s = o.get_double("max-wait-s");
+  s.log_level = o.get_string("log-level");
+  if (!s.log_level.empty()) parse_log_level(s.log_level, "--log-level");
+  return s;
+}
+
+double steady_now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+double unix_now_s() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+// ---- StopSignals ----
+
+StopSignals::StopSignals() {
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  // Blocked here and in every thread created later: only sigtimedwait below receives them.
+  if (const int rc = pthread_sigmask(SIG_BLOCK, &set, nullptr); rc != 0)
+    throw std::runtime_error(std::string("StopSignals: pthread_sigmask failed: ") + std::strerror(rc));
+  waiter_ = std::thread([this, set] {
+    // Polls quit_ every 200 ms so the destructor can end the thread without sending a signal.
+    const timespec period{0, 200 * 1000 * 1000};
+    while (!quit_.load()) {
+      const int sig = sigtimedwait(&set, nullptr, &period);
+      if (sig == SIGINT || sig == SIGTERM) {
+        signal_.store(sig);
+        stop_.store(true);
+      }
+    }
+  });
+}
+
+StopSignals::~StopSignals() {
+  quit_.store(true);
+  if (waiter_.joinable()) waiter_.join();
+}
+
+// ---- ComponentRuntime ----
+
+ComponentRuntime::ComponentRuntime(const ComponentSettings& settings, StopSignals& stop)
+    : settings_(settings), stop_(stop) {
+  participant_ = std::make_unique<Participant>(settings_.participant);
+  health_ = std::make_unique<HealthPublisher>(*participant_, settings_.vehicle_id, settings_.component);
+  commands_ = std::make_unique<Reader<odonav::msg::Command>>(
+      *participant_, topics::kCommand.name, topics::kCommand.reader_profile,
+      [this](const odonav::msg::Command& c) { on_command(c); });
+}
+
+ComponentRuntime::~ComponentRuntime() {
+  commands_.reset();  // no command callback after this
+}
+
+void ComponentRuntime::set_command_handler(CommandHandler handler) { command_handler_ = std::move(handler); }
+
+void ComponentRuntime::on_command(const odonav::msg::Command& command) {
+  // Listener thread: filter, then hand over to the worker.
+  if (command.vehicle_id() != settings_.vehicle_id || command.target_component() != settings_.component) return;
+  post([this, command] {
+    CommandAck ack{command.command_id(), odonav::msg::COMMAND_RESULT_REJECTED, "command not supported"};
+    if (command_handler_) ack = command_handler_(command);
+    ack.command_id = command.command_id();
+    spdlog::info("command {} (kind {}): {} {}", command.command_id(), static_cast<int>(command.command()),
+                 ack.result == odonav::msg::COMMAND_RESULT_ACCEPTED ? "accepted" : "rejected", ack.detail);
+    health_->acknowledge(ack.command_id, ack.result, ack.detail);
+    ack_pending_ = true;
+  });
+}
+
+void ComponentRuntime::post(std::function<void()> task) {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    queue_.push_back(std::move(task));
+  }
+  queue_changed_.notify_one();
+}
+
+std::size_t ComponentRuntime::queue_depth() const {
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  return queue_.size();
+}
+
+void ComponentRuntime::run(const std::function<void()>& tick, std::chrono::milliseconds tick_period) {
+  auto next_tick = std::chrono::steady_clock::now();
+  while (!stop_.stop_requested()) {
+    std::deque<std::function<void()>> batch;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      queue_changed_.wait_until(lock, next_tick, [&] { return !queue_.empty(); });
+      // Bounded batches keep ticks (watermarks, health) regular under a flood of samples.
+      for (int i = 0; i < 256 && !queue_.empty(); ++i) {
+        batch.push_back(std::move(queue_.front()));
+        queue_.pop_front();
+      }
+    }
+    for (auto& task : batch) task();
+    if (tick) tick();
+    next_tick = std::chrono::steady_clock::now() + tick_period;
+  }
+}
+
+void ComponentRuntime::run_pending() {
+  while (true) {
+    std::function<void()> task;
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      if (queue_.empty()) return;
+      task = std::move(queue_.front());
+      queue_.pop_front();
+    }
+    task();
+  }
+}
+
+void ComponentRuntime::publish_health(odonav::msg::HealthState state, odonav::msg::HealthLevel level,
+                                      const std::string& reason, const HealthCounters& counters, bool force) {
+  const double now = unix_now_s();
+  if (ack_pending_) force = true;
+  ack_pending_ = false;
+  if (force)
+    health_->publish_now(now, state, level, reason, counters);
+  else
+    health_->publish_if_due(now, state, level, reason, counters);
+}
+
+bool wait_for_acknowledgments_logged(detail::WriterBase& writer, std::chrono::milliseconds timeout) {
+  if (writer.matched_readers() == 0) return true;
+  if (writer.wait_for_acknowledgments(timeout)) return true;
+  spdlog::warn("not every reader of '{}' acknowledged within {} ms", writer.topic_name(), timeout.count());
+  return false;
+}
+
+// ---- run_component ----
+
+int run_component(int argc, char** argv, const std::string& component, const std::string& description,
+                  const std::function<void(Options&)>& declare,
+                  const std::function<int(const Options&, ComponentRuntime&)>& run) {
+  try {
+    setup_logging(component);
+  } catch (const std::exception& e) {
+    // Only a bad ODONAV_LOG_LEVEL gets here; fall back to info so the message below is seen.
+    setup_logging(component, "info");
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+  // Before any thread (the participant starts several): see StopSignals.
+  StopSignals stop;
+  Options options(component, description);
+  ComponentSettings settings;
+  try {
+    add_component_options(options);
+    if (declare) declare(options);
+    if (options.parse(argc, argv) == ParseResult::kHelp) return 0;
+    settings = component_settings_from(options, component);
+    setup_logging(component, settings.log_level);
+  } catch (const ConfigError& e) {
+    spdlog::error("bad configuration: {}", e.what());
+    return 2;
+  }
+  std::unique_ptr<ComponentRuntime> runtime;
+  try {
+    runtime = std::make_unique<ComponentRuntime>(settings, stop);
+  } catch (const std::exception& e) {
+    spdlog::error("bad configuration: {}", e.what());
+    return 2;
+  }
+  try {
+    const int code = run(options, *runtime);
+    runtime.reset();
+    return code;
+  } catch (const ConfigError& e) {
+    spdlog::error("bad configuration: {}", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    spdlog::critical("{} failed: {}", component, e.what());
+    return 1;
+  }
+}
+
+}  // namespace odonav::dds

@@ -1,0 +1,189 @@
+// Event-time alignment of input streams (see odonav/event_time_aligner.hpp).
+#include "odonav/event_time_aligner.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace odonav {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The largest double below g: "complete for every time < g" as a process_until watermark.
+double just_below(double g) { return std::nextafter(g, -kInf); }
+}  // namespace
+
+const char* to_string(SampleAdmission admission) {
+  switch (admission) {
+    case SampleAdmission::kAccepted: return "accepted";
+    case SampleAdmission::kLate: return "late";
+    case SampleAdmission::kRepeated: return "repeated";
+    case SampleAdmission::kBackwards: return "backwards";
+    case SampleAdmission::kInvalid: return "invalid";
+  }
+  return "unknown";
+}
+
+EventTimeAligner::EventTimeAligner(double max_wait_s, double start_s)
+    : max_wait_s_(max_wait_s), start_s_(start_s), processed_s_(-kInf) {
+  if (!std::isfinite(max_wait_s) || !(max_wait_s > 0.0)) {
+    std::ostringstream m;
+    m << "EventTimeAligner: max_wait_s must be finite and > 0, got " << max_wait_s;
+    throw std::invalid_argument(m.str());
+  }
+  if (!std::isfinite(start_s)) throw std::invalid_argument("EventTimeAligner: start_s must be finite");
+}
+
+EventTimeAligner::StreamId EventTimeAligner::add_stream(const std::string& name) {
+  Stream s;
+  s.name = name;
+  streams_.push_back(std::move(s));
+  return streams_.size() - 1;
+}
+
+EventTimeAligner::StreamId EventTimeAligner::add_paced_stream(const std::string& name, StreamId pacing) {
+  if (pacing >= streams_.size() || streams_[pacing].pacing) {
+    throw std::invalid_argument("EventTimeAligner::add_paced_stream('" + name +
+                                "'): the pacing stream must be a plain stream declared before");
+  }
+  Stream s;
+  s.name = name;
+  s.pacing = pacing;
+  streams_.push_back(std::move(s));
+  const StreamId id = streams_.size() - 1;
+  streams_[pacing].followers.push_back(id);
+  return id;
+}
+
+EventTimeAligner::Stream& EventTimeAligner::stream_at(StreamId id) {
+  if (id >= streams_.size()) throw std::out_of_range("EventTimeAligner: unknown stream id " + std::to_string(id));
+  return streams_[id];
+}
+
+const EventTimeAligner::Stream& EventTimeAligner::stream_at(StreamId id) const {
+  if (id >= streams_.size()) throw std::out_of_range("EventTimeAligner: unknown stream id " + std::to_string(id));
+  return streams_[id];
+}
+
+void EventTimeAligner::prune_pacing_stamps(Stream& pacing) {
+  // A follower's next non-late sample is stamped at a pacing epoch after both its own last stamp
+  // and the processed watermark: older epochs can never be needed again.
+  double keep_after = kInf;
+  for (StreamId f : pacing.followers) {
+    const Stream& follower = streams_[f];
+    keep_after = std::min(keep_after, follower.last_t_s.value_or(-kInf));
+  }
+  keep_after = std::max(keep_after, processed_s_);
+  while (!pacing.pacing_stamps.empty() && pacing.pacing_stamps.front() <= keep_after)
+    pacing.pacing_stamps.pop_front();
+}
+
+SampleAdmission EventTimeAligner::on_sample(StreamId id, double t_s, double now_s) {
+  Stream& s = stream_at(id);
+  // Any sample, good or not, proves the producer alive.
+  s.last_arrival_s = now_s;
+  if (s.absent) {
+    s.absent = false;
+    s.behind_since_s.reset();
+  }
+  if (!std::isfinite(t_s)) {
+    ++s.counts.invalid;
+    return SampleAdmission::kInvalid;
+  }
+  if (s.last_t_s && t_s < *s.last_t_s) {
+    ++s.counts.backwards;
+    return SampleAdmission::kBackwards;
+  }
+  if (s.last_t_s && t_s == *s.last_t_s) {
+    ++s.counts.repeated;
+    return SampleAdmission::kRepeated;
+  }
+  if (s.pacing && s.last_t_s) {
+    const Stream& pacing = streams_[*s.pacing];
+    for (double g : pacing.pacing_stamps)
+      if (g > *s.last_t_s && g < t_s) ++s.counts.skipped_pacing_epochs;
+  }
+  s.last_t_s = t_s;
+  if (!s.followers.empty()) {
+    s.pacing_stamps.push_back(t_s);
+    prune_pacing_stamps(s);
+  }
+  if (s.pacing) prune_pacing_stamps(streams_[*s.pacing]);
+  if (t_s <= processed_s_) {
+    ++s.counts.late;
+    return SampleAdmission::kLate;
+  }
+  ++s.counts.accepted;
+  return SampleAdmission::kAccepted;
+}
+
+double EventTimeAligner::watermark_of(const Stream& s) const {
+  const double own = s.last_t_s.value_or(-kInf);
+  if (!s.pacing) return own;
+  const Stream& pacing = streams_[*s.pacing];
+  for (double g : pacing.pacing_stamps)
+    if (g > own) return std::max(own, just_below(g));
+  // No pacing epoch after our last one is known: complete up to the pacing stream's own watermark,
+  // or for good while the pacing stream is absent (nothing new can be produced upstream).
+  if (pacing.absent) return kInf;
+  return std::max(own, pacing.last_t_s.value_or(-kInf));
+}
+
+std::optional<double> EventTimeAligner::advance(double now_s) {
+  std::vector<double> wm(streams_.size());
+  for (std::size_t i = 0; i < streams_.size(); ++i) wm[i] = watermark_of(streams_[i]);
+
+  // Absence: silent for longer than max wait while another present stream is ahead.
+  for (std::size_t i = 0; i < streams_.size(); ++i) {
+    Stream& s = streams_[i];
+    if (s.absent || wm[i] == kInf) {
+      s.behind_since_s.reset();
+      continue;
+    }
+    bool others_ahead = false;
+    for (std::size_t j = 0; j < streams_.size(); ++j)
+      if (j != i && !streams_[j].absent && std::isfinite(wm[j]) && wm[j] > wm[i]) others_ahead = true;
+    if (!others_ahead) {
+      s.behind_since_s.reset();
+      continue;
+    }
+    if (!s.behind_since_s) s.behind_since_s = now_s;
+    const double silent_since = std::max(s.last_arrival_s.value_or(start_s_), *s.behind_since_s);
+    if (now_s - silent_since > max_wait_s_) {
+      s.absent = true;
+      s.behind_since_s.reset();
+      ++s.counts.absent_events;
+    }
+  }
+  // Absence of a pacing stream can lift its followers' watermarks.
+  for (std::size_t i = 0; i < streams_.size(); ++i) wm[i] = watermark_of(streams_[i]);
+
+  double w = kInf;
+  bool any = false;
+  for (std::size_t i = 0; i < streams_.size(); ++i) {
+    if (streams_[i].absent || wm[i] == kInf) continue;
+    w = std::min(w, wm[i]);
+    any = true;
+  }
+  if (!any || !std::isfinite(w) || !(w > processed_s_)) return std::nullopt;
+  processed_s_ = w;
+  for (Stream& s : streams_)
+    if (!s.followers.empty()) prune_pacing_stamps(s);
+  return w;
+}
+
+EventTimeAligner::StreamStatus EventTimeAligner::status(StreamId id, double now_s) const {
+  const Stream& s = stream_at(id);
+  StreamStatus out = s.counts;
+  out.name = s.name;
+  out.last_t_s = s.last_t_s;
+  out.watermark_s = watermark_of(s);
+  out.absent = s.absent;
+  out.silent_for_s = now_s - s.last_arrival_s.value_or(start_s_);
+  return out;
+}
+
+}  // namespace odonav

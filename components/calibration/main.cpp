@@ -1,0 +1,15 @@
+// odonav-calibration: the misalignment calibration as a DDS process (README.md).
+#include "node/calibration_node.hpp"
+
+int main(int argc, char** argv) {
+  return odonav::dds::run_component(
+      argc, argv, "odonav-calibration",
+      "Calibrates the odometer-to-INS misalignment from GNSS velocity and INS attitude (ALGORITHM.md 1): "
+      "reads rt/odonav/gnss/fix and rt/odonav/ins/attitude, publishes rt/odonav/misalignment once per GNSS "
+      "epoch, in event time. Stops on SIGINT/SIGTERM after publishing every remaining output.",
+      [](odonav::Options& o) { odonav::nodes::add_calibration_node_options(o); },
+      [](const odonav::Options& o, odonav::dds::ComponentRuntime& runtime) {
+        odonav::nodes::CalibrationNode node(runtime, odonav::nodes::calibration_node_params_from(o));
+        return node.run();
+      });
+}

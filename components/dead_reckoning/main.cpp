@@ -1,0 +1,16 @@
+// odonav-dead-reckoning: SINS/odometer dead reckoning as a DDS process (README.md).
+#include "node/dead_reckoning_node.hpp"
+
+int main(int argc, char** argv) {
+  return odonav::dds::run_component(
+      argc, argv, "odonav-dead-reckoning",
+      "Dead-reckons with the SINS attitude and the odometer (ALGORITHM.md 4): reads rt/odonav/odometer, "
+      "rt/odonav/ins/attitude, rt/odonav/gnss/fix, rt/odonav/misalignment and rt/odonav/scale_factor, publishes "
+      "rt/odonav/dead_reckoning once per odometer sample, in event time. Uses the nominal K until an identified "
+      "K converges, and goes on without identification. Stops on SIGINT/SIGTERM after publishing every output.",
+      [](odonav::Options& o) { odonav::nodes::add_dead_reckoning_node_options(o); },
+      [](const odonav::Options& o, odonav::dds::ComponentRuntime& runtime) {
+        odonav::nodes::DeadReckoningNode node(runtime, odonav::nodes::dead_reckoning_node_params_from(o));
+        return node.run();
+      });
+}

@@ -1,0 +1,77 @@
+#pragma once
+// odonav-dead-reckoning's DDS node: odometer, INS attitude, GNSS, misalignment and scale factor in,
+// one DeadReckoning per odometer sample out (README.md beside this folder). The core is
+// DeadReckoner, fed exactly as odonav-offline feeds it (estimates applied by consumer_rules.hpp), so
+// both publish the same numbers for the same data.
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "odonav/config.hpp"
+#include "odonav/dds/event_time_node.hpp"
+#include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/msg/DeadReckoning.h"
+#include "odonav/msg/Misalignment.h"
+#include "odonav/msg/ScaleFactor.h"
+#include "odonav/stream_buffers.hpp"
+
+namespace odonav::nodes {
+
+/// --nominal-k, --dr-mode (add_dead_reckoning_options), --lever-arm and --use-ins.
+void add_dead_reckoning_node_options(Options& options);
+/// Reads them; --nominal-k 0 means the core's default (0.0125 m/pulse). Throws ConfigError naming
+/// the option when a value is invalid.
+DeadReckonerParams dead_reckoning_node_params_from(const Options& options);
+
+/// DeadReckoning message of one output: stamp = output t_s, frame "wgs84", degrees for latitude
+/// and longitude, metres, radians; origin = the DR origin; misalignment = the one applied at t_s;
+/// horizontal_error_m and error_percent_distance -1 without a GNSS reference.
+odonav::msg::DeadReckoning dead_reckoning_message(const DeadReckoningOutput& output, const Geodetic& origin,
+                                                  const Misalignment& misalignment, const std::string& vehicle_id);
+
+class DeadReckoningNode : public dds::EventTimeNode {
+ public:
+  /// Creates the core (ConfigError naming a bad parameter), the DeadReckoning writer and the readers.
+  DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadReckonerParams& params);
+  ~DeadReckoningNode() override;
+
+ private:
+  void process_until(double watermark_s) override;
+  void finish() override;
+  void close_inputs() override;
+  std::vector<dds::detail::WriterBase*> output_writers() override;
+  Status node_status(double now_s) override;
+  void append_counters(dds::HealthCounters& counters) override;
+
+  void publish(const std::vector<DeadReckoningOutput>& outputs);
+  void on_misalignment(const odonav::msg::Misalignment& m, double t_s);
+  void on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s);
+  dds::CommandAck on_command(const odonav::msg::Command& command);
+
+  DeadReckonerParams params_;
+  DeadReckoner core_;
+  /// The misalignments given to the core, to report the one applied in each output.
+  StepHistory<Misalignment> applied_misalignment_{"misalignment"};
+  std::optional<double> last_k_stamp_s_;  ///< stamp of the last K given to the core (s).
+  bool commanded_k_ = false;              ///< a set_k command holds K: identified K ignored.
+  uint64_t k_applied_ = 0;
+  uint64_t k_ignored_commanded_ = 0;
+  uint64_t misalignments_applied_ = 0;
+  uint64_t burst_writes_ = 0;
+  std::optional<DeadReckoningOutput> last_output_;
+  dds::NodeInput& odometer_;
+  dds::NodeInput& gnss_;
+  dds::NodeInput* ins_ = nullptr;
+  dds::NodeInput& misalignment_;
+  dds::NodeInput& scale_factor_;
+  dds::Writer<odonav::msg::DeadReckoning> writer_;
+  // Last members: destroyed first, so no callback reaches a half-destroyed node.
+  std::unique_ptr<dds::Reader<odonav::msg::Odometer>> odometer_reader_;
+  std::unique_ptr<dds::Reader<odonav::msg::GnssFix>> gnss_reader_;
+  std::unique_ptr<dds::Reader<odonav::msg::InsAttitude>> ins_reader_;
+  std::unique_ptr<dds::Reader<odonav::msg::Misalignment>> misalignment_reader_;
+  std::unique_ptr<dds::Reader<odonav::msg::ScaleFactor>> scale_factor_reader_;
+};
+
+}  // namespace odonav::nodes

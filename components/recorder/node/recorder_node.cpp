@@ -1,0 +1,315 @@
+#include "recorder_node.hpp"
+
+#include <spdlog/spdlog.h>
+#include <sys/stat.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+
+#include "odonav/calibration/misalignment_calibrator.hpp"
+#include "odonav/dds/time.hpp"
+#include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/frames.hpp"
+#include "odonav/topics.hpp"
+
+namespace odonav::recorder {
+
+namespace {
+
+CalibrationState calibration_state(odonav::msg::MisalignmentState s) {
+  switch (s) {
+    case odonav::msg::MISALIGNMENT_WAITING: return CalibrationState::kWaiting;
+    case odonav::msg::MISALIGNMENT_CALIBRATING: return CalibrationState::kCalibrating;
+    case odonav::msg::MISALIGNMENT_CONVERGED: return CalibrationState::kConverged;
+    case odonav::msg::MISALIGNMENT_FROZEN: return CalibrationState::kFrozen;
+  }
+  return CalibrationState::kWaiting;
+}
+
+ScaleFactorSource k_source(odonav::msg::KSource s) {
+  switch (s) {
+    case odonav::msg::K_SOURCE_NOMINAL: return ScaleFactorSource::kNominal;
+    case odonav::msg::K_SOURCE_IDENTIFIED: return ScaleFactorSource::kIdentified;
+    case odonav::msg::K_SOURCE_COMMANDED: return ScaleFactorSource::kCommanded;
+  }
+  return ScaleFactorSource::kNominal;
+}
+
+/// -1 (the wire's "unknown") and any negative or non-finite value -> NaN.
+double known_or_nan(double v) {
+  return std::isfinite(v) && v >= 0.0 ? v : std::numeric_limits<double>::quiet_NaN();
+}
+
+const char* health_state_name(odonav::msg::HealthState s) {
+  switch (s) {
+    case odonav::msg::HEALTH_STATE_STARTING: return "starting";
+    case odonav::msg::HEALTH_STATE_RUNNING: return "running";
+    case odonav::msg::HEALTH_STATE_DEGRADED: return "degraded";
+    case odonav::msg::HEALTH_STATE_ERROR: return "error";
+    case odonav::msg::HEALTH_STATE_STOPPING: return "stopping";
+  }
+  return "?";
+}
+
+const char* health_level_name(odonav::msg::HealthLevel l) {
+  switch (l) {
+    case odonav::msg::HEALTH_LEVEL_OK: return "ok";
+    case odonav::msg::HEALTH_LEVEL_WARN: return "warn";
+    case odonav::msg::HEALTH_LEVEL_ERROR: return "error";
+    case odonav::msg::HEALTH_LEVEL_STALE: return "stale";
+  }
+  return "?";
+}
+
+void make_directories(const std::string& dir) {
+  std::string partial;
+  for (std::size_t i = 0; i <= dir.size(); ++i) {
+    if ((i == dir.size() || dir[i] == '/') && !partial.empty()) {
+      struct stat st {};
+      if (::stat(partial.c_str(), &st) != 0 && ::mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST)
+        throw std::runtime_error(partial + ": cannot create the output directory: " + std::strerror(errno));
+    }
+    if (i < dir.size()) partial += dir[i];
+  }
+  struct stat st {};
+  if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    throw std::runtime_error(dir + ": not a directory (--out)");
+}
+
+}  // namespace
+
+double radians_for_degrees(double angle_deg) {
+  // Mirror of the walk the dataset writer does the other way: deg_to_rad then rad_to_deg may be off
+  // by an ulp; step the radian value towards the side that closes the gap (monotonic map).
+  if (!std::isfinite(angle_deg)) return angle_deg;
+  double best = deg_to_rad(angle_deg);
+  double best_error = std::abs(rad_to_deg(best) - angle_deg);
+  double candidate = best;
+  for (int step = 0; step < 16 && best_error != 0.0; ++step) {
+    const double back = rad_to_deg(candidate);
+    if (back == angle_deg) {
+      best = candidate;
+      best_error = 0.0;
+      break;
+    }
+    candidate = std::nextafter(candidate, back < angle_deg ? std::numeric_limits<double>::infinity()
+                                                           : -std::numeric_limits<double>::infinity());
+    const double error = std::abs(rad_to_deg(candidate) - angle_deg);
+    if (error < best_error) {
+      best = candidate;
+      best_error = error;
+    }
+  }
+  return best;
+}
+
+offline::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m) {
+  offline::MisalignmentRow r;
+  r.t_s = dds::to_seconds(m.header().stamp());
+  r.heading_rad = m.heading_rad();
+  r.pitch_rad = m.pitch_rad();
+  r.heading_std_rad = known_or_nan(m.heading_std_rad());
+  r.pitch_std_rad = known_or_nan(m.pitch_std_rad());
+  r.converged = m.converged();
+  r.state = to_string(calibration_state(m.state()));
+  r.samples_used = m.samples_used();
+  return r;
+}
+
+offline::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m) {
+  offline::ScaleFactorRow r;
+  r.t_s = dds::to_seconds(m.header().stamp());
+  const bool has_value = std::isfinite(m.k_m_per_pulse()) && m.k_m_per_pulse() > 0.0;
+  const std::optional<double> k = has_value ? std::optional<double>(m.k_m_per_pulse()) : std::nullopt;
+  r.k_by_estimator.emplace_back(m.estimator(), k);
+  if (m.estimator() == "vff_lm_rls" && has_value) r.lambda_vff_lm_rls = m.forgetting_factor();
+  r.estimator = m.estimator();
+  r.k_m_per_pulse = k;
+  if (has_value && std::isfinite(m.sigma_m_per_pulse()) && m.sigma_m_per_pulse() >= 0.0)
+    r.sigma_m_per_pulse = m.sigma_m_per_pulse();
+  r.forgetting_factor = m.forgetting_factor();
+  r.window_fill = m.window_fill();
+  r.converged = m.converged();
+  r.samples_accepted = m.samples_accepted();
+  r.samples_rejected = m.samples_rejected();
+  return r;
+}
+
+offline::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m) {
+  offline::DeadReckoningRow r;
+  r.t_s = dds::to_seconds(m.header().stamp());
+  r.lat_rad = radians_for_degrees(m.latitude_deg());
+  r.lon_rad = radians_for_degrees(m.longitude_deg());
+  r.height_m = m.height_m();
+  r.distance_m = m.distance_m();
+  r.k_m_per_pulse = m.k_m_per_pulse();
+  r.k_source = to_string(k_source(m.k_source()));
+  r.east_m = m.enu_east_m();
+  r.north_m = m.enu_north_m();
+  r.up_m = m.enu_up_m();
+  r.heading_rad = m.heading_rad();
+  r.horizontal_error_m = known_or_nan(m.horizontal_error_m());
+  r.error_percent = known_or_nan(m.error_percent_distance());
+  return r;
+}
+
+void add_recorder_options(Options& o) {
+  o.add_string("out", "", "folder for misalignment.csv, scale_factor.csv, dead_reckoning.csv (created if missing); required");
+  o.add_double("progress-every-s", 10.0, "a progress line every this much simulated (event) time, s", 0.1, 1e6);
+}
+
+RecorderSettings recorder_settings_from(const Options& o) {
+  RecorderSettings s;
+  s.out_dir = o.get_string("out");
+  if (s.out_dir.empty()) throw ConfigError("--out: the output folder is required");
+  s.progress_every_s = o.get_double("progress-every-s");
+  return s;
+}
+
+namespace {
+std::string prepared(const std::string& dir, const char* file) {
+  make_directories(dir);
+  return dir + "/" + file;
+}
+}  // namespace
+
+RecorderNode::RecorderNode(dds::ComponentRuntime& runtime, const RecorderSettings& settings)
+    : runtime_(runtime),
+      settings_(settings),
+      misalignment_csv_(prepared(settings.out_dir, "misalignment.csv")),
+      scale_factor_csv_(prepared(settings.out_dir, "scale_factor.csv")),
+      dead_reckoning_csv_(prepared(settings.out_dir, "dead_reckoning.csv")) {
+  const std::string vehicle = runtime.settings().vehicle_id;
+  auto& p = runtime.participant();
+  // Callbacks copy and queue; conversion and file I/O happen on the worker thread.
+  misalignment_reader_ = std::make_unique<dds::Reader<odonav::msg::Misalignment>>(
+      p, topics::kMisalignment.name, topics::kMisalignment.reader_profile,
+      [this, vehicle](const odonav::msg::Misalignment& m) {
+        if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_misalignment(m); });
+      });
+  scale_factor_reader_ = std::make_unique<dds::Reader<odonav::msg::ScaleFactor>>(
+      p, topics::kScaleFactor.name, topics::kScaleFactor.reader_profile,
+      [this, vehicle](const odonav::msg::ScaleFactor& m) {
+        if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_scale_factor(m); });
+      });
+  dead_reckoning_reader_ = std::make_unique<dds::Reader<odonav::msg::DeadReckoning>>(
+      p, topics::kDeadReckoning.name, topics::kDeadReckoning.reader_profile,
+      [this, vehicle](const odonav::msg::DeadReckoning& m) {
+        if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_dead_reckoning(m); });
+      });
+  health_reader_ = std::make_unique<dds::Reader<odonav::msg::Health>>(
+      p, topics::kHealth.name, topics::kHealth.reader_profile, [this, vehicle](const odonav::msg::Health& h) {
+        if (h.vehicle_id() == vehicle) runtime_.post([this, h] { on_health(h); });
+      });
+}
+
+RecorderNode::~RecorderNode() { close_readers(); }
+
+void RecorderNode::close_readers() {
+  misalignment_reader_.reset();
+  scale_factor_reader_.reset();
+  dead_reckoning_reader_.reset();
+  health_reader_.reset();
+}
+
+namespace {
+/// Heartbeats republish the last estimate with its stamp: record each stamp once. Returns whether
+/// the sample is new; counts repeats and (never expected from one ordered writer) backward stamps.
+bool is_new(std::optional<double>& last, double t_s, std::uint64_t& repeated, std::uint64_t& backwards,
+            const char* what) {
+  if (last && t_s == *last) {
+    ++repeated;
+    return false;
+  }
+  if (last && t_s < *last && ++backwards <= 10)
+    spdlog::warn("{}: t={} s is before the previous {} s (recorded anyway)", what, t_s, *last);
+  last = t_s;
+  return true;
+}
+}  // namespace
+
+void RecorderNode::on_misalignment(const odonav::msg::Misalignment& m) {
+  const offline::MisalignmentRow r = misalignment_row(m);
+  if (!is_new(last_misalignment_t_s_, r.t_s, repeated_[0], backwards_[0], "misalignment")) return;
+  misalignment_csv_.write(r);
+  ++rows_[0];
+}
+
+void RecorderNode::on_scale_factor(const odonav::msg::ScaleFactor& m) {
+  const offline::ScaleFactorRow r = scale_factor_row(m);
+  if (!is_new(last_scale_factor_t_s_, r.t_s, repeated_[1], backwards_[1], "scale factor")) return;
+  scale_factor_csv_.write(r);
+  ++rows_[1];
+  last_k_ = m;
+}
+
+void RecorderNode::on_dead_reckoning(const odonav::msg::DeadReckoning& m) {
+  const offline::DeadReckoningRow r = dead_reckoning_row(m);
+  if (!is_new(last_dead_reckoning_t_s_, r.t_s, repeated_[2], backwards_[2], "dead reckoning")) return;
+  dead_reckoning_csv_.write(r);
+  ++rows_[2];
+  last_distance_m_ = r.distance_m;
+  if (!next_progress_t_s_) next_progress_t_s_ = r.t_s + settings_.progress_every_s;
+  if (r.t_s >= *next_progress_t_s_) {
+    progress(r.t_s, r.distance_m);
+    while (*next_progress_t_s_ <= r.t_s) *next_progress_t_s_ += settings_.progress_every_s;
+  }
+}
+
+void RecorderNode::progress(double t_s, double distance_m) {
+  if (!last_k_ || !(last_k_->k_m_per_pulse() > 0.0)) {
+    spdlog::info("progress: t={:.1f} s distance {:.0f} m K=- (no identified K yet)", t_s, distance_m);
+    return;
+  }
+  spdlog::info("progress: t={:.1f} s distance {:.0f} m K={:.7g} ({}, {})", t_s, distance_m,
+               last_k_->k_m_per_pulse(), last_k_->estimator(), last_k_->converged() ? "converged" : "not converged");
+}
+
+void RecorderNode::on_health(const odonav::msg::Health& h) {
+  std::string text = std::string(health_state_name(h.state())) + " " + health_level_name(h.level());
+  if (!h.reason().empty()) text += ": " + h.reason();
+  auto& last = component_health_[h.component()];
+  if (last == text) return;
+  last = text;
+  if (h.level() == odonav::msg::HEALTH_LEVEL_OK) spdlog::info("health {}: {}", h.component(), text);
+  else spdlog::warn("health {}: {}", h.component(), text);
+}
+
+void RecorderNode::tick() {
+  if (!producers_matched_logged_ && misalignment_reader_->matched_writers() > 0 &&
+      scale_factor_reader_->matched_writers() > 0 && dead_reckoning_reader_->matched_writers() > 0) {
+    producers_matched_logged_ = true;
+    spdlog::info("every producer matched (misalignment, scale factor, dead reckoning)");
+  }
+  dds::HealthCounters c{{"misalignment_rows", static_cast<double>(rows_[0])},
+                        {"scale_factor_rows", static_cast<double>(rows_[1])},
+                        {"dead_reckoning_rows", static_cast<double>(rows_[2])},
+                        {"queue_depth", static_cast<double>(runtime_.queue_depth())}};
+  runtime_.publish_health(odonav::msg::HEALTH_STATE_RUNNING, odonav::msg::HEALTH_LEVEL_OK,
+                          producers_matched_logged_ ? "" : "waiting for producers", c);
+}
+
+int RecorderNode::run() {
+  spdlog::info("recording vehicle '{}' into {}", runtime_.settings().vehicle_id, settings_.out_dir);
+  runtime_.run([this] { tick(); });
+  spdlog::info("stop requested: writing what is queued");
+  runtime_.publish_health(odonav::msg::HEALTH_STATE_STOPPING, odonav::msg::HEALTH_LEVEL_OK, "stopping: draining", {},
+                          true);
+  close_readers();         // no callback after this
+  runtime_.run_pending();  // everything received is written
+  misalignment_csv_.close();
+  scale_factor_csv_.close();
+  dead_reckoning_csv_.close();
+  if (last_dead_reckoning_t_s_) progress(*last_dead_reckoning_t_s_, last_distance_m_);
+  spdlog::info("wrote {} misalignment, {} scale-factor, {} dead-reckoning rows into {} (repeats skipped: {}, {}, {})",
+               rows_[0], rows_[1], rows_[2], settings_.out_dir, repeated_[0], repeated_[1], repeated_[2]);
+  runtime_.publish_health(odonav::msg::HEALTH_STATE_STOPPING, odonav::msg::HEALTH_LEVEL_OK, "stopped: files closed",
+                          {}, true);
+  dds::wait_for_acknowledgments_logged(runtime_.health().writer(), std::chrono::seconds(1));
+  return 0;
+}
+
+}  // namespace odonav::recorder

@@ -1,0 +1,98 @@
+#pragma once
+// odonav-recorder's DDS node: subscribes to one vehicle's misalignment, scale factor and dead
+// reckoning (and health, for the log) and writes misalignment.csv, scale_factor.csv and
+// dead_reckoning.csv, the same files and columns as odonav-offline (output_files.hpp), so a user
+// can run either and compare them directly.
+//
+// Threads: reader callbacks only copy the message into the runtime's queue; the worker thread
+// (ComponentRuntime::run) converts and writes, so the readers keep up with a replay at full speed.
+// On SIGINT/SIGTERM: readers closed, every queued message written, files flushed and closed.
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "odonav/dds/component.hpp"
+#include "odonav/msg/DeadReckoning.h"
+#include "odonav/msg/Health.h"
+#include "odonav/msg/Misalignment.h"
+#include "odonav/msg/ScaleFactor.h"
+#include "output_files.hpp"
+
+namespace odonav::recorder {
+
+// ---- message -> row, exactly as odonav-offline's rows come from the cores (offline_runner.hpp) ----
+
+/// The radian value r whose rad_to_deg(r) is `angle_deg` exactly, when one exists within 16 ulps of
+/// deg_to_rad(angle_deg); else the closest found. Why: the rows hold radians and the CSV writer
+/// converts with rad_to_deg; a message's degrees (DeadReckoning latitude/longitude, computed by the
+/// producer as rad_to_deg of its radians) then reach the file unchanged, as odonav-offline writes them.
+double radians_for_degrees(double angle_deg);
+
+/// Misalignment: t = header stamp (s); angles in rad; a one-sigma of -1 (unknown) or non-finite ->
+/// NaN (written empty); state as the calibrator names it (to_string(CalibrationState)).
+offline::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m);
+/// ScaleFactor: the main estimator only (its own k_<name> column; the other estimators' columns stay
+/// empty); K and sigma absent while K <= 0 or non-finite (the producer's "no value"); sigma absent
+/// when -1 or non-finite; lambda_vff_lm_rls = forgetting_factor when the estimator is vff_lm_rls
+/// and has a value. epoch_status is not on the wire: empty.
+offline::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m);
+/// DeadReckoning: position (degrees -> radians_for_degrees), distance, K and its source
+/// (to_string(ScaleFactorSource)), ENU offsets, heading (rad); horizontal error and %D: negative
+/// (-1 = no reference) or non-finite -> NaN (written empty).
+offline::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m);
+
+/// The recorder's own flags.
+struct RecorderSettings {
+  std::string out_dir;              ///< created if missing.
+  double progress_every_s = 10.0;   ///< progress line every this much event (simulated) time, s.
+};
+
+/// Declares --out (required) and --progress-every-s.
+void add_recorder_options(Options& options);
+/// Reads them. Throws ConfigError naming the flag (e.g. --out missing).
+RecorderSettings recorder_settings_from(const Options& options);
+
+class RecorderNode {
+ public:
+  /// Creates the output directory and files (std::runtime_error naming the path on failure) and the
+  /// readers of runtime's participant (only samples of runtime's vehicle are recorded).
+  RecorderNode(dds::ComponentRuntime& runtime, const RecorderSettings& settings);
+  ~RecorderNode();
+
+  /// Records until SIGINT/SIGTERM, then drains and closes the files. Returns the exit code (0).
+  int run();
+
+ private:
+  void on_misalignment(const odonav::msg::Misalignment& m);
+  void on_scale_factor(const odonav::msg::ScaleFactor& m);
+  void on_dead_reckoning(const odonav::msg::DeadReckoning& m);
+  void on_health(const odonav::msg::Health& h);
+  void tick();
+  void progress(double t_s, double distance_m);
+  void close_readers();
+
+  dds::ComponentRuntime& runtime_;
+  RecorderSettings settings_;
+  offline::MisalignmentCsv misalignment_csv_;
+  offline::ScaleFactorCsv scale_factor_csv_;
+  offline::DeadReckoningCsv dead_reckoning_csv_;
+  // Worker thread only:
+  std::optional<double> last_misalignment_t_s_, last_scale_factor_t_s_, last_dead_reckoning_t_s_;
+  std::uint64_t rows_[3] = {0, 0, 0};      // misalignment, scale factor, dead reckoning
+  std::uint64_t repeated_[3] = {0, 0, 0};  // heartbeats and repeats (same stamp): not written
+  std::uint64_t backwards_[3] = {0, 0, 0};
+  std::optional<odonav::msg::ScaleFactor> last_k_;
+  std::optional<double> next_progress_t_s_;
+  double last_distance_m_ = 0.0;
+  bool producers_matched_logged_ = false;
+  std::map<std::string, std::string> component_health_;  // component -> last "state level reason"
+  // Last members: destroyed first, so no callback reaches a half-destroyed node.
+  std::unique_ptr<dds::Reader<odonav::msg::Misalignment>> misalignment_reader_;
+  std::unique_ptr<dds::Reader<odonav::msg::ScaleFactor>> scale_factor_reader_;
+  std::unique_ptr<dds::Reader<odonav::msg::DeadReckoning>> dead_reckoning_reader_;
+  std::unique_ptr<dds::Reader<odonav::msg::Health>> health_reader_;
+};
+
+}  // namespace odonav::recorder

@@ -1,0 +1,317 @@
+// The distributed pipeline as processes (gateway, calibration, identification, dead reckoning,
+// recorder) started by deploy/launch on loopback DDS, each test in its own domain (50-59):
+//   1. accuracy against the simulator's truth on a short drive;
+//   2. equivalence with odonav-offline on the same dataset, row by row, to 1e-9;
+//   3. speed invariance: a replay at real time and as fast as possible give identical files.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <optional>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "odonav/dataset.hpp"
+#include "odonav/frames.hpp"
+#include "odonav/geodesy.hpp"
+#include "output_files.hpp"
+
+extern char** environ;
+
+namespace {
+
+using namespace odonav;
+namespace fs = std::filesystem;
+
+const std::string kBin = std::string(ODONAV_BINARY_DIR) + "/bin";
+
+void shm_clean() { [[maybe_unused]] int rc = std::system("fastdds shm clean >/dev/null 2>&1"); }
+
+struct LaunchResult {
+  int exit_code = -1;
+  bool timed_out = false;
+  double seconds = 0.0;
+  std::string log;  ///< the launcher's stdout and stderr
+};
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Runs deploy/launch with `args` (output to log_path), bounded by timeout_s: on timeout it gets
+/// SIGTERM (its trap stops every component), then SIGKILL.
+LaunchResult launch(const std::vector<std::string>& args, const std::string& log_path, int timeout_s) {
+  const std::string script = std::string(ODONAV_SOURCE_DIR) + "/deploy/launch";
+  std::vector<std::string> all{"/bin/bash", script, "--build-dir", ODONAV_BINARY_DIR};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t files;
+  posix_spawn_file_actions_init(&files);
+  posix_spawn_file_actions_addopen(&files, 1, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&files, 1, 2);
+  LaunchResult r;
+  pid_t pid = -1;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (posix_spawn(&pid, "/bin/bash", &files, nullptr, argv.data(), environ) != 0) {
+    posix_spawn_file_actions_destroy(&files);
+    r.log = "posix_spawn failed";
+    return r;
+  }
+  posix_spawn_file_actions_destroy(&files);
+  int status = 0;
+  const auto deadline = t0 + std::chrono::seconds(timeout_s);
+  while (waitpid(pid, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() > deadline) {
+      r.timed_out = true;
+      ::kill(pid, SIGTERM);
+      for (int i = 0; i < 150 && waitpid(pid, &status, WNOHANG) == 0; ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      if (waitpid(pid, &status, WNOHANG) == 0) {
+        ::kill(pid, SIGKILL);
+        waitpid(pid, &status, 0);
+      }
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.log = read_text(log_path);
+  return r;
+}
+
+int run(const std::string& command) {
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+/// A fresh folder under the build directory for one test.
+std::string fresh_dir(const std::string& name) {
+  const std::string dir = std::string(ODONAV_BINARY_DIR) + "/test-pipeline/" + name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+class Pipeline : public ::testing::Test {
+ protected:
+  void SetUp() override { shm_clean(); }
+  void TearDown() override { shm_clean(); }
+
+  /// Runs the launcher and fails the test (with the launcher's log) unless it exits 0.
+  void launch_ok(const std::vector<std::string>& args, const std::string& out, int timeout_s) {
+    const LaunchResult r = launch(args, out + ".launch.log", timeout_s);
+    ASSERT_FALSE(r.timed_out) << "deploy/launch did not finish within " << timeout_s << " s\n" << r.log;
+    ASSERT_EQ(r.exit_code, 0) << r.log;
+    std::cerr << "deploy/launch " << args[1] << " took " << r.seconds << " s\n";
+  }
+};
+
+/// Truth sample nearest in time (the simulator writes truth at the odometer's instants).
+const TruthSample& truth_at(const Dataset& d, double t_s) {
+  auto it = std::lower_bound(d.truth.begin(), d.truth.end(), t_s,
+                             [](const TruthSample& s, double t) { return s.t_s < t; });
+  if (it == d.truth.end()) return d.truth.back();
+  if (it != d.truth.begin() && std::abs((it - 1)->t_s - t_s) < std::abs(it->t_s - t_s)) --it;
+  return *it;
+}
+
+// ---- 1. accuracy against truth ------------------------------------------------------------------
+
+TEST_F(Pipeline, ShortTerrainDriveIsAccurateAgainstTruth) {
+  // 120 s of the terrain course: 5 s standstill, the 600 m straight, the 60 m-radius right turn and
+  // the next straight (about 1.2 km). Short, so the bounds are the estimation issue's, scaled:
+  // K converges in about 10-20 s of motion and is then within 0.5 % of the truth; the misalignment
+  // has about 60 s of straight driving (0.01 deg expected, bound 0.05 deg, which also holds the
+  // 0.02 deg INS heading bias that appears in it); DR over ~1.2 km with that K and misalignment
+  // stays below 0.5 %D (K error alone up to 0.5 %D is not reached because K settles well inside it).
+  const std::string out = fresh_dir("accuracy");
+  launch_ok({"--source", "sim:terrain", "--duration-s", "120", "--seed", "1", "--speed", "max", "--domain", "51",
+             "--out", out},
+            out, 300);
+  const Dataset d = read_dataset(out + "/dataset", BadRowPolicy::kFail);
+  const offline::OutputRows rows = offline::read_output_rows(out);
+  ASSERT_TRUE(d.has_truth());
+  const auto meta = nlohmann::json::parse(d.meta.raw_json);
+  const double k_true = meta.at("simulation").at("k_true_initial_m_per_pulse").get<double>();
+  for (const auto& step : meta.at("simulation").at("k_steps"))
+    ASSERT_GT(step.at("t_s").get<double>(), d.odometer.back().t_s) << "a K step inside the short drive";
+
+  // K: converged within the first minute, then within 0.5 % at every epoch.
+  ASSERT_GT(rows.scale_factor.size(), 1000u);
+  std::optional<double> t_converged;
+  std::size_t compared = 0;
+  double worst = 0.0;
+  for (const auto& r : rows.scale_factor) {
+    if (!t_converged && r.converged) t_converged = r.t_s;
+    if (!t_converged || !r.k_m_per_pulse) continue;
+    worst = std::max(worst, std::abs(*r.k_m_per_pulse / k_true - 1.0));
+    ++compared;
+  }
+  ASSERT_TRUE(t_converged.has_value()) << "K never converged";
+  EXPECT_LT(*t_converged, 60.0);
+  EXPECT_GT(compared, 600u);
+  EXPECT_LT(worst, 0.005) << "worst relative K error after convergence";
+  std::cerr << "K converged at t=" << *t_converged << " s, worst error after " << worst * 100 << " %\n";
+
+  // Misalignment: the last estimate, in use by the consumers (converged, or 100 epochs used:
+  // consumer_rules.hpp; 120 s hold too few straight epochs for the 0.02 deg sigma threshold),
+  // within 0.05 deg of the installation truth.
+  ASSERT_FALSE(rows.misalignment.empty());
+  const auto& m = rows.misalignment.back();
+  EXPECT_TRUE(m.converged || m.samples_used >= 100) << m.samples_used << " epochs used";
+  EXPECT_NEAR(rad_to_deg(m.heading_rad), *d.meta.truth_misalignment_heading_deg, 0.05);
+  EXPECT_NEAR(rad_to_deg(m.pitch_rad), *d.meta.truth_misalignment_pitch_deg, 0.05);
+  std::cerr << "misalignment " << rad_to_deg(m.heading_rad) << " / " << rad_to_deg(m.pitch_rad) << " deg\n";
+
+  // DR: final horizontal error against the true position, in % of the true distance travelled.
+  ASSERT_GT(rows.dead_reckoning.size(), 11000u);
+  const auto& first = rows.dead_reckoning.front();
+  const auto& last = rows.dead_reckoning.back();
+  const TruthSample& t_last = truth_at(d, last.t_s);
+  ASSERT_NEAR(t_last.t_s, last.t_s, 1e-6);
+  const double travelled = t_last.distance_m - truth_at(d, first.t_s).distance_m;
+  ASSERT_GT(travelled, 1000.0);
+  const double error_m = horizontal_distance_m(Geodetic{last.lat_rad, last.lon_rad, last.height_m}, t_last.position);
+  const double percent = 100.0 * error_m / travelled;
+  EXPECT_LT(percent, 0.5);
+  std::cerr << "DR final error " << error_m << " m over " << travelled << " m = " << percent << " %D\n";
+}
+
+// ---- 2. equivalence with odonav-offline ---------------------------------------------------------
+
+void expect_close(double a, double b, double tol, const char* what, std::size_t row) {
+  if (std::isnan(a) || std::isnan(b)) {
+    EXPECT_TRUE(std::isnan(a) && std::isnan(b)) << what << " row " << row << ": " << a << " vs " << b;
+    return;
+  }
+  EXPECT_NEAR(a, b, tol) << what << " row " << row;
+}
+void expect_close_rel(double a, double b, double tol, const char* what, std::size_t row) {
+  expect_close(a, b, tol * std::max(std::abs(a), std::abs(b)), what, row);
+}
+void expect_close(const std::optional<double>& a, const std::optional<double>& b, double tol, const char* what,
+                  std::size_t row, bool relative) {
+  ASSERT_EQ(a.has_value(), b.has_value()) << what << " row " << row;
+  if (!a) return;
+  if (relative) expect_close_rel(*a, *b, tol, what, row);
+  else expect_close(*a, *b, tol, what, row);
+}
+
+TEST_F(Pipeline, EveryPublishedSampleEqualsTheOfflineTool) {
+  const std::string out = fresh_dir("equivalence");
+  const std::string estimator = "lm_rls";  // not the default: the flag must reach the component
+  launch_ok({"--source", "sim:ring", "--duration-s", "120", "--seed", "3", "--speed", "max", "--domain", "52",
+             "--estimator", estimator, "--out", out},
+            out, 300);
+  const std::string offline_dir = out + "/offline-check";
+  ASSERT_EQ(run(kBin + "/odonav-offline " + out + "/dataset --out " + offline_dir + " --estimator " + estimator +
+                " >" + out + "/offline-check.log 2>&1"),
+            0)
+      << read_text(out + "/offline-check.log");
+  const offline::OutputRows pipe = offline::read_output_rows(out);
+  const offline::OutputRows ref = offline::read_output_rows(offline_dir);
+  constexpr double kTol = 1e-9;
+
+  ASSERT_EQ(pipe.misalignment.size(), ref.misalignment.size());
+  ASSERT_GT(ref.misalignment.size(), 1000u);
+  for (std::size_t i = 0; i < ref.misalignment.size(); ++i) {
+    const auto& a = pipe.misalignment[i];
+    const auto& b = ref.misalignment[i];
+    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "misalignment row " << i;
+    expect_close(rad_to_deg(a.heading_rad), rad_to_deg(b.heading_rad), kTol, "heading_deg", i);
+    expect_close(rad_to_deg(a.pitch_rad), rad_to_deg(b.pitch_rad), kTol, "pitch_deg", i);
+    expect_close(rad_to_deg(a.heading_std_rad), rad_to_deg(b.heading_std_rad), kTol, "heading_std_deg", i);
+    expect_close(rad_to_deg(a.pitch_std_rad), rad_to_deg(b.pitch_std_rad), kTol, "pitch_std_deg", i);
+    EXPECT_EQ(a.converged, b.converged) << i;
+    EXPECT_EQ(a.state, b.state) << i;
+    EXPECT_EQ(a.samples_used, b.samples_used) << i;
+    if (HasFailure()) FAIL() << "first difference at misalignment row " << i;
+  }
+
+  ASSERT_EQ(pipe.scale_factor.size(), ref.scale_factor.size());
+  for (std::size_t i = 0; i < ref.scale_factor.size(); ++i) {
+    const auto& a = pipe.scale_factor[i];
+    const auto& b = ref.scale_factor[i];
+    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "scale factor row " << i;
+    EXPECT_EQ(a.estimator, estimator) << i;
+    EXPECT_EQ(b.estimator, estimator) << i;
+    expect_close(a.k_m_per_pulse, b.k_m_per_pulse, kTol, "k_m_per_pulse", i, true);
+    expect_close(a.sigma_m_per_pulse, b.sigma_m_per_pulse, kTol, "sigma_m_per_pulse", i, true);
+    // The offline tool runs every estimator, so its lambda_vff_lm_rls exists whatever the main one.
+    if (estimator == "vff_lm_rls") expect_close(a.lambda_vff_lm_rls, b.lambda_vff_lm_rls, kTol, "lambda_vff_lm_rls", i, false);
+    expect_close(a.forgetting_factor, b.forgetting_factor, kTol, "forgetting_factor", i);
+    expect_close(a.window_fill, b.window_fill, kTol, "window_fill", i);
+    EXPECT_EQ(a.converged, b.converged) << i;
+    EXPECT_EQ(a.samples_accepted, b.samples_accepted) << i;
+    EXPECT_EQ(a.samples_rejected, b.samples_rejected) << i;
+    if (HasFailure()) FAIL() << "first difference at scale-factor row " << i;
+  }
+
+  ASSERT_EQ(pipe.dead_reckoning.size(), ref.dead_reckoning.size());
+  ASSERT_GT(ref.dead_reckoning.size(), 11000u);
+  for (std::size_t i = 0; i < ref.dead_reckoning.size(); ++i) {
+    const auto& a = pipe.dead_reckoning[i];
+    const auto& b = ref.dead_reckoning[i];
+    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "dead-reckoning row " << i;
+    expect_close(rad_to_deg(a.lat_rad), rad_to_deg(b.lat_rad), kTol, "lat_deg", i);
+    expect_close(rad_to_deg(a.lon_rad), rad_to_deg(b.lon_rad), kTol, "lon_deg", i);
+    expect_close(a.height_m, b.height_m, kTol, "height_m", i);
+    expect_close(a.distance_m, b.distance_m, kTol, "distance_m", i);
+    expect_close_rel(a.k_m_per_pulse, b.k_m_per_pulse, kTol, "k_m_per_pulse", i);
+    EXPECT_EQ(a.k_source, b.k_source) << i;
+    expect_close(a.east_m, b.east_m, kTol, "east_m", i);
+    expect_close(a.north_m, b.north_m, kTol, "north_m", i);
+    expect_close(a.up_m, b.up_m, kTol, "up_m", i);
+    expect_close(rad_to_deg(a.heading_rad), rad_to_deg(b.heading_rad), kTol, "heading_deg", i);
+    expect_close(a.horizontal_error_m, b.horizontal_error_m, kTol, "horizontal_error_m", i);
+    expect_close(a.error_percent, b.error_percent, kTol, "error_percent", i);
+    if (HasFailure()) FAIL() << "first difference at dead-reckoning row " << i;
+  }
+  // The identified K was in use by the end (the comparison covered more than the nominal phase).
+  EXPECT_EQ(pipe.dead_reckoning.back().k_source, "identified");
+}
+
+// ---- 3. speed invariance ------------------------------------------------------------------------
+
+TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFiles) {
+  // A 25 s drive (standstill, then driving off along the first straight): real time stays short.
+  const std::string dir = fresh_dir("speed");
+  const std::string data = dir + "/data";
+  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s 25 --seed 5 --out " + data + " >" + dir + "/sim.log 2>&1"), 0);
+  const std::string real = dir + "/real-time";
+  const std::string fast = dir + "/max";
+  launch_ok({"--source", "replay:" + data, "--speed", "1", "--domain", "53", "--out", real}, real, 200);
+  shm_clean();
+  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "54", "--out", fast}, fast, 200);
+  for (const char* file : {"misalignment.csv", "scale_factor.csv", "dead_reckoning.csv"}) {
+    const std::string a = read_text(real + "/" + file);
+    const std::string b = read_text(fast + "/" + file);
+    EXPECT_EQ(a, b) << file << " differs between --speed 1 and --speed max";
+  }
+  const offline::OutputRows rows = offline::read_output_rows(fast);
+  EXPECT_GT(rows.dead_reckoning.size(), 2400u);  // 25 s at 100 Hz
+  EXPECT_GT(rows.scale_factor.size(), 200u);     // 25 s at 10 Hz
+  EXPECT_GT(rows.misalignment.size(), 200u);
+}
+
+}  // namespace

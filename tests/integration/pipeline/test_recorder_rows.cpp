@@ -1,0 +1,133 @@
+// odonav-recorder's message -> row conversion: what reaches the CSV files from a message equals
+// what odonav-offline writes for the core output the message was made from.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <vector>
+
+#include <sys/stat.h>
+
+#include "node/recorder_node.hpp"
+#include "odonav/dds/time.hpp"
+#include "odonav/frames.hpp"
+
+using namespace odonav;
+
+namespace {
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+}  // namespace
+
+TEST(RecorderRows, DegreesReachTheFileUnchanged) {
+  // The producer sends rad_to_deg(r); the row holds radians_for_degrees(d); the CSV writer writes
+  // rad_to_deg(row): that must be d again, as odonav-offline writes rad_to_deg(r).
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> angle(-kPi / 2, kPi / 2);
+  for (int i = 0; i < 20000; ++i) {
+    const double r = angle(rng);
+    const double d = rad_to_deg(r);
+    ASSERT_EQ(rad_to_deg(recorder::radians_for_degrees(d)), d) << r;
+  }
+}
+
+TEST(RecorderRows, MisalignmentUnknownSigmaIsEmptyAndStateIsNamed) {
+  odonav::msg::Misalignment m;
+  m.header(odonav::dds::make_header(12.3, "body"));
+  m.heading_rad(deg_to_rad(0.8));
+  m.pitch_rad(deg_to_rad(-0.5));
+  m.heading_std_rad(-1.0);
+  m.pitch_std_rad(1e-4);
+  m.samples_used(42);
+  m.converged(false);
+  m.state(odonav::msg::MISALIGNMENT_CALIBRATING);
+  const offline::MisalignmentRow r = recorder::misalignment_row(m);
+  EXPECT_EQ(r.t_s, 12.3);
+  EXPECT_EQ(r.heading_rad, deg_to_rad(0.8));
+  EXPECT_TRUE(std::isnan(r.heading_std_rad));
+  EXPECT_EQ(r.pitch_std_rad, 1e-4);
+  EXPECT_EQ(r.samples_used, 42u);
+  EXPECT_EQ(r.state, "calibrating");
+
+  const std::string dir = std::string(ODONAV_BINARY_DIR) + "/test-recorder-rows";
+  ::mkdir(dir.c_str(), 0755);
+  {
+    offline::MisalignmentCsv csv(dir + "/misalignment.csv");
+    csv.write(r);
+    csv.close();
+  }
+  const std::string text = read_file(dir + "/misalignment.csv");
+  // t, heading (deg), pitch (deg), heading sigma empty, pitch sigma (deg), converged 0, state, samples
+  const std::string row = text.substr(text.find('\n') + 1);
+  std::vector<std::string> f(1);
+  for (char c : row) {
+    if (c == ',') f.emplace_back();
+    else if (c != '\n') f.back() += c;
+  }
+  ASSERT_EQ(f.size(), 8u) << text;
+  EXPECT_EQ(f[0], "12.3");
+  EXPECT_NEAR(std::stod(f[1]), 0.8, 1e-12);
+  EXPECT_NEAR(std::stod(f[2]), -0.5, 1e-12);
+  EXPECT_EQ(f[3], "");
+  EXPECT_NEAR(std::stod(f[4]), rad_to_deg(1e-4), 1e-15);
+  EXPECT_EQ(f[5], "0");
+  EXPECT_EQ(f[6], "calibrating");
+  EXPECT_EQ(f[7], "42");
+}
+
+TEST(RecorderRows, ScaleFactorWithoutValueAndWithValue) {
+  odonav::msg::ScaleFactor m;
+  m.header(odonav::dds::make_header(20.0, "odometer"));
+  m.k_m_per_pulse(0.0);  // the producer's "no value yet"
+  m.sigma_m_per_pulse(-1.0);
+  m.forgetting_factor(1.0);
+  m.window_fill(0.25);
+  m.estimator("vff_lm_rls");
+  m.samples_accepted(3);
+  m.samples_rejected(7);
+  offline::ScaleFactorRow r = recorder::scale_factor_row(m);
+  EXPECT_FALSE(r.k_m_per_pulse.has_value());
+  EXPECT_FALSE(r.sigma_m_per_pulse.has_value());
+  EXPECT_FALSE(r.lambda_vff_lm_rls.has_value());
+  ASSERT_EQ(r.k_by_estimator.size(), 1u);
+  EXPECT_EQ(r.k_by_estimator[0].first, "vff_lm_rls");
+  EXPECT_EQ(r.samples_rejected, 7u);
+
+  m.k_m_per_pulse(0.0126875);
+  m.sigma_m_per_pulse(2e-6);
+  m.forgetting_factor(0.97);
+  m.converged(true);
+  r = recorder::scale_factor_row(m);
+  EXPECT_EQ(*r.k_m_per_pulse, 0.0126875);
+  EXPECT_EQ(*r.k_by_estimator[0].second, 0.0126875);
+  EXPECT_EQ(*r.sigma_m_per_pulse, 2e-6);
+  EXPECT_EQ(*r.lambda_vff_lm_rls, 0.97);
+  EXPECT_TRUE(r.converged);
+}
+
+TEST(RecorderRows, DeadReckoningWithoutReference) {
+  odonav::msg::DeadReckoning m;
+  m.header(odonav::dds::make_header(100.25, "wgs84"));
+  m.latitude_deg(52.5001);
+  m.longitude_deg(13.4002);
+  m.height_m(81.5);
+  m.distance_m(1234.5);
+  m.k_m_per_pulse(0.0125);
+  m.k_source(odonav::msg::K_SOURCE_IDENTIFIED);
+  m.heading_rad(1.0);
+  m.horizontal_error_m(-1.0);
+  m.error_percent_distance(-1.0);
+  const offline::DeadReckoningRow r = recorder::dead_reckoning_row(m);
+  EXPECT_EQ(r.t_s, 100.25);
+  EXPECT_EQ(rad_to_deg(r.lat_rad), 52.5001);
+  EXPECT_EQ(rad_to_deg(r.lon_rad), 13.4002);
+  EXPECT_EQ(r.k_source, "identified");
+  EXPECT_TRUE(std::isnan(r.horizontal_error_m));
+  EXPECT_TRUE(std::isnan(r.error_percent));
+}
