@@ -1,0 +1,417 @@
+#include "core/fleet_state.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <stdexcept>
+
+namespace odonav::ground {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+double rad_to_deg(double r) { return r * 180.0 / kPi; }
+int index(Stream s) { return static_cast<int>(s); }
+
+/// -1 (the topics' "unknown") and non-finite values become JSON null.
+nlohmann::json known_or_null(double v) {
+  if (!std::isfinite(v) || v < 0.0) return nullptr;
+  return v;
+}
+
+std::string format(const char* fmt, double a) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, a);
+  return buf;
+}
+}  // namespace
+
+const char* stream_name(Stream s) {
+  switch (s) {
+    case Stream::kOdometer: return "odometer";
+    case Stream::kInsAttitude: return "ins";
+    case Stream::kGnssFix: return "gnss";
+    case Stream::kMisalignment: return "misalignment";
+    case Stream::kScaleFactor: return "scale_factor";
+    case Stream::kDeadReckoning: return "dead_reckoning";
+    case Stream::kHealth: return "health";
+  }
+  return "?";
+}
+
+std::string health_state_name(std::uint32_t state) {
+  static const char* names[] = {"STARTING", "RUNNING", "DEGRADED", "ERROR", "STOPPING"};
+  return state < 5 ? names[state] : "STATE" + std::to_string(state);
+}
+std::string health_level_name(std::uint32_t level) {
+  static const char* names[] = {"OK", "WARN", "ERROR", "STALE"};
+  return level < 4 ? names[level] : "LEVEL" + std::to_string(level);
+}
+std::string command_result_name(std::uint32_t result) {
+  static const char* names[] = {"none", "accepted", "rejected"};
+  return result < 3 ? names[result] : "result" + std::to_string(result);
+}
+std::string fix_quality_name(std::uint8_t q) {
+  switch (q) {
+    case 0: return "invalid";
+    case 1: return "single";
+    case 2: return "dgps";
+    case 4: return "rtk-fixed";
+    case 5: return "rtk-float";
+    case 6: return "dead-reckoning";
+  }
+  return "fix" + std::to_string(q);
+}
+std::string k_source_name(std::uint32_t source) {
+  static const char* names[] = {"nominal", "identified", "commanded"};
+  return source < 3 ? names[source] : "source" + std::to_string(source);
+}
+std::string misalignment_state_name(std::uint32_t state) {
+  static const char* names[] = {"waiting", "calibrating", "converged", "frozen"};
+  return state < 4 ? names[state] : "state" + std::to_string(state);
+}
+
+FleetState::FleetState(FleetStateConfig config) : config_(config) {
+  if (!(config_.rate_window_s > 0.0)) throw std::invalid_argument("FleetState: rate_window_s must be > 0");
+  for (double s : config_.stale_after_s)
+    if (!(s > 0.0)) throw std::invalid_argument("FleetState: every stale_after_s must be > 0");
+}
+
+FleetState::Vehicle& FleetState::vehicle(const std::string& id) { return vehicles_[id]; }
+
+void FleetState::count(Vehicle& v, Stream s, double now_s) {
+  auto& q = v.arrivals[index(s)];
+  q.push_back(now_s);
+  while (!q.empty() && q.front() < now_s - config_.rate_window_s) q.pop_front();
+}
+
+bool FleetState::is_stale(const Timed& t, Stream s, double now_s) const {
+  return t.silent || now_s - t.last_arrival_s > config_.stale_after_s[index(s)];
+}
+
+void FleetState::on_health(const HealthView& h, double now_s) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Vehicle& v = vehicle(h.vehicle_id);
+  auto& slot = v.components[h.component];
+  slot.first = h;
+  slot.second.last_arrival_s = now_s;
+  slot.second.silent = false;
+  count(v, Stream::kHealth, now_s);
+}
+
+void FleetState::on_scale_factor(const ScaleFactorView& sf, double now_s) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Vehicle& v = vehicle(sf.vehicle_id);
+  v.scale_factor = std::make_pair(sf, Timed{now_s, false});
+  count(v, Stream::kScaleFactor, now_s);
+}
+
+void FleetState::on_misalignment(const MisalignmentView& m, double now_s) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Vehicle& v = vehicle(m.vehicle_id);
+  v.misalignment = std::make_pair(m, Timed{now_s, false});
+  count(v, Stream::kMisalignment, now_s);
+}
+
+void FleetState::on_dead_reckoning(const DeadReckoningView& d, double now_s) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Vehicle& v = vehicle(d.vehicle_id);
+  v.dead_reckoning = std::make_pair(d, Timed{now_s, false});
+  count(v, Stream::kDeadReckoning, now_s);
+}
+
+void FleetState::on_gnss(const GnssView& g, double now_s) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Vehicle& v = vehicle(g.vehicle_id);
+  v.gnss = std::make_pair(g, Timed{now_s, false});
+  count(v, Stream::kGnssFix, now_s);
+}
+
+void FleetState::on_arrival(const std::string& vehicle_id, Stream stream, double now_s) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  count(vehicle(vehicle_id), stream, now_s);
+}
+
+void FleetState::on_silence(const std::string& vehicle_id, Stream stream, const std::string& component, bool silent) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = vehicles_.find(vehicle_id);
+  if (it == vehicles_.end()) return;  // nothing known yet: nothing to mark
+  Vehicle& v = it->second;
+  switch (stream) {
+    case Stream::kHealth: {
+      const auto c = v.components.find(component);
+      if (c != v.components.end()) c->second.second.silent = silent;
+      break;
+    }
+    case Stream::kScaleFactor:
+      if (v.scale_factor) v.scale_factor->second.silent = silent;
+      break;
+    case Stream::kMisalignment:
+      if (v.misalignment) v.misalignment->second.silent = silent;
+      break;
+    case Stream::kDeadReckoning:
+      if (v.dead_reckoning) v.dead_reckoning->second.silent = silent;
+      break;
+    case Stream::kGnssFix:
+      if (v.gnss) v.gnss->second.silent = silent;
+      break;
+    default:
+      break;
+  }
+}
+
+FleetSnapshot FleetState::snapshot(double now_s, const std::vector<std::string>& only) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  FleetSnapshot snap;
+  snap.now_s = now_s;
+  for (const auto& [id, v] : vehicles_) {
+    if (!only.empty() && std::find(only.begin(), only.end(), id) == only.end()) continue;
+    VehicleSnapshot vs;
+    vs.vehicle_id = id;
+    for (const auto& [name, entry] : v.components) {
+      ComponentSnapshot c{entry.first, now_s - entry.second.last_arrival_s, is_stale(entry.second, Stream::kHealth, now_s)};
+      vs.stale = vs.stale || c.stale;
+      vs.components.push_back(std::move(c));
+    }
+    auto fill = [&](const auto& source, auto& target, Stream s) {
+      if (!source) return;
+      target.emplace();
+      target->view = source->first;
+      target->age_s = now_s - source->second.last_arrival_s;
+      target->stale = is_stale(source->second, s, now_s);
+      vs.stale = vs.stale || target->stale;
+    };
+    fill(v.scale_factor, vs.scale_factor, Stream::kScaleFactor);
+    fill(v.misalignment, vs.misalignment, Stream::kMisalignment);
+    fill(v.dead_reckoning, vs.dead_reckoning, Stream::kDeadReckoning);
+    fill(v.gnss, vs.gnss, Stream::kGnssFix);
+    for (int s = 0; s < kStreamCount; ++s) {
+      const auto& q = v.arrivals[s];
+      const auto n = std::count_if(q.begin(), q.end(), [&](double t) { return t >= now_s - config_.rate_window_s; });
+      vs.rate_hz[s] = static_cast<double>(n) / config_.rate_window_s;
+    }
+    snap.vehicles.push_back(std::move(vs));
+  }
+  return snap;
+}
+
+nlohmann::json snapshot_json(const FleetSnapshot& snap) {
+  nlohmann::json vehicles = nlohmann::json::array();
+  for (const VehicleSnapshot& v : snap.vehicles) {
+    nlohmann::json jv;
+    jv["vehicle_id"] = v.vehicle_id;
+    jv["stale"] = v.stale;
+    nlohmann::json components = nlohmann::json::array();
+    for (const ComponentSnapshot& c : v.components) {
+      nlohmann::json counters = nlohmann::json::object();
+      for (const auto& [name, value] : c.health.counters) counters[name] = value;
+      components.push_back({{"component", c.health.component},
+                            {"state", health_state_name(c.health.state)},
+                            {"level", health_level_name(c.health.level)},
+                            {"reason", c.health.reason},
+                            {"stale", c.stale},
+                            {"age_s", c.age_s},
+                            {"stamp_s", c.health.stamp_s},
+                            {"last_command",
+                             {{"id", c.health.last_command_id},
+                              {"result", command_result_name(c.health.last_command_result)},
+                              {"detail", c.health.last_command_detail}}},
+                            {"counters", counters}});
+    }
+    jv["components"] = components;
+    if (v.scale_factor) {
+      const auto& s = v.scale_factor->view;
+      jv["scale_factor"] = {{"k_m_per_pulse", s.k_m_per_pulse},
+                            {"sigma_m_per_pulse", known_or_null(s.sigma_m_per_pulse)},
+                            {"forgetting_factor", s.forgetting_factor},
+                            {"window_fill", s.window_fill},
+                            {"estimator", s.estimator},
+                            {"converged", s.converged},
+                            {"frozen", s.frozen},
+                            {"samples_accepted", s.samples_accepted},
+                            {"samples_rejected", s.samples_rejected},
+                            {"stamp_s", s.stamp_s},
+                            {"age_s", v.scale_factor->age_s},
+                            {"stale", v.scale_factor->stale}};
+    } else {
+      jv["scale_factor"] = nullptr;
+    }
+    if (v.misalignment) {
+      const auto& m = v.misalignment->view;
+      const auto std_deg = [](double r) { return r < 0.0 || !std::isfinite(r) ? nlohmann::json(nullptr) : nlohmann::json(rad_to_deg(r)); };
+      jv["misalignment"] = {{"heading_rad", m.heading_rad},
+                            {"pitch_rad", m.pitch_rad},
+                            {"heading_deg", rad_to_deg(m.heading_rad)},
+                            {"pitch_deg", rad_to_deg(m.pitch_rad)},
+                            {"heading_std_deg", std_deg(m.heading_std_rad)},
+                            {"pitch_std_deg", std_deg(m.pitch_std_rad)},
+                            {"samples_used", m.samples_used},
+                            {"converged", m.converged},
+                            {"state", misalignment_state_name(m.state)},
+                            {"stamp_s", m.stamp_s},
+                            {"age_s", v.misalignment->age_s},
+                            {"stale", v.misalignment->stale}};
+    } else {
+      jv["misalignment"] = nullptr;
+    }
+    if (v.dead_reckoning) {
+      const auto& d = v.dead_reckoning->view;
+      jv["dead_reckoning"] = {{"latitude_deg", d.latitude_deg},
+                              {"longitude_deg", d.longitude_deg},
+                              {"distance_m", d.distance_m},
+                              {"k_m_per_pulse", d.k_m_per_pulse},
+                              {"k_source", k_source_name(d.k_source)},
+                              {"gnss_valid", d.gnss_valid},
+                              {"horizontal_error_m", known_or_null(d.horizontal_error_m)},
+                              {"error_percent_distance", known_or_null(d.error_percent_distance)},
+                              {"stamp_s", d.stamp_s},
+                              {"age_s", v.dead_reckoning->age_s},
+                              {"stale", v.dead_reckoning->stale}};
+    } else {
+      jv["dead_reckoning"] = nullptr;
+    }
+    if (v.gnss) {
+      const auto& g = v.gnss->view;
+      jv["gnss"] = {{"valid", g.valid},
+                    {"fix_quality", g.fix_quality},
+                    {"fix", fix_quality_name(g.fix_quality)},
+                    {"speed_mps", g.speed_mps},
+                    {"stamp_s", g.stamp_s},
+                    {"age_s", v.gnss->age_s},
+                    {"stale", v.gnss->stale}};
+    } else {
+      jv["gnss"] = nullptr;
+    }
+    nlohmann::json rates = nlohmann::json::object();
+    for (int s = 0; s < kStreamCount; ++s) rates[stream_name(static_cast<Stream>(s))] = v.rate_hz[s];
+    jv["rates_hz"] = rates;
+    vehicles.push_back(std::move(jv));
+  }
+  return {{"vehicles", vehicles}};
+}
+
+namespace {
+
+/// A line of the dashboard: text plus optional highlight, cut to the width.
+struct Line {
+  std::string text;
+  bool alert = false;  // stale or error: reverse video with ansi
+};
+
+std::string fit(const std::string& s, int width) {
+  return static_cast<int>(s.size()) <= width ? s : s.substr(0, static_cast<std::size_t>(width));
+}
+
+std::string pad(const std::string& s, std::size_t n) { return s.size() >= n ? s : s + std::string(n - s.size(), ' '); }
+
+std::vector<Line> vehicle_block(const VehicleSnapshot& v) {
+  std::vector<Line> lines;
+  std::ostringstream head;
+  head << "== " << v.vehicle_id << (v.stale ? " [STALE]" : "") << " ";
+  if (v.gnss) {
+    head << " GNSS " << (v.gnss->view.valid ? "valid" : "INVALID") << " fix " << fix_quality_name(v.gnss->view.fix_quality)
+         << format(" %.1f m/s", v.gnss->view.speed_mps) << (v.gnss->stale ? " STALE" : "");
+  } else {
+    head << " GNSS -";
+  }
+  lines.push_back({head.str(), v.stale});
+
+  std::ostringstream k;
+  if (v.scale_factor) {
+    const auto& s = v.scale_factor->view;
+    k << " K " << format("%.7f", s.k_m_per_pulse);
+    if (s.sigma_m_per_pulse >= 0.0) k << " +-" << format("%.7f", s.sigma_m_per_pulse);
+    k << " m/p " << s.estimator << (s.converged ? " conv" : " -") << (s.frozen ? " FROZEN" : "")
+      << format(" lambda %.4f", s.forgetting_factor) << format(" fill %.0f%%", 100.0 * s.window_fill)
+      << (v.scale_factor->stale ? " STALE" : "");
+  } else {
+    k << " K -";
+  }
+  lines.push_back({k.str(), v.scale_factor && v.scale_factor->stale});
+
+  std::ostringstream m;
+  if (v.misalignment) {
+    const auto& a = v.misalignment->view;
+    m << " misalign hdg " << format("%+.3f", rad_to_deg(a.heading_rad));
+    if (a.heading_std_rad >= 0.0) m << " +-" << format("%.3f", rad_to_deg(a.heading_std_rad));
+    m << " pitch " << format("%+.3f", rad_to_deg(a.pitch_rad));
+    if (a.pitch_std_rad >= 0.0) m << " +-" << format("%.3f", rad_to_deg(a.pitch_std_rad));
+    m << " deg " << misalignment_state_name(a.state) << (v.misalignment->stale ? " STALE" : "");
+  } else {
+    m << " misalign -";
+  }
+  lines.push_back({m.str(), v.misalignment && v.misalignment->stale});
+
+  std::ostringstream d;
+  if (v.dead_reckoning) {
+    const auto& r = v.dead_reckoning->view;
+    d << " DR err ";
+    d << (r.horizontal_error_m >= 0.0 ? format("%.1f m", r.horizontal_error_m) : std::string("- m"));
+    d << " " << (r.error_percent_distance >= 0.0 ? format("%.2f %%D", r.error_percent_distance) : std::string("- %D"));
+    d << format(" dist %.0f m", r.distance_m) << " K " << k_source_name(r.k_source)
+      << (v.dead_reckoning->stale ? " STALE" : "");
+  } else {
+    d << " DR -";
+  }
+  lines.push_back({d.str(), v.dead_reckoning && v.dead_reckoning->stale});
+
+  std::ostringstream r;
+  static const char* short_names[] = {"odo", "ins", "gnss", "mis", "k", "dr", "hlth"};
+  r << " Hz";
+  for (int s = 0; s < kStreamCount; ++s) r << " " << short_names[s] << " " << format("%.0f", v.rate_hz[s]);
+  lines.push_back({r.str(), false});
+
+  for (const ComponentSnapshot& c : v.components) {
+    std::ostringstream l;
+    l << "  " << pad(c.health.component, 22) << " ";
+    if (c.stale) {
+      l << pad("STALE", 9) << format("silent %.1f s", c.age_s) << " (last " << health_state_name(c.health.state) << ")";
+    } else {
+      l << pad(health_state_name(c.health.state), 9) << pad(health_level_name(c.health.level), 6) << c.health.reason;
+    }
+    lines.push_back({l.str(), c.stale || c.health.level >= 2});
+  }
+  return lines;
+}
+
+}  // namespace
+
+std::string render_dashboard(const FleetSnapshot& snap, int width, int height, bool ansi, const std::string& title) {
+  width = std::max(width, 40);
+  height = std::max(height, 8);
+  std::vector<Line> out;
+  out.push_back({title + "  vehicles " + std::to_string(snap.vehicles.size()), false});
+  if (snap.vehicles.empty()) out.push_back({"  (no vehicle heard yet)", false});
+  std::size_t shown = 0;
+  for (const VehicleSnapshot& v : snap.vehicles) {
+    std::vector<Line> block = vehicle_block(v);
+    const bool last = shown + 1 == snap.vehicles.size();
+    // Keep one line for "N more vehicles" unless this is the last vehicle.
+    const long room = static_cast<long>(height) - static_cast<long>(out.size()) - (last ? 0 : 1);
+    if (static_cast<long>(block.size()) > room) {
+      if (shown == 0 && room > 0) {  // at least part of the first vehicle
+        block.resize(static_cast<std::size_t>(room));
+        out.insert(out.end(), block.begin(), block.end());
+        ++shown;
+      }
+      break;
+    }
+    out.insert(out.end(), block.begin(), block.end());
+    ++shown;
+  }
+  if (shown < snap.vehicles.size()) {
+    std::ostringstream more;
+    more << "... " << snap.vehicles.size() - shown << " more vehicle(s); --vehicle ID to pick";
+    out.push_back({more.str(), false});
+  }
+  std::string text;
+  for (const Line& l : out) {
+    const std::string t = fit(l.text, width);
+    if (ansi && l.alert) text += "\x1b[7m" + t + "\x1b[0m";
+    else text += t;
+    text += '\n';
+  }
+  return text;
+}
+
+}  // namespace odonav::ground

@@ -1,0 +1,185 @@
+#pragma once
+// What the ground station knows about its fleet, without DDS: the latest message of every topic per
+// vehicle (and per component for Health), arrival rates, and which producers went silent.
+// odonav-ground's DDS node converts each received message into the plain views below and feeds them
+// here from the listener threads; the monitor takes snapshots (thread-safe) to print them.
+//
+// Time: `now_s` everywhere is the ground station's steady clock in seconds (any origin), used for
+// ages, rates and staleness only. Message stamps are kept as sent (dataset time base, seconds).
+// Units and frames are those of the topics (idl/README.md): SI, radians, ENU.
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace odonav::ground {
+
+/// The vehicle topics the monitor follows, in the order of idl/README.md.
+enum class Stream { kOdometer, kInsAttitude, kGnssFix, kMisalignment, kScaleFactor, kDeadReckoning, kHealth };
+inline constexpr int kStreamCount = 7;
+/// Short name of a stream ("odometer", "ins", "gnss", "misalignment", "scale_factor", "dead_reckoning", "health").
+const char* stream_name(Stream s);
+
+struct HealthView {
+  std::string vehicle_id, component;
+  double stamp_s = 0.0;
+  std::uint32_t state = 0;  ///< Health.STATE_* (0 starting .. 4 stopping)
+  std::uint32_t level = 0;  ///< Health.LEVEL_* (0 OK, 1 WARN, 2 ERROR, 3 STALE)
+  std::string reason;
+  std::vector<std::pair<std::string, double>> counters;
+  std::uint32_t last_command_id = 0;
+  std::uint32_t last_command_result = 0;  ///< 0 none, 1 accepted, 2 rejected
+  std::string last_command_detail;
+};
+
+struct ScaleFactorView {
+  std::string vehicle_id;
+  double stamp_s = 0.0;
+  double k_m_per_pulse = 0.0;
+  double sigma_m_per_pulse = -1.0;  ///< -1: unknown
+  double forgetting_factor = 1.0;   ///< (0, 1]
+  double window_fill = 0.0;         ///< [0, 1]
+  std::string estimator;
+  bool converged = false;
+  bool frozen = false;
+  std::uint32_t samples_accepted = 0, samples_rejected = 0;
+};
+
+struct MisalignmentView {
+  std::string vehicle_id;
+  double stamp_s = 0.0;
+  double heading_rad = 0.0, pitch_rad = 0.0;
+  double heading_std_rad = -1.0, pitch_std_rad = -1.0;  ///< -1: unknown
+  std::uint32_t samples_used = 0;
+  bool converged = false;
+  std::uint32_t state = 0;  ///< Misalignment.STATE_* (0 waiting, 1 calibrating, 2 converged, 3 frozen)
+};
+
+struct DeadReckoningView {
+  std::string vehicle_id;
+  double stamp_s = 0.0;
+  double latitude_deg = 0.0, longitude_deg = 0.0;
+  double distance_m = 0.0;
+  double k_m_per_pulse = 0.0;
+  std::uint32_t k_source = 0;  ///< 0 nominal, 1 identified, 2 commanded
+  bool gnss_valid = false;
+  double horizontal_error_m = -1.0;      ///< -1: no reference
+  double error_percent_distance = -1.0;  ///< %D; -1: no reference
+};
+
+struct GnssView {
+  std::string vehicle_id;
+  double stamp_s = 0.0;
+  bool valid = false;
+  std::uint8_t fix_quality = 0;  ///< NMEA GGA quality
+  double speed_mps = 0.0;        ///< horizontal speed from the ENU velocity
+};
+
+/// Names for the numeric enumerations of the topics.
+std::string health_state_name(std::uint32_t state);  ///< "STARTING" .. "STOPPING", else "STATE<n>"
+std::string health_level_name(std::uint32_t level);  ///< "OK", "WARN", "ERROR", "STALE", else "LEVEL<n>"
+std::string command_result_name(std::uint32_t result);  ///< "none", "accepted", "rejected"
+std::string fix_quality_name(std::uint8_t quality);  ///< "invalid", "single", "dgps", "rtk-fixed", ...
+std::string k_source_name(std::uint32_t source);     ///< "nominal", "identified", "commanded"
+std::string misalignment_state_name(std::uint32_t state);  ///< "waiting" .. "frozen"
+
+/// When an item counts as STALE: silent by the reader's deadline (edge reported through
+/// on_silence), or not heard of for longer than stale_after_s of its stream. The defaults are 1.5
+/// deadline periods for the topics with a deadline (health 3 s, estimates 1 s), so STALE shows
+/// within 2 periods even if a deadline event were missed, and 1 s for the 10-100 Hz streams the
+/// ground reads best effort without a deadline.
+struct FleetStateConfig {
+  double rate_window_s = 2.0;  ///< arrival rates are counted over this sliding window (s, > 0)
+  double stale_after_s[kStreamCount] = {1.0, 1.0, 1.0, 1.5, 1.5, 1.0, 4.5};
+};
+
+/// One component of a vehicle in a snapshot.
+struct ComponentSnapshot {
+  HealthView health;
+  double age_s = 0.0;  ///< since its last Health arrived
+  bool stale = false;
+};
+
+template <class View>
+struct ItemSnapshot {
+  View view;
+  double age_s = 0.0;
+  bool stale = false;
+};
+
+struct VehicleSnapshot {
+  std::string vehicle_id;
+  std::vector<ComponentSnapshot> components;  ///< sorted by component name
+  std::optional<ItemSnapshot<ScaleFactorView>> scale_factor;
+  std::optional<ItemSnapshot<MisalignmentView>> misalignment;
+  std::optional<ItemSnapshot<DeadReckoningView>> dead_reckoning;
+  std::optional<ItemSnapshot<GnssView>> gnss;
+  double rate_hz[kStreamCount] = {0, 0, 0, 0, 0, 0, 0};  ///< arrivals per second over the rate window
+  bool stale = false;  ///< some producer of this vehicle is stale
+};
+
+struct FleetSnapshot {
+  double now_s = 0.0;
+  std::vector<VehicleSnapshot> vehicles;  ///< sorted by vehicle id
+};
+
+/// The fleet, fed from any thread (one internal mutex).
+class FleetState {
+ public:
+  explicit FleetState(FleetStateConfig config = FleetStateConfig());
+
+  void on_health(const HealthView& h, double now_s);
+  void on_scale_factor(const ScaleFactorView& v, double now_s);
+  void on_misalignment(const MisalignmentView& v, double now_s);
+  void on_dead_reckoning(const DeadReckoningView& v, double now_s);
+  void on_gnss(const GnssView& v, double now_s);
+  /// An arrival of a stream that keeps no content here (odometer, INS): counted for its rate.
+  void on_arrival(const std::string& vehicle_id, Stream stream, double now_s);
+  /// The reader's deadline edge: `silent` true when the instance (vehicle, and component for
+  /// Health; empty otherwise) went silent, false when its data returned.
+  void on_silence(const std::string& vehicle_id, Stream stream, const std::string& component, bool silent);
+
+  /// Everything known now; `vehicles` restricts it to those ids when not empty.
+  FleetSnapshot snapshot(double now_s, const std::vector<std::string>& vehicles = {}) const;
+
+ private:
+  struct Timed {
+    double last_arrival_s = 0.0;
+    bool silent = false;
+  };
+  struct Vehicle {
+    std::map<std::string, std::pair<HealthView, Timed>> components;
+    std::optional<std::pair<ScaleFactorView, Timed>> scale_factor;
+    std::optional<std::pair<MisalignmentView, Timed>> misalignment;
+    std::optional<std::pair<DeadReckoningView, Timed>> dead_reckoning;
+    std::optional<std::pair<GnssView, Timed>> gnss;
+    std::deque<double> arrivals[kStreamCount];
+  };
+  Vehicle& vehicle(const std::string& id);
+  void count(Vehicle& v, Stream s, double now_s);
+  bool is_stale(const Timed& t, Stream s, double now_s) const;
+
+  FleetStateConfig config_;
+  mutable std::mutex mutex_;
+  std::map<std::string, Vehicle> vehicles_;
+};
+
+/// The snapshot as JSON (for --once --json): {"vehicles": [{"vehicle_id", "stale", "components":
+/// [{"component", "state", "level", "reason", "stale", "age_s", "last_command": {...}, "counters":
+/// {...}}], "scale_factor", "misalignment" (degrees added), "dead_reckoning", "gnss": objects or
+/// null, "rates_hz": {stream: Hz}}]}. Unknown sigmas/errors (-1) are null.
+nlohmann::json snapshot_json(const FleetSnapshot& snapshot);
+
+/// The dashboard text: at most `height` lines of at most `width` characters (>= 40 x 8), one block
+/// per vehicle while they fit, then a line counting the vehicles left out. With `ansi`, STALE
+/// marks and warnings are shown in reverse video / colour (SGR codes, which take no columns).
+std::string render_dashboard(const FleetSnapshot& snapshot, int width, int height, bool ansi,
+                             const std::string& title);
+
+}  // namespace odonav::ground

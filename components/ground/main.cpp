@@ -1,0 +1,262 @@
+// odonav-ground: the ground station (README.md): fleet monitor, MCAP recorder, operator commands.
+#include <unistd.h>
+#include <sys/ioctl.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <sstream>
+#include <thread>
+
+#include "core/fleet_state.hpp"
+#include "core/mcap_writer.hpp"
+#include "core/recording.hpp"
+#include "node/ground_node.hpp"
+#include "odonav/config.hpp"
+#include "odonav/dds/component.hpp"
+#include "odonav/logging.hpp"
+#include "odonav/tool_output.hpp"
+
+namespace {
+
+using namespace odonav;
+using namespace odonav::ground;
+
+constexpr int kExitOk = 0;
+constexpr int kExitFailure = 1;  // also: command rejected
+constexpr int kExitConfig = 2;
+constexpr int kExitTimeout = 3;  // command: no acknowledgement in time
+
+void declare_options(Options& o) {
+  o.add_positional("action", "monitor | record | command");
+  o.add_positional("command", "command: reset-calibration | set-k | freeze | unfreeze", false);
+  o.add_positional("value", "command set-k: K in metres per pulse", false);
+  o.add_int("domain", 0, "DDS domain id of the fleet", 0, 232);
+  o.add_string("profile", "",
+               "Fast DDS XML file with the participant profile (qos.xml is read from its directory); "
+               "empty = $FASTRTPS_DEFAULT_PROFILES_FILE");
+  o.add_string("profile-name", "loopback_only", "participant profile name in --profile");
+  o.add_string("log-level", "", std::string("log level (") + kLogLevelNames + "); empty = $ODONAV_LOG_LEVEL or info");
+  // monitor
+  o.add_string("vehicle", "", "monitor: vehicle ids to show, comma separated (empty: all); command: the vehicle");
+  o.add_bool("once", false, "monitor: print one snapshot after --settle-s and exit");
+  o.add_bool("json", false, "monitor: the snapshot as JSON (with --once: exactly one JSON document on stdout)");
+  o.add_double("settle-s", 2.0, "monitor --once: how long to listen before the snapshot (s)", 0.0, 3600.0);
+  o.add_double("refresh-s", 0.5, "monitor: refresh period (s); in a pipe at least 5 s unless given", 0.05, 3600.0);
+  // record
+  o.add_string("out", "", "record: the MCAP file to write");
+  o.add_string("topics", "", "record: topics, comma separated (odometer, ins/attitude, gnss/fix, misalignment, "
+                             "scale_factor, dead_reckoning, health, command); empty = all");
+  o.add_double("duration-s", 0.0, "record: stop after this many seconds (0: until SIGINT/SIGTERM)", 0.0, 1e9);
+  o.add_bool("best-effort", false,
+             "record: read every topic with odonav_ground_reader_best_effort (weak links) instead of each "
+             "topic's reliable reader profile");
+  // command
+  o.add_string("component", "", "command: the addressed component, e.g. odonav-identification");
+  o.add_double("timeout-s", 5.0, "command: how long to wait for the acknowledgement (s)", 0.01, 3600.0);
+}
+
+odonav::dds::ParticipantOptions participant_options(const Options& o) {
+  odonav::dds::ParticipantOptions p;
+  p.profiles_file = o.get_string("profile");
+  if (p.profiles_file.empty()) {
+    const char* env = std::getenv("FASTRTPS_DEFAULT_PROFILES_FILE");
+    if (env == nullptr || *env == '\0') {
+      throw ConfigError("--profile: not given and FASTRTPS_DEFAULT_PROFILES_FILE is not set (use e.g. "
+                        "--profile deploy/profiles/loopback.xml)");
+    }
+    p.profiles_file = env;
+  }
+  p.participant_profile = o.get_string("profile-name");
+  if (p.participant_profile.empty()) throw ConfigError("--profile-name: must not be empty");
+  p.domain_id = static_cast<int>(o.get_int("domain"));
+  p.participant_name = "odonav-ground";
+  return p;
+}
+
+std::vector<std::string> split_list(const std::string& s) {
+  std::vector<std::string> items;
+  std::istringstream in(s);
+  std::string item;
+  while (std::getline(in, item, ','))
+    if (!item.empty()) items.push_back(item);
+  return items;
+}
+
+/// Sleeps up to seconds, in small steps, returning early when a stop is requested.
+void sleep_unless_stopped(double seconds, const odonav::dds::StopSignals& stop) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::microseconds(static_cast<long long>(seconds * 1e6));
+  while (!stop.stop_requested() && std::chrono::steady_clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+}
+
+int run_monitor(const Options& o, odonav::dds::StopSignals& stop) {
+  const std::vector<std::string> only = split_list(o.get_string("vehicle"));
+  odonav::dds::Participant participant(participant_options(o));
+  FleetState state;
+  FleetMonitor monitor(participant, state, odonav::dds::steady_now_s);
+  std::ostringstream title;
+  title << "odonav-ground  domain " << participant.domain_id();
+  std::ostream& out = tool_output();
+
+  if (o.get_bool("once")) {
+    sleep_unless_stopped(o.get_double("settle-s"), stop);
+    const FleetSnapshot snap = state.snapshot(odonav::dds::steady_now_s(), only);
+    if (o.get_bool("json")) {
+      nlohmann::json j = snapshot_json(snap);
+      j["domain"] = participant.domain_id();
+      out << j.dump(2) << std::endl;
+    } else {
+      out << render_dashboard(snap, 80, 24, false, title.str()) << std::flush;
+    }
+    return kExitOk;
+  }
+
+  const bool tty = ::isatty(STDOUT_FILENO) == 1;
+  double refresh_s = o.get_double("refresh-s");
+  if (!tty && !o.was_set("refresh-s")) refresh_s = 5.0;  // a log file wants snapshots, not a movie
+  if (tty) out << "\x1b[?25l";                           // hide the cursor while redrawing
+  while (!stop.stop_requested()) {
+    const FleetSnapshot snap = state.snapshot(odonav::dds::steady_now_s(), only);
+    if (o.get_bool("json")) {
+      nlohmann::json j = snapshot_json(snap);
+      j["domain"] = participant.domain_id();
+      out << j.dump() << std::endl;  // one JSON document per line
+    } else if (tty) {
+      int width = 80, height = 24;
+      winsize ws{};
+      if (::ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0 && ws.ws_row > 0) {
+        width = ws.ws_col;
+        height = ws.ws_row - 1;  // the cursor's line
+      }
+      out << "\x1b[H\x1b[2J" << render_dashboard(snap, width, height, true, title.str()) << std::flush;
+    } else {
+      out << render_dashboard(snap, 80, 24, false, title.str()) << "\n" << std::flush;
+    }
+    sleep_unless_stopped(refresh_s, stop);
+  }
+  if (tty) out << "\x1b[?25h" << std::flush;
+  return kExitOk;
+}
+
+int run_record(const Options& o, odonav::dds::StopSignals& stop) {
+  const std::string path = o.get_string("out");
+  if (path.empty()) throw ConfigError("record: --out FILE.mcap is required");
+  std::vector<topics::TopicSpec> chosen;
+  try {
+    chosen = select_topics(o.get_string("topics"));
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(e.what());
+  }
+  const double duration_s = o.get_double("duration-s");
+  odonav::dds::Participant participant(participant_options(o));
+  McapWriter writer(path);
+  TopicRecorder recorder(participant, writer, chosen,
+                         o.get_bool("best-effort") ? topics::kGroundBestEffortReaderProfile : "");
+  spdlog::info("recording {} topic(s) to {}{}", chosen.size(), path,
+               duration_s > 0 ? " for " + std::to_string(duration_s) + " s" : std::string(" until SIGINT"));
+  const double start_s = odonav::dds::steady_now_s();
+  double last_flush_s = start_s;
+  double last_progress_s = start_s;
+  while (!stop.stop_requested()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const double now_s = odonav::dds::steady_now_s();
+    if (duration_s > 0.0 && now_s - start_s >= duration_s) break;
+    // Every second: what a crash may lose.
+    if (now_s - last_flush_s >= 1.0) {
+      writer.flush();
+      last_flush_s = now_s;
+    }
+    if (now_s - last_progress_s >= 10.0) {
+      spdlog::info("recorded {} messages; {} of {} topics have a writer", writer.message_count(),
+                   recorder.matched_topics(), recorder.topic_count());
+      last_progress_s = now_s;
+    }
+  }
+  recorder.stop();
+  writer.close();
+  tool_output() << "recorded " << writer.message_count() << " messages on " << chosen.size() << " topics to " << path
+                << std::endl;
+  return recorder.failures() == 0 ? kExitOk : kExitFailure;
+}
+
+int run_command(const Options& o) {
+  CommandRequest request;
+  request.vehicle_id = o.get_string("vehicle");
+  request.component = o.get_string("component");
+  if (request.vehicle_id.empty() || request.vehicle_id.find(',') != std::string::npos) {
+    throw ConfigError("command: --vehicle ID (exactly one vehicle) is required");
+  }
+  if (request.component.empty()) throw ConfigError("command: --component NAME is required");
+  if (!o.was_set("command")) throw ConfigError("command: which one? reset-calibration, set-k VALUE, freeze, unfreeze");
+  try {
+    request.kind = parse_command_kind(o.get_string("command"));
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("command: ") + e.what());
+  }
+  if (request.kind == odonav::msg::COMMAND_SET_K) {
+    if (!o.was_set("value")) throw ConfigError("command set-k: the value (K in m/pulse) is missing");
+    const std::string text = o.get_string("value");
+    char* end = nullptr;
+    request.value = std::strtod(text.c_str(), &end);
+    if (end == text.c_str() || *end != '\0' || !std::isfinite(request.value) || request.value <= 0.0) {
+      throw ConfigError("command set-k: value '" + text + "' is not a positive number of metres per pulse");
+    }
+  } else if (o.was_set("value")) {
+    throw ConfigError("command " + o.get_string("command") + ": takes no value (got '" + o.get_string("value") + "')");
+  }
+  request.timeout_s = o.get_double("timeout-s");
+  odonav::dds::Participant participant(participant_options(o));
+  const CommandReply reply = send_command(participant, request);
+  std::ostringstream what;
+  what << request.vehicle_id << " " << request.component << ": " << command_kind_name(request.kind);
+  if (request.kind == odonav::msg::COMMAND_SET_K) what << " " << o.get_string("value");
+  what << " (command " << reply.command_id << ") ";
+  switch (reply.outcome) {
+    case CommandOutcome::kAccepted:
+      tool_output() << what.str() << "ACCEPTED: " << reply.detail << std::endl;
+      return kExitOk;
+    case CommandOutcome::kRejected:
+      tool_output() << what.str() << "REJECTED: " << reply.detail << std::endl;
+      return kExitFailure;
+    case CommandOutcome::kTimeout:
+      break;
+  }
+  tool_output() << what.str() << "TIMEOUT: " << reply.detail << std::endl;
+  return kExitTimeout;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Before any thread exists: SIGINT/SIGTERM become a flag (see StopSignals).
+  odonav::dds::StopSignals stop;
+  Options options("odonav-ground",
+                  "The ground station of an odonav fleet.\n"
+                  "  monitor [--once --json] [--vehicle ID,...]   live dashboard of every vehicle\n"
+                  "  record --out FILE.mcap [--topics a,b] [--duration-s S]   MCAP recording (ros2msg + cdr)\n"
+                  "  command --vehicle ID --component NAME (reset-calibration|set-k VALUE|freeze|unfreeze)\n"
+                  "Exit codes: 0 done (command: accepted), 1 failure (command: rejected), 2 bad configuration, "
+                  "3 command not acknowledged in time.");
+  declare_options(options);
+  try {
+    if (options.parse(argc, argv) == ParseResult::kHelp) return kExitOk;
+    setup_logging("odonav-ground", options.get_string("log-level"));
+    const std::string action = options.get_string("action");
+    if (action != "command" && (options.was_set("command") || options.was_set("value"))) {
+      throw ConfigError(action + ": unexpected argument '" + options.get_string("command") + "'");
+    }
+    if (action == "monitor") return run_monitor(options, stop);
+    if (action == "record") return run_record(options, stop);
+    if (action == "command") return run_command(options);
+    throw ConfigError("unknown action '" + action + "' (monitor, record, command)");
+  } catch (const ConfigError& e) {
+    // Possibly before logging is set up (spdlog's default logger writes to stdout): stderr directly.
+    std::cerr << "odonav-ground: " << e.what() << " (--help for the usage)" << std::endl;
+    return kExitConfig;
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return kExitFailure;
+  }
+}
