@@ -314,4 +314,52 @@ TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFiles) {
   EXPECT_GT(rows.misalignment.size(), 200u);
 }
 
+TEST_F(Pipeline, GnssRemovedMidRunIdentificationHoldsKAndDeadReckoningContinues) {
+  // A 150 s ring drive whose GNSS stops for 30 s (no rows at all from t = 90 s to 120 s: the receiver
+  // is gone, not just without a fix), replayed through the whole pipeline.
+  const std::string dir = fresh_dir("gnss-removed");
+  const std::string full = dir + "/full";
+  ASSERT_EQ(run(kBin + "/odonav-sim ring --duration-s 150 --seed 3 --out " + full + " >" + dir + "/sim.log 2>&1"), 0);
+  Dataset d = read_dataset(full, BadRowPolicy::kFail);
+  const double gap_start_s = 90.0, gap_end_s = 120.0;
+  d.gnss.erase(std::remove_if(d.gnss.begin(), d.gnss.end(),
+                              [&](const GnssSample& g) { return g.t_s >= gap_start_s && g.t_s < gap_end_s; }),
+               d.gnss.end());
+  const std::string data = dir + "/data";
+  write_dataset(data, d);
+  const std::string out = dir + "/out";
+  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "55", "--out", out}, out, 300);
+  const offline::OutputRows rows = offline::read_output_rows(out);
+
+  // Identification holds K: no estimate inside the gap, and the first one after it is the last one
+  // before it (the first epoch after a gap only starts a new sample chain).
+  const offline::ScaleFactorRow* before = nullptr;
+  const offline::ScaleFactorRow* after = nullptr;
+  for (const offline::ScaleFactorRow& r : rows.scale_factor) {
+    if (r.t_s < gap_start_s) before = &r;
+    EXPECT_FALSE(r.t_s >= gap_start_s && r.t_s < gap_end_s) << "an estimate at t=" << r.t_s << " s without GNSS";
+    if (r.t_s >= gap_end_s && !after) after = &r;
+  }
+  ASSERT_TRUE(before && after);
+  ASSERT_TRUE(before->k_m_per_pulse && before->converged);
+  ASSERT_TRUE(after->k_m_per_pulse);
+  EXPECT_EQ(*after->k_m_per_pulse, *before->k_m_per_pulse);
+
+  // Dead reckoning continues through the gap at the odometer rate, on the identified K held from before.
+  double last_t = -1.0, max_step_s = 0.0;
+  std::size_t in_gap = 0;
+  for (const offline::DeadReckoningRow& r : rows.dead_reckoning) {
+    if (last_t >= 0.0) max_step_s = std::max(max_step_s, r.t_s - last_t);
+    last_t = r.t_s;
+    if (r.t_s >= gap_start_s && r.t_s < gap_end_s) {
+      ++in_gap;
+      EXPECT_EQ(r.k_m_per_pulse, *before->k_m_per_pulse) << "t=" << r.t_s;
+      EXPECT_EQ(r.k_source, "identified");
+    }
+  }
+  EXPECT_GE(in_gap, 2990u);                 // 30 s at 100 Hz
+  EXPECT_LE(max_step_s, 2 * 0.01 + 1e-9);   // never a gap longer than two odometer periods
+  EXPECT_GE(last_t, 149.0);
+}
+
 }  // namespace
