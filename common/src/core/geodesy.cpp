@@ -2,7 +2,10 @@
 
 #include <GeographicLib/Constants.hpp>
 #include <GeographicLib/Geodesic.hpp>
+#include <atomic>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include "odonav/frames.hpp"
 
@@ -46,6 +49,12 @@ double horizontal_distance_m(const Geodetic& a, const Geodetic& b) {
 struct LocalEnuFrame::Impl {
   long double x0, y0, z0;  // origin in ECEF, metres
   long double r[3][3];     // rows: east, north, up unit vectors in ECEF
+  // Identifies the frame's numbers for the to_enu memo below: a fresh value for every frame built
+  // from an origin; a copy keeps it (same numbers, same answers).
+  uint64_t memo_id;
+
+  /// The computation behind to_enu (no memo).
+  Eigen::Vector3d compute_enu(const Geodetic& p) const;
 
   static void geodetic_to_ecef(long double lat, long double lon, long double h, long double& x, long double& y,
                                long double& z) {
@@ -58,7 +67,37 @@ struct LocalEnuFrame::Impl {
   }
 };
 
+namespace {
+std::atomic<uint64_t> next_frame_memo_id{1};
+
+// to_enu's long-double sin/cos (with argument reduction: ~100 ns a call) dominated dead reckoning,
+// which converts the same two bracketing GNSS fixes again for each of the ~10 odometer samples
+// between them. This per-thread memo of the last few (frame, position) -> ENU answers returns
+// exactly what the computation would (it IS that computation's earlier result), so outputs do not
+// change by a bit; being per thread, concurrent const calls stay safe. Keys compare bit patterns,
+// so -0.0 / 0.0 and NaN payloads are told apart exactly as the arithmetic could tell them apart.
+struct EnuMemoEntry {
+  uint64_t frame = 0;  // 0: empty
+  uint64_t lat_bits = 0, lon_bits = 0, height_bits = 0;
+  uint64_t last_use = 0;
+  Eigen::Vector3d enu;
+};
+constexpr int kEnuMemoSize = 4;  // the DR needs 2 fixes + its own position; 4 leaves slack
+struct EnuMemo {
+  EnuMemoEntry entries[kEnuMemoSize];
+  uint64_t clock = 0;
+};
+thread_local EnuMemo enu_memo;
+
+uint64_t bits_of(double v) {
+  uint64_t b;
+  std::memcpy(&b, &v, sizeof b);
+  return b;
+}
+}  // namespace
+
 LocalEnuFrame::LocalEnuFrame(const Geodetic& origin) : origin_(origin), impl_(new Impl) {
+  impl_->memo_id = next_frame_memo_id.fetch_add(1, std::memory_order_relaxed);
   Impl::geodetic_to_ecef(origin.lat_rad, origin.lon_rad, origin.height_m, impl_->x0, impl_->y0, impl_->z0);
   const long double sp = std::sin(static_cast<long double>(origin.lat_rad));
   const long double cp = std::cos(static_cast<long double>(origin.lat_rad));
@@ -79,12 +118,28 @@ LocalEnuFrame& LocalEnuFrame::operator=(const LocalEnuFrame& other) {
 }
 
 Eigen::Vector3d LocalEnuFrame::to_enu(const Geodetic& p) const {
+  EnuMemo& memo = enu_memo;
+  const uint64_t lat = bits_of(p.lat_rad), lon = bits_of(p.lon_rad), height = bits_of(p.height_m);
+  EnuMemoEntry* oldest = &memo.entries[0];
+  for (EnuMemoEntry& e : memo.entries) {
+    if (e.frame == impl_->memo_id && e.lat_bits == lat && e.lon_bits == lon && e.height_bits == height) {
+      e.last_use = ++memo.clock;
+      return e.enu;
+    }
+    if (e.last_use < oldest->last_use) oldest = &e;
+  }
+  const Eigen::Vector3d enu = impl_->compute_enu(p);
+  *oldest = EnuMemoEntry{impl_->memo_id, lat, lon, height, ++memo.clock, enu};
+  return enu;
+}
+
+Eigen::Vector3d LocalEnuFrame::Impl::compute_enu(const Geodetic& p) const {
   long double x, y, z;
   Impl::geodetic_to_ecef(p.lat_rad, p.lon_rad, p.height_m, x, y, z);
-  const long double d[3] = {x - impl_->x0, y - impl_->y0, z - impl_->z0};
+  const long double d[3] = {x - x0, y - y0, z - z0};
   Eigen::Vector3d out;
   for (int i = 0; i < 3; ++i)
-    out[i] = static_cast<double>(impl_->r[i][0] * d[0] + impl_->r[i][1] * d[1] + impl_->r[i][2] * d[2]);
+    out[i] = static_cast<double>(r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);
   return out;
 }
 

@@ -29,6 +29,10 @@ static bool strip_plus(std::string_view& text) {
 
 static bool looks_like_nan_or_inf(std::string_view text) {
   if (!text.empty() && (text.front() == '-' || text.front() == '+')) text.remove_prefix(1);
+  // Fast path, taken by every ordinary number: NaN and infinity spellings start with a letter, so a
+  // leading digit or '.' rules them out without building the lower-case copy below (this check runs
+  // once per field of every dataset row, and the copy was a heap allocation per field).
+  if (text.empty() || (text.front() >= '0' && text.front() <= '9') || text.front() == '.') return false;
   std::string lower;
   for (char c : text) lower += static_cast<char>((c >= 'A' && c <= 'Z') ? c - 'A' + 'a' : c);
   return lower == "nan" || lower == "inf" || lower == "infinity" || lower.rfind("nan(", 0) == 0;
@@ -111,12 +115,18 @@ std::string format_degrees_of(double angle_rad) {
 
 std::vector<std::string_view> split_commas(std::string_view line) {
   std::vector<std::string_view> fields;
+  split_commas(line, fields);
+  return fields;
+}
+
+void split_commas(std::string_view line, std::vector<std::string_view>& fields) {
+  fields.clear();
   std::size_t start = 0;
   while (true) {
     const std::size_t comma = line.find(',', start);
     if (comma == std::string_view::npos) {
       fields.push_back(line.substr(start));
-      return fields;
+      return;
     }
     fields.push_back(line.substr(start, comma - start));
     start = comma + 1;

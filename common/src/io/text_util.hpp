@@ -45,6 +45,9 @@ std::string format_degrees_of(double angle_rad);
 
 /// Splits a line on ',' (no quoting: the dataset format has no quoted fields).
 std::vector<std::string_view> split_commas(std::string_view line);
+/// The same into `fields` (cleared first), so a reader that splits every row of a file reuses one
+/// vector instead of allocating one per row.
+void split_commas(std::string_view line, std::vector<std::string_view>& fields);
 
 /// Joins with ", ".
 std::string join(const std::vector<std::string>& parts, const std::string& separator = ", ");

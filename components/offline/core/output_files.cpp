@@ -54,8 +54,9 @@ void ScaleFactorCsv::write(const ScaleFactorRow& r) {
   csv_.field(r.t_s);
   for (const std::string& column : scale_factor_estimator_columns()) {
     std::optional<double> k;
+    // column is "k_" + name; compared in place (no temporary string per column and estimator).
     for (const auto& [name, value] : r.k_by_estimator)
-      if ("k_" + name == column) k = value;
+      if (column.size() == name.size() + 2 && column.compare(2, std::string::npos, name) == 0) k = value;
     csv_.field(k);
   }
   csv_.field(r.lambda_vff_lm_rls)

@@ -1,0 +1,345 @@
+// odonav-bench-accuracy: the estimator comparison of issue 8, done on the simulator's truth.
+//
+// For every scenario (straight, ring, terrain) and every seed, simulates the drive in memory, runs the
+// whole offline chain (run_offline: calibration, every estimator side by side on the same samples, DR
+// with the online K and with the coarse K of the straight run of the SAME seed) and evaluates it with
+// make_summary, exactly as odonav-offline does. Prints, per scenario and estimator, the median and the
+// range [min, max] over the seeds of: RMS relative K error in steady state, time to converge within
+// 0.5 %, settle time after each K step; and per DR run: final and maximum %D, and the error across
+// the GNSS outage. Then the sensitivity of VFF-LM-RLS to L, C (vff-kappa) and lambda_min on terrain.
+//
+// It is a benchmark, not a test: it prints figures (Markdown tables) and gates nothing. One process,
+// one thread; about 3 s per seed on a 2-core EPYC VM. Options: --seeds N, --first-seed S,
+// --sensitivity-seeds M (0: skip the table), and every estimator / gate / DR option of odonav-offline
+// (--window, --vff-kappa, --lambda-min, ...) to evaluate other settings.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "core/simulator.hpp"
+#include "odonav/calibration/calibration_options.hpp"
+#include "odonav/config.hpp"
+#include "odonav/consumer_rules.hpp"
+#include "odonav/dead_reckoning/dead_reckoning_options.hpp"
+#include "odonav/identification/identification_options.hpp"
+#include "odonav/logging.hpp"
+#include "offline_runner.hpp"
+#include "summary.hpp"
+
+namespace {
+
+using nlohmann::json;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// ---- statistics over seeds -----------------------------------------------------------------------
+
+// A figure collected over seeds; NaN means "never" (did not converge / settle) or "not defined".
+struct Figure {
+  std::vector<double> values;
+  void add(double v) { values.push_back(v); }
+  void add(const json& v) { values.push_back(v.is_number() ? v.get<double>() : kNaN); }
+};
+
+double quantile(std::vector<double> sorted_values, double q) {
+  std::sort(sorted_values.begin(), sorted_values.end());
+  const double pos = q * static_cast<double>(sorted_values.size() - 1);
+  const std::size_t lo = static_cast<std::size_t>(std::floor(pos));
+  const std::size_t hi = std::min(lo + 1, sorted_values.size() - 1);
+  return sorted_values[lo] + (pos - static_cast<double>(lo)) * (sorted_values[hi] - sorted_values[lo]);
+}
+
+// "median [min, max]" over the finite values, with "(k/n never)" when some were NaN.
+std::string describe(const Figure& f, int precision) {
+  std::vector<double> finite;
+  for (double v : f.values)
+    if (std::isfinite(v)) finite.push_back(v);
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(precision);
+  if (finite.empty()) {
+    o << "never";
+  } else {
+    o << quantile(finite, 0.5) << " [" << *std::min_element(finite.begin(), finite.end()) << ", "
+      << *std::max_element(finite.begin(), finite.end()) << "]";
+  }
+  const std::size_t missing = f.values.size() - finite.size();
+  if (missing > 0 && !finite.empty()) o << " (" << missing << "/" << f.values.size() << " never)";
+  return o.str();
+}
+
+double median_of_finite(const Figure& f) {
+  std::vector<double> finite;
+  for (double v : f.values)
+    if (std::isfinite(v)) finite.push_back(v);
+  return finite.empty() ? kNaN : quantile(finite, 0.5);
+}
+
+std::size_t count_never(const Figure& f) {
+  return static_cast<std::size_t>(std::count_if(f.values.begin(), f.values.end(), [](double v) { return !std::isfinite(v); }));
+}
+
+// ---- one run ---------------------------------------------------------------------------------------
+
+odonav::Dataset simulate(const std::string& scenario, uint64_t seed) {
+  odonav::sim::SimulationConfig cfg = odonav::sim::scenario_config(scenario);
+  cfg.seed = seed;
+  return odonav::sim::simulate(cfg);
+}
+
+// What odonav-offline's main does with a dataset's meta before running (lever arm, nominal K).
+odonav::offline::OfflineParams params_for(const odonav::Dataset& d, odonav::offline::OfflineParams p,
+                                          bool lever_arm_given) {
+  if (!lever_arm_given && d.meta.gnss_lever_arm_m) {
+    p.dead_reckoning.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+    p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  }
+  p.identification.builder.lever_arm_body_m = p.dead_reckoning.lever_arm_body_m;
+  if (p.dead_reckoning.nominal_k_m_per_pulse <= 0.0)
+    p.dead_reckoning.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
+  return p;
+}
+
+json summary_of(const odonav::Dataset& d, const odonav::offline::OutputRows& rows, const std::string& name) {
+  odonav::offline::SummaryOptions options;
+  options.dataset_name = name;
+  return odonav::offline::make_summary(d, rows, options);
+}
+
+// ---- the comparison --------------------------------------------------------------------------------
+
+struct EstimatorFigures {
+  Figure rms_percent, converge_s;
+  std::vector<Figure> settle_s;  // per K step
+};
+struct DrFigures {
+  Figure final_percent, max_percent, outage_m, outage_percent;
+};
+struct ScenarioFigures {
+  std::map<std::string, EstimatorFigures> estimators;
+  DrFigures online, coarse;
+  std::size_t steps = 0;
+  bool has_outage = false;
+};
+
+void collect(const json& s, ScenarioFigures& f) {
+  const json& sf = s["scale_factor"];
+  f.steps = sf.contains("k_steps") ? sf["k_steps"].size() : 0;
+  for (const auto& [name, e] : sf["estimators"].items()) {
+    EstimatorFigures& ef = f.estimators[name];
+    ef.rms_percent.add(e.value("rms_rel_error_percent", json()));
+    ef.converge_s.add(e.value("time_to_converge_s", json()));
+    ef.settle_s.resize(f.steps);
+    const json settle = e.value("settle_times_s", json::array());
+    for (std::size_t i = 0; i < f.steps; ++i) ef.settle_s[i].add(i < settle.size() ? settle[i] : json());
+  }
+  for (const char* which : {"online_k", "coarse_k"}) {
+    const json& j = s["dead_reckoning"][which];
+    DrFigures& d = std::string(which) == "online_k" ? f.online : f.coarse;
+    if (j.is_null()) continue;
+    d.final_percent.add(j["final_error_percent"]);
+    d.max_percent.add(j["max_error_percent"]);
+    for (const json& o : j["outages"]) {
+      f.has_outage = true;
+      d.outage_m.add(o["error_m"]);
+      d.outage_percent.add(o["error_percent_of_outage_distance"]);
+    }
+  }
+}
+
+void print_scenario(const std::string& scenario, const ScenarioFigures& f, std::size_t seeds, std::ostream& out) {
+  out << "\n### " << scenario << " (" << seeds << " seeds; median [min, max])\n\n";
+  out << "| estimator | RMS K error, steady state (%) | converge within 0.5 % (s) |";
+  for (std::size_t i = 0; i < f.steps; ++i) out << " settle after step " << i + 1 << " (s) |";
+  out << "\n|---|---|---|";
+  for (std::size_t i = 0; i < f.steps; ++i) out << "---|";
+  out << "\n";
+  for (const auto& [name, e] : f.estimators) {
+    out << "| " << name << " | " << describe(e.rms_percent, 3) << " | " << describe(e.converge_s, 1) << " |";
+    for (std::size_t i = 0; i < f.steps; ++i) out << " " << describe(e.settle_s[i], 1) << " |";
+    out << "\n";
+  }
+  out << "\n| DR with | final %D | max %D (after 100 m) |" << (f.has_outage ? " outage error (m) | outage error (% of outage distance) |" : "")
+      << "\n|---|---|---|" << (f.has_outage ? "---|---|" : "") << "\n";
+  for (const auto& [label, d] : {std::pair<const char*, const DrFigures*>{"online K (vff_lm_rls)", &f.online},
+                                 {"coarse K (S/N of the straight run, same seed)", &f.coarse}}) {
+    out << "| " << label << " | " << describe(d->final_percent, 3) << " | " << describe(d->max_percent, 3) << " |";
+    if (f.has_outage) out << " " << describe(d->outage_m, 2) << " | " << describe(d->outage_percent, 3) << " |";
+    out << "\n";
+  }
+}
+
+// ---- sensitivity of VFF-LM-RLS (identification only: the DR does not depend on these settings
+// except through K, which the K figures already measure) -----------------------------------------
+
+struct Setting {
+  std::string label;
+  std::size_t window = 0;
+  double kappa = 0.0;
+  double lambda_min = 0.0;
+};
+
+json identification_summary(const odonav::Dataset& d, const odonav::offline::OfflineParams& params,
+                            const std::vector<odonav::MisalignmentOutput>& misalignment) {
+  odonav::IdentificationParams ip = params.identification;
+  ip.run_all_estimators = false;
+  ip.estimator_name = "vff_lm_rls";
+  ip.builder.use_ins = d.has_ins();
+  odonav::IdentificationCore core(ip);
+  for (const auto& o : d.odometer) core.add_odometer(o);
+  for (const auto& g : d.gnss) core.add_gnss(g);
+  for (const auto& i : d.ins) core.add_ins(i);
+  for (const auto& m : misalignment)
+    if (odonav::misalignment_applicable(m.converged, m.samples_used)) core.add_misalignment(m.t_s, m.misalignment);
+  odonav::offline::OutputRows rows;
+  for (const auto& k : core.finish()) rows.scale_factor.push_back(odonav::offline::to_row(k, "vff_lm_rls", {}));
+  return summary_of(d, rows, "terrain");
+}
+
+void run_sensitivity(const odonav::offline::OfflineParams& base, std::size_t seeds, uint64_t first_seed,
+                     std::ostream& out) {
+  const odonav::ScaleFactorEstimatorParams& e = base.identification.estimator;
+  std::vector<Setting> settings;
+  const auto add = [&](const std::string& label, std::size_t window, double kappa, double lambda_min) {
+    settings.push_back({label, window, kappa, lambda_min});
+  };
+  add("defaults", e.window_length, e.vff_kappa, e.lambda_min);
+  for (std::size_t l : {25, 50, 200, 400})
+    if (l != e.window_length) add("L = " + std::to_string(l), l, e.vff_kappa, e.lambda_min);
+  for (double k : {0.5, 1.0, 2.0, 10.0, 30.0})
+    if (k != e.vff_kappa) {
+      std::ostringstream label;
+      label << "kappa = " << k;
+      add(label.str(), e.window_length, k, e.lambda_min);
+    }
+  for (double lm : {0.8, 0.9, 0.98, 1.0})
+    if (lm != e.lambda_min) {
+      std::ostringstream label;
+      label << "lambda_min = " << lm;
+      add(label.str(), e.window_length, e.vff_kappa, lm);
+    }
+
+  std::vector<EstimatorFigures> figures(settings.size());
+  for (uint64_t seed = first_seed; seed < first_seed + seeds; ++seed) {
+    const odonav::Dataset d = simulate("terrain", seed);
+    odonav::offline::OfflineParams p = params_for(d, base, base.dead_reckoning.lever_arm_body_m.has_value());
+    p.calibration.use_ins = d.has_ins();
+    odonav::MisalignmentCalibrator calibrator(p.calibration);
+    for (const auto& g : d.gnss) calibrator.add_gnss(g);
+    for (const auto& i : d.ins) calibrator.add_ins(i);
+    const std::vector<odonav::MisalignmentOutput> misalignment = calibrator.finish();
+    for (std::size_t i = 0; i < settings.size(); ++i) {
+      odonav::offline::OfflineParams q = p;
+      q.identification.estimator.window_length = settings[i].window;
+      q.identification.estimator.vff_kappa = settings[i].kappa;
+      q.identification.estimator.lambda_min = settings[i].lambda_min;
+      const json s = identification_summary(d, q, misalignment);
+      const json& est = s["scale_factor"]["estimators"]["vff_lm_rls"];
+      figures[i].rms_percent.add(est.value("rms_rel_error_percent", json()));
+      figures[i].converge_s.add(est.value("time_to_converge_s", json()));
+      figures[i].settle_s.resize(1);
+      for (const json& t : est.value("settle_times_s", json::array())) figures[i].settle_s[0].add(t);
+    }
+  }
+  out << "\n### Sensitivity of VFF-LM-RLS on terrain (" << seeds << " seeds, one setting changed at a time; "
+      << "settle: both K steps pooled; median [min, max])\n\n";
+  out << "| setting | L | kappa (C = kappa sigma_y^2) | lambda_min | RMS K error (%) | converge (s) | settle after a step (s) |\n";
+  out << "|---|---|---|---|---|---|---|\n";
+  for (std::size_t i = 0; i < settings.size(); ++i) {
+    out << "| " << settings[i].label << " | " << settings[i].window << " | " << settings[i].kappa << " | "
+        << settings[i].lambda_min << " | " << describe(figures[i].rms_percent, 3) << " | "
+        << describe(figures[i].converge_s, 1) << " | " << describe(figures[i].settle_s[0], 1) << " |\n";
+  }
+  // A one-line ranking to help read the table: steady-state noise against tracking speed.
+  out << "\nmedian RMS x median settle (lower is a better trade-off):";
+  for (std::size_t i = 0; i < settings.size(); ++i) {
+    const double score = median_of_finite(figures[i].rms_percent) * median_of_finite(figures[i].settle_s[0]);
+    out << (i ? "," : "") << " " << settings[i].label << " " << std::setprecision(3) << score
+        << (count_never(figures[i].settle_s[0]) ? "*" : "");
+  }
+  out << "   (* some step never settled)\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  odonav::Options opts("odonav-bench-accuracy",
+                       "Accuracy benchmark of issue 8: every estimator on every simulated scenario over several "
+                       "seeds (median and range), DR %D with the online and the coarse K, and the sensitivity of "
+                       "VFF-LM-RLS to L, C and lambda_min. Prints Markdown tables. Not a test.");
+  opts.add_int("seeds", 10, "seeds per scenario", 1, 1000);
+  opts.add_int("first-seed", 1, "first seed", 0, std::numeric_limits<int64_t>::max() / 2);
+  opts.add_int("sensitivity-seeds", 3, "seeds of the sensitivity table on terrain (0: skip it)", 0, 1000);
+  opts.add_string("scenarios", "straight,ring,terrain", "comma-separated scenarios to compare");
+  opts.add_string("log-level", "warn", "trace, debug, info, warn, error, critical, off");
+  odonav::add_identification_options(opts);
+  odonav::add_calibration_options(opts);
+  odonav::add_dead_reckoning_options(opts);
+  odonav::add_lever_arm_option(opts);
+  odonav::offline::OfflineParams base;
+  try {
+    if (opts.parse(argc, argv) == odonav::ParseResult::kHelp) return 0;
+    odonav::setup_logging("bench-accuracy", opts.get_string("log-level"));
+    base.identification = odonav::identification_params_from(opts);
+    base.calibration = odonav::calibration_params_from(opts);
+    base.dead_reckoning = odonav::dead_reckoning_params_from(opts);
+    base.dead_reckoning.lever_arm_body_m = odonav::lever_arm_from(opts);
+    base.calibration.lever_arm_body_m = base.dead_reckoning.lever_arm_body_m;
+  } catch (const odonav::ConfigError& e) {
+    std::cerr << "odonav-bench-accuracy: " << e.what() << "\n";
+    return 2;
+  }
+  const bool lever_arm_given = base.dead_reckoning.lever_arm_body_m.has_value();
+  const auto seeds = static_cast<std::size_t>(opts.get_int("seeds"));
+  const auto first_seed = static_cast<uint64_t>(opts.get_int("first-seed"));
+  std::vector<std::string> scenarios;
+  {
+    std::stringstream list(opts.get_string("scenarios"));
+    for (std::string s; std::getline(list, s, ',');)
+      if (!s.empty()) scenarios.push_back(s);
+  }
+
+  try {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::map<std::string, ScenarioFigures> figures;
+    for (uint64_t seed = first_seed; seed < first_seed + seeds; ++seed) {
+      // The coarse K of the DR comparison: S/N of the straight calibration run of the same seed, as a
+      // crew would calibrate before the drive.
+      const odonav::Dataset straight = simulate("straight", seed);
+      const std::optional<double> coarse_k =
+          odonav::offline::coarse_k_of(straight, params_for(straight, base, lever_arm_given));
+      for (const std::string& scenario : scenarios) {
+        const odonav::Dataset d = scenario == "straight" ? straight : simulate(scenario, seed);
+        odonav::offline::OfflineParams p = params_for(d, base, lever_arm_given);
+        if (coarse_k) {
+          p.coarse_k_m_per_pulse = *coarse_k;
+          p.coarse_k_origin = "coarse S/N of straight";
+        }
+        const odonav::offline::OfflineResult r = odonav::offline::run_offline(d, p);
+        const json s = summary_of(d, odonav::offline::to_output_rows(r, p.identification.estimator_name), scenario);
+        collect(s, figures[scenario]);
+      }
+      std::cerr << "seed " << seed << " done ("
+                << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s)\n";
+    }
+    std::cout << "## Accuracy: estimators side by side (simulator truth; seeds " << first_seed << ".."
+              << first_seed + seeds - 1 << ")\n";
+    std::cout << "\nK error figures as odonav-offline's summary defines them (steady state: after converging, "
+                 "outside 10 s after each K step); settle = time after a K step until K stays within 0.5 % of "
+                 "the new K; %D against the truth track.\n";
+    for (const std::string& scenario : scenarios) print_scenario(scenario, figures[scenario], seeds, std::cout);
+    const auto sensitivity_seeds = static_cast<std::size_t>(opts.get_int("sensitivity-seeds"));
+    if (sensitivity_seeds > 0) run_sensitivity(base, sensitivity_seeds, first_seed, std::cout);
+    std::cout << "\n(run time " << std::fixed << std::setprecision(1)
+              << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s)\n";
+  } catch (const std::exception& e) {
+    std::cerr << "odonav-bench-accuracy: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
