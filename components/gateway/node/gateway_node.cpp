@@ -18,7 +18,10 @@
 namespace odonav::gateway {
 
 void add_gateway_options(Options& o) {
-  o.add_string("source", "sim:terrain", "sim:<straight|ring|terrain> (the simulator, in-process) or replay:<dataset dir>");
+  o.add_string("source", "sim:terrain",
+               "sim:<straight|ring|terrain> (the simulator, in-process), replay:<dataset dir>, or a live line-protocol "
+               "source udp:[<bind IPv4>:]<port> (127.0.0.1 by default) or serial:<device>[:<baud>] (README.md)");
+  o.add_bool("allow-non-loopback", false, "udp source: allow binding an address outside 127.0.0.0/8");
   o.add_int("seed", 1, "sim source: seed of the sensor noise (as odonav-sim --seed)", 0,
             std::numeric_limits<int64_t>::max());
   o.add_double("duration-s", 0.0, "sim source: run length, s (as odonav-sim --duration-s); 0 = the scenario's", 0.0,
