@@ -3,11 +3,16 @@
 #include "odonav/lever_arm_option.hpp"
 
 #include <cmath>
+#include <ctime>
+#include <filesystem>
 #include <limits>
 #include <stdexcept>
 
+#include <spdlog/spdlog.h>
+
 #include "odonav/consumer_rules.hpp"
 #include "odonav/dds/time.hpp"
+#include "odonav/identification/checkpoint.hpp"
 #include "odonav/identification/identification_options.hpp"
 #include "odonav/topics.hpp"
 
@@ -23,6 +28,13 @@ IdentificationCore make_core(const IdentificationParams& p) {
 }
 
 uint32_t clamp_u32(uint64_t v) { return static_cast<uint32_t>(std::min<uint64_t>(v, std::numeric_limits<uint32_t>::max())); }
+
+// How long (wall time) the health reason tells about the restore: long enough for an operator or
+// a monitor to see it, short enough not to hide later reasons.
+constexpr double kRestoreNoteDuration_s = 30.0;
+// Odometer and INS samples this much older than the checkpoint are still fed: the epochs right after
+// it interpolate the pulse count and attitude between samples on both sides (max_bracket_s).
+constexpr double kSensorMarginBeforeCheckpoint_s = 1.0;
 }  // namespace
 
 void add_identification_node_options(Options& o) {
@@ -31,6 +43,18 @@ void add_identification_node_options(Options& o) {
   o.add_bool("use-ins", true,
              "the vehicle has an INS; false = degraded mode (forward speed = |GNSS velocity|), as "
              "odonav-offline does for a dataset without ins.csv");
+  o.add_string("state-dir", "",
+               "folder of the checkpoint identification-<vehicle>.ckpt (restored at start, written every "
+               "--checkpoint-every-s of event time and at shutdown); empty = no checkpoint");
+  o.add_double("checkpoint-every-s", 5.0, "checkpoint period in event time of the processed epochs (s)", 0.1, 1e6);
+}
+
+CheckpointSettings checkpoint_settings_from(const Options& o) {
+  CheckpointSettings c;
+  c.state_dir = o.get_string("state-dir");
+  c.every_s = o.get_double("checkpoint-every-s");
+  c.config_hash = config_hash_of(o.values_as_text());
+  return c;
 }
 
 IdentificationParams identification_node_params_from(const Options& o) {
@@ -62,16 +86,20 @@ odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& out, c
   return m;
 }
 
-IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const IdentificationParams& params)
+IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const IdentificationParams& params,
+                                       const CheckpointSettings& checkpoint)
     : EventTimeNode(runtime),
       params_(params),
       core_(make_core(params)),
+      checkpoint_(checkpoint),
       odometer_(add_input("odometer", true)),
       gnss_(add_input("gnss", true)),
       misalignment_(add_input("misalignment", false, &gnss_)),
       scale_factor_(runtime.participant(), topics::kScaleFactor.name, topics::kScaleFactor.writer_profile) {
   if (params_.builder.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
+  // Before any reader exists: no sample can reach the core before the restored state.
+  if (!checkpoint_.state_dir.empty()) restore_checkpoint();
 
   const std::string& vehicle = runtime.settings().vehicle_id;
   auto& p = runtime.participant();
@@ -80,7 +108,10 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
         if (m.vehicle_id() != vehicle) return;
         runtime_.post([this, m] {
           dds::admit_sample(aligner_, odometer_, m.header().stamp(), dds::steady_now_s(),
-                            [&](double) { core_.add_odometer(dds::odometer_sample_from(m)); });
+                            [&](double t_s) {
+                              if (!before_checkpoint(t_s, kSensorMarginBeforeCheckpoint_s))
+                                core_.add_odometer(dds::odometer_sample_from(m));
+                            });
         });
       });
   gnss_reader_ = std::make_unique<dds::Reader<odonav::msg::GnssFix>>(
@@ -88,7 +119,12 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
         if (m.vehicle_id() != vehicle) return;
         runtime_.post([this, m] {
           dds::admit_sample(aligner_, gnss_, m.header().stamp(), dds::steady_now_s(),
-                            [&](double) { core_.add_gnss(dds::gnss_sample_from(m)); });
+                            [&](double t_s) {
+                              // The epoch AT the checkpoint time is fed again: it re-starts the
+                              // sample chain exactly where the checkpoint left it (its output is
+                              // not republished, see publish()).
+                              if (!before_checkpoint(t_s, 0.0)) core_.add_gnss(dds::gnss_sample_from(m));
+                            });
         });
       });
   if (ins_) {
@@ -97,7 +133,8 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
         [this, vehicle](const odonav::msg::InsAttitude& m) {
           if (m.vehicle_id() != vehicle) return;
           runtime_.post([this, m] {
-            dds::admit_sample(aligner_, *ins_, m.header().stamp(), dds::steady_now_s(), [&](double) {
+            dds::admit_sample(aligner_, *ins_, m.header().stamp(), dds::steady_now_s(), [&](double t_s) {
+              if (before_checkpoint(t_s, kSensorMarginBeforeCheckpoint_s)) return;
               if (!m.valid()) {
                 ++ins_->dropped_invalid;
                 return;
@@ -136,18 +173,107 @@ void IdentificationNode::on_misalignment(const odonav::msg::Misalignment& m, dou
   ++misalignments_applied_;
 }
 
+bool IdentificationNode::before_checkpoint(double t_s, double margin_s) {
+  if (!restored_t_s_ || t_s >= *restored_t_s_ - margin_s) return false;
+  ++skipped_before_checkpoint_;
+  return true;
+}
+
 void IdentificationNode::publish(const std::vector<IdentificationOutput>& outputs) {
   const double now = dds::steady_now_s();
-  for (const IdentificationOutput& o : outputs) {
+  std::size_t published = 0;
+  for (IdentificationOutput o : outputs) {
+    // The epoch at the checkpoint time was published (by the previous run and at restore) already.
+    if (restored_t_s_ && o.t_s <= *restored_t_s_) continue;
+    o.samples_accepted += restored_accepted_;
+    o.samples_rejected += restored_rejected_;
     scale_factor_.publish(scale_factor_message(o, core_.main_estimator_name(), runtime_.settings().vehicle_id), now);
     last_output_ = o;
+    last_processed_t_s_ = o.t_s;
+    ++published;
   }
-  count_outputs(outputs.size());
+  count_outputs(published);
+  // The estimator state now is the one after the last processed epoch: checkpoint it when due.
+  if (!checkpoint_file_.empty() && last_processed_t_s_ &&
+      (!last_checkpoint_t_s_ || *last_processed_t_s_ >= *last_checkpoint_t_s_ + checkpoint_.every_s))
+    write_checkpoint(*last_processed_t_s_);
 }
 
 void IdentificationNode::process_until(double watermark_s) { publish(core_.process_until(watermark_s)); }
 
-void IdentificationNode::finish() { publish(core_.finish()); }
+void IdentificationNode::finish() {
+  publish(core_.finish());
+  if (!checkpoint_file_.empty() && last_processed_t_s_ && last_checkpoint_t_s_ != last_processed_t_s_)
+    write_checkpoint(*last_processed_t_s_);
+}
+
+void IdentificationNode::restore_checkpoint() {
+  const std::string& vehicle = runtime_.settings().vehicle_id;
+  try {
+    std::filesystem::create_directories(checkpoint_.state_dir);
+    checkpoint_file_ = checkpoint_path(checkpoint_.state_dir, vehicle);
+  } catch (const std::exception& e) {
+    throw ConfigError("--state-dir '" + checkpoint_.state_dir + "': " + e.what());
+  }
+  const CheckpointLoadResult r = load_identification_checkpoint(
+      checkpoint_file_, vehicle, checkpoint_.config_hash, core_.main_estimator(), static_cast<int64_t>(std::time(nullptr)));
+  const std::string line = describe(r, core_.main_estimator());
+  restore_note_until_s_ = dds::steady_now_s() + kRestoreNoteDuration_s;
+  switch (r.status) {
+    case CheckpointLoadStatus::kNone:
+      spdlog::info("{}", line);
+      return;
+    case CheckpointLoadStatus::kMovedAside:
+      spdlog::error("{}", line);
+      restore_note_ = "checkpoint " + checkpoint_file_ + " was corrupt: moved aside; starting from nominal K";
+      restore_warn_ = true;
+      checkpoint_moved_aside_ = true;
+      return;
+    case CheckpointLoadStatus::kRestored:
+      break;
+  }
+  spdlog::info("{}", line);
+  restore_note_ = line;
+  const IdentificationCheckpoint& c = *r.checkpoint;
+  restored_t_s_ = c.last_sample_t_s;
+  restored_accepted_ = c.samples_accepted;
+  restored_rejected_ = c.samples_rejected;
+  last_checkpoint_t_s_ = c.last_sample_t_s;
+  last_processed_t_s_ = c.last_sample_t_s;
+  // Publish the restored K at once (TRANSIENT_LOCAL): a consumer that lost it, or a late reader,
+  // has it before any new sample arrives.
+  IdentificationOutput o;
+  o.t_s = c.last_sample_t_s;
+  o.epoch_status = EpochStatus::kAccepted;
+  o.main = core_.main_estimator().estimate();
+  o.samples_accepted = c.samples_accepted;
+  o.samples_rejected = c.samples_rejected;
+  scale_factor_.publish(scale_factor_message(o, core_.main_estimator_name(), vehicle), dds::steady_now_s());
+  last_output_ = o;
+  count_outputs(1);
+}
+
+void IdentificationNode::write_checkpoint(double t_s) {
+  IdentificationCheckpoint c;
+  c.vehicle_id = runtime_.settings().vehicle_id;
+  c.config_hash = checkpoint_.config_hash;
+  c.estimator_name = core_.main_estimator().name();
+  c.last_sample_t_s = t_s;
+  c.samples_accepted = last_output_ ? last_output_->samples_accepted : 0;
+  c.samples_rejected = last_output_ ? last_output_->samples_rejected : 0;
+  c.estimator_state = core_.main_estimator().save_state();
+  try {
+    write_file_atomically(checkpoint_file_, serialize_checkpoint(c));
+    ++checkpoints_written_;
+    last_checkpoint_t_s_ = t_s;
+    spdlog::debug("checkpoint written at t={} s: {}", t_s, checkpoint_file_);
+  } catch (const std::exception& e) {
+    // Retry at the next period, not at the next epoch: a full disk must not be hammered.
+    last_checkpoint_t_s_ = t_s;
+    ++checkpoint_errors_;
+    spdlog::error("checkpoint at t={} s not written: {}", t_s, e.what());
+  }
+}
 
 std::vector<dds::detail::WriterBase*> IdentificationNode::output_writers() { return {&scale_factor_.writer()}; }
 
@@ -155,6 +281,7 @@ dds::CommandAck IdentificationNode::on_command(const odonav::msg::Command& c) {
   using namespace odonav::msg;
   switch (c.command()) {
     case COMMAND_RESET_CALIBRATION:
+      // The next checkpoint (at most --checkpoint-every-s later) stores the reset state.
       core_.reset();
       return {c.command_id(), COMMAND_RESULT_ACCEPTED, "scale-factor estimator reset"};
     case COMMAND_FREEZE_IDENTIFICATION:
@@ -193,6 +320,14 @@ dds::EventTimeNode::Status IdentificationNode::node_status(double now_s) {
     s.reason = s.reason.empty() ? mis : s.reason + "; " + mis;
     if (s.state == HEALTH_STATE_RUNNING && input_absent(misalignment_, now_s)) s.state = HEALTH_STATE_DEGRADED;
   }
+  if (!restore_note_.empty() && now_s < restore_note_until_s_) {
+    s.reason = s.reason.empty() ? restore_note_ : restore_note_ + "; " + s.reason;
+    if (restore_warn_) s.level = HEALTH_LEVEL_WARN;
+  }
+  if (checkpoint_errors_ > 0 && s.level == HEALTH_LEVEL_OK) {
+    s.level = HEALTH_LEVEL_WARN;
+    s.reason = std::to_string(checkpoint_errors_) + " checkpoint writes failed" + (s.reason.empty() ? "" : "; " + s.reason);
+  }
   return s;
 }
 
@@ -206,6 +341,14 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("rejected_yaw_rate", static_cast<double>(b.yaw_rate));
   c.emplace_back("misalignments_applied", static_cast<double>(misalignments_applied_));
   c.emplace_back("heartbeats", static_cast<double>(scale_factor_.heartbeats()));
+  if (!checkpoint_file_.empty()) {
+    c.emplace_back("checkpoint_restored", restored_t_s_ ? 1.0 : 0.0);
+    if (restored_t_s_) c.emplace_back("checkpoint_restored_t_s", *restored_t_s_);
+    c.emplace_back("checkpoint_moved_aside", checkpoint_moved_aside_ ? 1.0 : 0.0);
+    c.emplace_back("checkpoints_written", static_cast<double>(checkpoints_written_));
+    c.emplace_back("checkpoint_errors", static_cast<double>(checkpoint_errors_));
+    c.emplace_back("skipped_before_checkpoint", static_cast<double>(skipped_before_checkpoint_));
+  }
   if (last_output_ && last_output_->main.valid) {
     c.emplace_back("k_m_per_pulse", last_output_->main.k_m_per_pulse);
     c.emplace_back("sigma_k_m_per_pulse", last_output_->main.sigma_m_per_pulse);

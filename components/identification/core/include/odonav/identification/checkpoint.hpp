@@ -1,0 +1,101 @@
+#pragma once
+// Checkpoint of odonav-identification (issue 5): what a restarted identification needs to resume
+// instead of re-converging from the nominal K. Middleware-free; the node decides when to write.
+//
+// File `<state-dir>/identification-<vehicle>.ckpt`, versioned text:
+//   odonav-identification-checkpoint 1
+//   vehicle <vehicle id>
+//   config_hash <16 hex digits>         (config_hash_of: the options that change the estimate)
+//   estimator <name>
+//   last_sample_t_s <%.17g: exact round trip>     (event time of the last processed GNSS epoch, s)
+//   samples_accepted <n>
+//   samples_rejected <n>
+//   state_chars <n>
+//   <n characters: the estimator's save_state() text>
+//   checksum <16 hex digits>            (FNV-1a 64 of every byte before this line)
+// Written atomically (temporary file in the same directory, fsync, rename, fsync of the directory),
+// so a kill -9 at any instant leaves either the previous checkpoint or the new one, never a mix.
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "odonav/scale_factor_estimator.hpp"
+
+namespace odonav {
+
+/// A checkpoint text that cannot be used; what() says why (truncated, checksum, version, field...).
+class CheckpointError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct IdentificationCheckpoint {
+  std::string vehicle_id;             ///< the vehicle whose data made the state (no line breaks).
+  std::string config_hash;            ///< config_hash_of() of the run that wrote it.
+  std::string estimator_name;         ///< the main estimator's name() (e.g. "vff_lm_rls").
+  double last_sample_t_s = 0.0;       ///< event time of the last processed GNSS epoch (s, finite).
+  uint64_t samples_accepted = 0;      ///< accepted regression samples up to last_sample_t_s.
+  uint64_t samples_rejected = 0;      ///< gated-out epochs up to last_sample_t_s.
+  std::string estimator_state;        ///< ScaleFactorEstimator::save_state() text.
+};
+
+/// Options that do not change the estimate (transport, logging, where state lives, how often it is
+/// saved): left out of the configuration hash so that changing them keeps the checkpoint valid.
+/// vehicle-id is left out too because it is checked on its own (a clearer reason).
+const std::vector<std::string>& checkpoint_neutral_options();
+
+/// Hash (16 lower-case hex digits, FNV-1a 64) of Options::values_as_text() lines ("name=value"),
+/// skipping the options of checkpoint_neutral_options(). Order-sensitive: pass the sorted lines.
+std::string config_hash_of(const std::vector<std::string>& values_as_text);
+
+/// `<state_dir>/identification-<vehicle_id>.ckpt`. Throws std::invalid_argument when vehicle_id is
+/// empty or holds anything but letters, digits, '.', '_' and '-' (it becomes a file name).
+std::string checkpoint_path(const std::string& state_dir, const std::string& vehicle_id);
+
+/// The file text (see the file comment). Throws std::invalid_argument when vehicle_id or
+/// estimator_name is empty or holds a line break, or last_sample_t_s is not finite.
+std::string serialize_checkpoint(const IdentificationCheckpoint& checkpoint);
+/// Parses serialize_checkpoint's text. Throws CheckpointError naming the first problem: empty,
+/// truncated, checksum mismatch, unknown version, missing or malformed field.
+IdentificationCheckpoint parse_checkpoint(const std::string& text);
+
+/// Writes `text` to `path` atomically: `<path>.tmp-<pid>` in the same directory, fsync, rename over
+/// `path`, fsync of the directory. Throws std::runtime_error naming the step and the system error;
+/// the temporary file is removed on failure and `path` keeps its previous content.
+void write_file_atomically(const std::string& path, const std::string& text);
+
+/// Renames `path` to `<path>.bad-<unix_time_s>` (with `-2`, `-3`... if that exists). Never deletes.
+/// Returns the new name. Throws std::runtime_error when the rename fails.
+std::string move_checkpoint_aside(const std::string& path, int64_t unix_time_s);
+
+/// What load_identification_checkpoint did.
+enum class CheckpointLoadStatus {
+  kNone,        ///< no file: fresh start.
+  kRestored,    ///< the estimator was restored from it.
+  kMovedAside,  ///< unusable (reason): moved aside to moved_to, fresh start from nominal.
+};
+
+struct CheckpointLoadResult {
+  CheckpointLoadStatus status = CheckpointLoadStatus::kNone;
+  std::string path;                                ///< the checkpoint file looked at.
+  std::optional<IdentificationCheckpoint> checkpoint;  ///< present iff kRestored.
+  std::string reason;                              ///< why it was moved aside (kMovedAside).
+  std::string moved_to;                            ///< its new name (kMovedAside; empty if the move failed).
+};
+
+/// Loads `path` and restores `estimator` from it when it is intact and made by this vehicle, this
+/// configuration hash and an estimator of the same name. Otherwise (truncated, garbage, checksum,
+/// wrong vehicle, other configuration, other estimator, a state the estimator refuses) the file is
+/// moved aside (move_checkpoint_aside with unix_time_s), `estimator` is left untouched and the reason
+/// is returned. Never throws for file contents; an unreadable file is treated like a corrupt one.
+CheckpointLoadResult load_identification_checkpoint(const std::string& path, const std::string& vehicle_id,
+                                                    const std::string& config_hash, ScaleFactorEstimator& estimator,
+                                                    int64_t unix_time_s);
+
+/// One-line description for logs and health: "restored K=0.0125123 m/pulse from checkpoint (t=61.2 s)"
+/// or "checkpoint <file> was corrupt (<reason>): moved aside; starting from nominal K".
+std::string describe(const CheckpointLoadResult& result, const ScaleFactorEstimator& estimator);
+
+}  // namespace odonav

@@ -1,0 +1,407 @@
+// odonav-identification restart (issue 5, tests 1 and 4), as processes on loopback DDS (domains
+// 80-84): the gateway drives a simulated ring course in accelerated real time, odonav-identification
+// checkpoints into a state directory, odonav-dead-reckoning navigates with its K.
+//   1. kill -9 of the identification mid-run, restarted 2 s later with the same --state-dir: DR
+//      output stays contiguous in event time, the first K after the restart is the last K before
+//      the kill within 0.05 %, the final K equals an uninterrupted run within 0.1 %.
+//   2. corrupt checkpoints (garbage, then a truncated real one) are moved aside, the node starts
+//      from nominal and its health says so.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "../nodes/node_test_support.hpp"
+#include "odonav/msg/DeadReckoning.h"
+#include "odonav/msg/ScaleFactor.h"
+
+namespace {
+
+using namespace odonav;
+using namespace odonav::test;
+namespace fs = std::filesystem;
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+
+constexpr const char* kIdentification = "odonav-identification";
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string fresh_dir(const std::string& name) {
+  const std::string dir = std::string(ODONAV_BINARY_DIR) + "/test-restart/" + name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+/// `binary args... > log 2>&1` through the shell's exec, so the pid is the component's own.
+std::unique_ptr<ChildProcess> start_logged(const std::string& name, const std::vector<std::string>& args,
+                                           const std::string& log) {
+  std::string cmd = "exec '" + binary(name) + "'";
+  for (const auto& a : args) cmd += " '" + a + "'";
+  cmd += " >'" + log + "' 2>&1";
+  auto p = std::make_unique<ChildProcess>("/bin/sh", std::vector<std::string>{"-c", cmd});
+  return p;
+}
+
+double stamp_s(const msg::ScaleFactor& m) { return odonav::dds::to_seconds(m.header().stamp()); }
+double stamp_s(const msg::DeadReckoning& m) { return odonav::dds::to_seconds(m.header().stamp()); }
+
+/// The latest estimate with a value (k > 0) among `k[0..n)`.
+std::optional<msg::ScaleFactor> last_valid(const std::vector<msg::ScaleFactor>& k, std::size_t n) {
+  for (std::size_t i = std::min(n, k.size()); i-- > 0;)
+    if (k[i].k_m_per_pulse() > 0.0) return k[i];
+  return std::nullopt;
+}
+
+/// Largest step between consecutive distinct DR output stamps, and their span.
+struct DrCoverage {
+  double max_gap_s = 0.0;
+  double first_s = 0.0;
+  double last_s = 0.0;
+  std::size_t outputs = 0;
+};
+DrCoverage coverage(const std::vector<msg::DeadReckoning>& dr) {
+  std::vector<double> t;
+  for (const auto& m : dr) t.push_back(stamp_s(m));
+  std::sort(t.begin(), t.end());
+  t.erase(std::unique(t.begin(), t.end()), t.end());
+  DrCoverage c;
+  c.outputs = t.size();
+  if (t.empty()) return c;
+  c.first_s = t.front();
+  c.last_s = t.back();
+  for (std::size_t i = 1; i < t.size(); ++i) c.max_gap_s = std::max(c.max_gap_s, t[i] - t[i - 1]);
+  return c;
+}
+
+std::vector<msg::Health> health_of(const std::vector<msg::Health>& all, const std::string& component) {
+  std::vector<msg::Health> out;
+  for (const auto& h : all)
+    if (h.component() == component) out.push_back(h);
+  return out;
+}
+
+class IdentificationRestart : public ::testing::Test {
+ protected:
+  void SetUp() override { shm_clean(); }
+  void TearDown() override { shm_clean(); }
+
+  // The drive: 150 s of the ring course at 5x real time (30 s of wall time), so a kill at event
+  // time 72.5 s lands mid-run with K converged (about 10-20 s of motion) and 80 s of data to follow.
+  static constexpr double kDurationS = 150.0;
+  static constexpr const char* kSpeed = "5";
+  static constexpr double kKillAtEventS = 72.5;  // between two checkpoints (every 5 s)
+
+  /// The GNSS antenna lever arm of the simulated vehicle, as deploy/launch passes it from meta.json
+  /// (without it K wobbles in every turn by more than the tolerances below).
+  static std::string lever_arm() {
+    const Eigen::Vector3d l = sim::scenario_config("ring").lever_arm_m;
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g", l.x(), l.y(), l.z());
+    return buf;
+  }
+  std::vector<std::string> identification_args(int domain, const std::string& state_dir) const {
+    return node_args(domain, 2.0,
+                     {"--state-dir", state_dir, "--checkpoint-every-s", "5", "--lever-arm", lever_arm(), "--log-level",
+                      "info"});
+  }
+  std::vector<std::string> gateway_args(int domain, double duration_s, const std::string& speed) const {
+    return node_args(domain, 2.0,
+                     {"--source", "sim:ring", "--seed", "3", "--duration-s", std::to_string(duration_s), "--speed",
+                      speed, "--wait-for-readers", "2", "--wait-for-readers-timeout-s", "30"});
+  }
+
+  struct DriveResult {
+    std::vector<msg::ScaleFactor> k;
+    std::vector<msg::DeadReckoning> dr;
+    std::vector<msg::Health> health;
+    std::size_t k_before_restart = 0;   ///< ScaleFactor messages received before the restart
+    std::optional<msg::ScaleFactor> last_before_kill;
+  };
+
+  /// One drive: DR and identification, then the gateway; with `kill`, SIGKILL of the identification
+  /// once its K reaches kKillAtEventS, and a restart 2 s later. Ends with SIGINT (drain) of both.
+  void drive(int domain, const std::string& dir, bool kill, DriveResult& out) {
+    const std::string state = dir + "/state";
+    odonav::dds::Participant participant(test_participant(domain));
+    Collector<msg::ScaleFactor> k(participant, topics::kScaleFactor);
+    Collector<msg::DeadReckoning> dr(participant, topics::kDeadReckoning);
+    Collector<msg::Health> health(participant, topics::kHealth);
+
+    auto dead_reckoning =
+        start_logged("odonav-dead-reckoning", node_args(domain, 2.0, {"--lever-arm", lever_arm()}),
+                     dir + "/odonav-dead-reckoning.log");
+    auto identification = start_logged(kIdentification, identification_args(domain, state), dir + "/id-1.log");
+    ASSERT_TRUE(dead_reckoning->started() && identification->started());
+    auto gateway = start_logged("odonav-gateway", gateway_args(domain, kDurationS, kSpeed), dir + "/gateway.log");
+    ASSERT_TRUE(gateway->started());
+
+    if (kill) {
+      ASSERT_TRUE(k.wait_until(
+          [](const std::vector<msg::ScaleFactor>& s) { return !s.empty() && stamp_s(s.back()) >= kKillAtEventS; },
+          seconds(90)))
+          << "the identification never reached t=" << kKillAtEventS << " s\n" << read_text(dir + "/id-1.log");
+      identification->signal(SIGKILL);
+      ASSERT_TRUE(identification->wait_exit(seconds(5)));
+      EXPECT_EQ(identification->exit_code(), 128 + SIGKILL);
+      std::this_thread::sleep_for(seconds(2));
+      out.k_before_restart = k.size();
+      out.last_before_kill = last_valid(k.samples(), out.k_before_restart);
+      ASSERT_TRUE(fs::exists(state + "/identification-" + std::string(kVehicle) + ".ckpt"))
+          << "no checkpoint written before the kill";
+      identification = start_logged(kIdentification, identification_args(domain, state), dir + "/id-2.log");
+      ASSERT_TRUE(identification->started());
+    }
+
+    ASSERT_TRUE(gateway->wait_exit(seconds(120))) << "gateway did not finish\n" << read_text(dir + "/gateway.log");
+    EXPECT_EQ(gateway->exit_code(), 0) << read_text(dir + "/gateway.log");
+    // Let the consumers catch up with the end of data (bounded), then drain them.
+    dr.wait_until(
+        [](const std::vector<msg::DeadReckoning>& s) { return !s.empty() && stamp_s(s.back()) >= kDurationS - 3.0; },
+        seconds(30));
+    identification->signal(SIGINT);
+    EXPECT_TRUE(identification->wait_exit(seconds(30)));
+    EXPECT_EQ(identification->exit_code(), 0);
+    dead_reckoning->signal(SIGINT);
+    EXPECT_TRUE(dead_reckoning->wait_exit(seconds(30)));
+    EXPECT_EQ(dead_reckoning->exit_code(), 0);
+    std::this_thread::sleep_for(milliseconds(500));
+    out.k = k.samples();
+    out.dr = dr.samples();
+    out.health = health.samples();
+  }
+};
+
+TEST_F(IdentificationRestart, KillNineMidRunResumesFromTheCheckpoint) {
+  DriveResult reference;
+  {
+    SCOPED_TRACE("uninterrupted run");
+    drive(80, fresh_dir("uninterrupted"), false, reference);
+  }
+  if (HasFatalFailure()) return;
+  shm_clean();
+  DriveResult killed;
+  const std::string dir = fresh_dir("killed");
+  {
+    SCOPED_TRACE("killed run");
+    drive(81, dir, true, killed);
+  }
+  if (HasFatalFailure()) return;
+
+  // DR never stopped: its outputs are contiguous in event time (odometer at 100 Hz: no step longer
+  // than two periods) from the start to the end of the data, through the kill and the restart.
+  const DrCoverage cov = coverage(killed.dr);
+  std::cerr << "DR: " << cov.outputs << " outputs, t=" << cov.first_s << ".." << cov.last_s
+            << " s, largest step " << cov.max_gap_s << " s\n";
+  EXPECT_LE(cov.max_gap_s, 2 * 0.01 + 1e-6);
+  EXPECT_LT(cov.first_s, 1.0);
+  EXPECT_GT(cov.last_s, kDurationS - 1.0);
+
+  // The first K after the restart is the restored one, stamped with the checkpoint time, or (the
+  // estimate writer keeps only its last sample, so a reader matched late may see a later one
+  // first) an estimate continuing from it: within 0.05 % of the last K before the kill either way.
+  ASSERT_TRUE(killed.last_before_kill.has_value());
+  ASSERT_GT(killed.k.size(), killed.k_before_restart);
+  const msg::ScaleFactor& first_after = killed.k[killed.k_before_restart];
+  const double k_before = killed.last_before_kill->k_m_per_pulse();
+  std::cerr << "last K before the kill " << k_before << " at t=" << stamp_s(*killed.last_before_kill)
+            << " s; first K after the restart " << first_after.k_m_per_pulse() << " at t=" << stamp_s(first_after)
+            << " s (relative difference " << (first_after.k_m_per_pulse() / k_before - 1.0) * 100 << " %)\n";
+  EXPECT_GT(first_after.k_m_per_pulse(), 0.0);
+  EXPECT_GT(stamp_s(first_after), kKillAtEventS - 30.0);
+  EXPECT_NEAR(first_after.k_m_per_pulse() / k_before, 1.0, 5e-4);
+  // It carries the counters of the run before the kill (a fresh start would count from 0).
+  EXPECT_GE(first_after.samples_accepted(), killed.last_before_kill->samples_accepted() / 2);
+  EXPECT_GT(first_after.samples_accepted(), 100u);
+
+  // The restarted identification said so in its health and its log.
+  bool restored_said = false;
+  for (const auto& h : health_of(killed.health, kIdentification))
+    if (h.reason().find("restored K=") != std::string::npos && h.reason().find("from checkpoint (t=") != std::string::npos)
+      restored_said = true;
+  EXPECT_TRUE(restored_said) << "no health reason 'restored K=... from checkpoint (t=...)'";
+  EXPECT_NE(read_text(dir + "/id-2.log").find("restored K="), std::string::npos) << read_text(dir + "/id-2.log");
+
+  // The final K equals the uninterrupted run's within 0.1 %.
+  const auto final_ref = last_valid(reference.k, reference.k.size());
+  const auto final_killed = last_valid(killed.k, killed.k.size());
+  ASSERT_TRUE(final_ref && final_killed);
+  std::cerr << "final K: uninterrupted " << final_ref->k_m_per_pulse() << " at t=" << stamp_s(*final_ref)
+            << " s, killed and restarted " << final_killed->k_m_per_pulse() << " at t=" << stamp_s(*final_killed)
+            << " s (relative difference " << (final_killed->k_m_per_pulse() / final_ref->k_m_per_pulse() - 1.0) * 100
+            << " %)\n";
+  EXPECT_GT(stamp_s(*final_killed), kDurationS - 2.0);
+  EXPECT_NEAR(final_killed->k_m_per_pulse() / final_ref->k_m_per_pulse(), 1.0, 1e-3);
+}
+
+TEST_F(IdentificationRestart, CorruptCheckpointsAreMovedAsideAndTheNodeStartsFromNominal) {
+  const std::string dir = fresh_dir("corrupt");
+  const std::string state = dir + "/state";
+  fs::create_directories(state);
+  const std::string ckpt = state + "/identification-" + std::string(kVehicle) + ".ckpt";
+  const std::string reason = "checkpoint " + ckpt + " was corrupt: moved aside; starting from nominal K";
+
+  // One short run of the identification over `garbage` as its checkpoint; returns its health and K.
+  auto run_over = [&](int domain, const std::string& content, const std::string& log,
+                      std::vector<msg::Health>& health_out, std::vector<msg::ScaleFactor>& k_out) {
+    {
+      std::ofstream f(ckpt, std::ios::binary | std::ios::trunc);
+      f << content;
+    }
+    odonav::dds::Participant participant(test_participant(domain));
+    Collector<msg::ScaleFactor> k(participant, topics::kScaleFactor);
+    Collector<msg::Health> health(participant, topics::kHealth);
+    auto identification = start_logged(kIdentification, identification_args(domain, state), log);
+    ASSERT_TRUE(identification->started());
+    std::this_thread::sleep_for(milliseconds(500));
+    ASSERT_TRUE(identification->running()) << read_text(log);
+    auto gw_args = gateway_args(domain, 40.0, "max");
+    gw_args[std::find(gw_args.begin(), gw_args.end(), "--wait-for-readers") - gw_args.begin() + 1] = "1";
+    auto gateway = start_logged("odonav-gateway", gw_args, log + ".gateway.log");
+    ASSERT_TRUE(gateway->wait_exit(seconds(90))) << read_text(log + ".gateway.log");
+    EXPECT_EQ(gateway->exit_code(), 0) << read_text(log + ".gateway.log");
+    // The health note lasts 30 s: wait (bounded) until the running node has published it.
+    health.wait_until(
+        [&](const std::vector<msg::Health>& all) {
+          for (const auto& h : all)
+            if (h.component() == kIdentification && h.reason().find(reason) != std::string::npos) return true;
+          return false;
+        },
+        seconds(10));
+    identification->signal(SIGINT);
+    EXPECT_TRUE(identification->wait_exit(seconds(30)));
+    EXPECT_EQ(identification->exit_code(), 0) << "never a crash on a bad checkpoint\n" << read_text(log);
+    std::this_thread::sleep_for(milliseconds(300));
+    health_out = health_of(health.samples(), kIdentification);
+    k_out = k.samples();
+  };
+
+  auto check = [&](const std::string& content, const std::string& log, const std::string& log_reason,
+                   const std::vector<msg::Health>& health, const std::vector<msg::ScaleFactor>& k) {
+    // Moved aside, content kept, under <name>.bad-<unix time>.
+    std::vector<fs::path> bad;
+    for (const auto& e : fs::directory_iterator(state))
+      if (e.path().filename().string().rfind("identification-" + std::string(kVehicle) + ".ckpt.bad-", 0) == 0 &&
+          read_text(e.path().string()) == content)
+        bad.push_back(e.path());
+    EXPECT_EQ(bad.size(), 1u) << "the bad file, moved aside unchanged";
+    // The log names the file and why.
+    const std::string text = read_text(log);
+    EXPECT_NE(text.find("checkpoint " + ckpt + " was corrupt (" + log_reason), std::string::npos) << text;
+    // Health says so, at WARN.
+    bool said = false;
+    for (const auto& h : health)
+      if (h.reason().find(reason) != std::string::npos && h.level() == msg::HEALTH_LEVEL_WARN) said = true;
+    EXPECT_TRUE(said) << "no WARN health '" << reason << "'";
+    // Started from nominal: nothing restored was published; the first estimate is a fresh one,
+    // made from the first accepted samples of this drive (few of them).
+    ASSERT_FALSE(k.empty());
+    const auto first_valid = std::find_if(k.begin(), k.end(), [](const auto& m) { return m.k_m_per_pulse() > 0.0; });
+    ASSERT_NE(first_valid, k.end());
+    EXPECT_LT(first_valid->samples_accepted(), 5u);
+    EXPECT_LT(stamp_s(k.front()), 15.0) << "the first K is stamped in this drive's beginning";
+    // At shutdown a good checkpoint was written over the bad one's name.
+    EXPECT_TRUE(fs::exists(ckpt));
+  };
+
+  std::vector<msg::Health> health;
+  std::vector<msg::ScaleFactor> k;
+  // 1. Garbage (fixed seed).
+  std::string garbage(3000, '\0');
+  uint32_t x = 12345;
+  for (char& c : garbage) c = static_cast<char>((x = x * 1664525u + 1013904223u) >> 24);
+  run_over(82, garbage, dir + "/garbage.log", health, k);
+  if (HasFatalFailure()) return;
+  check(garbage, dir + "/garbage.log", "truncated: no checksum line", health, k);
+  if (HasFatalFailure()) return;
+
+  // 2. The good checkpoint that run wrote at shutdown, truncated in its middle (a torn write).
+  const std::string good = read_text(ckpt);
+  ASSERT_NE(good.find("odonav-identification-checkpoint 1"), std::string::npos);
+  shm_clean();
+  const std::string truncated = good.substr(0, good.size() / 2);
+  run_over(83, truncated, dir + "/truncated.log", health, k);
+  if (HasFatalFailure()) return;
+  check(truncated, dir + "/truncated.log", "truncated", health, k);
+}
+
+}  // namespace
+
+namespace {
+
+TEST_F(IdentificationRestart, ResentStreamIsNotCountedTwiceAfterARestore) {
+  // Run 1: 40 s of the ring, as fast as the readers take it; the checkpoint is written at shutdown
+  // (t = last GNSS epoch). Run 2: same state directory, the same 40 s sent again: every sample
+  // predates the checkpoint, so nothing is processed twice: the only K published is the restored
+  // one, equal to run 1's last K, with run 1's counters.
+  const std::string dir = fresh_dir("resent");
+  const std::string state = dir + "/state";
+  struct Run {
+    std::vector<msg::ScaleFactor> k;
+    std::vector<msg::Health> health;
+  };
+  auto run = [&](int domain, const std::string& log, Run& out) {
+    odonav::dds::Participant participant(test_participant(domain));
+    Collector<msg::ScaleFactor> k(participant, topics::kScaleFactor);
+    Collector<msg::Health> health(participant, topics::kHealth);
+    auto identification = start_logged(kIdentification, identification_args(domain, state), log);
+    ASSERT_TRUE(identification->started());
+    auto gw_args = gateway_args(domain, 40.0, "max");
+    gw_args[std::find(gw_args.begin(), gw_args.end(), "--wait-for-readers") - gw_args.begin() + 1] = "1";
+    auto gateway = start_logged("odonav-gateway", gw_args, log + ".gateway.log");
+    ASSERT_TRUE(gateway->wait_exit(seconds(90))) << read_text(log + ".gateway.log");
+    EXPECT_EQ(gateway->exit_code(), 0) << read_text(log + ".gateway.log");
+    std::this_thread::sleep_for(seconds(3));  // more than the max wait: the node processes what it can
+    identification->signal(SIGINT);
+    EXPECT_TRUE(identification->wait_exit(seconds(30)));
+    EXPECT_EQ(identification->exit_code(), 0) << read_text(log);
+    std::this_thread::sleep_for(milliseconds(300));
+    out.k = k.samples();
+    out.health = health_of(health.samples(), kIdentification);
+  };
+  Run first, second;
+  run(84, dir + "/first.log", first);
+  if (HasFatalFailure()) return;
+  const auto last = last_valid(first.k, first.k.size());
+  ASSERT_TRUE(last.has_value());
+  ASSERT_GT(stamp_s(*last), 39.0);
+  ASSERT_GT(last->samples_accepted(), 100u);
+  shm_clean();
+  run(84, dir + "/second.log", second);
+  if (HasFatalFailure()) return;
+
+  ASSERT_FALSE(second.k.empty());
+  for (const auto& m : second.k) {  // the restored estimate and its heartbeats only
+    EXPECT_EQ(stamp_s(m), stamp_s(*last));
+    EXPECT_EQ(m.k_m_per_pulse(), last->k_m_per_pulse());
+    EXPECT_EQ(m.samples_accepted(), last->samples_accepted());
+    EXPECT_EQ(m.samples_rejected(), last->samples_rejected());
+  }
+  ASSERT_FALSE(second.health.empty());
+  const msg::Health& h = second.health.back();
+  EXPECT_EQ(counter(h, "checkpoint_restored"), 1.0);
+  // 40 s of odometer (100 Hz), INS (100 Hz) and GNSS (10 Hz), less the last second kept for
+  // interpolation: about 8000 samples skipped.
+  EXPECT_GT(counter(h, "skipped_before_checkpoint"), 7500.0);
+  EXPECT_LT(counter(h, "skipped_before_checkpoint"), 8500.0);
+  std::cerr << "restored K " << last->k_m_per_pulse() << " at t=" << stamp_s(*last) << " s; "
+            << counter(h, "skipped_before_checkpoint") << " re-sent samples skipped, " << second.k.size()
+            << " ScaleFactor messages in the second run\n";
+}
+
+}  // namespace
