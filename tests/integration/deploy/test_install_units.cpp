@@ -60,7 +60,7 @@ class DeployInstall : public ::testing::Test {
     const CommandResult pki = run(kDeploy.string() + "/security/make-pki --out " + (tmp_ / "pki").string());
     ASSERT_EQ(pki.status, 0) << pki.output;
     const CommandResult install = run(kDeploy.string() + "/install --destdir " + root_.string() + " --build-dir " +
-                            (tmp_ / "build").string() + " --ecu-address 10.77.0.12 --security-dir " +
+                            (tmp_ / "build").string() + " --ecu-address 127.0.77.12 --security-dir " +
                             (tmp_ / "pki").string() + " --no-user");
     ASSERT_EQ(install.status, 0) << install.output;
   }
@@ -77,7 +77,7 @@ TEST_F(DeployInstall, PutsEverythingInPlaceWithTheEcuAddress) {
   EXPECT_TRUE(fs::exists(root_ / "etc/systemd/system/odonav.target"));
   EXPECT_TRUE(fs::exists(root_ / "etc/odonav/vehicle.env"));
   const std::string vehicle = read(root_ / "etc/odonav/profiles/vehicle.xml");
-  EXPECT_NE(vehicle.find("<address>10.77.0.12</address>"), std::string::npos);
+  EXPECT_NE(vehicle.find("<address>127.0.77.12</address>"), std::string::npos);
   EXPECT_EQ(vehicle.find("ECU_ADDRESS</address>"), std::string::npos);
   // The CA private keys never leave the PKI directory; the component key is private.
   EXPECT_FALSE(fs::exists(root_ / "etc/odonav/security/private"));

@@ -31,8 +31,8 @@ fs::path instantiate(const std::string& name) {
   fs::create_directories(dir);
   std::ifstream in(kProfiles / name);
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  text = std::regex_replace(text, std::regex("ECU_ADDRESS"), "10.77.0.11");
-  text = std::regex_replace(text, std::regex("SERVER_ADDRESS"), "10.77.0.1");
+  text = std::regex_replace(text, std::regex("ECU_ADDRESS"), "127.0.77.11");
+  text = std::regex_replace(text, std::regex("SERVER_ADDRESS"), "127.0.77.1");
   std::ofstream(dir / name) << text;
   fs::copy_file(kProfiles / "qos.xml", dir / "qos.xml", fs::copy_options::overwrite_existing);
   return dir / name;
