@@ -17,6 +17,7 @@
 //     v * (cos a_h cos a_p, sin a_h cos a_p, sin a_p).
 #include <Eigen/Dense>
 #include <cmath>
+#include <limits>
 
 namespace odonav {
 
@@ -26,6 +27,30 @@ constexpr double kRadToDeg = 180.0 / kPi;
 
 inline double deg_to_rad(double deg) { return deg * kDegToRad; }
 inline double rad_to_deg(double rad) { return rad * kRadToDeg; }
+
+/// The degree value d for which deg_to_rad(d) == angle_rad exactly, when such a double exists; else
+/// the nearest one (within 1 ulp of the radians). This is what the dataset writer writes, so an angle
+/// read back from a file equals the one written. rad_to_deg then deg_to_rad may be off by an ulp either
+/// way: walk a few ulps of the degree value towards the side that closes the gap (d -> d * kDegToRad
+/// is monotonic). Non-finite values are returned unchanged.
+inline double exact_degrees_of(double angle_rad) {
+  if (!std::isfinite(angle_rad)) return angle_rad;
+  double best = rad_to_deg(angle_rad);
+  double best_error = std::abs(deg_to_rad(best) - angle_rad);
+  double candidate = best;
+  for (int step = 0; step < 16 && best_error != 0.0; ++step) {
+    const double back = deg_to_rad(candidate);
+    if (back == angle_rad) return candidate;
+    candidate = std::nextafter(candidate, back < angle_rad ? std::numeric_limits<double>::infinity()
+                                                           : -std::numeric_limits<double>::infinity());
+    const double error = std::abs(deg_to_rad(candidate) - angle_rad);
+    if (error < best_error) {
+      best = candidate;
+      best_error = error;
+    }
+  }
+  return best;
+}
 
 /// Wraps an angle in radians to [-pi, pi).
 inline double wrap_pi(double angle_rad) {

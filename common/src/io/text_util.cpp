@@ -88,30 +88,7 @@ std::string format_number(double value) {
   return mantissa + "e" + sign + exponent;
 }
 
-std::string format_degrees_of(double angle_rad) {
-  if (!std::isfinite(angle_rad)) return format_double(angle_rad);
-  // rad_to_deg then deg_to_rad may be off by an ulp either way; walk a few ulps of the degree
-  // value in the direction that closes the gap (d -> d * kDegToRad is monotonic).
-  double best = rad_to_deg(angle_rad);
-  double best_error = std::abs(deg_to_rad(best) - angle_rad);
-  double candidate = best;
-  for (int step = 0; step < 16 && best_error != 0.0; ++step) {
-    const double back = deg_to_rad(candidate);
-    if (back == angle_rad) {
-      best = candidate;
-      best_error = 0.0;
-      break;
-    }
-    candidate = std::nextafter(candidate, back < angle_rad ? std::numeric_limits<double>::infinity()
-                                                           : -std::numeric_limits<double>::infinity());
-    const double error = std::abs(deg_to_rad(candidate) - angle_rad);
-    if (error < best_error) {
-      best = candidate;
-      best_error = error;
-    }
-  }
-  return format_double(best);
-}
+std::string format_degrees_of(double angle_rad) { return format_double(exact_degrees_of(angle_rad)); }
 
 std::vector<std::string_view> split_commas(std::string_view line) {
   std::vector<std::string_view> fields;

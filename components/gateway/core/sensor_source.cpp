@@ -43,30 +43,7 @@ Dataset load_source(const SourceSpec& source, const SimulatorSettings& sim, BadR
   return as_recorded(sim::simulate(cfg));
 }
 
-double recorded_degrees(double angle_rad) {
-  // Same walk as the dataset writer: rad_to_deg then deg_to_rad may be off by an ulp either way;
-  // step the degree value towards the side that closes the gap (d -> d * kDegToRad is monotonic).
-  if (!std::isfinite(angle_rad)) return angle_rad;
-  double best = rad_to_deg(angle_rad);
-  double best_error = std::abs(deg_to_rad(best) - angle_rad);
-  double candidate = best;
-  for (int step = 0; step < 16 && best_error != 0.0; ++step) {
-    const double back = deg_to_rad(candidate);
-    if (back == angle_rad) {
-      best = candidate;
-      best_error = 0.0;
-      break;
-    }
-    candidate = std::nextafter(candidate, back < angle_rad ? std::numeric_limits<double>::infinity()
-                                                           : -std::numeric_limits<double>::infinity());
-    const double error = std::abs(deg_to_rad(candidate) - angle_rad);
-    if (error < best_error) {
-      best = candidate;
-      best_error = error;
-    }
-  }
-  return best;
-}
+double recorded_degrees(double angle_rad) { return exact_degrees_of(angle_rad); }
 
 namespace {
 void record_attitude(Attitude& a) {
