@@ -67,31 +67,17 @@ CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const Misalignm
   if (params_.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
 
-  const std::string& vehicle = runtime.settings().vehicle_id;
-  gnss_reader_ = std::make_unique<dds::Reader<odonav::msg::GnssFix>>(
-      runtime.participant(), topics::kGnssFix.name, topics::kGnssFix.reader_profile,
-      [this, vehicle](const odonav::msg::GnssFix& m) {
-        if (m.vehicle_id() != vehicle) return;
-        runtime_.post([this, m] {
-          dds::admit_sample(aligner_, gnss_, m.header().stamp(), dds::steady_now_s(),
-                            [&](double) { core_.add_gnss(dds::gnss_sample_from(m)); });
-        });
-      });
+  gnss_reader_ = subscribe<odonav::msg::GnssFix>(topics::kGnssFix, gnss_, [this](const auto& m, double) {
+    core_.add_gnss(dds::gnss_sample_from(m));
+  });
   if (ins_) {
-    ins_reader_ = std::make_unique<dds::Reader<odonav::msg::InsAttitude>>(
-        runtime.participant(), topics::kInsAttitude.name, topics::kInsAttitude.reader_profile,
-        [this, vehicle](const odonav::msg::InsAttitude& m) {
-          if (m.vehicle_id() != vehicle) return;
-          runtime_.post([this, m] {
-            dds::admit_sample(aligner_, *ins_, m.header().stamp(), dds::steady_now_s(), [&](double) {
-              if (!m.valid()) {
-                ++ins_->dropped_invalid;  // the stream advanced, but the attitude is not usable
-                return;
-              }
-              core_.add_ins(dds::ins_sample_from(m));
-            });
-          });
-        });
+    ins_reader_ = subscribe<odonav::msg::InsAttitude>(topics::kInsAttitude, *ins_, [this](const auto& m, double) {
+      if (!m.valid()) {
+        ++ins_->dropped_invalid;  // the stream advanced, but the attitude is not usable
+        return;
+      }
+      core_.add_ins(dds::ins_sample_from(m));
+    });
   }
 }
 

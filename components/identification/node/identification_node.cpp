@@ -101,58 +101,26 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
   // Before any reader exists: no sample can reach the core before the restored state.
   if (!checkpoint_.state_dir.empty()) restore_checkpoint();
 
-  const std::string& vehicle = runtime.settings().vehicle_id;
-  auto& p = runtime.participant();
-  odometer_reader_ = std::make_unique<dds::Reader<odonav::msg::Odometer>>(
-      p, topics::kOdometer.name, topics::kOdometer.reader_profile, [this, vehicle](const odonav::msg::Odometer& m) {
-        if (m.vehicle_id() != vehicle) return;
-        runtime_.post([this, m] {
-          dds::admit_sample(aligner_, odometer_, m.header().stamp(), dds::steady_now_s(),
-                            [&](double t_s) {
-                              if (!before_checkpoint(t_s, kSensorMarginBeforeCheckpoint_s))
-                                core_.add_odometer(dds::odometer_sample_from(m));
-                            });
-        });
-      });
-  gnss_reader_ = std::make_unique<dds::Reader<odonav::msg::GnssFix>>(
-      p, topics::kGnssFix.name, topics::kGnssFix.reader_profile, [this, vehicle](const odonav::msg::GnssFix& m) {
-        if (m.vehicle_id() != vehicle) return;
-        runtime_.post([this, m] {
-          dds::admit_sample(aligner_, gnss_, m.header().stamp(), dds::steady_now_s(),
-                            [&](double t_s) {
-                              // The epoch AT the checkpoint time is fed again: it re-starts the
-                              // sample chain exactly where the checkpoint left it (its output is
-                              // not republished, see publish()).
-                              if (!before_checkpoint(t_s, 0.0)) core_.add_gnss(dds::gnss_sample_from(m));
-                            });
-        });
-      });
+  odometer_reader_ = subscribe<odonav::msg::Odometer>(topics::kOdometer, odometer_, [this](const auto& m, double t_s) {
+    if (!before_checkpoint(t_s, kSensorMarginBeforeCheckpoint_s)) core_.add_odometer(dds::odometer_sample_from(m));
+  });
+  gnss_reader_ = subscribe<odonav::msg::GnssFix>(topics::kGnssFix, gnss_, [this](const auto& m, double t_s) {
+    // The epoch AT the checkpoint time is fed again: it re-starts the sample chain exactly where the
+    // checkpoint left it (its output is not republished, see publish()).
+    if (!before_checkpoint(t_s, 0.0)) core_.add_gnss(dds::gnss_sample_from(m));
+  });
   if (ins_) {
-    ins_reader_ = std::make_unique<dds::Reader<odonav::msg::InsAttitude>>(
-        p, topics::kInsAttitude.name, topics::kInsAttitude.reader_profile,
-        [this, vehicle](const odonav::msg::InsAttitude& m) {
-          if (m.vehicle_id() != vehicle) return;
-          runtime_.post([this, m] {
-            dds::admit_sample(aligner_, *ins_, m.header().stamp(), dds::steady_now_s(), [&](double t_s) {
-              if (before_checkpoint(t_s, kSensorMarginBeforeCheckpoint_s)) return;
-              if (!m.valid()) {
-                ++ins_->dropped_invalid;
-                return;
-              }
-              core_.add_ins(dds::ins_sample_from(m));
-            });
-          });
-        });
+    ins_reader_ = subscribe<odonav::msg::InsAttitude>(topics::kInsAttitude, *ins_, [this](const auto& m, double t_s) {
+      if (before_checkpoint(t_s, kSensorMarginBeforeCheckpoint_s)) return;
+      if (!m.valid()) {
+        ++ins_->dropped_invalid;
+        return;
+      }
+      core_.add_ins(dds::ins_sample_from(m));
+    });
   }
-  misalignment_reader_ = std::make_unique<dds::Reader<odonav::msg::Misalignment>>(
-      p, topics::kMisalignment.name, topics::kMisalignment.reader_profile,
-      [this, vehicle](const odonav::msg::Misalignment& m) {
-        if (m.vehicle_id() != vehicle) return;
-        runtime_.post([this, m] {
-          dds::admit_sample(aligner_, misalignment_, m.header().stamp(), dds::steady_now_s(),
-                            [&](double t_s) { on_misalignment(m, t_s); });
-        });
-      });
+  misalignment_reader_ = subscribe<odonav::msg::Misalignment>(
+      topics::kMisalignment, misalignment_, [this](const auto& m, double t_s) { on_misalignment(m, t_s); });
 }
 
 IdentificationNode::~IdentificationNode() { close_inputs(); }

@@ -17,6 +17,7 @@
 
 #include "odonav/dds/component.hpp"
 #include "odonav/dds/node_support.hpp"
+#include "odonav/topics.hpp"
 
 namespace odonav::dds {
 
@@ -80,6 +81,23 @@ class EventTimeNode {
     if (required) required_.push_back(in.get());
     owned_.push_back(std::move(in));
     return *owned_.back();
+  }
+
+  /// A reader of one input topic for this node's vehicle: each sample of another vehicle is ignored;
+  /// each of ours is posted to the worker thread, admitted by the aligner on its stamp (late,
+  /// repeated and bad stamps are counted there) and, if admitted, handed to feed(msg, t_s) there.
+  /// The reader lives as long as the returned pointer (reset it in close_inputs).
+  template <class Msg, class Feed>
+  std::unique_ptr<Reader<Msg>> subscribe(const odonav::topics::TopicSpec& topic, NodeInput& input, Feed feed) {
+    const std::string vehicle = runtime_.settings().vehicle_id;
+    NodeInput* in = &input;
+    return std::make_unique<Reader<Msg>>(
+        runtime_.participant(), topic.name, topic.reader_profile, [this, vehicle, in, feed](const Msg& m) {
+          if (m.vehicle_id() != vehicle) return;
+          runtime_.post([this, in, feed, m] {
+            admit_sample(aligner_, *in, m.header().stamp(), steady_now_s(), [&](double t_s) { feed(m, t_s); });
+          });
+        });
   }
 
   /// Calls the core's process_until(watermark_s) and publishes every output (count them with
