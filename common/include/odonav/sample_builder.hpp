@@ -87,6 +87,10 @@ struct SampleBuilderParams {
   int innovation_max_consecutive_rejections = 50;
   /// Longest gap between two odometer / INS samples across which they are interpolated (s). Default 1.
   double max_bracket_s = 1.0;
+  /// Odometer pulse-jump gate (stream_buffers.hpp): increments above max_speed_mps / k_m_per_pulse
+  /// * dt + margin_pulses are rejected and counted (odometer_jumps_rejected). Set k_m_per_pulse to the
+  /// configured nominal K (default 0.0125 m/pulse, 100 m/s: 8000 pulses/s).
+  OdometerJumpGate odometer_jump_gate;
   /// GNSS antenna position in the INS body frame (forward-left-up, m) from the reference point.
   /// When set (and use_ins), the antenna's extra velocity C_b^n (omega_b x l) is removed from the
   /// GNSS velocity before projection; omega_b from the INS attitude over [t - h, t + h]. With a mast of
@@ -136,6 +140,10 @@ struct SampleBuilderCounters {
   uint64_t innovation = 0;
   /// Samples accepted while the innovation test was suspended (not a rejection: also in accepted).
   uint64_t innovation_suspended = 0;
+  /// Odometer samples (not GNSS epochs) rejected by the pulse-jump gate, and counter steps re-based
+  /// on (stream_buffers.hpp, OdometerBuffer).
+  uint64_t odometer_jumps_rejected = 0;
+  uint64_t odometer_rebases = 0;
   /// The counter for one status.
   uint64_t count(EpochStatus status) const;
 };
@@ -156,7 +164,8 @@ class SampleBuilder {
   explicit SampleBuilder(const SampleBuilderParams& params = {});
 
   /// Stream inputs, each in strictly increasing time; throw StreamInputError on bad input.
-  void add_odometer(const OdometerSample& sample);
+  /// An odometer sample with an implausible pulse jump is dropped and counted (returns kJumpRejected).
+  OdometerAddResult add_odometer(const OdometerSample& sample);
   void add_gnss(const GnssSample& sample);
   /// Ignored (not buffered) when params.use_ins is false.
   void add_ins(const InsSample& sample);

@@ -54,9 +54,47 @@ enum class BracketState {
   kMissing,   ///< no valid bracket can exist (gap, or t before the first sample): the value is absent.
 };
 
+/// The pulse-jump gate of the odometer stream: the largest count increment a real vehicle can make
+/// in dt_s. A counter glitch (a bit flip, a reset to a random value, a bus error) shows up as an
+/// increment millions of times the normal one; taken as distance it would move dead reckoning by
+/// kilometres and give the scale-factor regression a sample with an absurd phi.
+///   max_increment(dt) = max_speed_mps / k_m_per_pulse * dt + margin_pulses      [pulses]
+/// Defaults: 100 m/s (360 km/h, several times any ground vehicle's top speed, so real motion never
+/// reaches it even with K off by a factor of 3) at K = 0.0125 m/pulse gives 8000 pulses/s, i.e. 80
+/// pulses over a 100 Hz interval where 10 m/s makes 8; the 2-pulse margin covers quantisation and
+/// time-stamp jitter on very short intervals. A counter running backwards (a huge increment modulo
+/// 2^32) is rejected the same way.
+struct OdometerJumpGate {
+  /// Fastest physically possible speed (m/s, > 0).
+  double max_speed_mps = 100.0;
+  /// Scale factor the speed is converted to pulses with: the nominal K (m/pulse, > 0).
+  double k_m_per_pulse = 0.0125;
+  /// Allowance for pulse quantisation and time-stamp jitter (pulses, >= 0).
+  double margin_pulses = 2.0;
+  /// The largest plausible increment over dt_s (s, >= 0), in pulses.
+  double max_increment_pulses(double dt_s) const { return max_speed_mps / k_m_per_pulse * dt_s + margin_pulses; }
+};
+
+/// What OdometerBuffer::add did with a sample.
+enum class OdometerAddResult {
+  kAccepted,      ///< buffered.
+  kJumpRejected,  ///< implausible increment: not buffered, counted (jumps_rejected()).
+};
+
 /// The odometer stream. Holds the accumulated count unwrapped: each increment is taken modulo 2^32
 /// (pulse_increment), so a counter wrap is not a jump. The unwrapped count starts at 0 at the first
 /// sample ever added (independent of pruning, so answers never depend on when pruning happened).
+///
+/// Pulse jumps (OdometerJumpGate): a sample whose increment from the last accepted sample exceeds
+/// the gate is rejected (not buffered) and counted. The next sample tells which glitch it was:
+///  - a spike (one bad value, then the counter goes on as before): its increment from the last
+///    accepted sample is plausible again, so it is accepted and no pulse is lost;
+///  - a step (the counter jumped and keeps counting from the new value): its increment from the
+///    rejected value is plausible, so the buffer re-bases on it. The pulses over the interval that
+///    held the jump are unknown: they are estimated as the last accepted pulse rate times that
+///    interval (exact at constant speed), counted in rebases().
+/// The counts of later samples are then their true increments added to that, so the distance after
+/// a jump stays correct (up to the one estimated interval).
 class OdometerBuffer {
  public:
   struct Entry {
@@ -67,27 +105,64 @@ class OdometerBuffer {
   };
 
   /// max_bracket_s: the longest gap between two samples across which the count is interpolated (s, > 0).
-  explicit OdometerBuffer(double max_bracket_s = 1.0) : max_bracket_s_(max_bracket_s) {}
+  /// gate: the pulse-jump gate (see OdometerJumpGate); throws std::invalid_argument when its values
+  /// are out of range.
+  explicit OdometerBuffer(double max_bracket_s = 1.0, const OdometerJumpGate& gate = {})
+      : max_bracket_s_(max_bracket_s), gate_(gate) {
+    if (!(std::isfinite(gate.max_speed_mps) && gate.max_speed_mps > 0.0) ||
+        !(std::isfinite(gate.k_m_per_pulse) && gate.k_m_per_pulse > 0.0) ||
+        !(std::isfinite(gate.margin_pulses) && gate.margin_pulses >= 0.0))
+      throw std::invalid_argument(
+          "OdometerJumpGate: max_speed_mps and k_m_per_pulse must be finite and > 0, margin_pulses finite and >= 0");
+  }
 
-  /// Adds one sample; its time must be finite and increase; direction must be -1, 0 or +1.
-  /// Throws StreamInputError otherwise.
-  void add(const OdometerSample& s) {
+  /// Adds one sample; its time must be finite and increase (also over rejected samples); direction
+  /// must be -1, 0 or +1. Throws StreamInputError otherwise. Returns whether the sample was buffered
+  /// or rejected by the pulse-jump gate.
+  OdometerAddResult add(const OdometerSample& s) {
     detail::check_stream_time("odometer", s.t_s, last_t_s_);
     if (s.direction < -1 || s.direction > 1) {
       std::ostringstream m;
       m << "odometer: at t=" << s.t_s << " s, direction " << s.direction << " is not -1, 0 or +1";
       throw StreamInputError(m.str());
     }
+    last_t_s_ = s.t_s;
     Entry e;
     e.t_s = s.t_s;
     e.raw_pulses = s.pulses;
     e.direction = s.direction;
-    e.count = last_raw_ ? last_count_ + static_cast<int64_t>(pulse_increment(*last_raw_, s.pulses)) : 0;
-    last_raw_ = s.pulses;
-    last_count_ = e.count;
-    last_t_s_ = s.t_s;
+    if (!last_accepted_) {
+      e.count = 0;
+    } else {
+      const Entry& good = *last_accepted_;
+      const uint32_t increment = pulse_increment(good.raw_pulses, s.pulses);
+      if (static_cast<double>(increment) <= gate_.max_increment_pulses(s.t_s - good.t_s)) {
+        e.count = good.count + static_cast<int64_t>(increment);
+      } else if (rejected_ && static_cast<double>(pulse_increment(rejected_->raw_pulses, s.pulses)) <=
+                                  gate_.max_increment_pulses(s.t_s - rejected_->t_s)) {
+        // Step: re-base on the rejected value; the interval that held the jump at the last rate.
+        const double estimated = last_rate_pulses_per_s_ * (rejected_->t_s - good.t_s);
+        e.count = good.count + std::llround(estimated) +
+                  static_cast<int64_t>(pulse_increment(rejected_->raw_pulses, s.pulses));
+        ++rebases_;
+      } else {
+        rejected_ = e;
+        ++jumps_rejected_;
+        return OdometerAddResult::kJumpRejected;
+      }
+      last_rate_pulses_per_s_ = static_cast<double>(e.count - good.count) / (s.t_s - good.t_s);
+    }
+    rejected_.reset();
+    last_accepted_ = e;
     entries_.push_back(e);
+    return OdometerAddResult::kAccepted;
   }
+
+  /// Samples rejected by the pulse-jump gate so far.
+  uint64_t jumps_rejected() const { return jumps_rejected_; }
+  /// Counter steps re-based on (each with one interval of estimated pulses) so far.
+  uint64_t rebases() const { return rebases_; }
+  const OdometerJumpGate& jump_gate() const { return gate_; }
 
   /// Whether the count at t_s (s) can be known, given that every sample with stamp <= watermark_s
   /// has been added.
@@ -149,9 +224,13 @@ class OdometerBuffer {
   }
 
   double max_bracket_s_;
+  OdometerJumpGate gate_;
   std::deque<Entry> entries_;
-  std::optional<uint32_t> last_raw_;
-  int64_t last_count_ = 0;
+  std::optional<Entry> last_accepted_;   ///< the gate's reference (survives pruning).
+  std::optional<Entry> rejected_;        ///< the last rejected sample, while no sample was accepted after it.
+  double last_rate_pulses_per_s_ = 0.0;  ///< pulse rate over the last accepted interval.
+  uint64_t jumps_rejected_ = 0;
+  uint64_t rebases_ = 0;
   std::optional<double> last_t_s_;
 };
 

@@ -71,7 +71,7 @@ void require(bool ok, const char* what) {
 }  // namespace
 
 SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
-    : params_(p), odometer_(p.max_bracket_s), attitude_(p.max_bracket_s) {
+    : params_(p), odometer_(p.max_bracket_s, p.odometer_jump_gate), attitude_(p.max_bracket_s) {
   require(p.min_speed_mps >= 0.0, "min_speed_mps must be >= 0");
   require(p.min_fix_rank >= 1 && p.min_fix_rank <= 4, "min_fix_rank must be in 1..4");
   require(p.max_interval_s > 0.0, "max_interval_s must be > 0");
@@ -89,7 +89,12 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
   require(p.lever_arm_rate_half_window_s > 0.0, "lever_arm_rate_half_window_s must be > 0");
 }
 
-void SampleBuilder::add_odometer(const OdometerSample& sample) { odometer_.add(sample); }
+OdometerAddResult SampleBuilder::add_odometer(const OdometerSample& sample) {
+  const OdometerAddResult result = odometer_.add(sample);
+  counters_.odometer_jumps_rejected = odometer_.jumps_rejected();
+  counters_.odometer_rebases = odometer_.rebases();
+  return result;
+}
 
 void SampleBuilder::add_gnss(const GnssSample& sample) {
   detail::check_stream_time("gnss", sample.t_s, last_gnss_t_s_);

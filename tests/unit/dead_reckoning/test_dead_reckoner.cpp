@@ -309,3 +309,59 @@ TEST(DeadReckoner, BadInputIsRejectedWithClearErrors) {
     EXPECT_NE(std::string(e.what()).find("odometer"), std::string::npos);
   }
 }
+
+// --- pulse jumps (issue 5): a counter glitch must not move the dead reckoning by kilometres ---
+
+TEST(DeadReckoner, MillionfoldPulseStepIsRejectedCountedAndTheLapStillCloses) {
+  const SensorConfig c = lap_config();
+  SyntheticData d = simulate(lap(), c);
+  // 16 pulses per 50 Hz sample; from sample 800 (half a lap) the counter reads 16 million too high
+  // (200 km at K): the gate is 100 m/s / K * 20 ms + 2 = 162 pulses.
+  for (std::size_t i = 800; i < d.odometer.size(); ++i) d.odometer[i].pulses += 16000000u;
+  DeadReckonerCounters n;
+  const auto out = run_all(d, exact_k(), c.misalignment, &n);
+  EXPECT_EQ(n.pulse_jumps_rejected, 1u);
+  EXPECT_EQ(n.pulse_rebases, 1u);
+  ASSERT_EQ(out.size(), 1599u);  // the rejected sample has no output
+  // The interval holding the jump is estimated at the last rate (exact at this constant speed).
+  EXPECT_NEAR(out.back().distance_m, 320.0, 1e-9);
+  EXPECT_LT(out.back().enu_m.norm(), 2e-3);
+  double max_err = 0.0, max_from_start = 0.0;
+  for (const auto& o : out) {
+    max_err = std::max(max_err, o.horizontal_error_m);
+    max_from_start = std::max(max_from_start, o.enu_m.norm());
+  }
+  EXPECT_LT(max_err, 4e-3);
+  EXPECT_LT(max_from_start, 320.0 / kPi + 1e-3);  // never beyond the lap's diameter
+}
+
+TEST(DeadReckoner, MillionfoldPulseSpikeIsRejectedAndNoDistanceIsLost) {
+  const SensorConfig c = lap_config();
+  SyntheticData d = simulate(lap(), c);
+  d.odometer[800].pulses += 16000000u;  // one bad value
+  DeadReckonerCounters n;
+  const auto out = run_all(d, exact_k(), c.misalignment, &n);
+  EXPECT_EQ(n.pulse_jumps_rejected, 1u);
+  EXPECT_EQ(n.pulse_rebases, 0u);
+  ASSERT_EQ(out.size(), 1599u);
+  EXPECT_NEAR(out.back().distance_m, 320.0, 1e-9);
+  double max_err = 0.0;
+  for (const auto& o : out) max_err = std::max(max_err, o.horizontal_error_m);
+  // The interval around the dropped sample is 40 ms long: its chord is still within millimetres.
+  EXPECT_LT(max_err, 4e-3);
+}
+
+TEST(DeadReckoner, JumpGateFollowsTheNominalKAndTheMaximumSpeed) {
+  const SensorConfig c = lap_config();
+  const SyntheticData d = simulate(lap(), c);  // 10 m/s = 800 pulses/s
+  DeadReckonerParams p = exact_k();
+  p.max_speed_mps = 8.0;  // 640 pulses/s: 12.8 + 2 < 16 per sample, every increment is "too fast"
+  DeadReckonerCounters n;
+  run_all(d, p, c.misalignment, &n);
+  EXPECT_EQ(n.pulse_jumps_rejected, 1600u);
+  p.max_speed_mps = 11.0;  // 880 pulses/s: 17.6 + 2 >= 16
+  run_all(d, p, c.misalignment, &n);
+  EXPECT_EQ(n.pulse_jumps_rejected, 0u);
+  p.max_speed_mps = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(DeadReckoner{p}, std::invalid_argument);
+}

@@ -398,3 +398,65 @@ TEST(SampleBuilder, BadInputAndParamsAreRejectedWithClearErrors) {
   EXPECT_THROW(b.add_scale_factor_estimate(1.0, -0.01, 0.0), StreamInputError);
   EXPECT_THROW(b.process_until(std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
 }
+
+// --- pulse jumps (issue 5): rejected and counted, the regression never sees them ---
+
+TEST(SampleBuilder, MillionfoldPulseStepIsRejectedCountedAndTheSamplesAfterItAreRight) {
+  const SyntheticData clean = simulate(accel_drive(), accel_config());
+  SyntheticData d = clean;
+  // Odometer at 50 Hz: sample 501 is t = 10.02 s, where the speed is 15 m/s (24 pulses per
+  // sample). From there on the counter reads a million times that too high.
+  const uint32_t jump = 1000000u * 24u;
+  for (std::size_t i = 501; i < d.odometer.size(); ++i) d.odometer[i].pulses += jump;
+  SampleBuilderCounters c;
+  const auto samples = samples_of(run_all(d, {}, false, &c));
+  EXPECT_EQ(c.odometer_jumps_rejected, 1u);
+  EXPECT_EQ(c.odometer_rebases, 1u);
+  EXPECT_EQ(c.accepted, 200u);  // nothing lost: every GNSS interval still makes a sample
+  const auto reference = samples_of(run_all(clean));
+  ASSERT_EQ(samples.size(), reference.size());
+  double sum_phi = 0.0, sum_phi_clean = 0.0;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    sum_phi += samples[i].phi_pulses;
+    sum_phi_clean += reference[i].phi_pulses;
+    // Only the interval [10.0, 10.1] s holds the estimated 20 ms; the rest is bit-identical.
+    if (std::abs(samples[i].t_s - 10.1) > 1e-6) {
+      EXPECT_EQ(samples[i].phi_pulses, reference[i].phi_pulses) << samples[i].t_s;
+    }
+    EXPECT_LT(std::abs(samples[i].y_m - kK * samples[i].phi_pulses), 3.0 * kK) << samples[i].t_s;
+  }
+  // 24000 pulses in all; the one estimated interval is off by less than one pulse.
+  EXPECT_NEAR(sum_phi, sum_phi_clean, 1.0);
+}
+
+TEST(SampleBuilder, MillionfoldPulseSpikeIsRejectedAndChangesNoSample) {
+  const SyntheticData clean = simulate(accel_drive(), accel_config());
+  SyntheticData d = clean;
+  d.odometer[501].pulses += 1000000u * 24u;  // one bad value at t = 10.02 s
+  SampleBuilderCounters c;
+  const auto samples = samples_of(run_all(d, {}, false, &c));
+  EXPECT_EQ(c.odometer_jumps_rejected, 1u);
+  EXPECT_EQ(c.odometer_rebases, 0u);
+  const auto reference = samples_of(run_all(clean));
+  ASSERT_EQ(samples.size(), reference.size());
+  // The GNSS epochs at 10.0 and 10.1 s are bracketed by good odometer samples: every phi is exact.
+  for (std::size_t i = 0; i < samples.size(); ++i) EXPECT_EQ(samples[i].phi_pulses, reference[i].phi_pulses) << i;
+}
+
+TEST(SampleBuilder, JumpGateUsesTheConfiguredNominalKAndMaximumSpeed) {
+  // At 25 m/s top speed and 0.0125 m/pulse the gate is 2000 pulses/s: 40 + 2 per 20 ms. The
+  // accelerating drive makes at most 24 per sample, so nothing is rejected; a slower gate of
+  // 10 m/s (16 + 2 per sample) rejects every sample above 18 pulses, i.e. above 11.25 m/s.
+  SampleBuilderParams fast;
+  fast.odometer_jump_gate.max_speed_mps = 25.0;
+  SampleBuilderCounters c;
+  run_all(simulate(accel_drive(), accel_config()), fast, false, &c);
+  EXPECT_EQ(c.odometer_jumps_rejected, 0u);
+  SampleBuilderParams slow;
+  slow.odometer_jump_gate.max_speed_mps = 10.0;
+  run_all(simulate(accel_drive(), accel_config()), slow, false, &c);
+  EXPECT_GT(c.odometer_jumps_rejected, 100u);
+  SampleBuilderParams bad;
+  bad.odometer_jump_gate.k_m_per_pulse = 0.0;
+  EXPECT_THROW(SampleBuilder{bad}, std::invalid_argument);
+}

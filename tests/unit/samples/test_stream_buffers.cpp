@@ -1,6 +1,8 @@
 // Stream buffers: wrap-safe count interpolation, bracket completeness, step histories.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "odonav/stream_buffers.hpp"
 
 using namespace odonav;
@@ -76,4 +78,85 @@ TEST(StepHistory, LatestAtOrBeforeAndStrictlyBefore) {
   EXPECT_EQ(*h.before(2.0), 10.0);  // still answers for t >= 2
   EXPECT_EQ(*h.at_or_before(5.0), 20.0);
   EXPECT_THROW(h.add(2.0, 1.0), StreamInputError);
+}
+
+// --- pulse-jump gate (issue 5: an absurd pulse jump is rejected and counted) ---
+namespace {
+// 10 m/s at K = 0.0125 m/pulse sampled at 50 Hz: 16 pulses per sample, from a raw start of 1000.
+constexpr uint32_t kPulsesPerSample = 16;
+OdometerSample steady(int i, uint32_t offset = 0) {
+  return {0.02 * i, 1000u + kPulsesPerSample * static_cast<uint32_t>(i) + offset, 1};
+}
+}  // namespace
+
+TEST(OdometerBuffer, JumpGateIsMaxSpeedOverNominalKTimesDtPlusMargin) {
+  const OdometerJumpGate gate;  // 100 m/s at 0.0125 m/pulse: 8000 pulses/s, plus 2 pulses
+  EXPECT_DOUBLE_EQ(gate.max_increment_pulses(0.02), 162.0);
+  EXPECT_DOUBLE_EQ(gate.max_increment_pulses(0.0), 2.0);
+  // The bound itself passes, one pulse more over the same 20 ms does not.
+  OdometerBuffer at_bound;
+  at_bound.add({0.0, 0u, 1});
+  EXPECT_EQ(at_bound.add({0.02, 162u, 1}), OdometerAddResult::kAccepted);
+  OdometerBuffer above;
+  above.add({0.0, 0u, 1});
+  EXPECT_EQ(above.add({0.02, 163u, 1}), OdometerAddResult::kJumpRejected);
+  EXPECT_EQ(above.jumps_rejected(), 1u);
+  // A counter that steps back by one pulse is an increment of 2^32 - 1: rejected as well.
+  OdometerBuffer backwards;
+  backwards.add({0.0, 500u, 1});
+  EXPECT_EQ(backwards.add({0.02, 499u, 1}), OdometerAddResult::kJumpRejected);
+  // A real wrap is an ordinary increment.
+  OdometerBuffer wrap;
+  wrap.add({0.0, 4294967290u, 1});
+  EXPECT_EQ(wrap.add({0.02, 10u, 1}), OdometerAddResult::kAccepted);
+  EXPECT_DOUBLE_EQ(*wrap.count_at(0.02, 0.02), 16.0);
+  EXPECT_THROW(OdometerBuffer(1.0, OdometerJumpGate{0.0, 0.0125, 2.0}), std::invalid_argument);
+  EXPECT_THROW(OdometerBuffer(1.0, OdometerJumpGate{100.0, -1.0, 2.0}), std::invalid_argument);
+}
+
+TEST(OdometerBuffer, MillionfoldSpikeIsRejectedAndNoPulseIsLost) {
+  OdometerBuffer b;
+  int rejected = 0;
+  for (int i = 0; i <= 100; ++i) {
+    OdometerSample s = steady(i);
+    if (i == 50) s.pulses += 1000000u * kPulsesPerSample;  // one bad value, then the counter goes on
+    if (b.add(s) == OdometerAddResult::kJumpRejected) ++rejected;
+  }
+  EXPECT_EQ(rejected, 1);
+  EXPECT_EQ(b.jumps_rejected(), 1u);
+  EXPECT_EQ(b.rebases(), 0u);
+  // Interpolated across the dropped sample: exactly the true count (constant speed).
+  EXPECT_DOUBLE_EQ(*b.count_at(1.0, 2.0), 50.0 * kPulsesPerSample);
+  EXPECT_DOUBLE_EQ(*b.count_at(2.0, 2.0), 100.0 * kPulsesPerSample);
+}
+
+TEST(OdometerBuffer, MillionfoldStepIsRejectedThenRebasedSoTheDistanceAfterItIsRight) {
+  OdometerBuffer b;
+  for (int i = 0; i <= 100; ++i) {
+    // From sample 50 on the counter reads 16 million too high and keeps counting from there.
+    b.add(steady(i, i >= 50 ? 1000000u * kPulsesPerSample : 0u));
+  }
+  EXPECT_EQ(b.jumps_rejected(), 1u);
+  EXPECT_EQ(b.rebases(), 1u);
+  // The interval holding the jump is estimated at the last rate (exact at constant speed) and every
+  // later increment is the true one: the count at the end is the true 1600 pulses.
+  EXPECT_DOUBLE_EQ(*b.count_at(2.0, 2.0), 100.0 * kPulsesPerSample);
+  EXPECT_DOUBLE_EQ(*b.count_at(1.5, 2.0), 75.0 * kPulsesPerSample);
+}
+
+TEST(OdometerBuffer, StepAtChangingSpeedLosesAtMostTheOneEstimatedInterval) {
+  // Speed ramps 5 -> 15 m/s (400 -> 1200 pulses/s); the counter steps by 2^31 at t = 1.01 s.
+  OdometerBuffer b;
+  auto pulses_at = [](double t) { return 400.0 * t + 200.0 * t * t; };  // N(t), pulses
+  for (int i = 0; i <= 200; ++i) {
+    const double t = 0.01 * i;
+    uint32_t raw = static_cast<uint32_t>(std::floor(pulses_at(t)));
+    if (i >= 101) raw += 2147483648u;
+    b.add({t, raw, 1});
+  }
+  EXPECT_EQ(b.jumps_rejected(), 1u);
+  EXPECT_EQ(b.rebases(), 1u);
+  // The estimated interval [1.00, 1.01] s misses the acceleration term (about 0.04 pulses) plus
+  // quantisation: the final count is within 2 pulses of the true 1600.
+  EXPECT_NEAR(*b.count_at(2.0, 2.0), pulses_at(2.0), 2.0);
 }

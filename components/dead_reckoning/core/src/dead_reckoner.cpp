@@ -15,13 +15,25 @@ const char* to_string(ScaleFactorSource source) {
   return "unknown";
 }
 
+namespace {
+// The pulse-jump gate from the DR's own nominal K and maximum speed. Invalid values keep the gate's
+// defaults here so that the constructor body, not the buffer, names the bad parameter.
+OdometerJumpGate jump_gate_of(const DeadReckonerParams& p) {
+  OdometerJumpGate gate;
+  if (std::isfinite(p.max_speed_mps) && p.max_speed_mps > 0.0) gate.max_speed_mps = p.max_speed_mps;
+  if (std::isfinite(p.nominal_k_m_per_pulse) && p.nominal_k_m_per_pulse > 0.0) gate.k_m_per_pulse = p.nominal_k_m_per_pulse;
+  return gate;
+}
+}  // namespace
+
 DeadReckoner::DeadReckoner(const DeadReckonerParams& p)
-    : params_(p), odometer_(p.max_bracket_s), attitude_(p.max_bracket_s) {
+    : params_(p), odometer_(p.max_bracket_s, jump_gate_of(p)), attitude_(p.max_bracket_s) {
   auto require = [](bool ok, const char* what) {
     if (!ok) throw std::invalid_argument(std::string("DeadReckonerParams: ") + what);
   };
   require(std::isfinite(p.nominal_k_m_per_pulse) && p.nominal_k_m_per_pulse > 0.0,
           "nominal_k_m_per_pulse must be finite and > 0");
+  require(std::isfinite(p.max_speed_mps) && p.max_speed_mps > 0.0, "max_speed_mps must be finite and > 0");
   require(p.max_bracket_s > 0.0, "max_bracket_s must be > 0");
   require(p.gnss_max_gap_s > 0.0, "gnss_max_gap_s must be > 0");
   require(p.course_min_speed_mps >= 0.0, "course_min_speed_mps must be >= 0");
@@ -29,9 +41,12 @@ DeadReckoner::DeadReckoner(const DeadReckonerParams& p)
   require(!p.lever_arm_body_m || p.lever_arm_body_m->allFinite(), "lever_arm_body_m must be finite");
 }
 
-void DeadReckoner::add_odometer(const OdometerSample& sample) {
-  odometer_.add(sample);
-  pending_odometer_t_s_.push_back(sample.t_s);
+OdometerAddResult DeadReckoner::add_odometer(const OdometerSample& sample) {
+  const OdometerAddResult result = odometer_.add(sample);
+  counters_.pulse_jumps_rejected = odometer_.jumps_rejected();
+  counters_.pulse_rebases = odometer_.rebases();
+  if (result == OdometerAddResult::kAccepted) pending_odometer_t_s_.push_back(sample.t_s);
+  return result;
 }
 
 void DeadReckoner::add_ins(const InsSample& sample) {

@@ -61,6 +61,11 @@ struct DeadReckonerParams {
   std::optional<Eigen::Vector3d> lever_arm_body_m;
   /// Longest gap between odometer / INS samples across which they are interpolated (s). Default 1.
   double max_bracket_s = 1.0;
+  /// Pulse-jump gate (stream_buffers.hpp, OdometerJumpGate): an odometer increment above
+  /// max_speed_mps / nominal_k_m_per_pulse * dt + 2 pulses is a counter glitch, not distance: the
+  /// sample is dropped and counted, so one bad count cannot move the position by kilometres.
+  /// Fastest physically possible speed (m/s, > 0). Default 100 (8000 pulses/s at 0.0125 m/pulse).
+  double max_speed_mps = 100.0;
   /// Longest gap between two GNSS epochs across which the reference is interpolated (s). Default 0.5.
   double gnss_max_gap_s = 0.5;
   /// Degraded mode: the GNSS course is used only at horizontal speed >= this (m/s). Default 1.
@@ -93,6 +98,8 @@ struct DeadReckonerCounters {
   uint64_t reversing = 0;              ///< intervals with direction -1.
   uint64_t heading_held = 0;           ///< intervals without a measured heading (held).
   uint64_t distance_lost = 0;          ///< intervals with no heading at all yet: not integrated.
+  uint64_t pulse_jumps_rejected = 0;   ///< odometer samples dropped by the pulse-jump gate.
+  uint64_t pulse_rebases = 0;          ///< counter steps re-based on (one interval's pulses estimated).
 };
 
 class DeadReckoner {
@@ -101,7 +108,8 @@ class DeadReckoner {
   explicit DeadReckoner(const DeadReckonerParams& params = {});
 
   /// Streams, each in strictly increasing time; throw StreamInputError on bad input.
-  void add_odometer(const OdometerSample& sample);
+  /// An odometer sample with an implausible pulse jump is dropped and counted (returns kJumpRejected).
+  OdometerAddResult add_odometer(const OdometerSample& sample);
   void add_ins(const InsSample& sample);  ///< ignored when use_ins is false.
   void add_gnss(const GnssSample& sample);
   /// K (m/pulse, > 0) in force from t_s on, and where it comes from.
