@@ -10,7 +10,8 @@ int main(int argc, char** argv) {
       [](odonav::Options& o) { odonav::nodes::add_identification_node_options(o); },
       [](const odonav::Options& o, odonav::dds::ComponentRuntime& runtime) {
         odonav::nodes::IdentificationNode node(runtime, odonav::nodes::identification_node_params_from(o),
-                                               odonav::nodes::checkpoint_settings_from(o));
+                                               odonav::nodes::checkpoint_settings_from(o),
+                                               odonav::nodes::instance_settings_from(o));
         return node.run();
       });
 }

@@ -47,7 +47,8 @@ bool MatchCounter::wait_for(std::size_t n, std::chrono::milliseconds timeout) co
 // ---- WriterBase ----
 
 WriterBase::WriterBase(const Participant& participant, const std::string& topic_name,
-                       const std::string& qos_profile, eprosima::fastdds::dds::TypeSupport type)
+                       const std::string& qos_profile, eprosima::fastdds::dds::TypeSupport type,
+                       const WriterSettings& settings)
     : core_(participant.core()), topic_name_(topic_name) {
   auto& publisher = core_->publisher();
   DataWriterQos qos;
@@ -56,8 +57,16 @@ WriterBase::WriterBase(const Participant& participant, const std::string& topic_
                              "' for topic '" + topic_name + "' (" + core_->description() + ")");
   }
   auto& topic = core_->topic(topic_name, type);
-  writer_ = publisher.create_datawriter_with_profile(&topic, qos_profile, this,
-                                                     StatusMask::publication_matched());
+  if (settings.empty()) {
+    writer_ = publisher.create_datawriter_with_profile(&topic, qos_profile, this,
+                                                       StatusMask::publication_matched());
+  } else {
+    if (settings.ownership_strength) qos.ownership_strength().value = *settings.ownership_strength;
+    if (settings.transient) qos.durability().kind = eprosima::fastdds::dds::TRANSIENT_DURABILITY_QOS;
+    for (const auto& [name, value] : settings.properties)
+      qos.properties().properties().emplace_back(eprosima::fastrtps::rtps::Property(name, value, false));
+    writer_ = publisher.create_datawriter(&topic, qos, this, StatusMask::publication_matched());
+  }
   if (writer_ == nullptr) {
     if (const auto& security = core_->security()) {
       // Access control returns nullptr for a topic the permissions do not grant (FAST_DDS_NOTES.md).

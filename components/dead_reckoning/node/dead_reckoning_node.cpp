@@ -33,6 +33,16 @@ odonav::msg::KSource to_message_source(ScaleFactorSource s) {
 }
 
 double or_minus_one(double v) { return std::isfinite(v) ? v : -1.0; }
+
+// The scale-factor topic read with the fast-failover profile (kScaleFactorReaderProfile).
+topics::TopicSpec scale_factor_topic() {
+  topics::TopicSpec spec = topics::kScaleFactor;
+  spec.reader_profile = kScaleFactorReaderProfile;
+  return spec;
+}
+
+// How long (wall time) health tells about a change of the K source: long enough for a monitor.
+constexpr double kSourceNoteDuration_s = 30.0;
 }  // namespace
 
 void add_dead_reckoning_node_options(Options& o) {
@@ -107,7 +117,7 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
   misalignment_reader_ = subscribe<odonav::msg::Misalignment>(
       topics::kMisalignment, misalignment_, [this](const auto& m, double t_s) { on_misalignment(m, t_s); });
   scale_factor_reader_ = subscribe<odonav::msg::ScaleFactor>(
-      topics::kScaleFactor, scale_factor_, [this](const auto& m, double t_s) { on_scale_factor(m, t_s); });
+      scale_factor_topic(), scale_factor_, [this](const auto& m, double t_s) { on_scale_factor(m, t_s); });
 }
 
 DeadReckoningNode::~DeadReckoningNode() { close_inputs(); }
@@ -129,6 +139,22 @@ void DeadReckoningNode::on_misalignment(const odonav::msg::Misalignment& m, doub
 }
 
 void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s) {
+  // Which identification instance is followed (the DDS owner): logged, and told in health for a
+  // while after a change (hot standby taking over, the primary coming back).
+  if (m.source() != k_source_) {
+    std::ostringstream note;
+    note.precision(10);
+    if (k_source_.empty()) {
+      spdlog::info("following K from '{}' (t={} s)", m.source(), t_s);
+    } else {
+      ++k_source_changes_;
+      note << "K source changed from '" << k_source_ << "' to '" << m.source() << "' at t=" << t_s << " s";
+      spdlog::warn("{}", note.str());
+      k_source_note_ = note.str();
+      k_source_note_until_s_ = dds::steady_now_s() + kSourceNoteDuration_s;
+    }
+    k_source_ = m.source();
+  }
   // The message has no "valid" flag: K = 0 (or not finite) means "no value yet".
   const bool valid = std::isfinite(m.k_m_per_pulse()) && m.k_m_per_pulse() > 0.0;
   if (!scale_factor_applicable(valid, m.converged())) return;  // consumer_rules.hpp, as odonav-offline
@@ -209,12 +235,14 @@ dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
   } else if (input_absent(scale_factor_, now_s)) {
     s.state = s.state == HEALTH_STATE_STARTING ? s.state : HEALTH_STATE_DEGRADED;
     s.level = HEALTH_LEVEL_WARN;
-    add("using nominal K: no identification");
+    // Absent after being heard: the core keeps the last identified K (it is not reset).
+    add(k_applied_ > 0 ? "no identification: keeping the last identified K" : "using nominal K: no identification");
   } else if (!input_heard(scale_factor_, now_s)) {
     add("waiting for identification");
   } else if (k_applied_ == 0) {
     add("K not converged yet: using nominal K");
   }
+  if (!k_source_note_.empty() && now_s < k_source_note_until_s_) add(k_source_note_);
   if (input_absent(misalignment_, now_s))
     add("using zero misalignment: no calibration");
   else if (input_heard(misalignment_, now_s) && misalignments_applied_ == 0)
@@ -228,8 +256,11 @@ void DeadReckoningNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("before_start", static_cast<double>(k.before_start));
   c.emplace_back("heading_held", static_cast<double>(k.heading_held));
   c.emplace_back("reversing", static_cast<double>(k.reversing));
+  c.emplace_back("pulse_jumps_rejected", static_cast<double>(k.pulse_jumps_rejected));
+  c.emplace_back("pulse_rebases", static_cast<double>(k.pulse_rebases));
   c.emplace_back("k_applied", static_cast<double>(k_applied_));
   c.emplace_back("k_ignored", static_cast<double>(k_ignored_commanded_));
+  c.emplace_back("k_source_changes", static_cast<double>(k_source_changes_));
   c.emplace_back("misalignments_applied", static_cast<double>(misalignments_applied_));
   if (last_output_) {
     c.emplace_back("distance_m", last_output_->distance_m);

@@ -15,8 +15,14 @@
 #include "odonav/msg/Misalignment.h"
 #include "odonav/msg/ScaleFactor.h"
 #include "odonav/stream_buffers.hpp"
+#include "odonav/topics.hpp"
 
 namespace odonav::nodes {
+
+/// Dead reckoning reads the scale factor with topics::kScaleFactorReaderProfile: EXCLUSIVE ownership
+/// with a 300 ms deadline, so when the owning identification dies the reader follows the hot standby
+/// about 300 ms later (odonav_estimate_reader's 1 s deadline would take over a second).
+using topics::kScaleFactorReaderProfile;
 
 /// --nominal-k, --dr-mode (add_dead_reckoning_options), --lever-arm and --use-ins.
 void add_dead_reckoning_node_options(Options& options);
@@ -55,6 +61,12 @@ class DeadReckoningNode : public dds::EventTimeNode {
   StepHistory<Misalignment> applied_misalignment_{"misalignment"};
   std::optional<double> last_k_stamp_s_;  ///< stamp of the last K given to the core (s).
   bool commanded_k_ = false;              ///< a set_k command holds K: identified K ignored.
+  /// ScaleFactor.source of the identification followed (the owner of the EXCLUSIVE topic: the
+  /// strongest live instance), the number of changes, and the note health shows after a change.
+  std::string k_source_;
+  uint64_t k_source_changes_ = 0;
+  std::string k_source_note_;
+  double k_source_note_until_s_ = 0.0;    ///< steady clock (s)
   uint64_t k_applied_ = 0;
   uint64_t k_ignored_commanded_ = 0;
   uint64_t misalignments_applied_ = 0;

@@ -6,7 +6,9 @@
 #include <ctime>
 #include <filesystem>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
+#include <thread>
 
 #include <spdlog/spdlog.h>
 
@@ -47,6 +49,28 @@ void add_identification_node_options(Options& o) {
                "folder of the checkpoint identification-<vehicle>.ckpt (restored at start, written every "
                "--checkpoint-every-s of event time and at shutdown); empty = no checkpoint");
   o.add_double("checkpoint-every-s", 5.0, "checkpoint period in event time of the processed epochs (s)", 0.1, 1e6);
+  o.add_string("instance", kDefaultIdentificationInstance,
+               "name of this instance, published as ScaleFactor.source and naming its state files "
+               "(e.g. identification/standby for a hot standby; letters, digits, . _ - /)");
+  o.add_int("ownership-strength", 10,
+            "OWNERSHIP_STRENGTH of the scale-factor writer: readers follow the strongest live instance "
+            "(primary e.g. 20, standby 10)",
+            0, 1000000);
+  o.add_double("nominal-k", 0.0125, "reference K (m/pulse) a set_k command must stay within 0.1x..10x of", 1e-6,
+               10.0);
+}
+
+InstanceSettings instance_settings_from(const Options& o) {
+  InstanceSettings s;
+  s.instance = o.get_string("instance");
+  try {
+    validate_identification_instance(s.instance);
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("--instance: ") + e.what());
+  }
+  s.ownership_strength = static_cast<uint32_t>(o.get_int("ownership-strength"));
+  s.nominal_k_m_per_pulse = o.get_double("nominal-k");
+  return s;
 }
 
 CheckpointSettings checkpoint_settings_from(const Options& o) {
@@ -62,11 +86,14 @@ IdentificationParams identification_node_params_from(const Options& o) {
   p.builder.use_ins = o.get_bool("use-ins");
   p.builder.lever_arm_body_m = lever_arm_from(o);
   p.run_all_estimators = false;  // the node publishes the main estimator only
+  // The pulse-jump gate converts its maximum speed to pulses with the vehicle's nominal K: a fine
+  // encoder (small K) must not see real motion as a jump.
+  p.builder.odometer_jump_gate.k_m_per_pulse = o.get_double("nominal-k");
   return p;
 }
 
 odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& out, const std::string& estimator,
-                                              const std::string& vehicle_id) {
+                                              const std::string& vehicle_id, const std::string& source) {
   odonav::msg::ScaleFactor m;
   m.header(dds::make_header(out.t_s, "odometer"));
   m.vehicle_id(vehicle_id);
@@ -83,23 +110,96 @@ odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& out, c
   m.samples_accepted(clamp_u32(out.samples_accepted));
   m.samples_rejected(clamp_u32(out.samples_rejected));
   m.frozen(out.frozen);
+  m.source(source);
   return m;
 }
 
+namespace {
+// The scale-factor writer: the profile, plus ownership strength always, plus TRANSIENT with the
+// SQLite persistence when there is a state directory (FAST_DDS_NOTES.md: plugin, file, fixed GUID).
+dds::WriterSettings scale_factor_writer_settings(const std::string& state_dir, const std::string& vehicle_id,
+                                                 const InstanceSettings& instance) {
+  dds::WriterSettings w;
+  w.ownership_strength = instance.ownership_strength;
+  if (state_dir.empty()) {
+    spdlog::info("scale-factor writer: TRANSIENT_LOCAL (no --state-dir: the last K survives in this process only)");
+    return w;
+  }
+  try {
+    std::filesystem::create_directories(state_dir);
+    const std::string db = persistence_db_path(state_dir, vehicle_id, instance.instance);
+    const std::string guid = persistence_guid(vehicle_id, instance.instance);
+    w.transient = true;
+    w.properties = {{"dds.persistence.plugin", "builtin.SQLITE3"},
+                    {"dds.persistence.sqlite3.filename", db},
+                    {"dds.persistence.guid", guid}};
+    spdlog::info("scale-factor writer: TRANSIENT, SQLite persistence {} (guid {})", db, guid);
+  } catch (const std::exception& e) {
+    throw ConfigError("--state-dir '" + state_dir + "': " + e.what());
+  }
+  return w;
+}
+
+bool has_persisted_history(const std::string& state_dir, const std::string& vehicle_id, const InstanceSettings& instance) {
+  if (state_dir.empty()) return false;
+  try {
+    const std::string db = persistence_db_path(state_dir, vehicle_id, instance.instance);
+    return std::filesystem::exists(db) && std::filesystem::file_size(db) > 0;
+  } catch (const std::exception&) {
+    return false;  // scale_factor_writer_settings reports a bad state directory or name
+  }
+}
+}  // namespace
+
 IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const IdentificationParams& params,
-                                       const CheckpointSettings& checkpoint)
+                                       const CheckpointSettings& checkpoint, const InstanceSettings& instance)
     : EventTimeNode(runtime),
       params_(params),
+      instance_(instance),
       core_(make_core(params)),
       checkpoint_(checkpoint),
       odometer_(add_input("odometer", true)),
       gnss_(add_input("gnss", true)),
       misalignment_(add_input("misalignment", false, &gnss_)),
-      scale_factor_(runtime.participant(), topics::kScaleFactor.name, topics::kScaleFactor.writer_profile) {
+      persisted_history_(has_persisted_history(checkpoint.state_dir, runtime.settings().vehicle_id, instance)) {
   if (params_.builder.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
   // Before any reader exists: no sample can reach the core before the restored state.
   if (!checkpoint_.state_dir.empty()) restore_checkpoint();
+  // The persistence database holds the previous run's last published K. It is served (TRANSIENT)
+  // only together with the estimator state it came from: without a restored checkpoint (none,
+  // corrupt, mismatched) the estimator starts from nominal K, and an old K stamped in another
+  // run's time would mislead every late reader. So it is moved aside, never deleted.
+  if (persisted_history_ && !restored_t_s_) {
+    const std::string db = persistence_db_path(checkpoint_.state_dir, runtime.settings().vehicle_id, instance_.instance);
+    const std::string aside = db + ".discarded-" + std::to_string(static_cast<long long>(std::time(nullptr)));
+    std::error_code ec;
+    std::filesystem::rename(db, aside, ec);
+    if (ec)
+      spdlog::error("persistence database {} kept: could not move it aside ({}); late readers may get its old K", db,
+                    ec.message());
+    else
+      spdlog::warn("persistence database {} moved aside to {}: no checkpoint restored, so its K is not served", db,
+                   aside);
+    persisted_history_ = static_cast<bool>(ec);
+  }
+  scale_factor_ = std::make_unique<dds::Writer<odonav::msg::ScaleFactor>>(
+      runtime.participant(), topics::kScaleFactor.name, topics::kScaleFactor.writer_profile,
+      scale_factor_writer_settings(checkpoint_.state_dir, runtime.settings().vehicle_id, instance_));
+  if (restored_t_s_ && last_output_) {
+    if (persisted_history_) {
+      // The TRANSIENT writer already serves the last estimate the previous run published (the
+      // checkpoint is written after publishing, so that one is as new or newer): publishing the
+      // restored K would step a late reader back to the checkpoint time.
+      spdlog::info("restored K not republished: the scale-factor writer serves the previous run's last estimate "
+                   "from its SQLite persistence");
+    } else {
+      // Publish the restored K at once (TRANSIENT_LOCAL): a consumer that lost it, or a late
+      // reader, has it before any new sample arrives.
+      write_scale_factor(*last_output_, dds::steady_now_s());
+      count_outputs(1);
+    }
+  }
 
   odometer_reader_ = subscribe<odonav::msg::Odometer>(topics::kOdometer, odometer_, [this](const auto& m, double t_s) {
     if (!before_checkpoint(t_s, kSensorMarginBeforeCheckpoint_s)) core_.add_odometer(dds::odometer_sample_from(m));
@@ -155,7 +255,7 @@ void IdentificationNode::publish(const std::vector<IdentificationOutput>& output
     if (restored_t_s_ && o.t_s <= *restored_t_s_) continue;
     o.samples_accepted += restored_accepted_;
     o.samples_rejected += restored_rejected_;
-    scale_factor_.publish(scale_factor_message(o, core_.main_estimator_name(), runtime_.settings().vehicle_id), now);
+    write_scale_factor(o, now);
     last_output_ = o;
     last_processed_t_s_ = o.t_s;
     ++published;
@@ -165,6 +265,29 @@ void IdentificationNode::publish(const std::vector<IdentificationOutput>& output
   if (!checkpoint_file_.empty() && last_processed_t_s_ &&
       (!last_checkpoint_t_s_ || *last_processed_t_s_ >= *last_checkpoint_t_s_ + checkpoint_.every_s))
     write_checkpoint(*last_processed_t_s_);
+}
+
+void IdentificationNode::write_scale_factor(const IdentificationOutput& o, double now_s) {
+  odonav::msg::ScaleFactor m =
+      scale_factor_message(o, core_.main_estimator_name(), runtime_.settings().vehicle_id, instance_.instance);
+  if (!scale_factor_->write(m)) {
+    ++write_failures_;
+    spdlog::warn("{}: write refused by the middleware ({} so far)", scale_factor_->topic_name(), write_failures_);
+  }
+  last_scale_factor_ = std::move(m);
+  last_scale_factor_write_s_ = now_s;
+  // KEEP_LAST 1: a burst (catching up, the drain) must give the transport time to deliver.
+  if (++scale_factors_written_ % 100 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+}
+
+void IdentificationNode::on_tick(double now_s) {
+  // The heartbeat keeps the 300 ms deadline of the EXCLUSIVE scale-factor topic while nothing new
+  // is published (GNSS outage, gated epochs are published anyway): a silent owner is one that died,
+  // and readers then switch to the standby. Same stamp: consumers take it as a repeat.
+  if (!last_scale_factor_ || now_s - last_scale_factor_write_s_ < instance_.heartbeat_period_s) return;
+  scale_factor_->write(*last_scale_factor_);
+  last_scale_factor_write_s_ = now_s;
+  ++heartbeats_;
 }
 
 void IdentificationNode::process_until(double watermark_s) { publish(core_.process_until(watermark_s)); }
@@ -179,7 +302,7 @@ void IdentificationNode::restore_checkpoint() {
   const std::string& vehicle = runtime_.settings().vehicle_id;
   try {
     std::filesystem::create_directories(checkpoint_.state_dir);
-    checkpoint_file_ = checkpoint_path(checkpoint_.state_dir, vehicle);
+    checkpoint_file_ = instance_checkpoint_path(checkpoint_.state_dir, vehicle, instance_.instance);
   } catch (const std::exception& e) {
     throw ConfigError("--state-dir '" + checkpoint_.state_dir + "': " + e.what());
   }
@@ -208,17 +331,13 @@ void IdentificationNode::restore_checkpoint() {
   restored_rejected_ = c.samples_rejected;
   last_checkpoint_t_s_ = c.last_sample_t_s;
   last_processed_t_s_ = c.last_sample_t_s;
-  // Publish the restored K at once (TRANSIENT_LOCAL): a consumer that lost it, or a late reader,
-  // has it before any new sample arrives.
   IdentificationOutput o;
   o.t_s = c.last_sample_t_s;
   o.epoch_status = EpochStatus::kAccepted;
   o.main = core_.main_estimator().estimate();
   o.samples_accepted = c.samples_accepted;
   o.samples_rejected = c.samples_rejected;
-  scale_factor_.publish(scale_factor_message(o, core_.main_estimator_name(), vehicle), dds::steady_now_s());
   last_output_ = o;
-  count_outputs(1);
 }
 
 void IdentificationNode::write_checkpoint(double t_s) {
@@ -243,7 +362,7 @@ void IdentificationNode::write_checkpoint(double t_s) {
   }
 }
 
-std::vector<dds::detail::WriterBase*> IdentificationNode::output_writers() { return {&scale_factor_.writer()}; }
+std::vector<dds::detail::WriterBase*> IdentificationNode::output_writers() { return {scale_factor_.get()}; }
 
 dds::CommandAck IdentificationNode::on_command(const odonav::msg::Command& c) {
   using namespace odonav::msg;
@@ -258,10 +377,27 @@ dds::CommandAck IdentificationNode::on_command(const odonav::msg::Command& c) {
     case COMMAND_UNFREEZE_IDENTIFICATION:
       core_.unfreeze();
       return {c.command_id(), COMMAND_RESULT_ACCEPTED, "identification resumed"};
-    case COMMAND_SET_K:
-      // ScaleFactor carries no source: a commanded K published here would look identified.
-      return {c.command_id(), COMMAND_RESULT_REJECTED,
-              "set_k is executed by odonav-dead-reckoning (the K it navigates with); identification goes on"};
+    case COMMAND_SET_K: {
+      const double k = c.value();
+      if (const auto problem = IdentificationCore::commanded_k_problem(k, instance_.nominal_k_m_per_pulse))
+        return {c.command_id(), COMMAND_RESULT_REJECTED, "set_k: " + *problem};
+      // Stamped with the last event time processed (the output it replaces), so it sorts after
+      // everything already published and before the next epoch.
+      double t_s = last_processed_t_s_.value_or(aligner_.processed_s());
+      if (!std::isfinite(t_s)) t_s = 0.0;
+      IdentificationOutput o = core_.set_k(k, t_s);
+      o.samples_accepted += restored_accepted_;
+      o.samples_rejected += restored_rejected_;
+      write_scale_factor(o, dds::steady_now_s());
+      last_output_ = o;
+      count_outputs(1);
+      ++k_commands_;
+      std::ostringstream m;
+      m.precision(10);
+      m << "K set to " << k << " m/pulse by command; identification continues from it";
+      spdlog::info("{}", m.str());
+      return {c.command_id(), COMMAND_RESULT_ACCEPTED, m.str()};
+    }
   }
   return {c.command_id(), COMMAND_RESULT_REJECTED, "unknown command kind"};
 }
@@ -307,8 +443,12 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("rejected_min_speed", static_cast<double>(b.min_speed));
   c.emplace_back("rejected_invalid_fix", static_cast<double>(b.invalid_fix));
   c.emplace_back("rejected_yaw_rate", static_cast<double>(b.yaw_rate));
+  c.emplace_back("odometer_jumps_rejected", static_cast<double>(b.odometer_jumps_rejected));
+  c.emplace_back("odometer_rebases", static_cast<double>(b.odometer_rebases));
   c.emplace_back("misalignments_applied", static_cast<double>(misalignments_applied_));
-  c.emplace_back("heartbeats", static_cast<double>(scale_factor_.heartbeats()));
+  c.emplace_back("heartbeats", static_cast<double>(heartbeats_));
+  c.emplace_back("k_commands", static_cast<double>(k_commands_));
+  c.emplace_back("ownership_strength", static_cast<double>(instance_.ownership_strength));
   if (!checkpoint_file_.empty()) {
     c.emplace_back("checkpoint_restored", restored_t_s_ ? 1.0 : 0.0);
     if (restored_t_s_) c.emplace_back("checkpoint_restored_t_s", *restored_t_s_);

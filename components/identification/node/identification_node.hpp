@@ -11,6 +11,7 @@
 #include "odonav/config.hpp"
 #include "odonav/dds/event_time_node.hpp"
 #include "odonav/identification/identification_core.hpp"
+#include "odonav/identification/instance.hpp"
 #include "odonav/msg/Misalignment.h"
 #include "odonav/msg/ScaleFactor.h"
 
@@ -36,11 +37,30 @@ struct CheckpointSettings {
 /// Reads --state-dir and --checkpoint-every-s and hashes the configuration.
 CheckpointSettings checkpoint_settings_from(const Options& options);
 
+/// Who this identification is among hot-standby instances, and how it publishes.
+struct InstanceSettings {
+  /// ScaleFactor.source and the name of its state files (instance.hpp); "identification" by default,
+  /// e.g. "identification/standby" for a standby.
+  std::string instance = kDefaultIdentificationInstance;
+  /// OWNERSHIP_STRENGTH of the scale-factor writer (0..1e6): readers follow the strongest live
+  /// instance; give the primary the higher value (e.g. 20) and the standby a lower one (10).
+  uint32_t ownership_strength = 10;
+  /// Reference K [m/pulse] (> 0) a set_k command is checked against: [0.1, 10] x this.
+  double nominal_k_m_per_pulse = 0.0125;
+  /// The last ScaleFactor is republished (same stamp) when nothing was written for this long
+  /// (wall clock, s, > 0): well inside the 300 ms deadline, even in a GNSS outage.
+  double heartbeat_period_s = 0.1;
+};
+/// Reads --instance, --ownership-strength and --nominal-k. Throws ConfigError naming the option.
+InstanceSettings instance_settings_from(const Options& options);
+
 /// ScaleFactor message of one output: stamp = output t_s, frame "odometer", the main estimator's
 /// K (m/pulse; 0 while it has no value: consumers take k > 0 as "valid"), sigma (m/pulse, -1 when
 /// unknown), lambda, window fill, estimator name, converged, sample counts, frozen.
+/// source = the publishing instance (InstanceSettings::instance).
 odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& output, const std::string& estimator,
-                                              const std::string& vehicle_id);
+                                              const std::string& vehicle_id,
+                                              const std::string& source = kDefaultIdentificationInstance);
 
 class IdentificationNode : public dds::EventTimeNode {
  public:
@@ -49,8 +69,12 @@ class IdentificationNode : public dds::EventTimeNode {
   /// aside and starts from nominal) and publishes the restored K at once, stamped with the
   /// checkpoint's time, so a late reader gets it before any new sample. ConfigError when the state
   /// directory cannot be created or the vehicle id cannot name a file.
+  /// With a state directory the scale-factor writer is also TRANSIENT (Fast DDS SQLite persistence in
+  /// `<state-dir>/<vehicle>-<instance>.db`, fixed GUID persistence_guid(vehicle, instance)): a reader
+  /// joining after a restart gets the last K even before the restored one is published. Without
+  /// one it is TRANSIENT_LOCAL (the profile's).
   IdentificationNode(dds::ComponentRuntime& runtime, const IdentificationParams& params,
-                     const CheckpointSettings& checkpoint = {});
+                     const CheckpointSettings& checkpoint = {}, const InstanceSettings& instance = {});
   ~IdentificationNode() override;
 
  private:
@@ -60,9 +84,11 @@ class IdentificationNode : public dds::EventTimeNode {
   std::vector<dds::detail::WriterBase*> output_writers() override;
   Status node_status(double now_s) override;
   void append_counters(dds::HealthCounters& counters) override;
-  void on_tick(double now_s) override { scale_factor_.heartbeat_if_due(now_s); }
+  void on_tick(double now_s) override;
 
   void publish(const std::vector<IdentificationOutput>& outputs);
+  /// Writes one ScaleFactor (counted, a refusal logged) and remembers it for the heartbeat.
+  void write_scale_factor(const IdentificationOutput& output, double now_s);
   void on_misalignment(const odonav::msg::Misalignment& m, double t_s);
   dds::CommandAck on_command(const odonav::msg::Command& command);
   void restore_checkpoint();
@@ -74,6 +100,7 @@ class IdentificationNode : public dds::EventTimeNode {
   bool before_checkpoint(double t_s, double margin_s);
 
   IdentificationParams params_;
+  InstanceSettings instance_;
   IdentificationCore core_;
   std::optional<IdentificationOutput> last_output_;
   uint64_t misalignments_applied_ = 0;
@@ -96,7 +123,17 @@ class IdentificationNode : public dds::EventTimeNode {
   dds::NodeInput& gnss_;
   dds::NodeInput* ins_ = nullptr;
   dds::NodeInput& misalignment_;
-  dds::EstimatePublisher<odonav::msg::ScaleFactor> scale_factor_;
+  /// The SQLite file of the TRANSIENT writer existed at start: the writer serves the last estimate
+  /// of the previous run itself, so the (older or equal) restored K is not published again.
+  bool persisted_history_ = false;
+  /// Created after the checkpoint is restored (what the persistence database may serve depends on it).
+  std::unique_ptr<dds::Writer<odonav::msg::ScaleFactor>> scale_factor_;
+  std::optional<odonav::msg::ScaleFactor> last_scale_factor_;  ///< for the heartbeat
+  double last_scale_factor_write_s_ = 0.0;                   ///< steady clock (s)
+  uint64_t scale_factors_written_ = 0;
+  uint64_t heartbeats_ = 0;
+  uint64_t write_failures_ = 0;
+  uint64_t k_commands_ = 0;
   // Last members: destroyed first, so no callback reaches a half-destroyed node.
   std::unique_ptr<dds::Reader<odonav::msg::Odometer>> odometer_reader_;
   std::unique_ptr<dds::Reader<odonav::msg::GnssFix>> gnss_reader_;

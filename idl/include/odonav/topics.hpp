@@ -30,6 +30,15 @@ inline constexpr const char* kCommandReaderProfile = "odonav_command_reader";
 /// vehicle's writers down (a reliable reader on a weak link would make them resend).
 inline constexpr const char* kGroundBestEffortReaderProfile = "odonav_ground_reader_best_effort";
 
+/// EXCLUSIVE-ownership variants for the estimate topics (misalignment, scale factor), whose writers
+/// are EXCLUSIVE (hot standby of the identification): a reader must have the same ownership kind.
+/// Dead reckoning's scale-factor reader: a 300 ms deadline, so it follows the standby that fast.
+inline constexpr const char* kScaleFactorReaderProfile = "odonav_scale_factor_reader";
+/// The ground station's best-effort reader of the estimate topics.
+inline constexpr const char* kEstimateGroundBestEffortReaderProfile = "odonav_estimate_ground_reader_best_effort";
+/// Recorders (odonav-recorder, odonav-ground record): every estimate, KEEP_LAST 1000 per vehicle.
+inline constexpr const char* kMisalignmentRecorderReaderProfile = "odonav_misalignment_recorder_reader";
+inline constexpr const char* kScaleFactorRecorderReaderProfile = "odonav_scale_factor_recorder_reader";
 /// The participant profile of deploy/profiles/loopback.xml (tests, demo: all traffic on lo).
 inline constexpr const char* kLoopbackParticipantProfile = "loopback_only";
 

@@ -221,12 +221,13 @@ TEST_F(NodeProcess, IdentificationNodeEqualsTheCoreFedTheSameMisalignments) {
   replay(writes, {&odo, &gnss, &ins, &mis_writer});
   wait_quiet(out);
 
-  // set_k is not identification's: acknowledged as rejected, and nothing changes.
+  // A set_k far outside [0.1, 10] x the nominal K (a metre per pulse: a typo, not a K): acknowledged
+  // as rejected, and nothing changes. (An accepted set_k: tests/integration/ground, ground_fleet.)
   msg::Command c;
   c.vehicle_id(kVehicle);
   c.target_component("odonav-identification");
   c.command(msg::COMMAND_SET_K);
-  c.value(0.013);
+  c.value(1.0);
   c.command_id(77);
   command.write(c);
   EXPECT_TRUE(health.wait_until(

@@ -1,11 +1,14 @@
-// odonav-identification restart (issue 5, tests 1 and 4), as processes on loopback DDS (domains
-// 80-84): the gateway drives a simulated ring course in accelerated real time, odonav-identification
+// odonav-identification restart (issue 5, tests 1, 2 and 4), as processes on loopback DDS (domains
+// 100-105): the gateway drives a simulated ring course in accelerated real time, odonav-identification
 // checkpoints into a state directory, odonav-dead-reckoning navigates with its K.
 //   1. kill -9 of the identification mid-run, restarted 2 s later with the same --state-dir: DR
 //      output stays contiguous in event time, the first K after the restart is the last K before
 //      the kill within 0.05 %, the final K equals an uninterrupted run within 0.1 %.
 //   2. corrupt checkpoints (garbage, then a truncated real one) are moved aside, the node starts
 //      from nominal and its health says so.
+//   3. late reader after a restart: the scale-factor writer is TRANSIENT (SQLite persistence in the
+//      state directory, fixed GUID); killed and restarted with no input at all, it still serves
+//      the last K it published before the kill to a reader created after the restart.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -191,7 +194,7 @@ TEST_F(IdentificationRestart, KillNineMidRunResumesFromTheCheckpoint) {
   DriveResult reference;
   {
     SCOPED_TRACE("uninterrupted run");
-    drive(80, fresh_dir("uninterrupted"), false, reference);
+    drive(100, fresh_dir("uninterrupted"), false, reference);
   }
   if (HasFatalFailure()) return;
   shm_clean();
@@ -199,7 +202,7 @@ TEST_F(IdentificationRestart, KillNineMidRunResumesFromTheCheckpoint) {
   const std::string dir = fresh_dir("killed");
   {
     SCOPED_TRACE("killed run");
-    drive(81, dir, true, killed);
+    drive(101, dir, true, killed);
   }
   if (HasFatalFailure()) return;
 
@@ -325,7 +328,7 @@ TEST_F(IdentificationRestart, CorruptCheckpointsAreMovedAsideAndTheNodeStartsFro
   std::string garbage(3000, '\0');
   uint32_t x = 12345;
   for (char& c : garbage) c = static_cast<char>((x = x * 1664525u + 1013904223u) >> 24);
-  run_over(82, garbage, dir + "/garbage.log", health, k);
+  run_over(102, garbage, dir + "/garbage.log", health, k);
   if (HasFatalFailure()) return;
   check(garbage, dir + "/garbage.log", "truncated: no checksum line", health, k);
   if (HasFatalFailure()) return;
@@ -335,7 +338,7 @@ TEST_F(IdentificationRestart, CorruptCheckpointsAreMovedAsideAndTheNodeStartsFro
   ASSERT_NE(good.find("odonav-identification-checkpoint 1"), std::string::npos);
   shm_clean();
   const std::string truncated = good.substr(0, good.size() / 2);
-  run_over(83, truncated, dir + "/truncated.log", health, k);
+  run_over(103, truncated, dir + "/truncated.log", health, k);
   if (HasFatalFailure()) return;
   check(truncated, dir + "/truncated.log", "truncated", health, k);
 }
@@ -375,14 +378,14 @@ TEST_F(IdentificationRestart, ResentStreamIsNotCountedTwiceAfterARestore) {
     out.health = health_of(health.samples(), kIdentification);
   };
   Run first, second;
-  run(84, dir + "/first.log", first);
+  run(104, dir + "/first.log", first);
   if (HasFatalFailure()) return;
   const auto last = last_valid(first.k, first.k.size());
   ASSERT_TRUE(last.has_value());
   ASSERT_GT(stamp_s(*last), 39.0);
   ASSERT_GT(last->samples_accepted(), 100u);
   shm_clean();
-  run(84, dir + "/second.log", second);
+  run(104, dir + "/second.log", second);
   if (HasFatalFailure()) return;
 
   ASSERT_FALSE(second.k.empty());
@@ -402,6 +405,72 @@ TEST_F(IdentificationRestart, ResentStreamIsNotCountedTwiceAfterARestore) {
   std::cerr << "restored K " << last->k_m_per_pulse() << " at t=" << stamp_s(*last) << " s; "
             << counter(h, "skipped_before_checkpoint") << " re-sent samples skipped, " << second.k.size()
             << " ScaleFactor messages in the second run\n";
+}
+
+}  // namespace
+
+namespace {
+
+TEST_F(IdentificationRestart, LateReaderAfterARestartWithNoInputGetsTheLastKFromPersistence) {
+  constexpr int kDomain = 105;
+  const std::string dir = fresh_dir("persistence");
+  const std::string state = dir + "/state";
+  std::optional<msg::ScaleFactor> last_before_kill;
+  std::unique_ptr<ChildProcess> identification;
+  {
+    odonav::dds::Participant participant(test_participant(kDomain));
+    Collector<msg::ScaleFactor> k(participant, topics::kScaleFactor);
+    auto calibration = start_logged("odonav-calibration", node_args(kDomain, 2.0), dir + "/calibration.log");
+    identification = start_logged(kIdentification, identification_args(kDomain, state), dir + "/id-1.log");
+    ASSERT_TRUE(calibration->started() && identification->started());
+    auto gw_args = gateway_args(kDomain, 40.0, "max");  // waits for 2 readers: calibration, identification
+    auto gateway = start_logged("odonav-gateway", gw_args, dir + "/gateway.log");
+    ASSERT_TRUE(gateway->wait_exit(seconds(90))) << read_text(dir + "/gateway.log");
+    EXPECT_EQ(gateway->exit_code(), 0) << read_text(dir + "/gateway.log");
+    // The identification has processed everything once its newest stamp stops moving (its
+    // heartbeats repeat the last estimate): bounded wait, then the last K it published.
+    double newest = -1.0;
+    for (int i = 0; i < 60; ++i) {
+      std::this_thread::sleep_for(milliseconds(500));
+      const auto v = k.samples();
+      if (!v.empty() && stamp_s(v.back()) == newest && newest > 39.0) break;
+      if (!v.empty()) newest = stamp_s(v.back());
+    }
+    last_before_kill = last_valid(k.samples(), k.size());
+    ASSERT_TRUE(last_before_kill.has_value());
+    ASSERT_GT(stamp_s(*last_before_kill), 39.0) << "the drive was processed to its end";
+    identification->signal(SIGKILL);
+    ASSERT_TRUE(identification->wait_exit(seconds(5)));
+    EXPECT_EQ(identification->exit_code(), 128 + SIGKILL);
+    calibration->signal(SIGINT);
+    EXPECT_TRUE(calibration->wait_exit(seconds(30)));
+  }
+  ASSERT_TRUE(fs::exists(state + "/" + std::string(kVehicle) + "-identification.db"));
+  shm_clean();
+  // Restart with no input at all: nothing new can be computed or published.
+  identification = start_logged(kIdentification, identification_args(kDomain, state), dir + "/id-2.log");
+  ASSERT_TRUE(identification->started());
+  std::this_thread::sleep_for(seconds(1));
+  ASSERT_TRUE(identification->running()) << read_text(dir + "/id-2.log");
+
+  // A reader created after the restart (TRANSIENT_LOCAL, the consumers' profile).
+  odonav::dds::Participant late(test_participant(kDomain));
+  Collector<msg::ScaleFactor> k(late, topics::kScaleFactor);
+  ASSERT_TRUE(k.wait_until([](const std::vector<msg::ScaleFactor>& v) { return !v.empty(); }, seconds(20)))
+      << "no ScaleFactor for a late reader after the restart\n" << read_text(dir + "/id-2.log");
+  const msg::ScaleFactor got = k.samples().front();
+  std::cerr << "last K before the kill " << last_before_kill->k_m_per_pulse() << " at t=" << stamp_s(*last_before_kill)
+            << " s; late reader after the restart got " << got.k_m_per_pulse() << " at t=" << stamp_s(got)
+            << " s (source '" << got.source() << "')\n";
+  EXPECT_EQ(got.k_m_per_pulse(), last_before_kill->k_m_per_pulse());
+  EXPECT_EQ(stamp_s(got), stamp_s(*last_before_kill));
+  EXPECT_EQ(got.samples_accepted(), last_before_kill->samples_accepted());
+  EXPECT_EQ(got.source(), "identification");
+  const std::string log = read_text(dir + "/id-2.log");
+  EXPECT_NE(log.find("TRANSIENT, SQLite persistence"), std::string::npos) << log;
+  identification->signal(SIGINT);
+  EXPECT_TRUE(identification->wait_exit(seconds(30)));
+  EXPECT_EQ(identification->exit_code(), 0) << read_text(dir + "/id-2.log");
 }
 
 }  // namespace

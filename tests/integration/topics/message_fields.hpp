@@ -104,6 +104,7 @@ inline Fields fields(const odonav::msg::ScaleFactor& m) {
   f.emplace_back("samples_accepted", text(m.samples_accepted()));
   f.emplace_back("samples_rejected", text(m.samples_rejected()));
   f.emplace_back("frozen", text(m.frozen()));
+  f.emplace_back("source", text(m.source()));
   return f;
 }
 
@@ -252,6 +253,7 @@ inline odonav::msg::ScaleFactor make_scale_factor() {
   m.samples_accepted(123457);
   m.samples_rejected(8765);
   m.frozen(true);
+  m.source("identification/standby-7");
   return m;
 }
 

@@ -44,14 +44,26 @@ struct ExpectedQos {
   DurabilityQosPolicyKind durability;
   int depth;
   double deadline_s;
+  OwnershipQosPolicyKind ownership = SHARED_OWNERSHIP_QOS;
 };
 
 const std::map<std::string, ExpectedQos>& expected_qos() {
   static const std::map<std::string, ExpectedQos> table{
       {topics::kSensorWriterProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
       {topics::kSensorReaderProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
-      {topics::kEstimateWriterProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 1.0}},
-      {topics::kEstimateReaderProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 1.0}},
+      // Estimates: EXCLUSIVE (hot standby); the writer offers 300 ms so DR's 300 ms reader matches.
+      {topics::kEstimateWriterProfile,
+       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 0.3, EXCLUSIVE_OWNERSHIP_QOS}},
+      {topics::kEstimateReaderProfile,
+       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 1.0, EXCLUSIVE_OWNERSHIP_QOS}},
+      {topics::kScaleFactorReaderProfile,
+       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 0.3, EXCLUSIVE_OWNERSHIP_QOS}},
+      {topics::kMisalignmentRecorderReaderProfile,
+       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1000, kNoDeadline, EXCLUSIVE_OWNERSHIP_QOS}},
+      {topics::kScaleFactorRecorderReaderProfile,
+       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1000, kNoDeadline, EXCLUSIVE_OWNERSHIP_QOS}},
+      {topics::kEstimateGroundBestEffortReaderProfile,
+       {BEST_EFFORT_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 100, kNoDeadline, EXCLUSIVE_OWNERSHIP_QOS}},
       {topics::kDeadReckoningWriterProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
       {topics::kDeadReckoningReaderProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
       {topics::kHealthWriterProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 3.0}},
@@ -74,7 +86,13 @@ void expect_qos(const std::string& profile, const Qos& qos) {
   EXPECT_EQ(qos.durability().kind, e.durability) << profile;
   EXPECT_EQ(qos.history().kind, KEEP_LAST_HISTORY_QOS) << profile;
   EXPECT_EQ(qos.history().depth, e.depth) << profile;
-  EXPECT_EQ(seconds_of(qos.deadline().period), e.deadline_s) << profile;
+  EXPECT_DOUBLE_EQ(seconds_of(qos.deadline().period), e.deadline_s) << profile;  // 300000000 ns != 0.3 exactly
+  EXPECT_EQ(qos.ownership().kind, e.ownership) << profile;
+}
+
+// The ground station's best-effort reader of a topic: the EXCLUSIVE variant for the estimates.
+bool is_estimate_topic(const topics::TopicSpec& spec) {
+  return std::string(spec.writer_profile) == topics::kEstimateWriterProfile;
 }
 
 }  // namespace
@@ -89,16 +107,30 @@ TEST(QosProfiles, EveryProfileHasTheDocumentedQosAndTopicsMatchTheirReaders) {
     DataReaderQos r, ground;
     ASSERT_EQ(publisher.get_datawriter_qos_from_profile(spec.writer_profile, w), ReturnCode_t::RETCODE_OK);
     ASSERT_EQ(subscriber.get_datareader_qos_from_profile(spec.reader_profile, r), ReturnCode_t::RETCODE_OK);
-    ASSERT_EQ(subscriber.get_datareader_qos_from_profile(topics::kGroundBestEffortReaderProfile, ground),
-              ReturnCode_t::RETCODE_OK);
+    const char* ground_profile = is_estimate_topic(spec) ? topics::kEstimateGroundBestEffortReaderProfile
+                                                         : topics::kGroundBestEffortReaderProfile;
+    ASSERT_EQ(subscriber.get_datareader_qos_from_profile(ground_profile, ground), ReturnCode_t::RETCODE_OK);
     expect_qos(spec.writer_profile, w);
     expect_qos(spec.reader_profile, r);
-    expect_qos(topics::kGroundBestEffortReaderProfile, ground);
-    // DDS request/offer rules, so the vehicle reader and the ground reader both match the writer.
-    for (const DataReaderQos* reader : {&r, &ground}) {
+    expect_qos(ground_profile, ground);
+    std::vector<const DataReaderQos*> readers{&r, &ground};
+    // The estimate topics' other readers: DR's fast-failover scale-factor reader, the recorders.
+    std::vector<DataReaderQos> extra;
+    if (is_estimate_topic(spec)) {
+      for (const char* profile : {topics::kScaleFactorReaderProfile, topics::kMisalignmentRecorderReaderProfile,
+                                  topics::kScaleFactorRecorderReaderProfile}) {
+        extra.emplace_back();
+        ASSERT_EQ(subscriber.get_datareader_qos_from_profile(profile, extra.back()), ReturnCode_t::RETCODE_OK);
+        expect_qos(profile, extra.back());
+      }
+      for (const DataReaderQos& q : extra) readers.push_back(&q);
+    }
+    // DDS request/offer rules, so every reader of the topic matches its writer.
+    for (const DataReaderQos* reader : readers) {
       EXPECT_GE(w.reliability().kind, reader->reliability().kind);
       EXPECT_GE(w.durability().kind, reader->durability().kind);
       EXPECT_LE(seconds_of(w.deadline().period), seconds_of(reader->deadline().period));
+      EXPECT_EQ(w.ownership().kind, reader->ownership().kind);
     }
   }
 }

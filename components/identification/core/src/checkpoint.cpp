@@ -97,7 +97,10 @@ class Reader {
 const std::vector<std::string>& checkpoint_neutral_options() {
   static const std::vector<std::string> names{
       "checkpoint-every-s", "config",   "domain",        "log-level", "max-wait-s", "profile",
-      "profile-name",       "security-dir", "security-identity", "state-dir", "vehicle-id"};
+      "profile-name",       "security-dir", "security-identity", "state-dir", "vehicle-id",
+      // Hot standby and command checks: they do not change the estimate, and a standby may take
+      // over a primary's checkpoint.
+      "instance",           "ownership-strength", "nominal-k"};
   return names;
 }
 

@@ -15,11 +15,14 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "odonav/dds/participant.hpp"
@@ -27,6 +30,22 @@
 #include "odonav/dds/types.hpp"
 
 namespace odonav::dds {
+
+/// Settings of one writer that depend on the process (its command line), so they cannot live in a
+/// shared XML profile: applied on top of the profile's QoS when the writer is created.
+struct WriterSettings {
+  /// OWNERSHIP_STRENGTH value (Fast DDS holds it unsigned; higher wins). Meaningful with EXCLUSIVE ownership in the
+  /// profile (readers then follow the strongest live writer of each key). Nothing = the profile's.
+  std::optional<uint32_t> ownership_strength;
+  /// TRANSIENT durability instead of the profile's: the writer's history outlives the process in
+  /// the persistence service named by `properties` (dds.persistence.plugin, ...sqlite3.filename,
+  /// dds.persistence.guid; FAST_DDS_NOTES.md). Readers stay TRANSIENT_LOCAL: they match.
+  bool transient = false;
+  /// Extra DDS properties (name, value), not propagated to remote participants.
+  std::vector<std::pair<std::string, std::string>> properties;
+
+  bool empty() const { return !ownership_strength && !transient && properties.empty(); }
+};
 
 namespace detail {
 
@@ -47,7 +66,7 @@ class MatchCounter {
 class WriterBase : public eprosima::fastdds::dds::DataWriterListener {
  public:
   WriterBase(const Participant& participant, const std::string& topic_name, const std::string& qos_profile,
-             eprosima::fastdds::dds::TypeSupport type);
+             eprosima::fastdds::dds::TypeSupport type, const WriterSettings& settings = {});
   ~WriterBase() override;
   WriterBase(const WriterBase&) = delete;
   WriterBase& operator=(const WriterBase&) = delete;
@@ -138,6 +157,12 @@ class Writer : public detail::WriterBase {
   Writer(const Participant& participant, const std::string& topic_name, const std::string& qos_profile)
       : WriterBase(participant, topic_name, qos_profile,
                    eprosima::fastdds::dds::TypeSupport(new typename DdsType<T>::PubSubType())) {}
+  /// The same, with per-writer settings on top of the profile (ownership strength, persistence).
+  /// Also throws std::runtime_error when the settings make the QoS inconsistent.
+  Writer(const Participant& participant, const std::string& topic_name, const std::string& qos_profile,
+         const WriterSettings& settings)
+      : WriterBase(participant, topic_name, qos_profile,
+                   eprosima::fastdds::dds::TypeSupport(new typename DdsType<T>::PubSubType()), settings) {}
 
   /// Publishes one sample. Returns false if the middleware refused it (for a RELIABLE writer whose
   /// history is full of unacknowledged samples, after the profile's max_blocking_time).

@@ -10,6 +10,7 @@
 // what makes the DDS node and odonav-offline give identical numbers.
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,25 @@ class IdentificationCore {
   /// Forgets every estimate and starts identifying again.
   void reset();
 
+  /// Why a commanded K [m/pulse] is refused, or nothing when it is acceptable: it must be finite,
+  /// > 0 and within [0.1, 10] x nominal_k_m_per_pulse (nominal: finite, > 0). A K outside that
+  /// range is a typing error (a unit slip), not an odometer: the identification would take many
+  /// windows to recover from it.
+  static std::optional<std::string> commanded_k_problem(double k_m_per_pulse, double nominal_k_m_per_pulse);
+  /// Re-seeds the identification at a commanded K [m/pulse] (finite, > 0; else
+  /// std::invalid_argument naming the value), event time t_s [s] (the last processed epoch, finite):
+  /// every estimator forgets its window and sums (start covariance, as after reset()) and is given
+  /// one seed pseudo-sample phi = 1 pulse, y = K m at t_s. That is the weakest prior there is: K is
+  /// exactly the commanded value until the first real sample, the first real samples outweigh it
+  /// within one (phi is tens of pulses per GNSS interval) and it leaves the window like any sample.
+  /// The coarse estimator takes no pseudo-samples: it reports the commanded K until its first
+  /// counted run. The innovation gate uses the commanded K from the next epoch on. Counters
+  /// (accepted, rejected) are kept; frozen stays as it was, so a frozen identification holds the
+  /// commanded K. Returns the output to publish at once (stamp t_s, the commanded K).
+  IdentificationOutput set_k(double k_m_per_pulse, double t_s);
+  /// The K given by the last set_k(), until reset() (nothing before any).
+  std::optional<double> commanded_k_m_per_pulse() const { return seed_k_m_per_pulse_; }
+
   const std::string& main_estimator_name() const { return params_.estimator_name; }
   /// Names of the side-by-side estimators (empty unless run_all_estimators).
   std::vector<std::string> estimator_names() const;
@@ -72,6 +92,10 @@ class IdentificationCore {
 
  private:
   IdentificationOutput on_epoch(const SampleBuilderEpoch& epoch);
+  /// The main estimate, or the commanded K while an estimator without pseudo-samples (coarse) has
+  /// no value of its own since set_k().
+  ScaleFactorEstimate main_estimate() const;
+  void feed_gate(double t_s, const ScaleFactorEstimate& estimate);
 
   IdentificationParams params_;
   SampleBuilder builder_;
@@ -80,6 +104,8 @@ class IdentificationCore {
   uint64_t accepted_ = 0;
   uint64_t rejected_ = 0;
   bool frozen_ = false;
+  std::optional<double> seed_k_m_per_pulse_;  ///< commanded K of the last set_k() (m/pulse)
+  std::optional<double> last_gate_t_s_;       ///< stamp of the last estimate given to the gate (s)
 };
 
 }  // namespace odonav
