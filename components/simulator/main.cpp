@@ -1,17 +1,20 @@
 // odonav-sim: writes a simulated dataset directory (DATASET.md) for a named scenario.
 //
 //   odonav-sim <straight|ring|terrain> --out DIR [--seed N] [--gnss-rate 10|1] [--duration-s S] ...
+//   odonav-sim <scenario> --nmea FILE [--nmea-utc-epoch-s S] ...   the GNSS as NMEA 0183 (core/nmea.hpp)
 //   (odonav-sim --help lists every option; --config FILE reads `name = value` lines.)
 //
 // Exit codes: 0 written, 2 bad command line, 1 simulation or I/O failure.
 #include <spdlog/spdlog.h>
 
 #include <cstdint>
+#include <fstream>
 #include <iostream>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
+#include "core/nmea.hpp"
 #include "core/simulator.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
@@ -24,7 +27,11 @@ int main(int argc, char** argv) {
                        "Simulates a tracked vehicle (odometer, GNSS, INS, truth) on a named scenario and "
                        "writes a dataset directory (DATASET.md). Deterministic for a given seed.");
   opts.add_positional("scenario", "straight, ring or terrain");
-  opts.add_string("out", "", "dataset directory to write (created if missing); required");
+  opts.add_string("out", "", "dataset directory to write (created if missing); required unless --nmea is given");
+  opts.add_string("nmea", "", "also (or only) write the GNSS as NMEA 0183 GGA, RMC, VTG and GST sentences, one fix "
+                  "per GNSS row, to this file (for gpsfake / gpsd)");
+  opts.add_double("nmea-utc-epoch-s", odonav::sim::NmeaSettings{}.utc_epoch_s,
+                  "--nmea: UTC of t = 0, s since 1970 (a fix at t is reported at this + t)", 0.0, 4e9);
   opts.add_int("seed", 1, "random seed of the sensor noise", 0, std::numeric_limits<int64_t>::max());
   opts.add_choice("gnss-rate", "10", {"10", "1"}, "GNSS rate, Hz");
   opts.add_double("duration-s", 0.0, "run length, s; more laps (or a longer road) are driven and the data cut "
@@ -40,13 +47,17 @@ int main(int argc, char** argv) {
   opts.add_string("log-level", "", "trace, debug, info, warn, error, critical, off (default: ODONAV_LOG_LEVEL or info)");
 
   sim::SimulationConfig cfg;
-  std::string out_dir;
+  std::string out_dir, nmea_path;
+  sim::NmeaSettings nmea;
   try {
     if (opts.parse(argc, argv) == odonav::ParseResult::kHelp) return 0;
     odonav::setup_logging("odonav-sim", opts.get_string("log-level"));
     cfg = sim::scenario_config(opts.get_string("scenario"));
     out_dir = opts.get_string("out");
-    if (out_dir.empty()) throw odonav::ConfigError("--out: a dataset directory is required");
+    nmea_path = opts.get_string("nmea");
+    nmea.utc_epoch_s = opts.get_double("nmea-utc-epoch-s");
+    if (out_dir.empty() && nmea_path.empty())
+      throw odonav::ConfigError("--out: a dataset directory is required (or --nmea FILE)");
     cfg.seed = static_cast<std::uint64_t>(opts.get_int("seed"));
     cfg.gnss_rate_hz = std::stod(opts.get_string("gnss-rate"));
     cfg.duration_s = opts.get_double("duration-s");
@@ -67,6 +78,17 @@ int main(int argc, char** argv) {
   }
   try {
     const odonav::Dataset ds = sim::simulate(cfg);
+    if (!nmea_path.empty()) {
+      // One fix per GNSS row, at the GNSS rate; CR LF ends each sentence as NMEA 0183 requires.
+      std::ofstream f(nmea_path, std::ios::binary | std::ios::trunc);
+      if (!f) throw std::runtime_error("--nmea: cannot open '" + nmea_path + "' for writing");
+      for (const odonav::GnssSample& g : ds.gnss)
+        for (const std::string& sentence : sim::nmea_sentences(g, nmea)) f << sentence << "\r\n";
+      f.flush();
+      if (!f) throw std::runtime_error("--nmea: write to '" + nmea_path + "' failed");
+      spdlog::info("wrote {}: {} fixes as NMEA (UTC of t=0: {} s)", nmea_path, ds.gnss.size(), nmea.utc_epoch_s);
+    }
+    if (out_dir.empty()) return 0;
     odonav::write_dataset(out_dir, ds);
     spdlog::info("wrote {} ({}, seed {}): {:.2f} s, {:.1f} m; rows: {} odometer, {} gnss, {} ins, {} truth", out_dir,
                  cfg.scenario, cfg.seed, ds.truth.back().t_s - ds.truth.front().t_s, ds.truth.back().distance_m,

@@ -20,8 +20,16 @@ namespace odonav::gateway {
 void add_gateway_options(Options& o) {
   o.add_string("source", "sim:terrain",
                "sim:<straight|ring|terrain> (the simulator, in-process), replay:<dataset dir>, or a live line-protocol "
-               "source udp:[<bind IPv4>:]<port> (127.0.0.1 by default) or serial:<device>[:<baud>] (README.md)");
-  o.add_bool("allow-non-loopback", false, "udp source: allow binding an address outside 127.0.0.0/8");
+               "source udp:[<bind IPv4>:]<port> (127.0.0.1 by default) or serial:<device>[:<baud>], or GNSS only from "
+               "gpsd:[<host>:]<port> (README.md)");
+  o.add_string("gnss-source", "",
+               "with a udp: or serial: source: take the GNSS from gpsd:[<host>:]<port> instead of GNSS lines");
+  o.add_double("gnss-utc-origin-s", 0.0,
+               "gpsd GNSS: t = UTC seconds since 1970 minus this (0: t is UTC; the odometer and INS lines use the "
+               "same time base)",
+               0.0, 1e10);
+  o.add_bool("allow-non-loopback", false,
+             "udp source: allow binding an address outside 127.0.0.0/8; gpsd: allow a non-loopback host");
   o.add_int("seed", 1, "sim source: seed of the sensor noise (as odonav-sim --seed)", 0,
             std::numeric_limits<int64_t>::max());
   o.add_double("duration-s", 0.0, "sim source: run length, s (as odonav-sim --duration-s); 0 = the scenario's", 0.0,

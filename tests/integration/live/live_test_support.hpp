@@ -1,0 +1,132 @@
+#pragma once
+// Helpers of the live-source tests: gpsfake on a loopback port, free ports, a test directory.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "../nodes/node_test_support.hpp"
+
+namespace odonav::test {
+
+inline std::filesystem::path fresh_live_dir(const std::string& name) {
+  const std::filesystem::path dir = std::filesystem::path(ODONAV_BINARY_DIR) / "test-out" / "live" / name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+/// A free port on 127.0.0.1 of the given socket type (bound to port 0, then released).
+inline int free_loopback_port(int type) {
+  const int s = ::socket(AF_INET, type, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof(a));
+  socklen_t len = sizeof(a);
+  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &len);
+  ::close(s);
+  return ntohs(a.sin_port);
+}
+
+/// True once something accepts TCP connections on 127.0.0.1:port (bounded wait).
+inline bool wait_tcp_listening(int port, std::chrono::milliseconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    const int s = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(static_cast<uint16_t>(port));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    const bool ok = ::connect(s, reinterpret_cast<sockaddr*>(&a), sizeof(a)) == 0;
+    ::close(s);
+    if (ok) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return false;
+}
+
+inline constexpr const char* kGpsfake = "/usr/bin/gpsfake";
+
+/// The NMEA checksum frame "$body*HH".
+inline std::string nmea_framed(const std::string& body) {
+  unsigned x = 0;
+  for (char c : body) x ^= static_cast<unsigned char>(c);
+  char hh[4];
+  std::snprintf(hh, sizeof(hh), "%02X", x & 0xFF);
+  return "$" + body + "*" + hh;
+}
+
+/// Copies `log` to `out` between a lead-in and a trailer of `$GPTXT` sentences (text messages:
+/// no fix, no time). Why: gpsfake starts feeding its pty at once, and gpsd drops what arrived
+/// before its first client watched; the lead-in gives the gateway time to connect (at -c 0.01 s,
+/// 400 sentences are 4 s or more), the trailer time to read the last fix before gpsfake exits.
+inline void write_gpsfake_input(const std::filesystem::path& log, const std::filesystem::path& out) {
+  std::ifstream in(log, std::ios::binary);
+  std::ofstream o(out, std::ios::binary | std::ios::trunc);
+  const std::string txt = nmea_framed("GPTXT,01,01,02,odonav test lead-in") + "\r\n";
+  for (int i = 0; i < 400; ++i) o << txt;
+  o << in.rdbuf();
+  for (int i = 0; i < 150; ++i) o << txt;
+}
+
+/// gpsfake in a process group of its own: the destructor ends the whole group (gpsfake and the gpsd
+/// it started), SIGTERM first, then SIGKILL, so no daemon outlives a failing test.
+class GpsfakeProcess {
+ public:
+  GpsfakeProcess(const std::vector<std::string>& args) {
+    std::vector<char*> argv{const_cast<char*>(kGpsfake)};
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    posix_spawnattr_t attr;
+    posix_spawnattr_init(&attr);
+    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup(&attr, 0);
+    if (posix_spawn(&pid_, kGpsfake, nullptr, &attr, argv.data(), environ) != 0) pid_ = -1;
+    posix_spawnattr_destroy(&attr);
+  }
+  ~GpsfakeProcess() {
+    if (pid_ <= 0) return;
+    ::kill(-pid_, SIGTERM);
+    if (!wait_exit(std::chrono::seconds(5))) ::kill(-pid_, SIGKILL);
+    wait_exit(std::chrono::seconds(5));
+    ::kill(-pid_, SIGKILL);  // anything of the group still alive (the daemon)
+  }
+  GpsfakeProcess(const GpsfakeProcess&) = delete;
+  GpsfakeProcess& operator=(const GpsfakeProcess&) = delete;
+  bool started() const { return pid_ > 0; }
+  /// Waits for gpsfake's exit (it ends after the log with -1); true if it exited.
+  bool wait_exit(std::chrono::milliseconds timeout) {
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    while (!exited_) {
+      int status = 0;
+      if (waitpid(pid_, &status, WNOHANG) == pid_) {
+        exited_ = true;
+        exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+        break;
+      }
+      if (std::chrono::steady_clock::now() > end) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return true;
+  }
+  int exit_code() const { return exit_code_; }
+
+ private:
+  pid_t pid_ = -1;
+  bool exited_ = false;
+  int exit_code_ = -1;
+};
+
+/// gpsfake replaying `input` once (-1) into a gpsd on 127.0.0.1:port, one sentence every 10 ms.
+/// Why -W 3: with a client still connected, gpsfake waits for the device to be released after the
+/// log ends; -W makes it end (exit status 1, "Test timed out") 3 s after the last sentence.
+inline std::vector<std::string> gpsfake_args(int port, const std::filesystem::path& input) {
+  return {"-1", "-q", "-c", "0.01", "-W", "3", "-P", std::to_string(port), input.string()};
+}
+
+}  // namespace odonav::test

@@ -1,0 +1,144 @@
+// The whole pipeline over a live source (domains 122-123): a simulated drive sent as ODO/ATT/GNSS
+// protocol lines over UDP on 127.0.0.1 through odonav-gateway, odonav-calibration,
+// odonav-identification and odonav-dead-reckoning must reach the same K as the replay of the same
+// dataset through the same processes. The lines carry exactly the numbers read_dataset gives
+// (shortest round-trip decimals, angles as the files hold them), so the same samples arrive in the
+// same order and the estimates must be identical.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "core/line_protocol.hpp"
+#include "core/sensor_source.hpp"
+#include "live_test_support.hpp"
+#include "odonav/msg/ScaleFactor.h"
+
+namespace odonav::test {
+namespace {
+
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+/// The consumers' estimates of one run.
+struct PipelineRun {
+  std::vector<msg::ScaleFactor> k;  ///< distinct estimates (heartbeats dropped), in arrival order
+};
+
+/// Starts dead reckoning, identification and calibration on `domain`, runs `drive` (which starts the
+/// gateway and returns when all its data is published), then stops the consumers in data-flow order.
+PipelineRun run_pipeline(int domain, const std::function<void(dds::Participant&)>& drive) {
+  shm_clean();
+  PipelineRun run;
+  dds::Participant p(test_participant(domain));
+  Collector<msg::ScaleFactor> k(p, topics::kScaleFactor);
+  Collector<msg::Health> health(p, topics::kHealth);
+  const std::vector<std::string> names{"odonav-dead-reckoning", "odonav-identification", "odonav-calibration"};
+  std::vector<std::unique_ptr<ChildProcess>> nodes;
+  for (const auto& n : names) nodes.push_back(std::make_unique<ChildProcess>(binary(n), node_args(domain, 30.0)));
+  const bool up = health.wait_until(
+      [&](const std::vector<msg::Health>& v) {
+        for (const auto& n : names) {
+          bool seen = false;
+          for (const auto& h : v) seen = seen || h.component() == n;
+          if (!seen) return false;
+        }
+        return true;
+      },
+      30s);
+  EXPECT_TRUE(up) << "the consumers did not all report health within 30 s";
+  if (!up) return run;
+  drive(p);
+  // Data-flow order: each one's inputs are complete when it is told to stop.
+  for (std::size_t i = nodes.size(); i-- > 0;) {
+    nodes[i]->signal(SIGINT);
+    EXPECT_TRUE(nodes[i]->wait_exit(60s)) << names[i];
+    EXPECT_EQ(nodes[i]->exit_code(), 0) << names[i];
+  }
+  std::this_thread::sleep_for(300ms);
+  run.k = without_repeats(k.samples());
+  shm_clean();
+  return run;
+}
+
+TEST(LivePipeline, UdpLinesReachTheSameKAsTheReplay) {
+  const fs::path dir = fresh_live_dir("pipeline");
+  const std::string data = (dir / "dataset").string();
+  ChildProcess sim(binary("odonav-sim"), {"straight", "--seed", "5", "--duration-s", "60", "--out", data,
+                                          "--log-level", "warn"});
+  ASSERT_TRUE(sim.wait_exit(60s));
+  ASSERT_EQ(sim.exit_code(), 0);
+  const Dataset d = read_dataset(data, BadRowPolicy::kFail);
+
+  // Replay: the gateway reads the directory and waits for the three consumers itself.
+  const PipelineRun replay = run_pipeline(122, [&](dds::Participant&) {
+    ChildProcess gw(binary("odonav-gateway"), node_args(122, 30.0, {"--source", "replay:" + data, "--speed", "max",
+                                                                     "--wait-for-readers", "3"}));
+    EXPECT_TRUE(gw.wait_exit(120s)) << "replay gateway did not finish";
+    EXPECT_EQ(gw.exit_code(), 0);
+  });
+
+  // Live: the same samples as protocol lines over UDP, in the replay's interleaved order, paced by
+  // what the gateway has published (bursts of 100 lines), so no socket buffer overflows.
+  std::vector<std::string> lines;
+  std::vector<std::size_t> odometer_so_far;
+  std::size_t odometer_count = 0;
+  for (const gateway::SensorEvent& e : gateway::interleave(d)) {
+    switch (e.stream) {
+      case gateway::SensorEvent::Stream::kOdometer:
+        lines.push_back(gateway::odometer_line(d.odometer[e.index], false));
+        ++odometer_count;
+        break;
+      case gateway::SensorEvent::Stream::kIns: lines.push_back(gateway::ins_line(d.ins[e.index], false)); break;
+      case gateway::SensorEvent::Stream::kGnss: lines.push_back(gateway::gnss_line(d.gnss[e.index], false)); break;
+    }
+    odometer_so_far.push_back(odometer_count);
+  }
+  const int port = free_loopback_port(SOCK_DGRAM);
+  const PipelineRun live = run_pipeline(123, [&](dds::Participant& p) {
+    Collector<msg::Odometer> odo(p, topics::kOdometer);
+    ChildProcess gw(binary("odonav-gateway"), node_args(123, 30.0, {"--source", "udp:127.0.0.1:" + std::to_string(port)}));
+    ASSERT_TRUE(odo.reader().wait_for_matched(1, 20s)) << "the live gateway's writers never matched";
+    std::this_thread::sleep_for(2s);  // the consumers' readers are matched too by now (same discovery)
+    const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_port = htons(static_cast<uint16_t>(port));
+    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+      const std::string datagram = lines[i] + "\n";
+      ASSERT_EQ(::sendto(s, datagram.data(), datagram.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof(to)),
+                static_cast<ssize_t>(datagram.size()));
+      if (i % 100 == 99 || i + 1 == lines.size()) {
+        const std::size_t n = odometer_so_far[i];
+        ASSERT_TRUE(odo.wait_until([n](const auto& v) { return v.size() >= n; }, 20s))
+            << "the gateway published " << odo.size() << " of " << n << " odometer samples sent";
+      }
+    }
+    ::close(s);
+    std::this_thread::sleep_for(500ms);  // the GNSS and INS lines after the last odometer line
+    gw.signal(SIGINT);
+    EXPECT_TRUE(gw.wait_exit(15s));
+    EXPECT_EQ(gw.exit_code(), 0);
+  });
+
+  ASSERT_FALSE(replay.k.empty()) << "no K from the replay";
+  ASSERT_FALSE(live.k.empty()) << "no K from the live run";
+  const msg::ScaleFactor& a = replay.k.back();
+  const msg::ScaleFactor& b = live.k.back();
+  EXPECT_EQ(b.header().stamp(), a.header().stamp());
+  EXPECT_EQ(b.samples_accepted(), a.samples_accepted());
+  EXPECT_EQ(b.converged(), a.converged());
+  // Same samples, same order: the same K to the last bit (stated as a difference for the record).
+  const double dk = b.k_m_per_pulse() - a.k_m_per_pulse();
+  EXPECT_EQ(dk, 0.0);
+  EXPECT_EQ(live.k.size(), replay.k.size()) << "the same number of distinct estimates";
+  EXPECT_NEAR(a.k_m_per_pulse(), d.truth.back().k_true_m_per_pulse, 0.01 * d.truth.back().k_true_m_per_pulse)
+      << "the replay's K is the scenario's (within 1 %)";
+  std::printf("final K: replay %.12g, live %.12g m/pulse (difference %.3g, %zu / %zu estimates, converged %d), "
+              "K_true %.12g\n",
+              a.k_m_per_pulse(), b.k_m_per_pulse(), dk, replay.k.size(), live.k.size(), a.converged() ? 1 : 0,
+              d.truth.back().k_true_m_per_pulse);
+}
+
+}  // namespace
+}  // namespace odonav::test
