@@ -8,6 +8,7 @@
 #include <iostream>
 #include <sstream>
 #include <thread>
+#include <tuple>
 
 #include "core/fleet_state.hpp"
 #include "core/mcap_writer.hpp"
@@ -15,6 +16,7 @@
 #include "node/ground_node.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dds/component.hpp"
+#include "odonav/dds/security.hpp"
 #include "odonav/logging.hpp"
 #include "odonav/tool_output.hpp"
 
@@ -50,11 +52,13 @@ void declare_options(Options& o) {
                              "scale_factor, dead_reckoning, health, command); empty = all");
   o.add_double("duration-s", 0.0, "record: stop after this many seconds (0: until SIGINT/SIGTERM)", 0.0, 1e9);
   o.add_bool("best-effort", false,
-             "record: read every topic with odonav_ground_reader_best_effort (weak links) instead of each "
-             "topic's reliable reader profile");
+             "record: read every topic best effort (weak links: odonav_ground_reader_best_effort, and "
+             "odonav_estimate_ground_reader_best_effort for the estimates) instead of reliably");
   // command
   o.add_string("component", "", "command: the addressed component, e.g. odonav-identification");
   o.add_double("timeout-s", 5.0, "command: how long to wait for the acknowledgement (s)", 0.01, 3600.0);
+  // DDS Security (secure profile): --security-dir / --security-identity, else the environment.
+  odonav::dds::add_security_options(o);
 }
 
 odonav::dds::ParticipantOptions participant_options(const Options& o) {
@@ -72,6 +76,7 @@ odonav::dds::ParticipantOptions participant_options(const Options& o) {
   if (p.participant_profile.empty()) throw ConfigError("--profile-name: must not be empty");
   p.domain_id = static_cast<int>(o.get_int("domain"));
   p.participant_name = "odonav-ground";
+  std::tie(p.security_dir, p.security_identity) = odonav::dds::security_options_from(o);
   return p;
 }
 
@@ -152,8 +157,7 @@ int run_record(const Options& o, odonav::dds::StopSignals& stop) {
   const double duration_s = o.get_double("duration-s");
   odonav::dds::Participant participant(participant_options(o));
   McapWriter writer(path);
-  TopicRecorder recorder(participant, writer, chosen,
-                         o.get_bool("best-effort") ? topics::kGroundBestEffortReaderProfile : "");
+  TopicRecorder recorder(participant, writer, chosen, o.get_bool("best-effort"));
   spdlog::info("recording {} topic(s) to {}{}", chosen.size(), path,
                duration_s > 0 ? " for " + std::to_string(duration_s) + " s" : std::string(" until SIGINT"));
   const double start_s = odonav::dds::steady_now_s();

@@ -230,6 +230,7 @@ nlohmann::json snapshot_json(const FleetSnapshot& snap) {
                             {"frozen", s.frozen},
                             {"samples_accepted", s.samples_accepted},
                             {"samples_rejected", s.samples_rejected},
+                            {"source", s.source},
                             {"stamp_s", s.stamp_s},
                             {"age_s", v.scale_factor->age_s},
                             {"stale", v.scale_factor->stale}};
@@ -348,8 +349,10 @@ std::vector<Line> vehicle_block(const VehicleSnapshot& v) {
     d << " DR err ";
     d << (r.horizontal_error_m >= 0.0 ? format("%.1f m", r.horizontal_error_m) : std::string("- m"));
     d << " " << (r.error_percent_distance >= 0.0 ? format("%.2f %%D", r.error_percent_distance) : std::string("- %D"));
-    d << format(" dist %.0f m", r.distance_m) << " K " << k_source_name(r.k_source)
-      << (v.dead_reckoning->stale ? " STALE" : "");
+    d << format(" dist %.0f m", r.distance_m) << " K " << k_source_name(r.k_source);
+    // Which identification instance the K comes from (a hot standby publishes under its own name).
+    if (v.scale_factor && !v.scale_factor->view.source.empty()) d << " from " << v.scale_factor->view.source;
+    d << (v.dead_reckoning->stale ? " STALE" : "");
   } else {
     d << " DR -";
   }

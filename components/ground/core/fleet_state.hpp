@@ -49,6 +49,7 @@ struct ScaleFactorView {
   bool converged = false;
   bool frozen = false;
   std::uint32_t samples_accepted = 0, samples_rejected = 0;
+  std::string source;  ///< the publishing identification instance ("identification", "identification/standby")
 };
 
 struct MisalignmentView {
@@ -172,8 +173,9 @@ class FleetState {
 
 /// The snapshot as JSON (for --once --json): {"vehicles": [{"vehicle_id", "stale", "components":
 /// [{"component", "state", "level", "reason", "stale", "age_s", "last_command": {...}, "counters":
-/// {...}}], "scale_factor", "misalignment" (degrees added), "dead_reckoning", "gnss": objects or
-/// null, "rates_hz": {stream: Hz}}]}. Unknown sigmas/errors (-1) are null.
+/// {...}}], "scale_factor" (with "source": the instance K comes from), "misalignment" (degrees
+/// added), "dead_reckoning", "gnss": objects or null, "rates_hz": {stream: Hz}}]}. Unknown
+/// sigmas/errors (-1) are null.
 nlohmann::json snapshot_json(const FleetSnapshot& snapshot);
 
 /// The dashboard text: at most `height` lines of at most `width` characters (>= 40 x 8), one block

@@ -12,6 +12,16 @@ std::string topic_short_name(const topics::TopicSpec& spec) {
   return name.rfind(prefix, 0) == 0 ? name.substr(prefix.size()) : name;
 }
 
+const char* recording_reader_profile(const topics::TopicSpec& spec, bool best_effort) {
+  const std::string name = spec.name;
+  const bool misalignment = name == topics::kMisalignment.name;
+  const bool scale_factor = name == topics::kScaleFactor.name;
+  if (best_effort) return misalignment || scale_factor ? kEstimateGroundBestEffortReaderProfile : topics::kGroundBestEffortReaderProfile;
+  if (misalignment) return kMisalignmentRecorderReaderProfile;
+  if (scale_factor) return kScaleFactorRecorderReaderProfile;
+  return spec.reader_profile;
+}
+
 std::vector<topics::TopicSpec> select_topics(const std::string& list) {
   std::vector<topics::TopicSpec> chosen;
   auto add = [&](const topics::TopicSpec& spec) {

@@ -62,6 +62,7 @@ ScaleFactorView view_of(const msg::ScaleFactor& s) {
   v.frozen = s.frozen();
   v.samples_accepted = s.samples_accepted();
   v.samples_rejected = s.samples_rejected();
+  v.source = s.source();
   return v;
 }
 
@@ -189,7 +190,7 @@ FleetMonitor::~FleetMonitor() {
 // ---- TopicRecorder ----
 
 TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& writer,
-                             const std::vector<topics::TopicSpec>& topic_list, const std::string& reader_profile) {
+                             const std::vector<topics::TopicSpec>& topic_list, bool best_effort) {
   const MsgLibrary& library = embedded_msg_library();
   std::map<std::string, std::uint16_t> schema_ids;
   for (const topics::TopicSpec& spec : topic_list) {
@@ -198,7 +199,7 @@ TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& wr
       const std::uint16_t id = writer.add_schema(spec.ros_type_name, "ros2msg", ros2msg_schema(library, spec.ros_type_name));
       schema = schema_ids.emplace(spec.ros_type_name, id).first;
     }
-    const std::string profile = reader_profile.empty() ? spec.reader_profile : reader_profile;
+    const std::string profile = recording_reader_profile(spec, best_effort);
     const std::string ros_topic = std::string(spec.name).substr(2);  // "rt/odonav/x" -> "/odonav/x"
     const std::uint16_t channel = writer.add_channel(
         schema->second, ros_topic, "cdr", channel_metadata(spec, offered_qos(participant, spec.writer_profile), profile));

@@ -43,11 +43,11 @@ class FleetMonitor {
 /// gives the bytes Fast DDS carries. log_time and publish_time are the UNIX receive time (ns).
 class TopicRecorder {
  public:
-  /// reader_profile: the data_reader QoS profile for every topic; empty: each topic's own reader
-  /// profile (reliable: a complete recording on a good link). Throws std::runtime_error when a
-  /// schema or a reader cannot be made.
+  /// Each topic is read with recording_reader_profile(topic, best_effort): reliable (and deep for
+  /// the estimates: a complete recording on a good link), or best effort for weak links. Throws
+  /// std::runtime_error when a schema or a reader cannot be made.
   TopicRecorder(const dds::Participant& participant, McapWriter& writer,
-                const std::vector<topics::TopicSpec>& topic_list, const std::string& reader_profile = "");
+                const std::vector<topics::TopicSpec>& topic_list, bool best_effort = false);
   /// Closes the readers: no callback writes to the MCAP writer afterwards.
   ~TopicRecorder();
   TopicRecorder(const TopicRecorder&) = delete;

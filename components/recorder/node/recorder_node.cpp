@@ -186,12 +186,12 @@ RecorderNode::RecorderNode(dds::ComponentRuntime& runtime, const RecorderSetting
   auto& p = runtime.participant();
   // Callbacks copy and queue; conversion and file I/O happen on the worker thread.
   misalignment_reader_ = std::make_unique<dds::Reader<odonav::msg::Misalignment>>(
-      p, topics::kMisalignment.name, topics::kMisalignment.reader_profile,
+      p, topics::kMisalignment.name, kMisalignmentRecorderReaderProfile,
       [this, vehicle](const odonav::msg::Misalignment& m) {
         if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_misalignment(m); });
       });
   scale_factor_reader_ = std::make_unique<dds::Reader<odonav::msg::ScaleFactor>>(
-      p, topics::kScaleFactor.name, topics::kScaleFactor.reader_profile,
+      p, topics::kScaleFactor.name, kScaleFactorRecorderReaderProfile,
       [this, vehicle](const odonav::msg::ScaleFactor& m) {
         if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_scale_factor(m); });
       });

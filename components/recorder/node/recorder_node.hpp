@@ -14,6 +14,7 @@
 #include <string>
 
 #include "odonav/dds/component.hpp"
+#include "odonav/topics.hpp"
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/Health.h"
 #include "odonav/msg/Misalignment.h"
@@ -42,6 +43,12 @@ offline::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m);
 /// (to_string(ScaleFactorSource)), ENU offsets, heading (rad); horizontal error and %D: negative
 /// (-1 = no reference) or non-finite -> NaN (written empty).
 offline::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m);
+
+/// Estimates are read with topics::kMisalignmentRecorderReaderProfile and
+/// kScaleFactorRecorderReaderProfile (KEEP_LAST 1000 per vehicle: a replay at maximum speed loses
+/// no estimate; the vehicle's consumers keep the latest one only).
+using topics::kMisalignmentRecorderReaderProfile;
+using topics::kScaleFactorRecorderReaderProfile;
 
 /// The recorder's own flags.
 struct RecorderSettings {

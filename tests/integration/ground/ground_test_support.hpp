@@ -1,6 +1,8 @@
 #pragma once
 // Helpers of the ground-station tests: child processes with their output in files (always killed
-// on failure), the loopback participant, shell commands, file reading.
+// on failure), the loopback participant, shell commands, file reading, the monitor's JSON lines,
+// the MCAP reader of the npm packages Foxglove uses, and a simulated vehicle's real pipeline
+// (gateway, calibration, identification, dead reckoning as processes).
 #include <gtest/gtest.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -8,15 +10,21 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "odonav/dds/participant.hpp"
 #include "odonav/topics.hpp"
@@ -104,6 +112,8 @@ class ChildProcess {
     }
     return true;
   }
+  /// Whether it still runs (reaps it if it has exited).
+  bool running() { return started() && !wait_exit(std::chrono::milliseconds(0)); }
   int exit_code() const { return exit_code_; }
   std::string out() const { return read_text(out_); }
   std::string err() const { return read_text(err_); }
@@ -138,6 +148,178 @@ inline RunResult run(const std::string& path, const std::vector<std::string>& ar
   r.err = child.err();
   return r;
 }
+
+/// The item of a JSON array whose `key` equals `value`, or nullptr.
+inline const nlohmann::json* find_by(const nlohmann::json& array, const std::string& key, const std::string& value) {
+  for (const auto& item : array)
+    if (item.at(key) == value) return &item;
+  return nullptr;
+}
+
+/// The last complete line of a file that a running `odonav-ground monitor --json` writes (one JSON
+/// document per line), parsed; nullopt while there is none.
+inline std::optional<nlohmann::json> last_json_line(const std::filesystem::path& file) {
+  // Only the file's tail (a snapshot of a few vehicles is a few kB): polled often, the file grows.
+  std::ifstream in(file, std::ios::binary);
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  if (size <= 0) return std::nullopt;
+  const std::streamoff from = std::max<std::streamoff>(0, size - 256 * 1024);
+  std::string text(static_cast<std::size_t>(size - from), '\0');
+  in.seekg(from);
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  const auto end = text.rfind('\n');
+  if (end == std::string::npos) return std::nullopt;
+  const auto before = end == 0 ? std::string::npos : text.rfind('\n', end - 1);
+  const std::size_t begin = before == std::string::npos ? 0 : before + 1;
+  return nlohmann::json::parse(text.substr(begin, end - begin));
+}
+
+/// One component's entry of a monitor snapshot, or nullptr.
+inline const nlohmann::json* snapshot_component(const nlohmann::json& snapshot, const std::string& vehicle,
+                                                const std::string& component) {
+  const nlohmann::json* v = find_by(snapshot.at("vehicles"), "vehicle_id", vehicle);
+  return v ? find_by(v->at("components"), "component", component) : nullptr;
+}
+
+// ---- MCAP files read back with the npm packages Foxglove uses ----
+
+/// Folder with node_modules holding @mcap/core, @foxglove/rosmsg and @foxglove/rosmsg2-serialization;
+/// installs them the first time (under a lock, so parallel tests install once). Fails the test with
+/// what to install when node/npm are missing.
+inline std::optional<std::filesystem::path> npm_reader_modules() {
+  if (std::system("command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1") != 0) {
+    ADD_FAILURE() << "node and npm are needed to read MCAP files back: install nodejs and npm "
+                     "(Debian 12: apt-get install nodejs npm)";
+    return std::nullopt;
+  }
+  const std::filesystem::path dir = std::filesystem::path(ODONAV_BINARY_DIR) / "tests" / "ground-npm";
+  std::filesystem::create_directories(dir);
+  const std::string cmd = "cd '" + dir.string() +
+                          "' && flock .lock sh -c 'test -d node_modules/@foxglove/rosmsg2-serialization -a -d "
+                          "node_modules/@mcap/core -a -d node_modules/@foxglove/rosmsg || npm install --no-audit "
+                          "--no-fund --silent @mcap/core @foxglove/rosmsg @foxglove/rosmsg2-serialization' "
+                          ">npm-install.log 2>&1";
+  if (std::system(cmd.c_str()) != 0) {
+    ADD_FAILURE() << "npm install of @mcap/core @foxglove/rosmsg @foxglove/rosmsg2-serialization failed: "
+                  << read_text(dir / "npm-install.log");
+    return std::nullopt;
+  }
+  return dir / "node_modules";
+}
+
+/// What read_mcap.js printed for a file in `mode` ("indexed" or "stream"): exit code and JSON.
+struct McapRead {
+  int exit_code = -1;
+  nlohmann::json doc;
+  std::string err;
+};
+inline McapRead read_mcap(const std::filesystem::path& file, const std::string& mode) {
+  McapRead r;
+  const auto modules = npm_reader_modules();
+  if (!modules) return r;
+  const std::filesystem::path out = file.string() + "." + mode + ".json";
+  const std::filesystem::path err = file.string() + "." + mode + ".err";
+  const std::string cmd = "NODE_PATH='" + modules->string() + "' node '" + ODONAV_SOURCE_DIR +
+                          "/tests/integration/ground/read_mcap.js' '" + file.string() + "' " + mode + " >'" +
+                          out.string() + "' 2>'" + err.string() + "'";
+  const int status = std::system(cmd.c_str());
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.err = read_text(err);
+  if (r.exit_code == 0) r.doc = nlohmann::json::parse(read_text(out));
+  return r;
+}
+
+// ---- a simulated vehicle's pipeline as real processes ----
+
+/// How a VehiclePipeline runs.
+struct PipelineOptions {
+  std::string scenario = "terrain";  ///< odonav-sim scenario of the gateway's sim: source
+  std::string speed = "2";           ///< gateway --speed: 1 real time, N, or max
+  int seed = 1;
+  double duration_s = 240.0;         ///< sim length (s); terrain's first K step is at 250 s
+  bool with_dead_reckoning = true;
+  bool with_recorder = false;        ///< odonav-recorder --out <dir>/recorder
+};
+
+/// One vehicle of a fleet: odonav-calibration, -identification, -dead-reckoning (and optionally
+/// -recorder) started by start_consumers(), odonav-gateway (sim source) by start_gateway(); each a
+/// ChildProcess with its log in <dir>/<vehicle>-<component>.log, SIGKILLed by the destructor if
+/// still running. All on the loopback profile, one domain, told apart by --vehicle-id.
+class VehiclePipeline {
+ public:
+  VehiclePipeline(int domain, std::string vehicle_id, std::filesystem::path dir, PipelineOptions options = {})
+      : domain_(domain), vehicle_(std::move(vehicle_id)), dir_(std::move(dir)), options_(std::move(options)) {}
+
+  /// The flags every component gets: domain, loopback profile, vehicle, log level info (logs are
+  /// read on failure).
+  std::vector<std::string> common_args() const {
+    return {"--domain", std::to_string(domain_), "--profile", loopback_profile(), "--vehicle-id", vehicle_,
+            "--log-level", "info"};
+  }
+  /// Starts the consumers (recorder, dead reckoning, identification, calibration), consumers first
+  /// as deploy/launch does. Faster than real time their event-time queues may lag each other by
+  /// more than the default 2 s without any input being absent, hence --max-wait-s 30 then.
+  void start_consumers() {
+    std::vector<std::string> node = common_args();
+    node.push_back("--max-wait-s");
+    node.push_back(options_.speed == "1" ? "2" : "30");
+    if (options_.with_recorder) {
+      auto rec = common_args();
+      rec.push_back("--out");
+      rec.push_back((dir_ / (vehicle_ + "-recorder")).string());
+      start("odonav-recorder", rec);
+    }
+    if (options_.with_dead_reckoning) start("odonav-dead-reckoning", node);
+    start("odonav-identification", node);
+    start("odonav-calibration", node);
+  }
+  /// Starts the gateway: sim:<scenario> at options().speed, waiting (bounded) for this vehicle's
+  /// GNSS readers to be matched.
+  void start_gateway() {
+    auto args = common_args();
+    const int readers = (options_.with_dead_reckoning ? 1 : 0) + 2;
+    for (const std::string& a :
+         {std::string("--source"), "sim:" + options_.scenario, std::string("--speed"), options_.speed,
+          std::string("--seed"), std::to_string(options_.seed), std::string("--duration-s"),
+          std::to_string(options_.duration_s), std::string("--wait-for-readers"), std::to_string(readers)})
+      args.push_back(a);
+    start("odonav-gateway", args);
+  }
+  ChildProcess& process(const std::string& component) { return *processes_.at(component); }
+  bool has(const std::string& component) const { return processes_.count(component) > 0; }
+  std::string log(const std::string& component) const { return read_text(log_path(component)); }
+  /// The tail of every component's log, for failure messages.
+  std::string logs_tail(std::size_t chars = 1500) const {
+    std::string all;
+    for (const auto& [name, p] : processes_) {
+      const std::string text = log(name);
+      all += "--- " + vehicle_ + " " + name + ":\n" + (text.size() > chars ? text.substr(text.size() - chars) : text);
+    }
+    return all;
+  }
+  const std::string& vehicle() const { return vehicle_; }
+  const PipelineOptions& options() const { return options_; }
+  std::filesystem::path recorder_dir() const { return dir_ / (vehicle_ + "-recorder"); }
+
+ private:
+  std::filesystem::path log_path(const std::string& component) const {
+    return dir_ / (vehicle_ + "-" + component + ".log");
+  }
+  void start(const std::string& component, const std::vector<std::string>& args) {
+    // The components log to stderr; stdout (normally empty) beside it.
+    auto p = std::make_unique<ChildProcess>(binary(component), args, log_path(component).string() + ".out",
+                                            log_path(component));
+    if (!p->started()) ADD_FAILURE() << "cannot start " << binary(component);
+    processes_[component] = std::move(p);
+  }
+
+  int domain_;
+  std::string vehicle_;
+  std::filesystem::path dir_;
+  PipelineOptions options_;
+  std::map<std::string, std::unique_ptr<ChildProcess>> processes_;
+};
 
 /// The common DDS flags of odonav-ground under test.
 inline std::vector<std::string> ground_args(const std::string& action, int domain, std::vector<std::string> extra = {}) {

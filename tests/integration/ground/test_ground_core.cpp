@@ -286,7 +286,13 @@ TEST(FleetState, JsonAndDashboardOfManyVehiclesFitEightyByTwentyFour) {
     k.vehicle_id = id;
     k.k_m_per_pulse = 0.0126875;
     k.sigma_m_per_pulse = -1.0;
+    k.source = v == 0 ? "identification/standby" : "identification";
     fleet.on_scale_factor(k, 1.0);
+    DeadReckoningView d;
+    d.vehicle_id = id;
+    d.k_source = 1;
+    d.distance_m = 1234.0;
+    fleet.on_dead_reckoning(d, 1.0);
   }
   const FleetSnapshot snap = fleet.snapshot(1.5);
   const std::string text = render_dashboard(snap, 80, 24, false, "odonav-ground test");
@@ -305,6 +311,10 @@ TEST(FleetState, JsonAndDashboardOfManyVehiclesFitEightyByTwentyFour) {
   EXPECT_TRUE(j["vehicles"][0]["scale_factor"]["sigma_m_per_pulse"].is_null());  // -1 = unknown
   EXPECT_EQ(j["vehicles"][0]["components"].size(), 4u);
   EXPECT_TRUE(j["vehicles"][0]["misalignment"].is_null());
+  // Which instance publishes K: in the JSON and on the DR line of the dashboard.
+  EXPECT_EQ(j["vehicles"][0]["scale_factor"]["source"], "identification/standby");
+  EXPECT_EQ(j["vehicles"][1]["scale_factor"]["source"], "identification");
+  EXPECT_NE(text.find("dist 1234 m K identified from identification/standby"), std::string::npos) << text;
 }
 
 TEST(Recording, TopicSelectionAndQosMetadata) {
@@ -314,6 +324,12 @@ TEST(Recording, TopicSelectionAndQosMetadata) {
   EXPECT_STREQ(chosen[1].name, "rt/odonav/health");
   EXPECT_STREQ(chosen[2].name, "rt/odonav/odometer");
   EXPECT_EQ(select_topics("").size(), 8u);
+  // Recordings read the estimates with the deep recorder profiles, the rest with the topic's own.
+  EXPECT_STREQ(recording_reader_profile(odonav::topics::kScaleFactor), "odonav_scale_factor_recorder_reader");
+  EXPECT_STREQ(recording_reader_profile(odonav::topics::kMisalignment), "odonav_misalignment_recorder_reader");
+  EXPECT_STREQ(recording_reader_profile(odonav::topics::kGnssFix), odonav::topics::kGnssFix.reader_profile);
+  EXPECT_STREQ(recording_reader_profile(odonav::topics::kScaleFactor, true), "odonav_estimate_ground_reader_best_effort");
+  EXPECT_STREQ(recording_reader_profile(odonav::topics::kOdometer, true), odonav::topics::kGroundBestEffortReaderProfile);
   try {
     select_topics("odometer,bogus");
     ADD_FAILURE() << "no error";

@@ -127,12 +127,6 @@ class SyntheticFleet {
   std::thread thread_;
 };
 
-const nlohmann::json* find_by(const nlohmann::json& array, const std::string& key, const std::string& value) {
-  for (const auto& item : array)
-    if (item.at(key) == value) return &item;
-  return nullptr;
-}
-
 class GroundProcesses : public ::testing::Test {
  protected:
   void SetUp() override { shm_clean(); }
@@ -188,17 +182,8 @@ TEST_F(GroundProcesses, SilentComponentTurnsStaleWithinTwoDeadlinePeriods) {
   ASSERT_TRUE(monitor.started());
 
   // The last complete JSON line printed so far.
-  auto latest = [&]() -> std::optional<nlohmann::json> {
-    const std::string text = read_text(dir / "monitor.out");
-    const auto end = text.rfind('\n');
-    if (end == std::string::npos) return std::nullopt;
-    const auto begin = text.rfind('\n', end - 1);
-    return nlohmann::json::parse(text.substr(begin == std::string::npos ? 0 : begin + 1, end - (begin == std::string::npos ? 0 : begin + 1)));
-  };
-  auto component = [](const nlohmann::json& snap, const std::string& v, const std::string& c) -> const nlohmann::json* {
-    const nlohmann::json* jv = find_by(snap.at("vehicles"), "vehicle_id", v);
-    return jv ? find_by(jv->at("components"), "component", c) : nullptr;
-  };
+  auto latest = [&] { return last_json_line(dir / "monitor.out"); };
+  const auto component = snapshot_component;
   // Wait until every component of both vehicles is seen live.
   const auto seen_deadline = std::chrono::steady_clock::now() + 20s;
   bool all_live = false;

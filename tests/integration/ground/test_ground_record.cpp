@@ -23,53 +23,6 @@ using odonav::dds::Writer;
 
 namespace {
 
-// ---- the npm reader ----
-
-/// Folder with node_modules holding the reader packages; installs them the first time (under a
-/// lock, so parallel tests install once). Fails the test with what to install when npm is missing.
-std::optional<fs::path> npm_reader_modules() {
-  if (std::system("command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1") != 0) {
-    ADD_FAILURE() << "node and npm are needed to read MCAP files back: install nodejs and npm "
-                     "(Debian 12: apt-get install nodejs npm)";
-    return std::nullopt;
-  }
-  const fs::path dir = fs::path(ODONAV_BINARY_DIR) / "tests" / "ground-npm";
-  fs::create_directories(dir);
-  const std::string cmd = "cd '" + dir.string() +
-                          "' && flock .lock sh -c 'test -d node_modules/@foxglove/rosmsg2-serialization -a -d "
-                          "node_modules/@mcap/core -a -d node_modules/@foxglove/rosmsg || npm install --no-audit "
-                          "--no-fund --silent @mcap/core @foxglove/rosmsg @foxglove/rosmsg2-serialization' "
-                          ">npm-install.log 2>&1";
-  if (std::system(cmd.c_str()) != 0) {
-    ADD_FAILURE() << "npm install of @mcap/core @foxglove/rosmsg @foxglove/rosmsg2-serialization failed: "
-                  << read_text(dir / "npm-install.log");
-    return std::nullopt;
-  }
-  return dir / "node_modules";
-}
-
-/// Runs read_mcap.js on `file` in `mode` ("indexed" or "stream"): its exit code and JSON.
-struct McapRead {
-  int exit_code = -1;
-  json doc;
-  std::string err;
-};
-McapRead read_mcap(const fs::path& file, const std::string& mode) {
-  McapRead r;
-  const auto modules = npm_reader_modules();
-  if (!modules) return r;
-  const fs::path out = file.string() + "." + mode + ".json";
-  const fs::path err = file.string() + "." + mode + ".err";
-  const std::string cmd = "NODE_PATH='" + modules->string() + "' node '" + ODONAV_SOURCE_DIR +
-                          "/tests/integration/ground/read_mcap.js' '" + file.string() + "' " + mode + " >'" +
-                          out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.err = read_text(err);
-  if (r.exit_code == 0) r.doc = json::parse(read_text(out));
-  return r;
-}
-
 // ---- known samples, and the same values as the ROS 2 decoder shows them ----
 
 json header_json(double t, const std::string& frame) {
@@ -211,6 +164,7 @@ class KnownPublisher {
       m.samples_accepted(static_cast<uint32_t>(10 * i));
       m.samples_rejected(static_cast<uint32_t>(i));
       m.frozen(i == 3);
+      m.source(i % 2 == 0 ? "identification" : "identification/standby");
       EXPECT_TRUE(scale_factor_.write(m));
       expected["/odonav/scale_factor"].push_back({{"header", header_json(t, "odometer")},
                                                   {"vehicle_id", veh},
@@ -222,7 +176,8 @@ class KnownPublisher {
                                                   {"converged", m.converged()},
                                                   {"samples_accepted", m.samples_accepted()},
                                                   {"samples_rejected", m.samples_rejected()},
-                                                  {"frozen", m.frozen()}});
+                                                  {"frozen", m.frozen()},
+                                                  {"source", m.source()}});
     }
     {
       msg::DeadReckoning m;
