@@ -9,7 +9,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <stdexcept>
+#include <tuple>
 
+#include "odonav/dds/security.hpp"
 #include "odonav/logging.hpp"
 #include "odonav/topics.hpp"
 
@@ -27,6 +29,9 @@ void add_component_options(Options& o) {
                "as absent",
                0.01, 3600.0);
   o.add_string("log-level", "", std::string("log level (") + kLogLevelNames + "); empty = $ODONAV_LOG_LEVEL or info");
+  // DDS Security for every component alike (--security-dir / --security-identity, else the
+  // environment, else none): the systemd units and the multi-host test switch it on per host.
+  add_security_options(o);
 }
 
 ComponentSettings component_settings_from(const Options& o, const std::string& component) {
@@ -46,6 +51,7 @@ ComponentSettings component_settings_from(const Options& o, const std::string& c
   if (s.participant.participant_profile.empty()) throw ConfigError("--profile-name: must not be empty");
   s.participant.domain_id = static_cast<int>(o.get_int("domain"));
   s.participant.participant_name = component;
+  std::tie(s.participant.security_dir, s.participant.security_identity) = security_options_from(o);
   s.max_wait_s = o.get_double("max-wait-s");
   s.log_level = o.get_string("log-level");
   if (!s.log_level.empty()) parse_log_level(s.log_level, "--log-level");
