@@ -24,7 +24,7 @@ void CoarseEstimator::close_run() {
 }
 
 void CoarseEstimator::update(const ScaleFactorSample& sample) {
-  check_sample(name(), sample);
+  if (!sample_is_valid(sample)) check_sample(name(), sample);  // throws, naming the field
   // Contiguous: this interval starts where the previous accepted sample ended, so no pulses were
   // lost in between. dt_s = 0 means "not given": then contiguity is assumed (documented).
   const double tolerance_s = 1e-6 + 1e-3 * sample.dt_s;

@@ -5,6 +5,8 @@
 // State text, version 1: one "key value..." line each, first line "odonav-scale-factor-state 1",
 // second "estimator <name>", parameters as "param.<name> <value>", doubles in C99 hex-float (%a, so
 // the round trip is exact), last line "checksum <FNV-1a 64 of every byte before that line>".
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -18,19 +20,47 @@ namespace odonav::estimators_internal {
 /// value is not finite or phi_pulses <= 0 (accepted samples always move forward).
 void check_sample(const std::string& estimator, const ScaleFactorSample& sample);
 
+/// The conditions check_sample() enforces, without building the estimator's name: update() calls
+/// check_sample() (which throws with the full message) only when this is false, so a good sample
+/// costs a few compares instead of a std::string per update.
+inline bool sample_is_valid(const ScaleFactorSample& sample) {
+  return std::isfinite(sample.t_s) && std::isfinite(sample.phi_pulses) && sample.phi_pulses > 0.0 &&
+         std::isfinite(sample.y_m) && std::isfinite(sample.dt_s) && sample.dt_s >= 0.0 &&
+         std::isfinite(sample.gnss_position_enu_m[0]) && std::isfinite(sample.gnss_position_enu_m[1]) &&
+         std::isfinite(sample.gnss_position_enu_m[2]);
+}
+
 /// Model residual variance [m^2]: (sigma_v T)^2 / 2 + K^2 / 6 (GNSS velocity noise over one
 /// interval plus the difference of two uniform pulse quantisation errors), at least floor^2.
-double model_sigma_y2_m2(const ScaleFactorEstimatorParams& params, double k_m_per_pulse);
+/// Inline (with the two below): called on every update, a call costs as much as the arithmetic.
+inline double model_sigma_y2_m2(const ScaleFactorEstimatorParams& params, double k_m_per_pulse) {
+  const double velocity_part = params.sigma_v_mps * params.sample_interval_s;
+  const double model = 0.5 * velocity_part * velocity_part + k_m_per_pulse * k_m_per_pulse / 6.0;
+  return std::max(model, params.sigma_y_floor_m * params.sigma_y_floor_m);
+}
+
+/// converged rule shared by every estimator: sigma / |K| < converged_rel_sigma and enough samples.
+inline bool is_converged(const ScaleFactorEstimatorParams& params, double k, double sigma, uint64_t samples_used) {
+  return samples_used >= params.min_samples && k != 0.0 && sigma / std::abs(k) < params.converged_rel_sigma;
+}
 
 /// The estimate of a least-squares estimator with total sums (prior included) s_pp [pulse^2] and
 /// s_py [pulse m]: K = s_py / s_pp, sigma = sigma_y / sqrt(s_pp), converged per the params.
 /// Invalid when no sample is held (has_samples false) or s_pp is not positive.
-ScaleFactorEstimate least_squares_estimate(const ScaleFactorEstimatorParams& params, bool has_samples,
-                                           double s_pp, double s_py, double sigma_y_m, uint64_t samples_used,
-                                           double forgetting_factor, double window_fill);
-
-/// converged rule shared by every estimator: sigma / |K| < converged_rel_sigma and enough samples.
-bool is_converged(const ScaleFactorEstimatorParams& params, double k, double sigma, uint64_t samples_used);
+inline ScaleFactorEstimate least_squares_estimate(const ScaleFactorEstimatorParams& params, bool has_samples,
+                                                  double s_pp, double s_py, double sigma_y_m, uint64_t samples_used,
+                                                  double forgetting_factor, double window_fill) {
+  ScaleFactorEstimate e;
+  e.samples_used = samples_used;
+  e.forgetting_factor = forgetting_factor;
+  e.window_fill = window_fill;
+  if (!has_samples || !(s_pp > 0.0)) return e;
+  e.valid = true;
+  e.k_m_per_pulse = s_py / s_pp;
+  e.sigma_m_per_pulse = sigma_y_m / std::sqrt(s_pp);
+  e.converged = is_converged(params, e.k_m_per_pulse, e.sigma_m_per_pulse, samples_used);
+  return e;
+}
 
 class StateWriter {
  public:

@@ -25,7 +25,7 @@ constexpr uint64_t kMinResidualsForOnlineScale = 10;
 }  // namespace
 
 void KfRandomWalkEstimator::update(const ScaleFactorSample& sample) {
-  check_sample(name(), sample);
+  if (!sample_is_valid(sample)) check_sample(name(), sample);  // throws, naming the field
   const double phi = sample.phi_pulses;
   const double y = sample.y_m;
   const double k_for_model = initialised_ ? k_ : (params_.prior_weight_pulses2 > 0.0 ? params_.k_prior_m_per_pulse : y / phi);

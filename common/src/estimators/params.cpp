@@ -95,30 +95,7 @@ void check_sample(const std::string& estimator, const ScaleFactorSample& sample)
            sample.gnss_position_enu_m[i], "is not finite");
 }
 
-double model_sigma_y2_m2(const ScaleFactorEstimatorParams& params, double k_m_per_pulse) {
-  const double velocity_part = params.sigma_v_mps * params.sample_interval_s;
-  const double model = 0.5 * velocity_part * velocity_part + k_m_per_pulse * k_m_per_pulse / 6.0;
-  return std::max(model, params.sigma_y_floor_m * params.sigma_y_floor_m);
-}
 
-bool is_converged(const ScaleFactorEstimatorParams& params, double k, double sigma, uint64_t samples_used) {
-  return samples_used >= params.min_samples && k != 0.0 && sigma / std::abs(k) < params.converged_rel_sigma;
-}
-
-ScaleFactorEstimate least_squares_estimate(const ScaleFactorEstimatorParams& params, bool has_samples,
-                                           double s_pp, double s_py, double sigma_y_m, uint64_t samples_used,
-                                           double forgetting_factor, double window_fill) {
-  ScaleFactorEstimate e;
-  e.samples_used = samples_used;
-  e.forgetting_factor = forgetting_factor;
-  e.window_fill = window_fill;
-  if (!has_samples || !(s_pp > 0.0)) return e;
-  e.valid = true;
-  e.k_m_per_pulse = s_py / s_pp;
-  e.sigma_m_per_pulse = sigma_y_m / std::sqrt(s_pp);
-  e.converged = is_converged(params, e.k_m_per_pulse, e.sigma_m_per_pulse, samples_used);
-  return e;
-}
 
 }  // namespace estimators_internal
 

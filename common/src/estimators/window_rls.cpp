@@ -13,6 +13,15 @@ namespace odonav {
 
 using namespace estimators_internal;
 
+namespace {
+// (oldest + age) mod capacity for oldest < capacity and age < capacity, without an integer division
+// (a division costs tens of cycles, as much as the rest of the index arithmetic of an update).
+inline std::size_t ring_index(std::size_t oldest, std::size_t age, std::size_t capacity) {
+  const std::size_t index = oldest + age;
+  return index >= capacity ? index - capacity : index;
+}
+}  // namespace
+
 WindowRlsEstimator::WindowRlsEstimator(const ScaleFactorEstimatorParams& params, bool variable_forgetting)
     : params_(params),
       variable_forgetting_(variable_forgetting),
@@ -24,7 +33,7 @@ WindowRlsEstimator::WindowRlsEstimator(const ScaleFactorEstimatorParams& params,
 }
 
 const WindowRlsEstimator::Entry& WindowRlsEstimator::entry(std::size_t age_index) const {
-  return buffer_[(oldest_ + age_index) % capacity_];
+  return buffer_[ring_index(oldest_, age_index, capacity_)];
 }
 
 double WindowRlsEstimator::vff_c_m2(double k_m_per_pulse) const {
@@ -33,7 +42,7 @@ double WindowRlsEstimator::vff_c_m2(double k_m_per_pulse) const {
 }
 
 void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
-  check_sample(name(), sample);
+  if (!sample_is_valid(sample)) check_sample(name(), sample);  // throws, naming the field
   const double phi = sample.phi_pulses;
   const double y = sample.y_m;
   const double w0 = params_.prior_weight_pulses2;
@@ -67,9 +76,9 @@ void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
     s_pp_ -= beta * old.phi * old.phi;
     s_py_ -= beta * old.phi * old.y;
     buffer_[oldest_] = newest;
-    oldest_ = (oldest_ + 1) % capacity_;
+    if (++oldest_ == capacity_) oldest_ = 0;
   } else {
-    buffer_[(oldest_ + held_) % capacity_] = newest;
+    buffer_[ring_index(oldest_, held_, capacity_)] = newest;
     ++held_;
   }
   last_lambda_ = lambda;
@@ -84,8 +93,9 @@ void WindowRlsEstimator::resum() {
   const double base = log_weight_;
   double s_pp = 0.0;
   double s_py = 0.0;
-  for (std::size_t i = 0; i < held_; ++i) {
-    Entry& e = buffer_[(oldest_ + i) % capacity_];
+  for (std::size_t i = 0, index = oldest_; i < held_; ++i) {
+    Entry& e = buffer_[index];
+    if (++index == capacity_) index = 0;
     e.log_weight -= base;
     const double w = variable_forgetting_ ? std::exp(-e.log_weight) : 1.0;
     s_pp += w * e.phi * e.phi;
