@@ -1,12 +1,16 @@
-// The whole pipeline over a live source (domains 122-123): a simulated drive sent as ODO/ATT/GNSS
-// protocol lines over UDP on 127.0.0.1 through odonav-gateway, odonav-calibration,
-// odonav-identification and odonav-dead-reckoning must reach the same K as the replay of the same
+// The whole pipeline over a live source (domains 122-125): a simulated drive sent as ODO/ATT/GNSS
+// protocol lines over UDP on 127.0.0.1, and through a socat pseudo-terminal pair (serial), through
+// odonav-gateway, odonav-calibration, odonav-identification and odonav-dead-reckoning must reach the same K as the replay of the same
 // dataset through the same processes. The lines carry exactly the numbers read_dataset gives
 // (shortest round-trip decimals, angles as the files hold them), so the same samples arrive in the
 // same order and the estimates must be identical.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <cstdio>
+#include <functional>
 
 #include "core/line_protocol.hpp"
 #include "core/sensor_source.hpp"
@@ -60,84 +64,130 @@ PipelineRun run_pipeline(int domain, const std::function<void(dds::Participant&)
   return run;
 }
 
-TEST(LivePipeline, UdpLinesReachTheSameKAsTheReplay) {
-  const fs::path dir = fresh_live_dir("pipeline");
+/// A simulated drive, its replay through the pipeline, and the same samples as protocol lines in
+/// the replay's interleaved order (with the odometer count reached after each line, for pacing).
+struct DriveAndReplay {
+  Dataset d;
+  PipelineRun replay;
+  std::vector<std::string> lines;
+  std::vector<std::size_t> odometer_so_far;
+};
+
+DriveAndReplay drive_and_replay(const std::string& name, int domain) {
+  DriveAndReplay r;
+  const fs::path dir = fresh_live_dir(name);
   const std::string data = (dir / "dataset").string();
   ChildProcess sim(binary("odonav-sim"), {"straight", "--seed", "5", "--duration-s", "60", "--out", data,
                                           "--log-level", "warn"});
-  ASSERT_TRUE(sim.wait_exit(60s));
-  ASSERT_EQ(sim.exit_code(), 0);
-  const Dataset d = read_dataset(data, BadRowPolicy::kFail);
-
+  EXPECT_TRUE(sim.wait_exit(60s));
+  EXPECT_EQ(sim.exit_code(), 0);
+  r.d = read_dataset(data, BadRowPolicy::kFail);
   // Replay: the gateway reads the directory and waits for the three consumers itself.
-  const PipelineRun replay = run_pipeline(122, [&](dds::Participant&) {
-    ChildProcess gw(binary("odonav-gateway"), node_args(122, 30.0, {"--source", "replay:" + data, "--speed", "max",
-                                                                     "--wait-for-readers", "3"}));
+  r.replay = run_pipeline(domain, [&](dds::Participant&) {
+    ChildProcess gw(binary("odonav-gateway"), node_args(domain, 30.0, {"--source", "replay:" + data, "--speed", "max",
+                                                                        "--wait-for-readers", "3"}));
     EXPECT_TRUE(gw.wait_exit(120s)) << "replay gateway did not finish";
     EXPECT_EQ(gw.exit_code(), 0);
   });
-
-  // Live: the same samples as protocol lines over UDP, in the replay's interleaved order, paced by
-  // what the gateway has published (bursts of 100 lines), so no socket buffer overflows.
-  std::vector<std::string> lines;
-  std::vector<std::size_t> odometer_so_far;
   std::size_t odometer_count = 0;
-  for (const gateway::SensorEvent& e : gateway::interleave(d)) {
+  for (const gateway::SensorEvent& e : gateway::interleave(r.d)) {
     switch (e.stream) {
       case gateway::SensorEvent::Stream::kOdometer:
-        lines.push_back(gateway::odometer_line(d.odometer[e.index], false));
+        r.lines.push_back(gateway::odometer_line(r.d.odometer[e.index], false));
         ++odometer_count;
         break;
-      case gateway::SensorEvent::Stream::kIns: lines.push_back(gateway::ins_line(d.ins[e.index], false)); break;
-      case gateway::SensorEvent::Stream::kGnss: lines.push_back(gateway::gnss_line(d.gnss[e.index], false)); break;
+      case gateway::SensorEvent::Stream::kIns: r.lines.push_back(gateway::ins_line(r.d.ins[e.index], false)); break;
+      case gateway::SensorEvent::Stream::kGnss: r.lines.push_back(gateway::gnss_line(r.d.gnss[e.index], false)); break;
     }
-    odometer_so_far.push_back(odometer_count);
+    r.odometer_so_far.push_back(odometer_count);
   }
-  const int port = free_loopback_port(SOCK_DGRAM);
-  const PipelineRun live = run_pipeline(123, [&](dds::Participant& p) {
+  return r;
+}
+
+/// The live half: the gateway on `source`; `send` writes each line (with its end of line), paced by
+/// what the gateway has published (bursts of 100 lines), so no socket or tty buffer overflows.
+PipelineRun live_pipeline(int domain, const std::string& source, const DriveAndReplay& r,
+                          const std::function<void(const std::string&)>& send) {
+  return run_pipeline(domain, [&](dds::Participant& p) {
     Collector<msg::Odometer> odo(p, topics::kOdometer);
-    ChildProcess gw(binary("odonav-gateway"), node_args(123, 30.0, {"--source", "udp:127.0.0.1:" + std::to_string(port)}));
+    ChildProcess gw(binary("odonav-gateway"), node_args(domain, 30.0, {"--source", source}));
     ASSERT_TRUE(odo.reader().wait_for_matched(1, 20s)) << "the live gateway's writers never matched";
     std::this_thread::sleep_for(2s);  // the consumers' readers are matched too by now (same discovery)
-    const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
-    sockaddr_in to{};
-    to.sin_family = AF_INET;
-    to.sin_port = htons(static_cast<uint16_t>(port));
-    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    for (std::size_t i = 0; i < lines.size(); ++i) {
-      const std::string datagram = lines[i] + "\n";
-      ASSERT_EQ(::sendto(s, datagram.data(), datagram.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof(to)),
-                static_cast<ssize_t>(datagram.size()));
-      if (i % 100 == 99 || i + 1 == lines.size()) {
-        const std::size_t n = odometer_so_far[i];
+    for (std::size_t i = 0; i < r.lines.size(); ++i) {
+      send(r.lines[i]);
+      if (::testing::Test::HasFatalFailure()) return;
+      if (i % 100 == 99 || i + 1 == r.lines.size()) {
+        const std::size_t n = r.odometer_so_far[i];
         ASSERT_TRUE(odo.wait_until([n](const auto& v) { return v.size() >= n; }, 20s))
             << "the gateway published " << odo.size() << " of " << n << " odometer samples sent";
       }
     }
-    ::close(s);
     std::this_thread::sleep_for(500ms);  // the GNSS and INS lines after the last odometer line
     gw.signal(SIGINT);
     EXPECT_TRUE(gw.wait_exit(15s));
     EXPECT_EQ(gw.exit_code(), 0);
   });
+}
 
-  ASSERT_FALSE(replay.k.empty()) << "no K from the replay";
+/// Same samples, same order: the same estimates, the last K to the last bit.
+void expect_same_k(const DriveAndReplay& r, const PipelineRun& live, const char* what) {
+  ASSERT_FALSE(r.replay.k.empty()) << "no K from the replay";
   ASSERT_FALSE(live.k.empty()) << "no K from the live run";
-  const msg::ScaleFactor& a = replay.k.back();
+  const msg::ScaleFactor& a = r.replay.k.back();
   const msg::ScaleFactor& b = live.k.back();
   EXPECT_EQ(b.header().stamp(), a.header().stamp());
   EXPECT_EQ(b.samples_accepted(), a.samples_accepted());
   EXPECT_EQ(b.converged(), a.converged());
-  // Same samples, same order: the same K to the last bit (stated as a difference for the record).
   const double dk = b.k_m_per_pulse() - a.k_m_per_pulse();
   EXPECT_EQ(dk, 0.0);
-  EXPECT_EQ(live.k.size(), replay.k.size()) << "the same number of distinct estimates";
-  EXPECT_NEAR(a.k_m_per_pulse(), d.truth.back().k_true_m_per_pulse, 0.01 * d.truth.back().k_true_m_per_pulse)
-      << "the replay's K is the scenario's (within 1 %)";
-  std::printf("final K: replay %.12g, live %.12g m/pulse (difference %.3g, %zu / %zu estimates, converged %d), "
+  EXPECT_EQ(live.k.size(), r.replay.k.size()) << "the same number of distinct estimates";
+  const double k_true = r.d.truth.back().k_true_m_per_pulse;
+  EXPECT_NEAR(a.k_m_per_pulse(), k_true, 0.01 * k_true) << "the replay's K is the scenario's (within 1 %)";
+  std::printf("final K (%s): replay %.12g, live %.12g m/pulse (difference %.3g, %zu / %zu estimates, converged %d), "
               "K_true %.12g\n",
-              a.k_m_per_pulse(), b.k_m_per_pulse(), dk, replay.k.size(), live.k.size(), a.converged() ? 1 : 0,
-              d.truth.back().k_true_m_per_pulse);
+              what, a.k_m_per_pulse(), b.k_m_per_pulse(), dk, r.replay.k.size(), live.k.size(),
+              a.converged() ? 1 : 0, k_true);
+}
+
+TEST(LivePipeline, UdpLinesReachTheSameKAsTheReplay) {
+  const DriveAndReplay r = drive_and_replay("pipeline", 122);
+  if (HasFatalFailure()) return;
+  const int port = free_loopback_port(SOCK_DGRAM);
+  const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
+  ASSERT_GE(s, 0);
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<uint16_t>(port));
+  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  const PipelineRun live = live_pipeline(123, "udp:127.0.0.1:" + std::to_string(port), r, [&](const std::string& line) {
+    const std::string datagram = line + "\n";
+    ASSERT_EQ(::sendto(s, datagram.data(), datagram.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof(to)),
+              static_cast<ssize_t>(datagram.size()));
+  });
+  ::close(s);
+  expect_same_k(r, live, "udp");
+}
+
+TEST(LivePipeline, SerialLinesThroughAPtyPairReachTheSameKAsTheReplay) {
+  const std::string socat = "/usr/bin/socat";
+  ASSERT_EQ(::access(socat.c_str(), X_OK), 0) << "socat not installed (scripts/install-deps installs it)";
+  const DriveAndReplay r = drive_and_replay("pipeline-serial", 124);
+  if (HasFatalFailure()) return;
+  const fs::path dir = fresh_live_dir("pipeline-serial-tty");
+  const std::string gw_end = (dir / "gateway-tty").string(), feed_end = (dir / "device-tty").string();
+  ChildProcess pair(socat, {"-d", "pty,raw,echo=0,link=" + gw_end, "pty,raw,echo=0,link=" + feed_end});
+  ASSERT_TRUE(pair.started());
+  for (int i = 0; i < 250 && !(fs::exists(gw_end) && fs::exists(feed_end)); ++i) std::this_thread::sleep_for(20ms);
+  ASSERT_TRUE(fs::exists(gw_end) && fs::exists(feed_end)) << "socat made no pty pair";
+  // Kept open to the end: closing the device end makes socat hang up the gateway's end.
+  const int fd = ::open(feed_end.c_str(), O_WRONLY | O_NOCTTY);
+  ASSERT_GE(fd, 0) << feed_end;
+  const PipelineRun live = live_pipeline(125, "serial:" + gw_end + ":115200", r, [&](const std::string& line) {
+    const std::string text = line + "\r\n";
+    ASSERT_EQ(::write(fd, text.data(), text.size()), static_cast<ssize_t>(text.size()));
+  });
+  ::close(fd);
+  expect_same_k(r, live, "serial");
 }
 
 }  // namespace
