@@ -41,7 +41,7 @@ topics::TopicSpec scale_factor_topic() {
   return spec;
 }
 
-// How long (wall time) health tells about a change of the K source: long enough for a monitor.
+// How long (wall time) health tells about an event (K source change, pulse jump): long enough for a monitor.
 constexpr double kSourceNoteDuration_s = 30.0;
 }  // namespace
 
@@ -243,6 +243,16 @@ dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
     add("K not converged yet: using nominal K");
   }
   if (!k_source_note_.empty() && now_s < k_source_note_until_s_) add(k_source_note_);
+  // Odometer pulse jumps (a counter glitch): WARN for a while after the last one, with the total.
+  const uint64_t jumps = core_.counters().pulse_jumps_rejected;
+  if (jumps != jumps_seen_) {
+    jumps_seen_ = jumps;
+    jumps_note_until_s_ = now_s + kSourceNoteDuration_s;
+  }
+  if (jumps > 0 && now_s < jumps_note_until_s_) {
+    s.level = HEALTH_LEVEL_WARN;
+    add("rejected " + std::to_string(jumps) + " odometer samples: pulse jump (counter glitch)");
+  }
   if (input_absent(misalignment_, now_s))
     add("using zero misalignment: no calibration");
   else if (input_heard(misalignment_, now_s) && misalignments_applied_ == 0)

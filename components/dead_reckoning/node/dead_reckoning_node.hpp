@@ -67,6 +67,8 @@ class DeadReckoningNode : public dds::EventTimeNode {
   uint64_t k_source_changes_ = 0;
   std::string k_source_note_;
   double k_source_note_until_s_ = 0.0;    ///< steady clock (s)
+  uint64_t jumps_seen_ = 0;               ///< pulse jumps already told about
+  double jumps_note_until_s_ = 0.0;       ///< steady clock (s): health warns until then
   uint64_t k_applied_ = 0;
   uint64_t k_ignored_commanded_ = 0;
   uint64_t misalignments_applied_ = 0;
