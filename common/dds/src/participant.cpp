@@ -2,10 +2,14 @@
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
+#include <fastdds/dds/log/Log.hpp>
+#include <fastdds/rtps/common/Guid.h>
 #include <spdlog/spdlog.h>
 
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
+#include <thread>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -57,6 +61,31 @@ void add_or_replace_properties(DomainParticipantQos& qos,
   }
 }
 
+// Fast DDS's own log verbosity from ODONAV_FASTDDS_LOG (see participant.hpp). Unknown values are
+// an error: a typo must not silently leave the log quiet while someone is debugging discovery.
+void apply_fast_dds_log_verbosity() {
+  using eprosima::fastdds::dds::Log;
+  const char* env = std::getenv(kFastDdsLogEnv);
+  if (env == nullptr || *env == '\0') return;
+  const std::string level = env;
+  if (level == "error") {
+    Log::SetVerbosity(Log::Kind::Error);
+  } else if (level == "warning") {
+    Log::SetVerbosity(Log::Kind::Warning);
+  } else if (level == "info") {
+    Log::SetVerbosity(Log::Kind::Info);
+  } else {
+    throw std::runtime_error(std::string("odonav::dds::Participant: ") + kFastDdsLogEnv + "='" + level +
+                             "' is not one of error, warning, info");
+  }
+}
+
+std::string guid_text(const eprosima::fastrtps::rtps::GUID_t& guid) {
+  std::ostringstream s;
+  s << guid.guidPrefix;
+  return s.str();
+}
+
 bool has_property(const DomainParticipantQos& qos, const std::string& name) {
   for (const auto& p : qos.properties().properties())
     if (p.name() == name) return true;
@@ -67,13 +96,80 @@ bool has_property(const DomainParticipantQos& qos, const std::string& name) {
 
 namespace detail {
 
+void ParticipantEventLog::on_participant_discovery(DomainParticipant* /*participant*/,
+                                                   eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) {
+  using Status = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo::DISCOVERY_STATUS;
+  const std::string name = info.info.m_participantName.to_string();
+  const std::string guid = guid_text(info.info.m_guid);
+  switch (info.status) {
+    case Status::DISCOVERED_PARTICIPANT: {
+      spdlog::info("odonav::dds: {} discovered participant '{}' ({})", own_name_, name, guid);
+      if (space_secure_discoveries_) {
+        // Fast DDS calls this before preparing the new participant's handshake (see the class
+        // comment): wait until the previous one has had kSecureDiscoverySpacing to finish its own.
+        std::lock_guard<std::mutex> lock(mutex_);
+        const auto ready = last_discovery_done_ + kSecureDiscoverySpacing;
+        if (std::chrono::steady_clock::now() < ready) std::this_thread::sleep_until(ready);
+        last_discovery_done_ = std::chrono::steady_clock::now();
+      }
+      break;
+    }
+    case Status::CHANGED_QOS_PARTICIPANT:
+      spdlog::debug("odonav::dds: {}: participant '{}' ({}) changed its QoS", own_name_, name, guid);
+      break;
+    case Status::REMOVED_PARTICIPANT:
+    case Status::DROPPED_PARTICIPANT: {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        refusals_.erase(guid);
+      }
+      if (info.status == Status::REMOVED_PARTICIPANT) {
+        spdlog::info("odonav::dds: {}: participant '{}' ({}) left", own_name_, name, guid);
+      } else {
+        spdlog::warn("odonav::dds: {}: participant '{}' ({}) lost: its lease expired (process dead, host down "
+                     "or link cut)", own_name_, name, guid);
+      }
+      break;
+    }
+  }
+}
+
+#if HAVE_SECURITY
+void ParticipantEventLog::onParticipantAuthentication(
+    DomainParticipant* /*participant*/, eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) {
+  using Status = eprosima::fastrtps::rtps::ParticipantAuthenticationInfo::AUTHENTICATION_STATUS;
+  const std::string guid = guid_text(info.guid);
+  if (info.status == Status::AUTHORIZED_PARTICIPANT) {
+    spdlog::info("odonav::dds: {} authenticated participant {}", own_name_, guid);
+    return;
+  }
+  // A refused participant keeps announcing itself, and is refused again each time: warn once.
+  std::uint64_t count = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    count = ++refusals_[guid];
+  }
+  if (count == 1) {
+    spdlog::warn("odonav::dds: {}: participant {} failed DDS Security authentication (certificate not from "
+                 "our identity CA, or invalid permissions): it gets no data", own_name_, guid);
+  } else {
+    spdlog::debug("odonav::dds: {}: participant {} refused again ({} times)", own_name_, guid, count);
+  }
+}
+#endif
+
 ParticipantCore::ParticipantCore(DomainParticipant* participant, std::string description,
-                                 std::optional<SecurityMaterial> security)
-    : participant_(participant), description_(std::move(description)), security_(std::move(security)) {
+                                 std::optional<SecurityMaterial> security,
+                                 std::unique_ptr<ParticipantEventLog> event_log)
+    : participant_(participant),
+      description_(std::move(description)),
+      security_(std::move(security)),
+      event_log_(std::move(event_log)) {
   publisher_ = participant_->create_publisher(eprosima::fastdds::dds::PUBLISHER_QOS_DEFAULT);
   subscriber_ = participant_->create_subscriber(eprosima::fastdds::dds::SUBSCRIBER_QOS_DEFAULT);
   if (publisher_ == nullptr || subscriber_ == nullptr) {
     participant_->delete_contained_entities();
+    participant_->set_listener(nullptr);
     DomainParticipantFactory::get_instance()->delete_participant(participant_);
     throw std::runtime_error("odonav::dds::Participant: cannot create the publisher/subscriber of " +
                              description_);
@@ -85,6 +181,7 @@ ParticipantCore::~ParticipantCore() {
   if (participant_->delete_contained_entities() != ReturnCode_t::RETCODE_OK) {
     spdlog::error("odonav::dds: delete_contained_entities failed for {}", description_);
   }
+  participant_->set_listener(nullptr);  // the listener dies with this core
   if (DomainParticipantFactory::get_instance()->delete_participant(participant_) != ReturnCode_t::RETCODE_OK) {
     spdlog::error("odonav::dds: delete_participant failed for {}", description_);
   }
@@ -144,6 +241,7 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
                              " is outside 0.." + std::to_string(kMaxDomainId) + " (" + description + ")");
   }
 
+  apply_fast_dds_log_verbosity();
   load_xml_file(profiles_file_, "participant profiles");
   load_xml_file(qos_file_, "QoS profiles");
 
@@ -165,7 +263,13 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
                              " enables DDS Security but names no identity certificate: give the security "
                              "directory (--security-dir or " + std::string(kSecurityDirEnv) + ")");
   }
-  DomainParticipant* participant = factory->create_participant(domain_id_, qos);
+  // The listener takes no status (StatusMask::none()): endpoint statuses stay with the endpoints;
+  // participant discovery and authentication reach it regardless of the mask.
+  auto event_log = std::make_unique<detail::ParticipantEventLog>(
+      options.participant_name.empty() ? options.participant_profile : options.participant_name,
+      has_property(qos, "dds.sec.auth.plugin"));
+  DomainParticipant* participant = factory->create_participant(domain_id_, qos, event_log.get(),
+                                                               eprosima::fastdds::dds::StatusMask::none());
   if (participant == nullptr) {
     std::string why = " (see the Fast DDS log)";
     if (security) {
@@ -179,7 +283,7 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
                              description + why);
   }
   if (security) spdlog::info("odonav::dds: participant in domain {} uses {}", domain_id_, security->describe());
-  core_ = std::make_shared<detail::ParticipantCore>(participant, description, security);
+  core_ = std::make_shared<detail::ParticipantCore>(participant, description, security, std::move(event_log));
 }
 
 }  // namespace odonav::dds

@@ -6,6 +6,7 @@
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 
 #include <filesystem>
 #include <fstream>
@@ -82,6 +83,13 @@ TEST(DeployProfiles, SecureWiresThePluginsAndNeedsAnIdentity) {
   EXPECT_EQ(property(qos, "dds.sec.access.builtin.Access-Permissions.governance"),
             "file:///etc/odonav/security/governance.p7s");
   EXPECT_EQ(qos.wire_protocol().builtin.discovery_config.leaseDuration.seconds, 4);
+  // UDPv4 only, no shared memory: every handshake message then arrives on one receive thread
+  // (secure.xml says why; with SHM + UDP the multi-host test lost a pair about 1 run in 3).
+  EXPECT_FALSE(qos.transport().use_builtin_transports);
+  ASSERT_EQ(qos.transport().user_transports.size(), 1u);
+  EXPECT_NE(std::dynamic_pointer_cast<eprosima::fastdds::rtps::UDPv4TransportDescriptor>(
+                qos.transport().user_transports.front()),
+            nullptr);
 
   // Without a security directory the layer refuses before Fast DDS is asked, and says why.
   ::unsetenv("ODONAV_SECURITY_DIR");

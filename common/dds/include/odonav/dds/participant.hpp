@@ -3,11 +3,15 @@
 // profiles (qos.xml) loaded. Every failing step throws std::runtime_error naming the file, the
 // profile and the domain, so a misconfigured deployment says what is wrong.
 #include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
+#include <chrono>
+#include <cstdint>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -38,14 +42,63 @@ struct ParticipantOptions {
   std::string security_identity;
 };
 
+/// Environment variable that sets the verbosity of Fast DDS's own log (printed on standard
+/// output by Fast DDS): "error" (the default), "warning" or "info" (info needs a Fast DDS built
+/// with it; the Debian one prints warnings and errors only). Discovery and security problems
+/// between hosts show up at "warning".
+inline constexpr const char* kFastDdsLogEnv = "ODONAV_FASTDDS_LOG";
+
 namespace detail {
+/// Logs, through spdlog, what the participant learns about the others of its domain: a
+/// participant discovered, left (removed) or lost (dropped: its lease expired, e.g. a dead ECU or a
+/// cut link), and with DDS Security whether each one was authenticated (a refused one is warned
+/// about once, its retries go to debug). Without this a peer that never authenticates is silent:
+/// its endpoints simply never match.
+///
+/// With DDS Security it also spaces the set-up of newly discovered participants (see
+/// kSecureDiscoverySpacing): Fast DDS 2.9 prepares the security handshake of a new participant
+/// in whichever receive thread its first announcement arrived on (multicast, unicast, shared
+/// memory), and that preparation fills temporaries shared by the whole participant without a lock
+/// (SecurityManager::match_builtin_endpoints). Two participants discovered at the same moment on
+/// two threads can then leave one pair unable to exchange handshake messages for as long as both
+/// live: no error, the handshake is resent every second and ignored (seen in the multi-host test
+/// in about 1 run of 3). The discovery callback runs just before that preparation, serialized by
+/// Fast DDS, so holding it until the previous participant's preparation is long done serializes them.
+class ParticipantEventLog : public eprosima::fastdds::dds::DomainParticipantListener {
+ public:
+  /// own_name: this participant's name, for the messages. space_secure_discoveries: apply the
+  /// spacing above (participants with DDS Security).
+  ParticipantEventLog(std::string own_name, bool space_secure_discoveries)
+      : own_name_(std::move(own_name)), space_secure_discoveries_(space_secure_discoveries) {}
+  /// Minimum time between the set-up of two newly discovered participants with DDS Security. The
+  /// preparation it protects takes about a millisecond (certificate check, two endpoint matches);
+  /// 100 ms leaves room for a loaded machine and costs at most 0.1 s per participant at start-up.
+  static constexpr std::chrono::milliseconds kSecureDiscoverySpacing{100};
+
+  void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
+                                eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override;
+#if HAVE_SECURITY
+  void onParticipantAuthentication(eprosima::fastdds::dds::DomainParticipant* participant,
+                                   eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) override;
+#endif
+
+ private:
+  std::string own_name_;
+  bool space_secure_discoveries_ = false;
+  std::mutex mutex_;
+  std::chrono::steady_clock::time_point last_discovery_done_{};
+  std::map<std::string, std::uint64_t> refusals_;  // GUID prefix -> failed authentications
+};
+
 /// The DDS entities of a participant. Shared by the Participant and its endpoints, so the
 /// participant is torn down only after its last endpoint is gone, whatever the destruction order.
 class ParticipantCore {
  public:
   /// security: the DDS Security material the participant was created with, if any.
+  /// event_log: the participant's listener (owned here so it outlives the participant), or null.
   ParticipantCore(eprosima::fastdds::dds::DomainParticipant* participant, std::string description,
-                  std::optional<SecurityMaterial> security = std::nullopt);
+                  std::optional<SecurityMaterial> security = std::nullopt,
+                  std::unique_ptr<ParticipantEventLog> event_log = nullptr);
   ~ParticipantCore();
   ParticipantCore(const ParticipantCore&) = delete;
   ParticipantCore& operator=(const ParticipantCore&) = delete;
@@ -69,6 +122,7 @@ class ParticipantCore {
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   std::string description_;
   std::optional<SecurityMaterial> security_;
+  std::unique_ptr<ParticipantEventLog> event_log_;
   std::mutex mutex_;  // topic creation and type registration
 };
 }  // namespace detail
