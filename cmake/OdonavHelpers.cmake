@@ -9,6 +9,8 @@ function(odonav_add_gtest name)
   set(target odonav-test-${name})
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gmock GTest::gtest_main)
+  # tests/support: what the multi-process tests share (child processes, scratch folders).
+  target_include_directories(${target} PRIVATE ${PROJECT_SOURCE_DIR}/tests/support)
   target_compile_definitions(${target} PRIVATE
     ODONAV_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     ODONAV_BINARY_DIR="${PROJECT_BINARY_DIR}"

@@ -57,6 +57,7 @@ using namespace std::chrono_literals;
 using odonav::multihost::Host;
 using odonav::multihost::VirtualNetwork;
 using odonav::test::ChildProcess;
+using odonav::test::read_text;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
@@ -64,13 +65,6 @@ const fs::path kSource = ODONAV_SOURCE_DIR;
 const fs::path kBin = fs::path(ODONAV_BINARY_DIR) / "bin";
 constexpr const char* kVehicle = "test-vehicle";
 constexpr int kSeed = 1;
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 std::string tail_of(const fs::path& path, std::size_t lines = 25) {
   std::vector<std::string> all;

@@ -1,12 +1,8 @@
 #pragma once
-// Helpers of the node tests: a child process that is always killed on failure, a short simulated
-// dataset reduced to what survives the wire (stamps in ns, angles in degrees), sample -> message
-// builders, and a collecting reader.
+// Helpers of the node tests: a short simulated dataset reduced to what survives the wire (stamps
+// in ns, angles in degrees), sample -> message builders, and a collecting reader; child processes
+// come from tests/support/child_process.hpp.
 #include <gtest/gtest.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <cstdlib>
@@ -16,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "child_process.hpp"
 #include "core/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dds/endpoints.hpp"
@@ -27,70 +24,9 @@
 #include "odonav/msg/Odometer.h"
 #include "odonav/topics.hpp"
 
-extern char** environ;
-
 namespace odonav::test {
 
 inline constexpr const char* kVehicle = "test-vehicle";
-
-/// `fastdds shm clean` (removes only unused shared-memory segments; safe while others run).
-inline void shm_clean() { [[maybe_unused]] int rc = std::system("fastdds shm clean >/dev/null 2>&1"); }
-
-/// A child process started with posix_spawn. The destructor kills it (SIGKILL) if it still runs,
-/// so a failing test never leaves an orphan.
-class ChildProcess {
- public:
-  ChildProcess(const std::string& path, const std::vector<std::string>& args) {
-    std::vector<char*> argv;
-    argv.push_back(const_cast<char*>(path.c_str()));
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    if (posix_spawn(&pid_, path.c_str(), nullptr, nullptr, argv.data(), environ) != 0) pid_ = -1;
-  }
-  ~ChildProcess() {
-    if (pid_ > 0 && !exited_) {
-      ::kill(pid_, SIGKILL);
-      int status = 0;
-      waitpid(pid_, &status, 0);
-    }
-  }
-  ChildProcess(const ChildProcess&) = delete;
-  ChildProcess& operator=(const ChildProcess&) = delete;
-
-  bool started() const { return pid_ > 0; }
-  void signal(int sig) {
-    if (pid_ > 0 && !exited_) ::kill(pid_, sig);
-  }
-  /// Waits up to timeout for the exit; true if it exited (exit_code() then valid).
-  bool wait_exit(std::chrono::milliseconds timeout) {
-    const auto end = std::chrono::steady_clock::now() + timeout;
-    while (!exited_) {
-      int status = 0;
-      const pid_t r = waitpid(pid_, &status, WNOHANG);
-      if (r == pid_) {
-        exited_ = true;
-        exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-        break;
-      }
-      if (std::chrono::steady_clock::now() > end) return false;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    return true;
-  }
-  bool running() {
-    if (exited_) return false;
-    return !wait_exit(std::chrono::milliseconds(0));
-  }
-  int exit_code() const { return exit_code_; }
-
- private:
-  pid_t pid_ = -1;
-  bool exited_ = false;
-  int exit_code_ = -1;
-};
-
-/// Path of an odonav executable of this build.
-inline std::string binary(const std::string& name) { return std::string(ODONAV_BINARY_DIR) + "/bin/" + name; }
 
 /// The common flags of a node under test: its domain, the loopback profile, the test vehicle.
 inline std::vector<std::string> node_args(int domain, double max_wait_s, std::vector<std::string> extra = {}) {

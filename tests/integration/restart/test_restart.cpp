@@ -37,29 +37,8 @@ using std::chrono::seconds;
 
 constexpr const char* kIdentification = "odonav-identification";
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string fresh_dir(const std::string& name) {
-  const std::string dir = std::string(ODONAV_BINARY_DIR) + "/test-restart/" + name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-/// `binary args... > log 2>&1` through the shell's exec, so the pid is the component's own.
-std::unique_ptr<ChildProcess> start_logged(const std::string& name, const std::vector<std::string>& args,
-                                           const std::string& log) {
-  std::string cmd = "exec '" + binary(name) + "'";
-  for (const auto& a : args) cmd += " '" + a + "'";
-  cmd += " >'" + log + "' 2>&1";
-  auto p = std::make_unique<ChildProcess>("/bin/sh", std::vector<std::string>{"-c", cmd});
-  return p;
-}
+/// This suite's scratch folder for one test (as a string: the tests build paths with +).
+std::string suite_dir(const std::string& name) { return fresh_dir("test-restart", name).string(); }
 
 double stamp_s(const msg::ScaleFactor& m) { return odonav::dds::to_seconds(m.header().stamp()); }
 double stamp_s(const msg::DeadReckoning& m) { return odonav::dds::to_seconds(m.header().stamp()); }
@@ -194,12 +173,12 @@ TEST_F(IdentificationRestart, KillNineMidRunResumesFromTheCheckpoint) {
   DriveResult reference;
   {
     SCOPED_TRACE("uninterrupted run");
-    drive(100, fresh_dir("uninterrupted"), false, reference);
+    drive(100, suite_dir("uninterrupted"), false, reference);
   }
   if (HasFatalFailure()) return;
   shm_clean();
   DriveResult killed;
-  const std::string dir = fresh_dir("killed");
+  const std::string dir = suite_dir("killed");
   {
     SCOPED_TRACE("killed run");
     drive(101, dir, true, killed);
@@ -253,7 +232,7 @@ TEST_F(IdentificationRestart, KillNineMidRunResumesFromTheCheckpoint) {
 }
 
 TEST_F(IdentificationRestart, CorruptCheckpointsAreMovedAsideAndTheNodeStartsFromNominal) {
-  const std::string dir = fresh_dir("corrupt");
+  const std::string dir = suite_dir("corrupt");
   const std::string state = dir + "/state";
   fs::create_directories(state);
   const std::string ckpt = state + "/identification-" + std::string(kVehicle) + ".ckpt";
@@ -352,7 +331,7 @@ TEST_F(IdentificationRestart, ResentStreamIsNotCountedTwiceAfterARestore) {
   // (t = last GNSS epoch). Run 2: same state directory, the same 40 s sent again: every sample
   // predates the checkpoint, so nothing is processed twice: the only K published is the restored
   // one, equal to run 1's last K, with run 1's counters.
-  const std::string dir = fresh_dir("resent");
+  const std::string dir = suite_dir("resent");
   const std::string state = dir + "/state";
   struct Run {
     std::vector<msg::ScaleFactor> k;
@@ -413,7 +392,7 @@ namespace {
 
 TEST_F(IdentificationRestart, LateReaderAfterARestartWithNoInputGetsTheLastKFromPersistence) {
   constexpr int kDomain = 105;
-  const std::string dir = fresh_dir("persistence");
+  const std::string dir = suite_dir("persistence");
   const std::string state = dir + "/state";
   std::optional<msg::ScaleFactor> last_before_kill;
   std::unique_ptr<ChildProcess> identification;

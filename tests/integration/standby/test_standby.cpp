@@ -41,27 +41,8 @@ constexpr const char* kStandby = "identification/standby";
 constexpr double kDurationS = 40.0;    // event time = wall time (real-time pace)
 constexpr double kKillAtEventS = 22.0;  // K converged by then; 18 s of data follow
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string fresh_dir(const std::string& name) {
-  const std::string dir = std::string(ODONAV_BINARY_DIR) + "/test-standby/" + name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-std::unique_ptr<ChildProcess> start_logged(const std::string& name, const std::vector<std::string>& args,
-                                           const std::string& log) {
-  std::string cmd = "exec '" + binary(name) + "'";
-  for (const auto& a : args) cmd += " '" + a + "'";
-  cmd += " >'" + log + "' 2>&1";
-  return std::make_unique<ChildProcess>("/bin/sh", std::vector<std::string>{"-c", cmd});
-}
+/// This suite's scratch folder for one test (as a string: the tests build paths with +).
+std::string suite_dir(const std::string& name) { return fresh_dir("test-standby", name).string(); }
 
 double stamp_s(const msg::ScaleFactor& m) { return odonav::dds::to_seconds(m.header().stamp()); }
 double stamp_s(const msg::DeadReckoning& m) { return odonav::dds::to_seconds(m.header().stamp()); }
@@ -199,7 +180,7 @@ TEST_F(HotStandby, PrimaryKilledStandbyTakesOverWithinOneSecondAndAccuracyHolds)
   RunResult reference;
   {
     SCOPED_TRACE("uninterrupted run");
-    run(106, fresh_dir("uninterrupted"), false, reference);
+    run(106, suite_dir("uninterrupted"), false, reference);
   }
   if (HasFatalFailure()) return;
   // Both instances alive all along: once the primary has been heard, the strongest is the only one
@@ -216,7 +197,7 @@ TEST_F(HotStandby, PrimaryKilledStandbyTakesOverWithinOneSecondAndAccuracyHolds)
   shm_clean();
 
   RunResult failover;
-  const std::string dir = fresh_dir("failover");
+  const std::string dir = suite_dir("failover");
   {
     SCOPED_TRACE("primary killed");
     run(107, dir, true, failover);
