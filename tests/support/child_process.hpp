@@ -47,13 +47,15 @@ inline std::filesystem::path fresh_dir(const std::string& suite, const std::stri
 }
 
 /// A child process started with posix_spawn (so its pid is the program's own), standard output
-/// and error inherited or written to files (the same file for both if they are equal). The
-/// destructor kills it (SIGKILL) and reaps it if it still runs, so a failing test never leaves
-/// an orphan.
+/// and error inherited or written to files (the same file for both if they are equal), in a
+/// process group of its own if asked (for a program that starts daemons: signal -pid() to reach
+/// them all). The destructor kills it (SIGKILL) and reaps it if it still runs, so a failing test
+/// never leaves an orphan.
 class ChildProcess {
  public:
   ChildProcess(const std::string& path, const std::vector<std::string>& args,
-               const std::filesystem::path& out_file = {}, const std::filesystem::path& err_file = {})
+               const std::filesystem::path& out_file = {}, const std::filesystem::path& err_file = {},
+               bool own_process_group = false)
       : out_(out_file), err_(err_file) {
     std::vector<char*> argv;
     argv.push_back(const_cast<char*>(path.c_str()));
@@ -70,7 +72,14 @@ class ChildProcess {
         posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err_.c_str(), kFlags, 0644);
       }
     }
-    if (posix_spawn(&pid_, path.c_str(), &actions, nullptr, argv.data(), environ) != 0) pid_ = -1;
+    posix_spawnattr_t attributes;
+    posix_spawnattr_init(&attributes);
+    if (own_process_group) {
+      posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+      posix_spawnattr_setpgroup(&attributes, 0);
+    }
+    if (posix_spawn(&pid_, path.c_str(), &actions, &attributes, argv.data(), environ) != 0) pid_ = -1;
+    posix_spawnattr_destroy(&attributes);
     posix_spawn_file_actions_destroy(&actions);
   }
   ~ChildProcess() {

@@ -1,6 +1,8 @@
 #pragma once
-// Helpers of the live-source tests: gpsfake on a loopback port, free ports, a test directory.
+// Helpers of the live-source tests: gpsfake on a loopback port, a socat pty pair, free ports, a
+// test directory.
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -78,48 +80,70 @@ inline void write_gpsfake_input(const std::filesystem::path& log, const std::fil
 /// it started), SIGTERM first, then SIGKILL, so no daemon outlives a failing test.
 class GpsfakeProcess {
  public:
-  GpsfakeProcess(const std::vector<std::string>& args) {
-    std::vector<char*> argv{const_cast<char*>(kGpsfake)};
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    posix_spawnattr_t attr;
-    posix_spawnattr_init(&attr);
-    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
-    posix_spawnattr_setpgroup(&attr, 0);
-    if (posix_spawn(&pid_, kGpsfake, nullptr, &attr, argv.data(), environ) != 0) pid_ = -1;
-    posix_spawnattr_destroy(&attr);
-  }
+  explicit GpsfakeProcess(const std::vector<std::string>& args) : process_(kGpsfake, args, {}, {}, true) {}
   ~GpsfakeProcess() {
-    if (pid_ <= 0) return;
-    ::kill(-pid_, SIGTERM);
-    if (!wait_exit(std::chrono::seconds(5))) ::kill(-pid_, SIGKILL);
-    wait_exit(std::chrono::seconds(5));
-    ::kill(-pid_, SIGKILL);  // anything of the group still alive (the daemon)
+    if (!process_.started()) return;
+    const pid_t group = process_.pid();
+    ::kill(-group, SIGTERM);
+    if (!process_.wait_exit(std::chrono::seconds(5))) ::kill(-group, SIGKILL);
+    process_.wait_exit(std::chrono::seconds(5));
+    ::kill(-group, SIGKILL);  // anything of the group still alive (the daemon)
   }
   GpsfakeProcess(const GpsfakeProcess&) = delete;
   GpsfakeProcess& operator=(const GpsfakeProcess&) = delete;
-  bool started() const { return pid_ > 0; }
+  bool started() const { return process_.started(); }
   /// Waits for gpsfake's exit (it ends after the log with -1); true if it exited.
-  bool wait_exit(std::chrono::milliseconds timeout) {
-    const auto end = std::chrono::steady_clock::now() + timeout;
-    while (!exited_) {
-      int status = 0;
-      if (waitpid(pid_, &status, WNOHANG) == pid_) {
-        exited_ = true;
-        exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-        break;
-      }
-      if (std::chrono::steady_clock::now() > end) return false;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    return true;
-  }
-  int exit_code() const { return exit_code_; }
+  bool wait_exit(std::chrono::milliseconds timeout) { return process_.wait_exit(timeout); }
+  int exit_code() const { return process_.exit_code(); }
 
  private:
-  pid_t pid_ = -1;
-  bool exited_ = false;
-  int exit_code_ = -1;
+  ChildProcess process_;
+};
+
+/// A pseudo-terminal pair made by socat, as a serial device and its cable: the gateway opens
+/// gateway_end() as its serial source, the test writes what the device would send with write().
+/// The device end stays open for the pair's life: closing it makes socat hang up the other end.
+class PtyPair {
+ public:
+  /// socat: its path; dir: where the two links (gateway-tty, device-tty) are made.
+  PtyPair(const std::string& socat, const std::filesystem::path& dir)
+      : gateway_end_((dir / "gateway-tty").string()),
+        device_end_((dir / "device-tty").string()),
+        socat_(socat, {"-d", "pty,raw,echo=0,link=" + gateway_end_, "pty,raw,echo=0,link=" + device_end_}) {
+    if (!socat_.started()) {
+      error_ = "cannot start " + socat;
+      return;
+    }
+    const auto both = [&] { return std::filesystem::exists(gateway_end_) && std::filesystem::exists(device_end_); };
+    for (int i = 0; i < 250 && !both(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (!both()) {
+      error_ = "socat made no pty pair in 5 s";
+      return;
+    }
+    fd_ = ::open(device_end_.c_str(), O_WRONLY | O_NOCTTY);
+    if (fd_ < 0) error_ = "cannot open " + device_end_ + " for writing";
+  }
+  ~PtyPair() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  PtyPair(const PtyPair&) = delete;
+  PtyPair& operator=(const PtyPair&) = delete;
+
+  /// Whether the pair is ready; error() says why not.
+  bool ok() const { return fd_ >= 0; }
+  const std::string& error() const { return error_; }
+  const std::string& gateway_end() const { return gateway_end_; }
+  /// Writes all of text to the device end; false if the write was short or failed.
+  bool write(const std::string& text) {
+    return ::write(fd_, text.data(), text.size()) == static_cast<ssize_t>(text.size());
+  }
+
+ private:
+  std::string gateway_end_;
+  std::string device_end_;
+  ChildProcess socat_;
+  int fd_ = -1;
+  std::string error_;
 };
 
 /// gpsfake replaying `input` once (-1) into a gpsd on 127.0.0.1:port, one sentence every 10 ms.

@@ -14,6 +14,7 @@
 #include <fstream>
 
 #include "../nodes/node_test_support.hpp"
+#include "live_test_support.hpp"
 #include "core/line_protocol.hpp"
 #include "core/sensor_source.hpp"
 
@@ -222,20 +223,11 @@ TEST(LiveGateway, SerialThroughASocatPtyPairCarriesASimulatedDrive) {
   const fs::path dir = fresh_dir("serial-drive");
   const Dataset d = simulated_drive(dir / "dataset");
   const LineScript script = line_script(d);
-  const std::string gw_end = (dir / "gateway-tty").string(), feed_end = (dir / "device-tty").string();
-  ChildProcess pair(socat, {"-d", "pty,raw,echo=0,link=" + gw_end, "pty,raw,echo=0,link=" + feed_end});
-  ASSERT_TRUE(pair.started());
-  for (int i = 0; i < 250 && !(fs::exists(gw_end) && fs::exists(feed_end)); ++i) std::this_thread::sleep_for(20ms);
-  ASSERT_TRUE(fs::exists(gw_end) && fs::exists(feed_end)) << "socat made no pty pair";
-  // Kept open to the end: closing the device end makes socat hang up the gateway's end.
-  const int fd = ::open(feed_end.c_str(), O_WRONLY | O_NOCTTY);
-  ASSERT_GE(fd, 0) << feed_end;
-  run_and_compare(91, "serial:" + gw_end + ":115200", d, script, [&](const WaitForOdometer& wait) {
-    send_paced(script, "\r\n", [&](const std::string& text) {
-      ASSERT_EQ(::write(fd, text.data(), text.size()), static_cast<ssize_t>(text.size()));
-    }, wait, false);
+  PtyPair pty(socat, dir);
+  ASSERT_TRUE(pty.ok()) << pty.error();
+  run_and_compare(91, "serial:" + pty.gateway_end() + ":115200", d, script, [&](const WaitForOdometer& wait) {
+    send_paced(script, "\r\n", [&](const std::string& text) { ASSERT_TRUE(pty.write(text)); }, wait, false);
   });
-  ::close(fd);
 }
 
 }  // namespace

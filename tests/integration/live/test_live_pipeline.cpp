@@ -174,19 +174,10 @@ TEST(LivePipeline, SerialLinesThroughAPtyPairReachTheSameKAsTheReplay) {
   const DriveAndReplay r = drive_and_replay("pipeline-serial", 124);
   if (HasFatalFailure()) return;
   const fs::path dir = fresh_live_dir("pipeline-serial-tty");
-  const std::string gw_end = (dir / "gateway-tty").string(), feed_end = (dir / "device-tty").string();
-  ChildProcess pair(socat, {"-d", "pty,raw,echo=0,link=" + gw_end, "pty,raw,echo=0,link=" + feed_end});
-  ASSERT_TRUE(pair.started());
-  for (int i = 0; i < 250 && !(fs::exists(gw_end) && fs::exists(feed_end)); ++i) std::this_thread::sleep_for(20ms);
-  ASSERT_TRUE(fs::exists(gw_end) && fs::exists(feed_end)) << "socat made no pty pair";
-  // Kept open to the end: closing the device end makes socat hang up the gateway's end.
-  const int fd = ::open(feed_end.c_str(), O_WRONLY | O_NOCTTY);
-  ASSERT_GE(fd, 0) << feed_end;
-  const PipelineRun live = live_pipeline(125, "serial:" + gw_end + ":115200", r, [&](const std::string& line) {
-    const std::string text = line + "\r\n";
-    ASSERT_EQ(::write(fd, text.data(), text.size()), static_cast<ssize_t>(text.size()));
-  });
-  ::close(fd);
+  PtyPair pty(socat, dir);
+  ASSERT_TRUE(pty.ok()) << pty.error();
+  const PipelineRun live = live_pipeline(125, "serial:" + pty.gateway_end() + ":115200", r,
+                                         [&](const std::string& line) { ASSERT_TRUE(pty.write(line + "\r\n")); });
   expect_same_k(r, live, "serial");
 }
 
