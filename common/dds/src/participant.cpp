@@ -6,6 +6,7 @@
 #include <fastdds/rtps/common/Guid.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -108,6 +109,7 @@ void ParticipantEventLog::on_participant_discovery(DomainParticipant* /*particip
         // Fast DDS calls this before preparing the new participant's handshake (see the class
         // comment): wait until the previous one has had kSecureDiscoverySpacing to finish its own.
         std::lock_guard<std::mutex> lock(mutex_);
+        peers_[guid] = Peer{name, std::chrono::steady_clock::now()};
         const auto ready = last_discovery_done_ + kSecureDiscoverySpacing;
         if (std::chrono::steady_clock::now() < ready) std::this_thread::sleep_until(ready);
         last_discovery_done_ = std::chrono::steady_clock::now();
@@ -122,6 +124,7 @@ void ParticipantEventLog::on_participant_discovery(DomainParticipant* /*particip
       {
         std::lock_guard<std::mutex> lock(mutex_);
         refusals_.erase(guid);
+        peers_.erase(guid);
       }
       if (info.status == Status::REMOVED_PARTICIPANT) {
         spdlog::info("odonav::dds: {}: participant '{}' ({}) left", own_name_, name, guid);
@@ -139,6 +142,12 @@ void ParticipantEventLog::onParticipantAuthentication(
     DomainParticipant* /*participant*/, eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) {
   using Status = eprosima::fastrtps::rtps::ParticipantAuthenticationInfo::AUTHENTICATION_STATUS;
   const std::string guid = guid_text(info.guid);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto peer = peers_.find(guid);
+    if (peer != peers_.end())
+      peer->second.auth = info.status == Status::AUTHORIZED_PARTICIPANT ? Peer::Auth::kAuthenticated : Peer::Auth::kRefused;
+  }
   if (info.status == Status::AUTHORIZED_PARTICIPANT) {
     spdlog::info("odonav::dds: {} authenticated participant {}", own_name_, guid);
     return;
@@ -157,6 +166,21 @@ void ParticipantEventLog::onParticipantAuthentication(
   }
 }
 #endif
+
+std::vector<ParticipantEventLog::UnauthenticatedParticipant> ParticipantEventLog::unauthenticated(
+    std::chrono::steady_clock::duration pending_for) const {
+  const auto now = std::chrono::steady_clock::now();
+  std::vector<UnauthenticatedParticipant> out;
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& [guid, peer] : peers_) {
+    const auto age = now - peer.discovered;
+    const bool refused = peer.auth == Peer::Auth::kRefused;
+    if (refused || (peer.auth == Peer::Auth::kPending && age >= pending_for))
+      out.push_back({peer.name, guid, refused, std::chrono::duration<double>(age).count()});
+  }
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.age_s > b.age_s; });
+  return out;
+}
 
 ParticipantCore::ParticipantCore(DomainParticipant* participant, std::string description,
                                  std::optional<SecurityMaterial> security,
@@ -284,6 +308,13 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
   }
   if (security) spdlog::info("odonav::dds: participant in domain {} uses {}", domain_id_, security->describe());
   core_ = std::make_shared<detail::ParticipantCore>(participant, description, security, std::move(event_log));
+}
+
+std::vector<detail::ParticipantEventLog::UnauthenticatedParticipant> Participant::unauthenticated_participants(
+    std::chrono::steady_clock::duration pending_for) const {
+  const auto* log = core_->event_log();
+  return log == nullptr ? std::vector<detail::ParticipantEventLog::UnauthenticatedParticipant>{}
+                        : log->unauthenticated(pending_for);
 }
 
 }  // namespace odonav::dds

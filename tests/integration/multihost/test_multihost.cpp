@@ -658,6 +658,29 @@ TEST_F(MultiHost, SecurePipelineAcrossHostsKeepsIntrudersOut) {
   bool ground_saw_dr = false;
   for (const auto& s : rig.snapshots()) ground_saw_dr |= s.dr_stamp_s().has_value();
   EXPECT_TRUE(ground_saw_dr) << "the secure ground monitor never received dead reckoning\n" << rig.log_tail("monitor");
+  // The health view shows the intruders (ComponentRuntime::publish_health: "DDS Security refused
+  // '<name>'" or "... handshake with '<name>' incomplete"), and only them: no legitimate pair
+  // stalled. They take the names odonav-rogue (no credentials) and odonav-identification
+  // (foreign CA); at most those two are counted.
+  std::size_t snapshots_with_components = 0, snapshots_showing_intruders = 0;
+  const std::regex stranger_re("DDS Security (refused '([^']+)'|handshake with '([^']+)' incomplete)");
+  for (const auto& s : rig.snapshots()) {
+    if (s.vehicle.is_null()) continue;
+    ++snapshots_with_components;
+    bool shows = false;
+    for (const auto& c : s.vehicle.at("components")) {
+      const std::string reason = c.at("reason").get<std::string>();
+      std::smatch m;
+      if (!std::regex_search(reason, m, stranger_re)) continue;
+      shows = true;
+      const std::string who = m[2].matched ? m[2].str() : m[3].str();
+      EXPECT_TRUE(who == "odonav-rogue" || who == "odonav-identification") << c.at("component") << ": " << reason;
+      EXPECT_LE(c.at("counters").at("dds_unauthenticated_participants").get<double>(), 2.0) << reason;
+    }
+    snapshots_showing_intruders += shows ? 1 : 0;
+  }
+  EXPECT_GT(snapshots_with_components, 50u);
+  EXPECT_GT(snapshots_showing_intruders, 0u) << "no component's health ever showed the intruders";
 
   // The intruders received nothing of the vehicle, only (the control) their own fake samples.
   for (const auto& [name, fake_k] : {std::pair<std::string, double>{"no-credentials", kFakeNoCredentials},

@@ -117,6 +117,41 @@ TEST(ParticipantEvents, ARefusedParticipantIsWarnedAboutOnceUntilItLeaves) {
   EXPECT_EQ(capture.count("failed DDS Security authentication"), 2);
 }
 
+TEST(ParticipantEvents, RefusedAndIncompleteHandshakesAreListedUntilTheParticipantLeaves) {
+  LogCapture capture;  // keeps the test's output clean
+  const std::chrono::seconds now{0};
+  ParticipantEventLog log("odonav-recorder", true);
+  const Remote dr("odonav-dead-reckoning", 0x0b), cal("odonav-calibration", 0x0c), rogue("odonav-rogue", 0x0d),
+      gone("odonav-gateway", 0x0e);
+  for (const Remote* r : {&dr, &cal, &rogue, &gone}) discover(log, *r, ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT);
+  authenticate(log, dr, ParticipantAuthenticationInfo::AUTHORIZED_PARTICIPANT);
+  authenticate(log, rogue, ParticipantAuthenticationInfo::UNAUTHORIZED_PARTICIPANT);
+  discover(log, gone, ParticipantDiscoveryInfo::DROPPED_PARTICIPANT);
+  // Discovered first, the calibration (still pending) comes before the rogue (refused).
+  auto strangers = log.unauthenticated(now);
+  ASSERT_EQ(strangers.size(), 2u);
+  EXPECT_EQ(strangers[0].name, "odonav-calibration");
+  EXPECT_EQ(strangers[0].guid, "0c.0c.0c.0c.0c.0c.0c.0c.0c.0c.0c.0c");
+  EXPECT_FALSE(strangers[0].refused);
+  EXPECT_EQ(strangers[1].name, "odonav-rogue");
+  EXPECT_TRUE(strangers[1].refused);
+  EXPECT_GE(strangers[0].age_s, strangers[1].age_s);
+  // A pending handshake counts only once it is old enough (discovered well under an hour ago);
+  // a refusal at once.
+  strangers = log.unauthenticated(std::chrono::hours(1));
+  ASSERT_EQ(strangers.size(), 1u);
+  EXPECT_EQ(strangers[0].name, "odonav-rogue");
+  // The handshake completes; the rogue leaves.
+  authenticate(log, cal, ParticipantAuthenticationInfo::AUTHORIZED_PARTICIPANT);
+  discover(log, rogue, ParticipantDiscoveryInfo::REMOVED_PARTICIPANT);
+  EXPECT_TRUE(log.unauthenticated(now).empty());
+
+  // Without DDS Security nothing is listed: there is no handshake.
+  ParticipantEventLog plain("odonav-recorder", false);
+  discover(plain, cal, ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT);
+  EXPECT_TRUE(plain.unauthenticated(now).empty());
+}
+
 TEST(ParticipantEvents, SecureDiscoveriesAreSpaced) {
   using Clock = std::chrono::steady_clock;
   const auto spacing = ParticipantEventLog::kSecureDiscoverySpacing;

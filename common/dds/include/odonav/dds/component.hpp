@@ -21,6 +21,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <thread>
 
@@ -115,9 +116,16 @@ class ComponentRuntime {
 
   /// Publishes Health if a second has passed since the last (force: now, e.g. a state change; also
   /// forced once after each command so its acknowledgement is seen at once).
-  /// Counters are the caller's; the acknowledgement is the last command's.
+  /// Counters are the caller's; the acknowledgement is the last command's. With DDS Security, a
+  /// participant of the domain it exchanges no data with turns an OK level into WARN, with the
+  /// reason "DDS Security refused '<name>'" or "DDS Security handshake with '<name>' incomplete for
+  /// N s" (pending for kHandshakeStalledAfter), "(and N more)", and the counter
+  /// dds_unauthenticated_participants; an incomplete handshake is also logged once as a warning.
   void publish_health(odonav::msg::HealthState state, odonav::msg::HealthLevel level, const std::string& reason,
                       const HealthCounters& counters, bool force = false);
+
+  /// A handshake normally completes within about a second (its messages are resent every second).
+  static constexpr std::chrono::seconds kHandshakeStalledAfter{10};
 
  private:
   void on_command(const odonav::msg::Command& command);
@@ -128,6 +136,7 @@ class ComponentRuntime {
   std::unique_ptr<HealthPublisher> health_;
   CommandHandler command_handler_;
   bool ack_pending_ = false;  // worker thread: a command was acknowledged, tell it at once
+  std::set<std::string> stalled_handshakes_warned_;  // GUIDs already logged as incomplete
   std::unique_ptr<Reader<odonav::msg::Command>> commands_;
 
   mutable std::mutex queue_mutex_;

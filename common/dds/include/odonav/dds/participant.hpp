@@ -16,6 +16,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "odonav/dds/security.hpp"
 
@@ -75,6 +76,21 @@ class ParticipantEventLog : public eprosima::fastdds::dds::DomainParticipantList
   /// 100 ms leaves room for a loaded machine and costs at most 0.1 s per participant at start-up.
   static constexpr std::chrono::milliseconds kSecureDiscoverySpacing{100};
 
+  /// A participant of the domain this secure participant does not exchange data with: refused by
+  /// DDS Security (certificate not from our CA, bad permissions: an intruder or a misconfigured
+  /// peer), or discovered a while ago with a handshake that neither succeeded nor failed (a peer
+  /// that refused OUR certificate, i.e. one of another PKI, or the Fast DDS race of the class
+  /// comment, or a network path that drops one direction). Kept until it leaves.
+  struct UnauthenticatedParticipant {
+    std::string name;     ///< the name it announced
+    std::string guid;     ///< its GUID prefix
+    bool refused = false; ///< refused (true) or handshake incomplete (false)
+    double age_s = 0.0;   ///< seconds since it was discovered (steady clock)
+  };
+  /// The refused ones, and those with a handshake pending for at least pending_for; the longest
+  /// known first. Always empty without DDS Security.
+  std::vector<UnauthenticatedParticipant> unauthenticated(std::chrono::steady_clock::duration pending_for) const;
+
   void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
                                 eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override;
 #if HAVE_SECURITY
@@ -85,9 +101,15 @@ class ParticipantEventLog : public eprosima::fastdds::dds::DomainParticipantList
  private:
   std::string own_name_;
   bool space_secure_discoveries_ = false;
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::chrono::steady_clock::time_point last_discovery_done_{};
   std::map<std::string, std::uint64_t> refusals_;  // GUID prefix -> failed authentications
+  struct Peer {
+    std::string name;
+    std::chrono::steady_clock::time_point discovered;
+    enum class Auth { kPending, kAuthenticated, kRefused } auth = Auth::kPending;
+  };
+  std::map<std::string, Peer> peers_;  // GUID prefix -> peer, secure participants only, until it leaves
 };
 
 /// The DDS entities of a participant. Shared by the Participant and its endpoints, so the
@@ -110,6 +132,8 @@ class ParticipantCore {
   const std::string& description() const { return description_; }
   /// The DDS Security material in use, nullopt for a participant without the layer's security.
   const std::optional<SecurityMaterial>& security() const { return security_; }
+  /// The participant's event log (null if none was given).
+  const ParticipantEventLog* event_log() const { return event_log_.get(); }
 
   /// The topic `topic_name` of `type`, registering the type and creating the topic on first use.
   /// Throws if registration or creation fails, or if the topic exists with another type.
@@ -145,6 +169,10 @@ class Participant {
   int domain_id() const { return domain_id_; }
   /// The DDS Security material added by the layer (nullopt: none; the profile may still have its own).
   const std::optional<SecurityMaterial>& security() const { return core_->security(); }
+  /// With DDS Security: the participants of the domain it does not exchange data with
+  /// (ParticipantEventLog::unauthenticated). Components report them in their Health (WARN).
+  std::vector<detail::ParticipantEventLog::UnauthenticatedParticipant> unauthenticated_participants(
+      std::chrono::steady_clock::duration pending_for) const;
 
   /// The Fast DDS participant, for what this thin layer does not wrap.
   eprosima::fastdds::dds::DomainParticipant& native() const { return core_->participant(); }
