@@ -106,10 +106,13 @@ void ParticipantEventLog::on_participant_discovery(DomainParticipant* /*particip
     case Status::DISCOVERED_PARTICIPANT: {
       spdlog::info("odonav::dds: {} discovered participant '{}' ({})", own_name_, name, guid);
       if (space_secure_discoveries_) {
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          peers_[guid] = Peer{name, std::chrono::steady_clock::now()};
+        }
         // Fast DDS calls this before preparing the new participant's handshake (see the class
         // comment): wait until the previous one has had kSecureDiscoverySpacing to finish its own.
-        std::lock_guard<std::mutex> lock(mutex_);
-        peers_[guid] = Peer{name, std::chrono::steady_clock::now()};
+        std::lock_guard<std::mutex> spacing(spacing_mutex_);
         const auto ready = last_discovery_done_ + kSecureDiscoverySpacing;
         if (std::chrono::steady_clock::now() < ready) std::this_thread::sleep_until(ready);
         last_discovery_done_ = std::chrono::steady_clock::now();
@@ -123,7 +126,6 @@ void ParticipantEventLog::on_participant_discovery(DomainParticipant* /*particip
     case Status::DROPPED_PARTICIPANT: {
       {
         std::lock_guard<std::mutex> lock(mutex_);
-        refusals_.erase(guid);
         peers_.erase(guid);
       }
       if (info.status == Status::REMOVED_PARTICIPANT) {
@@ -142,27 +144,25 @@ void ParticipantEventLog::onParticipantAuthentication(
     DomainParticipant* /*participant*/, eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) {
   using Status = eprosima::fastrtps::rtps::ParticipantAuthenticationInfo::AUTHENTICATION_STATUS;
   const std::string guid = guid_text(info.guid);
+  const bool authorized = info.status == Status::AUTHORIZED_PARTICIPANT;
+  std::uint64_t refusals = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    const auto peer = peers_.find(guid);
-    if (peer != peers_.end())
-      peer->second.auth = info.status == Status::AUTHORIZED_PARTICIPANT ? Peer::Auth::kAuthenticated : Peer::Auth::kRefused;
+    auto peer = peers_.find(guid);
+    if (peer == peers_.end()) peer = peers_.emplace(guid, Peer{"", std::chrono::steady_clock::now()}).first;
+    peer->second.auth = authorized ? Peer::Auth::kAuthenticated : Peer::Auth::kRefused;
+    if (!authorized) refusals = ++peer->second.refusals;
   }
-  if (info.status == Status::AUTHORIZED_PARTICIPANT) {
+  if (authorized) {
     spdlog::info("odonav::dds: {} authenticated participant {}", own_name_, guid);
     return;
   }
   // A refused participant keeps announcing itself, and is refused again each time: warn once.
-  std::uint64_t count = 0;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    count = ++refusals_[guid];
-  }
-  if (count == 1) {
+  if (refusals == 1) {
     spdlog::warn("odonav::dds: {}: participant {} failed DDS Security authentication (certificate not from "
                  "our identity CA, or invalid permissions): it gets no data", own_name_, guid);
   } else {
-    spdlog::debug("odonav::dds: {}: participant {} refused again ({} times)", own_name_, guid, count);
+    spdlog::debug("odonav::dds: {}: participant {} refused again ({} times)", own_name_, guid, refusals);
   }
 }
 #endif

@@ -101,14 +101,17 @@ class ParticipantEventLog : public eprosima::fastdds::dds::DomainParticipantList
  private:
   std::string own_name_;
   bool space_secure_discoveries_ = false;
-  mutable std::mutex mutex_;
+  // Held while a discovery waits out the spacing; never together with mutex_, so neither the
+  // authentication callbacks nor unauthenticated() (a component's worker thread) wait on it.
+  std::mutex spacing_mutex_;
   std::chrono::steady_clock::time_point last_discovery_done_{};
-  std::map<std::string, std::uint64_t> refusals_;  // GUID prefix -> failed authentications
   struct Peer {
     std::string name;
     std::chrono::steady_clock::time_point discovered;
     enum class Auth { kPending, kAuthenticated, kRefused } auth = Auth::kPending;
+    std::uint64_t refusals = 0;
   };
+  mutable std::mutex mutex_;           // peers_
   std::map<std::string, Peer> peers_;  // GUID prefix -> peer, secure participants only, until it leaves
 };
 
