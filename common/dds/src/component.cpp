@@ -175,15 +175,18 @@ void ComponentRuntime::publish_health(odonav::msg::HealthState state, odonav::ms
   const double now = unix_now_s();
   if (ack_pending_) force = true;
   ack_pending_ = false;
+  const auto publish = [&](odonav::msg::HealthLevel l, const std::string& r, const HealthCounters& c) {
+    if (force)
+      health_->publish_now(now, state, l, r, c);
+    else
+      health_->publish_if_due(now, state, l, r, c);
+  };
   // A secure peer whose handshake never completes gets no data and raises no error in Fast DDS,
   // and a refused one is someone on the network without our credentials: say so where the ground
   // station looks (deploy/README.md "DDS Security and Fast DDS 2.9").
   const auto strangers = participant_->unauthenticated_participants(kHandshakeStalledAfter);
   if (strangers.empty()) {
-    if (force)
-      health_->publish_now(now, state, level, reason, counters);
-    else
-      health_->publish_if_due(now, state, level, reason, counters);
+    publish(level, reason, counters);
     return;
   }
   for (const auto& p : strangers) {
@@ -199,14 +202,10 @@ void ComponentRuntime::publish_health(odonav::msg::HealthState state, odonav::ms
                      : "DDS Security handshake with '" + first.name + "' incomplete for " +
                            std::to_string(static_cast<long>(first.age_s)) + " s") +
       (strangers.size() > 1 ? " (and " + std::to_string(strangers.size() - 1) + " more)" : "");
-  const std::string full_reason = reason.empty() ? stranger : reason + "; " + stranger;
-  const auto full_level = level == odonav::msg::HEALTH_LEVEL_OK ? odonav::msg::HEALTH_LEVEL_WARN : level;
-  HealthCounters full_counters = counters;
-  full_counters.emplace_back("dds_unauthenticated_participants", static_cast<double>(strangers.size()));
-  if (force)
-    health_->publish_now(now, state, full_level, full_reason, full_counters);
-  else
-    health_->publish_if_due(now, state, full_level, full_reason, full_counters);
+  HealthCounters with_count = counters;
+  with_count.emplace_back("dds_unauthenticated_participants", static_cast<double>(strangers.size()));
+  publish(level == odonav::msg::HEALTH_LEVEL_OK ? odonav::msg::HEALTH_LEVEL_WARN : level,
+          reason.empty() ? stranger : reason + "; " + stranger, with_count);
 }
 
 bool wait_for_acknowledgments_logged(detail::WriterBase& writer, std::chrono::milliseconds timeout) {
