@@ -174,24 +174,11 @@ void run_and_compare(int domain, const std::string& source, const Dataset& d, co
               script.bad_checksum);
 }
 
-/// A free UDP port on 127.0.0.1 (bound to port 0, then released).
-int free_udp_port() {
-  const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof(a));
-  socklen_t len = sizeof(a);
-  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &len);
-  ::close(s);
-  return ntohs(a.sin_port);
-}
-
 TEST(LiveGateway, UdpOnLoopbackCarriesASimulatedDrive) {
   const Dataset d = simulated_drive(fresh_dir("udp-drive"));
   ASSERT_GT(d.odometer.size(), 1000u);
   const LineScript script = line_script(d);
-  const int port = free_udp_port();
+  const int port = free_loopback_port(SOCK_DGRAM);
   run_and_compare(90, "udp:127.0.0.1:" + std::to_string(port), d, script, [&](const WaitForOdometer& wait) {
     const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
     sockaddr_in to{};
