@@ -757,7 +757,7 @@ int main(int argc, char** argv) {
     std::cerr << kProgram << ": " << e.what() << "\n";
     return 2;
   }
-  // Loopback only, and no stray XML in the working directory (FAST_DDS_NOTES.md).
+  // Loopback only, and no stray XML in the working directory (docs/DDS.md §2).
   setenv("FASTRTPS_DEFAULT_PROFILES_FILE", setup.profile.c_str(), 1);
   setenv("SKIP_DEFAULT_XML", "1", 1);
   signal(SIGPIPE, SIG_IGN);

@@ -1,4 +1,4 @@
-// Dead reckoner (ALGORITHM.md §4) on synthetic drives with exact K and attitude.
+// Dead reckoner (docs/ALGORITHM.md §4) on synthetic drives with exact K and attitude.
 #include <gtest/gtest.h>
 
 #include <random>

@@ -1,4 +1,4 @@
-// Sample builder (ALGORITHM.md §2) on synthetic drives with exactly known K and trajectory.
+// Sample builder (docs/ALGORITHM.md §2) on synthetic drives with exactly known K and trajectory.
 #include <gtest/gtest.h>
 
 #include <cstring>
