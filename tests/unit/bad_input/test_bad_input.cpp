@@ -1,4 +1,4 @@
-// Bad input end to end (issue 5): what one component or the dataset reader does with garbage, on
+// Bad input end to end: what one component or the dataset reader does with garbage, on
 // simulated drives with known truth. Nothing crashes, good data is kept, every rejection is counted.
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
