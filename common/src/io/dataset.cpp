@@ -1,4 +1,4 @@
-// The odonav dataset directory, format v1: reader with every validation rule of DATASET.md, and a
+// The odonav dataset directory, format v1: reader with every validation rule of docs/DATASET.md, and a
 // writer whose output reads back to exactly the values it was given.
 #include "odonav/dataset.hpp"
 

@@ -1,4 +1,4 @@
-// Bad input end to end (issue 5): what one component or the dataset reader does with garbage, on
+// Bad input end to end: what one component or the dataset reader does with garbage, on
 // simulated drives with known truth. Nothing crashes, good data is kept, every rejection is counted.
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
@@ -166,7 +166,7 @@ TEST(BadInput, GnssVelocitySpikesOfTenMetresPerSecondAreRejectedAndKStaysWithinP
   EXPECT_NEAR(run.final_k / ref.final_k - 1.0, 0.0, 0.0005);
 }
 
-// INS missing (DATASET.md degraded mode): K from the GNSS ground speed, dead reckoning along the
+// INS missing (docs/DATASET.md degraded mode): K from the GNSS ground speed, dead reckoning along the
 // GNSS course, both flagged; nothing is rejected for want of an attitude.
 TEST(BadInput, WithoutInsTheDegradedModeIdentifiesKAndDeadReckons) {
   const sim::SimulationConfig cfg = straight_config();
