@@ -1,6 +1,7 @@
 #pragma once
 // Checkpoint of odonav-identification (issue 5): what a restarted identification needs to resume
-// instead of re-converging from the nominal K. Middleware-free; the node decides when to write.
+// instead of re-converging from the nominal K. Middleware-free; IdentificationLifecycle
+// (identification_lifecycle.hpp) decides when to write.
 //
 // File `<state-dir>/identification-<vehicle>.ckpt`, versioned text:
 //   odonav-identification-checkpoint 1
