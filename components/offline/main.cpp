@@ -88,7 +88,8 @@ int main(int argc, char** argv) {
 
   odonav::offline::OfflineParams params;
   try {
-    params.identification = odonav::identification_params_from(opts);
+    // Checked here (exit status 2 for a bad option); built again below with the dataset's facts.
+    params.identification = odonav::identification_params_for(opts, {});
     params.calibration = odonav::calibration_params_from(opts);
     params.dead_reckoning = odonav::dead_reckoning_params_from(opts);
     params.dead_reckoning.lever_arm_body_m = odonav::lever_arm_from(opts);
@@ -113,9 +114,16 @@ int main(int argc, char** argv) {
       params.dead_reckoning.lever_arm_body_m = l;
       params.calibration.lever_arm_body_m = l;
     }
-    params.identification.builder.lever_arm_body_m = params.dead_reckoning.lever_arm_body_m;
     if (params.dead_reckoning.nominal_k_m_per_pulse <= 0.0)
       params.dead_reckoning.nominal_k_m_per_pulse = dataset.meta.k_nominal_m_per_pulse.value_or(kDefaultNominalK);
+    // The same function as odonav-identification, with the same vehicle facts the launcher gives
+    // it as flags (deploy/launch): INS present, lever arm, nominal K (the pulse-jump gate's K).
+    odonav::IdentificationVehicleFacts vehicle;
+    vehicle.use_ins = dataset.has_ins();
+    vehicle.lever_arm_body_m = params.dead_reckoning.lever_arm_body_m;
+    vehicle.nominal_k_m_per_pulse = params.dead_reckoning.nominal_k_m_per_pulse;
+    vehicle.run_all_estimators = true;  // every estimator side by side
+    params.identification = odonav::identification_params_for(opts, vehicle);
 
     if (opts.get_double("coarse-k") > 0.0) {
       params.coarse_k_m_per_pulse = opts.get_double("coarse-k");
