@@ -2,10 +2,10 @@
 
 #include <spdlog/spdlog.h>
 
-#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
 
 #include <algorithm>
-#include <cstring>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -106,33 +106,20 @@ odonav::msg::GnssFix gnss_message(const GnssSample& s, const std::string& vehicl
 }
 
 namespace {
-/// The sensor writers' profile in "max" mode: odonav_sensor_writer (qos.xml: RELIABLE, VOLATILE,
-/// KEEP_LAST 200) with a 5 ms heartbeat period instead of the default 3 s. Why: readers acknowledge
-/// only in answer to a heartbeat, so each acknowledgment wait of the flow control would take up to
-/// 3 s. The period is the writer's local timing, not part of the writer/reader QoS contract.
-constexpr const char* kFastAckSensorWriterProfile = "odonav_gateway_sensor_writer_fast_ack";
-constexpr const char* kFastAckProfileXml = R"(<?xml version="1.0" encoding="UTF-8"?>
-<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"><profiles>
-  <data_writer profile_name="odonav_gateway_sensor_writer_fast_ack">
-    <topic><historyQos><kind>KEEP_LAST</kind><depth>200</depth></historyQos></topic>
-    <qos>
-      <reliability><kind>RELIABLE</kind></reliability>
-      <durability><kind>VOLATILE</kind></durability>
-    </qos>
-    <times><heartbeatPeriod><sec>0</sec><nanosec>5000000</nanosec></heartbeatPeriod></times>
-  </data_writer>
-</profiles></dds>)";
-
-std::string sensor_writer_profile(const GatewaySettings& settings) {
+/// The sensor writers' profile: odonav_sensor_writer, or in "max" mode its fast-acknowledgment
+/// variant (qos.xml, topics::kGatewayFastAckSensorWriterProfile: a 5 ms heartbeat, so each
+/// acknowledgment wait of the flow control takes milliseconds, not up to the default 3 s). A
+/// qos.xml without it (an older installation) only makes the flow control slow: warn, go on.
+std::string sensor_writer_profile(const dds::Participant& participant, const GatewaySettings& settings) {
   if (!settings.speed.as_fast_as_possible) return topics::kSensorWriterProfile;
-  static const bool loaded = eprosima::fastdds::dds::DomainParticipantFactory::get_instance()->load_XML_profiles_string(
-                                 kFastAckProfileXml, std::strlen(kFastAckProfileXml)) ==
-                             eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK;
-  if (!loaded) {
-    spdlog::warn("could not load the fast-acknowledgment writer profile: flow control will be slow");
+  eprosima::fastdds::dds::DataWriterQos qos;
+  if (participant.core()->publisher().get_datawriter_qos_from_profile(topics::kGatewayFastAckSensorWriterProfile,
+                                                                      qos) != eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+    spdlog::warn("{} has no data_writer profile '{}': flow control will be slow", participant.qos_file(),
+                 topics::kGatewayFastAckSensorWriterProfile);
     return topics::kSensorWriterProfile;
   }
-  return kFastAckSensorWriterProfile;
+  return topics::kGatewayFastAckSensorWriterProfile;
 }
 }  // namespace
 
@@ -140,9 +127,9 @@ GatewayNode::GatewayNode(dds::ComponentRuntime& runtime, const GatewaySettings& 
     : runtime_(runtime),
       settings_(settings),
       dataset_(std::move(dataset)),
-      odometer_(runtime.participant(), topics::kOdometer.name, sensor_writer_profile(settings)),
-      ins_(runtime.participant(), topics::kInsAttitude.name, sensor_writer_profile(settings)),
-      gnss_(runtime.participant(), topics::kGnssFix.name, sensor_writer_profile(settings)) {}
+      odometer_(runtime.participant(), topics::kOdometer.name, sensor_writer_profile(runtime.participant(), settings)),
+      ins_(runtime.participant(), topics::kInsAttitude.name, sensor_writer_profile(runtime.participant(), settings)),
+      gnss_(runtime.participant(), topics::kGnssFix.name, sensor_writer_profile(runtime.participant(), settings)) {}
 
 void GatewayNode::health(odonav::msg::HealthState state, const std::string& reason, bool force) {
   dds::HealthCounters c;
