@@ -18,7 +18,6 @@
 
 namespace {
 
-constexpr double kDefaultNominalK = 0.0125;  // m/pulse, when neither --nominal-k nor meta.json gives one
 
 bool make_directory(const std::string& dir) {
   std::string partial;
@@ -87,11 +86,11 @@ int main(int argc, char** argv) {
   }
 
   odonav::offline::OfflineParams params;
+  odonav::DeadReckoningFacts dr_facts;  // completed from the dataset below
   try {
     params.identification = odonav::identification_params_from(opts);
     params.calibration = odonav::calibration_params_from(opts);
-    params.dead_reckoning = odonav::dead_reckoning_params_from(opts);
-    params.dead_reckoning.lever_arm_body_m = odonav::lever_arm_from(opts);
+    dr_facts = odonav::dead_reckoning_facts_from(opts);
   } catch (const odonav::ConfigError& e) {
     spdlog::error("{}", e.what());
     return 2;
@@ -107,15 +106,16 @@ int main(int argc, char** argv) {
         if (f.rows_bad) spdlog::warn("{}: skipped {} bad rows (kept {})", f.file, f.rows_bad, f.rows_read);
     }
     if (!dataset.has_ins()) spdlog::warn("{}: no ins.csv: degraded mode (no misalignment; DR on the GNSS course)", dataset_dir);
-    if (!params.dead_reckoning.lever_arm_body_m && dataset.meta.gnss_lever_arm_m) {
+    if (!dr_facts.lever_arm_body_m && dataset.meta.gnss_lever_arm_m) {
       const Eigen::Vector3d& l = *dataset.meta.gnss_lever_arm_m;
       spdlog::info("GNSS lever arm from meta.json: ({}, {}, {}) m (forward, left, up)", l.x(), l.y(), l.z());
-      params.dead_reckoning.lever_arm_body_m = l;
+      dr_facts.lever_arm_body_m = l;
       params.calibration.lever_arm_body_m = l;
     }
+    dr_facts.use_ins = dataset.has_ins();
+    dr_facts.dataset_nominal_k_m_per_pulse = dataset.meta.k_nominal_m_per_pulse;
+    params.dead_reckoning = odonav::dead_reckoner_params(dr_facts);  // as odonav-dead-reckoning's
     params.identification.builder.lever_arm_body_m = params.dead_reckoning.lever_arm_body_m;
-    if (params.dead_reckoning.nominal_k_m_per_pulse <= 0.0)
-      params.dead_reckoning.nominal_k_m_per_pulse = dataset.meta.k_nominal_m_per_pulse.value_or(kDefaultNominalK);
 
     if (opts.get_double("coarse-k") > 0.0) {
       params.coarse_k_m_per_pulse = opts.get_double("coarse-k");
