@@ -239,19 +239,28 @@ std::size_t TopicRecorder::matched_topics() const {
 // ---- commands ----
 
 msg::CommandKind parse_command_kind(const std::string& name) {
-  if (name == "reset-calibration") return msg::COMMAND_RESET_CALIBRATION;
+  if (name == "reset") return msg::COMMAND_RESET_ESTIMATION;
   if (name == "set-k") return msg::COMMAND_SET_K;
-  if (name == "freeze") return msg::COMMAND_FREEZE_IDENTIFICATION;
-  if (name == "unfreeze") return msg::COMMAND_UNFREEZE_IDENTIFICATION;
-  throw std::invalid_argument("unknown command '" + name + "' (valid: reset-calibration, set-k VALUE, freeze, unfreeze)");
+  if (name == "freeze") return msg::COMMAND_FREEZE_ESTIMATION;
+  if (name == "unfreeze") return msg::COMMAND_UNFREEZE_ESTIMATION;
+  if (name == "release-k") return msg::COMMAND_RELEASE_K;
+  // The former name of wire value 0, which dead reckoning took as "release the commanded K": refused
+  // rather than mapped, so a script written for the old meaning is not silently given the new one.
+  if (name == "reset-calibration") {
+    throw std::invalid_argument(
+        "'reset-calibration' is no longer a command: use 'reset' (the addressed estimator restarts) or, "
+        "for odonav-dead-reckoning, 'release-k' (follow the identified K again)");
+  }
+  throw std::invalid_argument("unknown command '" + name + "' (valid: reset, set-k VALUE, freeze, unfreeze, release-k)");
 }
 
 std::string command_kind_name(msg::CommandKind kind) {
   switch (kind) {
-    case msg::COMMAND_RESET_CALIBRATION: return "reset-calibration";
+    case msg::COMMAND_RESET_ESTIMATION: return "reset";
     case msg::COMMAND_SET_K: return "set-k";
-    case msg::COMMAND_FREEZE_IDENTIFICATION: return "freeze";
-    case msg::COMMAND_UNFREEZE_IDENTIFICATION: return "unfreeze";
+    case msg::COMMAND_FREEZE_ESTIMATION: return "freeze";
+    case msg::COMMAND_UNFREEZE_ESTIMATION: return "unfreeze";
+    case msg::COMMAND_RELEASE_K: return "release-k";
   }
   return "command" + std::to_string(static_cast<int>(kind));
 }

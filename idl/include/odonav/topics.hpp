@@ -35,7 +35,8 @@ inline constexpr const char* kGroundBestEffortReaderProfile = "odonav_ground_rea
 
 /// EXCLUSIVE-ownership variants for the estimate topics (misalignment, scale factor), whose writers
 /// are EXCLUSIVE (hot standby of the identification): a reader must have the same ownership kind.
-/// Dead reckoning's scale-factor reader: a 300 ms deadline, so it follows the standby that fast.
+/// Dead reckoning's scale-factor reader: a 300 ms deadline, so it follows the standby that fast
+/// (read through kScaleFactorForDeadReckoning below).
 inline constexpr const char* kScaleFactorReaderProfile = "odonav_scale_factor_reader";
 /// The ground station's best-effort reader of the estimate topics.
 inline constexpr const char* kEstimateGroundBestEffortReaderProfile = "odonav_estimate_ground_reader_best_effort";
@@ -65,6 +66,15 @@ inline constexpr TopicSpec kHealth{"rt/odonav/health", "odonav::msg::dds_::Healt
                                    kHealthWriterProfile, kHealthReaderProfile};
 inline constexpr TopicSpec kCommand{"rt/odonav/command", "odonav::msg::dds_::Command_",
                                     "odonav/msg/Command", kCommandWriterProfile, kCommandReaderProfile};
+
+/// The scale-factor topic as odonav-dead-reckoning reads it: kScaleFactor with the fast-failover
+/// reader profile kScaleFactorReaderProfile (deploy/profiles/qos.xml: kEstimateReaderProfile with a
+/// 300 ms deadline instead of 1 s). The deadline is what hands ownership over: when the owning
+/// identification falls silent for 300 ms, the reader follows the strongest other live writer (the
+/// hot standby). Same name, type and writer profile as kScaleFactor; not in kAllTopics (one topic).
+inline constexpr TopicSpec kScaleFactorForDeadReckoning{kScaleFactor.name, kScaleFactor.dds_type_name,
+                                                        kScaleFactor.ros_type_name, kScaleFactor.writer_profile,
+                                                        kScaleFactorReaderProfile};
 
 /// Every topic, in the order of idl/README.md.
 inline constexpr std::array<TopicSpec, 8> kAllTopics{kOdometer,     kInsAttitude,   kGnssFix,
