@@ -32,7 +32,7 @@
 #include <string>
 #include <vector>
 
-#include "odonav/dataset.hpp"
+#include "odonav/sensor_samples.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
 #include "odonav/scale_factor_estimator.hpp"
