@@ -81,31 +81,6 @@ void make_directories(const std::string& dir) {
 
 }  // namespace
 
-double radians_for_degrees(double angle_deg) {
-  // Mirror of the walk the dataset writer does the other way: deg_to_rad then rad_to_deg may be off
-  // by an ulp; step the radian value towards the side that closes the gap (monotonic map).
-  if (!std::isfinite(angle_deg)) return angle_deg;
-  double best = deg_to_rad(angle_deg);
-  double best_error = std::abs(rad_to_deg(best) - angle_deg);
-  double candidate = best;
-  for (int step = 0; step < 16 && best_error != 0.0; ++step) {
-    const double back = rad_to_deg(candidate);
-    if (back == angle_deg) {
-      best = candidate;
-      best_error = 0.0;
-      break;
-    }
-    candidate = std::nextafter(candidate, back < angle_deg ? std::numeric_limits<double>::infinity()
-                                                           : -std::numeric_limits<double>::infinity());
-    const double error = std::abs(rad_to_deg(candidate) - angle_deg);
-    if (error < best_error) {
-      best = candidate;
-      best_error = error;
-    }
-  }
-  return best;
-}
-
 offline::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m) {
   offline::MisalignmentRow r;
   r.t_s = dds::to_seconds(m.header().stamp());
@@ -141,8 +116,8 @@ offline::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m) {
 offline::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m) {
   offline::DeadReckoningRow r;
   r.t_s = dds::to_seconds(m.header().stamp());
-  r.lat_rad = radians_for_degrees(m.latitude_deg());
-  r.lon_rad = radians_for_degrees(m.longitude_deg());
+  r.lat_rad = exact_radians_of(m.latitude_deg());
+  r.lon_rad = exact_radians_of(m.longitude_deg());
   r.height_m = m.height_m();
   r.distance_m = m.distance_m();
   r.k_m_per_pulse = m.k_m_per_pulse();

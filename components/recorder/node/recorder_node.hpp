@@ -25,12 +25,6 @@ namespace odonav::recorder {
 
 // ---- message -> row, exactly as odonav-offline's rows come from the cores (offline_runner.hpp) ----
 
-/// The radian value r whose rad_to_deg(r) is `angle_deg` exactly, when one exists within 16 ulps of
-/// deg_to_rad(angle_deg); else the closest found. Why: the rows hold radians and the CSV writer
-/// converts with rad_to_deg; a message's degrees (DeadReckoning latitude/longitude, computed by the
-/// producer as rad_to_deg of its radians) then reach the file unchanged, as odonav-offline writes them.
-double radians_for_degrees(double angle_deg);
-
 /// Misalignment: t = header stamp (s); angles in rad; a one-sigma of -1 (unknown) or non-finite ->
 /// NaN (written empty); state as the calibrator names it (to_string(CalibrationState)).
 offline::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m);
@@ -39,9 +33,11 @@ offline::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m);
 /// when -1 or non-finite; lambda_vff_lm_rls = forgetting_factor when the estimator is vff_lm_rls
 /// and has a value. epoch_status is not on the wire: empty.
 offline::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m);
-/// DeadReckoning: position (degrees -> radians_for_degrees), distance, K and its source
-/// (to_string(ScaleFactorSource)), ENU offsets, heading (rad); horizontal error and %D: negative
-/// (-1 = no reference) or non-finite -> NaN (written empty).
+/// DeadReckoning: position (degrees -> exact_radians_of, frames.hpp: the rows hold radians and the
+/// CSV writer converts with rad_to_deg, so the message's degrees reach the file unchanged, as
+/// odonav-offline writes them), distance, K and its source (to_string(ScaleFactorSource)), ENU
+/// offsets, heading (rad); horizontal error and %D: negative (-1 = no reference) or non-finite ->
+/// NaN (written empty).
 offline::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m);
 
 /// Estimates are read with topics::kMisalignmentRecorderReaderProfile and

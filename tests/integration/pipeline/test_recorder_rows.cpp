@@ -26,14 +26,14 @@ std::string read_file(const std::string& path) {
 }  // namespace
 
 TEST(RecorderRows, DegreesReachTheFileUnchanged) {
-  // The producer sends rad_to_deg(r); the row holds radians_for_degrees(d); the CSV writer writes
+  // The producer sends rad_to_deg(r); the row holds exact_radians_of(d); the CSV writer writes
   // rad_to_deg(row): that must be d again, as odonav-offline writes rad_to_deg(r).
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> angle(-kPi / 2, kPi / 2);
   for (int i = 0; i < 20000; ++i) {
     const double r = angle(rng);
     const double d = rad_to_deg(r);
-    ASSERT_EQ(rad_to_deg(recorder::radians_for_degrees(d)), d) << r;
+    ASSERT_EQ(rad_to_deg(exact_radians_of(d)), d) << r;
   }
 }
 
