@@ -134,7 +134,7 @@ int main(int argc, char** argv) {
 
     const auto t_read = std::chrono::steady_clock::now();
     const odonav::offline::OfflineResult result = odonav::offline::run_offline(dataset, params);
-    const odonav::offline::OutputRows rows =
+    const odonav::results::OutputRows rows =
         odonav::offline::to_output_rows(result, params.identification.estimator_name);
     const auto t_done = std::chrono::steady_clock::now();
     const double elapsed_s = std::chrono::duration<double>(t_done - t_start).count();
@@ -147,7 +147,7 @@ int main(int argc, char** argv) {
       spdlog::error("{}: cannot create the output directory", out_dir);
       return 1;
     }
-    odonav::offline::write_output_rows(out_dir, rows);
+    odonav::results::write_output_rows(out_dir, rows);
     odonav::offline::SummaryOptions summary_options;
     summary_options.dataset_name = base_name(dataset_dir);
     summary_options.coarse_k_origin = result.coarse_k_origin;
