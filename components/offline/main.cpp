@@ -143,7 +143,7 @@ bool apply_coarse_k(const odonav::Options& opts, odonav::offline::OfflineParams&
 
 /// summary.json: make_summary plus the identification gates' counts and the skipped bad rows.
 nlohmann::json offline_summary(const odonav::Dataset& dataset, const std::string& dataset_dir,
-                               const odonav::offline::OfflineResult& result, const odonav::offline::OutputRows& rows,
+                               const odonav::offline::OfflineResult& result, const odonav::results::OutputRows& rows,
                                const odonav::DatasetReadReport& report, double elapsed_s) {
   odonav::offline::SummaryOptions summary_options;
   summary_options.dataset_name = base_name(dataset_dir);
@@ -174,7 +174,7 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
 
   const auto t_read = std::chrono::steady_clock::now();
   const odonav::offline::OfflineResult result = odonav::offline::run_offline(dataset, params);
-  const odonav::offline::OutputRows rows = odonav::offline::to_output_rows(result, params.identification.estimator_name);
+  const odonav::results::OutputRows rows = odonav::offline::to_output_rows(result, params.identification.estimator_name);
   const auto t_done = std::chrono::steady_clock::now();
   const double elapsed_s = std::chrono::duration<double>(t_done - t_start).count();
   spdlog::info("read {:.3f} s, processed {:.3f} s ({} odometer, {} GNSS, {} INS rows)",
@@ -186,7 +186,7 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
     spdlog::error("{}: cannot create the output directory", out_dir);
     return 1;
   }
-  odonav::offline::write_output_rows(out_dir, rows);
+  odonav::results::write_output_rows(out_dir, rows);
   const nlohmann::json summary = offline_summary(dataset, dataset_dir, result, rows, report, elapsed_s);
   std::ofstream(out_dir + "/summary.json") << summary.dump(2) << "\n";
   odonav::offline::print_summary(summary, odonav::tool_output());

@@ -15,6 +15,7 @@
 
 #include "core/recording.hpp"
 #include "core/ros2msg_schema.hpp"
+#include "node/topic_types.hpp"
 #include "odonav/dds/component.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/dds/types.hpp"
@@ -105,21 +106,6 @@ GnssView view_of(const msg::GnssFix& g) {
   return v;
 }
 
-/// Calls f.template operator()<T>() with the message type of a topic of the contract.
-template <class F>
-void with_type_of(const topics::TopicSpec& spec, F&& f) {
-  const std::string name = spec.name;
-  if (name == topics::kOdometer.name) f(msg::Odometer{});
-  else if (name == topics::kInsAttitude.name) f(msg::InsAttitude{});
-  else if (name == topics::kGnssFix.name) f(msg::GnssFix{});
-  else if (name == topics::kMisalignment.name) f(msg::Misalignment{});
-  else if (name == topics::kScaleFactor.name) f(msg::ScaleFactor{});
-  else if (name == topics::kDeadReckoning.name) f(msg::DeadReckoning{});
-  else if (name == topics::kHealth.name) f(msg::Health{});
-  else if (name == topics::kCommand.name) f(msg::Command{});
-  else throw std::invalid_argument("odonav-ground: topic '" + name + "' is not in the contract");
-}
-
 std::uint64_t unix_now_ns() {
   return static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -205,7 +191,7 @@ TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& wr
         schema->second, ros_topic, "cdr", channel_metadata(spec, offered_qos(participant, spec.writer_profile), profile));
     McapWriter* out = &writer;
     std::atomic<std::uint64_t>* failures = &failures_;
-    with_type_of(spec, [&](auto prototype) {
+    with_message_type_of(topic_id_of(spec), [&](auto prototype, auto /*topic id*/) {
       using T = decltype(prototype);
       auto on_data = [out, failures, channel, ros_topic](const T& sample) {
         // Serialized again with the generated type support: the CDR bytes (encapsulation header

@@ -3,6 +3,7 @@
 // (defined in deploy/profiles/qos.xml) of every topic. idl/README.md shows the same table with
 // producers, consumers and rates. Plain constants, no DDS headers, so any code may include it.
 #include <array>
+#include <cstddef>
 
 namespace odonav::topics {
 
@@ -80,5 +81,47 @@ inline constexpr TopicSpec kScaleFactorForDeadReckoning{kScaleFactor.name, kScal
 inline constexpr std::array<TopicSpec, 8> kAllTopics{kOdometer,     kInsAttitude,   kGnssFix,
                                                      kMisalignment, kScaleFactor,   kDeadReckoning,
                                                      kHealth,       kCommand};
+
+/// Every topic of the contract as an enumerator, in the order of kAllTopics (checked below). Code
+/// that handles topics by type (odonav-ground's recorder) defines the message type per TopicId, so a
+/// topic added to kAllTopics must be added here, and then does not compile until it is handled.
+enum class TopicId : std::size_t {
+  kOdometer,
+  kInsAttitude,
+  kGnssFix,
+  kMisalignment,
+  kScaleFactor,
+  kDeadReckoning,
+  kHealth,
+  kCommand,
+};
+
+/// The TopicId of each entry of kAllTopics, same order and size.
+inline constexpr std::array<TopicId, kAllTopics.size()> kAllTopicIds{
+    TopicId::kOdometer,     TopicId::kInsAttitude,   TopicId::kGnssFix, TopicId::kMisalignment,
+    TopicId::kScaleFactor,  TopicId::kDeadReckoning, TopicId::kHealth,  TopicId::kCommand};
+
+/// The contract entry of a topic.
+constexpr const TopicSpec& spec_of(TopicId id) { return kAllTopics[static_cast<std::size_t>(id)]; }
+
+namespace detail {
+constexpr bool same_text(const char* a, const char* b) {
+  while (*a != '\0' && *a == *b) ++a, ++b;
+  return *a == *b;
+}
+// kAllTopicIds[i] is the i-th enumerator and names the topic kAllTopics[i] holds: a topic added to
+// kAllTopics without its TopicId (kAllTopicIds then ends in a value-initialised kOdometer) fails here.
+constexpr bool ids_match_topics() {
+  constexpr const TopicSpec* by_id[] = {&kOdometer, &kInsAttitude,  &kGnssFix, &kMisalignment,
+                                        &kScaleFactor, &kDeadReckoning, &kHealth, &kCommand};
+  if (sizeof by_id / sizeof by_id[0] != kAllTopics.size()) return false;
+  for (std::size_t i = 0; i < kAllTopics.size(); ++i) {
+    if (static_cast<std::size_t>(kAllTopicIds[i]) != i) return false;
+    if (!same_text(kAllTopics[i].name, by_id[i]->name)) return false;
+  }
+  return true;
+}
+}  // namespace detail
+static_assert(detail::ids_match_topics(), "kAllTopicIds must list one TopicId per kAllTopics entry, in order");
 
 }  // namespace odonav::topics
