@@ -1,6 +1,7 @@
 #pragma once
-// Shared by the calibration, identification and dead-reckoning nodes (header-only, so odonav_dds
-// itself does not depend on the estimation libraries; users link odonav_samples):
+// Shared by the calibration, identification and dead-reckoning nodes; library odonav_node_support
+// (common/dds/node), which joins the DDS layer (odonav_dds) and the event-time aligner
+// (odonav_samples) so that odonav_dds itself stays free of the estimation libraries:
 // - sensor messages -> core samples (header stamp -> seconds with the layer's time helpers);
 // - NodeInput: one input stream through the EventTimeAligner into a core, counting every sample
 //   that is not fed (late, backwards, refused by the core) instead of crashing;
@@ -23,7 +24,6 @@
 #include <utility>
 #include <vector>
 
-#include "odonav/dataset.hpp"
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/health.hpp"
 #include "odonav/dds/time.hpp"
@@ -32,44 +32,23 @@
 #include "odonav/msg/GnssFix.h"
 #include "odonav/msg/InsAttitude.h"
 #include "odonav/msg/Odometer.h"
+#include "odonav/sensor_samples.hpp"
 #include "odonav/stream_buffers.hpp"
 
 namespace odonav::dds {
 
-// ---- messages -> samples (frames and units: idl/README.md; samples: dataset.hpp) ----
+// ---- messages -> samples (frames and units: idl/README.md; samples: sensor_samples.hpp) ----
 
 /// Odometer message -> sample: t_s = header stamp (s), raw pulses, direction (-1, 0, +1 as sent;
 /// the core rejects other values). Throws std::invalid_argument for a non-normalized stamp.
-inline OdometerSample odometer_sample_from(const odonav::msg::Odometer& m) {
-  OdometerSample s;
-  s.t_s = to_seconds(m.header().stamp());
-  s.pulses = m.pulses();
-  s.direction = m.direction();
-  return s;
-}
+OdometerSample odometer_sample_from(const odonav::msg::Odometer& m);
 
 /// GnssFix message -> sample: degrees -> radians, ENU velocity (m/s), accuracies (-1 = unknown ->
 /// absent), fix quality (a fix the producer marked not valid is taken as fix 0, invalid).
-inline GnssSample gnss_sample_from(const odonav::msg::GnssFix& m) {
-  GnssSample s;
-  s.t_s = to_seconds(m.header().stamp());
-  s.position = Geodetic{deg_to_rad(m.latitude_deg()), deg_to_rad(m.longitude_deg()), m.height_m()};
-  s.vel_enu_mps = Eigen::Vector3d(m.velocity_east_mps(), m.velocity_north_mps(), m.velocity_up_mps());
-  if (m.position_std_m() >= 0.0) s.pos_std_m = m.position_std_m();
-  if (m.velocity_std_mps() >= 0.0) s.vel_std_mps = m.velocity_std_mps();
-  s.fix = m.valid() ? static_cast<int>(m.fix_quality()) : 0;
-  return s;
-}
+GnssSample gnss_sample_from(const odonav::msg::GnssFix& m);
 
 /// InsAttitude message -> sample (radians; velocity only when velocity_valid).
-inline InsSample ins_sample_from(const odonav::msg::InsAttitude& m) {
-  InsSample s;
-  s.t_s = to_seconds(m.header().stamp());
-  s.attitude = Attitude{m.heading_rad(), m.pitch_rad(), m.roll_rad()};
-  if (m.velocity_valid())
-    s.vel_enu_mps = Eigen::Vector3d(m.velocity_east_mps(), m.velocity_north_mps(), m.velocity_up_mps());
-  return s;
-}
+InsSample ins_sample_from(const odonav::msg::InsAttitude& m);
 
 // ---- inputs ----
 
@@ -85,13 +64,7 @@ struct NodeInput {
   uint64_t problems = 0;                   ///< samples not fed for any reason but heartbeats.
 
   /// Records a sample that was not fed, with the reason (logged, rate-limited).
-  void note_problem(const std::string& why, double now_s) {
-    ++problems;
-    last_problem = why;
-    last_problem_wall_s = now_s;
-    if (problems <= 10 || problems % 1000 == 0)
-      spdlog::warn("{}: sample not used ({} so far): {}", name, problems, why);
-  }
+  void note_problem(const std::string& why, double now_s);
 };
 
 /// Passes one sample stamped `stamp` through the aligner and, if accepted, to feed(t_s) (which
@@ -141,54 +114,21 @@ SampleAdmission admit_sample(EventTimeAligner& aligner, NodeInput& in, const bui
 
 /// Appends "<name>_in", "<name>_late", "<name>_rejected", "<name>_absent_events",
 /// "<name>_silent_s" for one input.
-inline void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, const NodeInput& in,
-                                  double now_s) {
-  const EventTimeAligner::StreamStatus st = aligner.status(in.id, now_s);
-  const double rejected = static_cast<double>(st.backwards + st.invalid + in.refused + in.dropped_invalid +
-                                              (in.estimate ? 0 : st.repeated));
-  c.emplace_back(in.name + "_in", static_cast<double>(st.accepted));
-  c.emplace_back(in.name + "_late", static_cast<double>(st.late));
-  c.emplace_back(in.name + "_rejected", rejected);
-  c.emplace_back(in.name + "_absent_events", static_cast<double>(st.absent_events));
-  c.emplace_back(in.name + "_silent_s", std::round(st.silent_for_s * 10.0) / 10.0);
-  if (in.estimate) c.emplace_back(in.name + "_skipped_epochs", static_cast<double>(st.skipped_pacing_epochs));
-}
+void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, const NodeInput& in,
+                                  double now_s);
 
 /// "no gnss for 12 s" for the first of `inputs` that is absent now, else nullopt.
-inline std::optional<std::string> absent_reason(const EventTimeAligner& aligner,
-                                                const std::vector<const NodeInput*>& inputs, double now_s) {
-  for (const NodeInput* in : inputs) {
-    const EventTimeAligner::StreamStatus st = aligner.status(in->id, now_s);
-    if (st.absent) {
-      std::ostringstream m;
-      m << "no " << in->name << " for " << static_cast<long long>(std::floor(st.silent_for_s)) << " s";
-      return m.str();
-    }
-  }
-  return std::nullopt;
-}
+std::optional<std::string> absent_reason(const EventTimeAligner& aligner,
+                                                const std::vector<const NodeInput*>& inputs, double now_s);
 
 /// "waiting for gnss" for the first of `inputs` that never delivered a sample, else nullopt.
-inline std::optional<std::string> waiting_reason(const EventTimeAligner& aligner,
-                                                 const std::vector<const NodeInput*>& inputs, double now_s) {
-  for (const NodeInput* in : inputs)
-    if (!aligner.status(in->id, now_s).last_t_s) return "waiting for " + in->name;
-  return std::nullopt;
-}
+std::optional<std::string> waiting_reason(const EventTimeAligner& aligner,
+                                                 const std::vector<const NodeInput*>& inputs, double now_s);
 
 /// "rejected 12 ins samples: time went backwards ..." when one of `inputs` had a sample not fed
 /// within the last recent_s seconds (steady clock), else nullopt.
-inline std::optional<std::string> rejection_reason(const std::vector<const NodeInput*>& inputs, double now_s,
-                                                   double recent_s = 10.0) {
-  for (const NodeInput* in : inputs) {
-    if (in->last_problem_wall_s && now_s - *in->last_problem_wall_s <= recent_s) {
-      std::ostringstream m;
-      m << "rejected " << in->problems << " " << in->name << " samples: " << in->last_problem;
-      return m.str();
-    }
-  }
-  return std::nullopt;
-}
+std::optional<std::string> rejection_reason(const std::vector<const NodeInput*>& inputs, double now_s,
+                                                   double recent_s = 10.0);
 
 // ---- outputs ----
 

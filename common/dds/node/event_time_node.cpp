@@ -1,0 +1,97 @@
+// The event-time node skeleton (event_time_node.hpp): run loop, drain, inputs, health.
+#include "odonav/dds/event_time_node.hpp"
+
+#include <spdlog/spdlog.h>
+
+namespace odonav::dds {
+
+EventTimeNode::EventTimeNode(ComponentRuntime& runtime)
+    : runtime_(runtime), aligner_(runtime.settings().max_wait_s, steady_now_s()) {}
+
+int EventTimeNode::run() {
+  const double t0 = steady_now_s();
+  publish_health(t0, true);
+  spdlog::info("{} running: vehicle '{}', domain {}, max wait {} s", runtime_.settings().component,
+               runtime_.settings().vehicle_id, runtime_.settings().participant.domain_id,
+               runtime_.settings().max_wait_s);
+  runtime_.run([this] { tick(); });
+
+  const int sig = runtime_.stop_signals().signal_number();
+  spdlog::info("stop requested{}: draining", sig ? " (signal " + std::to_string(sig) + ")" : std::string());
+  stopping_ = true;
+  publish_health(steady_now_s(), true);
+  close_inputs();          // no more input: no callback runs after this
+  runtime_.run_pending();  // samples received before the stop are still fed
+  tick();
+  try {
+    finish();
+  } catch (const std::exception& e) {
+    ++process_errors_;
+    spdlog::error("finishing the core failed: {}", e.what());
+  }
+  bool acknowledged = true;
+  for (detail::WriterBase* w : output_writers())
+    acknowledged = wait_for_acknowledgments_logged(*w, std::chrono::seconds(5)) && acknowledged;
+  drained_ = true;
+  publish_health(steady_now_s(), true);
+  wait_for_acknowledgments_logged(runtime_.health().writer(), std::chrono::seconds(4));
+  spdlog::info("stopped after {} outputs{}", outputs_, acknowledged ? "" : " (some not acknowledged)");
+  return 0;
+}
+
+NodeInput& EventTimeNode::add_input(const std::string& name, bool required, const NodeInput* pacing) {
+  auto in = std::make_unique<NodeInput>();
+  in->name = name;
+  in->estimate = pacing != nullptr;
+  in->id = pacing ? aligner_.add_paced_stream(name, pacing->id) : aligner_.add_stream(name);
+  inputs_.push_back(in.get());
+  if (required) required_.push_back(in.get());
+  owned_.push_back(std::move(in));
+  return *owned_.back();
+}
+
+void EventTimeNode::tick() {
+  const double now = steady_now_s();
+  if (const auto w = aligner_.advance(now)) {
+    try {
+      process_until(*w);
+    } catch (const std::exception& e) {  // a core refusing a watermark must not end the process
+      ++process_errors_;
+      spdlog::error("processing up to t={} s failed: {}", *w, e.what());
+    }
+  }
+  on_tick(now);
+  publish_health(now, false);
+}
+
+EventTimeNode::Status EventTimeNode::status(double now_s) {
+  using namespace odonav::msg;
+  if (stopping_) return {HEALTH_STATE_STOPPING, HEALTH_LEVEL_OK, drained_ ? "stopped: drained" : "stopping: draining"};
+  if (auto r = absent_reason(aligner_, required_, now_s)) return {HEALTH_STATE_DEGRADED, HEALTH_LEVEL_WARN, *r};
+  if (auto r = waiting_reason(aligner_, required_, now_s)) return {HEALTH_STATE_STARTING, HEALTH_LEVEL_OK, *r};
+  Status s = node_status(now_s);
+  if (s.level == HEALTH_LEVEL_OK) {
+    if (auto r = rejection_reason(inputs_, now_s)) {
+      s.level = HEALTH_LEVEL_WARN;
+      s.reason = s.reason.empty() ? *r : *r + "; " + s.reason;
+    }
+  }
+  return s;
+}
+
+void EventTimeNode::publish_health(double now_s, bool force) {
+  const Status s = status(now_s);
+  const bool changed = std::tie(s.state, s.level, s.reason) != std::tie(last_.state, last_.level, last_.reason);
+  if (changed && s.level != odonav::msg::HEALTH_LEVEL_OK) spdlog::warn("health: {}", s.reason);
+  HealthCounters c;
+  for (const NodeInput* in : inputs_) append_input_counters(c, aligner_, *in, now_s);
+  c.emplace_back("outputs", static_cast<double>(outputs_));
+  if (std::isfinite(aligner_.processed_s())) c.emplace_back("processed_until_s", aligner_.processed_s());
+  c.emplace_back("queue_depth", static_cast<double>(runtime_.queue_depth()));
+  c.emplace_back("process_errors", static_cast<double>(process_errors_));
+  append_counters(c);
+  runtime_.publish_health(s.state, s.level, s.reason, c, force || changed);
+  last_ = s;
+}
+
+}  // namespace odonav::dds

@@ -1,0 +1,88 @@
+// Message -> sample conversion, input bookkeeping and health reasons of the event-time nodes
+// (node_support.hpp).
+#include "odonav/dds/node_support.hpp"
+
+namespace odonav::dds {
+
+OdometerSample odometer_sample_from(const odonav::msg::Odometer& m) {
+  OdometerSample s;
+  s.t_s = to_seconds(m.header().stamp());
+  s.pulses = m.pulses();
+  s.direction = m.direction();
+  return s;
+}
+
+GnssSample gnss_sample_from(const odonav::msg::GnssFix& m) {
+  GnssSample s;
+  s.t_s = to_seconds(m.header().stamp());
+  s.position = Geodetic{deg_to_rad(m.latitude_deg()), deg_to_rad(m.longitude_deg()), m.height_m()};
+  s.vel_enu_mps = Eigen::Vector3d(m.velocity_east_mps(), m.velocity_north_mps(), m.velocity_up_mps());
+  if (m.position_std_m() >= 0.0) s.pos_std_m = m.position_std_m();
+  if (m.velocity_std_mps() >= 0.0) s.vel_std_mps = m.velocity_std_mps();
+  s.fix = m.valid() ? static_cast<int>(m.fix_quality()) : 0;
+  return s;
+}
+
+InsSample ins_sample_from(const odonav::msg::InsAttitude& m) {
+  InsSample s;
+  s.t_s = to_seconds(m.header().stamp());
+  s.attitude = Attitude{m.heading_rad(), m.pitch_rad(), m.roll_rad()};
+  if (m.velocity_valid())
+    s.vel_enu_mps = Eigen::Vector3d(m.velocity_east_mps(), m.velocity_north_mps(), m.velocity_up_mps());
+  return s;
+}
+
+void NodeInput::note_problem(const std::string& why, double now_s) {
+  ++problems;
+  last_problem = why;
+  last_problem_wall_s = now_s;
+  if (problems <= 10 || problems % 1000 == 0)
+    spdlog::warn("{}: sample not used ({} so far): {}", name, problems, why);
+}
+
+void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, const NodeInput& in,
+                                  double now_s) {
+  const EventTimeAligner::StreamStatus st = aligner.status(in.id, now_s);
+  const double rejected = static_cast<double>(st.backwards + st.invalid + in.refused + in.dropped_invalid +
+                                              (in.estimate ? 0 : st.repeated));
+  c.emplace_back(in.name + "_in", static_cast<double>(st.accepted));
+  c.emplace_back(in.name + "_late", static_cast<double>(st.late));
+  c.emplace_back(in.name + "_rejected", rejected);
+  c.emplace_back(in.name + "_absent_events", static_cast<double>(st.absent_events));
+  c.emplace_back(in.name + "_silent_s", std::round(st.silent_for_s * 10.0) / 10.0);
+  if (in.estimate) c.emplace_back(in.name + "_skipped_epochs", static_cast<double>(st.skipped_pacing_epochs));
+}
+
+std::optional<std::string> absent_reason(const EventTimeAligner& aligner,
+                                                const std::vector<const NodeInput*>& inputs, double now_s) {
+  for (const NodeInput* in : inputs) {
+    const EventTimeAligner::StreamStatus st = aligner.status(in->id, now_s);
+    if (st.absent) {
+      std::ostringstream m;
+      m << "no " << in->name << " for " << static_cast<long long>(std::floor(st.silent_for_s)) << " s";
+      return m.str();
+    }
+  }
+  return std::nullopt;
+}
+
+std::optional<std::string> waiting_reason(const EventTimeAligner& aligner,
+                                                 const std::vector<const NodeInput*>& inputs, double now_s) {
+  for (const NodeInput* in : inputs)
+    if (!aligner.status(in->id, now_s).last_t_s) return "waiting for " + in->name;
+  return std::nullopt;
+}
+
+std::optional<std::string> rejection_reason(const std::vector<const NodeInput*>& inputs, double now_s,
+                                                   double recent_s) {
+  for (const NodeInput* in : inputs) {
+    if (in->last_problem_wall_s && now_s - *in->last_problem_wall_s <= recent_s) {
+      std::ostringstream m;
+      m << "rejected " << in->problems << " " << in->name << " samples: " << in->last_problem;
+      return m.str();
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace odonav::dds
