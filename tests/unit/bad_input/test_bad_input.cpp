@@ -322,3 +322,46 @@ TEST(BadInput, MalformedXmlProfileMakesAComponentExitNonzeroNamingThePath) {
   EXPECT_NE(missing.exit_code, -1) << missing.output;
   EXPECT_NE(missing.output.find(dir.file("missing.xml")), std::string::npos) << missing.output;
 }
+
+// One wrong GNSS velocity row (1e6 m/s east, then also 1e308) in a 60 s ring, through the real
+// odonav-offline: the calibrator's outlier gate keeps it out, so the misalignment is the clean one
+// (without the gate: heading -89.2 deg "converged"; with 1e308 the run stopped on non-finite angles).
+TEST(BadInput, OneGnssVelocityRowOfAMillionMetresPerSecondDoesNotMoveTheMisalignment) {
+  ScratchDir dir;
+  const std::string dataset = dir.file("ring");
+  ASSERT_EQ(run(binary("odonav-sim") + " ring --duration-s 60 --out " + dataset + " --log-level error").exit_code, 0);
+  const auto heading_error_deg = [&](const std::string& out) {
+    const RunResult r = run(binary("odonav-offline") + " " + dataset + " --out " + out + " --log-level warn");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    std::ifstream in(out + "/summary.json");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::size_t at = text.find("\"heading_error_deg\"");
+    EXPECT_NE(at, std::string::npos) << text.substr(0, 400);
+    return at == std::string::npos ? 1e9 : std::stod(text.substr(text.find(':', at) + 1));
+  };
+  const double clean = heading_error_deg(dir.file("clean"));
+  EXPECT_LT(std::abs(clean), 0.1);
+  // Column 5 of gnss.csv is ve (DATASET.md); row 301 is t = 29.9 s at 10 Hz.
+  const auto replace_ve = [&](int line, const std::string& value) {
+    std::ifstream in(dataset + "/gnss.csv");
+    std::vector<std::string> lines;
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+    ASSERT_GT(lines.size(), static_cast<std::size_t>(line));
+    std::vector<std::string> fields;
+    std::stringstream ss(lines[line - 1]);
+    for (std::string f; std::getline(ss, f, ',');) fields.push_back(f);
+    fields.at(4) = value;
+    std::string joined;
+    for (std::size_t i = 0; i < fields.size(); ++i) joined += (i ? "," : "") + fields[i];
+    lines[line - 1] = joined;
+    std::ofstream o(dataset + "/gnss.csv");
+    for (const auto& l : lines) o << l << '\n';
+  };
+  replace_ve(301, "1e6");
+  const double spiked = heading_error_deg(dir.file("spiked"));
+  EXPECT_LT(std::abs(spiked), 0.1);
+  EXPECT_NEAR(spiked, clean, 0.01);
+  replace_ve(302, "1e308");
+  const double overflow = heading_error_deg(dir.file("overflow"));
+  EXPECT_LT(std::abs(overflow), 0.1);
+}
