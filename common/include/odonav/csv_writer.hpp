@@ -1,7 +1,10 @@
 #pragma once
-// A small CSV writer for odonav's output files: one header row, numbers in the shortest text that
-// reads back to the same double (so outputs of two runs can be compared to the last bit), NaN and
-// absent values as empty fields. Used by odonav-offline and by the pipeline's recorder alike.
+// odonav's one CSV writer: one header row, numbers in the shortest text that reads back to the same
+// double (std::to_chars round-trip form, so outputs of two runs can be compared to the last bit), NaN
+// and absent values as empty fields, no quoting (fields never hold ',' or a newline). Used by the
+// output files of odonav-offline and of the pipeline's recorder (odonav/results/output_files.hpp)
+// and by the dataset writer (docs/DATASET.md), which builds each file in memory first so that a bad
+// value leaves no half-written dataset.
 #include <cstdint>
 #include <cstdio>
 #include <optional>
@@ -12,8 +15,14 @@ namespace odonav {
 
 class CsvWriter {
  public:
+  /// Tag of the in-memory constructor.
+  struct InMemory {};
+
   /// Creates (truncates) `path` and writes the header. Throws std::runtime_error naming the path.
   CsvWriter(const std::string& path, std::vector<std::string> columns);
+  /// Writes nothing to disk: the whole file (header and rows) accumulates in text(). `path` only
+  /// names the file in messages (and is what the caller writes text() to later).
+  CsvWriter(InMemory, const std::string& path, std::vector<std::string> columns);
   ~CsvWriter();
   CsvWriter(const CsvWriter&) = delete;
   CsvWriter& operator=(const CsvWriter&) = delete;
@@ -29,11 +38,15 @@ class CsvWriter {
   CsvWriter& empty();
   /// Ends the row; throws std::logic_error when the row has the wrong number of fields.
   void end_row();
-  /// Flushes and closes; throws std::runtime_error naming the path on an I/O error.
+  /// Flushes and closes; throws std::runtime_error naming the path on an I/O error. Does nothing
+  /// for an in-memory writer.
   void close();
 
   const std::string& path() const { return path_; }
   std::size_t rows() const { return rows_; }
+  /// The text of an in-memory writer so far (header, then every ended row). Throws
+  /// std::logic_error for a file writer (its text is on disk).
+  const std::string& text() const;
 
  private:
   void separator();
@@ -41,7 +54,8 @@ class CsvWriter {
   std::string path_;
   std::vector<std::string> columns_;
   std::FILE* file_ = nullptr;
-  std::string buffer_;
+  bool in_memory_ = false;
+  std::string buffer_;  ///< file writer: not yet written; in-memory writer: the whole text.
   std::size_t fields_in_row_ = 0;
   std::size_t rows_ = 0;
 };

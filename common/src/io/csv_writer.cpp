@@ -11,14 +11,24 @@
 namespace odonav {
 
 CsvWriter::CsvWriter(const std::string& path, std::vector<std::string> columns)
-    : path_(path), columns_(std::move(columns)) {
+    : CsvWriter(InMemory{}, path, std::move(columns)) {
+  in_memory_ = false;
   file_ = std::fopen(path.c_str(), "wb");
   if (!file_) throw std::runtime_error(path + ": cannot create: " + std::strerror(errno));
+}
+
+CsvWriter::CsvWriter(InMemory, const std::string& path, std::vector<std::string> columns)
+    : path_(path), columns_(std::move(columns)), in_memory_(true) {
   for (std::size_t i = 0; i < columns_.size(); ++i) {
     if (i) buffer_ += ',';
     buffer_ += columns_[i];
   }
   buffer_ += '\n';
+}
+
+const std::string& CsvWriter::text() const {
+  if (!in_memory_) throw std::logic_error(path_ + ": text() of a CsvWriter that writes to a file");
+  return buffer_;
 }
 
 CsvWriter::~CsvWriter() {
@@ -36,7 +46,7 @@ CsvWriter& CsvWriter::field(double value) {
   separator();
   if (std::isfinite(value)) {
     // The same shortest round-trip text as io_detail::format_double, written straight into the buffer:
-    // this is the hottest line of odonav-offline's output stage.
+    // this is the hottest line of odonav-offline's output stage (and of the dataset writer).
     char text[64];
     const auto [end, ec] = std::to_chars(text, text + sizeof text, value);
     if (ec == std::errc()) buffer_.append(text, end);
@@ -84,7 +94,7 @@ void CsvWriter::end_row() {
   buffer_ += '\n';
   fields_in_row_ = 0;
   ++rows_;
-  if (buffer_.size() > (1u << 16)) flush_buffer();
+  if (!in_memory_ && buffer_.size() > (1u << 16)) flush_buffer();
 }
 
 void CsvWriter::flush_buffer() {

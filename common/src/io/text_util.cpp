@@ -6,7 +6,6 @@
 #include <limits>
 #include <system_error>
 
-#include "odonav/frames.hpp"
 
 namespace odonav::io_detail {
 
@@ -87,8 +86,6 @@ std::string format_number(double value) {
   while (exponent.size() > 1 && exponent.front() == '0') exponent.erase(0, 1);
   return mantissa + "e" + sign + exponent;
 }
-
-std::string format_degrees_of(double angle_rad) { return format_double(exact_degrees_of(angle_rad)); }
 
 std::vector<std::string_view> split_commas(std::string_view line) {
   std::vector<std::string_view> fields;

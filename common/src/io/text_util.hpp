@@ -38,11 +38,6 @@ std::string format_double(double value);
 /// written without '+' and leading zeros ("1e6", "2.5e-5", "4").
 std::string format_number(double value);
 
-/// Degrees text d such that deg_to_rad(d) == angle_rad exactly when such a double exists (the
-/// reader converts with deg_to_rad, so this makes write -> read exact). Not every double is a
-/// product d * kDegToRad; otherwise the nearest one is written (1 ulp of the radian value).
-std::string format_degrees_of(double angle_rad);
-
 /// Splits a line on ',' (no quoting: the dataset format has no quoted fields).
 std::vector<std::string_view> split_commas(std::string_view line);
 /// The same into `fields` (cleared first), so a reader that splits every row of a file reuses one

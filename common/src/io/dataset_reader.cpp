@@ -1,7 +1,5 @@
-// The odonav dataset directory, format v1: reader with every validation rule of DATASET.md, and a
-// writer whose output reads back to exactly the values it was given.
-#include "odonav/dataset.hpp"
-
+// The dataset reader, format v1: every validation rule of docs/DATASET.md, bad rows failed or
+// skipped and counted (BadRowPolicy).
 #include <spdlog/spdlog.h>
 
 #include <cerrno>
@@ -10,15 +8,17 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "dataset_internal.hpp"
+#include "odonav/dataset.hpp"
 #include "text_util.hpp"
 
 namespace odonav {
 
 namespace fs = std::filesystem;
-using io_detail::format_degrees_of;
+using dataset_detail::join_path;
+using dataset_detail::read_meta;
 using io_detail::format_double;
 using io_detail::NumberStatus;
 using io_detail::trim;
@@ -41,14 +41,39 @@ std::size_t DatasetReadReport::total_bad() const {
   return total;
 }
 
+namespace dataset_detail {
+
+std::string read_whole_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw DatasetError(path + ": cannot open: " + std::strerror(errno));
+  // One read into a string sized from the file length: an ostringstream << rdbuf() grows its buffer
+  // step by step and then copies it once more into the result (a one-hour dataset is ~90 MB).
+  std::string content;
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  if (size > 0) {
+    content.resize(static_cast<std::size_t>(size));
+    in.seekg(0, std::ios::beg);
+    in.read(content.data(), size);
+    content.resize(static_cast<std::size_t>(in.gcount()));
+  }
+  if (in.bad()) throw DatasetError(path + ": read error");
+  // A file that grew while being read (or is not seekable) keeps the rest.
+  in.clear();
+  std::ostringstream rest;
+  rest << in.rdbuf();
+  content += rest.str();
+  return content;
+}
+
+}  // namespace dataset_detail
+
 namespace {
+
+using dataset_detail::read_whole_file;
 
 constexpr std::size_t kMaxDetailedBadRows = 100;   // DatasetReadReport keeps this many in detail
 constexpr std::size_t kMaxLoggedBadRowsPerFile = 10;  // then one summary line per file
-
-// ---------------------------------------------------------------------------------------------
-// Reading
-// ---------------------------------------------------------------------------------------------
 
 struct ColumnSpec {
   const char* name;
@@ -206,29 +231,6 @@ ResolvedHeader resolve_header(const std::string& file, std::size_t line_no, std:
     }
   }
   return header;
-}
-
-std::string read_whole_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw DatasetError(path + ": cannot open: " + std::strerror(errno));
-  // One read into a string sized from the file length: an ostringstream << rdbuf() grows its buffer
-  // step by step and then copies it once more into the result (a one-hour dataset is ~90 MB).
-  std::string content;
-  in.seekg(0, std::ios::end);
-  const std::streamoff size = in.tellg();
-  if (size > 0) {
-    content.resize(static_cast<std::size_t>(size));
-    in.seekg(0, std::ios::beg);
-    in.read(content.data(), size);
-    content.resize(static_cast<std::size_t>(in.gcount()));
-  }
-  if (in.bad()) throw DatasetError(path + ": read error");
-  // A file that grew while being read (or is not seekable) keeps the rest.
-  in.clear();
-  std::ostringstream rest;
-  rest << in.rdbuf();
-  content += rest.str();
-  return content;
 }
 
 // Reads one CSV file of the dataset. Column 0 of `specs` is always "t". parse_row turns a row's
@@ -419,59 +421,6 @@ TruthSample parse_truth_row(RowFields& row) {
   return s;
 }
 
-// Reads a JSON value at a dotted key path into `out` when present and not null.
-void read_meta_string(const nlohmann::json& object, const char* key, const std::string& path, std::string& out) {
-  const auto it = object.find(key);
-  if (it == object.end() || it->is_null()) return;
-  if (!it->is_string()) throw DatasetError(path + ": key '" + key + "' must be a string");
-  out = it->get<std::string>();
-}
-
-std::optional<double> read_meta_number(const nlohmann::json& root, const char* section, const char* key,
-                                       const std::string& path) {
-  const auto sec = root.find(section);
-  if (sec == root.end() || sec->is_null()) return std::nullopt;
-  if (!sec->is_object()) throw DatasetError(path + ": key '" + section + "' must be an object");
-  const auto it = sec->find(key);
-  if (it == sec->end() || it->is_null()) return std::nullopt;
-  if (!it->is_number()) {
-    throw DatasetError(path + ": key '" + section + "." + key + "' must be a number");
-  }
-  const double value = it->get<double>();
-  if (!std::isfinite(value)) throw DatasetError(path + ": key '" + section + "." + key + "' is not finite");
-  return value;
-}
-
-DatasetMeta read_meta(const std::string& path) {
-  DatasetMeta meta;
-  meta.raw_json = read_whole_file(path);
-  nlohmann::json root;
-  try {
-    root = nlohmann::json::parse(meta.raw_json);
-  } catch (const nlohmann::json::parse_error& e) {
-    // e.what() carries the parser's position ("at line 3, column 5"); byte is the offset.
-    throw DatasetError(path + ": malformed JSON (byte " + std::to_string(e.byte) + "): " + e.what());
-  }
-  if (!root.is_object()) throw DatasetError(path + ": the top level must be a JSON object");
-  read_meta_string(root, "format", path, meta.format);
-  read_meta_string(root, "vehicle_id", path, meta.vehicle_id);
-  read_meta_string(root, "description", path, meta.description);
-  meta.k_nominal_m_per_pulse = read_meta_number(root, "odometer", "k_nominal_m_per_pulse", path);
-  meta.truth_misalignment_heading_deg = read_meta_number(root, "truth", "misalignment_heading_deg", path);
-  meta.truth_misalignment_pitch_deg = read_meta_number(root, "truth", "misalignment_pitch_deg", path);
-  if (root.contains("gnss") && root["gnss"].is_object() && root["gnss"].contains("lever_arm_m")) {
-    const nlohmann::json& arm = root["gnss"]["lever_arm_m"];
-    if (!arm.is_array() || arm.size() != 3 || !arm[0].is_number() || !arm[1].is_number() || !arm[2].is_number())
-      throw DatasetError(path + ": key 'gnss.lever_arm_m' must be an array of three numbers [x, y, z] in metres");
-    meta.gnss_lever_arm_m = Eigen::Vector3d(arm[0].get<double>(), arm[1].get<double>(), arm[2].get<double>());
-    if (!meta.gnss_lever_arm_m->allFinite()) throw DatasetError(path + ": key 'gnss.lever_arm_m' is not finite");
-  }
-  if (meta.format != "odonav-dataset/1") {
-    spdlog::warn("{}: format '{}' is not 'odonav-dataset/1'; reading it as format v1", path, meta.format);
-  }
-  return meta;
-}
-
 void require_two_rows(const std::string& path, std::size_t rows, const ReadContext& context) {
   if (rows >= 2) return;
   std::string text = path + ": " + std::to_string(rows) + " good row(s), at least 2 are needed";
@@ -480,243 +429,6 @@ void require_two_rows(const std::string& path, std::size_t rows, const ReadConte
   }
   throw DatasetError(text);
 }
-
-// ---------------------------------------------------------------------------------------------
-// Writing
-// ---------------------------------------------------------------------------------------------
-
-// Builds one CSV file in memory; numbers are checked finite so the file always reads back.
-class CsvBuilder {
- public:
-  CsvBuilder(std::string path, const std::vector<std::string>& columns) : path_(std::move(path)) {
-    text_ = io_detail::join(columns, ",") + "\n";
-  }
-  void begin_row(std::size_t index) {
-    row_ = index;
-    first_ = true;
-  }
-  void end_row() { text_ += '\n'; }
-  void number(double value, const char* column) { field(checked(value, column) ? format_double(value) : ""); }
-  void degrees(double angle_rad, const char* column) {
-    field(checked(angle_rad, column) ? format_degrees_of(angle_rad) : "");
-  }
-  /// A value that may be absent: empty field for nullopt.
-  void optional_number(const std::optional<double>& value, const char* column) {
-    if (value) number(*value, column);
-    else field("");
-  }
-  /// An absent value.
-  void empty() { field(""); }
-  /// A latitude or pitch: must lie in [-pi/2, pi/2] (the reader rejects anything else).
-  void degrees_within_quarter_turn(double angle_rad, const char* column) {
-    if (std::isfinite(angle_rad) && std::abs(angle_rad) > deg_to_rad(90.0)) {
-      throw DatasetError(path_ + ": cannot write row " + std::to_string(row_ + 1) + ": column '" + column +
-                         "' is outside [-90, 90] deg");
-    }
-    degrees(angle_rad, column);
-  }
-  /// A longitude: kept as is inside [-pi, pi] (exact round trip), wrapped otherwise.
-  void longitude(double lon_rad, const char* column) {
-    if (std::isfinite(lon_rad) && std::abs(lon_rad) > kPi) lon_rad = wrap_pi(lon_rad);
-    degrees(lon_rad, column);
-  }
-  void integer(long long value) { field(std::to_string(value)); }
-  const std::string& text() const { return text_; }
-  const std::string& path() const { return path_; }
-
- private:
-  bool checked(double value, const char* column) const {
-    if (!std::isfinite(value)) {
-      throw DatasetError(path_ + ": cannot write row " + std::to_string(row_ + 1) + ": column '" + column +
-                         "' is not finite (" + format_double(value) + ")");
-    }
-    return true;
-  }
-  void field(const std::string& text) {
-    if (!first_) text_ += ',';
-    first_ = false;
-    text_ += text;
-  }
-  std::string path_;
-  std::string text_;
-  std::size_t row_ = 0;
-  bool first_ = true;
-};
-
-void write_file(const std::string& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw DatasetError(path + ": cannot open for writing: " + std::strerror(errno));
-  out.write(text.data(), static_cast<std::streamsize>(text.size()));
-  out.close();
-  if (!out) throw DatasetError(path + ": write failed");
-}
-
-void remove_stale(const std::string& path) {
-  std::error_code ec;
-  fs::remove(path, ec);  // absent is fine; a failure to remove shows up when reading back
-}
-
-std::string odometer_csv(const std::string& path, const std::vector<OdometerSample>& rows) {
-  CsvBuilder csv(path, {"t", "pulses", "direction"});
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    csv.begin_row(i);
-    csv.number(rows[i].t_s, "t");
-    csv.integer(rows[i].pulses);
-    csv.integer(rows[i].direction);
-    csv.end_row();
-  }
-  return csv.text();
-}
-
-std::string gnss_csv(const std::string& path, const std::vector<GnssSample>& rows) {
-  bool any_pos_std = false, any_vel_std = false;
-  for (const GnssSample& s : rows) {
-    any_pos_std = any_pos_std || s.pos_std_m.has_value();
-    any_vel_std = any_vel_std || s.vel_std_mps.has_value();
-  }
-  std::vector<std::string> columns{"t", "lat_deg", "lon_deg", "height_m", "ve", "vn", "vu"};
-  if (any_pos_std) columns.push_back("pos_std_m");
-  if (any_vel_std) columns.push_back("vel_std_mps");
-  columns.push_back("fix");
-  CsvBuilder csv(path, columns);
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    const GnssSample& s = rows[i];
-    csv.begin_row(i);
-    csv.number(s.t_s, "t");
-    csv.degrees_within_quarter_turn(s.position.lat_rad, "lat_deg");
-    csv.longitude(s.position.lon_rad, "lon_deg");
-    csv.number(s.position.height_m, "height_m");
-    csv.number(s.vel_enu_mps.x(), "ve");
-    csv.number(s.vel_enu_mps.y(), "vn");
-    csv.number(s.vel_enu_mps.z(), "vu");
-    if (any_pos_std) csv.optional_number(s.pos_std_m, "pos_std_m");
-    if (any_vel_std) csv.optional_number(s.vel_std_mps, "vel_std_mps");
-    csv.integer(s.fix);
-    csv.end_row();
-  }
-  return csv.text();
-}
-
-std::string ins_csv(const std::string& path, const std::vector<InsSample>& rows) {
-  bool any_velocity = false;
-  for (const InsSample& s : rows) any_velocity = any_velocity || s.vel_enu_mps.has_value();
-  std::vector<std::string> columns{"t", "heading_deg", "pitch_deg", "roll_deg"};
-  if (any_velocity) columns.insert(columns.end(), {"ve", "vn", "vu"});
-  CsvBuilder csv(path, columns);
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    const InsSample& s = rows[i];
-    csv.begin_row(i);
-    csv.number(s.t_s, "t");
-    csv.degrees(s.attitude.heading_rad, "heading_deg");
-    csv.degrees_within_quarter_turn(s.attitude.pitch_rad, "pitch_deg");
-    csv.degrees(s.attitude.roll_rad, "roll_deg");
-    if (any_velocity) {
-      for (int axis = 0; axis < 3; ++axis) {
-        const char* name = axis == 0 ? "ve" : axis == 1 ? "vn" : "vu";
-        csv.optional_number(s.vel_enu_mps ? std::optional<double>((*s.vel_enu_mps)[axis]) : std::nullopt, name);
-      }
-    }
-    csv.end_row();
-  }
-  return csv.text();
-}
-
-std::string truth_csv(const std::string& path, const std::vector<TruthSample>& rows) {
-  // A column is written when any row has a value for it; absent values (NaN) are empty fields.
-  enum class Kind { kNumber, kAngle, kQuarterTurnAngle, kLongitude };
-  struct Column {
-    const char* name;
-    Kind kind;
-    std::function<double(const TruthSample&)> get;
-  };
-  const std::vector<Column> all{
-      {"lat_deg", Kind::kQuarterTurnAngle, [](const TruthSample& s) { return s.position.lat_rad; }},
-      {"lon_deg", Kind::kLongitude, [](const TruthSample& s) { return s.position.lon_rad; }},
-      {"height_m", Kind::kNumber, [](const TruthSample& s) { return s.position.height_m; }},
-      {"heading_deg", Kind::kAngle, [](const TruthSample& s) { return s.attitude.heading_rad; }},
-      {"pitch_deg", Kind::kQuarterTurnAngle, [](const TruthSample& s) { return s.attitude.pitch_rad; }},
-      {"roll_deg", Kind::kAngle, [](const TruthSample& s) { return s.attitude.roll_rad; }},
-      {"k_true", Kind::kNumber, [](const TruthSample& s) { return s.k_true_m_per_pulse; }},
-      {"distance_m", Kind::kNumber, [](const TruthSample& s) { return s.distance_m; }},
-  };
-  std::vector<const Column*> used;
-  std::vector<std::string> names{"t"};
-  for (const Column& c : all) {
-    for (const TruthSample& s : rows) {
-      if (!std::isnan(c.get(s))) {
-        used.push_back(&c);
-        names.push_back(c.name);
-        break;
-      }
-    }
-  }
-  CsvBuilder csv(path, names);
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    csv.begin_row(i);
-    csv.number(rows[i].t_s, "t");
-    for (const Column* c : used) {
-      const double value = c->get(rows[i]);
-      if (std::isnan(value)) {
-        csv.empty();
-        continue;
-      }
-      switch (c->kind) {
-        case Kind::kNumber: csv.number(value, c->name); break;
-        case Kind::kAngle: csv.degrees(value, c->name); break;
-        case Kind::kQuarterTurnAngle: csv.degrees_within_quarter_turn(value, c->name); break;
-        case Kind::kLongitude: csv.longitude(value, c->name); break;
-      }
-    }
-    csv.end_row();
-  }
-  return csv.text();
-}
-
-// Sets section.key to value, or removes it (and an emptied section) when value is nullopt.
-void set_meta_number(nlohmann::json& root, const char* section, const char* key, const std::optional<double>& value) {
-  if (value) {
-    if (!root.contains(section) || !root[section].is_object()) root[section] = nlohmann::json::object();
-    root[section][key] = *value;
-    return;
-  }
-  if (root.contains(section) && root[section].is_object()) {
-    root[section].erase(key);
-    if (root[section].empty()) root.erase(section);
-  }
-}
-
-std::string meta_json(const std::string& path, const DatasetMeta& meta) {
-  nlohmann::json root = nlohmann::json::object();
-  if (!meta.raw_json.empty()) {
-    try {
-      root = nlohmann::json::parse(meta.raw_json);
-    } catch (const nlohmann::json::parse_error& e) {
-      throw DatasetError(path + ": cannot carry meta.raw_json, it is malformed JSON: " + e.what());
-    }
-    if (!root.is_object()) throw DatasetError(path + ": cannot carry meta.raw_json, it is not a JSON object");
-  }
-  root["format"] = meta.format;
-  const auto set_string = [&](const char* key, const std::string& value) {
-    if (value.empty()) root.erase(key);
-    else root[key] = value;
-  };
-  set_string("vehicle_id", meta.vehicle_id);
-  set_string("description", meta.description);
-  set_meta_number(root, "odometer", "k_nominal_m_per_pulse", meta.k_nominal_m_per_pulse);
-  set_meta_number(root, "truth", "misalignment_heading_deg", meta.truth_misalignment_heading_deg);
-  set_meta_number(root, "truth", "misalignment_pitch_deg", meta.truth_misalignment_pitch_deg);
-  if (meta.gnss_lever_arm_m) {
-    if (!meta.gnss_lever_arm_m->allFinite()) throw DatasetError(path + ": cannot write a non-finite lever arm");
-    root["gnss"]["lever_arm_m"] = {meta.gnss_lever_arm_m->x(), meta.gnss_lever_arm_m->y(), meta.gnss_lever_arm_m->z()};
-  }
-  for (const auto* value : {&meta.k_nominal_m_per_pulse, &meta.truth_misalignment_heading_deg,
-                            &meta.truth_misalignment_pitch_deg}) {
-    if (*value && !std::isfinite(**value)) throw DatasetError(path + ": cannot write a non-finite number");
-  }
-  return root.dump(2) + "\n";
-}
-
-std::string join_path(const std::string& dir, const char* file) { return (fs::path(dir) / file).string(); }
 
 }  // namespace
 
@@ -753,32 +465,6 @@ Dataset read_dataset(const std::string& dir, BadRowPolicy policy, DatasetReadRep
   const std::string meta_path = join_path(dir, "meta.json");
   if (fs::exists(meta_path, ec)) dataset.meta = read_meta(meta_path);
   return dataset;
-}
-
-void write_dataset(const std::string& dir, const Dataset& dataset) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw DatasetError(dir + ": cannot create the dataset directory: " + ec.message());
-  // Every file is built (and checked) in memory first, so a bad value leaves no half-written set.
-  const std::string odometer_path = join_path(dir, "odometer.csv");
-  const std::string gnss_path = join_path(dir, "gnss.csv");
-  const std::string ins_path = join_path(dir, "ins.csv");
-  const std::string truth_path = join_path(dir, "truth.csv");
-  const std::string meta_path = join_path(dir, "meta.json");
-  const std::string odometer_text = odometer_csv(odometer_path, dataset.odometer);
-  const std::string gnss_text = gnss_csv(gnss_path, dataset.gnss);
-  const std::string ins_text = dataset.has_ins() ? ins_csv(ins_path, dataset.ins) : "";
-  const std::string truth_text = dataset.has_truth() ? truth_csv(truth_path, dataset.truth) : "";
-  const std::string meta_text = meta_json(meta_path, dataset.meta);
-
-  write_file(odometer_path, odometer_text);
-  write_file(gnss_path, gnss_text);
-  // A stale ins.csv / truth.csv from an earlier write would change what the directory means.
-  if (dataset.has_ins()) write_file(ins_path, ins_text);
-  else remove_stale(ins_path);
-  if (dataset.has_truth()) write_file(truth_path, truth_text);
-  else remove_stale(truth_path);
-  write_file(meta_path, meta_text);
 }
 
 }  // namespace odonav

@@ -1,0 +1,30 @@
+#pragma once
+// Private helpers of the dataset reader, writer and meta.json code (dataset_reader.cpp,
+// dataset_writer.cpp, dataset_meta.cpp); not installed, not included outside common/src/io.
+// The format itself: docs/DATASET.md.
+#include <filesystem>
+#include <string>
+
+#include "odonav/dataset.hpp"
+
+namespace odonav::dataset_detail {
+
+/// dir/file as one path string.
+inline std::string join_path(const std::string& dir, const char* file) {
+  return (std::filesystem::path(dir) / file).string();
+}
+
+/// The whole content of a file, in one read. Throws DatasetError naming the path when it cannot be
+/// opened or read.
+std::string read_whole_file(const std::string& path);
+
+/// Reads meta.json (every key optional; unknown keys kept in raw_json). Throws DatasetError naming
+/// the path and the key on malformed JSON or a key of the wrong type.
+DatasetMeta read_meta(const std::string& path);
+
+/// The text of meta.json for `meta`: the unknown keys of meta.raw_json carried through, the known
+/// keys from the struct. `path` names the file in errors. Throws DatasetError on a non-finite number
+/// or a malformed raw_json.
+std::string meta_json(const std::string& path, const DatasetMeta& meta);
+
+}  // namespace odonav::dataset_detail
