@@ -69,6 +69,12 @@ struct DatasetMeta {
   std::string raw_json;
 };
 
+/// Input bounds of the reader (docs/DATASET.md, "Limits"): a dataset file larger than this is refused
+/// (about 20 h of 100 Hz odometer, INS and 10 Hz GNSS); a line longer than this is a bad row (a
+/// real row has well under 1000 bytes).
+inline constexpr std::uintmax_t kMaxDatasetFileBytes = std::uintmax_t{2} << 30;  // 2 GiB
+inline constexpr std::size_t kMaxDatasetLineBytes = 64 * 1024;
+
 /// A whole dataset directory in memory.
 struct Dataset {
   std::vector<OdometerSample> odometer;
