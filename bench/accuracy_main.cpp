@@ -1,4 +1,5 @@
-// odonav-bench-accuracy: the estimator comparison of issue 8, done on the simulator's truth.
+// odonav-bench-accuracy: every estimator compared side by side against the simulator's truth, so the
+// choice of the main estimator and its defaults rests on measured figures (BENCHMARKS.md §4).
 //
 // For every scenario (straight, ring, terrain) and every seed, simulates the drive in memory, runs the
 // whole offline chain (run_offline: calibration, every estimator side by side on the same samples, DR
@@ -269,7 +270,7 @@ void run_sensitivity(const odonav::offline::OfflineParams& base, std::size_t see
 
 int main(int argc, char** argv) {
   odonav::Options opts("odonav-bench-accuracy",
-                       "Accuracy benchmark of issue 8: every estimator on every simulated scenario over several "
+                       "Accuracy benchmark: every estimator on every simulated scenario over several "
                        "seeds (median and range), DR %D with the online and the coarse K, and the sensitivity of "
                        "VFF-LM-RLS to L, C and lambda_min. Prints Markdown tables. Not a test.");
   opts.add_int("seeds", 10, "seeds per scenario", 1, 1000);

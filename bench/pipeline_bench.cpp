@@ -1,4 +1,5 @@
-// odonav-bench-pipeline: the DDS pipeline benchmark of issue 8 (BENCHMARKS.md, "Pipeline").
+// odonav-bench-pipeline: latency, CPU and memory of the distributed pipeline, to check the component
+// budgets on a real host (BENCHMARKS.md §6).
 //
 // Runs odonav-gateway (replay of a simulated dataset), odonav-calibration, odonav-identification and
 // odonav-dead-reckoning as separate processes on one host over the loopback profile, and measures:
@@ -708,7 +709,7 @@ std::string self_path(const char* argv0) {
 
 int main(int argc, char** argv) {
   odonav::Options opts(kProgram,
-                       "Pipeline benchmark of issue 8: gateway + calibration + identification + dead reckoning as "
+                       "Pipeline benchmark: gateway + calibration + identification + dead reckoning as "
                        "processes over loopback DDS; end-to-end latency against the raw hop, CPU and peak RSS per "
                        "component, and the highest replay speed with nothing lost. Prints figures. Not a test.");
   opts.add_int("domain", 140, "DDS domain id of the runs", 0, 232);
@@ -757,7 +758,7 @@ int main(int argc, char** argv) {
     std::cerr << kProgram << ": " << e.what() << "\n";
     return 2;
   }
-  // Loopback only, and no stray XML in the working directory (FAST_DDS_NOTES.md).
+  // Loopback only, and no stray XML in the working directory (docs/DDS.md §2).
   setenv("FASTRTPS_DEFAULT_PROFILES_FILE", setup.profile.c_str(), 1);
   setenv("SKIP_DEFAULT_XML", "1", 1);
   signal(SIGPIPE, SIG_IGN);

@@ -13,8 +13,7 @@ function(odonav_add_gtest name)
   target_include_directories(${target} PRIVATE ${PROJECT_SOURCE_DIR}/tests/support)
   target_compile_definitions(${target} PRIVATE
     ODONAV_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
-    ODONAV_BINARY_DIR="${PROJECT_BINARY_DIR}"
-    ODONAV_SHARED_DIR="${PROJECT_SOURCE_DIR}/../shared")
+    ODONAV_BINARY_DIR="${PROJECT_BINARY_DIR}")
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()

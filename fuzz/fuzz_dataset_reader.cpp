@@ -1,4 +1,4 @@
-// libFuzzer target: the dataset reader (read_dataset, DATASET.md) fed whole file images, and what it
+// libFuzzer target: the dataset reader (read_dataset, docs/DATASET.md) fed whole file images, and what it
 // accepts fed on to the sample builder and the dead reckoner.
 //
 // Input layout: the file images of one dataset directory separated by NUL bytes, in the order
@@ -10,7 +10,7 @@
 // (its documented error), and any broken promise of an accepted dataset: rows in strictly increasing
 // finite time, finite required values, latitude and pitch in [-90, 90] deg, counts that add up; and
 // the cores must accept whatever the reader accepted (a StreamInputError there would mean the reader
-// let through what DATASET.md calls a bad row).
+// let through what docs/DATASET.md calls a bad row).
 #include <cmath>
 #include <cstdint>
 #include <cstdio>

@@ -4,7 +4,7 @@
 int main(int argc, char** argv) {
   return odonav::dds::run_component(
       argc, argv, "odonav-calibration",
-      "Calibrates the odometer-to-INS misalignment from GNSS velocity and INS attitude (ALGORITHM.md 1): "
+      "Calibrates the odometer-to-INS misalignment from GNSS velocity and INS attitude (docs/ALGORITHM.md section 1): "
       "reads rt/odonav/gnss/fix and rt/odonav/ins/attitude, publishes rt/odonav/misalignment once per GNSS "
       "epoch, in event time. Stops on SIGINT/SIGTERM after publishing every remaining output.",
       [](odonav::Options& o) { odonav::nodes::add_calibration_node_options(o); },

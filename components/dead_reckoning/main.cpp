@@ -4,7 +4,7 @@
 int main(int argc, char** argv) {
   return odonav::dds::run_component(
       argc, argv, "odonav-dead-reckoning",
-      "Dead-reckons with the SINS attitude and the odometer (ALGORITHM.md 4): reads rt/odonav/odometer, "
+      "Dead-reckons with the SINS attitude and the odometer (docs/ALGORITHM.md section 4): reads rt/odonav/odometer, "
       "rt/odonav/ins/attitude, rt/odonav/gnss/fix, rt/odonav/misalignment and rt/odonav/scale_factor, publishes "
       "rt/odonav/dead_reckoning once per odometer sample, in event time. Uses the nominal K until an identified "
       "K converges, and goes on without identification. Stops on SIGINT/SIGTERM after publishing every output.",

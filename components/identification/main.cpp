@@ -4,7 +4,7 @@
 int main(int argc, char** argv) {
   return odonav::dds::run_component(
       argc, argv, "odonav-identification",
-      "Identifies the odometer scale factor K online (ALGORITHM.md 2-3): reads rt/odonav/odometer, "
+      "Identifies the odometer scale factor K online (docs/ALGORITHM.md sections 2-3): reads rt/odonav/odometer, "
       "rt/odonav/gnss/fix, rt/odonav/ins/attitude and rt/odonav/misalignment, publishes rt/odonav/scale_factor "
       "once per GNSS epoch, in event time. With --state-dir it resumes from its checkpoint after a restart. Stops on SIGINT/SIGTERM after publishing every remaining output.",
       [](odonav::Options& o) { odonav::nodes::add_identification_node_options(o); },

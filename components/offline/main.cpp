@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
   odonav::Options opts("odonav-offline",
                        "Runs misalignment calibration, scale-factor identification (every estimator side by "
                        "side) and dead reckoning (with the identified K and with a coarse K) over a dataset "
-                       "directory (DATASET.md), without DDS. Writes misalignment.csv, scale_factor.csv, "
+                       "directory (docs/DATASET.md), without DDS. Writes misalignment.csv, scale_factor.csv, "
                        "dead_reckoning.csv, dead_reckoning_coarse.csv and summary.json into --out, and prints a "
                        "summary; with truth.csv it also evaluates against the truth.");
   opts.add_positional("dataset", "dataset directory");

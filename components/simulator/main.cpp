@@ -1,4 +1,4 @@
-// odonav-sim: writes a simulated dataset directory (DATASET.md) for a named scenario.
+// odonav-sim: writes a simulated dataset directory (docs/DATASET.md) for a named scenario.
 //
 //   odonav-sim <straight|ring|terrain> --out DIR [--seed N] [--gnss-rate 10|1] [--duration-s S] ...
 //   odonav-sim <scenario> --nmea FILE [--nmea-utc-epoch-s S] ...   the GNSS as NMEA 0183 (core/nmea.hpp)
@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
   const sim::SimulationConfig base;  // defaults shown in the usage; the scenario may change some
   odonav::Options opts("odonav-sim",
                        "Simulates a tracked vehicle (odometer, GNSS, INS, truth) on a named scenario and "
-                       "writes a dataset directory (DATASET.md). Deterministic for a given seed.");
+                       "writes a dataset directory (docs/DATASET.md). Deterministic for a given seed.");
   opts.add_positional("scenario", "straight, ring or terrain");
   opts.add_string("out", "", "dataset directory to write (created if missing); required unless --nmea is given");
   opts.add_string("nmea", "", "also (or only) write the GNSS as NMEA 0183 GGA, RMC, VTG and GST sentences, one fix "

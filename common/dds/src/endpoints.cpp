@@ -69,7 +69,7 @@ WriterBase::WriterBase(const Participant& participant, const std::string& topic_
   }
   if (writer_ == nullptr) {
     if (const auto& security = core_->security()) {
-      // Access control returns nullptr for a topic the permissions do not grant (FAST_DDS_NOTES.md).
+      // Access control returns nullptr for a topic the permissions do not grant (docs/DDS.md §6).
       throw std::runtime_error("odonav::dds::Writer: cannot create the writer of topic '" + topic_name +
                                "': the DDS Security permissions of identity '" + security->identity +
                                "' (" + security->permissions_file + ") do not allow publishing it, or profile '" +

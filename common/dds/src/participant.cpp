@@ -297,7 +297,7 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
   if (participant == nullptr) {
     std::string why = " (see the Fast DDS log)";
     if (security) {
-      // Fast DDS 2.9 refuses a secure participant without saying why (FAST_DDS_NOTES.md).
+      // Fast DDS 2.9 refuses a secure participant without saying why (docs/DDS.md §6).
       why = " (DDS Security refused it: check that the certificate is signed by identity_ca.cert.pem and "
             "matches key.pem, that governance and permissions are signed by permissions_ca.cert.pem, that "
             "the permissions subject_name is the certificate subject in RFC 2253 order (CN=...,O=...,C=...) "

@@ -1,5 +1,5 @@
 #pragma once
-// The odonav dataset directory, format v1 (../shared/design/DATASET.md): types, reader, writer.
+// The odonav dataset directory, format v1 (docs/DATASET.md): types, reader, writer.
 //
 // Files hold degrees, metres, m/s; these types hold SI with radians. Time t_s is seconds on the
 // one time base shared by every file of the directory.
@@ -86,7 +86,7 @@ struct Dataset {
   bool has_truth() const { return !truth.empty(); }
 };
 
-/// What to do with a bad row (DATASET.md): stop with an error, or skip it and count it.
+/// What to do with a bad row (docs/DATASET.md "Bad rows and file errors"): stop with an error, or skip it and count it.
 enum class BadRowPolicy { kFail, kSkip };
 
 /// Parses "fail" / "skip"; throws std::invalid_argument naming the value otherwise.
@@ -121,8 +121,8 @@ class DatasetError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Reads a dataset directory. Validates every rule of DATASET.md. Throws DatasetError.
-/// Beyond DATASET.md: fields may carry surrounding spaces; an empty optional field means absent
+/// Reads a dataset directory. Validates every rule of docs/DATASET.md. Throws DatasetError.
+/// In detail (docs/DATASET.md lists these too): fields may carry surrounding spaces; an empty optional field means absent
 /// (direction 1, fix 1, no std, NaN in truth); INS ve/vn/vu come all or none (header and row);
 /// pitch must lie in [-90, 90] deg; a duplicate or empty header name is a file error. A row with
 /// more fields than the header is a BadRow with an empty column; with fewer, it names the first

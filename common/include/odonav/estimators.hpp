@@ -1,7 +1,7 @@
 #pragma once
-// The concrete odometer scale-factor estimators of ALGORITHM.md §3, their parameters and a factory.
+// The concrete odometer scale-factor estimators of docs/ALGORITHM.md §3, their parameters and a factory.
 //
-// Regression (ALGORITHM.md §2):  y_k = K * phi_k + e_k, scalar theta = K [m/pulse].
+// Regression (docs/ALGORITHM.md §2):  y_k = K * phi_k + e_k, scalar theta = K [m/pulse].
 // Every least-squares estimator here keeps the two weighted sums
 //   S_pp = w0 + sum_i w_i phi_i^2          [pulse^2]
 //   S_py = w0 K0 + sum_i w_i phi_i y_i     [pulse m]
@@ -14,7 +14,7 @@
 //   ff_rls      w_i = lambda^(k-i), constant lambda (fading memory of about 1/(1-lambda) samples).
 //   lm_rls      w_i = 1 for the last L accepted samples, 0 before (sliding window).
 //   vff_lm_rls  the last L samples, w_i = prod_{j=i+1..k} lambda_j with the Fortescue-type variable
-//               forgetting factor lambda_j of ALGORITHM.md §3 (1 while the window is filling).
+//               forgetting factor lambda_j of docs/ALGORITHM.md §3 (1 while the window is filling).
 //   coarse      K = sum S / sum N over straight runs (the traditional baseline), S from GNSS positions.
 //   kf_rw       random-walk Kalman filter on K with an innovation-based change detector (the
 //               ALGORITHM's "open goal": fast after a jump, quiet in steady state).
@@ -77,7 +77,7 @@ struct ScaleFactorEstimatorParams {
   /// with sigma_y^2 = (sigma_v_mps * sample_interval_s)^2 / 2 + K^2 / 6 (GNSS velocity noise plus
   /// pulse quantisation, K the current estimate), never below sigma_y_floor_m^2.
   double vff_c_m2 = 0.0;
-  /// kappa of the automatic C, > 0 (ALGORITHM.md: 1..10).
+  /// kappa of the automatic C, > 0 (docs/ALGORITHM.md §3: 1..10).
   double vff_kappa = 4.0;
   /// One-sigma GNSS velocity noise [m/s], >= 0 (automatic C, kf_rw measurement noise prior).
   double sigma_v_mps = 0.05;

@@ -1,5 +1,6 @@
 #pragma once
-// Event-time alignment of a component's separately arriving input streams (issue 4), middleware-free.
+// Event-time alignment of a component's separately arriving input streams, middleware-free,
+// so a component's outputs depend on the data's time stamps, not on arrival order or replay speed.
 //
 // A component receives each input stream on its own (DDS topics, in increasing event time per
 // stream, but in any interleaving across streams and with any delay). Its cores (sample builder,

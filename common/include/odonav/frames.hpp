@@ -4,9 +4,9 @@
 // Navigation frame n: local East-North-Up (ENU).
 // Body frame b: the INS body, forward-left-up (FLU, REP-103).
 // Odometer frame m: forward axis of the odometer, turned from the INS body by the installation
-//   misalignment (see DATASET.md "Frames and sign conventions").
+//   misalignment (see docs/DATASET.md "Frames and sign conventions").
 //
-// Attitude conventions (as in DATASET.md):
+// Attitude conventions (as in docs/DATASET.md):
 //   heading_rad: true azimuth of the body forward axis, clockwise from north, any value (wrapped);
 //   pitch_rad:   positive nose up, valid range [-pi/2, pi/2];
 //   roll_rad:    positive right side down, any value.

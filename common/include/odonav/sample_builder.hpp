@@ -1,5 +1,5 @@
 #pragma once
-// The regression-sample builder of ALGORITHM.md §2: turns the odometer, GNSS and INS streams into
+// The regression-sample builder of docs/ALGORITHM.md §2: turns the odometer, GNSS and INS streams into
 // scale-factor samples y_k = K * phi_k + e_k, one per GNSS epoch, behind a set of counted gates.
 //
 // Event time: every stream is buffered by add_*() (each stream in increasing time, streams in any
@@ -45,7 +45,7 @@ namespace odonav {
 /// (differential, PPS, SBAS); 3 for 5 (RTK float); 4 for 4 (RTK fixed).
 int fix_quality_rank(int fix);
 
-/// Gate settings. Defaults are those of ALGORITHM.md §2 for a 10 Hz GNSS receiver.
+/// Gate settings. Defaults are those of docs/ALGORITHM.md §2 for a 10 Hz GNSS receiver.
 struct SampleBuilderParams {
   /// Use the INS attitude to project the GNSS velocity (false: |v_ENU|, degraded mode without INS).
   bool use_ins = true;

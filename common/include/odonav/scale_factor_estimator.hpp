@@ -1,8 +1,8 @@
 #pragma once
-// The odometer scale-factor estimators of ALGORITHM.md §3, behind one interface so they can be
+// The odometer scale-factor estimators of docs/ALGORITHM.md §3, behind one interface so they can be
 // compared side by side on the same samples.
 //
-// Regression (ALGORITHM.md §2):  y_k = K * phi_k + e_k
+// Regression (docs/ALGORITHM.md §2):  y_k = K * phi_k + e_k
 //   phi_k: pulses counted over the sample interval [pulses] (>0 for accepted samples)
 //   y_k:   distance along the odometer axis over the interval from GNSS velocity [m]
 //   K:     odometer scale factor [m/pulse]
@@ -50,7 +50,7 @@ class ScaleFactorEstimator {
 
   // Added by the estimators work (every estimator implements them): a restarted service resumes
   // from the last state instead of re-converging for L samples; DDS persistence keeps samples
-  // only, not estimator internals (FAST_DDS_NOTES.md).
+  // only, not estimator internals (docs/DDS.md §5).
   /// The complete internal state as versioned text (doubles in hex-float, so a restored estimator
   /// continues bit-identically), with the estimator name, its parameters and a checksum.
   virtual std::string save_state() const = 0;

@@ -1,5 +1,5 @@
 // LM-RLS and VFF-LM-RLS: a sliding window of the last L accepted samples, exact and O(1) per sample
-// (ALGORITHM.md §3). The window sums are scaled by lambda on every update, so a sample that entered
+// (docs/ALGORITHM.md §3). The window sums are scaled by lambda on every update, so a sample that entered
 // when the running log-weight was Lambda_i has weight exp(Lambda - Lambda_i) now: the product of the
 // lambdas applied since, not lambda^L. That is the weight it must be removed with.
 #include <algorithm>

@@ -26,7 +26,7 @@ int fix_quality_of(int status) {
     case STATUS_DGPS_FIX: return 2;
     case STATUS_RTK_FIX: return 4;
     case STATUS_RTK_FLT: return 5;
-    case STATUS_DR: return 6;  // dead reckoning only: published, but not a reference (DATASET.md)
+    case STATUS_DR: return 6;  // dead reckoning only: published, but not a reference (docs/DATASET.md)
     default: return 1;
   }
 }

@@ -74,7 +74,7 @@ inline constexpr double kCourseMissingStandingSpeedMps = 1.0;
 ///  - No time: std::nullopt (no stamp, nothing to publish; the caller counts it).
 ///  - Mode < 2 (or no latitude/longitude): fix 0 (published invalid), position and velocity NaN,
 ///    never zeros.
-///  - Fix quality (GGA convention of DATASET.md) from status: 2 DGPS, 4 RTK fixed, 5 RTK float,
+///  - Fix quality (GGA convention of docs/DATASET.md) from status: 2 DGPS, 4 RTK fixed, 5 RTK float,
 ///    6 dead reckoning (not a reference); unknown, GPS, GNSS+DR and others count as 1.
 ///  - Height: altHAE, else altMSL + geoid separation; a 2D fix (or no height) leaves it NaN, so the
 ///    message is published invalid (the product needs a 3D reference).

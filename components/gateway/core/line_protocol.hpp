@@ -8,7 +8,7 @@
 //   GNSS,<t>,<lat_deg>,<lon_deg>,<height_m>,<ve>,<vn>,<vu>,<fix>[,<pos_std_m>,<vel_std_mps>]
 // optionally wrapped like NMEA: a leading '$' and a trailing '*HH', HH the XOR of every character
 // between the '$' (or the line start) and the '*', two hexadecimal digits. Units and conventions
-// are those of DATASET.md (t in seconds on the one time base of the vehicle, angles in degrees).
+// are those of docs/DATASET.md (t in seconds on the one time base of the vehicle, angles in degrees).
 // Empty lines and lines starting with '#' are ignored.
 //
 // Why a parser that never throws: a live device sends noise (a cable plugged in mid-line, a wrong

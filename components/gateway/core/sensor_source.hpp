@@ -2,7 +2,7 @@
 // odonav-gateway's middleware-free core, part 1: where the sensor data comes from.
 //
 // A source is `sim:<scenario>` (the simulator, in-process) or `replay:<dataset dir>` (a dataset
-// directory, DATASET.md). Either way the result is an odonav::Dataset holding exactly what
+// directory, docs/DATASET.md). Either way the result is an odonav::Dataset holding exactly what
 // read_dataset() gives for the dataset files of that drive, so the pipeline fed by the gateway and
 // odonav-offline reading `odonav-sim <scenario> --out DIR` see bit-identical inputs.
 // The three sensor streams are then merged into one time-ordered list of events (interleave()).

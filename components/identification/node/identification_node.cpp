@@ -116,7 +116,7 @@ odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& out, c
 
 namespace {
 // The scale-factor writer: the profile, plus ownership strength always, plus TRANSIENT with the
-// SQLite persistence when there is a state directory (FAST_DDS_NOTES.md: plugin, file, fixed GUID).
+// SQLite persistence when there is a state directory (docs/DDS.md §5: plugin, file, fixed GUID).
 dds::WriterSettings scale_factor_writer_settings(const std::string& state_dir, const std::string& vehicle_id,
                                                  const InstanceSettings& instance) {
   dds::WriterSettings w;

@@ -1,6 +1,6 @@
 #pragma once
 // The seeded tracked-vehicle simulator: drives a course, and writes what the odometer, the GNSS
-// receiver and the INS would report, plus the ground truth, as an odonav::Dataset (DATASET.md).
+// receiver and the INS would report, plus the ground truth, as an odonav::Dataset (docs/DATASET.md).
 //
 // Every field below is a default a user may change; components/simulator/README.md lists them with
 // their units and the reasoning behind each value. SI inside: radians, metres, seconds, m/s.

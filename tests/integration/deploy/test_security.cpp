@@ -113,7 +113,7 @@ class DdsSecurity : public ::testing::Test {
 };
 
 TEST_F(DdsSecurity, MakePkiWritesRfc2253SubjectsAndVerifiableSignatures) {
-  // The permissions subject must be the certificate subject in RFC 2253 order (FAST_DDS_NOTES.md).
+  // The permissions subject must be the certificate subject in RFC 2253 order (docs/DDS.md §6).
   const fs::path dir = pki_a() / "odonav-identification";
   std::ifstream permissions(dir / "permissions.xml");
   const std::string text((std::istreambuf_iterator<char>(permissions)), std::istreambuf_iterator<char>());

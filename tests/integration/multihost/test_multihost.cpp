@@ -1,4 +1,5 @@
-// The pipeline across hosts (issue 7): three ECUs and a ground station as Linux network namespaces
+// The pipeline across hosts, as on a vehicle (deploy/README.md): three ECUs and a ground station as
+// Linux network namespaces
 // joined by a bridge (virtual_network.hpp), each component a process on its host, DDS over the
 // bridge with the vehicle profile (deploy/profiles/vehicle.xml with the host's address), SHM only
 // within a host. Needs root (CI runs as root); domains 130-139.

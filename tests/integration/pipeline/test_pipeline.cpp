@@ -139,7 +139,7 @@ const TruthSample& truth_at(const Dataset& d, double t_s) {
 
 TEST_F(Pipeline, ShortTerrainDriveIsAccurateAgainstTruth) {
   // 120 s of the terrain course: 5 s standstill, the 600 m straight, the 60 m-radius right turn and
-  // the next straight (about 1.2 km). Short, so the bounds are the estimation issue's, scaled:
+  // the next straight (about 1.2 km). Short, so the bounds are the method's expected accuracy, scaled:
   // K converges in about 10-20 s of motion and is then within 0.5 % of the truth; the misalignment
   // has about 60 s of straight driving (0.01 deg expected, bound 0.05 deg, which also holds the
   // 0.02 deg INS heading bias that appears in it); DR over ~1.2 km with that K and misalignment

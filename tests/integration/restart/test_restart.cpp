@@ -1,4 +1,5 @@
-// odonav-identification restart (issue 5, tests 1, 2 and 4), as processes on loopback DDS (domains
+// odonav-identification restart (it resumes its K instead of re-converging), as processes on loopback
+// DDS (domains
 // 100-105): the gateway drives a simulated ring course in accelerated real time, odonav-identification
 // checkpoints into a state directory, odonav-dead-reckoning navigates with its K.
 //   1. kill -9 of the identification mid-run, restarted 2 s later with the same --state-dir: DR

@@ -1,4 +1,5 @@
-// Hot standby (issue 5, test 3), as processes on loopback DDS: gateway (simulated ring course at
+// Hot standby (a second identification takes over when the first dies), as processes on loopback DDS:
+// gateway (simulated ring course at
 // real-time pace, so wall time means something), calibration, a primary identification (ownership
 // strength 20), a standby (strength 10, --instance identification/standby) and dead reckoning.
 // The primary is SIGKILLed mid-run. Asserted:

@@ -47,7 +47,7 @@ ParticipantOptions loopback_options(const std::string& name) {
 }
 
 void clean_shared_memory() {
-  // Leftovers of crashed runs; safe while other processes run (FAST_DDS_NOTES.md).
+  // Leftovers of crashed runs; safe while other processes run (docs/DDS.md §3).
   if (std::system("fastdds shm clean >/dev/null 2>&1") != 0) {
     std::fprintf(stderr, "note: 'fastdds shm clean' failed or is not installed\n");
   }

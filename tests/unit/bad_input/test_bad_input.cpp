@@ -1,4 +1,4 @@
-// Bad input end to end (issue 5): what one component or the dataset reader does with garbage, on
+// Bad input end to end: what one component or the dataset reader does with garbage, on
 // simulated drives with known truth. Nothing crashes, good data is kept, every rejection is counted.
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
@@ -166,7 +166,7 @@ TEST(BadInput, GnssVelocitySpikesOfTenMetresPerSecondAreRejectedAndKStaysWithinP
   EXPECT_NEAR(run.final_k / ref.final_k - 1.0, 0.0, 0.0005);
 }
 
-// INS missing (DATASET.md degraded mode): K from the GNSS ground speed, dead reckoning along the
+// INS missing (docs/DATASET.md degraded mode): K from the GNSS ground speed, dead reckoning along the
 // GNSS course, both flagged; nothing is rejected for want of an attitude.
 TEST(BadInput, WithoutInsTheDegradedModeIdentifiesKAndDeadReckons) {
   const sim::SimulationConfig cfg = straight_config();
@@ -341,7 +341,7 @@ TEST(BadInput, OneGnssVelocityRowOfAMillionMetresPerSecondDoesNotMoveTheMisalign
   };
   const double clean = heading_error_deg(dir.file("clean"));
   EXPECT_LT(std::abs(clean), 0.1);
-  // Column 5 of gnss.csv is ve (DATASET.md); row 301 is t = 29.9 s at 10 Hz.
+  // Column 5 of gnss.csv is ve (docs/DATASET.md); row 301 is t = 29.9 s at 10 Hz.
   const auto replace_ve = [&](int line, const std::string& value) {
     std::ifstream in(dataset + "/gnss.csv");
     std::vector<std::string> lines;

@@ -1,4 +1,4 @@
-// Misalignment calibrator (ALGORITHM.md §1) on synthetic drives with a known installation misalignment.
+// Misalignment calibrator (docs/ALGORITHM.md §1) on synthetic drives with a known installation misalignment.
 #include <gtest/gtest.h>
 
 #include <cstring>

@@ -1,4 +1,4 @@
-// Dead reckoner (ALGORITHM.md §4) on synthetic drives with exact K and attitude.
+// Dead reckoner (docs/ALGORITHM.md §4) on synthetic drives with exact K and attitude.
 #include <gtest/gtest.h>
 
 #include <random>
@@ -310,7 +310,7 @@ TEST(DeadReckoner, BadInputIsRejectedWithClearErrors) {
   }
 }
 
-// --- pulse jumps (issue 5): a counter glitch must not move the dead reckoning by kilometres ---
+// --- pulse jumps: a counter glitch must not move the dead reckoning by kilometres ---
 
 TEST(DeadReckoner, MillionfoldPulseStepIsRejectedCountedAndTheLapStillCloses) {
   const SensorConfig c = lap_config();

@@ -1,4 +1,4 @@
-// Frames: the sign conventions of DATASET.md pinned by rotating known vectors.
+// Frames: the sign conventions of docs/DATASET.md pinned by rotating known vectors.
 #include <gtest/gtest.h>
 
 #include "odonav/frames.hpp"

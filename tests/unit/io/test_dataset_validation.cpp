@@ -1,4 +1,4 @@
-// Dataset reader validation: every bad-row kind of DATASET.md, under fail (the exact message with
+// Dataset reader validation: every bad-row kind of docs/DATASET.md, under fail (the exact message with
 // file, line and column) and under skip (the counts, and every good row kept).
 #include <gtest/gtest.h>
 #include <spdlog/sinks/ringbuffer_sink.h>

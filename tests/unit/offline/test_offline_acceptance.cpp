@@ -1,4 +1,5 @@
-// Acceptance of the estimation core (issue 3) on the simulator's scenarios with their default noise
+// Acceptance of the estimation core (the accuracy odonav promises) on the simulator's scenarios with
+// their default noise
 // and fixed seeds, against the simulator's truth; and on the real smartLoc drive against a reference
 // K computed here independently from the same files.
 #include <gtest/gtest.h>

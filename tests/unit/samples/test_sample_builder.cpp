@@ -1,4 +1,4 @@
-// Sample builder (ALGORITHM.md §2) on synthetic drives with exactly known K and trajectory.
+// Sample builder (docs/ALGORITHM.md §2) on synthetic drives with exactly known K and trajectory.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -399,7 +399,7 @@ TEST(SampleBuilder, BadInputAndParamsAreRejectedWithClearErrors) {
   EXPECT_THROW(b.process_until(std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
 }
 
-// --- pulse jumps (issue 5): rejected and counted, the regression never sees them ---
+// --- pulse jumps (a counter glitch is not distance): rejected and counted, the regression never sees them ---
 
 TEST(SampleBuilder, MillionfoldPulseStepIsRejectedCountedAndTheSamplesAfterItAreRight) {
   const SyntheticData clean = simulate(accel_drive(), accel_config());

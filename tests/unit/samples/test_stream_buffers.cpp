@@ -80,7 +80,7 @@ TEST(StepHistory, LatestAtOrBeforeAndStrictlyBefore) {
   EXPECT_THROW(h.add(2.0, 1.0), StreamInputError);
 }
 
-// --- pulse-jump gate (issue 5: an absurd pulse jump is rejected and counted) ---
+// --- pulse-jump gate (a counter glitch is not distance: an absurd pulse jump is rejected and counted) ---
 namespace {
 // 10 m/s at K = 0.0125 m/pulse sampled at 50 Hz: 16 pulses per sample, from a raw start of 1000.
 constexpr uint32_t kPulsesPerSample = 16;

@@ -1,5 +1,5 @@
 #pragma once
-// What every odonav DDS component process shares (issue 4): the common flags, the participant and
+// What every odonav DDS component process shares, so all behave alike: the common flags, the participant and
 // health publisher, the operator command subscription, SIGINT/SIGTERM handling, and ONE worker
 // thread fed through a queue so the cores never run inside DDS listener threads.
 //

@@ -39,7 +39,7 @@ struct WriterSettings {
   std::optional<uint32_t> ownership_strength;
   /// TRANSIENT durability instead of the profile's: the writer's history outlives the process in
   /// the persistence service named by `properties` (dds.persistence.plugin, ...sqlite3.filename,
-  /// dds.persistence.guid; FAST_DDS_NOTES.md). Readers stay TRANSIENT_LOCAL: they match.
+  /// dds.persistence.guid; docs/DDS.md §5). Readers stay TRANSIENT_LOCAL: they match.
   bool transient = false;
   /// Extra DDS properties (name, value), not propagated to remote participants.
   std::vector<std::pair<std::string, std::string>> properties;

@@ -1,5 +1,6 @@
 #pragma once
-// DDS Security material of a participant (issue 7): which files, where they come from, and the
+// DDS Security material of a participant (so that only authenticated, authorized components exchange
+// data on a vehicle network): which files, where they come from, and the
 // Fast DDS 2.9 properties that switch the builtin plugins on (PKI-DH authentication,
 // Access-Permissions access control, AES-GCM-GMAC cryptography).
 //

@@ -1,6 +1,6 @@
 #pragma once
 // Edge detection of the DDS deadline: Fast DDS 2.9 calls on_requested_deadline_missed once per
-// deadline period for every silent instance, for as long as it stays silent (FAST_DDS_NOTES.md).
+// deadline period for every silent instance, for as long as it stays silent (docs/DDS.md §4).
 // Users want one event when an instance goes silent and one when its data returns.
 #include <mutex>
 #include <set>

@@ -1,9 +1,9 @@
 #pragma once
-// Odometer-to-INS installation misalignment calibration (ALGORITHM.md §1), middleware-free.
+// Odometer-to-INS installation misalignment calibration (docs/ALGORITHM.md §1), middleware-free.
 //
 // Per valid GNSS epoch: V_b = C_n^b V_n (body forward-left-up, m/s) with the INS attitude
 // interpolated to the epoch. For motion along the odometer axis V_b = v (cos a_h cos a_p,
-// sin a_h cos a_p, sin a_p) (DATASET.md conventions), so two scalar least-squares regressions on the
+// sin a_h cos a_p, sin a_p) (docs/DATASET.md conventions), so two scalar least-squares regressions on the
 // K-free regressor phi = V_forward give
 //   theta_h = V_left / V_forward = tan a_h               ->  a_h = atan(theta_h)
 //   theta_p = V_up   / V_forward = tan a_p / cos a_h      ->  a_p = atan(theta_p cos a_h)

@@ -1,5 +1,5 @@
 #pragma once
-// SINS/odometer dead reckoning (ALGORITHM.md §4), middleware-free.
+// SINS/odometer dead reckoning (docs/ALGORITHM.md §4), middleware-free.
 //
 // Per odometer interval [t_{j-1}, t_j] (units: s, m, pulses, rad):
 //   dS_m = (K dN dir, 0, 0)                  odometer frame; dN = count increment, modulo 2^32

@@ -1,5 +1,6 @@
 #pragma once
-// Checkpoint of odonav-identification (issue 5): what a restarted identification needs to resume
+// Checkpoint of odonav-identification (DDS persistence keeps samples, not the estimator's state): what a
+// restarted identification needs to resume
 // instead of re-converging from the nominal K. Middleware-free; the node decides when to write.
 //
 // File `<state-dir>/identification-<vehicle>.ckpt`, versioned text:

@@ -1,5 +1,5 @@
 #pragma once
-// Online identification of the odometer scale factor K (ALGORITHM.md §2-3), middleware-free.
+// Online identification of the odometer scale factor K (docs/ALGORITHM.md §2-3), middleware-free.
 //
 // Inputs (each stream in increasing event time): odometer, GNSS, INS attitude, misalignment.
 // Per GNSS epoch the sample builder makes (or gates out) a regression sample y = K·phi; accepted
