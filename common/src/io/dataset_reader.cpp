@@ -390,10 +390,15 @@ GnssSample parse_gnss_row(RowFields& row) {
   row.check_range(gnss::kLat, lat_deg, -90.0, 90.0, "latitude");
   const double lon_deg = row.required_double(gnss::kLon);
   row.check_range(gnss::kLon, lon_deg, -180.0, 180.0, "longitude");
-  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(lon_deg), row.required_double(gnss::kHeight)};
+  const double height_m = row.required_double(gnss::kHeight);
+  row.check_range(gnss::kHeight, height_m, kMinHeight_m, kMaxHeight_m, "height (m) of a land vehicle");
+  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(lon_deg), height_m};
   s.vel_enu_mps.x() = row.required_double(gnss::kVe);
   s.vel_enu_mps.y() = row.required_double(gnss::kVn);
   s.vel_enu_mps.z() = row.required_double(gnss::kVu);
+  for (int id : {gnss::kVe, gnss::kVn, gnss::kVu})
+    row.check_range(id, s.vel_enu_mps[id - gnss::kVe], -kMaxVelocityComponent_mps, kMaxVelocityComponent_mps,
+                    "velocity (m/s) of a land vehicle");
   s.pos_std_m = row.optional_double(gnss::kPosStd);
   row.check_not_negative(gnss::kPosStd, s.pos_std_m);
   s.vel_std_mps = row.optional_double(gnss::kVelStd);
@@ -405,11 +410,15 @@ GnssSample parse_gnss_row(RowFields& row) {
 InsSample parse_ins_row(RowFields& row) {
   InsSample s;
   s.t_s = row.required_double(ins::kT);
-  s.attitude.heading_rad = deg_to_rad(row.required_double(ins::kHeading));
+  const double heading_deg = row.required_double(ins::kHeading);
+  row.check_range(ins::kHeading, heading_deg, -kMaxHeadingMagnitude_deg, kMaxHeadingMagnitude_deg, "heading");
+  s.attitude.heading_rad = deg_to_rad(heading_deg);
   const double pitch_deg = row.required_double(ins::kPitch);
   row.check_range(ins::kPitch, pitch_deg, -90.0, 90.0, "pitch");
   s.attitude.pitch_rad = deg_to_rad(pitch_deg);
-  s.attitude.roll_rad = deg_to_rad(row.required_double(ins::kRoll));
+  const double roll_deg = row.required_double(ins::kRoll);
+  row.check_range(ins::kRoll, roll_deg, -kMaxRollMagnitude_deg, kMaxRollMagnitude_deg, "roll");
+  s.attitude.roll_rad = deg_to_rad(roll_deg);
   // The three velocity components come together: all empty (no velocity) or all given.
   const bool any = !row.is_empty(ins::kVe) || !row.is_empty(ins::kVn) || !row.is_empty(ins::kVu);
   if (any) {
@@ -417,6 +426,9 @@ InsSample parse_ins_row(RowFields& row) {
     v.x() = row.required_double(ins::kVe);
     v.y() = row.required_double(ins::kVn);
     v.z() = row.required_double(ins::kVu);
+    for (int id : {ins::kVe, ins::kVn, ins::kVu})
+      row.check_range(id, v[id - ins::kVe], -kMaxVelocityComponent_mps, kMaxVelocityComponent_mps,
+                      "velocity (m/s) of a land vehicle");
     s.vel_enu_mps = v;
   }
   return s;
@@ -439,8 +451,13 @@ TruthSample parse_truth_row(RowFields& row) {
   if (!std::isnan(lat_deg)) row.check_range(truth::kLat, lat_deg, -90.0, 90.0, "latitude");
   const double lon_deg = value_or_nan(truth::kLon);
   if (!std::isnan(lon_deg)) row.check_range(truth::kLon, lon_deg, -180.0, 180.0, "longitude");
-  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(lon_deg), value_or_nan(truth::kHeight)};
-  s.attitude.heading_rad = deg_to_rad(value_or_nan(truth::kHeading));
+  const double height_m = value_or_nan(truth::kHeight);
+  if (!std::isnan(height_m)) row.check_range(truth::kHeight, height_m, kMinHeight_m, kMaxHeight_m, "height (m) of a land vehicle");
+  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(lon_deg), height_m};
+  const double heading_deg = value_or_nan(truth::kHeading);
+  if (!std::isnan(heading_deg))
+    row.check_range(truth::kHeading, heading_deg, -kMaxHeadingMagnitude_deg, kMaxHeadingMagnitude_deg, "heading");
+  s.attitude.heading_rad = deg_to_rad(heading_deg);
   const double pitch_deg = value_or_nan(truth::kPitch);
   if (!std::isnan(pitch_deg)) row.check_range(truth::kPitch, pitch_deg, -90.0, 90.0, "pitch");
   s.attitude.pitch_rad = deg_to_rad(pitch_deg);
