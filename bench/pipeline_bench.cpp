@@ -40,6 +40,7 @@
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <iomanip>
 #include <iostream>
 #include <limits>
@@ -51,6 +52,7 @@
 #include <thread>
 #include <vector>
 
+#include "child_process.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dds/endpoints.hpp"
@@ -63,8 +65,6 @@
 #include "odonav/msg/Odometer.h"
 #include "odonav/msg/ScaleFactor.h"
 #include "odonav/topics.hpp"
-
-extern char** environ;
 
 namespace {
 
@@ -87,87 +87,21 @@ int64_t stamp_ns(const std_msgs::msg::Header& h) {
 
 // ---- child processes --------------------------------------------------------------------------------
 
-// One child process (posix_spawn, stdout and stderr to a log file). The destructor SIGKILLs and reaps
-// it if it still runs, so no path out of the benchmark leaves an orphan.
-class Child {
+// A named child process (tests/support/child_process.hpp: posix_spawn, reaped with wait4 for its
+// CPU time), stdout and stderr to a log file. Its destructor SIGKILLs and reaps it if it still
+// runs, so no path out of the benchmark leaves an orphan.
+class Child : public odonav::test::ChildProcess {
  public:
   Child(std::string name, const std::string& path, const std::vector<std::string>& args, const std::string& log)
-      : name_(std::move(name)) {
-    std::vector<char*> argv;
-    argv.push_back(const_cast<char*>(path.c_str()));
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&actions, 1, 2);
-    const int rc = posix_spawn(&pid_, path.c_str(), &actions, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    if (rc != 0) throw std::runtime_error("cannot start " + path + ": " + std::strerror(rc));
+      : ChildProcess(path, args, log, log), name_(std::move(name)) {
+    if (!started()) throw std::runtime_error("cannot start " + path + ": " + std::strerror(spawn_error()));
   }
-  ~Child() {
-    if (!reaped_) {
-      ::kill(pid_, SIGKILL);
-      reap_blocking();
-    }
-  }
-  Child(const Child&) = delete;
-  Child& operator=(const Child&) = delete;
-
   const std::string& name() const { return name_; }
-  pid_t pid() const { return pid_; }
-  bool reaped() const { return reaped_; }
-  void signal(int sig) const {
-    if (!reaped_) ::kill(pid_, sig);
-  }
-  // Non-blocking: true once the child has exited (then exit_code() and usage are valid).
-  bool poll() {
-    if (reaped_) return true;
-    int status = 0;
-    struct rusage usage {};
-    if (wait4(pid_, &status, WNOHANG, &usage) == pid_) record(status, usage);
-    return reaped_;
-  }
-  // Waits up to timeout_s for the exit; SIGKILL after that. True if it exited by itself.
-  bool wait_exit(double timeout_s) {
-    const int64_t end = steady_ns() + static_cast<int64_t>(timeout_s * 1e9);
-    while (!poll()) {
-      if (steady_ns() > end) {
-        ::kill(pid_, SIGKILL);
-        reap_blocking();
-        return false;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    return true;
-  }
-  int exit_code() const { return exit_code_; }
-  double cpu_s() const { return cpu_s_; }      // user + system CPU of the whole life (after reaping)
-  long max_rss_kb() const { return max_rss_kb_; }  // peak resident set (VmHWM), kB (after reaping)
 
  private:
-  void reap_blocking() {
-    int status = 0;
-    struct rusage usage {};
-    if (wait4(pid_, &status, 0, &usage) == pid_) record(status, usage);
-    reaped_ = true;
-  }
-  void record(int status, const struct rusage& usage) {
-    reaped_ = true;
-    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    cpu_s_ = static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
-             1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-    max_rss_kb_ = usage.ru_maxrss;
-  }
   std::string name_;
-  pid_t pid_ = -1;
-  bool reaped_ = false;
-  int exit_code_ = -1;
-  double cpu_s_ = 0.0;
-  long max_rss_kb_ = 0;
 };
 
-// utime + stime of a running process from /proc/<pid>/stat [s]; NaN if it cannot be read.
 // VmHWM (peak resident set) of a running process from /proc/<pid>/status [kB]; 0 if unreadable.
 // Not ru_maxrss: Linux carries it across exec, so a spawned child would report this process's size.
 long proc_hwm_kb(pid_t pid) {
@@ -177,6 +111,7 @@ long proc_hwm_kb(pid_t pid) {
   return 0;
 }
 
+// utime + stime of a running process from /proc/<pid>/stat [s]; NaN if it cannot be read.
 double proc_cpu_s(pid_t pid) {
   std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -340,7 +275,7 @@ std::string shortest(double v) {
   return s.str();
 }
 
-void shm_clean() { [[maybe_unused]] const int rc = std::system("fastdds shm clean >/dev/null 2>&1"); }
+using odonav::test::shm_clean;
 
 void run_or_throw(const std::string& what, const std::string& command) {
   if (std::system(command.c_str()) != 0) throw std::runtime_error(what + " failed: " + command);
@@ -415,243 +350,352 @@ DatasetInfo make_dataset(const Setup& setup, const std::string& scenario, int64_
   return info;
 }
 
-RunResult run_pipeline(const Setup& setup, const DatasetInfo& data, const std::string& speed) {
-  RunResult result;
-  result.speed = speed;
-  result.load_before = load_average();
-  const bool real_time = speed == "1";
-  const double speed_factor = speed == "max" ? 0.0 : std::stod(speed);
-  const std::string logs = setup.work + "/logs-" + speed;
-  mkdir(logs.c_str(), 0755);
-  shm_clean();
+using odonav::msg::DeadReckoning;
+using odonav::msg::GnssFix;
+using odonav::msg::InsAttitude;
+using odonav::msg::Misalignment;
+using odonav::msg::Odometer;
+using odonav::msg::ScaleFactor;
 
-  odonav::dds::ParticipantOptions po;
-  po.profiles_file = setup.profile;
-  po.domain_id = setup.domain;
-  po.participant_name = kProgram;
-  auto participant = std::make_unique<odonav::dds::Participant>(po);
-  namespace t = odonav::topics;
+// This process's readers of the pipeline's topics, with the receive times taken first thing in each
+// callback (Fast DDS listener threads), and the ping writer / pong reader of the raw-hop measurement.
+struct Probes {
   Arrivals odometer, ins, gnss, scale_factor, misalignment, dead_reckoning, pong_rtt;
-  using odonav::msg::DeadReckoning;
-  using odonav::msg::GnssFix;
-  using odonav::msg::InsAttitude;
-  using odonav::msg::Misalignment;
-  using odonav::msg::Odometer;
-  using odonav::msg::ScaleFactor;
-  // Receive times are taken first thing in each callback (Fast DDS listener threads).
-  odonav::dds::Reader<Odometer> odometer_reader(*participant, t::kOdometer.name, t::kOdometer.reader_profile,
-                                                [&](const Odometer& m) { odometer.add(stamp_ns(m.header()), steady_ns()); });
-  odonav::dds::Reader<InsAttitude> ins_reader(*participant, t::kInsAttitude.name, t::kInsAttitude.reader_profile,
-                                              [&](const InsAttitude& m) { ins.add(stamp_ns(m.header()), steady_ns()); });
-  odonav::dds::Reader<GnssFix> gnss_reader(*participant, t::kGnssFix.name, t::kGnssFix.reader_profile,
-                                           [&](const GnssFix& m) { gnss.add(stamp_ns(m.header()), steady_ns()); });
-  odonav::dds::Reader<ScaleFactor> sf_reader(
-      *participant, t::kScaleFactor.name, t::kScaleFactor.reader_profile, [&](const ScaleFactor& m) {
-        scale_factor.add(stamp_ns(m.header()), steady_ns(), m.samples_accepted());
-      });
-  odonav::dds::Reader<Misalignment> mis_reader(
-      *participant, t::kMisalignment.name, t::kMisalignment.reader_profile,
-      [&](const Misalignment& m) { misalignment.add(stamp_ns(m.header()), steady_ns()); });
-  odonav::dds::Reader<DeadReckoning> dr_reader(
-      *participant, t::kDeadReckoning.name, t::kDeadReckoning.reader_profile,
-      [&](const DeadReckoning& m) { dead_reckoning.add(stamp_ns(m.header()), steady_ns()); });
-  odonav::dds::Writer<Odometer> ping_writer(*participant, kPingTopic, t::kSensorWriterProfile);
-  odonav::dds::Reader<Odometer> pong_reader(*participant, kPongTopic, t::kSensorReaderProfile,
-                                            [&](const Odometer& m) {
-                                              const int64_t now = steady_ns();
-                                              pong_rtt.add(stamp_ns(m.header()), now);
-                                            });
+  odonav::dds::Reader<Odometer> odometer_reader;
+  odonav::dds::Reader<InsAttitude> ins_reader;
+  odonav::dds::Reader<GnssFix> gnss_reader;
+  odonav::dds::Reader<ScaleFactor> sf_reader;
+  odonav::dds::Reader<Misalignment> mis_reader;
+  odonav::dds::Reader<DeadReckoning> dr_reader;
+  odonav::dds::Writer<Odometer> ping_writer;
+  odonav::dds::Reader<Odometer> pong_reader;
 
-  const std::vector<std::string> common{"--domain",     std::to_string(setup.domain), "--profile", setup.profile,
-                                        "--vehicle-id", setup.vehicle_id,             "--log-level", "warn"};
-  // As deploy/launch: at real time an input silent 2 s is absent; faster, queues may lag more.
-  std::vector<std::string> node = common;
-  node.insert(node.end(), {"--max-wait-s", real_time ? "2" : "30"});
-  node.insert(node.end(), data.component_flags.begin(), data.component_flags.end());
-  std::vector<std::unique_ptr<Child>> components;
-  const std::string bin = setup.bin_dir + "/";
-  for (const std::string c : {"odonav-dead-reckoning", "odonav-identification", "odonav-calibration"}) {
-    std::vector<std::string> args = node;
-    if (c == "odonav-dead-reckoning")
-      args.insert(args.end(), data.dead_reckoning_flags.begin(), data.dead_reckoning_flags.end());
-    components.push_back(std::make_unique<Child>(c, bin + c, args, logs + "/" + c + ".log"));
+  explicit Probes(odonav::dds::Participant& p)
+      : odometer_reader(p, odonav::topics::kOdometer.name, odonav::topics::kOdometer.reader_profile,
+                        [this](const Odometer& m) { odometer.add(stamp_ns(m.header()), steady_ns()); }),
+        ins_reader(p, odonav::topics::kInsAttitude.name, odonav::topics::kInsAttitude.reader_profile,
+                   [this](const InsAttitude& m) { ins.add(stamp_ns(m.header()), steady_ns()); }),
+        gnss_reader(p, odonav::topics::kGnssFix.name, odonav::topics::kGnssFix.reader_profile,
+                    [this](const GnssFix& m) { gnss.add(stamp_ns(m.header()), steady_ns()); }),
+        sf_reader(p, odonav::topics::kScaleFactor.name, odonav::topics::kScaleFactor.reader_profile,
+                  [this](const ScaleFactor& m) {
+                    scale_factor.add(stamp_ns(m.header()), steady_ns(), m.samples_accepted());
+                  }),
+        mis_reader(p, odonav::topics::kMisalignment.name, odonav::topics::kMisalignment.reader_profile,
+                   [this](const Misalignment& m) { misalignment.add(stamp_ns(m.header()), steady_ns()); }),
+        dr_reader(p, odonav::topics::kDeadReckoning.name, odonav::topics::kDeadReckoning.reader_profile,
+                  [this](const DeadReckoning& m) { dead_reckoning.add(stamp_ns(m.header()), steady_ns()); }),
+        ping_writer(p, kPingTopic, odonav::topics::kSensorWriterProfile),
+        pong_reader(p, kPongTopic, odonav::topics::kSensorReaderProfile, [this](const Odometer& m) {
+          const int64_t now = steady_ns();
+          pong_rtt.add(stamp_ns(m.header()), now);
+        }) {}
+
+  // The components and the echo are up when their outputs matched these readers.
+  bool all_matched() const {
+    return sf_reader.matched_writers() >= 1 && mis_reader.matched_writers() >= 1 && dr_reader.matched_writers() >= 1 &&
+           pong_reader.matched_writers() >= 1 && ping_writer.matched_readers() >= 1;
   }
-  auto echo_args = common;
-  echo_args.insert(echo_args.begin(), "--echo");
-  Child echo("echo", setup.self_path, echo_args, logs + "/echo.log");
+};
 
-  auto fail = [&](const std::string& why) {
-    result.failure = why;
-    for (auto& c : components) c->wait_exit(0.0);
-    echo.wait_exit(0.0);
-    participant.reset();
-    shm_clean();
-    return result;
-  };
-  // The components are up when their outputs matched this process's readers; the echo likewise.
-  const int64_t match_deadline = steady_ns() + 60000000000LL;
-  while (sf_reader.matched_writers() < 1 || mis_reader.matched_writers() < 1 || dr_reader.matched_writers() < 1 ||
-         pong_reader.matched_writers() < 1 || ping_writer.matched_readers() < 1) {
-    for (auto& c : components)
-      if (c->poll()) return fail(c->name() + " exited at start with status " + std::to_string(c->exit_code()) +
-                                 " (log: " + logs + "/" + c->name() + ".log)");
-    if (echo.poll()) return fail("the echo process exited at start (log: " + logs + "/echo.log)");
-    if (steady_ns() > match_deadline) return fail("components or echo not matched within 60 s (logs: " + logs + ")");
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+// Pings stamped with the steady clock at the odometer rate of a run (every 10 ms / speed; at most
+// 1 kHz) from construction until stop() or destruction.
+class Pinger {
+ public:
+  Pinger(odonav::dds::Writer<Odometer>& writer, double speed_factor)
+      : thread_([this, &writer, speed_factor] {
+          const double period_s = speed_factor > 0.0 ? std::max(0.01 / speed_factor, 0.001) : 0.001;
+          Odometer ping;
+          ping.vehicle_id("bench-ping");
+          while (pinging_.load()) {
+            const int64_t now = steady_ns();
+            ping.header().stamp().sec(static_cast<int32_t>(now / 1000000000LL));
+            ping.header().stamp().nanosec(static_cast<uint32_t>(now % 1000000000LL));
+            writer.write(ping);
+            std::this_thread::sleep_for(std::chrono::duration<double>(period_s));
+          }
+        }) {}
+  ~Pinger() { stop(); }  // every path out (also an exception) stops it before its writer goes
+  Pinger(const Pinger&) = delete;
+  Pinger& operator=(const Pinger&) = delete;
+  void stop() {
+    pinging_ = false;
+    if (thread_.joinable()) thread_.join();
   }
-  std::this_thread::sleep_for(std::chrono::seconds(1));  // their mutual matching, as the gateway waits for GNSS readers only
 
-  const std::size_t odo_before = odometer.size();
-  std::vector<std::string> gw = common;
-  // Four GNSS readers: calibration, identification, dead reckoning and this process.
-  gw.insert(gw.end(), {"--source", "replay:" + data.dir, "--speed", speed, "--wait-for-readers", "4"});
-  Child gateway("odonav-gateway", bin + "odonav-gateway", gw, logs + "/odonav-gateway.log");
+ private:
+  std::atomic<bool> pinging_{true};
+  std::thread thread_;
+};
 
-  // Pings at the odometer rate of this run (every 10 ms / speed; at most 1 kHz), from the first data on.
-  std::atomic<bool> pinging{true};
-  std::thread pinger([&] {
-    const double period_s = speed_factor > 0.0 ? std::max(0.01 / speed_factor, 0.001) : 0.001;
-    Odometer ping;
-    ping.vehicle_id("bench-ping");
-    while (pinging.load()) {
-      const int64_t now = steady_ns();
-      ping.header().stamp().sec(static_cast<int32_t>(now / 1000000000LL));
-      ping.header().stamp().nanosec(static_cast<uint32_t>(now % 1000000000LL));
-      ping_writer.write(ping);
-      std::this_thread::sleep_for(std::chrono::duration<double>(period_s));
-    }
-  });
-  auto stop_pinger = [&] {
-    pinging = false;
-    if (pinger.joinable()) pinger.join();
-  };
-  struct JoinOnExit {  // every path out (also an exception) stops the pinger before its writer goes
-    std::function<void()> stop;
-    ~JoinOnExit() { stop(); }
-  } join_pinger{stop_pinger};
+// Latencies of every DR output matched to its odometer sample, ns (see the file comment, (a)).
+struct Latencies {
+  std::vector<int64_t> end_to_end, after_last_input;
+  std::vector<int64_t> end_to_end_steady, after_last_input_steady;  // outputs after the warm-up only
+};
 
-  // Data period: from the first odometer sample here to the gateway's exit.
-  const double gateway_timeout_s = 120.0 + (speed_factor > 0.0 ? 1.5 * data.duration_s / speed_factor : data.duration_s);
-  const int64_t start = steady_ns();
-  int64_t data_start = -1;
-  std::vector<double> cpu_at_start(components.size() + 1, 0.0);
-  std::vector<long> hwm_kb(components.size() + 1, 0);
-  auto sample_hwm = [&] {
-    for (std::size_t i = 0; i < components.size(); ++i)
-      hwm_kb[i] = std::max(hwm_kb[i], proc_hwm_kb(components[i]->pid()));
-    if (!gateway.reaped()) hwm_kb.back() = std::max(hwm_kb.back(), proc_hwm_kb(gateway.pid()));
-  };
-  while (!gateway.poll()) {
-    sample_hwm();
-    if (data_start < 0 && odometer.size() > odo_before) {
-      data_start = steady_ns();
-      for (std::size_t i = 0; i < components.size(); ++i) cpu_at_start[i] = proc_cpu_s(components[i]->pid());
-      cpu_at_start.back() = proc_cpu_s(gateway.pid());
-    }
-    for (auto& c : components)
-      if (c->poll()) {
-        stop_pinger();
-        return fail(c->name() + " exited early with status " + std::to_string(c->exit_code()));
-      }
-    if (steady_ns() - start > static_cast<int64_t>(gateway_timeout_s * 1e9)) {
-      stop_pinger();
-      return fail("odonav-gateway did not finish within " + shortest(gateway_timeout_s) + " s");
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(data_start < 0 ? 2 : 50));
-  }
-  const int64_t data_end = steady_ns();
-  stop_pinger();
-  if (gateway.exit_code() != 0 || data_start < 0)
-    return fail("odonav-gateway exited with status " + std::to_string(gateway.exit_code()) +
-                (data_start < 0 ? " before any data arrived" : ""));
-  result.data_wall_s = static_cast<double>(data_end - data_start) * 1e-9;
-  std::vector<double> cpu_at_end(components.size());
-  for (std::size_t i = 0; i < components.size(); ++i) cpu_at_end[i] = proc_cpu_s(components[i]->pid());
-  sample_hwm();
-
-  // Let the components drain what they hold, then stop them in data-flow order (as deploy/launch).
-  for (std::size_t last = 0, stable_polls = 0; stable_polls < 10;) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    const std::size_t now = dead_reckoning.size();
-    stable_polls = now == last ? stable_polls + 1 : 0;
-    last = now;
-  }
-  for (const char* name : {"odonav-calibration", "odonav-identification", "odonav-dead-reckoning"})
-    for (auto& c : components)
-      if (c->name() == name) {
-        c->signal(SIGINT);
-        if (!c->wait_exit(60.0)) return fail(c->name() + " did not stop within 60 s of SIGINT");
-      }
-  echo.wait_exit(0.0);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // last DR outputs of finish()
-  result.load_after = load_average();
-
-  // ---- figures ----
-  const double data_s = result.data_wall_s;
-  for (std::size_t i = 0; i < components.size(); ++i) {
-    const auto& c = *components[i];
-    result.components.push_back(ComponentFigures{c.name(), 100.0 * (cpu_at_end[i] - cpu_at_start[i]) / data_s,
-                                                 static_cast<double>(hwm_kb[i]) * 1024e-6, c.exit_code()});
-  }
-  // The gateway's CPU: its whole life (reaped) minus what it used before the first sample.
-  result.components.push_back(ComponentFigures{"odonav-gateway", 100.0 * (gateway.cpu_s() - cpu_at_start.back()) / data_s,
-                                               static_cast<double>(hwm_kb.back()) * 1024e-6, gateway.exit_code()});
-  result.samples_published = data.odometer + data.ins + data.gnss;
-
-  const auto odo = by_stamp(odometer.rows());
-  const auto ins_rows = by_stamp(ins.rows());
-  const auto gnss_rows = by_stamp(gnss.rows());
-  const auto sf_rows = by_stamp(scale_factor.rows());
-  const auto mis_rows = by_stamp(misalignment.rows());
-  const auto dr_rows = by_stamp(dead_reckoning.rows());
-  std::vector<int64_t> e2e, after_last, e2e_steady, after_last_steady;
-  const int64_t steady_from = odo.empty() ? 0 : odo.front().stamp_ns + static_cast<int64_t>(setup.warmup_s * 1e9);
-  for (const auto& dr : dr_rows) {
-    const auto it = std::lower_bound(odo.begin(), odo.end(), dr.stamp_ns,
-                                     [](const auto& r, int64_t v) { return r.stamp_ns < v; });
-    if (it == odo.end() || it->stamp_ns != dr.stamp_ns) continue;
-    e2e.push_back(dr.recv_ns - it->recv_ns);
-    // The GNSS epoch at or before t: its estimates must have arrived.
-    auto g = std::upper_bound(gnss_rows.begin(), gnss_rows.end(), dr.stamp_ns,
-                              [](int64_t v, const auto& r) { return v < r.stamp_ns; });
-    int64_t release = it->recv_ns;
-    for (int64_t r : {first_recv_at_or_after(ins_rows, dr.stamp_ns), first_recv_at_or_after(gnss_rows, dr.stamp_ns)})
+// Receive time of the last input a DR output at `stamp` needed: its odometer sample, INS and GNSS at
+// or past its time, and the estimates of the GNSS epoch at or before it.
+int64_t release_time_ns(int64_t stamp, int64_t odometer_recv, const std::vector<Arrivals::Row>& ins_rows,
+                        const std::vector<Arrivals::Row>& gnss_rows, const std::vector<Arrivals::Row>& sf_rows,
+                        const std::vector<Arrivals::Row>& mis_rows) {
+  int64_t release = odometer_recv;
+  for (int64_t r : {first_recv_at_or_after(ins_rows, stamp), first_recv_at_or_after(gnss_rows, stamp)})
+    release = std::max(release, r);
+  auto g = std::upper_bound(gnss_rows.begin(), gnss_rows.end(), stamp,
+                            [](int64_t v, const auto& r) { return v < r.stamp_ns; });
+  if (g != gnss_rows.begin()) {
+    const int64_t epoch = std::prev(g)->stamp_ns;
+    for (int64_t r : {first_recv_at_or_after(sf_rows, epoch), first_recv_at_or_after(mis_rows, epoch)})
       release = std::max(release, r);
-    if (g != gnss_rows.begin()) {
-      const int64_t epoch = std::prev(g)->stamp_ns;
-      for (int64_t r : {first_recv_at_or_after(sf_rows, epoch), first_recv_at_or_after(mis_rows, epoch)})
-        release = std::max(release, r);
-    }
-    after_last.push_back(dr.recv_ns - release);
-    if (dr.stamp_ns >= steady_from) {
-      e2e_steady.push_back(e2e.back());
-      after_last_steady.push_back(after_last.back());
-    }
   }
-  result.end_to_end_steady = percentiles_ms(e2e_steady);
-  result.after_last_input_steady = percentiles_ms(after_last_steady);
-  // Offered rate: the samples over the span the odometer stream took to arrive here.
-  if (odo.size() > 1) {
-    const auto [first, last] = std::minmax_element(odo.begin(), odo.end(),
-                                                   [](const auto& a, const auto& b) { return a.recv_ns < b.recv_ns; });
-    result.samples_per_s = static_cast<double>(data.odometer + data.ins + data.gnss) /
-                           (static_cast<double>(last->recv_ns - first->recv_ns) * 1e-9);
+  return release;
+}
+
+// One run of the pipeline at one speed: the consumers and the echo, then the gateway, then the
+// figures. Every child is killed on every path out (Child's destructor).
+class PipelineRun {
+ public:
+  PipelineRun(const Setup& setup, const DatasetInfo& data, const std::string& speed)
+      : setup_(setup),
+        data_(data),
+        real_time_(speed == "1"),
+        speed_factor_(speed == "max" ? 0.0 : std::stod(speed)),
+        logs_(setup.work + "/logs-" + speed) {
+    result_.speed = speed;
   }
-  result.end_to_end = percentiles_ms(e2e);
-  result.after_last_input = percentiles_ms(after_last);
-  std::vector<int64_t> hop;
-  for (const auto& r : pong_rtt.rows()) hop.push_back((r.recv_ns - r.stamp_ns) / 2);
-  result.hop = percentiles_ms(hop);
-  result.dr_outputs = dr_rows.size();
-  result.samples_accepted = 0;
-  for (const auto& r : sf_rows) result.samples_accepted = std::max<uint64_t>(result.samples_accepted, r.value);
-  // This process's own odometer reader may miss the first sample (matched last): not a pipeline loss.
-  result.nothing_lost = result.dr_outputs == data.reference.dr_outputs &&
-                        result.samples_accepted == data.reference.samples_accepted;
-  result.completed = true;
-  participant.reset();
-  shm_clean();
-  return result;
+
+  RunResult run() {
+    result_.load_before = load_average();
+    mkdir(logs_.c_str(), 0755);
+    shm_clean();
+    odonav::dds::ParticipantOptions po;
+    po.profiles_file = setup_.profile;
+    po.domain_id = setup_.domain;
+    po.participant_name = kProgram;
+    participant_ = std::make_unique<odonav::dds::Participant>(po);
+    probes_ = std::make_unique<Probes>(*participant_);
+    start_consumers();
+    if (const auto why = wait_until_matched()) return fail(*why);
+    start_gateway();
+    if (const auto why = watch_data_period()) return fail(*why);
+    if (const auto why = stop_consumers()) return fail(*why);
+    component_figures();
+    latency_figures();
+    participant_.reset();
+    shm_clean();
+    return result_;
+  }
+
+ private:
+  std::vector<std::string> common_flags() const {
+    return {"--domain",     std::to_string(setup_.domain), "--profile",   setup_.profile,
+            "--vehicle-id", setup_.vehicle_id,             "--log-level", "warn"};
+  }
+
+  // Dead reckoning, identification, calibration and the echo process.
+  void start_consumers() {
+    // As deploy/launch: at real time an input silent 2 s is absent; faster, queues may lag more.
+    std::vector<std::string> node = common_flags();
+    node.insert(node.end(), {"--max-wait-s", real_time_ ? "2" : "30"});
+    node.insert(node.end(), data_.component_flags.begin(), data_.component_flags.end());
+    for (const std::string c : {"odonav-dead-reckoning", "odonav-identification", "odonav-calibration"}) {
+      std::vector<std::string> args = node;
+      if (c == "odonav-dead-reckoning")
+        args.insert(args.end(), data_.dead_reckoning_flags.begin(), data_.dead_reckoning_flags.end());
+      components_.push_back(std::make_unique<Child>(c, setup_.bin_dir + "/" + c, args, logs_ + "/" + c + ".log"));
+    }
+    auto echo_args = common_flags();
+    echo_args.insert(echo_args.begin(), "--echo");
+    echo_ = std::make_unique<Child>("echo", setup_.self_path, echo_args, logs_ + "/echo.log");
+  }
+
+  // Why the consumers or the echo did not come up within 60 s; nullopt once all matched.
+  std::optional<std::string> wait_until_matched() {
+    const int64_t match_deadline = steady_ns() + 60000000000LL;
+    while (!probes_->all_matched()) {
+      for (auto& c : components_)
+        if (!c->running())
+          return c->name() + " exited at start with status " + std::to_string(c->exit_code()) + " (log: " + logs_ +
+                 "/" + c->name() + ".log)";
+      if (!echo_->running()) return "the echo process exited at start (log: " + logs_ + "/echo.log)";
+      if (steady_ns() > match_deadline) return "components or echo not matched within 60 s (logs: " + logs_ + ")";
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(1));  // their mutual matching, as the gateway waits for GNSS readers only
+    return std::nullopt;
+  }
+
+  void start_gateway() {
+    odo_before_ = probes_->odometer.size();
+    std::vector<std::string> gw = common_flags();
+    // Four GNSS readers: calibration, identification, dead reckoning and this process.
+    gw.insert(gw.end(), {"--source", "replay:" + data_.dir, "--speed", result_.speed, "--wait-for-readers", "4"});
+    gateway_ = std::make_unique<Child>("odonav-gateway", setup_.bin_dir + "/odonav-gateway", gw,
+                                       logs_ + "/odonav-gateway.log");
+    pinger_ = std::make_unique<Pinger>(probes_->ping_writer, speed_factor_);
+  }
+
+  void sample_hwm() {
+    for (std::size_t i = 0; i < components_.size(); ++i)
+      hwm_kb_[i] = std::max(hwm_kb_[i], proc_hwm_kb(components_[i]->pid()));
+    if (!gateway_->exited()) hwm_kb_.back() = std::max(hwm_kb_.back(), proc_hwm_kb(gateway_->pid()));
+  }
+
+  // Data period: from the first odometer sample here to the gateway's exit. CPU at its start and end,
+  // peak RSS sampled throughout. Why it failed, or nullopt.
+  std::optional<std::string> watch_data_period() {
+    const double gateway_timeout_s =
+        120.0 + (speed_factor_ > 0.0 ? 1.5 * data_.duration_s / speed_factor_ : data_.duration_s);
+    const int64_t start = steady_ns();
+    cpu_at_start_.assign(components_.size() + 1, 0.0);
+    hwm_kb_.assign(components_.size() + 1, 0);
+    while (gateway_->running()) {
+      sample_hwm();
+      if (data_start_ < 0 && probes_->odometer.size() > odo_before_) {
+        data_start_ = steady_ns();
+        for (std::size_t i = 0; i < components_.size(); ++i) cpu_at_start_[i] = proc_cpu_s(components_[i]->pid());
+        cpu_at_start_.back() = proc_cpu_s(gateway_->pid());
+      }
+      for (auto& c : components_)
+        if (!c->running()) {
+          pinger_->stop();
+          return c->name() + " exited early with status " + std::to_string(c->exit_code());
+        }
+      if (steady_ns() - start > static_cast<int64_t>(gateway_timeout_s * 1e9)) {
+        pinger_->stop();
+        return "odonav-gateway did not finish within " + shortest(gateway_timeout_s) + " s";
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(data_start_ < 0 ? 2 : 50));
+    }
+    const int64_t data_end = steady_ns();
+    pinger_->stop();
+    if (gateway_->exit_code() != 0 || data_start_ < 0)
+      return "odonav-gateway exited with status " + std::to_string(gateway_->exit_code()) +
+             (data_start_ < 0 ? " before any data arrived" : "");
+    result_.data_wall_s = static_cast<double>(data_end - data_start_) * 1e-9;
+    cpu_at_end_.resize(components_.size());
+    for (std::size_t i = 0; i < components_.size(); ++i) cpu_at_end_[i] = proc_cpu_s(components_[i]->pid());
+    sample_hwm();
+    return std::nullopt;
+  }
+
+  // Lets the components drain what they hold, then stops them in data-flow order (as deploy/launch).
+  std::optional<std::string> stop_consumers() {
+    for (std::size_t last = 0, stable_polls = 0; stable_polls < 10;) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      const std::size_t now = probes_->dead_reckoning.size();
+      stable_polls = now == last ? stable_polls + 1 : 0;
+      last = now;
+    }
+    for (const char* name : {"odonav-calibration", "odonav-identification", "odonav-dead-reckoning"})
+      for (auto& c : components_)
+        if (c->name() == name) {
+          c->signal(SIGINT);
+          if (!c->wait_exit_or_kill(std::chrono::seconds(60))) return c->name() + " did not stop within 60 s of SIGINT";
+        }
+    echo_->wait_exit_or_kill(std::chrono::milliseconds(0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // last DR outputs of finish()
+    result_.load_after = load_average();
+    return std::nullopt;
+  }
+
+  // CPU % over the data period and peak RSS of each component.
+  void component_figures() {
+    const double data_s = result_.data_wall_s;
+    for (std::size_t i = 0; i < components_.size(); ++i) {
+      const auto& c = *components_[i];
+      result_.components.push_back(ComponentFigures{c.name(), 100.0 * (cpu_at_end_[i] - cpu_at_start_[i]) / data_s,
+                                                    static_cast<double>(hwm_kb_[i]) * 1024e-6, c.exit_code()});
+    }
+    // The gateway's CPU: its whole life (reaped) minus what it used before the first sample.
+    result_.components.push_back(ComponentFigures{"odonav-gateway",
+                                                  100.0 * (gateway_->cpu_s() - cpu_at_start_.back()) / data_s,
+                                                  static_cast<double>(hwm_kb_.back()) * 1024e-6, gateway_->exit_code()});
+    result_.samples_published = data_.odometer + data_.ins + data_.gnss;
+  }
+
+  // What arrived here on each topic, by stamp, once the components stopped.
+  struct ArrivalRows {
+    std::vector<Arrivals::Row> odo, ins, gnss, sf, mis, dr;
+  };
+
+  Latencies latencies(const ArrivalRows& a) const {
+    Latencies l;
+    const int64_t steady_from =
+        a.odo.empty() ? 0 : a.odo.front().stamp_ns + static_cast<int64_t>(setup_.warmup_s * 1e9);
+    for (const auto& dr : a.dr) {
+      const auto it = std::lower_bound(a.odo.begin(), a.odo.end(), dr.stamp_ns,
+                                       [](const auto& r, int64_t v) { return r.stamp_ns < v; });
+      if (it == a.odo.end() || it->stamp_ns != dr.stamp_ns) continue;
+      l.end_to_end.push_back(dr.recv_ns - it->recv_ns);
+      l.after_last_input.push_back(dr.recv_ns - release_time_ns(dr.stamp_ns, it->recv_ns, a.ins, a.gnss, a.sf, a.mis));
+      if (dr.stamp_ns >= steady_from) {
+        l.end_to_end_steady.push_back(l.end_to_end.back());
+        l.after_last_input_steady.push_back(l.after_last_input.back());
+      }
+    }
+    return l;
+  }
+
+  // Latencies, the offered rate, the raw hop and the loss check.
+  void latency_figures() {
+    const ArrivalRows a{by_stamp(probes_->odometer.rows()),     by_stamp(probes_->ins.rows()),
+                        by_stamp(probes_->gnss.rows()),         by_stamp(probes_->scale_factor.rows()),
+                        by_stamp(probes_->misalignment.rows()), by_stamp(probes_->dead_reckoning.rows())};
+    const Latencies l = latencies(a);
+    result_.end_to_end_steady = percentiles_ms(l.end_to_end_steady);
+    result_.after_last_input_steady = percentiles_ms(l.after_last_input_steady);
+    // Offered rate: the samples over the span the odometer stream took to arrive here.
+    if (a.odo.size() > 1) {
+      const auto [first, last] = std::minmax_element(a.odo.begin(), a.odo.end(),
+                                                     [](const auto& x, const auto& y) { return x.recv_ns < y.recv_ns; });
+      result_.samples_per_s = static_cast<double>(data_.odometer + data_.ins + data_.gnss) /
+                              (static_cast<double>(last->recv_ns - first->recv_ns) * 1e-9);
+    }
+    result_.end_to_end = percentiles_ms(l.end_to_end);
+    result_.after_last_input = percentiles_ms(l.after_last_input);
+    std::vector<int64_t> hop;
+    for (const auto& r : probes_->pong_rtt.rows()) hop.push_back((r.recv_ns - r.stamp_ns) / 2);
+    result_.hop = percentiles_ms(hop);
+    result_.dr_outputs = a.dr.size();
+    result_.samples_accepted = 0;
+    for (const auto& r : a.sf) result_.samples_accepted = std::max<uint64_t>(result_.samples_accepted, r.value);
+    // This process's own odometer reader may miss the first sample (matched last): not a pipeline loss.
+    result_.nothing_lost = result_.dr_outputs == data_.reference.dr_outputs &&
+                           result_.samples_accepted == data_.reference.samples_accepted;
+    result_.completed = true;
+  }
+
+  RunResult fail(const std::string& why) {
+    result_.failure = why;
+    for (auto& c : components_) c->wait_exit_or_kill(std::chrono::milliseconds(0));
+    echo_->wait_exit_or_kill(std::chrono::milliseconds(0));
+    participant_.reset();
+    shm_clean();
+    return result_;
+  }
+
+  const Setup& setup_;
+  const DatasetInfo& data_;
+  const bool real_time_;
+  const double speed_factor_;
+  const std::string logs_;
+  RunResult result_;
+  std::unique_ptr<odonav::dds::Participant> participant_;
+  std::unique_ptr<Probes> probes_;
+  std::vector<std::unique_ptr<Child>> components_;  // dead reckoning, identification, calibration
+  std::unique_ptr<Child> echo_;
+  std::unique_ptr<Child> gateway_;
+  std::unique_ptr<Pinger> pinger_;  // destroyed first: it writes on probes_->ping_writer
+  std::size_t odo_before_ = 0;
+  int64_t data_start_ = -1;
+  std::vector<double> cpu_at_start_, cpu_at_end_;  // components, then the gateway (start only)
+  std::vector<long> hwm_kb_;                       // components, then the gateway
+};
+
+RunResult run_pipeline(const Setup& setup, const DatasetInfo& data, const std::string& speed) {
+  return PipelineRun(setup, data, speed).run();
 }
 
 void print_run(std::ostream& out, const RunResult& r, const DatasetInfo& data, double warmup_s) {

@@ -206,126 +206,194 @@ GpsdReport report_of(const gps_data_t& d) {
   return r;
 }
 
+/// The GST of the last epoch and the TPV waiting for it. Why hold a TPV: gpsd reports the GST of
+/// an epoch after its TPV (receivers send GST last, and gpsd writes it when that sentence arrives).
+/// A TPV waits for the GST of its epoch or the next TPV, at most 200 ms while the receiver sends
+/// GST; once an epoch went without one, at most 20 ms (a receiver without GST costs 20 ms of
+/// latency) until a GST shows up again.
+class GstPairing {
+ public:
+  /// How long the next read may wait, ms: 100 with nothing held, else 200 or 20 (see above).
+  int read_timeout_ms() const { return !pending_ ? 100 : expect_gst_ ? 200 : 20; }
+  /// A GST report (UTC of its epoch, s; one-sigma latitude and longitude errors, m). True when it
+  /// completes the held TPV (to be released now).
+  bool on_gst(double time_s, double lat_std_m, double lon_std_m) {
+    expect_gst_ = true;
+    gst_time_s_ = time_s;
+    gst_lat_m_ = lat_std_m;
+    gst_lon_m_ = lon_std_m;
+    return pending_ && matches(pending_->time_utc_s);
+  }
+  /// A TPV report: held (nullopt) until its GST or the next report, or, when the GST of its
+  /// epoch is already here, returned at once with the GST's sigmas.
+  std::optional<GpsdReport> on_tpv(const GpsdReport& r) {
+    if (!matches(r.time_utc_s)) {
+      pending_ = r;
+      return std::nullopt;
+    }
+    return with_gst(r);
+  }
+  /// Releases the held TPV, if any (with the GST's sigmas when they match); an epoch released
+  /// without its GST makes the next TPV wait only 20 ms.
+  std::optional<GpsdReport> release() {
+    std::optional<GpsdReport> r;
+    if (pending_) {
+      if (!matches(pending_->time_utc_s)) expect_gst_ = false;
+      r = with_gst(*pending_);
+    }
+    pending_.reset();
+    return r;
+  }
+
+ private:
+  // A GST before the receiver's date is known (GGA and GST come before the first RMC) carries the
+  // time of day only: it matches the TPV of that time of day.
+  bool matches(double tpv_time_s) const {
+    return known(gst_time_s_) && known(tpv_time_s) &&
+           (gst_time_s_ == tpv_time_s || (gst_time_s_ < 86400.0 && gst_time_s_ == std::fmod(tpv_time_s, 86400.0)));
+  }
+  GpsdReport with_gst(GpsdReport r) const {
+    if (matches(r.time_utc_s)) {
+      r.gst_lat_std_m = gst_lat_m_;
+      r.gst_lon_std_m = gst_lon_m_;
+    }
+    return r;
+  }
+
+  double gst_time_s_ = GpsdReport::kUnknown, gst_lat_m_ = GpsdReport::kUnknown, gst_lon_m_ = GpsdReport::kUnknown;
+  bool expect_gst_ = true;
+  std::optional<GpsdReport> pending_;
+};
+
+/// The libgps loop of run_gpsd_input, step by step: connection with back-off, GST pairing, the
+/// time gate and the counters.
+class GpsdInput {
+ public:
+  GpsdInput(const GpsdSourceSpec& spec, double utc_origin_s, const std::function<void(const GnssSample&)>& publish_gnss,
+            GpsdCounters& counters, std::mutex& counters_mutex)
+      : spec_(spec),
+        utc_origin_s_(utc_origin_s),
+        publish_gnss_(publish_gnss),
+        counters_(counters),
+        counters_mutex_(counters_mutex) {}
+
+  void run(const std::function<bool()>& stop, const std::function<void()>& periodic) {
+    while (!stop()) {
+      periodic();
+      if (!session_) {
+        connect();
+        continue;
+      }
+      std::string json;
+      try {
+        json = session_->read(pairing_.read_timeout_ms());
+      } catch (const std::exception& e) {
+        release();
+        fail(e.what());
+        continue;
+      }
+      if (json.empty()) release();
+      else on_report(json, session_->data());
+    }
+    release();
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+
+  // Connects once the back-off after the last failure is over (sleeps 50 ms before that).
+  void connect() {
+    if (Clock::now() < retry_at_) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      return;
+    }
+    try {
+      session_.emplace(spec_);
+    } catch (const std::exception& e) {
+      fail(e.what());
+      return;
+    }
+    consecutive_failures_ = 0;
+    spdlog::info("connected to {}", to_string(spec_));
+    const std::lock_guard<std::mutex> lock(counters_mutex_);
+    counters_.connected = true;
+  }
+
+  // A failed connect or a lost connection: counted, logged, retried after the back-off.
+  void fail(const std::string& why) {
+    session_.reset();
+    ++consecutive_failures_;
+    const double backoff_s = gpsd_reconnect_backoff_s(consecutive_failures_);
+    retry_at_ = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(backoff_s));
+    spdlog::warn("{}; retrying in {} s", why, backoff_s);
+    const std::lock_guard<std::mutex> lock(counters_mutex_);
+    ++counters_.connection_failures;
+    counters_.connected = false;
+    counters_.last_failure = why;
+  }
+
+  // One JSON report libgps decoded into `d`: GST and TPV are used, every other class ignored.
+  void on_report(const std::string& json, const gps_data_t& d) {
+    if (json.find("\"class\":\"GST\"") != std::string::npos && (d.set & GST_SET)) {
+      const double gst_time_s =
+          static_cast<double>(d.gst.utctime.tv_sec) + static_cast<double>(d.gst.utctime.tv_nsec) * 1e-9;
+      if (pairing_.on_gst(gst_time_s, d.gst.lat_err_deviation, d.gst.lon_err_deviation)) release();
+      return;
+    }
+    if (json.find("\"class\":\"TPV\"") == std::string::npos) return;
+    release();
+    if (const auto r = pairing_.on_tpv(report_of(d))) emit(*r);
+  }
+
+  void release() {
+    if (const auto r = pairing_.release()) emit(*r);
+  }
+
+  // Converts, gates, counts and publishes one TPV.
+  void emit(const GpsdReport& r) {
+    const std::optional<GnssSample> s = gnss_sample_from(r, utc_origin_s_);
+    GnssTimeGate::Verdict verdict = GnssTimeGate::Verdict::kAccept;
+    if (s) verdict = gate_.admit(s->t_s);
+    {
+      const std::lock_guard<std::mutex> lock(counters_mutex_);
+      ++counters_.reports;
+      if (!s) {
+        ++counters_.no_time;
+        return;
+      }
+      if (verdict == GnssTimeGate::Verdict::kBackwards) {
+        if (++counters_.time_backwards <= 20)
+          spdlog::warn("{}: fix at UTC {:.3f} s is earlier than the last published one: dropped", to_string(spec_),
+                       r.time_utc_s);
+        return;
+      }
+      if (verdict == GnssTimeGate::Verdict::kRepeated) {
+        ++counters_.repeated;
+        return;
+      }
+      if (s->fix == 0) ++counters_.no_fix;
+    }
+    publish_gnss_(*s);
+  }
+
+  const GpsdSourceSpec& spec_;
+  const double utc_origin_s_;
+  const std::function<void(const GnssSample&)>& publish_gnss_;
+  GpsdCounters& counters_;
+  std::mutex& counters_mutex_;
+  GnssTimeGate gate_;
+  GstPairing pairing_;
+  std::optional<GpsdSession> session_;
+  int consecutive_failures_ = 0;
+  Clock::time_point retry_at_{};
+};
+
 }  // namespace
 
 void run_gpsd_input(const GpsdSourceSpec& spec, double utc_origin_s,
                     const std::function<void(const GnssSample&)>& publish_gnss, const std::function<bool()>& stop,
                     const std::function<void()>& periodic, GpsdCounters& counters, std::mutex& counters_mutex) {
-  using Clock = std::chrono::steady_clock;
-  GnssTimeGate gate;
-  std::optional<GpsdSession> session;
-  int consecutive_failures = 0;
-  Clock::time_point retry_at{};
-  // The last GST, kept for the TPV of the same epoch (gpsd reports them separately, either order).
-  double gst_time_s = GpsdReport::kUnknown, gst_lat_m = GpsdReport::kUnknown, gst_lon_m = GpsdReport::kUnknown;
-  auto fail = [&](const std::string& why) {
-    session.reset();
-    ++consecutive_failures;
-    const double backoff_s = gpsd_reconnect_backoff_s(consecutive_failures);
-    retry_at = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(backoff_s));
-    spdlog::warn("{}; retrying in {} s", why, backoff_s);
-    const std::lock_guard<std::mutex> lock(counters_mutex);
-    ++counters.connection_failures;
-    counters.connected = false;
-    counters.last_failure = why;
-  };
-  // Why hold a TPV: gpsd reports the GST of an epoch after its TPV (receivers send GST last, and
-  // gpsd writes it when that sentence arrives). A TPV waits for the GST of its epoch or the next
-  // TPV, at most 200 ms while the receiver sends GST; once an epoch went without one, at most
-  // 20 ms (a receiver without GST costs 20 ms of latency) until a GST shows up again.
-  bool expect_gst = true;
-  std::optional<GpsdReport> pending;
-  // A GST before the receiver's date is known (GGA and GST come before the first RMC) carries the
-  // time of day only: it matches the TPV of that time of day.
-  auto gst_matches = [&](double tpv_time_s) {
-    return known(gst_time_s) && known(tpv_time_s) &&
-           (gst_time_s == tpv_time_s || (gst_time_s < 86400.0 && gst_time_s == std::fmod(tpv_time_s, 86400.0)));
-  };
-  auto emit = [&](GpsdReport r) {
-    if (gst_matches(r.time_utc_s)) {
-      r.gst_lat_std_m = gst_lat_m;
-      r.gst_lon_std_m = gst_lon_m;
-    }
-    const std::optional<GnssSample> s = gnss_sample_from(r, utc_origin_s);
-    GnssTimeGate::Verdict verdict = GnssTimeGate::Verdict::kAccept;
-    if (s) verdict = gate.admit(s->t_s);
-    {
-      const std::lock_guard<std::mutex> lock(counters_mutex);
-      ++counters.reports;
-      if (!s) {
-        ++counters.no_time;
-        return;
-      }
-      if (verdict == GnssTimeGate::Verdict::kBackwards) {
-        if (++counters.time_backwards <= 20)
-          spdlog::warn("{}: fix at UTC {:.3f} s is earlier than the last published one: dropped", to_string(spec),
-                       r.time_utc_s);
-        return;
-      }
-      if (verdict == GnssTimeGate::Verdict::kRepeated) {
-        ++counters.repeated;
-        return;
-      }
-      if (s->fix == 0) ++counters.no_fix;
-    }
-    publish_gnss(*s);
-  };
-  auto flush = [&] {
-    if (pending) {
-      if (!gst_matches(pending->time_utc_s)) expect_gst = false;
-      emit(*pending);
-    }
-    pending.reset();
-  };
-  while (!stop()) {
-    periodic();
-    if (!session) {
-      if (Clock::now() < retry_at) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(50));
-        continue;
-      }
-      try {
-        session.emplace(spec);
-      } catch (const std::exception& e) {
-        fail(e.what());
-        continue;
-      }
-      consecutive_failures = 0;
-      spdlog::info("connected to {}", to_string(spec));
-      const std::lock_guard<std::mutex> lock(counters_mutex);
-      counters.connected = true;
-      continue;
-    }
-    std::string json;
-    try {
-      json = session->read(!pending ? 100 : expect_gst ? 200 : 20);
-    } catch (const std::exception& e) {
-      flush();
-      fail(e.what());
-      continue;
-    }
-    if (json.empty()) {
-      flush();
-      continue;
-    }
-    const gps_data_t& d = session->data();
-    if (json.find("\"class\":\"GST\"") != std::string::npos && (d.set & GST_SET)) {
-      expect_gst = true;
-      gst_time_s = static_cast<double>(d.gst.utctime.tv_sec) + static_cast<double>(d.gst.utctime.tv_nsec) * 1e-9;
-      gst_lat_m = d.gst.lat_err_deviation;
-      gst_lon_m = d.gst.lon_err_deviation;
-      if (pending && gst_matches(pending->time_utc_s)) flush();
-      continue;
-    }
-    if (json.find("\"class\":\"TPV\"") == std::string::npos) continue;
-    flush();
-    const GpsdReport r = report_of(d);
-    if (!gst_matches(r.time_utc_s))
-      pending = r;
-    else
-      emit(r);
-  }
-  flush();
+  GpsdInput(spec, utc_origin_s, publish_gnss, counters, counters_mutex).run(stop, periodic);
 }
 
 }  // namespace odonav::gateway

@@ -2,15 +2,13 @@
 
 #include <spdlog/spdlog.h>
 
-#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
 
 #include <algorithm>
-#include <cstring>
-#include <cmath>
 #include <limits>
 #include <sstream>
 #include <thread>
-#include <tuple>
 
 #include "odonav/dds/time.hpp"
 #include "odonav/topics.hpp"
@@ -60,79 +58,21 @@ GatewaySettings gateway_settings_from(const Options& o) {
   return s;
 }
 
-odonav::msg::Odometer odometer_message(const OdometerSample& s, const std::string& vehicle_id) {
-  odonav::msg::Odometer m;
-  m.header(dds::make_header(s.t_s, "odometer"));
-  m.vehicle_id(vehicle_id);
-  m.pulses(s.pulses);
-  m.direction(static_cast<int8_t>(s.direction));
-  return m;
-}
-
-odonav::msg::InsAttitude ins_message(const InsSample& s, const std::string& vehicle_id) {
-  odonav::msg::InsAttitude m;
-  m.header(dds::make_header(s.t_s, "body"));
-  m.vehicle_id(vehicle_id);
-  m.heading_rad(s.attitude.heading_rad);
-  m.pitch_rad(s.attitude.pitch_rad);
-  m.roll_rad(s.attitude.roll_rad);
-  m.velocity_valid(s.vel_enu_mps.has_value());
-  if (s.vel_enu_mps) {
-    m.velocity_east_mps(s.vel_enu_mps->x());
-    m.velocity_north_mps(s.vel_enu_mps->y());
-    m.velocity_up_mps(s.vel_enu_mps->z());
-  }
-  m.valid(true);
-  return m;
-}
-
-odonav::msg::GnssFix gnss_message(const GnssSample& s, const std::string& vehicle_id) {
-  odonav::msg::GnssFix m;
-  m.header(dds::make_header(s.t_s, "wgs84"));
-  m.vehicle_id(vehicle_id);
-  m.latitude_deg(recorded_degrees(s.position.lat_rad));
-  m.longitude_deg(recorded_degrees(s.position.lon_rad));
-  m.height_m(s.position.height_m);
-  m.velocity_east_mps(s.vel_enu_mps.x());
-  m.velocity_north_mps(s.vel_enu_mps.y());
-  m.velocity_up_mps(s.vel_enu_mps.z());
-  m.fix_quality(static_cast<uint8_t>(std::clamp(s.fix, 0, 255)));
-  m.position_std_m(s.pos_std_m.value_or(-1.0));
-  m.velocity_std_mps(s.vel_std_mps.value_or(-1.0));
-  const bool finite = std::isfinite(s.position.lat_rad) && std::isfinite(s.position.lon_rad) &&
-                      std::isfinite(s.position.height_m) && s.vel_enu_mps.allFinite();
-  m.valid(s.valid() && finite);
-  return m;
-}
-
 namespace {
-/// The sensor writers' profile in "max" mode: odonav_sensor_writer (qos.xml: RELIABLE, VOLATILE,
-/// KEEP_LAST 200) with a 5 ms heartbeat period instead of the default 3 s. Why: readers acknowledge
-/// only in answer to a heartbeat, so each acknowledgment wait of the flow control would take up to
-/// 3 s. The period is the writer's local timing, not part of the writer/reader QoS contract.
-constexpr const char* kFastAckSensorWriterProfile = "odonav_gateway_sensor_writer_fast_ack";
-constexpr const char* kFastAckProfileXml = R"(<?xml version="1.0" encoding="UTF-8"?>
-<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"><profiles>
-  <data_writer profile_name="odonav_gateway_sensor_writer_fast_ack">
-    <topic><historyQos><kind>KEEP_LAST</kind><depth>200</depth></historyQos></topic>
-    <qos>
-      <reliability><kind>RELIABLE</kind></reliability>
-      <durability><kind>VOLATILE</kind></durability>
-    </qos>
-    <times><heartbeatPeriod><sec>0</sec><nanosec>5000000</nanosec></heartbeatPeriod></times>
-  </data_writer>
-</profiles></dds>)";
-
-std::string sensor_writer_profile(const GatewaySettings& settings) {
+/// The sensor writers' profile: odonav_sensor_writer, or in "max" mode its fast-acknowledgment
+/// variant (qos.xml, topics::kGatewayFastAckSensorWriterProfile: a 5 ms heartbeat, so each
+/// acknowledgment wait of the flow control takes milliseconds, not up to the default 3 s). A
+/// qos.xml without it (an older installation) only makes the flow control slow: warn, go on.
+std::string sensor_writer_profile(const dds::Participant& participant, const GatewaySettings& settings) {
   if (!settings.speed.as_fast_as_possible) return topics::kSensorWriterProfile;
-  static const bool loaded = eprosima::fastdds::dds::DomainParticipantFactory::get_instance()->load_XML_profiles_string(
-                                 kFastAckProfileXml, std::strlen(kFastAckProfileXml)) ==
-                             eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK;
-  if (!loaded) {
-    spdlog::warn("could not load the fast-acknowledgment writer profile: flow control will be slow");
+  eprosima::fastdds::dds::DataWriterQos qos;
+  if (participant.core()->publisher().get_datawriter_qos_from_profile(topics::kGatewayFastAckSensorWriterProfile,
+                                                                      qos) != eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+    spdlog::warn("{} has no data_writer profile '{}': flow control will be slow", participant.qos_file(),
+                 topics::kGatewayFastAckSensorWriterProfile);
     return topics::kSensorWriterProfile;
   }
-  return kFastAckSensorWriterProfile;
+  return topics::kGatewayFastAckSensorWriterProfile;
 }
 }  // namespace
 
@@ -140,94 +80,93 @@ GatewayNode::GatewayNode(dds::ComponentRuntime& runtime, const GatewaySettings& 
     : runtime_(runtime),
       settings_(settings),
       dataset_(std::move(dataset)),
-      odometer_(runtime.participant(), topics::kOdometer.name, sensor_writer_profile(settings)),
-      ins_(runtime.participant(), topics::kInsAttitude.name, sensor_writer_profile(settings)),
-      gnss_(runtime.participant(), topics::kGnssFix.name, sensor_writer_profile(settings)) {}
+      publisher_(runtime, sensor_writer_profile(runtime.participant(), settings)) {}
 
 void GatewayNode::health(odonav::msg::HealthState state, const std::string& reason, bool force) {
-  dds::HealthCounters c;
-  c.emplace_back("odometer_published", static_cast<double>(published_[0]));
-  c.emplace_back("ins_published", static_cast<double>(published_[1]));
-  c.emplace_back("gnss_published", static_cast<double>(published_[2]));
-  c.emplace_back("gnss_invalid_published", static_cast<double>(gnss_invalid_));
-  c.emplace_back("event_time_s", last_t_s_);
-  c.emplace_back("odometer_readers", static_cast<double>(odometer_.matched_readers()));
-  c.emplace_back("ins_readers", static_cast<double>(ins_.matched_readers()));
-  c.emplace_back("gnss_readers", static_cast<double>(gnss_.matched_readers()));
-  c.emplace_back("write_failures", static_cast<double>(write_failures_));
-  c.emplace_back("ack_timeouts", static_cast<double>(ack_timeouts_));
-  const auto level = write_failures_ + ack_timeouts_ > 0 ? odonav::msg::HEALTH_LEVEL_WARN : odonav::msg::HEALTH_LEVEL_OK;
-  runtime_.publish_health(state, level, reason, c, force);
+  publisher_.publish_health(state, reason, replay_source_health(publisher_.matched_readers(), publisher_.ack_timeouts()),
+                            force);
 }
 
 bool GatewayNode::wait_for_readers() {
   if (settings_.wait_for_readers <= 0) return true;
   const auto n = static_cast<std::size_t>(settings_.wait_for_readers);
-  spdlog::info("waiting for {} consumers on {}", n, gnss_.topic_name());
+  const auto& gnss = publisher_.gnss_writer();
+  spdlog::info("waiting for {} consumers on {}", n, gnss.topic_name());
   const double deadline = dds::steady_now_s() + settings_.wait_for_readers_timeout_s;
-  while (gnss_.matched_readers() < n) {
+  while (gnss.matched_readers() < n) {
     if (runtime_.stop_signals().stop_requested()) return false;
     if (dds::steady_now_s() > deadline) {
+      const auto readers = publisher_.matched_readers();
       spdlog::error("only {} of {} consumers matched on {} after {} s (odometer readers {}, INS readers {})",
-                    gnss_.matched_readers(), n, gnss_.topic_name(), settings_.wait_for_readers_timeout_s,
-                    odometer_.matched_readers(), ins_.matched_readers());
+                    gnss.matched_readers(), n, gnss.topic_name(), settings_.wait_for_readers_timeout_s, readers[0],
+                    readers[1]);
       return false;
     }
     health(odonav::msg::HEALTH_STATE_STARTING, "waiting for readers", false);
-    gnss_.wait_for_matched(n, std::chrono::milliseconds(100));
+    gnss.wait_for_matched(n, std::chrono::milliseconds(100));
   }
   // A participant's readers are announced together, so once its GNSS reader matched the others
   // follow within milliseconds: wait until the counts of all three writers stay put for 0.5 s.
-  auto counts = [this] {
-    return std::make_tuple(odometer_.matched_readers(), ins_.matched_readers(), gnss_.matched_readers());
-  };
-  auto last = counts();
+  auto last = publisher_.matched_readers();
   double stable_since = dds::steady_now_s();
   while (dds::steady_now_s() - stable_since < 0.5 && dds::steady_now_s() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    if (counts() != last) {
-      last = counts();
+    if (publisher_.matched_readers() != last) {
+      last = publisher_.matched_readers();
       stable_since = dds::steady_now_s();
     }
   }
-  spdlog::info("readers matched: odometer {}, INS {}, GNSS {}", odometer_.matched_readers(), ins_.matched_readers(),
-               gnss_.matched_readers());
+  const auto readers = publisher_.matched_readers();
+  spdlog::info("readers matched: odometer {}, INS {}, GNSS {}", readers[0], readers[1], readers[2]);
   return true;
 }
 
 void GatewayNode::publish(const SensorEvent& e) {
-  const std::string& vehicle = runtime_.settings().vehicle_id;
-  bool ok = true;
   switch (e.stream) {
-    case SensorEvent::Stream::kOdometer:
-      ok = odometer_.write(odometer_message(dataset_.odometer[e.index], vehicle));
-      break;
-    case SensorEvent::Stream::kIns:
-      ok = ins_.write(ins_message(dataset_.ins[e.index], vehicle));
-      break;
-    case SensorEvent::Stream::kGnss: {
-      const odonav::msg::GnssFix m = gnss_message(dataset_.gnss[e.index], vehicle);
-      if (!m.valid()) ++gnss_invalid_;
-      ok = gnss_.write(m);
-      break;
-    }
+    case SensorEvent::Stream::kOdometer: publisher_.odometer(dataset_.odometer[e.index]); break;
+    case SensorEvent::Stream::kIns: publisher_.ins(dataset_.ins[e.index]); break;
+    case SensorEvent::Stream::kGnss: publisher_.gnss(dataset_.gnss[e.index]); break;
   }
-  if (!ok && ++write_failures_ <= 10) spdlog::warn("write refused by the middleware at t={} s", e.t_s);
-  ++published_[static_cast<int>(e.stream)];
-  last_t_s_ = e.t_s;
 }
 
-bool GatewayNode::wait_for_acknowledgments(std::chrono::milliseconds timeout) {
-  bool all = true;
-  for (dds::detail::WriterBase* w : {static_cast<dds::detail::WriterBase*>(&odometer_),
-                                     static_cast<dds::detail::WriterBase*>(&ins_),
-                                     static_cast<dds::detail::WriterBase*>(&gnss_)}) {
-    if (!dds::wait_for_acknowledgments_logged(*w, timeout)) {
-      ++ack_timeouts_;
-      all = false;
+bool GatewayNode::sleep_until(double due_wall_s) {
+  for (double now = dds::steady_now_s(); now < due_wall_s; now = dds::steady_now_s()) {
+    if (runtime_.stop_signals().stop_requested()) break;
+    std::this_thread::sleep_for(std::chrono::duration<double>(std::min(due_wall_s - now, 0.05)));
+    health(odonav::msg::HEALTH_STATE_RUNNING, "", false);
+  }
+  return !runtime_.stop_signals().stop_requested();
+}
+
+GatewayNode::Outcome GatewayNode::publish_all(const std::vector<SensorEvent>& events, double wall_start_s,
+                                              std::chrono::milliseconds ack_timeout) {
+  const PacingClock clock(settings_.speed, events.empty() ? 0.0 : events.front().t_s, wall_start_s);
+  AckSchedule acks(settings_.ack_interval_s);
+  std::size_t since_health_check = 0;
+  for (const SensorEvent& e : events) {
+    if (runtime_.stop_signals().stop_requested()) return Outcome::kInterrupted;
+    if (const auto due = clock.due_wall_s(e.t_s)) {
+      if (!sleep_until(*due)) return Outcome::kInterrupted;
+    } else if (acks.wait_before(e.t_s)) {
+      // As fast as possible: every ack_interval_s of data (at most 1 s: 100 samples at 100 Hz),
+      // let every reader acknowledge what it got, so no writer history (KEEP_LAST 200) ever
+      // overwrites a sample a reader has not received.
+      publisher_.wait_for_acknowledgments(ack_timeout);
+    }
+    try {
+      publish(e);
+    } catch (const std::invalid_argument& ex) {  // a stamp the message cannot carry
+      spdlog::error("sample at t={} s cannot be published: {}", e.t_s, ex.what());
+      health(odonav::msg::HEALTH_STATE_ERROR, ex.what(), true);
+      return Outcome::kFailed;
+    }
+    if (++since_health_check >= 200) {
+      since_health_check = 0;
+      runtime_.run_pending();  // commands (none supported: acknowledged as rejected)
+      health(odonav::msg::HEALTH_STATE_RUNNING, "", false);
     }
   }
-  return all;
+  return Outcome::kEndOfData;
 }
 
 int GatewayNode::run() {
@@ -250,52 +189,16 @@ int GatewayNode::run() {
 
   const auto ack_timeout = std::chrono::milliseconds(static_cast<long long>(settings_.ack_timeout_s * 1000.0));
   const double wall_start = dds::steady_now_s();
-  const PacingClock clock(settings_.speed, events.empty() ? 0.0 : events.front().t_s, wall_start);
-  AckSchedule acks(settings_.ack_interval_s);
-  bool interrupted = false;
-  std::size_t since_health_check = 0;
-  for (const SensorEvent& e : events) {
-    if (runtime_.stop_signals().stop_requested()) {
-      interrupted = true;
-      break;
-    }
-    if (const auto due = clock.due_wall_s(e.t_s)) {
-      // Paced: sleep until due, in short steps so SIGINT and Health stay responsive.
-      for (double now = dds::steady_now_s(); now < *due; now = dds::steady_now_s()) {
-        if (runtime_.stop_signals().stop_requested()) break;
-        std::this_thread::sleep_for(std::chrono::duration<double>(std::min(*due - now, 0.05)));
-        health(HEALTH_STATE_RUNNING, "", false);
-      }
-      if (runtime_.stop_signals().stop_requested()) {
-        interrupted = true;
-        break;
-      }
-    } else if (acks.wait_before(e.t_s)) {
-      // As fast as possible: every ack_interval_s of data (at most 1 s: 100 samples at 100 Hz),
-      // let every reader acknowledge what it got, so no writer history (KEEP_LAST 200) ever
-      // overwrites a sample a reader has not received.
-      wait_for_acknowledgments(ack_timeout);
-    }
-    try {
-      publish(e);
-    } catch (const std::invalid_argument& ex) {  // a stamp the message cannot carry
-      spdlog::error("sample at t={} s cannot be published: {}", e.t_s, ex.what());
-      health(HEALTH_STATE_ERROR, ex.what(), true);
-      return 1;
-    }
-    if (++since_health_check >= 200) {
-      since_health_check = 0;
-      runtime_.run_pending();  // commands (none supported: acknowledged as rejected)
-      health(HEALTH_STATE_RUNNING, "", false);
-    }
-  }
-  const bool acknowledged = wait_for_acknowledgments(ack_timeout);
+  const Outcome outcome = publish_all(events, wall_start, ack_timeout);
+  if (outcome == Outcome::kFailed) return 1;
+  const bool acknowledged = publisher_.wait_for_acknowledgments(ack_timeout);
+  const PublishedCounts counts = publisher_.counts();
   std::ostringstream reason;
   reason.precision(10);
-  reason << (interrupted ? "interrupted at t=" : "end of data at t=") << last_t_s_ << " s";
+  reason << (outcome == Outcome::kInterrupted ? "interrupted at t=" : "end of data at t=") << counts.last_t_s << " s";
   spdlog::info("{}: published {} odometer, {} INS, {} GNSS ({} invalid fixes) in {:.1f} s{}", reason.str(),
-               published_[0], published_[1], published_[2], gnss_invalid_, dds::steady_now_s() - wall_start,
-               acknowledged ? "" : "; not every sample was acknowledged");
+               counts.published[0], counts.published[1], counts.published[2], counts.gnss_invalid,
+               dds::steady_now_s() - wall_start, acknowledged ? "" : "; not every sample was acknowledged");
   health(HEALTH_STATE_STOPPING, reason.str(), true);
   dds::wait_for_acknowledgments_logged(runtime_.health().writer(), std::chrono::seconds(1));
   return 0;

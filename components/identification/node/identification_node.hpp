@@ -2,7 +2,9 @@
 // odonav-identification's DDS node: odometer, GNSS, INS attitude and misalignment in, one
 // ScaleFactor per GNSS epoch out (README.md beside this folder). The core is IdentificationCore,
 // fed exactly as odonav-offline feeds it (misalignments applied by consumer_rules.hpp), so both
-// publish the same numbers for the same data.
+// publish the same numbers for the same data. The restart policy (checkpoint, persistence,
+// skipped samples, health) is IdentificationLifecycle's; this node only subscribes, converts,
+// calls the two and publishes.
 #include <memory>
 #include <optional>
 #include <string>
@@ -11,6 +13,7 @@
 #include "odonav/config.hpp"
 #include "odonav/dds/event_time_node.hpp"
 #include "odonav/identification/identification_core.hpp"
+#include "odonav/identification/identification_lifecycle.hpp"
 #include "odonav/identification/instance.hpp"
 #include "odonav/msg/Misalignment.h"
 #include "odonav/msg/ScaleFactor.h"
@@ -20,20 +23,13 @@ namespace odonav::nodes {
 /// The identification options (add_identification_options), --use-ins, --lever-arm, --state-dir and
 /// --checkpoint-every-s.
 void add_identification_node_options(Options& options);
-/// Reads them. Throws ConfigError naming the option when a value or combination is invalid.
+/// Reads them: identification_params_for(options, {--use-ins, --lever-arm, --nominal-k, main
+/// estimator only}), the function odonav-offline calls too. Throws ConfigError naming the option
+/// when a value or combination is invalid.
 IdentificationParams identification_node_params_from(const Options& options);
 
-/// Where and how often the node checkpoints its estimator (checkpoint.hpp).
-struct CheckpointSettings {
-  /// Folder of `identification-<vehicle>.ckpt`; empty = no checkpoint (nothing read or written).
-  std::string state_dir;
-  /// A checkpoint is written once the event time of the processed epochs has advanced by this much
-  /// (s, > 0) since the last one, and at shutdown. Event time, not wall time: a replay writes the
-  /// same checkpoints whatever its speed.
-  double every_s = 5.0;
-  /// config_hash_of(Options::values_as_text()): a checkpoint of another configuration is refused.
-  std::string config_hash;
-};
+/// Where and how often the node checkpoints its estimator (identification_lifecycle.hpp).
+using odonav::CheckpointSettings;
 /// Reads --state-dir and --checkpoint-every-s and hashes the configuration.
 CheckpointSettings checkpoint_settings_from(const Options& options);
 
@@ -87,52 +83,22 @@ class IdentificationNode : public dds::EventTimeNode {
   void on_tick(double now_s) override;
 
   void publish(const std::vector<IdentificationOutput>& outputs);
-  /// Writes one ScaleFactor (counted, a refusal logged) and remembers it for the heartbeat.
+  /// Writes one ScaleFactor (EstimatePublisher: counted, a refusal logged, kept for the heartbeat).
   void write_scale_factor(const IdentificationOutput& output, double now_s);
   void on_misalignment(const odonav::msg::Misalignment& m, double t_s);
   dds::CommandAck on_command(const odonav::msg::Command& command);
-  void restore_checkpoint();
-  /// Writes the checkpoint (estimator state after the epoch at t_s). Errors are logged and counted:
-  /// a full disk must not stop the identification.
-  void write_checkpoint(double t_s);
-  /// True (and counted) when a sample stamped t_s predates the restored checkpoint by more than
-  /// margin_s: it was processed before the restart and must not reach the core again.
-  bool before_checkpoint(double t_s, double margin_s);
 
   IdentificationParams params_;
   InstanceSettings instance_;
   IdentificationCore core_;
-  std::optional<IdentificationOutput> last_output_;
+  IdentificationLifecycle lifecycle_;
   uint64_t misalignments_applied_ = 0;
-  // Checkpoint / restore (checkpoint.hpp).
-  CheckpointSettings checkpoint_;
-  std::string checkpoint_file_;
-  std::optional<double> restored_t_s_;      ///< last epoch of the restored checkpoint (event time, s)
-  uint64_t restored_accepted_ = 0;          ///< counters carried over from the checkpoint
-  uint64_t restored_rejected_ = 0;
-  std::string restore_note_;                ///< health reason part about the restore
-  bool restore_warn_ = false;               ///< the checkpoint was bad (health WARN while the note shows)
-  double restore_note_until_s_ = 0.0;       ///< steady time until which the note is in the health reason
-  std::optional<double> last_checkpoint_t_s_;
-  std::optional<double> last_processed_t_s_;
-  uint64_t checkpoints_written_ = 0;
-  uint64_t checkpoint_errors_ = 0;
-  uint64_t skipped_before_checkpoint_ = 0;
-  bool checkpoint_moved_aside_ = false;
   dds::NodeInput& odometer_;
   dds::NodeInput& gnss_;
   dds::NodeInput* ins_ = nullptr;
   dds::NodeInput& misalignment_;
-  /// The SQLite file of the TRANSIENT writer existed at start: the writer serves the last estimate
-  /// of the previous run itself, so the (older or equal) restored K is not published again.
-  bool persisted_history_ = false;
   /// Created after the checkpoint is restored (what the persistence database may serve depends on it).
-  std::unique_ptr<dds::Writer<odonav::msg::ScaleFactor>> scale_factor_;
-  std::optional<odonav::msg::ScaleFactor> last_scale_factor_;  ///< for the heartbeat
-  double last_scale_factor_write_s_ = 0.0;                   ///< steady clock (s)
-  uint64_t scale_factors_written_ = 0;
-  uint64_t heartbeats_ = 0;
-  uint64_t write_failures_ = 0;
+  std::unique_ptr<dds::EstimatePublisher<odonav::msg::ScaleFactor>> scale_factor_;
   uint64_t k_commands_ = 0;
   // Last members: destroyed first, so no callback reaches a half-destroyed node.
   std::unique_ptr<dds::Reader<odonav::msg::Odometer>> odometer_reader_;

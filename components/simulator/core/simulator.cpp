@@ -176,22 +176,35 @@ void validate(const SimulationConfig& c) {
           "gnss_outlier_min_mps/max_mps", "need 0 < min <= max");
 }
 
-Dataset simulate(const SimulationConfig& cfg) {
-  validate(cfg);
+namespace {
 
-  // ---- the road and the drive ----
-  const Course course = cfg.course == CourseKind::kStraight
-                            ? Course::straight(cfg.straight_length_m, cfg.straight_heading_rad, cfg.straight_speed_mps)
-                            : Course::training_ground();
-  const TerrainProfile terrain(cfg.road_grade, cfg.hills, cfg.cross_slopes, course);
+// ---- the road and the drive ----
+
+// The road, its ground and the driver's speed along it, lengthened (more laps, a longer straight)
+// until the drive lasts at least cfg.duration_s when that is set; the data are cut there.
+struct Drive {
+  Course course;
+  TerrainProfile terrain;
+  int laps;
+  SpeedProfile profile;
+  double total_time_s;  ///< length of the simulated data, s.
+};
+
+double natural_duration_s(const SimulationConfig& cfg, const SpeedProfile& profile) {
+  return cfg.standstill_start_s + profile.duration_s() + cfg.standstill_end_s;
+}
+
+Drive plan_drive(const SimulationConfig& cfg) {
+  Course course = cfg.course == CourseKind::kStraight
+                      ? Course::straight(cfg.straight_length_m, cfg.straight_heading_rad, cfg.straight_speed_mps)
+                      : Course::training_ground();
+  TerrainProfile terrain(cfg.road_grade, cfg.hills, cfg.cross_slopes, course);
   int laps = cfg.laps;
   double road_length_m = course.closed() ? laps * course.lap_length_m() : cfg.straight_length_m;
   SpeedProfile profile(course, road_length_m, cfg.driver);
-  auto natural_duration = [&]() { return cfg.standstill_start_s + profile.duration_s() + cfg.standstill_end_s; };
   if (cfg.duration_s > 0.0) {
-    // Lengthen the drive until it lasts at least duration_s; the data are cut there.
-    while (natural_duration() < cfg.duration_s) {
-      const double factor = cfg.duration_s / natural_duration();
+    while (natural_duration_s(cfg, profile) < cfg.duration_s) {
+      const double factor = cfg.duration_s / natural_duration_s(cfg, profile);
       if (course.closed()) {
         laps = std::max(laps + 1, static_cast<int>(std::ceil(laps * factor * 0.98)));
         road_length_m = laps * course.lap_length_m();
@@ -201,81 +214,125 @@ Dataset simulate(const SimulationConfig& cfg) {
       profile = SpeedProfile(course, road_length_m, cfg.driver);
     }
   }
-  const double total_time_s = cfg.duration_s > 0.0 ? cfg.duration_s : natural_duration();
+  const double total_time_s = cfg.duration_s > 0.0 ? cfg.duration_s : natural_duration_s(cfg, profile);
+  return Drive{std::move(course), std::move(terrain), laps, std::move(profile), total_time_s};
+}
 
-  // ---- truth, integrated on the ellipsoid ----
-  const double truth_dt_s = 1.0 / cfg.truth_rate_hz;
-  const double sub_dt_s = truth_dt_s / cfg.substeps;
-  const std::size_t n_rows = static_cast<std::size_t>(std::floor(total_time_s * cfg.truth_rate_hz + 1e-9)) + 1;
-  auto k_base_at = [&](double t_rel_s) {
-    double k = cfg.k_true_m_per_pulse;
-    for (const KStep& st : cfg.k_steps) {
-      if (t_rel_s >= st.t_s) k *= st.factor;
-    }
-    return k;
-  };
-  auto slip_at = [&](double yaw_rate_radps) {
-    return std::min(cfg.turn_slip_max,
-                    cfg.turn_slip_per_radps * std::max(0.0, std::abs(yaw_rate_radps) - cfg.turn_slip_threshold_radps));
-  };
-  auto drive_state = [&](double t_rel_s) { return profile.at(t_rel_s - cfg.standstill_start_s); };
-  auto roll_target = [&](double s_m, double speed_mps) {
-    // Outward body roll in turns (right turn: left side down = negative roll) plus the ground's.
-    return terrain.cross_slope_rad(s_m) -
-           cfg.roll_per_lateral_accel_rad * speed_mps * speed_mps * course.at(s_m).curvature_per_m;
-  };
+// Horizontal arc length and speed at t_rel_s after the start of the data (standstill first).
+SpeedProfile::State drive_state(const SimulationConfig& cfg, const Drive& drive, double t_rel_s) {
+  return drive.profile.at(t_rel_s - cfg.standstill_start_s);
+}
 
-  std::vector<TruthRow> rows;
-  rows.reserve(n_rows);
-  Geodetic pos = cfg.start;
-  double distance_m = 0.0, pulse_phase = 0.0;
-  double s_prev = 0.0, v_prev = 0.0;
-  double roll_rad = roll_target(0.0, 0.0);
-  const double roll_blend = 1.0 - std::exp(-sub_dt_s / cfg.roll_time_constant_s);
-  for (std::size_t k = 0; k < n_rows; ++k) {
-    const double t_rel = static_cast<double>(k) / cfg.truth_rate_hz;  // division: 413.4, not 413.40000000000003
-    SpeedProfile::State st = drive_state(t_rel);
+// K before slip at t_rel_s, m/pulse: the initial true K times every K step reached.
+double k_base_at(const SimulationConfig& cfg, double t_rel_s) {
+  double k = cfg.k_true_m_per_pulse;
+  for (const KStep& st : cfg.k_steps) {
+    if (t_rel_s >= st.t_s) k *= st.factor;
+  }
+  return k;
+}
+
+// Track slip (extra pulses per metre, dimensionless) at a yaw rate, rad/s.
+double slip_at(const SimulationConfig& cfg, double yaw_rate_radps) {
+  return std::min(cfg.turn_slip_max,
+                  cfg.turn_slip_per_radps * std::max(0.0, std::abs(yaw_rate_radps) - cfg.turn_slip_threshold_radps));
+}
+
+// Body roll the vehicle settles to at s_m, rad: outward in turns (right turn: left side down =
+// negative roll) plus the ground's cross slope.
+double roll_target_rad(const SimulationConfig& cfg, const Drive& drive, double s_m, double speed_mps) {
+  return drive.terrain.cross_slope_rad(s_m) -
+         cfg.roll_per_lateral_accel_rad * speed_mps * speed_mps * drive.course.at(s_m).curvature_per_m;
+}
+
+// ---- truth, integrated on the ellipsoid ----
+
+// The vehicle's state between truth rows, advanced in cfg.substeps steps per row.
+class TruthIntegrator {
+ public:
+  TruthIntegrator(const SimulationConfig& cfg, const Drive& drive)
+      : cfg_(cfg),
+        drive_(drive),
+        sub_dt_s_(1.0 / cfg.truth_rate_hz / cfg.substeps),
+        roll_blend_(1.0 - std::exp(-sub_dt_s_ / cfg.roll_time_constant_s)),
+        pos_(cfg.start),
+        roll_rad_(roll_target_rad(cfg, drive, 0.0, 0.0)) {}
+
+  // Truth row k (at k / truth_rate_hz), after integrating from row k - 1.
+  TruthRow row(std::size_t k) {
+    const double t_rel = static_cast<double>(k) / cfg_.truth_rate_hz;  // division: 413.4, not 413.40000000000003
+    SpeedProfile::State st = drive_state(cfg_, drive_, t_rel);
     if (k > 0) {
-      for (int j = 1; j <= cfg.substeps; ++j) {
+      for (int j = 1; j <= cfg_.substeps; ++j) {
         const double t_sub =
-            j == cfg.substeps ? t_rel : static_cast<double>(k - 1) / cfg.truth_rate_hz + j * sub_dt_s;
-        const double t_mid = t_sub - 0.5 * sub_dt_s;
-        const SpeedProfile::State now = drive_state(t_sub);
-        const double ds_h = now.s_m - s_prev;
-        const CoursePoint mid = course.at(0.5 * (s_prev + now.s_m));
-        const double dh = terrain.height_m(now.s_m) - terrain.height_m(s_prev);
-        pos = move_geodetic(pos, Eigen::Vector3d(ds_h * std::sin(mid.heading_rad), ds_h * std::cos(mid.heading_rad), dh));
-        pos.height_m = cfg.start.height_m + terrain.height_m(now.s_m);  // exact, no accumulation
-        const double dd = std::hypot(ds_h, dh);
-        distance_m += dd;
-        const double yaw_rate_mid = 0.5 * (v_prev + now.speed_mps) * mid.curvature_per_m;
-        pulse_phase += dd * (1.0 + slip_at(yaw_rate_mid)) / k_base_at(t_mid);
-        roll_rad += (roll_target(now.s_m, now.speed_mps) - roll_rad) * roll_blend;
-        s_prev = now.s_m;
-        v_prev = now.speed_mps;
+            j == cfg_.substeps ? t_rel : static_cast<double>(k - 1) / cfg_.truth_rate_hz + j * sub_dt_s_;
+        substep(t_sub);
       }
-      st = SpeedProfile::State{s_prev, v_prev};
+      st = SpeedProfile::State{s_prev_, v_prev_};
     }
-    const CoursePoint cp = course.at(st.s_m);
-    const double slope = terrain.slope(st.s_m);
-    TruthRow r;
-    r.t_rel_s = t_rel;
-    r.position = pos;
-    r.attitude = body_attitude_for_motion(cp.heading_rad, std::atan(slope), roll_rad, cfg.misalignment);
-    r.vel_enu_mps = st.speed_mps * Eigen::Vector3d(std::sin(cp.heading_rad), std::cos(cp.heading_rad), slope);
-    r.speed_mps = r.vel_enu_mps.norm();
-    r.k_base_m_per_pulse = k_base_at(t_rel);
-    r.k_true_m_per_pulse = r.k_base_m_per_pulse / (1.0 + slip_at(st.speed_mps * cp.curvature_per_m));
-    r.distance_m = distance_m;
-    // The counter shows whole pulses, modulo 2^32.
-    r.pulses = static_cast<std::uint32_t>(
-        (static_cast<std::uint64_t>(cfg.counter_start) + static_cast<std::uint64_t>(std::floor(pulse_phase))) &
-        0xFFFFFFFFull);
-    rows.push_back(r);
+    return row_at(t_rel, st);
   }
 
-  Dataset ds;
-  ds.truth.reserve(rows.size());
+ private:
+  // Moves along the road from the last substep to t_sub: position, distance, pulses, roll.
+  void substep(double t_sub) {
+    const double t_mid = t_sub - 0.5 * sub_dt_s_;
+    const SpeedProfile::State now = drive_state(cfg_, drive_, t_sub);
+    const double ds_h = now.s_m - s_prev_;
+    const CoursePoint mid = drive_.course.at(0.5 * (s_prev_ + now.s_m));
+    const double dh = drive_.terrain.height_m(now.s_m) - drive_.terrain.height_m(s_prev_);
+    pos_ = move_geodetic(pos_, Eigen::Vector3d(ds_h * std::sin(mid.heading_rad), ds_h * std::cos(mid.heading_rad), dh));
+    pos_.height_m = cfg_.start.height_m + drive_.terrain.height_m(now.s_m);  // exact, no accumulation
+    const double dd = std::hypot(ds_h, dh);
+    distance_m_ += dd;
+    const double yaw_rate_mid = 0.5 * (v_prev_ + now.speed_mps) * mid.curvature_per_m;
+    pulse_phase_ += dd * (1.0 + slip_at(cfg_, yaw_rate_mid)) / k_base_at(cfg_, t_mid);
+    roll_rad_ += (roll_target_rad(cfg_, drive_, now.s_m, now.speed_mps) - roll_rad_) * roll_blend_;
+    s_prev_ = now.s_m;
+    v_prev_ = now.speed_mps;
+  }
+
+  TruthRow row_at(double t_rel, const SpeedProfile::State& st) const {
+    const CoursePoint cp = drive_.course.at(st.s_m);
+    const double slope = drive_.terrain.slope(st.s_m);
+    TruthRow r;
+    r.t_rel_s = t_rel;
+    r.position = pos_;
+    r.attitude = body_attitude_for_motion(cp.heading_rad, std::atan(slope), roll_rad_, cfg_.misalignment);
+    r.vel_enu_mps = st.speed_mps * Eigen::Vector3d(std::sin(cp.heading_rad), std::cos(cp.heading_rad), slope);
+    r.speed_mps = r.vel_enu_mps.norm();
+    r.k_base_m_per_pulse = k_base_at(cfg_, t_rel);
+    r.k_true_m_per_pulse = r.k_base_m_per_pulse / (1.0 + slip_at(cfg_, st.speed_mps * cp.curvature_per_m));
+    r.distance_m = distance_m_;
+    // The counter shows whole pulses, modulo 2^32.
+    r.pulses = static_cast<std::uint32_t>(
+        (static_cast<std::uint64_t>(cfg_.counter_start) + static_cast<std::uint64_t>(std::floor(pulse_phase_))) &
+        0xFFFFFFFFull);
+    return r;
+  }
+
+  const SimulationConfig& cfg_;
+  const Drive& drive_;
+  const double sub_dt_s_;
+  const double roll_blend_;
+  Geodetic pos_;
+  double distance_m_ = 0.0, pulse_phase_ = 0.0;
+  double s_prev_ = 0.0, v_prev_ = 0.0;
+  double roll_rad_;
+};
+
+std::vector<TruthRow> integrate_truth(const SimulationConfig& cfg, const Drive& drive) {
+  const std::size_t n_rows = static_cast<std::size_t>(std::floor(drive.total_time_s * cfg.truth_rate_hz + 1e-9)) + 1;
+  std::vector<TruthRow> rows;
+  rows.reserve(n_rows);
+  TruthIntegrator integrator(cfg, drive);
+  for (std::size_t k = 0; k < n_rows; ++k) rows.push_back(integrator.row(k));
+  return rows;
+}
+
+std::vector<TruthSample> truth_samples(const SimulationConfig& cfg, const std::vector<TruthRow>& rows) {
+  std::vector<TruthSample> truth;
+  truth.reserve(rows.size());
   for (const TruthRow& r : rows) {
     TruthSample ts;
     ts.t_s = cfg.start_time_s + r.t_rel_s;
@@ -284,138 +341,188 @@ Dataset simulate(const SimulationConfig& cfg) {
     ts.attitude.heading_rad = wrap_two_pi(r.attitude.heading_rad);
     ts.k_true_m_per_pulse = r.k_true_m_per_pulse;
     ts.distance_m = r.distance_m;
-    ds.truth.push_back(ts);
+    truth.push_back(ts);
   }
+  return truth;
+}
 
-  // ---- odometer ----
-  const int odo_every = rate_ratio(cfg.truth_rate_hz, cfg.odometer_rate_hz, "odometer_rate_hz");
-  for (std::size_t k = 0; k < rows.size(); k += odo_every) {
-    ds.odometer.push_back(OdometerSample{cfg.start_time_s + rows[k].t_rel_s, rows[k].pulses, 1});
+// ---- odometer ----
+
+std::vector<OdometerSample> odometer_samples(const SimulationConfig& cfg, const std::vector<TruthRow>& rows) {
+  std::vector<OdometerSample> odometer;
+  const int every = rate_ratio(cfg.truth_rate_hz, cfg.odometer_rate_hz, "odometer_rate_hz");
+  for (std::size_t k = 0; k < rows.size(); k += every) {
+    odometer.push_back(OdometerSample{cfg.start_time_s + rows[k].t_rel_s, rows[k].pulses, 1});
   }
+  return odometer;
+}
 
-  // ---- INS: true attitude + heading bias + white noise ----
-  {
-    std::mt19937_64 rng = make_stream(cfg.seed, 2);
-    std::normal_distribution<double> normal(0.0, 1.0);
-    const int every = rate_ratio(cfg.truth_rate_hz, cfg.ins_rate_hz, "ins_rate_hz");
-    for (std::size_t k = 0; k < rows.size(); k += every) {
-      const double nh = normal(rng), np = normal(rng), nr = normal(rng);  // fixed draw order
-      InsSample s;
-      s.t_s = cfg.start_time_s + rows[k].t_rel_s;
-      s.attitude.heading_rad =
-          wrap_two_pi(rows[k].attitude.heading_rad + cfg.ins_heading_bias_rad + cfg.ins_heading_noise_rad * nh);
-      s.attitude.pitch_rad = rows[k].attitude.pitch_rad + cfg.ins_tilt_noise_rad * np;
-      s.attitude.roll_rad = rows[k].attitude.roll_rad + cfg.ins_tilt_noise_rad * nr;
-      ds.ins.push_back(s);
-    }
+// ---- INS: true attitude + heading bias + white noise (random stream 2) ----
+
+std::vector<InsSample> ins_samples(const SimulationConfig& cfg, const std::vector<TruthRow>& rows) {
+  std::vector<InsSample> ins;
+  std::mt19937_64 rng = make_stream(cfg.seed, 2);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const int every = rate_ratio(cfg.truth_rate_hz, cfg.ins_rate_hz, "ins_rate_hz");
+  for (std::size_t k = 0; k < rows.size(); k += every) {
+    const double nh = normal(rng), np = normal(rng), nr = normal(rng);  // fixed draw order
+    InsSample s;
+    s.t_s = cfg.start_time_s + rows[k].t_rel_s;
+    s.attitude.heading_rad =
+        wrap_two_pi(rows[k].attitude.heading_rad + cfg.ins_heading_bias_rad + cfg.ins_heading_noise_rad * nh);
+    s.attitude.pitch_rad = rows[k].attitude.pitch_rad + cfg.ins_tilt_noise_rad * np;
+    s.attitude.roll_rad = rows[k].attitude.roll_rad + cfg.ins_tilt_noise_rad * nr;
+    ins.push_back(s);
   }
+  return ins;
+}
 
-  // ---- GNSS at the antenna ----
-  const int gnss_every = rate_ratio(cfg.truth_rate_hz, cfg.gnss_rate_hz, "gnss_rate_hz");
+// ---- GNSS at the antenna ----
+
+struct Outlier {
+  std::size_t epoch;
+  Eigen::Vector2d error_en_mps;
+};
+
+// Truth row index of every GNSS epoch.
+std::vector<std::size_t> gnss_epoch_rows(const SimulationConfig& cfg, const std::vector<TruthRow>& rows) {
+  const int every = rate_ratio(cfg.truth_rate_hz, cfg.gnss_rate_hz, "gnss_rate_hz");
   std::vector<std::size_t> epoch_rows;
-  for (std::size_t k = 0; k < rows.size(); k += gnss_every) epoch_rows.push_back(k);
+  for (std::size_t k = 0; k < rows.size(); k += every) epoch_rows.push_back(k);
+  return epoch_rows;
+}
 
-  // Outlier epochs first, from their own stream: moving (> 2 m/s), GNSS valid, at least 5 s apart.
-  struct Outlier {
-    std::size_t epoch;
-    Eigen::Vector2d error_en_mps;
-  };
+// Velocity outlier epochs, from their own random stream (3), drawn before the GNSS noise:
+// moving (> 2 m/s), GNSS valid, at least 5 s apart; sorted by epoch.
+std::vector<Outlier> pick_velocity_outliers(const SimulationConfig& cfg, const std::vector<TruthRow>& rows,
+                                            const std::vector<std::size_t>& epoch_rows) {
   std::vector<Outlier> outliers;
-  if (cfg.gnss_velocity_outliers > 0) {
-    std::mt19937_64 rng = make_stream(cfg.seed, 3);
-    std::vector<std::size_t> candidates;
-    for (std::size_t e = 1; e + 1 < epoch_rows.size(); ++e) {
-      const TruthRow& r = rows[epoch_rows[e]];
-      if (r.speed_mps > 2.0 && !in_outage(cfg.gnss_outages, r.t_rel_s)) candidates.push_back(e);
-    }
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    const double min_gap = 5.0 * cfg.gnss_rate_hz;
-    for (int tries = 0; tries < 1000 && !candidates.empty() &&
-                        outliers.size() < static_cast<std::size_t>(cfg.gnss_velocity_outliers);
-         ++tries) {
-      const std::size_t pick = std::min(candidates.size() - 1,
-                                        static_cast<std::size_t>(unit(rng) * static_cast<double>(candidates.size())));
-      const double magnitude = cfg.gnss_outlier_min_mps + (cfg.gnss_outlier_max_mps - cfg.gnss_outlier_min_mps) * unit(rng);
-      const double angle = 2.0 * kPi * unit(rng);
-      const std::size_t e = candidates[pick];
-      const bool too_close = std::any_of(outliers.begin(), outliers.end(), [&](const Outlier& o) {
-        return std::abs(static_cast<double>(o.epoch) - static_cast<double>(e)) < min_gap;
-      });
-      if (!too_close) outliers.push_back(Outlier{e, magnitude * Eigen::Vector2d(std::sin(angle), std::cos(angle))});
-    }
-    std::sort(outliers.begin(), outliers.end(), [](const Outlier& a, const Outlier& b) { return a.epoch < b.epoch; });
+  if (cfg.gnss_velocity_outliers <= 0) return outliers;
+  std::mt19937_64 rng = make_stream(cfg.seed, 3);
+  std::vector<std::size_t> candidates;
+  for (std::size_t e = 1; e + 1 < epoch_rows.size(); ++e) {
+    const TruthRow& r = rows[epoch_rows[e]];
+    if (r.speed_mps > 2.0 && !in_outage(cfg.gnss_outages, r.t_rel_s)) candidates.push_back(e);
   }
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const double min_gap = 5.0 * cfg.gnss_rate_hz;
+  for (int tries = 0; tries < 1000 && !candidates.empty() &&
+                      outliers.size() < static_cast<std::size_t>(cfg.gnss_velocity_outliers);
+       ++tries) {
+    const std::size_t pick = std::min(candidates.size() - 1,
+                                      static_cast<std::size_t>(unit(rng) * static_cast<double>(candidates.size())));
+    const double magnitude = cfg.gnss_outlier_min_mps + (cfg.gnss_outlier_max_mps - cfg.gnss_outlier_min_mps) * unit(rng);
+    const double angle = 2.0 * kPi * unit(rng);
+    const std::size_t e = candidates[pick];
+    const bool too_close = std::any_of(outliers.begin(), outliers.end(), [&](const Outlier& o) {
+      return std::abs(static_cast<double>(o.epoch) - static_cast<double>(e)) < min_gap;
+    });
+    if (!too_close) outliers.push_back(Outlier{e, magnitude * Eigen::Vector2d(std::sin(angle), std::cos(angle))});
+  }
+  std::sort(outliers.begin(), outliers.end(), [](const Outlier& a, const Outlier& b) { return a.epoch < b.epoch; });
+  return outliers;
+}
 
-  {
-    std::mt19937_64 rng = make_stream(cfg.seed, 1);
-    std::normal_distribution<double> normal(0.0, 1.0);
-    const double dt = 1.0 / cfg.gnss_rate_hz;
-    const double phi = std::exp(-dt / cfg.gnss_pos_gm_tau_s);
-    const double drive = std::sqrt(1.0 - phi * phi);
-    const Eigen::Vector3d gm_std(cfg.gnss_pos_gm_std_m, cfg.gnss_pos_gm_std_m,
-                                 cfg.gnss_pos_gm_std_m * cfg.gnss_vertical_factor);
-    const Eigen::Vector3d white_std(cfg.gnss_pos_white_std_m, cfg.gnss_pos_white_std_m,
-                                    cfg.gnss_pos_white_std_m * cfg.gnss_vertical_factor);
-    const Eigen::Vector3d vel_std(cfg.gnss_vel_std_mps, cfg.gnss_vel_std_mps, cfg.gnss_vel_up_std_mps);
+// The receiver's errors, from random stream 1: a first-order Gauss-Markov position error (ENU, m)
+// plus white position and velocity noise. Draw order per epoch: Gauss-Markov (not at the first
+// epoch, whose value is the stationary draw made at construction), white, velocity.
+class GnssErrorModel {
+ public:
+  explicit GnssErrorModel(const SimulationConfig& cfg)
+      : rng_(make_stream(cfg.seed, 1)),
+        phi_(std::exp(-(1.0 / cfg.gnss_rate_hz) / cfg.gnss_pos_gm_tau_s)),
+        drive_(std::sqrt(1.0 - phi_ * phi_)),
+        gm_std_(cfg.gnss_pos_gm_std_m, cfg.gnss_pos_gm_std_m, cfg.gnss_pos_gm_std_m * cfg.gnss_vertical_factor),
+        white_std_(cfg.gnss_pos_white_std_m, cfg.gnss_pos_white_std_m, cfg.gnss_pos_white_std_m * cfg.gnss_vertical_factor),
+        vel_std_(cfg.gnss_vel_std_mps, cfg.gnss_vel_std_mps, cfg.gnss_vel_up_std_mps) {
     // The correlated error starts in its stationary distribution (a receiver that has been on).
-    Eigen::Vector3d gm;
-    for (int a = 0; a < 3; ++a) gm[a] = gm_std[a] * normal(rng);
-    const double pos_std = std::hypot(cfg.gnss_pos_gm_std_m, cfg.gnss_pos_white_std_m);
-    std::optional<Geodetic> last_valid;
-    std::size_t next_outlier = 0;
-    for (std::size_t e = 0; e < epoch_rows.size(); ++e) {
-      const std::size_t k = epoch_rows[e];
-      const TruthRow& r = rows[k];
-      if (e > 0) {
-        for (int a = 0; a < 3; ++a) gm[a] = phi * gm[a] + drive * gm_std[a] * normal(rng);
-      }
-      Eigen::Vector3d white, vel_noise;
-      for (int a = 0; a < 3; ++a) white[a] = white_std[a] * normal(rng);
-      for (int a = 0; a < 3; ++a) vel_noise[a] = vel_std[a] * normal(rng);
-
-      const Eigen::Vector3d lever_enu = body_to_enu(r.attitude) * cfg.lever_arm_m;
-      // Lever-arm velocity d(C_b^n l)/dt by central difference over the neighbouring truth rows
-      // (10 ms): the truncation error is ~ (omega dt)^2 / 6 relative, far below the noise.
-      const std::size_t k0 = k > 0 ? k - 1 : k, k1 = k + 1 < rows.size() ? k + 1 : k;
-      Eigen::Vector3d lever_vel = Eigen::Vector3d::Zero();
-      if (k1 > k0) {
-        lever_vel = (body_to_enu(rows[k1].attitude) * cfg.lever_arm_m - body_to_enu(rows[k0].attitude) * cfg.lever_arm_m) /
-                    ((rows[k1].t_rel_s - rows[k0].t_rel_s));
-      }
-      GnssSample g;
-      g.t_s = cfg.start_time_s + r.t_rel_s + cfg.gnss_latency_s;
-      if (in_outage(cfg.gnss_outages, r.t_rel_s)) {
-        // No solution: the receiver repeats its last position, reports no velocity, fix 0.
-        g.position = last_valid ? *last_valid : move_geodetic(r.position, lever_enu);
-        g.vel_enu_mps.setZero();
-        g.fix = 0;
-        g.pos_std_m = 999.0;
-        g.vel_std_mps = 999.0;
-      } else {
-        g.position = move_geodetic(move_geodetic(r.position, lever_enu), gm + white);
-        g.vel_enu_mps = r.vel_enu_mps + lever_vel + vel_noise;
-        if (next_outlier < outliers.size() && outliers[next_outlier].epoch == e) {
-          g.vel_enu_mps.head<2>() += outliers[next_outlier].error_en_mps;
-          ++next_outlier;
-        }
-        g.fix = 1;
-        g.pos_std_m = pos_std;
-        g.vel_std_mps = cfg.gnss_vel_std_mps;
-        last_valid = g.position;
-      }
-      ds.gnss.push_back(g);
-    }
+    for (int a = 0; a < 3; ++a) gm_[a] = gm_std_[a] * normal_(rng_);
   }
+  // Draws the errors of the next epoch (first = the first epoch).
+  void next_epoch(bool first) {
+    if (!first) {
+      for (int a = 0; a < 3; ++a) gm_[a] = phi_ * gm_[a] + drive_ * gm_std_[a] * normal_(rng_);
+    }
+    for (int a = 0; a < 3; ++a) white_[a] = white_std_[a] * normal_(rng_);
+    for (int a = 0; a < 3; ++a) vel_noise_[a] = vel_std_[a] * normal_(rng_);
+  }
+  Eigen::Vector3d position_error_enu_m() const { return gm_ + white_; }
+  const Eigen::Vector3d& velocity_error_enu_mps() const { return vel_noise_; }
 
-  // ---- meta ----
-  const TruthRow& last = rows.back();
-  const double s_end = drive_state(last.t_rel_s).s_m;
+ private:
+  std::mt19937_64 rng_;
+  std::normal_distribution<double> normal_{0.0, 1.0};
+  const double phi_, drive_;
+  const Eigen::Vector3d gm_std_, white_std_, vel_std_;
+  Eigen::Vector3d gm_, white_, vel_noise_;
+};
+
+// Lever-arm velocity d(C_b^n l)/dt at truth row k, ENU m/s, by central difference over the
+// neighbouring truth rows (10 ms): the truncation error is ~ (omega dt)^2 / 6 relative, far below
+// the noise.
+Eigen::Vector3d lever_arm_velocity_enu_mps(const SimulationConfig& cfg, const std::vector<TruthRow>& rows,
+                                           std::size_t k) {
+  const std::size_t k0 = k > 0 ? k - 1 : k, k1 = k + 1 < rows.size() ? k + 1 : k;
+  Eigen::Vector3d lever_vel = Eigen::Vector3d::Zero();
+  if (k1 > k0) {
+    lever_vel = (body_to_enu(rows[k1].attitude) * cfg.lever_arm_m - body_to_enu(rows[k0].attitude) * cfg.lever_arm_m) /
+                ((rows[k1].t_rel_s - rows[k0].t_rel_s));
+  }
+  return lever_vel;
+}
+
+std::vector<GnssSample> gnss_samples(const SimulationConfig& cfg, const std::vector<TruthRow>& rows,
+                                     const std::vector<std::size_t>& epoch_rows, const std::vector<Outlier>& outliers) {
+  std::vector<GnssSample> gnss;
+  GnssErrorModel errors(cfg);
+  const double pos_std = std::hypot(cfg.gnss_pos_gm_std_m, cfg.gnss_pos_white_std_m);
+  std::optional<Geodetic> last_valid;
+  std::size_t next_outlier = 0;
+  for (std::size_t e = 0; e < epoch_rows.size(); ++e) {
+    const std::size_t k = epoch_rows[e];
+    const TruthRow& r = rows[k];
+    errors.next_epoch(e == 0);
+    const Eigen::Vector3d lever_enu = body_to_enu(r.attitude) * cfg.lever_arm_m;
+    const Eigen::Vector3d lever_vel = lever_arm_velocity_enu_mps(cfg, rows, k);
+    GnssSample g;
+    g.t_s = cfg.start_time_s + r.t_rel_s + cfg.gnss_latency_s;
+    if (in_outage(cfg.gnss_outages, r.t_rel_s)) {
+      // No solution: the receiver repeats its last position, reports no velocity, fix 0.
+      g.position = last_valid ? *last_valid : move_geodetic(r.position, lever_enu);
+      g.vel_enu_mps.setZero();
+      g.fix = 0;
+      g.pos_std_m = 999.0;
+      g.vel_std_mps = 999.0;
+    } else {
+      g.position = move_geodetic(move_geodetic(r.position, lever_enu), errors.position_error_enu_m());
+      g.vel_enu_mps = r.vel_enu_mps + lever_vel + errors.velocity_error_enu_mps();
+      if (next_outlier < outliers.size() && outliers[next_outlier].epoch == e) {
+        g.vel_enu_mps.head<2>() += outliers[next_outlier].error_en_mps;
+        ++next_outlier;
+      }
+      g.fix = 1;
+      g.pos_std_m = pos_std;
+      g.vel_std_mps = cfg.gnss_vel_std_mps;
+      last_valid = g.position;
+    }
+    gnss.push_back(g);
+  }
+  return gnss;
+}
+
+// ---- meta ----
+
+// meta.json's "simulation" object: what was simulated, for the evaluation and for people.
+nlohmann::json simulation_meta(const SimulationConfig& cfg, const Drive& drive, const TruthRow& last,
+                               const std::vector<Outlier>& outliers, const std::vector<GnssSample>& gnss) {
+  const Course& course = drive.course;
+  const double s_end = drive_state(cfg, drive, last.t_rel_s).s_m;
   nlohmann::json sim;
   sim["scenario"] = cfg.scenario;
   sim["seed"] = cfg.seed;
   sim["course"] = course.closed() ? "training_ground" : "straight";
   sim["lap_length_m"] = course.lap_length_m();
-  sim["laps_planned"] = course.closed() ? laps : 1;
+  sim["laps_planned"] = course.closed() ? drive.laps : 1;
   sim["laps_completed"] = course.closed() ? static_cast<int>(std::floor(s_end / course.lap_length_m() + 1e-9)) : 0;
   sim["clockwise"] = course.closed() && course.lap_turning_rad() > 0.0;
   sim["duration_s"] = last.t_rel_s;
@@ -423,12 +530,10 @@ Dataset simulate(const SimulationConfig& cfg) {
   sim["start_time_s"] = cfg.start_time_s;
   sim["k_true_initial_m_per_pulse"] = cfg.k_true_m_per_pulse;
   nlohmann::json steps = nlohmann::json::array();
-  {
-    double k = cfg.k_true_m_per_pulse;
-    for (const KStep& st : cfg.k_steps) {
-      steps.push_back({{"t_s", cfg.start_time_s + st.t_s}, {"k_before", k}, {"k_after", k * st.factor}});
-      k *= st.factor;
-    }
+  double k = cfg.k_true_m_per_pulse;
+  for (const KStep& st : cfg.k_steps) {
+    steps.push_back({{"t_s", cfg.start_time_s + st.t_s}, {"k_before", k}, {"k_after", k * st.factor}});
+    k *= st.factor;
   }
   sim["k_steps"] = steps;
   sim["turn_slip"] = {{"per_radps", cfg.turn_slip_per_radps},
@@ -441,9 +546,8 @@ Dataset simulate(const SimulationConfig& cfg) {
   sim["gnss_outages"] = outages;
   nlohmann::json outlier_list = nlohmann::json::array();
   for (const Outlier& o : outliers) {
-    outlier_list.push_back({{"t_s", ds.gnss[o.epoch].t_s},
-                            {"error_ve_mps", o.error_en_mps.x()},
-                            {"error_vn_mps", o.error_en_mps.y()}});
+    outlier_list.push_back(
+        {{"t_s", gnss[o.epoch].t_s}, {"error_ve_mps", o.error_en_mps.x()}, {"error_vn_mps", o.error_en_mps.y()}});
   }
   sim["gnss_velocity_outliers"] = outlier_list;
   sim["lever_arm_m"] = {cfg.lever_arm_m.x(), cfg.lever_arm_m.y(), cfg.lever_arm_m.z()};
@@ -457,23 +561,47 @@ Dataset simulate(const SimulationConfig& cfg) {
   sim["ins_heading_noise_deg"] = rad_to_deg(cfg.ins_heading_noise_rad);
   sim["ins_tilt_noise_deg"] = rad_to_deg(cfg.ins_tilt_noise_rad);
   sim["counter_start"] = cfg.counter_start;
+  return sim;
+}
 
-  ds.meta.format = "odonav-dataset/1";
-  ds.meta.vehicle_id = cfg.vehicle_id;
-  ds.meta.description = cfg.description;
-  ds.meta.k_nominal_m_per_pulse = cfg.k_nominal_m_per_pulse;
-  ds.meta.truth_misalignment_heading_deg = rad_to_deg(cfg.misalignment.heading_rad);
-  ds.meta.truth_misalignment_pitch_deg = rad_to_deg(cfg.misalignment.pitch_rad);
+// The dataset's meta (DATASET.md, meta.json) with `sim` as its "simulation" object.
+DatasetMeta dataset_meta(const SimulationConfig& cfg, const nlohmann::json& sim) {
+  DatasetMeta m;
+  m.format = "odonav-dataset/1";
+  m.vehicle_id = cfg.vehicle_id;
+  m.description = cfg.description;
+  m.k_nominal_m_per_pulse = cfg.k_nominal_m_per_pulse;
+  m.truth_misalignment_heading_deg = rad_to_deg(cfg.misalignment.heading_rad);
+  m.truth_misalignment_pitch_deg = rad_to_deg(cfg.misalignment.pitch_rad);
   nlohmann::json meta;
-  meta["format"] = ds.meta.format;
-  meta["vehicle_id"] = ds.meta.vehicle_id;
-  meta["description"] = ds.meta.description;
+  meta["format"] = m.format;
+  meta["vehicle_id"] = m.vehicle_id;
+  meta["description"] = m.description;
   meta["odometer"] = {{"k_nominal_m_per_pulse", cfg.k_nominal_m_per_pulse}};
-  meta["truth"] = {{"misalignment_heading_deg", *ds.meta.truth_misalignment_heading_deg},
-                   {"misalignment_pitch_deg", *ds.meta.truth_misalignment_pitch_deg}};
+  meta["truth"] = {{"misalignment_heading_deg", *m.truth_misalignment_heading_deg},
+                   {"misalignment_pitch_deg", *m.truth_misalignment_pitch_deg}};
   meta["simulation"] = sim;
-  ds.meta.raw_json = meta.dump(2);
-  ds.meta.gnss_lever_arm_m = cfg.lever_arm_m;
+  m.raw_json = meta.dump(2);
+  m.gnss_lever_arm_m = cfg.lever_arm_m;
+  return m;
+}
+
+}  // namespace
+
+Dataset simulate(const SimulationConfig& cfg) {
+  validate(cfg);
+  const Drive drive = plan_drive(cfg);
+  const std::vector<TruthRow> rows = integrate_truth(cfg, drive);
+  Dataset ds;
+  ds.truth = truth_samples(cfg, rows);
+  ds.odometer = odometer_samples(cfg, rows);
+  ds.ins = ins_samples(cfg, rows);
+  // Each sensor draws from its own random stream (make_stream), so the order of these calls does
+  // not change any number; within a stream the draw order is fixed.
+  const std::vector<std::size_t> epoch_rows = gnss_epoch_rows(cfg, rows);
+  const std::vector<Outlier> outliers = pick_velocity_outliers(cfg, rows, epoch_rows);
+  ds.gnss = gnss_samples(cfg, rows, epoch_rows, outliers);
+  ds.meta = dataset_meta(cfg, simulation_meta(cfg, drive, rows.back(), outliers, ds.gnss));
   return ds;
 }
 

@@ -18,6 +18,9 @@ struct TopicSpec {
 // QoS profile names (deploy/profiles/qos.xml). See idl/README.md for what each one means.
 inline constexpr const char* kSensorWriterProfile = "odonav_sensor_writer";
 inline constexpr const char* kSensorReaderProfile = "odonav_sensor_reader";
+/// The gateway's sensor writers when replaying as fast as possible: odonav_sensor_writer with a
+/// 5 ms heartbeat, so each acknowledgment wait of its flow control takes milliseconds.
+inline constexpr const char* kGatewayFastAckSensorWriterProfile = "odonav_gateway_sensor_writer_fast_ack";
 inline constexpr const char* kEstimateWriterProfile = "odonav_estimate_writer";
 inline constexpr const char* kEstimateReaderProfile = "odonav_estimate_reader";
 inline constexpr const char* kDeadReckoningWriterProfile = "odonav_dead_reckoning_writer";

@@ -5,10 +5,7 @@
 //   3. speed invariance: a replay at real time and as fast as possible give identical files.
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
-#include <fcntl.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <optional>
@@ -25,12 +22,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "child_process.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
 #include "output_files.hpp"
-
-extern char** environ;
 
 namespace {
 
@@ -56,45 +52,25 @@ std::string read_text(const std::string& path) {
 }
 
 /// Runs deploy/launch with `args` (output to log_path), bounded by timeout_s: on timeout it gets
-/// SIGTERM (its trap stops every component), then SIGKILL.
+/// SIGTERM (its trap stops every component), then SIGKILL after 15 s.
 LaunchResult launch(const std::vector<std::string>& args, const std::string& log_path, int timeout_s) {
   const std::string script = std::string(ODONAV_SOURCE_DIR) + "/deploy/launch";
-  std::vector<std::string> all{"/bin/bash", script, "--build-dir", ODONAV_BINARY_DIR};
+  std::vector<std::string> all{script, "--build-dir", ODONAV_BINARY_DIR};
   all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& a : all) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t files;
-  posix_spawn_file_actions_init(&files);
-  posix_spawn_file_actions_addopen(&files, 1, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&files, 1, 2);
   LaunchResult r;
-  pid_t pid = -1;
   const auto t0 = std::chrono::steady_clock::now();
-  if (posix_spawn(&pid, "/bin/bash", &files, nullptr, argv.data(), environ) != 0) {
-    posix_spawn_file_actions_destroy(&files);
+  test::ChildProcess launcher("/bin/bash", all, log_path, log_path);
+  if (!launcher.started()) {
     r.log = "posix_spawn failed";
     return r;
   }
-  posix_spawn_file_actions_destroy(&files);
-  int status = 0;
-  const auto deadline = t0 + std::chrono::seconds(timeout_s);
-  while (waitpid(pid, &status, WNOHANG) == 0) {
-    if (std::chrono::steady_clock::now() > deadline) {
-      r.timed_out = true;
-      ::kill(pid, SIGTERM);
-      for (int i = 0; i < 150 && waitpid(pid, &status, WNOHANG) == 0; ++i)
-        std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      if (waitpid(pid, &status, WNOHANG) == 0) {
-        ::kill(pid, SIGKILL);
-        waitpid(pid, &status, 0);
-      }
-      break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  if (!launcher.wait_exit(std::chrono::seconds(timeout_s))) {
+    r.timed_out = true;
+    launcher.signal(SIGTERM);
+    launcher.wait_exit_or_kill(std::chrono::seconds(15));
   }
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.exit_code = launcher.exit_code();
   r.log = read_text(log_path);
   return r;
 }

@@ -163,6 +163,36 @@ TEST(QosProfiles, LoopbackParticipantKeepsEverythingOnLoopback) {
   EXPECT_EQ(qos.wire_protocol().builtin.discovery_config.leaseDuration.seconds, 5);
 }
 
+// The gateway's flow-control writers ("speed max"): named in topics.hpp, defined in qos.xml, the
+// sensor writer's QoS contract with only the heartbeat period shortened (3 s -> 5 ms).
+TEST(QosProfiles, GatewayFastAckWriterIsTheSensorWriterWithA5msHeartbeat) {
+  odonav::dds::Participant participant(loopback_options());
+  auto& publisher = participant.core()->publisher();
+  auto& subscriber = participant.core()->subscriber();
+  DataWriterQos sensor, fast;
+  DataReaderQos reader;
+  ASSERT_EQ(publisher.get_datawriter_qos_from_profile(topics::kSensorWriterProfile, sensor), ReturnCode_t::RETCODE_OK);
+  ASSERT_EQ(publisher.get_datawriter_qos_from_profile(topics::kGatewayFastAckSensorWriterProfile, fast),
+            ReturnCode_t::RETCODE_OK)
+      << "qos.xml has no data_writer profile " << topics::kGatewayFastAckSensorWriterProfile;
+  ASSERT_EQ(subscriber.get_datareader_qos_from_profile(topics::kSensorReaderProfile, reader), ReturnCode_t::RETCODE_OK);
+  EXPECT_EQ(fast.reliability().kind, RELIABLE_RELIABILITY_QOS);
+  EXPECT_EQ(fast.durability().kind, VOLATILE_DURABILITY_QOS);
+  EXPECT_EQ(fast.history().kind, KEEP_LAST_HISTORY_QOS);
+  EXPECT_EQ(fast.history().depth, 200);
+  EXPECT_EQ(seconds_of(fast.deadline().period), kNoDeadline);
+  EXPECT_EQ(fast.ownership().kind, SHARED_OWNERSHIP_QOS);
+  // Everything of the contract as odonav_sensor_writer, so it matches the same readers.
+  EXPECT_EQ(fast.reliability().kind, sensor.reliability().kind);
+  EXPECT_EQ(fast.durability().kind, sensor.durability().kind);
+  EXPECT_EQ(fast.history().depth, sensor.history().depth);
+  EXPECT_EQ(fast.ownership().kind, sensor.ownership().kind);
+  EXPECT_GE(fast.reliability().kind, reader.reliability().kind);
+  EXPECT_GE(fast.durability().kind, reader.durability().kind);
+  EXPECT_EQ(fast.reliable_writer_qos().times.heartbeatPeriod.to_ns(), 5000000);
+  EXPECT_EQ(sensor.reliable_writer_qos().times.heartbeatPeriod.to_ns(), 3000000000LL) << "Fast DDS's default";
+}
+
 // ---- .msg twins against the wire ----
 
 namespace {

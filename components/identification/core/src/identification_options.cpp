@@ -1,5 +1,7 @@
 #include "odonav/identification/identification_options.hpp"
 
+#include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 namespace odonav {
@@ -46,6 +48,21 @@ IdentificationParams identification_params_from(const Options& o) {
   } catch (const std::invalid_argument& e) {
     throw ConfigError(std::string("identification parameters: ") + e.what());
   }
+  return p;
+}
+
+IdentificationParams identification_params_for(const Options& o, const IdentificationVehicleFacts& facts) {
+  if (!std::isfinite(facts.nominal_k_m_per_pulse) || facts.nominal_k_m_per_pulse <= 0.0) {
+    std::ostringstream m;
+    m << "identification parameters: nominal K must be finite and > 0 m/pulse (got " << facts.nominal_k_m_per_pulse
+      << ")";
+    throw ConfigError(m.str());
+  }
+  IdentificationParams p = identification_params_from(o);
+  p.builder.use_ins = facts.use_ins;
+  p.builder.lever_arm_body_m = facts.lever_arm_body_m;
+  p.builder.odometer_jump_gate.k_m_per_pulse = facts.nominal_k_m_per_pulse;
+  p.run_all_estimators = facts.run_all_estimators;
   return p;
 }
 

@@ -7,9 +7,12 @@
 // - health counters and reasons of the inputs;
 // - EstimatePublisher: writes a node's estimates and republishes the last one as a heartbeat
 //   when nothing was published for a second (the estimate topics' 1 s deadline contract,
-//   idl/README.md, and the liveness signal consumers' maximum waits rely on).
+//   idl/README.md, and the liveness signal consumers' maximum waits rely on), or for the period
+//   the node gives (the scale factor's 300 ms deadline);
+// - BurstThrottle: the pause that lets a KEEP_LAST history drain during a burst of writes.
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <optional>
@@ -189,16 +192,37 @@ inline std::optional<std::string> rejection_reason(const std::vector<const NodeI
 
 // ---- outputs ----
 
+/// Sleeps 2 ms every 100 writes. A burst of writes (catching up after a wait, the drain at stop)
+/// larger than a KEEP_LAST history would overwrite samples the transport has not delivered yet:
+/// the pause lets it drain. Call after_write() after each write of one writer.
+class BurstThrottle {
+ public:
+  static constexpr uint64_t kWritesPerPause = 100;
+  static constexpr std::chrono::milliseconds kPause{2};
+
+  void after_write() {
+    if (++writes_ % kWritesPerPause == 0) std::this_thread::sleep_for(kPause);
+  }
+  /// Writes counted so far.
+  uint64_t writes() const { return writes_; }
+
+ private:
+  uint64_t writes_ = 0;
+};
+
 /// Writes one estimate topic; republishes the last estimate (same stamp: consumers see a repeat,
 /// i.e. a heartbeat) when nothing was written for heartbeat_period_s of wall clock.
 template <class T>
 class EstimatePublisher {
  public:
+  /// heartbeat_period_s: steady clock (s, > 0). settings: per-process writer settings on top of the
+  /// profile (ownership strength, TRANSIENT persistence; endpoints.hpp), none by default.
   EstimatePublisher(const Participant& participant, const std::string& topic_name, const std::string& qos_profile,
-                    double heartbeat_period_s = 1.0)
-      : writer_(participant, topic_name, qos_profile), heartbeat_period_s_(heartbeat_period_s) {}
+                    double heartbeat_period_s = 1.0, const WriterSettings& settings = {})
+      : writer_(participant, topic_name, qos_profile, settings), heartbeat_period_s_(heartbeat_period_s) {}
 
-  /// Writes a new estimate at now_s (steady clock, s).
+  /// Writes a new estimate at now_s (steady clock, s). A refusal by the middleware is counted and
+  /// logged, never thrown: the next estimate is written anyway.
   void publish(const T& message, double now_s) {
     if (!writer_.write(message)) {
       ++write_failures_;
@@ -206,8 +230,8 @@ class EstimatePublisher {
     }
     last_ = message;
     last_write_s_ = now_s;
-    // KEEP_LAST 1: a burst (catching up, the drain) must give the transport time to deliver.
-    if (++published_ % 100 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    ++published_;
+    throttle_.after_write();
   }
   /// Republishes the last estimate if the period has passed since the last write.
   void heartbeat_if_due(double now_s) {
@@ -230,6 +254,7 @@ class EstimatePublisher {
   uint64_t published_ = 0;
   uint64_t heartbeats_ = 0;
   uint64_t write_failures_ = 0;
+  BurstThrottle throttle_;
 };
 
 }  // namespace odonav::dds

@@ -1,7 +1,7 @@
 #pragma once
 // Checkpoint of odonav-identification (DDS persistence keeps samples, not the estimator's state): what a
-// restarted identification needs to resume
-// instead of re-converging from the nominal K. Middleware-free; the node decides when to write.
+// restarted identification needs to resume instead of re-converging from the nominal K.
+// Middleware-free; IdentificationLifecycle (identification_lifecycle.hpp) decides when to write.
 //
 // File `<state-dir>/identification-<vehicle>.ckpt`, versioned text:
 //   odonav-identification-checkpoint 1

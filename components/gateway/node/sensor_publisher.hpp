@@ -1,0 +1,75 @@
+#pragma once
+// odonav-gateway's sensor publisher: the one place where samples become messages on the three
+// sensor topics, for every source (the replay/simulator loop, gateway_node.hpp; the live line and
+// gpsd inputs, live_gateway.hpp). It counts what it wrote and publishes the gateway's Health with
+// the counter list of core/sensor_health.hpp.
+#include <array>
+#include <chrono>
+#include <cstddef>
+#include <mutex>
+#include <string>
+
+#include "core/live_input.hpp"
+#include "core/sensor_health.hpp"
+#include "odonav/dataset.hpp"
+#include "odonav/dds/component.hpp"
+#include "odonav/msg/GnssFix.h"
+#include "odonav/msg/InsAttitude.h"
+#include "odonav/msg/Odometer.h"
+
+namespace odonav::gateway {
+
+// Sample -> message (frames, units: idl/README.md). Stamps: to_time_msg(t_s); a t_s outside its
+// range (non-finite, beyond 2038) throws std::invalid_argument naming the value.
+
+/// Odometer: raw counter, direction (-1, 0, +1), frame "odometer".
+odonav::msg::Odometer odometer_message(const OdometerSample& s, const std::string& vehicle_id);
+/// INS attitude in radians, ENU velocity when the dataset has it (velocity_valid), valid, frame "body".
+odonav::msg::InsAttitude ins_message(const InsSample& s, const std::string& vehicle_id);
+/// GNSS fix: latitude/longitude in the degrees the dataset files hold (recorded_degrees), height,
+/// ENU velocity, fix quality; accuracies -1 when unknown; valid = fix not 0 or 6 and every value
+/// finite (a fix-0 row is published as an invalid fix, not dropped). Frame "wgs84".
+odonav::msg::GnssFix gnss_message(const GnssSample& s, const std::string& vehicle_id);
+
+/// Writers of rt/odonav/odometer, rt/odonav/ins/attitude and rt/odonav/gnss/fix for the
+/// runtime's vehicle, with one data_writer profile (qos.xml). Every sample is written at once,
+/// stamped with its own t. Thread-safe: with gpsd beside a line source, GNSS arrives on its own
+/// thread. A refused write is counted (the first 10 logged), never fatal.
+class SensorPublisher : public SampleSink {
+ public:
+  SensorPublisher(dds::ComponentRuntime& runtime, const std::string& writer_profile);
+
+  void odometer(const OdometerSample& s) override;
+  void ins(const InsSample& s) override;
+  void gnss(const GnssSample& s) override;
+
+  /// Waits (each writer bounded by timeout) until every matched reader acknowledged everything
+  /// written; counts every writer that timed out (ack_timeouts). True when all acknowledged.
+  bool wait_for_acknowledgments(std::chrono::milliseconds timeout);
+
+  PublishedCounts counts() const;
+  std::uint64_t ack_timeouts() const;
+  /// Matched readers of the odometer, INS and GNSS writers.
+  std::array<std::size_t, 3> matched_readers() const;
+  /// The GNSS writer (every SINS/OD consumer reads it: what the replay waits for).
+  const dds::Writer<odonav::msg::GnssFix>& gnss_writer() const { return gnss_; }
+
+  /// Publishes the gateway's Health (gateway_health: the counts, then the source's counters) at
+  /// most once a second unless forced: level WARN on a write failure or when the source says so.
+  void publish_health(odonav::msg::HealthState state, const std::string& reason, const SourceHealth& source,
+                      bool force);
+
+ private:
+  const std::string& vehicle() const { return runtime_.settings().vehicle_id; }
+  void count(bool written, std::size_t stream, double t_s);  // with mutex_ held
+
+  dds::ComponentRuntime& runtime_;
+  dds::Writer<odonav::msg::Odometer> odometer_;
+  dds::Writer<odonav::msg::InsAttitude> ins_;
+  dds::Writer<odonav::msg::GnssFix> gnss_;
+  mutable std::mutex mutex_;
+  PublishedCounts counts_;
+  std::uint64_t ack_timeouts_ = 0;
+};
+
+}  // namespace odonav::gateway

@@ -1,0 +1,194 @@
+#pragma once
+// The restart policy of odonav-identification around IdentificationCore, middleware-free so that it
+// is testable in one process (the DDS node only subscribes, converts, calls this and publishes):
+//  - at start: restore the checkpoint (checkpoint.hpp) or move a bad one aside, and move the
+//    writer's persistence database aside when no checkpoint was restored;
+//  - which restored output is published at once, which sensor samples are skipped because they
+//    predate the checkpoint, which outputs are published after a restore (with the restored
+//    counters added);
+//  - when a checkpoint is due, building and writing it;
+//  - the stamp of a commanded K (set_k);
+//  - the health decision, as a pure function over the facts the node supplies.
+// Time: "event time" is the data's time (sample stamps, s); "steady" is the node's wall clock
+// (s, monotonic), used only for how long the restore note stays in the health reason.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "odonav/identification/checkpoint.hpp"
+#include "odonav/identification/identification_core.hpp"
+#include "odonav/identification/instance.hpp"
+
+namespace odonav {
+
+/// Where and how often the identification checkpoints its estimator (checkpoint.hpp).
+struct CheckpointSettings {
+  /// Folder of `identification-<vehicle>.ckpt`; empty = no checkpoint (nothing read or written).
+  std::string state_dir;
+  /// A checkpoint is written once the event time of the processed epochs has advanced by this much
+  /// (s, > 0) since the last one, and at shutdown. Event time, not wall time: a replay writes the
+  /// same checkpoints whatever its speed.
+  double every_s = 5.0;
+  /// config_hash_of(Options::values_as_text()): a checkpoint of another configuration is refused.
+  std::string config_hash;
+};
+
+/// The inputs whose samples may predate a restored checkpoint (IdentificationLifecycle::skip_sample).
+enum class IdentificationInput { kOdometer, kGnss, kIns };
+
+/// How long (steady clock) the health reason tells about the restore: long enough for an operator
+/// or a monitor to see it, short enough not to hide later reasons.
+inline constexpr double kRestoreNoteDuration_s = 30.0;
+/// Odometer and INS samples this much older than the checkpoint are still fed: the epochs right
+/// after it interpolate the pulse count and attitude between samples on both sides (max_bracket_s).
+inline constexpr double kSensorMarginBeforeCheckpoint_s = 1.0;
+
+/// The identification's health as the node reports it past the checks on its required inputs.
+struct IdentificationHealth {
+  enum class State { kStarting, kRunning, kDegraded };
+  enum class Level { kOk, kWarn };
+  State state = State::kRunning;
+  Level level = Level::kOk;
+  std::string reason;  ///< "" when all is well; parts joined by "; ".
+};
+
+/// Everything identification_health() decides on. The node supplies the input facts; the
+/// lifecycle the rest (IdentificationLifecycle::health_facts).
+struct IdentificationHealthFacts {
+  /// The last published output (nothing before the first epoch or restore).
+  std::optional<IdentificationOutput> last_output;
+  /// The optional misalignment input: absent (silent past the node's maximum wait) / ever heard.
+  bool misalignment_absent = false;
+  bool misalignment_heard = false;
+  /// Misalignments applied to the core so far (converged ones only, consumer_rules.hpp).
+  uint64_t misalignments_applied = 0;
+  /// What the restore did, shown until restore_note_until_s (steady, s); "" = nothing to say.
+  std::string restore_note;
+  /// The checkpoint was unusable: WARN while the note shows.
+  bool restore_warn = false;
+  double restore_note_until_s = 0.0;
+  /// Now, steady clock (s).
+  double now_s = 0.0;
+  /// Checkpoint writes that failed since start: any makes the health WARN (if it is not already).
+  uint64_t checkpoint_errors = 0;
+};
+
+/// The health decision. Precedence of the reason parts: restore note; checkpoint errors first when
+/// they raise the level; then waiting / frozen / not converged; then the zero-misalignment part.
+/// Reasons (operators and tests rely on the exact texts):
+///  - no output: STARTING "waiting for the first GNSS epoch to process";
+///  - frozen: "frozen by command: K held"; no valid or converged K: "K not converged yet";
+///  - misalignment absent: "using zero misalignment: no calibration" (and DEGRADED when RUNNING);
+///    never heard: "no misalignment received yet: using zero"; heard but none applied:
+///    "misalignment not converged yet: using zero" (the level is never raised for these);
+///  - "<n> checkpoint writes failed" with WARN when the level was OK.
+IdentificationHealth identification_health(const IdentificationHealthFacts& facts);
+
+/// One identification run's restart policy. Worker thread only (not thread-safe).
+class IdentificationLifecycle {
+ public:
+  /// settings.state_dir empty: checkpointing is off (start() does nothing, nothing is skipped,
+  /// no checkpoint is written). vehicle_id and instance name the state files (instance.hpp).
+  IdentificationLifecycle(CheckpointSettings settings, std::string vehicle_id,
+                          std::string instance = kDefaultIdentificationInstance);
+
+  /// At start, before any input reaches the core. With a state directory: notes whether the
+  /// writer's persistence database holds a previous run's history (non-empty file), creates the
+  /// directory (ConfigError "--state-dir '<dir>': ..." when it cannot, or the vehicle or instance
+  /// cannot name a file), loads the checkpoint into `estimator` (restored, or none, or moved aside
+  /// when corrupt, of another vehicle, configuration or estimator: fresh start from nominal K),
+  /// logs what it did, and, when no checkpoint was restored, moves the persistence database aside
+  /// (`<db>.discarded-<unix_time_s>`, never deleted): without the estimator state it came from, its
+  /// old K stamped in another run's time would mislead every late reader.
+  /// unix_time_s names the moved-aside files; steady_now_s starts the restore note's 30 s.
+  void start(ScaleFactorEstimator& estimator, int64_t unix_time_s, double steady_now_s);
+
+  /// The restored output to publish at once (stamp = the checkpoint's time, restored counters), so
+  /// that a consumer that lost it, or a late reader, has it before any new sample. Nothing without
+  /// a restore, and nothing (logged once) when the persistence database was kept: the TRANSIENT
+  /// writer then serves the previous run's last estimate, as new as the checkpoint or newer, and
+  /// the restored K would step a late reader back. Returns it at most once.
+  std::optional<IdentificationOutput> take_restored_output();
+
+  /// True (and counted in skipped_before_checkpoint) when a sample of `input` stamped t_s (event
+  /// time, s) was processed before the restart and must not reach the core again: GNSS strictly
+  /// before the checkpoint time (the epoch AT it is fed again: it re-starts the sample chain
+  /// exactly where the checkpoint left it), odometer and INS more than
+  /// kSensorMarginBeforeCheckpoint_s before it. Always false without a restore.
+  bool skip_sample(IdentificationInput input, double t_s);
+
+  /// The outputs of the core to publish, in order: after a restore those at or before the
+  /// checkpoint time are dropped (the previous run and take_restored_output published them), and
+  /// the restored counters (accepted, rejected) are added to the rest, so the counts go on across
+  /// restarts. The last one becomes last_output() and last_processed_t_s().
+  std::vector<IdentificationOutput> outputs_to_publish(std::vector<IdentificationOutput> outputs);
+
+  /// The output of a commanded K (IdentificationCore::set_k), with the restored counters added;
+  /// becomes last_output(). The processed event time is unchanged: the command adds no epoch.
+  IdentificationOutput commanded_output(IdentificationOutput output);
+  /// The event time (s) to stamp a commanded K with: the last processed epoch (the output it
+  /// replaces), else aligner_processed_s (what the node's aligner has released), else 0 when that
+  /// is not finite (nothing processed yet). So it sorts after everything already published and
+  /// before the next epoch.
+  double set_k_stamp_s(double aligner_processed_s) const;
+
+  /// A checkpoint is due: checkpointing on, an epoch processed, and none written yet or the last
+  /// processed event time at least every_s past the last checkpoint (written or failed).
+  bool checkpoint_due() const;
+  /// The checkpoint of `estimator` after the epoch at t_s: vehicle, configuration hash, estimator
+  /// name and state, the counters of last_output() (restored ones included).
+  IdentificationCheckpoint make_checkpoint(const ScaleFactorEstimator& estimator, double t_s) const;
+  /// Writes the checkpoint (atomically) when due. A failure is logged and counted, never thrown: a
+  /// full disk must not stop the identification. It is retried at the next period, not at the next
+  /// epoch, so a full disk is not hammered.
+  void checkpoint_if_due(const ScaleFactorEstimator& estimator);
+  /// At shutdown: writes the checkpoint of the last processed epoch unless it is already the last one.
+  void checkpoint_at_finish(const ScaleFactorEstimator& estimator);
+
+  /// The health facts this lifecycle knows (last output, restore note, checkpoint errors), with the
+  /// node's input facts left at their defaults for the node to fill in.
+  IdentificationHealthFacts health_facts(double steady_now_s) const;
+
+  bool checkpointing() const { return !checkpoint_file_.empty(); }
+  const std::string& checkpoint_file() const { return checkpoint_file_; }
+  /// Event time (s) of the restored checkpoint's last epoch; nothing without a restore.
+  const std::optional<double>& restored_t_s() const { return restored_t_s_; }
+  bool checkpoint_moved_aside() const { return checkpoint_moved_aside_; }
+  /// The persistence database is in place with a previous run's history (after start()).
+  bool persisted_history() const { return persisted_history_; }
+  const std::optional<IdentificationOutput>& last_output() const { return last_output_; }
+  const std::optional<double>& last_processed_t_s() const { return last_processed_t_s_; }
+  uint64_t checkpoints_written() const { return checkpoints_written_; }
+  uint64_t checkpoint_errors() const { return checkpoint_errors_; }
+  uint64_t skipped_before_checkpoint() const { return skipped_before_checkpoint_; }
+  uint64_t restored_accepted() const { return restored_accepted_; }
+  uint64_t restored_rejected() const { return restored_rejected_; }
+
+ private:
+  void restore(ScaleFactorEstimator& estimator, int64_t unix_time_s, double steady_now_s);
+  void move_persistence_aside(int64_t unix_time_s);
+  void write_checkpoint(const ScaleFactorEstimator& estimator, double t_s);
+
+  CheckpointSettings settings_;
+  std::string vehicle_id_;
+  std::string instance_;
+  std::string checkpoint_file_;
+  std::optional<double> restored_t_s_;
+  uint64_t restored_accepted_ = 0;
+  uint64_t restored_rejected_ = 0;
+  std::string restore_note_;
+  bool restore_warn_ = false;
+  double restore_note_until_s_ = 0.0;  ///< steady (s)
+  bool checkpoint_moved_aside_ = false;
+  bool persisted_history_ = false;
+  bool restored_output_taken_ = false;
+  std::optional<IdentificationOutput> last_output_;
+  std::optional<double> last_checkpoint_t_s_;  ///< event time (s) of the last checkpoint written or failed
+  std::optional<double> last_processed_t_s_;   ///< event time (s) of the last published epoch
+  uint64_t checkpoints_written_ = 0;
+  uint64_t checkpoint_errors_ = 0;
+  uint64_t skipped_before_checkpoint_ = 0;
+};
+
+}  // namespace odonav

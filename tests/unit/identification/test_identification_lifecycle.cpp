@@ -1,0 +1,545 @@
+// IdentificationLifecycle: the restart policy of odonav-identification in one process, on real
+// files in a scratch state directory: restore (none, restored, corrupt, other configuration), the
+// persistence database moved aside, which samples and outputs a restored run skips, the counters
+// carried over, when checkpoints are written (and retried after a failure), the set_k stamp, and
+// the health decision with its exact texts.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <sstream>
+
+#include "odonav/config.hpp"
+#include "odonav/estimators.hpp"
+#include "odonav/identification/checkpoint.hpp"
+#include "odonav/identification/identification_lifecycle.hpp"
+
+namespace {
+
+using namespace odonav;
+namespace fs = std::filesystem;
+
+constexpr double kTrueK = 0.0125;  // m/pulse
+constexpr const char* kVehicle = "vehicle-07";
+constexpr const char* kHash = "0123456789abcdef";
+constexpr int64_t kUnixTime_s = 1700000000;
+
+using State = IdentificationHealth::State;
+using Level = IdentificationHealth::Level;
+
+/// A vff_lm_rls estimator fed n samples of a 10 Hz GNSS at 8-12 m/s (y = K phi + 3 mm noise).
+std::unique_ptr<ScaleFactorEstimator> fed_estimator(std::size_t n) {
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> speed(8.0, 12.0);
+  std::normal_distribution<double> noise(0.0, 0.003);
+  for (std::size_t i = 0; i < n; ++i) {
+    ScaleFactorSample s;
+    s.dt_s = 0.1;
+    s.t_s = 0.1 * static_cast<double>(i + 1);
+    s.phi_pulses = std::round(speed(rng) * s.dt_s / kTrueK);
+    s.y_m = kTrueK * s.phi_pulses + noise(rng);
+    e->update(s);
+  }
+  return e;
+}
+
+/// An output at t_s (s) with these counters and, when given, e's estimate.
+IdentificationOutput output_at(double t_s, uint64_t accepted, uint64_t rejected,
+                               const ScaleFactorEstimator* e = nullptr) {
+  IdentificationOutput o;
+  o.t_s = t_s;
+  o.epoch_status = EpochStatus::kAccepted;
+  if (e) o.main = e->estimate();
+  o.samples_accepted = accepted;
+  o.samples_rejected = rejected;
+  return o;
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write_text(const fs::path& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+
+class IdentificationLifecycleTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("odonav-lifecycle-" + std::to_string(::getpid()) + "-" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    ckpt_ = dir_ / "identification-vehicle-07.ckpt";
+    db_ = dir_ / "vehicle-07-identification.db";
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  CheckpointSettings settings(const std::string& hash = kHash, double every_s = 5.0) const {
+    return CheckpointSettings{dir_.string(), every_s, hash};
+  }
+
+  /// A previous run: 300 samples, its last published output at t = 30.1 s (300 accepted, 17
+  /// rejected), checkpointed. Returns the estimator it checkpointed.
+  std::unique_ptr<ScaleFactorEstimator> previous_run(const std::string& hash = kHash) {
+    auto e = fed_estimator(300);
+    IdentificationLifecycle run(settings(hash), kVehicle);
+    run.start(*e, kUnixTime_s, 0.0);
+    run.outputs_to_publish({output_at(30.1, 300, 17, e.get())});
+    run.checkpoint_if_due(*e);
+    EXPECT_EQ(run.checkpoints_written(), 1u);
+    return e;
+  }
+
+  std::vector<fs::path> files_starting_with(const std::string& prefix) const {
+    std::vector<fs::path> out;
+    for (const auto& entry : fs::directory_iterator(dir_))
+      if (entry.path().filename().string().rfind(prefix, 0) == 0) out.push_back(entry.path());
+    return out;
+  }
+
+  fs::path dir_, ckpt_, db_;
+};
+
+// ---- restore ----
+
+TEST_F(IdentificationLifecycleTest, WithoutStateDirectoryNothingIsReadSkippedOrWritten) {
+  auto e = fed_estimator(50);
+  IdentificationLifecycle l(CheckpointSettings{}, kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  EXPECT_FALSE(l.checkpointing());
+  EXPECT_FALSE(fs::exists(dir_));
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kGnss, -1e9));
+  l.outputs_to_publish({output_at(100.0, 5, 1)});
+  EXPECT_FALSE(l.checkpoint_due());
+  l.checkpoint_if_due(*e);
+  l.checkpoint_at_finish(*e);
+  EXPECT_EQ(l.checkpoints_written(), 0u);
+  EXPECT_EQ(l.checkpoint_errors(), 0u);
+}
+
+TEST_F(IdentificationLifecycleTest, NoCheckpointIsAFreshStartWithNothingSkipped) {
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  EXPECT_TRUE(fs::is_directory(dir_)) << "the state directory is created";
+  EXPECT_EQ(l.checkpoint_file(), ckpt_.string());
+  EXPECT_FALSE(l.restored_t_s());
+  EXPECT_FALSE(l.checkpoint_moved_aside());
+  EXPECT_FALSE(l.take_restored_output());
+  EXPECT_FALSE(l.last_output());
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, -1e9));
+  EXPECT_EQ(l.skipped_before_checkpoint(), 0u);
+  const auto out = l.outputs_to_publish({output_at(0.1, 0, 0), output_at(0.2, 1, 0)});
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[1].samples_accepted, 1u) << "nothing restored: counters unchanged";
+  EXPECT_EQ(l.health_facts(1.0).restore_note, "") << "a fresh start has nothing to say";
+}
+
+TEST_F(IdentificationLifecycleTest, RestoredCheckpointCarriesStateTimeAndCountersOver) {
+  const auto before = previous_run();
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle);
+  l.start(*e, kUnixTime_s, 1000.0);
+  ASSERT_TRUE(l.restored_t_s());
+  EXPECT_EQ(*l.restored_t_s(), 30.1);
+  EXPECT_EQ(l.restored_accepted(), 300u);
+  EXPECT_EQ(l.restored_rejected(), 17u);
+  EXPECT_EQ(e->estimate().k_m_per_pulse, before->estimate().k_m_per_pulse) << "bit-identical K";
+  EXPECT_EQ(e->save_state(), before->save_state());
+
+  const auto restored = l.take_restored_output();
+  ASSERT_TRUE(restored) << "no persistence database: the restored K is published at once";
+  EXPECT_EQ(restored->t_s, 30.1);
+  EXPECT_EQ(restored->samples_accepted, 300u) << "the restored counters, not added twice";
+  EXPECT_EQ(restored->samples_rejected, 17u);
+  EXPECT_EQ(restored->main.k_m_per_pulse, before->estimate().k_m_per_pulse);
+  EXPECT_FALSE(l.take_restored_output()) << "published once";
+
+  // The note: the describe() line, OK level, for 30 s of steady time.
+  char expected[160];
+  std::snprintf(expected, sizeof expected, "restored K=%.9g m/pulse from checkpoint (t=30.100 s)",
+                before->estimate().k_m_per_pulse);
+  IdentificationHealthFacts f = l.health_facts(1029.9);
+  f.misalignment_heard = true;
+  f.misalignments_applied = 3;
+  EXPECT_EQ(f.restore_note, expected);
+  EXPECT_FALSE(f.restore_warn);
+  const IdentificationHealth h = identification_health(f);
+  EXPECT_EQ(h.reason, expected) << "the restored estimate is converged: the note alone";
+  EXPECT_EQ(h.level, Level::kOk);
+  f.now_s = 1030.0;
+  EXPECT_EQ(identification_health(f).reason, "") << "the note expires 30 s after the start";
+}
+
+TEST_F(IdentificationLifecycleTest, CorruptCheckpointIsMovedAsideWithAWarnNote) {
+  fs::create_directories(dir_);
+  write_text(ckpt_, "odonav-identification-checkpoint 1\nvehicle vehicle-07\ngarbage");
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle);
+  l.start(*e, kUnixTime_s, 500.0);
+  EXPECT_TRUE(l.checkpoint_moved_aside());
+  EXPECT_FALSE(l.restored_t_s());
+  EXPECT_FALSE(l.take_restored_output());
+  EXPECT_FALSE(e->estimate().valid) << "starts from nominal";
+  EXPECT_FALSE(fs::exists(ckpt_));
+  EXPECT_EQ(read_text(ckpt_.string() + ".bad-1700000000"),
+            "odonav-identification-checkpoint 1\nvehicle vehicle-07\ngarbage")
+      << "moved aside unchanged";
+
+  IdentificationHealthFacts f = l.health_facts(529.0);
+  f.misalignment_heard = true;
+  f.misalignments_applied = 1;
+  const std::string note = "checkpoint " + ckpt_.string() + " was corrupt: moved aside; starting from nominal K";
+  IdentificationHealth h = identification_health(f);
+  EXPECT_EQ(h.state, State::kStarting);
+  EXPECT_EQ(h.level, Level::kWarn);
+  EXPECT_EQ(h.reason, note + "; waiting for the first GNSS epoch to process");
+  f.now_s = 530.0;
+  h = identification_health(f);
+  EXPECT_EQ(h.level, Level::kOk) << "the WARN lasts as long as the note";
+  EXPECT_EQ(h.reason, "waiting for the first GNSS epoch to process");
+}
+
+TEST_F(IdentificationLifecycleTest, CheckpointOfAnotherConfigurationIsMovedAsideAndNotRestored) {
+  previous_run("fedcba9876543210");
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(kHash), kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  EXPECT_TRUE(l.checkpoint_moved_aside());
+  EXPECT_FALSE(l.restored_t_s());
+  EXPECT_FALSE(e->estimate().valid) << "the other configuration's state must not be loaded";
+  EXPECT_EQ(files_starting_with("identification-vehicle-07.ckpt.bad-").size(), 1u);
+  EXPECT_TRUE(l.health_facts(0.0).restore_warn);
+  // The next checkpoint goes under the normal name again, with this configuration's hash.
+  auto fed = fed_estimator(20);
+  l.outputs_to_publish({output_at(2.0, 20, 0, fed.get())});
+  l.checkpoint_if_due(*fed);
+  EXPECT_EQ(parse_checkpoint(read_text(ckpt_)).config_hash, kHash);
+}
+
+// ---- persistence database ----
+
+TEST_F(IdentificationLifecycleTest, PersistenceDatabaseIsMovedAsideWhenNothingWasRestored) {
+  fs::create_directories(dir_);
+  write_text(db_, "SQLite format 3");
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  EXPECT_FALSE(fs::exists(db_)) << "its old K must not be served without the state it came from";
+  EXPECT_EQ(read_text(db_.string() + ".discarded-1700000000"), "SQLite format 3") << "moved, never deleted";
+  EXPECT_FALSE(l.persisted_history());
+}
+
+TEST_F(IdentificationLifecycleTest, EmptyPersistenceDatabaseIsNoHistoryAndStaysInPlace) {
+  fs::create_directories(dir_);
+  write_text(db_, "");
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  EXPECT_TRUE(fs::exists(db_));
+  EXPECT_TRUE(files_starting_with("vehicle-07-identification.db.discarded-").empty());
+  EXPECT_FALSE(l.persisted_history());
+}
+
+TEST_F(IdentificationLifecycleTest, PersistenceDatabaseIsKeptWithARestoredCheckpointAndTheRestoredKIsNotRepublished) {
+  previous_run();
+  write_text(db_, "SQLite format 3");
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  ASSERT_TRUE(l.restored_t_s());
+  EXPECT_TRUE(fs::exists(db_));
+  EXPECT_TRUE(l.persisted_history());
+  EXPECT_FALSE(l.take_restored_output()) << "the TRANSIENT writer serves the previous run's (newer) last K";
+  ASSERT_TRUE(l.last_output()) << "the restored estimate is still the last output (health, checkpoints)";
+  EXPECT_EQ(l.last_output()->t_s, 30.1);
+}
+
+TEST_F(IdentificationLifecycleTest, PersistenceDatabaseOfAnotherInstanceIsLeftAlone) {
+  fs::create_directories(dir_);
+  const fs::path standby_db = dir_ / "vehicle-07-identification_standby.db";
+  write_text(standby_db, "SQLite format 3");
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle, "identification");
+  l.start(*e, kUnixTime_s, 0.0);
+  EXPECT_TRUE(fs::exists(standby_db));
+}
+
+TEST_F(IdentificationLifecycleTest, UnusableStateDirectoryIsAConfigErrorNamingIt) {
+  fs::create_directories(dir_.parent_path());
+  write_text(dir_, "a file, not a folder");
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle);
+  try {
+    l.start(*e, kUnixTime_s, 0.0);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& err) {
+    EXPECT_EQ(std::string(err.what()).rfind("--state-dir '" + dir_.string() + "': ", 0), 0u) << err.what();
+  }
+  fs::remove(dir_);
+}
+
+// ---- after a restore: skipped samples, published outputs ----
+
+TEST_F(IdentificationLifecycleTest, SamplesBeforeTheCheckpointAreSkippedWithTheirMargins) {
+  previous_run();  // checkpoint at t = 30.1 s
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  // GNSS: every epoch before the checkpoint; the one AT it is fed again (it re-starts the chain).
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kGnss, 30.0));
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kGnss, 30.1));
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kGnss, 30.2));
+  // Odometer and INS: fed from 1 s before it, for the interpolation of the first epochs.
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, 29.2));
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kIns, 29.2));
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kOdometer, 29.0));
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kIns, 28.0));
+  EXPECT_EQ(l.skipped_before_checkpoint(), 3u);
+}
+
+TEST_F(IdentificationLifecycleTest, OutputsUpToTheCheckpointAreDroppedAndTheRestAddTheRestoredCounters) {
+  previous_run();  // 300 accepted, 17 rejected at t = 30.1 s
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  const auto out =
+      l.outputs_to_publish({output_at(30.0, 0, 0), output_at(30.1, 0, 0), output_at(30.2, 1, 0),
+                            output_at(30.3, 2, 1)});
+  ASSERT_EQ(out.size(), 2u) << "30.0 and 30.1 were published by the previous run";
+  EXPECT_EQ(out[0].t_s, 30.2);
+  EXPECT_EQ(out[0].samples_accepted, 301u);
+  EXPECT_EQ(out[0].samples_rejected, 17u);
+  EXPECT_EQ(out[1].t_s, 30.3);
+  EXPECT_EQ(out[1].samples_accepted, 302u);
+  EXPECT_EQ(out[1].samples_rejected, 18u);
+  ASSERT_TRUE(l.last_output());
+  EXPECT_EQ(l.last_output()->samples_accepted, 302u);
+  EXPECT_EQ(*l.last_processed_t_s(), 30.3);
+}
+
+// ---- checkpoints ----
+
+TEST_F(IdentificationLifecycleTest, CheckpointIsDueEveryPeriodOfProcessedEventTime) {
+  auto e = fed_estimator(100);
+  IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  EXPECT_FALSE(l.checkpoint_due()) << "nothing processed yet";
+  l.outputs_to_publish({output_at(10.0, 100, 2, e.get())});
+  EXPECT_TRUE(l.checkpoint_due()) << "the first processed epoch is checkpointed at once";
+  l.checkpoint_if_due(*e);
+  EXPECT_EQ(l.checkpoints_written(), 1u);
+  EXPECT_EQ(parse_checkpoint(read_text(ckpt_)).last_sample_t_s, 10.0);
+
+  l.outputs_to_publish({output_at(14.9, 149, 2, e.get())});
+  EXPECT_FALSE(l.checkpoint_due()) << "4.9 s after the last one";
+  l.checkpoint_if_due(*e);
+  EXPECT_EQ(l.checkpoints_written(), 1u);
+  l.outputs_to_publish({output_at(15.0, 150, 3, e.get())});
+  EXPECT_TRUE(l.checkpoint_due()) << "5 s after the last one";
+  l.checkpoint_if_due(*e);
+  EXPECT_EQ(l.checkpoints_written(), 2u);
+
+  const IdentificationCheckpoint c = parse_checkpoint(read_text(ckpt_));
+  EXPECT_EQ(c.vehicle_id, kVehicle);
+  EXPECT_EQ(c.config_hash, kHash);
+  EXPECT_EQ(c.estimator_name, "vff_lm_rls");
+  EXPECT_EQ(c.last_sample_t_s, 15.0);
+  EXPECT_EQ(c.samples_accepted, 150u);
+  EXPECT_EQ(c.samples_rejected, 3u);
+  EXPECT_EQ(c.estimator_state, e->save_state());
+}
+
+TEST_F(IdentificationLifecycleTest, RestoredCheckpointCountsAsTheLastOne) {
+  previous_run();  // at t = 30.1 s
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  EXPECT_FALSE(l.checkpoint_due()) << "the restored state is on disk already";
+  l.outputs_to_publish({output_at(35.0, 40, 1)});
+  EXPECT_FALSE(l.checkpoint_due());
+  l.outputs_to_publish({output_at(35.2, 41, 1)});
+  EXPECT_TRUE(l.checkpoint_due());
+  EXPECT_EQ(l.make_checkpoint(*e, 35.2).samples_accepted, 341u) << "the restored counters included";
+}
+
+TEST_F(IdentificationLifecycleTest, FailedCheckpointWriteIsCountedWarnedAndRetriedAtTheNextPeriod) {
+  auto e = fed_estimator(100);
+  IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  ASSERT_TRUE(e->estimate().valid && e->estimate().converged);
+  fs::remove_all(dir_);  // the state directory is gone: the write cannot create its temporary file
+
+  l.outputs_to_publish({output_at(10.0, 100, 0, e.get())});
+  l.checkpoint_if_due(*e);
+  EXPECT_EQ(l.checkpoint_errors(), 1u);
+  EXPECT_EQ(l.checkpoints_written(), 0u);
+  IdentificationHealthFacts f = l.health_facts(0.0);
+  f.misalignment_heard = true;
+  f.misalignments_applied = 1;
+  IdentificationHealth h = identification_health(f);
+  EXPECT_EQ(h.level, Level::kWarn);
+  EXPECT_EQ(h.reason, "1 checkpoint writes failed") << "the estimate of 100 samples is converged";
+
+  fs::create_directories(dir_);
+  l.outputs_to_publish({output_at(12.0, 120, 0, e.get())});
+  EXPECT_FALSE(l.checkpoint_due()) << "not retried at the next epoch: a full disk is not hammered";
+  l.checkpoint_if_due(*e);
+  EXPECT_EQ(l.checkpoint_errors(), 1u);
+  l.outputs_to_publish({output_at(15.0, 150, 0, e.get())});
+  l.checkpoint_if_due(*e);
+  EXPECT_EQ(l.checkpoints_written(), 1u) << "retried one period after the failure";
+  EXPECT_EQ(parse_checkpoint(read_text(ckpt_)).last_sample_t_s, 15.0);
+  EXPECT_EQ(l.checkpoint_errors(), 1u) << "the count stays: the health keeps telling";
+}
+
+TEST_F(IdentificationLifecycleTest, FinishCheckpointsTheLastProcessedEpochOnce) {
+  auto e = fed_estimator(100);
+  IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
+  l.start(*e, kUnixTime_s, 0.0);
+  l.outputs_to_publish({output_at(10.0, 100, 0, e.get())});
+  l.checkpoint_if_due(*e);
+  l.outputs_to_publish({output_at(12.5, 125, 0, e.get())});
+  l.checkpoint_if_due(*e);
+  EXPECT_EQ(l.checkpoints_written(), 1u);
+  l.checkpoint_at_finish(*e);
+  EXPECT_EQ(l.checkpoints_written(), 2u);
+  EXPECT_EQ(parse_checkpoint(read_text(ckpt_)).last_sample_t_s, 12.5);
+  l.checkpoint_at_finish(*e);
+  EXPECT_EQ(l.checkpoints_written(), 2u) << "already the last one";
+}
+
+// ---- set_k ----
+
+TEST_F(IdentificationLifecycleTest, SetKStampIsTheLastProcessedEpochElseTheAlignerElseZero) {
+  IdentificationLifecycle fresh(CheckpointSettings{}, kVehicle);
+  EXPECT_EQ(fresh.set_k_stamp_s(-std::numeric_limits<double>::infinity()), 0.0) << "nothing processed anywhere";
+  EXPECT_EQ(fresh.set_k_stamp_s(std::nan("")), 0.0);
+  EXPECT_EQ(fresh.set_k_stamp_s(42.5), 42.5) << "what the aligner released";
+  fresh.outputs_to_publish({output_at(50.0, 10, 0)});
+  EXPECT_EQ(fresh.set_k_stamp_s(60.0), 50.0) << "the output it replaces";
+
+  previous_run();
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle restored(settings(), kVehicle);
+  restored.start(*e, kUnixTime_s, 0.0);
+  EXPECT_EQ(restored.set_k_stamp_s(-std::numeric_limits<double>::infinity()), 30.1) << "the restored epoch";
+  const IdentificationOutput o = restored.commanded_output(output_at(30.1, 0, 0));
+  EXPECT_EQ(o.samples_accepted, 300u);
+  EXPECT_EQ(o.samples_rejected, 17u);
+  EXPECT_EQ(restored.last_output()->samples_accepted, 300u);
+  EXPECT_EQ(*restored.last_processed_t_s(), 30.1) << "a command adds no epoch";
+}
+
+// ---- health ----
+
+IdentificationHealthFacts running_facts(bool converged) {
+  IdentificationHealthFacts f;
+  f.last_output = IdentificationOutput{};
+  f.last_output->main.valid = true;
+  f.last_output->main.converged = converged;
+  f.last_output->main.k_m_per_pulse = kTrueK;
+  f.misalignment_heard = true;
+  f.misalignments_applied = 4;
+  f.now_s = 100.0;
+  return f;
+}
+
+TEST(IdentificationHealthDecision, ConvergedWithMisalignmentIsRunningOkWithoutReason) {
+  const IdentificationHealth h = identification_health(running_facts(true));
+  EXPECT_EQ(h.state, State::kRunning);
+  EXPECT_EQ(h.level, Level::kOk);
+  EXPECT_EQ(h.reason, "");
+}
+
+TEST(IdentificationHealthDecision, WaitingFrozenAndNotConverged) {
+  IdentificationHealthFacts f = running_facts(true);
+  f.last_output.reset();
+  IdentificationHealth h = identification_health(f);
+  EXPECT_EQ(h.state, State::kStarting);
+  EXPECT_EQ(h.reason, "waiting for the first GNSS epoch to process");
+
+  f = running_facts(false);
+  h = identification_health(f);
+  EXPECT_EQ(h.state, State::kRunning);
+  EXPECT_EQ(h.level, Level::kOk);
+  EXPECT_EQ(h.reason, "K not converged yet");
+  f.last_output->main.valid = false;
+  f.last_output->main.converged = true;
+  EXPECT_EQ(identification_health(f).reason, "K not converged yet") << "no value is not converged";
+
+  f = running_facts(false);
+  f.last_output->frozen = true;
+  h = identification_health(f);
+  EXPECT_EQ(h.reason, "frozen by command: K held") << "frozen is said instead of not converged";
+  EXPECT_EQ(h.level, Level::kOk);
+}
+
+TEST(IdentificationHealthDecision, ZeroMisalignmentTextsNeverRaiseTheLevel) {
+  IdentificationHealthFacts f = running_facts(true);
+  f.misalignment_heard = false;
+  f.misalignments_applied = 0;
+  IdentificationHealth h = identification_health(f);
+  EXPECT_EQ(h.reason, "no misalignment received yet: using zero");
+  EXPECT_EQ(h.state, State::kRunning);
+  EXPECT_EQ(h.level, Level::kOk);
+
+  f.misalignment_heard = true;
+  h = identification_health(f);
+  EXPECT_EQ(h.reason, "misalignment not converged yet: using zero");
+  EXPECT_EQ(h.state, State::kRunning);
+
+  f.misalignment_absent = true;
+  h = identification_health(f);
+  EXPECT_EQ(h.reason, "using zero misalignment: no calibration");
+  EXPECT_EQ(h.state, State::kDegraded) << "a calibration that went away degrades the node";
+  EXPECT_EQ(h.level, Level::kOk);
+
+  f = running_facts(false);
+  f.misalignment_absent = true;
+  EXPECT_EQ(identification_health(f).reason, "K not converged yet; using zero misalignment: no calibration");
+  f.last_output.reset();
+  h = identification_health(f);
+  EXPECT_EQ(h.state, State::kStarting) << "only RUNNING becomes DEGRADED";
+  EXPECT_EQ(h.reason, "waiting for the first GNSS epoch to process; using zero misalignment: no calibration");
+}
+
+TEST(IdentificationHealthDecision, RestoreNoteComesFirstUntilItExpires) {
+  IdentificationHealthFacts f = running_facts(false);
+  f.restore_note = "restored K=0.0126 m/pulse from checkpoint (t=61.200 s)";
+  f.restore_note_until_s = 130.0;
+  f.now_s = 129.99;
+  IdentificationHealth h = identification_health(f);
+  EXPECT_EQ(h.reason, "restored K=0.0126 m/pulse from checkpoint (t=61.200 s); K not converged yet");
+  EXPECT_EQ(h.level, Level::kOk);
+  f.restore_warn = true;
+  EXPECT_EQ(identification_health(f).level, Level::kWarn);
+  f.now_s = 130.0;
+  h = identification_health(f);
+  EXPECT_EQ(h.reason, "K not converged yet");
+  EXPECT_EQ(h.level, Level::kOk);
+}
+
+TEST(IdentificationHealthDecision, CheckpointErrorsWarnFirstUnlessAlreadyWarned) {
+  IdentificationHealthFacts f = running_facts(false);
+  f.checkpoint_errors = 2;
+  IdentificationHealth h = identification_health(f);
+  EXPECT_EQ(h.level, Level::kWarn);
+  EXPECT_EQ(h.reason, "2 checkpoint writes failed; K not converged yet");
+
+  f.restore_note = "checkpoint /s/identification-v.ckpt was corrupt: moved aside; starting from nominal K";
+  f.restore_warn = true;
+  f.restore_note_until_s = 1e9;
+  h = identification_health(f);
+  EXPECT_EQ(h.level, Level::kWarn);
+  EXPECT_EQ(h.reason, f.restore_note + "; K not converged yet") << "already WARN: the count is not added";
+}
+
+}  // namespace
