@@ -106,7 +106,7 @@ odonav::offline::OfflineParams params_for(const odonav::Dataset& d, odonav::offl
   return p;
 }
 
-json summary_of(const odonav::Dataset& d, const odonav::offline::OutputRows& rows, const std::string& name) {
+json summary_of(const odonav::Dataset& d, const odonav::results::OutputRows& rows, const std::string& name) {
   odonav::offline::SummaryOptions options;
   options.dataset_name = name;
   return odonav::offline::make_summary(d, rows, options);
@@ -197,7 +197,7 @@ json identification_summary(const odonav::Dataset& d, const odonav::offline::Off
   for (const auto& i : d.ins) core.add_ins(i);
   for (const auto& m : misalignment)
     if (odonav::misalignment_applicable(m.converged, m.samples_used)) core.add_misalignment(m.t_s, m.misalignment);
-  odonav::offline::OutputRows rows;
+  odonav::results::OutputRows rows;
   for (const auto& k : core.finish()) rows.scale_factor.push_back(odonav::offline::to_row(k, "vff_lm_rls", {}));
   return summary_of(d, rows, "terrain");
 }

@@ -35,7 +35,7 @@ std::string g_out_dir;
 struct Prepared {
   odonav::Dataset dataset;
   odonav::offline::OfflineParams params;
-  odonav::offline::OutputRows rows;
+  odonav::results::OutputRows rows;
 };
 
 odonav::offline::OfflineParams params_for(const odonav::Dataset& d) {
@@ -81,7 +81,7 @@ void BM_OfflineRead(benchmark::State& state) {
 void BM_OfflineProcess(benchmark::State& state) {
   const Prepared& p = prepared();
   for (auto _ : state) {
-    const odonav::offline::OutputRows rows = odonav::offline::to_output_rows(
+    const odonav::results::OutputRows rows = odonav::offline::to_output_rows(
         odonav::offline::run_offline(p.dataset, p.params), p.params.identification.estimator_name);
     benchmark::DoNotOptimize(rows.dead_reckoning.data());
   }
@@ -90,7 +90,7 @@ void BM_OfflineProcess(benchmark::State& state) {
 
 void BM_OfflineWrite(benchmark::State& state) {
   const Prepared& p = prepared();
-  for (auto _ : state) odonav::offline::write_output_rows(g_out_dir, p.rows);
+  for (auto _ : state) odonav::results::write_output_rows(g_out_dir, p.rows);
   set_rate(state);
 }
 
@@ -113,9 +113,9 @@ void BM_OfflineTotal(benchmark::State& state) {
   for (auto _ : state) {
     const odonav::Dataset d = odonav::read_dataset(g_dataset_dir, odonav::BadRowPolicy::kFail);
     const odonav::offline::OfflineParams params = params_for(d);
-    const odonav::offline::OutputRows rows =
+    const odonav::results::OutputRows rows =
         odonav::offline::to_output_rows(odonav::offline::run_offline(d, params), params.identification.estimator_name);
-    odonav::offline::write_output_rows(g_out_dir, rows);
+    odonav::results::write_output_rows(g_out_dir, rows);
     const nlohmann::json s = odonav::offline::make_summary(d, rows, options);
     benchmark::DoNotOptimize(&s);
   }

@@ -32,7 +32,7 @@ constexpr int kExitTimeout = 3;  // command: no acknowledgement in time
 
 void declare_options(Options& o) {
   o.add_positional("action", "monitor | record | command");
-  o.add_positional("command", "command: reset-calibration | set-k | freeze | unfreeze", false);
+  o.add_positional("command", "command: reset | set-k | freeze | unfreeze | release-k", false);
   o.add_positional("value", "command set-k: K in metres per pulse", false);
   o.add_int("domain", 0, "DDS domain id of the fleet", 0, 232);
   o.add_string("profile", "",
@@ -193,7 +193,7 @@ int run_command(const Options& o) {
     throw ConfigError("command: --vehicle ID (exactly one vehicle) is required");
   }
   if (request.component.empty()) throw ConfigError("command: --component NAME is required");
-  if (!o.was_set("command")) throw ConfigError("command: which one? reset-calibration, set-k VALUE, freeze, unfreeze");
+  if (!o.was_set("command")) throw ConfigError("command: which one? reset, set-k VALUE, freeze, unfreeze, release-k");
   try {
     request.kind = parse_command_kind(o.get_string("command"));
   } catch (const std::invalid_argument& e) {
@@ -240,7 +240,7 @@ int main(int argc, char** argv) {
                   "The ground station of an odonav fleet.\n"
                   "  monitor [--once --json] [--vehicle ID,...]   live dashboard of every vehicle\n"
                   "  record --out FILE.mcap [--topics a,b] [--duration-s S]   MCAP recording (ros2msg + cdr)\n"
-                  "  command --vehicle ID --component NAME (reset-calibration|set-k VALUE|freeze|unfreeze)\n"
+                  "  command --vehicle ID --component NAME (reset|set-k VALUE|freeze|unfreeze|release-k)\n"
                   "Exit codes: 0 done (command: accepted), 1 failure (command: rejected), 2 bad configuration, "
                   "3 command not acknowledged in time.");
   declare_options(options);

@@ -6,7 +6,7 @@
 #include "odonav/dataset.hpp"
 #include "odonav/logging.hpp"
 #include "odonav/tool_output.hpp"
-#include "output_files.hpp"
+#include "odonav/results/output_files.hpp"
 #include "summary.hpp"
 
 int main(int argc, char** argv) {
@@ -29,7 +29,7 @@ int main(int argc, char** argv) {
   try {
     const std::string results = opts.get_string("results");
     const odonav::Dataset dataset = odonav::read_dataset(opts.get_string("dataset"), odonav::BadRowPolicy::kSkip);
-    const odonav::offline::OutputRows rows = odonav::offline::read_output_rows(results);
+    const odonav::results::OutputRows rows = odonav::results::read_output_rows(results);
     odonav::offline::SummaryOptions o;
     o.dataset_name = opts.get_string("dataset");
     o.coarse_k_origin = opts.get_string("coarse-k-origin");

@@ -19,7 +19,6 @@
 
 namespace {
 
-constexpr double kDefaultNominalK = 0.0125;  // m/pulse, when neither --nominal-k nor meta.json gives one
 
 bool make_directory(const std::string& dir) {
   std::string partial;
@@ -99,18 +98,19 @@ odonav::Dataset read_input(const std::string& dataset_dir, const odonav::Options
 }
 
 /// What the flags leave open, from the dataset's meta.json: the GNSS lever arm (body frame, m) and
-/// the nominal K (m/pulse; kDefaultNominalK when meta.json has none either); then the identification
+/// the nominal K (m/pulse: the flag, else meta.json, else 0.0125, dead_reckoner_params); then the identification
 /// parameters from the flags and these vehicle facts.
 void apply_dataset_defaults(const odonav::Dataset& dataset, const odonav::Options& opts,
-                            odonav::offline::OfflineParams& params) {
-  if (!params.dead_reckoning.lever_arm_body_m && dataset.meta.gnss_lever_arm_m) {
+                            odonav::DeadReckoningFacts dr_facts, odonav::offline::OfflineParams& params) {
+  if (!dr_facts.lever_arm_body_m && dataset.meta.gnss_lever_arm_m) {
     const Eigen::Vector3d& l = *dataset.meta.gnss_lever_arm_m;
     spdlog::info("GNSS lever arm from meta.json: ({}, {}, {}) m (forward, left, up)", l.x(), l.y(), l.z());
-    params.dead_reckoning.lever_arm_body_m = l;
+    dr_facts.lever_arm_body_m = l;
     params.calibration.lever_arm_body_m = l;
   }
-  if (params.dead_reckoning.nominal_k_m_per_pulse <= 0.0)
-    params.dead_reckoning.nominal_k_m_per_pulse = dataset.meta.k_nominal_m_per_pulse.value_or(kDefaultNominalK);
+  dr_facts.use_ins = dataset.has_ins();
+  dr_facts.dataset_nominal_k_m_per_pulse = dataset.meta.k_nominal_m_per_pulse;
+  params.dead_reckoning = odonav::dead_reckoner_params(dr_facts);  // as odonav-dead-reckoning's
   // The same function as odonav-identification, with the same vehicle facts the launcher gives
   // it as flags (deploy/launch): INS present, lever arm, nominal K (the pulse-jump gate's K).
   odonav::IdentificationVehicleFacts vehicle;
@@ -143,7 +143,7 @@ bool apply_coarse_k(const odonav::Options& opts, odonav::offline::OfflineParams&
 
 /// summary.json: make_summary plus the identification gates' counts and the skipped bad rows.
 nlohmann::json offline_summary(const odonav::Dataset& dataset, const std::string& dataset_dir,
-                               const odonav::offline::OfflineResult& result, const odonav::offline::OutputRows& rows,
+                               const odonav::offline::OfflineResult& result, const odonav::results::OutputRows& rows,
                                const odonav::DatasetReadReport& report, double elapsed_s) {
   odonav::offline::SummaryOptions summary_options;
   summary_options.dataset_name = base_name(dataset_dir);
@@ -165,16 +165,16 @@ nlohmann::json offline_summary(const odonav::Dataset& dataset, const std::string
 
 /// Reads, runs, writes the files and prints the summary. Exit code 0, or 1 (logged).
 int run(const odonav::Options& opts, const std::string& dataset_dir, const std::string& out_dir,
-        odonav::offline::OfflineParams params) {
+        odonav::offline::OfflineParams params, const odonav::DeadReckoningFacts& dr_facts) {
   const auto t_start = std::chrono::steady_clock::now();
   odonav::DatasetReadReport report;
   const odonav::Dataset dataset = read_input(dataset_dir, opts, report);
-  apply_dataset_defaults(dataset, opts, params);
+  apply_dataset_defaults(dataset, opts, dr_facts, params);
   if (!apply_coarse_k(opts, params)) return 1;
 
   const auto t_read = std::chrono::steady_clock::now();
   const odonav::offline::OfflineResult result = odonav::offline::run_offline(dataset, params);
-  const odonav::offline::OutputRows rows = odonav::offline::to_output_rows(result, params.identification.estimator_name);
+  const odonav::results::OutputRows rows = odonav::offline::to_output_rows(result, params.identification.estimator_name);
   const auto t_done = std::chrono::steady_clock::now();
   const double elapsed_s = std::chrono::duration<double>(t_done - t_start).count();
   spdlog::info("read {:.3f} s, processed {:.3f} s ({} odometer, {} GNSS, {} INS rows)",
@@ -186,7 +186,7 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
     spdlog::error("{}: cannot create the output directory", out_dir);
     return 1;
   }
-  odonav::offline::write_output_rows(out_dir, rows);
+  odonav::results::write_output_rows(out_dir, rows);
   const nlohmann::json summary = offline_summary(dataset, dataset_dir, result, rows, report, elapsed_s);
   std::ofstream(out_dir + "/summary.json") << summary.dump(2) << "\n";
   odonav::offline::print_summary(summary, odonav::tool_output());
@@ -206,18 +206,18 @@ int main(int argc, char** argv) {
     return 2;
   }
   odonav::offline::OfflineParams params;
+  odonav::DeadReckoningFacts dr_facts;  // completed from the dataset below
   try {
     // Checked here (exit status 2 for a bad option); built again below with the dataset's facts.
     params.identification = odonav::identification_params_for(opts, {});
     params.calibration = odonav::calibration_params_from(opts);
-    params.dead_reckoning = odonav::dead_reckoning_params_from(opts);
-    params.dead_reckoning.lever_arm_body_m = odonav::lever_arm_from(opts);
+    dr_facts = odonav::dead_reckoning_facts_from(opts);
   } catch (const odonav::ConfigError& e) {
     spdlog::error("{}", e.what());
     return 2;
   }
   try {
-    return run(opts, dataset_dir, out_dir, std::move(params));
+    return run(opts, dataset_dir, out_dir, std::move(params), dr_facts);
   } catch (const odonav::DatasetError& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -1,57 +1,20 @@
 #pragma once
-// The odonav dataset directory, format v1 (docs/DATASET.md): types, reader, writer.
+// The odonav dataset directory, format v1 (docs/DATASET.md): the directory in memory, reader,
+// writer. The row types (OdometerSample, GnssSample, InsSample, TruthSample) are the cores' sensor
+// samples, in odonav/sensor_samples.hpp.
 //
-// Files hold degrees, metres, m/s; these types hold SI with radians. Time t_s is seconds on the
+// Files hold degrees, metres, m/s; the types hold SI with radians. Time t_s is seconds on the
 // one time base shared by every file of the directory.
 #include <Eigen/Dense>
 #include <cstdint>
-#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "odonav/frames.hpp"
-#include "odonav/geodesy.hpp"
+#include "odonav/sensor_samples.hpp"
 
 namespace odonav {
-
-/// One odometer.csv row. pulses is the raw accumulated uint32 counter (wraps 4294967295 -> 0).
-struct OdometerSample {
-  double t_s = 0.0;
-  uint32_t pulses = 0;
-  int direction = 1;  ///< +1 forward (default), -1 reversing, 0 unknown.
-};
-
-/// One gnss.csv row. Position WGS-84, velocity in local ENU (m/s).
-struct GnssSample {
-  double t_s = 0.0;
-  Geodetic position;
-  Eigen::Vector3d vel_enu_mps = Eigen::Vector3d::Zero();
-  std::optional<double> pos_std_m;    ///< one-sigma horizontal accuracy if given.
-  std::optional<double> vel_std_mps;  ///< one-sigma velocity accuracy if given.
-  int fix = 1;                        ///< NMEA GGA quality; 0 and 6 are not a reference.
-  /// True when the row may be used as a reference (fix not 0 or 6).
-  bool valid() const { return fix != 0 && fix != 6; }
-};
-
-/// One ins.csv row. Attitude of the body (see frames.hpp); optional ENU velocity (m/s).
-struct InsSample {
-  double t_s = 0.0;
-  Attitude attitude;
-  std::optional<Eigen::Vector3d> vel_enu_mps;
-};
-
-/// One truth.csv row. Columns other than t are optional in the file: absent ones read as NaN.
-struct TruthSample {
-  double t_s = 0.0;
-  Geodetic position{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
-                    std::numeric_limits<double>::quiet_NaN()};
-  Attitude attitude{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
-                    std::numeric_limits<double>::quiet_NaN()};
-  double k_true_m_per_pulse = std::numeric_limits<double>::quiet_NaN();
-  double distance_m = std::numeric_limits<double>::quiet_NaN();
-};
 
 /// meta.json. Every key optional.
 struct DatasetMeta {
@@ -152,8 +115,4 @@ Dataset read_dataset(const std::string& dir, BadRowPolicy policy, DatasetReadRep
 /// A stale ins.csv / truth.csv is removed when the dataset has none. meta.json carries the unknown
 /// keys of meta.raw_json; the known keys come from the struct.
 void write_dataset(const std::string& dir, const Dataset& dataset);
-
-/// Counter increment from `from` to `to`, modulo 2^32 (a wrap is not a jump).
-inline uint32_t pulse_increment(uint32_t from, uint32_t to) { return to - from; }
-
 }  // namespace odonav

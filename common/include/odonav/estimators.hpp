@@ -75,7 +75,8 @@ struct ScaleFactorEstimatorParams {
   double lambda_min = 0.95;
   /// Residual variance scale C of the VFF law [m^2], >= 0. 0 = automatic: C = vff_kappa * sigma_y^2
   /// with sigma_y^2 = (sigma_v_mps * sample_interval_s)^2 / 2 + K^2 / 6 (GNSS velocity noise plus
-  /// pulse quantisation, K the current estimate), never below sigma_y_floor_m^2.
+  /// pulse quantisation, K the current estimate; regression_noise_variance_m2), never below
+  /// sigma_y_floor_m^2.
   double vff_c_m2 = 0.0;
   /// kappa of the automatic C, > 0 (docs/ALGORITHM.md §3: 1..10).
   double vff_kappa = 4.0;

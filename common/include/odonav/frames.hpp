@@ -28,6 +28,31 @@ constexpr double kRadToDeg = 180.0 / kPi;
 inline double deg_to_rad(double deg) { return deg * kDegToRad; }
 inline double rad_to_deg(double rad) { return rad * kRadToDeg; }
 
+namespace detail {
+/// The x with forward(x) == target exactly, walked from `guess` (forward(guess) ~ target) at most
+/// 16 ulps of x towards the side that closes the gap; when no such x is met, the x with the
+/// smallest |forward(x) - target| seen. forward must be monotonic increasing (a multiplication by a
+/// positive constant is). The one walk behind exact_degrees_of and exact_radians_of.
+template <class Forward>
+inline double exact_preimage(double target, double guess, Forward forward) {
+  double best = guess;
+  double best_error = std::abs(forward(best) - target);
+  double candidate = best;
+  for (int step = 0; step < 16 && best_error != 0.0; ++step) {
+    const double back = forward(candidate);
+    if (back == target) return candidate;
+    candidate = std::nextafter(candidate, back < target ? std::numeric_limits<double>::infinity()
+                                                        : -std::numeric_limits<double>::infinity());
+    const double error = std::abs(forward(candidate) - target);
+    if (error < best_error) {
+      best = candidate;
+      best_error = error;
+    }
+  }
+  return best;
+}
+}  // namespace detail
+
 /// The degree value d for which deg_to_rad(d) == angle_rad exactly, when such a double exists; else
 /// the nearest one (within 1 ulp of the radians). This is what the dataset writer writes, so an angle
 /// read back from a file equals the one written. rad_to_deg then deg_to_rad may be off by an ulp either
@@ -35,21 +60,17 @@ inline double rad_to_deg(double rad) { return rad * kRadToDeg; }
 /// is monotonic). Non-finite values are returned unchanged.
 inline double exact_degrees_of(double angle_rad) {
   if (!std::isfinite(angle_rad)) return angle_rad;
-  double best = rad_to_deg(angle_rad);
-  double best_error = std::abs(deg_to_rad(best) - angle_rad);
-  double candidate = best;
-  for (int step = 0; step < 16 && best_error != 0.0; ++step) {
-    const double back = deg_to_rad(candidate);
-    if (back == angle_rad) return candidate;
-    candidate = std::nextafter(candidate, back < angle_rad ? std::numeric_limits<double>::infinity()
-                                                           : -std::numeric_limits<double>::infinity());
-    const double error = std::abs(deg_to_rad(candidate) - angle_rad);
-    if (error < best_error) {
-      best = candidate;
-      best_error = error;
-    }
-  }
-  return best;
+  return detail::exact_preimage(angle_rad, rad_to_deg(angle_rad), [](double deg) { return deg_to_rad(deg); });
+}
+
+/// The mirror of exact_degrees_of: the radian value r for which rad_to_deg(r) == angle_deg exactly,
+/// when one exists within 16 ulps of deg_to_rad(angle_deg); else the closest found. Why: a message
+/// carries degrees its producer computed as rad_to_deg of its radians; a writer that holds radians
+/// and converts with rad_to_deg (the results files) then writes the producer's degrees unchanged.
+/// Non-finite values are returned unchanged.
+inline double exact_radians_of(double angle_deg) {
+  if (!std::isfinite(angle_deg)) return angle_deg;
+  return detail::exact_preimage(angle_deg, deg_to_rad(angle_deg), [](double rad) { return rad_to_deg(rad); });
 }
 
 /// Wraps an angle in radians to [-pi, pi).

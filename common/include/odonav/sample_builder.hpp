@@ -32,7 +32,7 @@
 #include <string>
 #include <vector>
 
-#include "odonav/dataset.hpp"
+#include "odonav/sensor_samples.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
 #include "odonav/scale_factor_estimator.hpp"
@@ -72,11 +72,11 @@ struct SampleBuilderParams {
   double speed_jump_margin_mps = 1.0;
   double speed_jump_reference_max_age_s = 1.0;
   /// Innovation gate, active once a K estimate stamped before t_k exists:
-  ///   reject when |y - K^ phi| > n_sigma * sigma_gate + k_change_fraction * |K^ phi|, with
-  ///   sigma_gate^2 = (sigma_v T)^2 / 2 + K^2 / 6 + (sigma_K phi)^2  (GNSS velocity noise, pulse
-  ///   quantisation, estimate uncertainty); sigma_v from the GNSS row's vel_std_mps or
-  ///   gnss_velocity_sigma_mps. The relative term lets a genuine K change of up to that fraction
-  ///   through, so the estimator can still track it.
+  ///   reject when |y - K^ phi| > innovation_bound_m(...) = n_sigma * sigma_gate +
+  ///   k_change_fraction * |K^ phi|, with sigma_gate^2 = (sigma_v T)^2 / 2 + K^2 / 6 +
+  ///   (sigma_K phi)^2 (regression_noise_variance_m2 plus the estimate's uncertainty); sigma_v from
+  ///   the GNSS row's vel_std_mps or gnss_velocity_sigma_mps. The relative term lets a genuine K
+  ///   change of up to that fraction through, so the estimator can still track it.
   bool innovation_gate_enabled = true;
   double innovation_n_sigma = 5.0;
   double gnss_velocity_sigma_mps = 0.1;
@@ -118,8 +118,21 @@ enum class EpochStatus {
   kInnovation,     ///< innovation test against the K estimate failed.
 };
 
+/// The last EpochStatus: sample_builder.cpp holds one table entry (status, counter, text) per status
+/// up to it, checked at compile time, so a new status must come with its counter and its name.
+inline constexpr EpochStatus kLastEpochStatus = EpochStatus::kInnovation;
+
 /// Stable lower-case name of a status ("accepted", "speed_jump", ...), for logs and counters.
 const char* to_string(EpochStatus status);
+
+/// The right-hand side of the innovation test (SampleBuilderParams, innovation gate) [m]:
+///   n_sigma * sqrt(regression_noise_variance_m2(sigma_v, T, K) + (sigma_K phi)^2)
+///     + k_change_fraction * |K phi|.
+/// sigma_v_mps: GNSS velocity one-sigma [m/s]; k_m_per_pulse, sigma_k_m_per_pulse: the estimate
+/// gated against [m/pulse]; phi_pulses: pulses of the sample; interval_s: T [s]. A sample whose
+/// |y - K phi| exceeds it is an innovation outlier (docs/ALGORITHM.md, "Scale-factor regression").
+double innovation_bound_m(const SampleBuilderParams& params, double sigma_v_mps, double k_m_per_pulse,
+                          double sigma_k_m_per_pulse, double phi_pulses, double interval_s);
 
 /// Counts per gate (each GNSS epoch is counted once, under the first gate that rejected it).
 struct SampleBuilderCounters {
@@ -203,7 +216,32 @@ class SampleBuilder {
     double k_m_per_pulse;
     double sigma_m_per_pulse;
   };
+  /// What an epoch that passed its own checks gives: the chain-start record and what the
+  /// interval checks need.
+  struct EpochInputs {
+    GoodEpoch epoch{};
+    Misalignment misalignment;
+    /// Forward speed (m/s); NaN until it is computed.
+    double forward_speed_mps = std::numeric_limits<double>::quiet_NaN();
+  };
+  /// Outcome of the innovation test of one sample.
+  enum class InnovationVerdict {
+    kPassed,     ///< inside the bound, or not tested (gate off, no estimate yet).
+    kOutlier,    ///< outside the bound: the epoch is rejected (kInnovation).
+    kSuspended,  ///< outside, but after too many consecutive rejections the test is suspended.
+  };
+  /// One GNSS epoch through every gate, in order: own velocity, interval, innovation; then the chain.
   SampleBuilderEpoch process_epoch(const GnssSample& gnss);
+  /// Step 1, the epoch's own velocity (fix, odometer count, attitude, forward speed, speed jump):
+  /// the chain-breaking status that rejects it, or nullopt with `inputs` filled (forward_speed_mps
+  /// as far as it was computed, also on a rejection).
+  std::optional<EpochStatus> check_epoch_velocity(const GnssSample& gnss, EpochInputs& inputs);
+  /// Step 2, the interval from the chain start to this epoch (gap, speeds, reversing, yaw rate,
+  /// pulses): kAccepted with `sample` filled, or the gate that rejected the interval.
+  EpochStatus check_interval(const GnssSample& gnss, const EpochInputs& inputs, ScaleFactorSample& sample) const;
+  /// Step 3, the innovation test of an accepted sample against the latest K estimate stamped before
+  /// it, with the consecutive-rejection rule (SampleBuilderParams).
+  InnovationVerdict innovation_gate(const GnssSample& gnss, const ScaleFactorSample& sample);
   double forward_speed(const Eigen::Vector3d& vel_enu_mps, const Attitude& att, const Misalignment& mis) const;
   bool compensates_lever_arm() const;
   /// GNSS velocity moved from the antenna to the INS reference point (ENU, m/s).

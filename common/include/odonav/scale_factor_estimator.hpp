@@ -25,6 +25,22 @@ struct ScaleFactorSample {
   bool straight = true;      ///< the yaw-rate gate says this interval was on a straight line.
 };
 
+/// The sensor noise model of the regression (docs/ALGORITHM.md, "Estimators": sigma_y^2): the
+/// variance [m^2] of the residual e_k = y_k - K phi_k that GNSS velocity noise and pulse
+/// quantisation alone give over one sample interval,
+///   sigma_y^2 = (sigma_v T)^2 / 2 + K^2 / 6.
+/// Why these two terms: y = (v_start + v_end) / 2 * T carries two independent velocity errors of
+/// sigma_v each, hence (sigma_v T)^2 / 2; phi is the difference of two counts each off by a uniform
+/// fraction of a pulse, whose difference has a variance of 1/6 pulse^2, i.e. K^2 / 6 in metres.
+/// sigma_v_mps: one-sigma GNSS velocity noise [m/s], >= 0; interval_s: T [s], >= 0; k_m_per_pulse:
+/// K [m/pulse] (the current estimate). No floor and no estimate uncertainty: the estimators floor
+/// it with sigma_y_floor_m (estimators.hpp), the sample builder's innovation gate adds
+/// (sigma_K phi)^2 (sample_builder.hpp). Both use this one function.
+inline double regression_noise_variance_m2(double sigma_v_mps, double interval_s, double k_m_per_pulse) {
+  const double velocity_part_m = sigma_v_mps * interval_s;
+  return 0.5 * velocity_part_m * velocity_part_m + k_m_per_pulse * k_m_per_pulse / 6.0;
+}
+
 /// What every estimator reports.
 struct ScaleFactorEstimate {
   bool valid = false;               ///< false until the estimator has a value.

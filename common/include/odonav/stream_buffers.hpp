@@ -17,7 +17,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "odonav/dataset.hpp"
+#include "odonav/sensor_samples.hpp"
 #include "odonav/frames.hpp"
 
 namespace odonav {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "odonav/estimators.hpp"
+#include "odonav/scale_factor_estimator.hpp"
 
 namespace odonav::estimators_internal {
 
@@ -30,12 +31,12 @@ inline bool sample_is_valid(const ScaleFactorSample& sample) {
          std::isfinite(sample.gnss_position_enu_m[2]);
 }
 
-/// Model residual variance [m^2]: (sigma_v T)^2 / 2 + K^2 / 6 (GNSS velocity noise over one
-/// interval plus the difference of two uniform pulse quantisation errors), at least floor^2.
+/// Model residual variance [m^2] of the estimators: regression_noise_variance_m2
+/// (scale_factor_estimator.hpp, docs/ALGORITHM.md "Estimators") with the params' sigma_v_mps and
+/// sample_interval_s, at least sigma_y_floor_m^2.
 /// Inline (with the two below): called on every update, a call costs as much as the arithmetic.
 inline double model_sigma_y2_m2(const ScaleFactorEstimatorParams& params, double k_m_per_pulse) {
-  const double velocity_part = params.sigma_v_mps * params.sample_interval_s;
-  const double model = 0.5 * velocity_part * velocity_part + k_m_per_pulse * k_m_per_pulse / 6.0;
+  const double model = regression_noise_variance_m2(params.sigma_v_mps, params.sample_interval_s, k_m_per_pulse);
   return std::max(model, params.sigma_y_floor_m * params.sigma_y_floor_m);
 }
 

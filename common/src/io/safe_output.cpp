@@ -15,8 +15,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// "<path>: <what>: <system error>", the file-first form of every odonav I/O message.
 std::string system_message(const std::string& what, const std::string& path, int error) {
-  return what + " '" + path + "': " + std::strerror(error);
+  return path + ": " + what + ": " + std::strerror(error);
 }
 
 // The absolute, symlink-resolved form of a path that may not exist yet (its existing prefix is
@@ -106,13 +107,13 @@ AtomicFile::AtomicFile(const std::string& path, const std::vector<std::string>& 
   // O_EXCL with O_NOFOLLOW: a planted temporary name (or a link under it) is not followed.
   ::unlink(temporary_.c_str());
   const int fd = ::open(temporary_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
-  if (fd < 0) throw OutputError(system_message("cannot create", temporary_, errno));
+  if (fd < 0) throw OutputError(system_message("cannot create", path_, errno));
   file_ = ::fdopen(fd, "wb");
   if (file_ == nullptr) {
     const int error = errno;
     ::close(fd);
     ::unlink(temporary_.c_str());
-    throw OutputError(system_message("cannot open", temporary_, error));
+    throw OutputError(system_message("cannot open", path_, error));
   }
 }
 
@@ -146,7 +147,7 @@ void AtomicFile::commit() {
   // Checked again: a link planted at the real name while we wrote is replaced, never followed
   // (rename replaces the link itself), but refusing it says what happened.
   check_output_file(path_, {});
-  if (::rename(temporary_.c_str(), path_.c_str()) != 0) fail("cannot rename the complete file to");
+  if (::rename(temporary_.c_str(), path_.c_str()) != 0) fail("cannot rename the complete file to this name");
   committed_ = true;
   // The rename is durable only once the directory entry is.
   const fs::path target(path_);

@@ -24,44 +24,69 @@ int fix_quality_rank(int fix) {
   }
 }
 
+namespace {
+
+// One entry per EpochStatus, in enum order: its counter and its stable name. to_string(),
+// SampleBuilderCounters::count() and SampleBuilder::count() all read this one table.
+struct EpochStatusEntry {
+  EpochStatus status;
+  uint64_t SampleBuilderCounters::*counter;
+  const char* text;
+};
+
+constexpr EpochStatusEntry kEpochStatusTable[] = {
+    {EpochStatus::kAccepted, &SampleBuilderCounters::accepted, "accepted"},
+    {EpochStatus::kChainStart, &SampleBuilderCounters::chain_starts, "chain_start"},
+    {EpochStatus::kInvalidFix, &SampleBuilderCounters::invalid_fix, "invalid_fix"},
+    {EpochStatus::kLowFixQuality, &SampleBuilderCounters::low_fix_quality, "low_fix_quality"},
+    {EpochStatus::kNoOdometer, &SampleBuilderCounters::no_odometer, "no_odometer"},
+    {EpochStatus::kNoAttitude, &SampleBuilderCounters::no_attitude, "no_attitude"},
+    {EpochStatus::kNegativeSpeed, &SampleBuilderCounters::negative_speed, "negative_speed"},
+    {EpochStatus::kSpeedJump, &SampleBuilderCounters::speed_jump, "speed_jump"},
+    {EpochStatus::kGap, &SampleBuilderCounters::gap, "gap"},
+    {EpochStatus::kMinSpeed, &SampleBuilderCounters::min_speed, "min_speed"},
+    {EpochStatus::kReversing, &SampleBuilderCounters::reversing, "reversing"},
+    {EpochStatus::kYawRate, &SampleBuilderCounters::yaw_rate, "yaw_rate"},
+    {EpochStatus::kNoPulses, &SampleBuilderCounters::no_pulses, "no_pulses"},
+    {EpochStatus::kInnovation, &SampleBuilderCounters::innovation, "innovation"},
+};
+
+constexpr std::size_t kEpochStatusCount = static_cast<std::size_t>(kLastEpochStatus) + 1;
+static_assert(sizeof kEpochStatusTable / sizeof kEpochStatusTable[0] == kEpochStatusCount,
+              "one kEpochStatusTable entry per EpochStatus (up to kLastEpochStatus)");
+
+constexpr bool table_in_enum_order() {
+  for (std::size_t i = 0; i < kEpochStatusCount; ++i)
+    if (static_cast<std::size_t>(kEpochStatusTable[i].status) != i) return false;
+  return true;
+}
+static_assert(table_in_enum_order(), "kEpochStatusTable entries must follow the order of EpochStatus");
+
+/// The table entry of a status; nullptr for a value outside the enum (a cast integer).
+const EpochStatusEntry* entry_of(EpochStatus status) {
+  const auto index = static_cast<std::size_t>(status);
+  return index < kEpochStatusCount ? &kEpochStatusTable[index] : nullptr;
+}
+
+}  // namespace
+
 const char* to_string(EpochStatus status) {
-  switch (status) {
-    case EpochStatus::kAccepted: return "accepted";
-    case EpochStatus::kChainStart: return "chain_start";
-    case EpochStatus::kInvalidFix: return "invalid_fix";
-    case EpochStatus::kLowFixQuality: return "low_fix_quality";
-    case EpochStatus::kNoOdometer: return "no_odometer";
-    case EpochStatus::kNoAttitude: return "no_attitude";
-    case EpochStatus::kNegativeSpeed: return "negative_speed";
-    case EpochStatus::kSpeedJump: return "speed_jump";
-    case EpochStatus::kGap: return "gap";
-    case EpochStatus::kMinSpeed: return "min_speed";
-    case EpochStatus::kReversing: return "reversing";
-    case EpochStatus::kYawRate: return "yaw_rate";
-    case EpochStatus::kNoPulses: return "no_pulses";
-    case EpochStatus::kInnovation: return "innovation";
-  }
-  return "unknown";
+  const EpochStatusEntry* entry = entry_of(status);
+  return entry ? entry->text : "unknown";
 }
 
 uint64_t SampleBuilderCounters::count(EpochStatus status) const {
-  switch (status) {
-    case EpochStatus::kAccepted: return accepted;
-    case EpochStatus::kChainStart: return chain_starts;
-    case EpochStatus::kInvalidFix: return invalid_fix;
-    case EpochStatus::kLowFixQuality: return low_fix_quality;
-    case EpochStatus::kNoOdometer: return no_odometer;
-    case EpochStatus::kNoAttitude: return no_attitude;
-    case EpochStatus::kNegativeSpeed: return negative_speed;
-    case EpochStatus::kSpeedJump: return speed_jump;
-    case EpochStatus::kGap: return gap;
-    case EpochStatus::kMinSpeed: return min_speed;
-    case EpochStatus::kReversing: return reversing;
-    case EpochStatus::kYawRate: return yaw_rate;
-    case EpochStatus::kNoPulses: return no_pulses;
-    case EpochStatus::kInnovation: return innovation;
-  }
-  return 0;
+  const EpochStatusEntry* entry = entry_of(status);
+  return entry ? this->*(entry->counter) : 0;
+}
+
+double innovation_bound_m(const SampleBuilderParams& params, double sigma_v_mps, double k_m_per_pulse,
+                          double sigma_k_m_per_pulse, double phi_pulses, double interval_s) {
+  const double estimate_part_m = sigma_k_m_per_pulse * phi_pulses;
+  const double sigma_gate_m = std::sqrt(regression_noise_variance_m2(sigma_v_mps, interval_s, k_m_per_pulse) +
+                                        estimate_part_m * estimate_part_m);
+  return params.innovation_n_sigma * sigma_gate_m +
+         params.innovation_k_change_fraction * std::abs(k_m_per_pulse * phi_pulses);
 }
 
 namespace {
@@ -181,131 +206,126 @@ double SampleBuilder::forward_speed(const Eigen::Vector3d& v, const Attitude& at
 }
 
 void SampleBuilder::count(EpochStatus status) {
-  switch (status) {
-    case EpochStatus::kAccepted: ++counters_.accepted; break;
-    case EpochStatus::kChainStart: ++counters_.chain_starts; break;
-    case EpochStatus::kInvalidFix: ++counters_.invalid_fix; break;
-    case EpochStatus::kLowFixQuality: ++counters_.low_fix_quality; break;
-    case EpochStatus::kNoOdometer: ++counters_.no_odometer; break;
-    case EpochStatus::kNoAttitude: ++counters_.no_attitude; break;
-    case EpochStatus::kNegativeSpeed: ++counters_.negative_speed; break;
-    case EpochStatus::kSpeedJump: ++counters_.speed_jump; break;
-    case EpochStatus::kGap: ++counters_.gap; break;
-    case EpochStatus::kMinSpeed: ++counters_.min_speed; break;
-    case EpochStatus::kReversing: ++counters_.reversing; break;
-    case EpochStatus::kYawRate: ++counters_.yaw_rate; break;
-    case EpochStatus::kNoPulses: ++counters_.no_pulses; break;
-    case EpochStatus::kInnovation: ++counters_.innovation; break;
-  }
+  if (const EpochStatusEntry* entry = entry_of(status)) ++(counters_.*(entry->counter));
 }
 
-SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
-  ++counters_.epochs;
-  SampleBuilderEpoch r;
-  r.t_s = g.t_s;
-  r.forward_speed_mps = std::numeric_limits<double>::quiet_NaN();
-  // An epoch whose own velocity is unusable breaks the chain (see the header).
-  auto bad_epoch = [&](EpochStatus s) {
-    r.status = s;
-    chain_start_.reset();
-    count(s);
-    return r;
-  };
-
-  if (!g.valid()) return bad_epoch(EpochStatus::kInvalidFix);
-  if (fix_quality_rank(g.fix) < params_.min_fix_rank) return bad_epoch(EpochStatus::kLowFixQuality);
+std::optional<EpochStatus> SampleBuilder::check_epoch_velocity(const GnssSample& g, EpochInputs& in) {
+  if (!g.valid()) return EpochStatus::kInvalidFix;
+  if (fix_quality_rank(g.fix) < params_.min_fix_rank) return EpochStatus::kLowFixQuality;
   if (!frame_) frame_.emplace(g.position);
 
   const std::optional<double> count_now = odometer_.count_at(g.t_s, watermark_s_);
-  if (!count_now) return bad_epoch(EpochStatus::kNoOdometer);
+  if (!count_now) return EpochStatus::kNoOdometer;
   Attitude att;
   if (params_.use_ins) {
     const std::optional<Attitude> a = attitude_.attitude_at(g.t_s, watermark_s_);
-    if (!a) return bad_epoch(EpochStatus::kNoAttitude);
+    if (!a) return EpochStatus::kNoAttitude;
     att = *a;
   }
-  const Misalignment mis = misalignment_.at_or_before(g.t_s).value_or(Misalignment{});
+  in.misalignment = misalignment_.at_or_before(g.t_s).value_or(Misalignment{});
   const Eigen::Vector3d vel_enu_mps = reference_point_velocity(g, att);
-  const double v = forward_speed(vel_enu_mps, att, mis);
-  r.forward_speed_mps = v;
-  if (v < 0.0) return bad_epoch(EpochStatus::kNegativeSpeed);
+  const double v = forward_speed(vel_enu_mps, att, in.misalignment);
+  in.forward_speed_mps = v;
+  if (v < 0.0) return EpochStatus::kNegativeSpeed;
 
   // Speed jump against the last epoch whose velocity was judged good (if recent enough).
   if (last_good_speed_) {
     const double dt = g.t_s - last_good_speed_->first;
     if (dt <= params_.speed_jump_reference_max_age_s &&
         std::abs(v - last_good_speed_->second) > params_.max_acceleration_mps2 * dt + params_.speed_jump_margin_mps)
-      return bad_epoch(EpochStatus::kSpeedJump);
+      return EpochStatus::kSpeedJump;
+  }
+  in.epoch = GoodEpoch{g.t_s, vel_enu_mps, att, *count_now};
+  return std::nullopt;
+}
+
+EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs& in, ScaleFactorSample& sample) const {
+  const GoodEpoch& s = *chain_start_;
+  const double dt = g.t_s - s.t_s;
+  const double v = in.forward_speed_mps;
+  // Both ends with the same (latest) misalignment, so the sample is one consistent projection.
+  const double v_start = forward_speed(s.vel_enu_mps, s.attitude, in.misalignment);
+  double yaw_rate = 0.0;
+  if (params_.use_ins) {
+    yaw_rate = wrap_pi(in.epoch.attitude.heading_rad - s.attitude.heading_rad) / dt;
+  } else {
+    yaw_rate = wrap_pi(gnss_course_rad(g.vel_enu_mps) - gnss_course_rad(s.vel_enu_mps)) / dt;
+  }
+  const double phi = in.epoch.count_pulses - s.count_pulses;
+  if (dt > params_.max_interval_s) return EpochStatus::kGap;
+  if (v_start < params_.min_speed_mps || v < params_.min_speed_mps) return EpochStatus::kMinSpeed;
+  if (odometer_.any_reversing(s.t_s, g.t_s)) return EpochStatus::kReversing;
+  if (params_.yaw_rate_gate_enabled && std::abs(yaw_rate) > params_.max_yaw_rate_rad_s) return EpochStatus::kYawRate;
+  if (!(phi > 0.0)) return EpochStatus::kNoPulses;
+  sample.t_s = g.t_s;
+  sample.phi_pulses = phi;
+  sample.dt_s = dt;
+  sample.y_m = 0.5 * (v_start + v) * dt;
+  sample.gnss_position_enu_m = frame_->to_enu(g.position);
+  sample.straight = std::abs(yaw_rate) < params_.straight_yaw_rate_rad_s;
+  return EpochStatus::kAccepted;
+}
+
+SampleBuilder::InnovationVerdict SampleBuilder::innovation_gate(const GnssSample& g, const ScaleFactorSample& sample) {
+  if (!params_.innovation_gate_enabled) return InnovationVerdict::kPassed;
+  const std::optional<KEstimate> k = k_estimates_.before(g.t_s);
+  if (!k) return InnovationVerdict::kPassed;
+  const double sigma_v = g.vel_std_mps && *g.vel_std_mps > 0.0 ? *g.vel_std_mps : params_.gnss_velocity_sigma_mps;
+  const double predicted_m = k->k_m_per_pulse * sample.phi_pulses;
+  const double bound_m =
+      innovation_bound_m(params_, sigma_v, k->k_m_per_pulse, k->sigma_m_per_pulse, sample.phi_pulses, sample.dt_s);
+  if (!(std::abs(sample.y_m - predicted_m) > bound_m)) {
+    consecutive_innovation_rejections_ = 0;
+    return InnovationVerdict::kPassed;
+  }
+  if (consecutive_innovation_rejections_ < params_.innovation_max_consecutive_rejections) {
+    ++consecutive_innovation_rejections_;
+    return InnovationVerdict::kOutlier;
+  }
+  return InnovationVerdict::kSuspended;
+}
+
+SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
+  ++counters_.epochs;
+  SampleBuilderEpoch r;
+  r.t_s = g.t_s;
+  EpochInputs in;
+  const std::optional<EpochStatus> bad_velocity = check_epoch_velocity(g, in);
+  r.forward_speed_mps = in.forward_speed_mps;
+  if (bad_velocity) {
+    // An epoch whose own velocity is unusable breaks the chain (see the header).
+    r.status = *bad_velocity;
+    chain_start_.reset();
+    count(r.status);
+    return r;
   }
 
-  const GoodEpoch here{g.t_s, vel_enu_mps, att, *count_now};
-  EpochStatus status = EpochStatus::kAccepted;
   bool velocity_good = true;
   if (!chain_start_) {
-    status = EpochStatus::kChainStart;
+    r.status = EpochStatus::kChainStart;
   } else {
-    const GoodEpoch& s = *chain_start_;
-    const double dt = g.t_s - s.t_s;
-    // Both ends with the same (latest) misalignment, so the sample is one consistent projection.
-    const double v_start = forward_speed(s.vel_enu_mps, s.attitude, mis);
-    double yaw_rate = 0.0;
-    if (params_.use_ins) {
-      yaw_rate = wrap_pi(att.heading_rad - s.attitude.heading_rad) / dt;
-    } else {
-      yaw_rate = wrap_pi(gnss_course_rad(g.vel_enu_mps) - gnss_course_rad(s.vel_enu_mps)) / dt;
-    }
-    const double phi = *count_now - s.count_pulses;
-    if (dt > params_.max_interval_s) {
-      status = EpochStatus::kGap;
-    } else if (v_start < params_.min_speed_mps || v < params_.min_speed_mps) {
-      status = EpochStatus::kMinSpeed;
-    } else if (odometer_.any_reversing(s.t_s, g.t_s)) {
-      status = EpochStatus::kReversing;
-    } else if (params_.yaw_rate_gate_enabled && std::abs(yaw_rate) > params_.max_yaw_rate_rad_s) {
-      status = EpochStatus::kYawRate;
-    } else if (!(phi > 0.0)) {
-      status = EpochStatus::kNoPulses;
-    } else {
-      ScaleFactorSample sample;
-      sample.t_s = g.t_s;
-      sample.phi_pulses = phi;
-      sample.dt_s = dt;
-      sample.y_m = 0.5 * (v_start + v) * dt;
-      sample.gnss_position_enu_m = frame_->to_enu(g.position);
-      sample.straight = std::abs(yaw_rate) < params_.straight_yaw_rate_rad_s;
-      const std::optional<KEstimate> k = k_estimates_.before(g.t_s);
-      bool suspended = false;
-      if (params_.innovation_gate_enabled && k) {
-        const double sigma_v = g.vel_std_mps && *g.vel_std_mps > 0.0 ? *g.vel_std_mps : params_.gnss_velocity_sigma_mps;
-        const double predicted = k->k_m_per_pulse * phi;
-        const double sigma_gate = std::sqrt(0.5 * (sigma_v * dt) * (sigma_v * dt) +
-                                            k->k_m_per_pulse * k->k_m_per_pulse / 6.0 +
-                                            (k->sigma_m_per_pulse * phi) * (k->sigma_m_per_pulse * phi));
-        const double bound =
-            params_.innovation_n_sigma * sigma_gate + params_.innovation_k_change_fraction * std::abs(predicted);
-        if (std::abs(sample.y_m - predicted) > bound) {
-          if (consecutive_innovation_rejections_ < params_.innovation_max_consecutive_rejections) {
-            ++consecutive_innovation_rejections_;
-            status = EpochStatus::kInnovation;
-            velocity_good = false;  // blame this epoch: the previous one already passed as an end
-          } else {
-            suspended = true;
-          }
-        } else {
-          consecutive_innovation_rejections_ = 0;
-        }
-      }
-      if (status == EpochStatus::kAccepted) {
-        if (suspended) ++counters_.innovation_suspended;
-        r.sample = sample;
+    ScaleFactorSample sample;
+    r.status = check_interval(g, in, sample);
+    if (r.status == EpochStatus::kAccepted) {
+      switch (innovation_gate(g, sample)) {
+        case InnovationVerdict::kPassed:
+          r.sample = sample;
+          break;
+        case InnovationVerdict::kSuspended:
+          ++counters_.innovation_suspended;
+          r.sample = sample;
+          break;
+        case InnovationVerdict::kOutlier:
+          r.status = EpochStatus::kInnovation;
+          velocity_good = false;  // blame this epoch: the previous one already passed as an end
+          break;
       }
     }
   }
-  r.status = status;
-  count(status);
+  count(r.status);
   if (velocity_good) {
-    chain_start_ = here;
-    last_good_speed_ = std::make_pair(g.t_s, v);
+    chain_start_ = in.epoch;
+    last_good_speed_ = std::make_pair(g.t_s, in.forward_speed_mps);
   } else {
     chain_start_.reset();
   }

@@ -106,17 +106,19 @@ std::vector<dds::detail::WriterBase*> CalibrationNode::output_writers() { return
 dds::CommandAck CalibrationNode::on_command(const odonav::msg::Command& c) {
   using namespace odonav::msg;
   switch (c.command()) {
-    case COMMAND_RESET_CALIBRATION:
+    case COMMAND_RESET_ESTIMATION:
       core_.reset();
       return {c.command_id(), COMMAND_RESULT_ACCEPTED, "misalignment calibration restarted"};
-    case COMMAND_FREEZE_IDENTIFICATION:
+    case COMMAND_FREEZE_ESTIMATION:
       core_.freeze();
       return {c.command_id(), COMMAND_RESULT_ACCEPTED, "misalignment frozen"};
-    case COMMAND_UNFREEZE_IDENTIFICATION:
+    case COMMAND_UNFREEZE_ESTIMATION:
       core_.unfreeze();
       return {c.command_id(), COMMAND_RESULT_ACCEPTED, "misalignment unfrozen"};
     case COMMAND_SET_K:
       return {c.command_id(), COMMAND_RESULT_REJECTED, "set_k is for odonav-dead-reckoning, not calibration"};
+    case COMMAND_RELEASE_K:
+      return {c.command_id(), COMMAND_RESULT_REJECTED, "release_k is for odonav-dead-reckoning, not calibration"};
   }
   return {c.command_id(), COMMAND_RESULT_REJECTED, "unknown command kind"};
 }

@@ -1,9 +1,6 @@
 #include "dead_reckoning_node.hpp"
 
 #include <cmath>
-#include <limits>
-#include <sstream>
-#include <thread>
 #include <stdexcept>
 
 #include "odonav/lever_arm_option.hpp"
@@ -34,15 +31,18 @@ odonav::msg::KSource to_message_source(ScaleFactorSource s) {
 
 double or_minus_one(double v) { return std::isfinite(v) ? v : -1.0; }
 
-// The scale-factor topic read with the fast-failover profile (kScaleFactorReaderProfile).
-topics::TopicSpec scale_factor_topic() {
-  topics::TopicSpec spec = topics::kScaleFactor;
-  spec.reader_profile = kScaleFactorReaderProfile;
-  return spec;
+odonav::msg::HealthState to_message_state(DeadReckoningHealthState s) {
+  switch (s) {
+    case DeadReckoningHealthState::kStarting: return odonav::msg::HEALTH_STATE_STARTING;
+    case DeadReckoningHealthState::kRunning: return odonav::msg::HEALTH_STATE_RUNNING;
+    case DeadReckoningHealthState::kDegraded: return odonav::msg::HEALTH_STATE_DEGRADED;
+  }
+  return odonav::msg::HEALTH_STATE_RUNNING;
 }
 
-// How long (wall time) health tells about an event (K source change, pulse jump): long enough for a monitor.
-constexpr double kSourceNoteDuration_s = 30.0;
+odonav::msg::HealthLevel to_message_level(DeadReckoningHealthLevel l) {
+  return l == DeadReckoningHealthLevel::kWarn ? odonav::msg::HEALTH_LEVEL_WARN : odonav::msg::HEALTH_LEVEL_OK;
+}
 }  // namespace
 
 void add_dead_reckoning_node_options(Options& o) {
@@ -54,11 +54,9 @@ void add_dead_reckoning_node_options(Options& o) {
 }
 
 DeadReckonerParams dead_reckoning_node_params_from(const Options& o) {
-  DeadReckonerParams p = dead_reckoning_params_from(o);
-  if (p.nominal_k_m_per_pulse == 0.0) p.nominal_k_m_per_pulse = DeadReckonerParams{}.nominal_k_m_per_pulse;
-  p.lever_arm_body_m = lever_arm_from(o);
-  p.use_ins = o.get_bool("use-ins");
-  return p;
+  DeadReckoningFacts facts = dead_reckoning_facts_from(o);
+  facts.use_ins = o.get_bool("use-ins");
+  return dead_reckoner_params(facts);  // the function odonav-offline uses too
 }
 
 odonav::msg::DeadReckoning dead_reckoning_message(const DeadReckoningOutput& o, const Geodetic& origin,
@@ -91,6 +89,7 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
     : EventTimeNode(runtime),
       params_(params),
       core_(make_core(params)),
+      k_selection_(params.nominal_k_m_per_pulse),
       odometer_(add_input("odometer", true)),
       gnss_(add_input("gnss", true)),
       misalignment_(add_input("misalignment", false, &gnss_)),
@@ -117,7 +116,7 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
   misalignment_reader_ = subscribe<odonav::msg::Misalignment>(
       topics::kMisalignment, misalignment_, [this](const auto& m, double t_s) { on_misalignment(m, t_s); });
   scale_factor_reader_ = subscribe<odonav::msg::ScaleFactor>(
-      scale_factor_topic(), scale_factor_, [this](const auto& m, double t_s) { on_scale_factor(m, t_s); });
+      topics::kScaleFactorForDeadReckoning, scale_factor_, [this](const auto& m, double t_s) { on_scale_factor(m, t_s); });
 }
 
 DeadReckoningNode::~DeadReckoningNode() { close_inputs(); }
@@ -139,32 +138,9 @@ void DeadReckoningNode::on_misalignment(const odonav::msg::Misalignment& m, doub
 }
 
 void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s) {
-  // Which identification instance is followed (the DDS owner): logged, and told in health for a
-  // while after a change (hot standby taking over, the primary coming back).
-  if (m.source() != k_source_) {
-    std::ostringstream note;
-    note.precision(10);
-    if (k_source_.empty()) {
-      spdlog::info("following K from '{}' (t={} s)", m.source(), t_s);
-    } else {
-      ++k_source_changes_;
-      note << "K source changed from '" << k_source_ << "' to '" << m.source() << "' at t=" << t_s << " s";
-      spdlog::warn("{}", note.str());
-      k_source_note_ = note.str();
-      k_source_note_until_s_ = dds::steady_now_s() + kSourceNoteDuration_s;
-    }
-    k_source_ = m.source();
-  }
-  // The message has no "valid" flag: K = 0 (or not finite) means "no value yet".
-  const bool valid = std::isfinite(m.k_m_per_pulse()) && m.k_m_per_pulse() > 0.0;
-  if (!scale_factor_applicable(valid, m.converged())) return;  // consumer_rules.hpp, as odonav-offline
-  if (commanded_k_ || (last_k_stamp_s_ && t_s <= *last_k_stamp_s_)) {
-    ++k_ignored_commanded_;
-    return;
-  }
-  core_.add_scale_factor(t_s, m.k_m_per_pulse(), ScaleFactorSource::kIdentified);
-  last_k_stamp_s_ = t_s;
-  ++k_applied_;
+  const IdentifiedScaleFactor k{t_s, m.k_m_per_pulse(), m.converged(), m.source()};
+  if (const auto update = k_selection_.on_identified(k, dds::steady_now_s()))
+    core_.add_scale_factor(update->t_s, update->k_m_per_pulse, update->source);
 }
 
 void DeadReckoningNode::publish(const std::vector<DeadReckoningOutput>& outputs) {
@@ -175,8 +151,8 @@ void DeadReckoningNode::publish(const std::vector<DeadReckoningOutput>& outputs)
     if (!writer_.write(dead_reckoning_message(o, origin, mis, runtime_.settings().vehicle_id)))
       spdlog::warn("{}: write refused by the middleware", writer_.topic_name());
     // A burst (catching up after a wait, the drain) larger than the KEEP_LAST history would
-    // overwrite samples not yet delivered: let the transport drain every 100 samples.
-    if (++burst_writes_ % 100 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    // overwrite samples not yet delivered: let the transport drain.
+    throttle_.after_write();
     applied_misalignment_.drop_before(o.t_s);
   }
   last_output_ = outputs.back();
@@ -191,73 +167,50 @@ std::vector<dds::detail::WriterBase*> DeadReckoningNode::output_writers() { retu
 
 dds::CommandAck DeadReckoningNode::on_command(const odonav::msg::Command& c) {
   using namespace odonav::msg;
+  ScaleFactorCommandResult r;
   switch (c.command()) {
-    case COMMAND_SET_K: {
-      const double k = c.value();
-      if (!std::isfinite(k) || !(k > 0.0) || k > 10.0) {
-        std::ostringstream m;
-        m << "set_k: K = " << k << " m/pulse is not in (0, 10]";
-        return {c.command_id(), COMMAND_RESULT_REJECTED, m.str()};
-      }
-      // In force after everything already processed and after the last K given to the core.
-      double base = std::max(aligner_.processed_s(), last_k_stamp_s_.value_or(-std::numeric_limits<double>::infinity()));
-      if (!std::isfinite(base)) base = -std::numeric_limits<double>::max();
-      const double t = std::nextafter(base, std::numeric_limits<double>::infinity());
-      core_.add_scale_factor(t, k, ScaleFactorSource::kCommanded);
-      last_k_stamp_s_ = t;
-      commanded_k_ = true;
-      std::ostringstream m;
-      m.precision(10);
-      m << "K = " << k << " m/pulse commanded (identified K ignored until reset_calibration)";
-      return {c.command_id(), COMMAND_RESULT_ACCEPTED, m.str()};
-    }
-    case COMMAND_RESET_CALIBRATION:
-      commanded_k_ = false;
-      return {c.command_id(), COMMAND_RESULT_ACCEPTED, "following the identified K again (from its next estimate)"};
-    case COMMAND_FREEZE_IDENTIFICATION:
-    case COMMAND_UNFREEZE_IDENTIFICATION:
-      return {c.command_id(), COMMAND_RESULT_REJECTED, "freeze/unfreeze is for odonav-identification"};
+    case COMMAND_SET_K:
+      r = k_selection_.set_commanded_k(c.value(), aligner_.processed_s());
+      if (r.update) core_.add_scale_factor(r.update->t_s, r.update->k_m_per_pulse, r.update->source);
+      break;
+    case COMMAND_RELEASE_K:
+      r = k_selection_.release_commanded_k();
+      break;
+    case COMMAND_RESET_ESTIMATION:
+      // Dead reckoning estimates nothing to restart; before COMMAND_RELEASE_K existed this kind
+      // released the commanded K here: refuse it rather than guess which meaning the sender has.
+      r = {false, "reset is for the estimators (calibration, identification); to follow the identified K again "
+                  "send release-k (COMMAND_RELEASE_K)", std::nullopt};
+      break;
+    case COMMAND_FREEZE_ESTIMATION:
+    case COMMAND_UNFREEZE_ESTIMATION:
+      r = {false, "freeze/unfreeze is for odonav-identification", std::nullopt};
+      break;
+    default:
+      r = {false, "unknown command kind", std::nullopt};
+      break;
   }
-  return {c.command_id(), COMMAND_RESULT_REJECTED, "unknown command kind"};
+  return {c.command_id(), r.accepted ? COMMAND_RESULT_ACCEPTED : COMMAND_RESULT_REJECTED, r.detail};
 }
 
 dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
-  using namespace odonav::msg;
-  Status s{HEALTH_STATE_RUNNING, HEALTH_LEVEL_OK, ""};
-  auto add = [&s](const std::string& r) { s.reason = s.reason.empty() ? r : s.reason + "; " + r; };
-  if (!core_.started()) {
-    s.state = HEALTH_STATE_STARTING;
-    add("waiting for a valid GNSS fix to start from");
-  }
-  // K: the reason DR navigates with what it uses.
-  if (commanded_k_) {
-    add("using commanded K");
-  } else if (input_absent(scale_factor_, now_s)) {
-    s.state = s.state == HEALTH_STATE_STARTING ? s.state : HEALTH_STATE_DEGRADED;
-    s.level = HEALTH_LEVEL_WARN;
-    // Absent after being heard: the core keeps the last identified K (it is not reset).
-    add(k_applied_ > 0 ? "no identification: keeping the last identified K" : "using nominal K: no identification");
-  } else if (!input_heard(scale_factor_, now_s)) {
-    add("waiting for identification");
-  } else if (k_applied_ == 0) {
-    add("K not converged yet: using nominal K");
-  }
-  if (!k_source_note_.empty() && now_s < k_source_note_until_s_) add(k_source_note_);
-  // Odometer pulse jumps (a counter glitch): WARN for a while after the last one, with the total.
-  const uint64_t jumps = core_.counters().pulse_jumps_rejected;
-  if (jumps != jumps_seen_) {
-    jumps_seen_ = jumps;
-    jumps_note_until_s_ = now_s + kSourceNoteDuration_s;
-  }
-  if (jumps > 0 && now_s < jumps_note_until_s_) {
-    s.level = HEALTH_LEVEL_WARN;
-    add("rejected " + std::to_string(jumps) + " odometer samples: pulse jump (counter glitch)");
-  }
-  if (input_absent(misalignment_, now_s))
-    add("using zero misalignment: no calibration");
-  else if (input_heard(misalignment_, now_s) && misalignments_applied_ == 0)
-    add("misalignment not converged yet: using zero");
-  return s;
+  pulse_jumps_.observe(core_.counters().pulse_jumps_rejected, now_s);
+  DeadReckoningHealthFacts f;
+  f.now_s = now_s;
+  f.started = core_.started();
+  f.k_commanded = k_selection_.commanded();
+  f.scale_factor_absent = input_absent(scale_factor_, now_s);
+  f.scale_factor_heard = input_heard(scale_factor_, now_s);
+  f.k_applied = k_selection_.counters().k_applied;
+  f.k_source_note = k_selection_.k_source_note();
+  f.k_source_changed_at_s = k_selection_.k_source_changed_at_s();
+  f.pulse_jumps_rejected = core_.counters().pulse_jumps_rejected;
+  f.pulse_jumps_changed_at_s = pulse_jumps_.changed_at_s();
+  f.misalignment_absent = input_absent(misalignment_, now_s);
+  f.misalignment_heard = input_heard(misalignment_, now_s);
+  f.misalignments_applied = misalignments_applied_;
+  const DeadReckoningHealth h = dead_reckoning_health(f);
+  return {to_message_state(h.state), to_message_level(h.level), h.reason};
 }
 
 void DeadReckoningNode::append_counters(dds::HealthCounters& c) {
@@ -268,9 +221,10 @@ void DeadReckoningNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("reversing", static_cast<double>(k.reversing));
   c.emplace_back("pulse_jumps_rejected", static_cast<double>(k.pulse_jumps_rejected));
   c.emplace_back("pulse_rebases", static_cast<double>(k.pulse_rebases));
-  c.emplace_back("k_applied", static_cast<double>(k_applied_));
-  c.emplace_back("k_ignored", static_cast<double>(k_ignored_commanded_));
-  c.emplace_back("k_source_changes", static_cast<double>(k_source_changes_));
+  const ScaleFactorSelectionCounters& s = k_selection_.counters();
+  c.emplace_back("k_applied", static_cast<double>(s.k_applied));
+  c.emplace_back("k_ignored", static_cast<double>(s.k_ignored));
+  c.emplace_back("k_source_changes", static_cast<double>(s.k_source_changes));
   c.emplace_back("misalignments_applied", static_cast<double>(misalignments_applied_));
   if (last_output_) {
     c.emplace_back("distance_m", last_output_->distance_m);

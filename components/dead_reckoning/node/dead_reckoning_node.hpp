@@ -11,6 +11,7 @@
 #include "odonav/config.hpp"
 #include "odonav/dds/event_time_node.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/Misalignment.h"
 #include "odonav/msg/ScaleFactor.h"
@@ -19,15 +20,17 @@
 
 namespace odonav::nodes {
 
-/// Dead reckoning reads the scale factor with topics::kScaleFactorReaderProfile: EXCLUSIVE ownership
-/// with a 300 ms deadline, so when the owning identification dies the reader follows the hot standby
-/// about 300 ms later (odonav_estimate_reader's 1 s deadline would take over a second).
+/// Dead reckoning reads the scale factor with its own profile (topics::kScaleFactorForDeadReckoning:
+/// kScaleFactorReaderProfile, EXCLUSIVE ownership with a 300 ms deadline), so when the owning
+/// identification dies the reader follows the hot standby about 300 ms later (odonav_estimate_reader's
+/// 1 s deadline would take over a second).
 using topics::kScaleFactorReaderProfile;
 
 /// --nominal-k, --dr-mode (add_dead_reckoning_options), --lever-arm and --use-ins.
 void add_dead_reckoning_node_options(Options& options);
-/// Reads them; --nominal-k 0 means the core's default (0.0125 m/pulse). Throws ConfigError naming
-/// the option when a value is invalid.
+/// Reads them through dead_reckoner_params() (dead_reckoning_options.hpp), as odonav-offline does;
+/// --nominal-k 0 means kDefaultNominalK_m_per_pulse (0.0125 m/pulse). Throws ConfigError naming the
+/// option when a value is invalid.
 DeadReckonerParams dead_reckoning_node_params_from(const Options& options);
 
 /// DeadReckoning message of one output: stamp = output t_s, frame "wgs84", degrees for latitude
@@ -59,20 +62,11 @@ class DeadReckoningNode : public dds::EventTimeNode {
   DeadReckoner core_;
   /// The misalignments given to the core, to report the one applied in each output.
   StepHistory<Misalignment> applied_misalignment_{"misalignment"};
-  std::optional<double> last_k_stamp_s_;  ///< stamp of the last K given to the core (s).
-  bool commanded_k_ = false;              ///< a set_k command holds K: identified K ignored.
-  /// ScaleFactor.source of the identification followed (the owner of the EXCLUSIVE topic: the
-  /// strongest live instance), the number of changes, and the note health shows after a change.
-  std::string k_source_;
-  uint64_t k_source_changes_ = 0;
-  std::string k_source_note_;
-  double k_source_note_until_s_ = 0.0;    ///< steady clock (s)
-  uint64_t jumps_seen_ = 0;               ///< pulse jumps already told about
-  double jumps_note_until_s_ = 0.0;       ///< steady clock (s): health warns until then
-  uint64_t k_applied_ = 0;
-  uint64_t k_ignored_commanded_ = 0;
+  /// The K policy: commanded-K latch, identified K applicability, K source (scale_factor_selection.hpp).
+  ScaleFactorSelection k_selection_;
+  CountChangeTime pulse_jumps_;  ///< when the pulse-jump total last changed (health WARN window)
   uint64_t misalignments_applied_ = 0;
-  uint64_t burst_writes_ = 0;
+  dds::BurstThrottle throttle_;
   std::optional<DeadReckoningOutput> last_output_;
   dds::NodeInput& odometer_;
   dds::NodeInput& gnss_;

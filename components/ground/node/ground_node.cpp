@@ -15,6 +15,7 @@
 
 #include "core/recording.hpp"
 #include "core/ros2msg_schema.hpp"
+#include "node/topic_types.hpp"
 #include "odonav/dds/component.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/dds/types.hpp"
@@ -105,21 +106,6 @@ GnssView view_of(const msg::GnssFix& g) {
   return v;
 }
 
-/// Calls f.template operator()<T>() with the message type of a topic of the contract.
-template <class F>
-void with_type_of(const topics::TopicSpec& spec, F&& f) {
-  const std::string name = spec.name;
-  if (name == topics::kOdometer.name) f(msg::Odometer{});
-  else if (name == topics::kInsAttitude.name) f(msg::InsAttitude{});
-  else if (name == topics::kGnssFix.name) f(msg::GnssFix{});
-  else if (name == topics::kMisalignment.name) f(msg::Misalignment{});
-  else if (name == topics::kScaleFactor.name) f(msg::ScaleFactor{});
-  else if (name == topics::kDeadReckoning.name) f(msg::DeadReckoning{});
-  else if (name == topics::kHealth.name) f(msg::Health{});
-  else if (name == topics::kCommand.name) f(msg::Command{});
-  else throw std::invalid_argument("odonav-ground: topic '" + name + "' is not in the contract");
-}
-
 std::uint64_t unix_now_ns() {
   return static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -205,7 +191,7 @@ TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& wr
         schema->second, ros_topic, "cdr", channel_metadata(spec, offered_qos(participant, spec.writer_profile), profile));
     McapWriter* out = &writer;
     std::atomic<std::uint64_t>* failures = &failures_;
-    with_type_of(spec, [&](auto prototype) {
+    with_message_type_of(topic_id_of(spec), [&](auto prototype, auto /*topic id*/) {
       using T = decltype(prototype);
       auto on_data = [out, failures, channel, ros_topic](const T& sample) {
         // Serialized again with the generated type support: the CDR bytes (encapsulation header
@@ -239,19 +225,28 @@ std::size_t TopicRecorder::matched_topics() const {
 // ---- commands ----
 
 msg::CommandKind parse_command_kind(const std::string& name) {
-  if (name == "reset-calibration") return msg::COMMAND_RESET_CALIBRATION;
+  if (name == "reset") return msg::COMMAND_RESET_ESTIMATION;
   if (name == "set-k") return msg::COMMAND_SET_K;
-  if (name == "freeze") return msg::COMMAND_FREEZE_IDENTIFICATION;
-  if (name == "unfreeze") return msg::COMMAND_UNFREEZE_IDENTIFICATION;
-  throw std::invalid_argument("unknown command '" + name + "' (valid: reset-calibration, set-k VALUE, freeze, unfreeze)");
+  if (name == "freeze") return msg::COMMAND_FREEZE_ESTIMATION;
+  if (name == "unfreeze") return msg::COMMAND_UNFREEZE_ESTIMATION;
+  if (name == "release-k") return msg::COMMAND_RELEASE_K;
+  // The former name of wire value 0, which dead reckoning took as "release the commanded K": refused
+  // rather than mapped, so a script written for the old meaning is not silently given the new one.
+  if (name == "reset-calibration") {
+    throw std::invalid_argument(
+        "'reset-calibration' is no longer a command: use 'reset' (the addressed estimator restarts) or, "
+        "for odonav-dead-reckoning, 'release-k' (follow the identified K again)");
+  }
+  throw std::invalid_argument("unknown command '" + name + "' (valid: reset, set-k VALUE, freeze, unfreeze, release-k)");
 }
 
 std::string command_kind_name(msg::CommandKind kind) {
   switch (kind) {
-    case msg::COMMAND_RESET_CALIBRATION: return "reset-calibration";
+    case msg::COMMAND_RESET_ESTIMATION: return "reset";
     case msg::COMMAND_SET_K: return "set-k";
-    case msg::COMMAND_FREEZE_IDENTIFICATION: return "freeze";
-    case msg::COMMAND_UNFREEZE_IDENTIFICATION: return "unfreeze";
+    case msg::COMMAND_FREEZE_ESTIMATION: return "freeze";
+    case msg::COMMAND_UNFREEZE_ESTIMATION: return "unfreeze";
+    case msg::COMMAND_RELEASE_K: return "release-k";
   }
   return "command" + std::to_string(static_cast<int>(kind));
 }

@@ -70,7 +70,7 @@ class TopicRecorder {
 struct CommandRequest {
   std::string vehicle_id;
   std::string component;  ///< target_component, e.g. "odonav-identification"
-  odonav::msg::CommandKind kind = odonav::msg::COMMAND_RESET_CALIBRATION;
+  odonav::msg::CommandKind kind = odonav::msg::COMMAND_RESET_ESTIMATION;
   double value = 0.0;     ///< K [m/pulse] for COMMAND_SET_K, else 0
   double timeout_s = 5.0; ///< whole exchange: discovery, delivery and acknowledgement (s, > 0)
 };
@@ -83,8 +83,11 @@ struct CommandReply {
   std::string detail;  ///< the component's last_command_detail, or why it timed out
 };
 
-/// Parses "reset-calibration", "set-k", "freeze", "unfreeze". Throws std::invalid_argument listing them.
+/// Parses the CLI names "reset", "set-k", "freeze", "unfreeze", "release-k" (Command.idl). Throws
+/// std::invalid_argument listing them; the former "reset-calibration" is refused naming "reset" and
+/// "release-k".
 odonav::msg::CommandKind parse_command_kind(const std::string& name);
+/// The CLI name of a kind ("command<N>" for a value outside the enum).
 std::string command_kind_name(odonav::msg::CommandKind kind);
 
 /// Sends one Command and waits for its acknowledgement in the target's Health (last_command_id equal

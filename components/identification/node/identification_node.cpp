@@ -226,16 +226,18 @@ std::vector<dds::detail::WriterBase*> IdentificationNode::output_writers() { ret
 dds::CommandAck IdentificationNode::on_command(const odonav::msg::Command& c) {
   using namespace odonav::msg;
   switch (c.command()) {
-    case COMMAND_RESET_CALIBRATION:
+    case COMMAND_RESET_ESTIMATION:
       // The next checkpoint (at most --checkpoint-every-s later) stores the reset state.
       core_.reset();
       return {c.command_id(), COMMAND_RESULT_ACCEPTED, "scale-factor estimator reset"};
-    case COMMAND_FREEZE_IDENTIFICATION:
+    case COMMAND_FREEZE_ESTIMATION:
       core_.freeze();
       return {c.command_id(), COMMAND_RESULT_ACCEPTED, "identification frozen: K held"};
-    case COMMAND_UNFREEZE_IDENTIFICATION:
+    case COMMAND_UNFREEZE_ESTIMATION:
       core_.unfreeze();
       return {c.command_id(), COMMAND_RESULT_ACCEPTED, "identification resumed"};
+    case COMMAND_RELEASE_K:
+      return {c.command_id(), COMMAND_RESULT_REJECTED, "release_k is for odonav-dead-reckoning, not identification"};
     case COMMAND_SET_K: {
       const double k = c.value();
       if (const auto problem = IdentificationCore::commanded_k_problem(k, instance_.nominal_k_m_per_pulse))

@@ -111,8 +111,8 @@ std::optional<double> coarse_k_of(const Dataset& dataset, const OfflineParams& g
 
 namespace odonav::offline {
 
-MisalignmentRow to_row(const MisalignmentOutput& m) {
-  MisalignmentRow r;
+results::MisalignmentRow to_row(const MisalignmentOutput& m) {
+  results::MisalignmentRow r;
   r.t_s = m.t_s;
   r.heading_rad = m.misalignment.heading_rad;
   r.pitch_rad = m.misalignment.pitch_rad;
@@ -124,9 +124,9 @@ MisalignmentRow to_row(const MisalignmentOutput& m) {
   return r;
 }
 
-ScaleFactorRow to_row(const IdentificationOutput& k, const std::string& main_estimator,
+results::ScaleFactorRow to_row(const IdentificationOutput& k, const std::string& main_estimator,
                       const std::vector<std::string>& names) {
-  ScaleFactorRow r;
+  results::ScaleFactorRow r;
   r.t_s = k.t_s;
   auto value_of = [](const ScaleFactorEstimate& e) { return e.valid ? std::optional<double>(e.k_m_per_pulse) : std::nullopt; };
   for (std::size_t i = 0; i < names.size() && i < k.all.size(); ++i) {
@@ -149,8 +149,8 @@ ScaleFactorRow to_row(const IdentificationOutput& k, const std::string& main_est
   return r;
 }
 
-DeadReckoningRow to_row(const DeadReckoningOutput& o) {
-  DeadReckoningRow r;
+results::DeadReckoningRow to_row(const DeadReckoningOutput& o) {
+  results::DeadReckoningRow r;
   r.t_s = o.t_s;
   r.lat_rad = o.position.lat_rad;
   r.lon_rad = o.position.lon_rad;
@@ -167,8 +167,8 @@ DeadReckoningRow to_row(const DeadReckoningOutput& o) {
   return r;
 }
 
-OutputRows to_output_rows(const OfflineResult& result, const std::string& main_estimator) {
-  OutputRows rows;
+results::OutputRows to_output_rows(const OfflineResult& result, const std::string& main_estimator) {
+  results::OutputRows rows;
   rows.misalignment.reserve(result.misalignment.size());
   for (const auto& m : result.misalignment) rows.misalignment.push_back(to_row(m));
   rows.scale_factor.reserve(result.identification.size());

@@ -46,16 +46,16 @@ std::optional<double> coarse_k_of(const Dataset& dataset, const OfflineParams& p
 
 }  // namespace odonav::offline
 
-#include "output_files.hpp"
+#include "odonav/results/output_files.hpp"
 
 namespace odonav::offline {
 
 /// The output rows of a run (what the files hold). Misalignment and scale-factor rows convert the
 /// cores' outputs exactly as the DDS nodes convert them into messages and the recorder back to rows.
-MisalignmentRow to_row(const MisalignmentOutput& m);
-ScaleFactorRow to_row(const IdentificationOutput& k, const std::string& main_estimator,
+results::MisalignmentRow to_row(const MisalignmentOutput& m);
+results::ScaleFactorRow to_row(const IdentificationOutput& k, const std::string& main_estimator,
                       const std::vector<std::string>& estimator_names);
-DeadReckoningRow to_row(const DeadReckoningOutput& dr);
-OutputRows to_output_rows(const OfflineResult& result, const std::string& main_estimator);
+results::DeadReckoningRow to_row(const DeadReckoningOutput& dr);
+results::OutputRows to_output_rows(const OfflineResult& result, const std::string& main_estimator);
 
 }  // namespace odonav::offline

@@ -58,14 +58,14 @@ std::vector<Outage> outages_of(const Dataset& d, const json& sim) {
   return out;
 }
 
-json dr_json(const std::vector<DeadReckoningRow>& rows, const std::vector<TimedPosition>& reference,
+json dr_json(const std::vector<results::DeadReckoningRow>& rows, const std::vector<TimedPosition>& reference,
              const std::vector<Outage>& outages, double min_distance_m) {
   if (rows.empty()) return nullptr;
   std::vector<TimedPosition> track;
   std::vector<double> distance;
   track.reserve(rows.size());
   distance.reserve(rows.size());
-  for (const DeadReckoningRow& r : rows) {
+  for (const results::DeadReckoningRow& r : rows) {
     track.push_back({r.t_s, Geodetic{r.lat_rad, r.lon_rad, r.height_m}});
     distance.push_back(r.distance_m);
   }
@@ -91,7 +91,7 @@ json dr_json(const std::vector<DeadReckoningRow>& rows, const std::vector<TimedP
 
 }  // namespace
 
-json make_summary(const Dataset& d, const OutputRows& rows, const SummaryOptions& options) {
+json make_summary(const Dataset& d, const results::OutputRows& rows, const SummaryOptions& options) {
   json s;
   const json sim = simulation_meta(d);
   s["dataset"] = {{"name", options.dataset_name},
@@ -106,7 +106,7 @@ json make_summary(const Dataset& d, const OutputRows& rows, const SummaryOptions
 
   // Misalignment: the final estimate, and its error when the truth is known.
   if (!rows.misalignment.empty()) {
-    const MisalignmentRow& m = rows.misalignment.back();
+    const results::MisalignmentRow& m = rows.misalignment.back();
     json j = {{"heading_deg", rad_to_deg(m.heading_rad)},
               {"pitch_deg", rad_to_deg(m.pitch_rad)},
               {"heading_std_deg", number_or_null(rad_to_deg(m.heading_std_rad))},
@@ -114,7 +114,7 @@ json make_summary(const Dataset& d, const OutputRows& rows, const SummaryOptions
               {"converged", m.converged},
               {"state", m.state},
               {"samples_used", m.samples_used}};
-    for (const MisalignmentRow& r : rows.misalignment)
+    for (const results::MisalignmentRow& r : rows.misalignment)
       if (r.converged) {
         j["converged_at_s"] = r.t_s;
         break;
@@ -132,7 +132,7 @@ json make_summary(const Dataset& d, const OutputRows& rows, const SummaryOptions
   std::vector<KStep> steps;
   const std::vector<TimedValue> k_ref = reference_k(d, sim, &steps);
   double first_motion = std::numeric_limits<double>::quiet_NaN();
-  for (const ScaleFactorRow& r : rows.scale_factor)
+  for (const results::ScaleFactorRow& r : rows.scale_factor)
     if (r.samples_accepted > 0) {
       first_motion = r.t_s;
       break;
@@ -143,7 +143,7 @@ json make_summary(const Dataset& d, const OutputRows& rows, const SummaryOptions
     for (const auto& [name, value] : rows.scale_factor.front().k_by_estimator) names.push_back(name);
   for (const std::string& name : names) {
     std::vector<TimedValue> series;
-    for (const ScaleFactorRow& r : rows.scale_factor)
+    for (const results::ScaleFactorRow& r : rows.scale_factor)
       for (const auto& [n, v] : r.k_by_estimator)
         if (n == name && v) series.push_back({r.t_s, *v});
     if (series.empty()) continue;
@@ -162,7 +162,7 @@ json make_summary(const Dataset& d, const OutputRows& rows, const SummaryOptions
   }
   json sf = {{"estimators", estimators}};
   if (!rows.scale_factor.empty()) {
-    const ScaleFactorRow& last = rows.scale_factor.back();
+    const results::ScaleFactorRow& last = rows.scale_factor.back();
     sf["main_estimator"] = last.estimator;
     sf["samples_accepted"] = last.samples_accepted;
     sf["samples_rejected"] = last.samples_rejected;

@@ -10,7 +10,7 @@
 
 #include "evaluation.hpp"
 #include "odonav/dataset.hpp"
-#include "output_files.hpp"
+#include "odonav/results/output_files.hpp"
 
 namespace odonav::offline {
 
@@ -25,7 +25,7 @@ struct SummaryOptions {
 /// Builds summary.json's content. Truth figures appear when the dataset has truth (K timeline from
 /// meta.json's simulation.k_steps when present, else truth.csv's k_true; misalignment truth from
 /// meta.json; positions from truth.csv, else valid GNSS fixes).
-nlohmann::json make_summary(const Dataset& dataset, const OutputRows& rows, const SummaryOptions& options);
+nlohmann::json make_summary(const Dataset& dataset, const results::OutputRows& rows, const SummaryOptions& options);
 
 /// Prints the summary as a readable table.
 void print_summary(const nlohmann::json& summary, std::ostream& out);

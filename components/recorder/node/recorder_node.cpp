@@ -81,33 +81,8 @@ void make_directories(const std::string& dir) {
 
 }  // namespace
 
-double radians_for_degrees(double angle_deg) {
-  // Mirror of the walk the dataset writer does the other way: deg_to_rad then rad_to_deg may be off
-  // by an ulp; step the radian value towards the side that closes the gap (monotonic map).
-  if (!std::isfinite(angle_deg)) return angle_deg;
-  double best = deg_to_rad(angle_deg);
-  double best_error = std::abs(rad_to_deg(best) - angle_deg);
-  double candidate = best;
-  for (int step = 0; step < 16 && best_error != 0.0; ++step) {
-    const double back = rad_to_deg(candidate);
-    if (back == angle_deg) {
-      best = candidate;
-      best_error = 0.0;
-      break;
-    }
-    candidate = std::nextafter(candidate, back < angle_deg ? std::numeric_limits<double>::infinity()
-                                                           : -std::numeric_limits<double>::infinity());
-    const double error = std::abs(rad_to_deg(candidate) - angle_deg);
-    if (error < best_error) {
-      best = candidate;
-      best_error = error;
-    }
-  }
-  return best;
-}
-
-offline::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m) {
-  offline::MisalignmentRow r;
+results::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m) {
+  results::MisalignmentRow r;
   r.t_s = dds::to_seconds(m.header().stamp());
   r.heading_rad = m.heading_rad();
   r.pitch_rad = m.pitch_rad();
@@ -119,8 +94,8 @@ offline::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m) {
   return r;
 }
 
-offline::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m) {
-  offline::ScaleFactorRow r;
+results::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m) {
+  results::ScaleFactorRow r;
   r.t_s = dds::to_seconds(m.header().stamp());
   const bool has_value = std::isfinite(m.k_m_per_pulse()) && m.k_m_per_pulse() > 0.0;
   const std::optional<double> k = has_value ? std::optional<double>(m.k_m_per_pulse()) : std::nullopt;
@@ -138,11 +113,11 @@ offline::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m) {
   return r;
 }
 
-offline::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m) {
-  offline::DeadReckoningRow r;
+results::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m) {
+  results::DeadReckoningRow r;
   r.t_s = dds::to_seconds(m.header().stamp());
-  r.lat_rad = radians_for_degrees(m.latitude_deg());
-  r.lon_rad = radians_for_degrees(m.longitude_deg());
+  r.lat_rad = exact_radians_of(m.latitude_deg());
+  r.lon_rad = exact_radians_of(m.longitude_deg());
   r.height_m = m.height_m();
   r.distance_m = m.distance_m();
   r.k_m_per_pulse = m.k_m_per_pulse();
@@ -232,14 +207,14 @@ bool is_new(std::optional<double>& last, double t_s, std::uint64_t& repeated, st
 }  // namespace
 
 void RecorderNode::on_misalignment(const odonav::msg::Misalignment& m) {
-  const offline::MisalignmentRow r = misalignment_row(m);
+  const results::MisalignmentRow r = misalignment_row(m);
   if (!is_new(last_misalignment_t_s_, r.t_s, repeated_[0], backwards_[0], "misalignment")) return;
   misalignment_csv_.write(r);
   ++rows_[0];
 }
 
 void RecorderNode::on_scale_factor(const odonav::msg::ScaleFactor& m) {
-  const offline::ScaleFactorRow r = scale_factor_row(m);
+  const results::ScaleFactorRow r = scale_factor_row(m);
   if (!is_new(last_scale_factor_t_s_, r.t_s, repeated_[1], backwards_[1], "scale factor")) return;
   scale_factor_csv_.write(r);
   ++rows_[1];
@@ -247,7 +222,7 @@ void RecorderNode::on_scale_factor(const odonav::msg::ScaleFactor& m) {
 }
 
 void RecorderNode::on_dead_reckoning(const odonav::msg::DeadReckoning& m) {
-  const offline::DeadReckoningRow r = dead_reckoning_row(m);
+  const results::DeadReckoningRow r = dead_reckoning_row(m);
   if (!is_new(last_dead_reckoning_t_s_, r.t_s, repeated_[2], backwards_[2], "dead reckoning")) return;
   dead_reckoning_csv_.write(r);
   ++rows_[2];

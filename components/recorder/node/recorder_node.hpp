@@ -1,8 +1,8 @@
 #pragma once
 // odonav-recorder's DDS node: subscribes to one vehicle's misalignment, scale factor and dead
 // reckoning (and health, for the log) and writes misalignment.csv, scale_factor.csv and
-// dead_reckoning.csv, the same files and columns as odonav-offline (output_files.hpp), so a user
-// can run either and compare them directly.
+// dead_reckoning.csv, the same files and columns as odonav-offline (odonav/results/output_files.hpp),
+// so a user can run either and compare them directly.
 //
 // Threads: reader callbacks only copy the message into the runtime's queue; the worker thread
 // (ComponentRuntime::run) converts and writes, so the readers keep up with a replay at full speed.
@@ -19,30 +19,26 @@
 #include "odonav/msg/Health.h"
 #include "odonav/msg/Misalignment.h"
 #include "odonav/msg/ScaleFactor.h"
-#include "output_files.hpp"
+#include "odonav/results/output_files.hpp"
 
 namespace odonav::recorder {
 
 // ---- message -> row, exactly as odonav-offline's rows come from the cores (offline_runner.hpp) ----
 
-/// The radian value r whose rad_to_deg(r) is `angle_deg` exactly, when one exists within 16 ulps of
-/// deg_to_rad(angle_deg); else the closest found. Why: the rows hold radians and the CSV writer
-/// converts with rad_to_deg; a message's degrees (DeadReckoning latitude/longitude, computed by the
-/// producer as rad_to_deg of its radians) then reach the file unchanged, as odonav-offline writes them.
-double radians_for_degrees(double angle_deg);
-
 /// Misalignment: t = header stamp (s); angles in rad; a one-sigma of -1 (unknown) or non-finite ->
 /// NaN (written empty); state as the calibrator names it (to_string(CalibrationState)).
-offline::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m);
+results::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m);
 /// ScaleFactor: the main estimator only (its own k_<name> column; the other estimators' columns stay
 /// empty); K and sigma absent while K <= 0 or non-finite (the producer's "no value"); sigma absent
 /// when -1 or non-finite; lambda_vff_lm_rls = forgetting_factor when the estimator is vff_lm_rls
 /// and has a value. epoch_status is not on the wire: empty.
-offline::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m);
-/// DeadReckoning: position (degrees -> radians_for_degrees), distance, K and its source
-/// (to_string(ScaleFactorSource)), ENU offsets, heading (rad); horizontal error and %D: negative
-/// (-1 = no reference) or non-finite -> NaN (written empty).
-offline::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m);
+results::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m);
+/// DeadReckoning: position (degrees -> exact_radians_of, frames.hpp: the rows hold radians and the
+/// CSV writer converts with rad_to_deg, so the message's degrees reach the file unchanged, as
+/// odonav-offline writes them), distance, K and its source (to_string(ScaleFactorSource)), ENU
+/// offsets, heading (rad); horizontal error and %D: negative (-1 = no reference) or non-finite ->
+/// NaN (written empty).
+results::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m);
 
 /// Estimates are read with topics::kMisalignmentRecorderReaderProfile and
 /// kScaleFactorRecorderReaderProfile (KEEP_LAST 1000 per vehicle: a replay at maximum speed loses
@@ -82,9 +78,9 @@ class RecorderNode {
 
   dds::ComponentRuntime& runtime_;
   RecorderSettings settings_;
-  offline::MisalignmentCsv misalignment_csv_;
-  offline::ScaleFactorCsv scale_factor_csv_;
-  offline::DeadReckoningCsv dead_reckoning_csv_;
+  results::MisalignmentCsv misalignment_csv_;
+  results::ScaleFactorCsv scale_factor_csv_;
+  results::DeadReckoningCsv dead_reckoning_csv_;
   // Worker thread only:
   std::optional<double> last_misalignment_t_s_, last_scale_factor_t_s_, last_dead_reckoning_t_s_;
   std::uint64_t rows_[3] = {0, 0, 0};      // misalignment, scale factor, dead reckoning

@@ -3,6 +3,7 @@
 // (defined in deploy/profiles/qos.xml) of every topic. idl/README.md shows the same table with
 // producers, consumers and rates. Plain constants, no DDS headers, so any code may include it.
 #include <array>
+#include <cstddef>
 
 namespace odonav::topics {
 
@@ -35,7 +36,8 @@ inline constexpr const char* kGroundBestEffortReaderProfile = "odonav_ground_rea
 
 /// EXCLUSIVE-ownership variants for the estimate topics (misalignment, scale factor), whose writers
 /// are EXCLUSIVE (hot standby of the identification): a reader must have the same ownership kind.
-/// Dead reckoning's scale-factor reader: a 300 ms deadline, so it follows the standby that fast.
+/// Dead reckoning's scale-factor reader: a 300 ms deadline, so it follows the standby that fast
+/// (read through kScaleFactorForDeadReckoning below).
 inline constexpr const char* kScaleFactorReaderProfile = "odonav_scale_factor_reader";
 /// The ground station's best-effort reader of the estimate topics.
 inline constexpr const char* kEstimateGroundBestEffortReaderProfile = "odonav_estimate_ground_reader_best_effort";
@@ -66,9 +68,60 @@ inline constexpr TopicSpec kHealth{"rt/odonav/health", "odonav::msg::dds_::Healt
 inline constexpr TopicSpec kCommand{"rt/odonav/command", "odonav::msg::dds_::Command_",
                                     "odonav/msg/Command", kCommandWriterProfile, kCommandReaderProfile};
 
+/// The scale-factor topic as odonav-dead-reckoning reads it: kScaleFactor with the fast-failover
+/// reader profile kScaleFactorReaderProfile (deploy/profiles/qos.xml: kEstimateReaderProfile with a
+/// 300 ms deadline instead of 1 s). The deadline is what hands ownership over: when the owning
+/// identification falls silent for 300 ms, the reader follows the strongest other live writer (the
+/// hot standby). Same name, type and writer profile as kScaleFactor; not in kAllTopics (one topic).
+inline constexpr TopicSpec kScaleFactorForDeadReckoning{kScaleFactor.name, kScaleFactor.dds_type_name,
+                                                        kScaleFactor.ros_type_name, kScaleFactor.writer_profile,
+                                                        kScaleFactorReaderProfile};
+
 /// Every topic, in the order of idl/README.md.
 inline constexpr std::array<TopicSpec, 8> kAllTopics{kOdometer,     kInsAttitude,   kGnssFix,
                                                      kMisalignment, kScaleFactor,   kDeadReckoning,
                                                      kHealth,       kCommand};
+
+/// Every topic of the contract as an enumerator, in the order of kAllTopics (checked below). Code
+/// that handles topics by type (odonav-ground's recorder) defines the message type per TopicId, so a
+/// topic added to kAllTopics must be added here, and then does not compile until it is handled.
+enum class TopicId : std::size_t {
+  kOdometer,
+  kInsAttitude,
+  kGnssFix,
+  kMisalignment,
+  kScaleFactor,
+  kDeadReckoning,
+  kHealth,
+  kCommand,
+};
+
+/// The TopicId of each entry of kAllTopics, same order and size.
+inline constexpr std::array<TopicId, kAllTopics.size()> kAllTopicIds{
+    TopicId::kOdometer,     TopicId::kInsAttitude,   TopicId::kGnssFix, TopicId::kMisalignment,
+    TopicId::kScaleFactor,  TopicId::kDeadReckoning, TopicId::kHealth,  TopicId::kCommand};
+
+/// The contract entry of a topic.
+constexpr const TopicSpec& spec_of(TopicId id) { return kAllTopics[static_cast<std::size_t>(id)]; }
+
+namespace detail {
+constexpr bool same_text(const char* a, const char* b) {
+  while (*a != '\0' && *a == *b) ++a, ++b;
+  return *a == *b;
+}
+// kAllTopicIds[i] is the i-th enumerator and names the topic kAllTopics[i] holds: a topic added to
+// kAllTopics without its TopicId (kAllTopicIds then ends in a value-initialised kOdometer) fails here.
+constexpr bool ids_match_topics() {
+  constexpr const TopicSpec* by_id[] = {&kOdometer, &kInsAttitude,  &kGnssFix, &kMisalignment,
+                                        &kScaleFactor, &kDeadReckoning, &kHealth, &kCommand};
+  if (sizeof by_id / sizeof by_id[0] != kAllTopics.size()) return false;
+  for (std::size_t i = 0; i < kAllTopics.size(); ++i) {
+    if (static_cast<std::size_t>(kAllTopicIds[i]) != i) return false;
+    if (!same_text(kAllTopics[i].name, by_id[i]->name)) return false;
+  }
+  return true;
+}
+}  // namespace detail
+static_assert(detail::ids_match_topics(), "kAllTopicIds must list one TopicId per kAllTopics entry, in order");
 
 }  // namespace odonav::topics

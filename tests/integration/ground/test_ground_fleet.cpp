@@ -19,7 +19,7 @@
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/msg/ScaleFactor.h"
-#include "output_files.hpp"
+#include "odonav/results/output_files.hpp"
 
 using namespace std::chrono_literals;
 using namespace odonav::test;
@@ -260,12 +260,12 @@ TEST_F(GroundFleet, RecordingsAtMaximumSpeedHoldEveryPublishedEstimate) {
   ASSERT_TRUE(recorder.wait_exit(20s));
   ASSERT_EQ(recorder.exit_code(), 0) << recorder.err();
 
-  const odonav::offline::OutputRows ref = odonav::offline::read_output_rows((out / "offline").string());
+  const odonav::results::OutputRows ref = odonav::results::read_output_rows((out / "offline").string());
   ASSERT_GT(ref.scale_factor.size(), 800u);  // 90 s at 10 Hz, minus the standstill
   ASSERT_GT(ref.misalignment.size(), 800u);
 
   // odonav-recorder (CSV files).
-  const odonav::offline::OutputRows csv = odonav::offline::read_output_rows(out.string());
+  const odonav::results::OutputRows csv = odonav::results::read_output_rows(out.string());
   std::vector<double> t;
   for (const auto& r : csv.scale_factor) t.push_back(r.t_s);
   expect_same_stamps(t, ref.scale_factor, "odonav-recorder scale_factor.csv");

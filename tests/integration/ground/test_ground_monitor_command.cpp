@@ -340,7 +340,7 @@ TEST_F(GroundProcesses, CommandIsAcknowledgedRejectedOrTimesOut) {
 
   const RunResult timeout = run(binary("odonav-ground"),
                                 ground_args("command", kDomain,
-                                            {"--vehicle", "veh-cmd", "--component", "odonav-nobody", "reset-calibration",
+                                            {"--vehicle", "veh-cmd", "--component", "odonav-nobody", "reset",
                                              "--timeout-s", "2"}),
                                 dir, "timeout");
   EXPECT_EQ(timeout.exit_code, 3) << timeout.out << timeout.err;
@@ -353,4 +353,14 @@ TEST_F(GroundProcesses, CommandIsAcknowledgedRejectedOrTimesOut) {
                             dir, "bad");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("'fast'"), std::string::npos) << bad.err;
+
+  // The former name of wire value 0 is refused before anything is sent, naming the new ones.
+  const RunResult old_name = run(binary("odonav-ground"),
+                                 ground_args("command", kDomain,
+                                             {"--vehicle", "veh-cmd", "--component", "odonav-fake", "reset-calibration"}),
+                                 dir, "old_name");
+  EXPECT_EQ(old_name.exit_code, 2) << old_name.out << old_name.err;
+  EXPECT_NE(old_name.err.find("'reset-calibration' is no longer a command: use 'reset'"), std::string::npos)
+      << old_name.err;
+  EXPECT_NE(old_name.err.find("'release-k'"), std::string::npos) << old_name.err;
 }

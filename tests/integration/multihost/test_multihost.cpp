@@ -49,7 +49,7 @@
 #include "../nodes/node_test_support.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/geodesy.hpp"
-#include "output_files.hpp"
+#include "odonav/results/output_files.hpp"
 #include "virtual_network.hpp"
 
 namespace {
@@ -307,7 +307,7 @@ const odonav::TruthSample& truth_at(const odonav::Dataset& d, double t_s) {
 
 /// Final accuracy as in tests/integration/pipeline: last K within 0.5 % of the truth, last DR
 /// position within 0.5 % of the distance travelled. Returns {K error %, DR %D}.
-std::pair<double, double> check_final_accuracy(const Drive& drive, const odonav::offline::OutputRows& rows) {
+std::pair<double, double> check_final_accuracy(const Drive& drive, const odonav::results::OutputRows& rows) {
   EXPECT_FALSE(rows.scale_factor.empty());
   EXPECT_FALSE(rows.dead_reckoning.empty());
   if (rows.scale_factor.empty() || rows.dead_reckoning.empty()) return {NAN, NAN};
@@ -334,7 +334,7 @@ std::pair<double, double> check_final_accuracy(const Drive& drive, const odonav:
 }
 
 /// The largest step between consecutive DR output stamps, and the odometer period (median step).
-std::pair<double, double> dr_largest_gap(const std::vector<odonav::offline::DeadReckoningRow>& dr,
+std::pair<double, double> dr_largest_gap(const std::vector<odonav::results::DeadReckoningRow>& dr,
                                          const odonav::Dataset& data) {
   std::vector<double> steps;
   for (std::size_t i = 1; i < data.odometer.size(); ++i) steps.push_back(data.odometer[i].t_s - data.odometer[i - 1].t_s);
@@ -501,7 +501,7 @@ TEST_F(MultiHost, PipelineAcrossHostsSurvivesAFiveSecondLinkCutOfEcu2) {
   EXPECT_GT(heard.at("received").at("scale_factor_not_fake").get<int>(), 0) << heard.dump();
 
   // ---- what DR published, from the recorder's files ----
-  const auto rows = odonav::offline::read_output_rows((dir / "out").string());
+  const auto rows = odonav::results::read_output_rows((dir / "out").string());
   check_final_accuracy(drive, rows);
   const auto [gap, period] = dr_largest_gap(rows.dead_reckoning, drive.data);
   EXPECT_LE(gap, 2.0 * period + 1e-9) << "DR output gap " << gap << " s (odometer period " << period << " s)";
@@ -653,7 +653,7 @@ TEST_F(MultiHost, SecurePipelineAcrossHostsKeepsIntrudersOut) {
   }
 
   // The pipeline worked across hosts, secured: accuracy as in the plain run.
-  const auto rows = odonav::offline::read_output_rows((dir / "out").string());
+  const auto rows = odonav::results::read_output_rows((dir / "out").string());
   check_final_accuracy(drive, rows);
   // The secured ground station saw the vehicle's DR output.
   bool ground_saw_dr = false;

@@ -2,7 +2,7 @@
 // test starts the node executable, publishes a short simulated drive from this process, collects
 // what the node publishes, stops it with SIGINT and compares with the core run directly on the
 // same inputs (bit-identical: the inputs are reduced to what survives the wire first).
-// Domains 40-44, one per test.
+// Domains 40-45, one per test.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -419,4 +419,61 @@ TEST_F(NodeProcess, LateJoiningDeadReckoningGetsTheLastPublishedK) {
   }
   EXPECT_GT(first_interval, 0u);
   EXPECT_EQ(got.size() + 1, d.odometer.size());  // every odometer sample after the start fix at g0
+}
+
+// The dead-reckoning node's commands as an operator sends them: set-k latches K (range from
+// consumer_rules.hpp, the DR's nominal K 0.0125 m/pulse), reset is refused naming release-k (wire value
+// 0 used to mean "release" here), release-k releases. Each is acknowledged in Health at once.
+TEST_F(NodeProcess, DeadReckoningCommandsSetKReleaseKAndRefuseReset) {
+  const int domain = 45;
+  odonav::dds::Participant p(test_participant(domain));
+  odonav::dds::Writer<msg::Command> command(p, topics::kCommand.name, topics::kCommand.writer_profile);
+  Collector<msg::Health> health(p, topics::kHealth);
+
+  ChildProcess node(binary("odonav-dead-reckoning"), node_args(domain, 10.0));
+  ASSERT_TRUE(node.started());
+  ASSERT_TRUE(command.wait_for_matched(1, 20s));
+  ASSERT_TRUE(health.reader().wait_for_matched(1, 20s));
+  ASSERT_TRUE(health.wait_until([](const auto& v) { return !v.empty(); }, 10s));
+  settle_discovery();
+
+  // Sends one command and returns the Health that acknowledges it.
+  auto send = [&](msg::CommandKind kind, double value, uint32_t id) -> std::optional<msg::Health> {
+    msg::Command c;
+    c.vehicle_id(kVehicle);
+    c.target_component("odonav-dead-reckoning");
+    c.command(kind);
+    c.value(value);
+    c.command_id(id);
+    EXPECT_TRUE(command.write(c));
+    if (!health.wait_until([id](const auto& v) { return !v.empty() && v.back().last_command_id() == id; }, 10s))
+      return std::nullopt;
+    return health.samples().back();
+  };
+
+  auto set = send(msg::COMMAND_SET_K, 0.0127, 101);
+  ASSERT_TRUE(set);
+  EXPECT_EQ(set->last_command_result(), msg::COMMAND_RESULT_ACCEPTED);
+  EXPECT_EQ(set->last_command_detail(), "K = 0.0127 m/pulse commanded (identified K ignored until release_k)");
+
+  // 1 m/pulse was inside dead reckoning's former (0, 10]: a unit slip, now refused as identification does.
+  auto too_big = send(msg::COMMAND_SET_K, 1.0, 102);
+  ASSERT_TRUE(too_big);
+  EXPECT_EQ(too_big->last_command_result(), msg::COMMAND_RESULT_REJECTED);
+  EXPECT_EQ(too_big->last_command_detail(), "set_k: K = 1 m/pulse is outside [0.1, 10] x nominal K (0.0125 m/pulse)");
+
+  auto reset = send(msg::COMMAND_RESET_ESTIMATION, 0.0, 103);
+  ASSERT_TRUE(reset);
+  EXPECT_EQ(reset->last_command_result(), msg::COMMAND_RESULT_REJECTED);
+  EXPECT_NE(reset->last_command_detail().find("release-k (COMMAND_RELEASE_K)"), std::string::npos)
+      << reset->last_command_detail();
+
+  auto release = send(msg::COMMAND_RELEASE_K, 0.0, 104);
+  ASSERT_TRUE(release);
+  EXPECT_EQ(release->last_command_result(), msg::COMMAND_RESULT_ACCEPTED);
+  EXPECT_EQ(release->last_command_detail(), "following the identified K again (from its next estimate)");
+
+  node.signal(SIGINT);
+  ASSERT_TRUE(node.wait_exit(30s));
+  EXPECT_EQ(node.exit_code(), 0);
 }

@@ -26,7 +26,7 @@
 #include "odonav/dataset.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
-#include "output_files.hpp"
+#include "odonav/results/output_files.hpp"
 
 namespace {
 
@@ -125,7 +125,7 @@ TEST_F(Pipeline, ShortTerrainDriveIsAccurateAgainstTruth) {
              "--out", out},
             out, 300);
   const Dataset d = read_dataset(out + "/dataset", BadRowPolicy::kFail);
-  const offline::OutputRows rows = offline::read_output_rows(out);
+  const results::OutputRows rows = results::read_output_rows(out);
   ASSERT_TRUE(d.has_truth());
   const auto meta = nlohmann::json::parse(d.meta.raw_json);
   const double k_true = meta.at("simulation").at("k_true_initial_m_per_pulse").get<double>();
@@ -204,8 +204,8 @@ TEST_F(Pipeline, EveryPublishedSampleEqualsTheOfflineTool) {
                 " >" + out + "/offline-check.log 2>&1"),
             0)
       << read_text(out + "/offline-check.log");
-  const offline::OutputRows pipe = offline::read_output_rows(out);
-  const offline::OutputRows ref = offline::read_output_rows(offline_dir);
+  const results::OutputRows pipe = results::read_output_rows(out);
+  const results::OutputRows ref = results::read_output_rows(offline_dir);
   constexpr double kTol = 1e-9;
 
   ASSERT_EQ(pipe.misalignment.size(), ref.misalignment.size());
@@ -284,7 +284,7 @@ TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFiles) {
     const std::string b = read_text(fast + "/" + file);
     EXPECT_EQ(a, b) << file << " differs between --speed 1 and --speed max";
   }
-  const offline::OutputRows rows = offline::read_output_rows(fast);
+  const results::OutputRows rows = results::read_output_rows(fast);
   EXPECT_GT(rows.dead_reckoning.size(), 2400u);  // 25 s at 100 Hz
   EXPECT_GT(rows.scale_factor.size(), 200u);     // 25 s at 10 Hz
   EXPECT_GT(rows.misalignment.size(), 200u);
@@ -305,13 +305,13 @@ TEST_F(Pipeline, GnssRemovedMidRunIdentificationHoldsKAndDeadReckoningContinues)
   write_dataset(data, d);
   const std::string out = dir + "/out";
   launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "55", "--out", out}, out, 300);
-  const offline::OutputRows rows = offline::read_output_rows(out);
+  const results::OutputRows rows = results::read_output_rows(out);
 
   // Identification holds K: no estimate inside the gap, and the first one after it is the last one
   // before it (the first epoch after a gap only starts a new sample chain).
-  const offline::ScaleFactorRow* before = nullptr;
-  const offline::ScaleFactorRow* after = nullptr;
-  for (const offline::ScaleFactorRow& r : rows.scale_factor) {
+  const results::ScaleFactorRow* before = nullptr;
+  const results::ScaleFactorRow* after = nullptr;
+  for (const results::ScaleFactorRow& r : rows.scale_factor) {
     if (r.t_s < gap_start_s) before = &r;
     EXPECT_FALSE(r.t_s >= gap_start_s && r.t_s < gap_end_s) << "an estimate at t=" << r.t_s << " s without GNSS";
     if (r.t_s >= gap_end_s && !after) after = &r;
@@ -324,7 +324,7 @@ TEST_F(Pipeline, GnssRemovedMidRunIdentificationHoldsKAndDeadReckoningContinues)
   // Dead reckoning continues through the gap at the odometer rate, on the identified K held from before.
   double last_t = -1.0, max_step_s = 0.0;
   std::size_t in_gap = 0;
-  for (const offline::DeadReckoningRow& r : rows.dead_reckoning) {
+  for (const results::DeadReckoningRow& r : rows.dead_reckoning) {
     if (last_t >= 0.0) max_step_s = std::max(max_step_s, r.t_s - last_t);
     last_t = r.t_s;
     if (r.t_s >= gap_start_s && r.t_s < gap_end_s) {

@@ -309,7 +309,7 @@ inline odonav::msg::Command make_command() {
   m.header(distinct_header("ground"));
   m.vehicle_id("vehicle-cmd-7");
   m.target_component("odonav-identification");
-  m.command(odonav::msg::COMMAND_UNFREEZE_IDENTIFICATION);
+  m.command(odonav::msg::COMMAND_UNFREEZE_ESTIMATION);
   m.value(0.0125001234);
   m.command_id(3999999999u);
   return m;

@@ -135,6 +135,54 @@ TEST(QosProfiles, EveryProfileHasTheDocumentedQosAndTopicsMatchTheirReaders) {
   }
 }
 
+// Dead reckoning reads the scale factor with its own profile: the contract names it
+// (topics::kScaleFactorForDeadReckoning), qos.xml alone defines it, and it is the estimate reader with
+// a 300 ms deadline, so DR follows a hot standby within 300 ms and still matches the writer.
+TEST(QosProfiles, DeadReckoningReadsTheScaleFactorWithTheFailoverProfileOfQosXml) {
+  const topics::TopicSpec& dr = topics::kScaleFactorForDeadReckoning;
+  EXPECT_STREQ(dr.name, topics::kScaleFactor.name);
+  EXPECT_STREQ(dr.dds_type_name, topics::kScaleFactor.dds_type_name);
+  EXPECT_STREQ(dr.ros_type_name, topics::kScaleFactor.ros_type_name);
+  EXPECT_STREQ(dr.writer_profile, topics::kScaleFactor.writer_profile);
+  EXPECT_STREQ(dr.reader_profile, topics::kScaleFactorReaderProfile);
+  EXPECT_STREQ(dr.reader_profile, "odonav_scale_factor_reader");
+
+  // Defined once, in qos.xml, and in no other profile file.
+  const auto count_in = [](const std::string& file, const std::string& needle) {
+    std::ifstream in(kProfilesDir + "/" + file);
+    EXPECT_TRUE(in) << file;
+    std::ostringstream text;
+    text << in.rdbuf();
+    const std::string s = text.str();
+    int n = 0;
+    for (auto at = s.find(needle); at != std::string::npos; at = s.find(needle, at + 1)) ++n;
+    return n;
+  };
+  const std::string definition = std::string("profile_name=\"") + dr.reader_profile + "\"";
+  EXPECT_EQ(count_in("qos.xml", definition), 1);
+  for (const char* other : {"loopback.xml", "vehicle.xml", "discovery-server.xml", "secure.xml"})
+    EXPECT_EQ(count_in(other, definition), 0) << other;
+
+  odonav::dds::Participant participant(loopback_options());
+  auto& subscriber = participant.core()->subscriber();
+  DataReaderQos failover, estimate;
+  DataWriterQos writer;
+  ASSERT_EQ(subscriber.get_datareader_qos_from_profile(dr.reader_profile, failover), ReturnCode_t::RETCODE_OK);
+  ASSERT_EQ(subscriber.get_datareader_qos_from_profile(topics::kScaleFactor.reader_profile, estimate),
+            ReturnCode_t::RETCODE_OK);
+  ASSERT_EQ(participant.core()->publisher().get_datawriter_qos_from_profile(dr.writer_profile, writer),
+            ReturnCode_t::RETCODE_OK);
+  expect_qos(dr.reader_profile, failover);
+  EXPECT_EQ(failover.reliability().kind, estimate.reliability().kind);
+  EXPECT_EQ(failover.durability().kind, estimate.durability().kind);
+  EXPECT_EQ(failover.history().depth, estimate.history().depth);
+  EXPECT_EQ(failover.ownership().kind, EXCLUSIVE_OWNERSHIP_QOS);
+  EXPECT_DOUBLE_EQ(seconds_of(failover.deadline().period), 0.3);
+  EXPECT_LT(seconds_of(failover.deadline().period), seconds_of(estimate.deadline().period));
+  EXPECT_LE(seconds_of(writer.deadline().period), seconds_of(failover.deadline().period));  // matches
+  EXPECT_EQ(writer.ownership().kind, failover.ownership().kind);
+}
+
 TEST(QosProfiles, LoopbackParticipantKeepsEverythingOnLoopback) {
   DomainParticipantQos qos;
   odonav::dds::Participant participant(loopback_options());  // loads the file
@@ -350,6 +398,36 @@ TEST(MsgTwins, EveryMsgFileDescribesTheCdrLayoutOfItsIdlType) {
   expect_msg_twin_matches_wire(topics::kDeadReckoning, odonav::test::make_dead_reckoning());
   expect_msg_twin_matches_wire(topics::kHealth, odonav::test::make_health_sample());
   expect_msg_twin_matches_wire(topics::kCommand, odonav::test::make_command());
+}
+
+// CommandKind's wire values: 0-3 kept from the former names, 4 added; the .msg twin's constants say
+// the same numbers.
+TEST(MsgTwins, CommandKindConstantsAreTheWireValues) {
+  namespace msg = odonav::msg;
+  EXPECT_EQ(static_cast<uint32_t>(msg::COMMAND_RESET_ESTIMATION), 0u);  // was COMMAND_RESET_CALIBRATION
+  EXPECT_EQ(static_cast<uint32_t>(msg::COMMAND_SET_K), 1u);
+  EXPECT_EQ(static_cast<uint32_t>(msg::COMMAND_FREEZE_ESTIMATION), 2u);    // was COMMAND_FREEZE_IDENTIFICATION
+  EXPECT_EQ(static_cast<uint32_t>(msg::COMMAND_UNFREEZE_ESTIMATION), 3u);  // was COMMAND_UNFREEZE_IDENTIFICATION
+  EXPECT_EQ(static_cast<uint32_t>(msg::COMMAND_RELEASE_K), 4u);
+  std::ifstream in(std::string(ODONAV_SOURCE_DIR) + "/idl/odonav/msg/Command.msg");
+  ASSERT_TRUE(in);
+  std::map<std::string, uint32_t> constants;
+  std::string line;
+  while (std::getline(in, line)) {
+    line = line.substr(0, line.find('#'));
+    std::istringstream words(line);
+    std::string type, assignment;
+    if (!(words >> type >> assignment) || assignment.find('=') == std::string::npos) continue;
+    EXPECT_EQ(type, "uint32") << assignment;
+    constants[assignment.substr(0, assignment.find('='))] =
+        static_cast<uint32_t>(std::stoul(assignment.substr(assignment.find('=') + 1)));
+  }
+  const std::map<std::string, uint32_t> expected{{"COMMAND_RESET_ESTIMATION", msg::COMMAND_RESET_ESTIMATION},
+                                                 {"COMMAND_SET_K", msg::COMMAND_SET_K},
+                                                 {"COMMAND_FREEZE_ESTIMATION", msg::COMMAND_FREEZE_ESTIMATION},
+                                                 {"COMMAND_UNFREEZE_ESTIMATION", msg::COMMAND_UNFREEZE_ESTIMATION},
+                                                 {"COMMAND_RELEASE_K", msg::COMMAND_RELEASE_K}};
+  EXPECT_EQ(constants, expected);
 }
 
 TEST(MsgTwins, TheCheckCatchesSwappedMissingAndMistypedFields) {

@@ -684,3 +684,15 @@ TEST(SaveRestore, CorruptOrMismatchedStateIsRefusedWithAReason) {
   target.restore_state(state);
   EXPECT_EQ(target.estimate().k_m_per_pulse, source.estimate().k_m_per_pulse);
 }
+
+TEST(Estimators, RegressionNoiseVarianceIsVelocityNoisePlusPulseQuantisation) {
+  // sigma_v 0.05 m/s over T = 0.1 s: (0.005 m)^2 / 2 = 1.25e-5 m^2; K = 0.0125 m/pulse: K^2 / 6.
+  EXPECT_NEAR(regression_noise_variance_m2(0.05, 0.1, 0.0125), 1.25e-5 + 0.0125 * 0.0125 / 6.0, 1e-20);
+  EXPECT_NEAR(regression_noise_variance_m2(0.05, 0.1, 0.0125), 3.854166666666668e-05, 1e-19);
+  EXPECT_DOUBLE_EQ(regression_noise_variance_m2(0.0, 0.1, 0.06), 0.0006);   // quantisation only
+  EXPECT_DOUBLE_EQ(regression_noise_variance_m2(0.2, 0.5, 0.0), 0.005);     // velocity only
+  // The estimators' model (automatic VFF C) is this variance floored by sigma_y_floor_m^2.
+  ScaleFactorEstimatorParams p;
+  p.sigma_y_floor_m = 1e-3;
+  EXPECT_GT(regression_noise_variance_m2(p.sigma_v_mps, p.sample_interval_s, 0.0125), p.sigma_y_floor_m * p.sigma_y_floor_m);
+}

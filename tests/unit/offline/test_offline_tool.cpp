@@ -11,7 +11,7 @@
 #include "core/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "offline_runner.hpp"
-#include "output_files.hpp"
+#include "odonav/results/output_files.hpp"
 
 namespace fs = std::filesystem;
 using namespace odonav;
@@ -71,7 +71,7 @@ TEST_F(OfflineTool, WritesEveryFileWithItsColumnsAndASummary) {
   // One scale-factor and one misalignment row per GNSS epoch; one DR row per odometer sample after
   // the DR start.
   const Dataset d = read_dataset((dir_ / "straight").string(), BadRowPolicy::kFail);
-  const offline::OutputRows rows = offline::read_output_rows((dir_ / "out").string());
+  const results::OutputRows rows = results::read_output_rows((dir_ / "out").string());
   EXPECT_EQ(rows.scale_factor.size(), d.gnss.size());
   EXPECT_EQ(rows.misalignment.size(), d.gnss.size());
   EXPECT_GT(rows.dead_reckoning.size(), d.odometer.size() - 20);
@@ -82,10 +82,10 @@ TEST_F(OfflineTool, OutputFilesReadBackExactly) {
   const Dataset d = read_dataset((dir_ / "straight").string(), BadRowPolicy::kFail);
   offline::OfflineParams p;
   p.dead_reckoning.nominal_k_m_per_pulse = 0.0125;
-  const offline::OutputRows rows = offline::to_output_rows(offline::run_offline(d, p), "vff_lm_rls");
+  const results::OutputRows rows = offline::to_output_rows(offline::run_offline(d, p), "vff_lm_rls");
   fs::create_directories(dir_ / "rows");
-  offline::write_output_rows((dir_ / "rows").string(), rows);
-  const offline::OutputRows back = offline::read_output_rows((dir_ / "rows").string());
+  results::write_output_rows((dir_ / "rows").string(), rows);
+  const results::OutputRows back = results::read_output_rows((dir_ / "rows").string());
   ASSERT_EQ(back.scale_factor.size(), rows.scale_factor.size());
   for (std::size_t i = 0; i < rows.scale_factor.size(); ++i) {
     EXPECT_EQ(back.scale_factor[i].t_s, rows.scale_factor[i].t_s);

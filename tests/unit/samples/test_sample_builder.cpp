@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <iterator>
+#include <map>
 #include <random>
 
 #include "odonav/sample_builder.hpp"
@@ -459,4 +461,63 @@ TEST(SampleBuilder, JumpGateUsesTheConfiguredNominalKAndMaximumSpeed) {
   SampleBuilderParams bad;
   bad.odometer_jump_gate.k_m_per_pulse = 0.0;
   EXPECT_THROW(SampleBuilder{bad}, std::invalid_argument);
+}
+
+TEST(SampleBuilder, EpochStatusTableNamesAndCountsEveryStatus) {
+  const char* const names[] = {"accepted", "chain_start",    "invalid_fix", "low_fix_quality", "no_odometer",
+                               "no_attitude", "negative_speed", "speed_jump", "gap",          "min_speed",
+                               "reversing", "yaw_rate",        "no_pulses",  "innovation"};
+  ASSERT_EQ(std::size(names), static_cast<std::size_t>(kLastEpochStatus) + 1);
+  SampleBuilderCounters c;
+  uint64_t* const fields[] = {&c.accepted,   &c.chain_starts,   &c.invalid_fix, &c.low_fix_quality, &c.no_odometer,
+                              &c.no_attitude, &c.negative_speed, &c.speed_jump,  &c.gap,             &c.min_speed,
+                              &c.reversing,  &c.yaw_rate,       &c.no_pulses,   &c.innovation};
+  for (std::size_t i = 0; i < std::size(fields); ++i) *fields[i] = 100 + i;
+  c.epochs = 7;
+  c.innovation_suspended = 9;
+  for (std::size_t i = 0; i < std::size(names); ++i) {
+    const auto status = static_cast<EpochStatus>(i);
+    EXPECT_STREQ(to_string(status), names[i]) << i;
+    EXPECT_EQ(c.count(status), 100 + i) << names[i];
+  }
+  EXPECT_STREQ(to_string(static_cast<EpochStatus>(99)), "unknown");
+  EXPECT_EQ(c.count(static_cast<EpochStatus>(99)), 0u);
+}
+
+TEST(SampleBuilder, EveryEpochIsCountedOnceUnderItsStatus) {
+  SyntheticData d = simulate(accel_drive(), accel_config());
+  ASSERT_EQ(d.gnss.size(), 201u);
+  d.gnss[50].fix = 0;                // invalid fix, then a chain start
+  d.gnss[100].vel_enu_mps *= 3.0;    // speed jump (15 -> 45 m/s in 0.1 s), then a chain start
+  SampleBuilderCounters c;
+  const auto e = run_all(d, {}, true, &c);
+  std::map<EpochStatus, uint64_t> seen;
+  for (const auto& epoch : e) ++seen[epoch.status];
+  uint64_t total = 0;
+  for (std::size_t i = 0; i <= static_cast<std::size_t>(kLastEpochStatus); ++i) {
+    const auto status = static_cast<EpochStatus>(i);
+    EXPECT_EQ(c.count(status), seen[status]) << to_string(status);
+    total += c.count(status);
+  }
+  EXPECT_EQ(total, c.epochs);
+  EXPECT_EQ(c.epochs, e.size());
+  EXPECT_EQ(c.invalid_fix, 1u);
+  EXPECT_EQ(c.speed_jump, 1u);
+  EXPECT_EQ(c.chain_starts, 3u);
+  EXPECT_EQ(c.accepted, 196u);
+}
+
+TEST(SampleBuilder, InnovationBoundFollowsTheNoiseModelPlusTheKChangeAllowance) {
+  SampleBuilderParams p;
+  p.innovation_n_sigma = 5.0;
+  p.innovation_k_change_fraction = 0.1;
+  // sigma_v 0.1 m/s over 0.1 s, K 0.0125 m/pulse, sigma_K 1e-5 m/pulse, 80 pulses:
+  // sigma_gate^2 = 0.5 * 0.01^2 + 0.0125^2 / 6 + (1e-5 * 80)^2 = 7.668e-5 m^2, sigma_gate 8.757 mm;
+  // bound = 5 * 8.757 mm + 0.1 * |0.0125 * 80| = 0.04378 + 0.1 m.
+  EXPECT_NEAR(innovation_bound_m(p, 0.1, 0.0125, 1e-5, 80.0, 0.1), 0.1437840343808867, 1e-15);
+  // Without the K uncertainty and the allowance only the noise model is left.
+  p.innovation_k_change_fraction = 0.0;
+  EXPECT_NEAR(innovation_bound_m(p, 0.1, 0.0125, 0.0, 80.0, 0.1),
+              5.0 * std::sqrt(regression_noise_variance_m2(0.1, 0.1, 0.0125)), 1e-17);
+  EXPECT_NEAR(innovation_bound_m(p, 0.1, 0.0125, 0.0, 80.0, 0.1), 5.0 * std::sqrt(7.60416666666667e-05), 1e-15);
 }

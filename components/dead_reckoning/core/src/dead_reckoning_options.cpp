@@ -1,5 +1,7 @@
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 
+#include "odonav/lever_arm_option.hpp"
+
 namespace odonav {
 
 void add_dead_reckoning_options(Options& o) {
@@ -11,6 +13,26 @@ DeadReckonerParams dead_reckoning_params_from(const Options& o) {
   DeadReckonerParams p;
   p.nominal_k_m_per_pulse = o.get_double("nominal-k");
   p.mode = o.get_string("dr-mode") == "2d" ? DeadReckoningMode::k2D : DeadReckoningMode::k3D;
+  return p;
+}
+
+DeadReckoningFacts dead_reckoning_facts_from(const Options& o) {
+  const DeadReckonerParams p = dead_reckoning_params_from(o);
+  DeadReckoningFacts f;
+  f.mode = p.mode;
+  f.nominal_k_option_m_per_pulse = p.nominal_k_m_per_pulse;
+  f.lever_arm_body_m = lever_arm_from(o);
+  return f;
+}
+
+DeadReckonerParams dead_reckoner_params(const DeadReckoningFacts& f) {
+  DeadReckonerParams p;
+  p.mode = f.mode;
+  p.use_ins = f.use_ins;
+  p.lever_arm_body_m = f.lever_arm_body_m;
+  p.nominal_k_m_per_pulse = f.nominal_k_option_m_per_pulse > 0.0
+                                ? f.nominal_k_option_m_per_pulse
+                                : f.dataset_nominal_k_m_per_pulse.value_or(kDefaultNominalK_m_per_pulse);
   return p;
 }
 

@@ -1,5 +1,7 @@
 #include "odonav/identification/identification_core.hpp"
 
+#include "odonav/consumer_rules.hpp"
+
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -30,23 +32,7 @@ void IdentificationCore::reset() {
 }
 
 std::optional<std::string> IdentificationCore::commanded_k_problem(double k, double nominal_k) {
-  std::ostringstream m;
-  m.precision(10);
-  if (!std::isfinite(nominal_k) || !(nominal_k > 0.0)) {
-    m << "nominal K = " << nominal_k << " m/pulse is not finite and > 0";
-    return m.str();
-  }
-  if (!std::isfinite(k) || !(k > 0.0)) {
-    m << "K = " << k << " m/pulse is not finite and > 0";
-    return m.str();
-  }
-  // k x 10 < nominal rather than k < 0.1 x nominal: 0.1 has no exact binary form, and exactly a tenth
-  // of the nominal must pass.
-  if (k * 10.0 < nominal_k || k > 10.0 * nominal_k) {
-    m << "K = " << k << " m/pulse is outside [0.1, 10] x nominal K (" << nominal_k << " m/pulse)";
-    return m.str();
-  }
-  return std::nullopt;
+  return odonav::commanded_k_problem(k, nominal_k);  // the one set-K range (consumer_rules.hpp)
 }
 
 namespace {

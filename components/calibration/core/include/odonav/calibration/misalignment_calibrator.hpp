@@ -29,7 +29,7 @@
 
 #include <Eigen/Dense>
 
-#include "odonav/dataset.hpp"
+#include "odonav/sensor_samples.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/stream_buffers.hpp"
 

@@ -26,14 +26,14 @@ std::string read_file(const std::string& path) {
 }  // namespace
 
 TEST(RecorderRows, DegreesReachTheFileUnchanged) {
-  // The producer sends rad_to_deg(r); the row holds radians_for_degrees(d); the CSV writer writes
+  // The producer sends rad_to_deg(r); the row holds exact_radians_of(d); the CSV writer writes
   // rad_to_deg(row): that must be d again, as odonav-offline writes rad_to_deg(r).
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> angle(-kPi / 2, kPi / 2);
   for (int i = 0; i < 20000; ++i) {
     const double r = angle(rng);
     const double d = rad_to_deg(r);
-    ASSERT_EQ(rad_to_deg(recorder::radians_for_degrees(d)), d) << r;
+    ASSERT_EQ(rad_to_deg(exact_radians_of(d)), d) << r;
   }
 }
 
@@ -47,7 +47,7 @@ TEST(RecorderRows, MisalignmentUnknownSigmaIsEmptyAndStateIsNamed) {
   m.samples_used(42);
   m.converged(false);
   m.state(odonav::msg::MISALIGNMENT_CALIBRATING);
-  const offline::MisalignmentRow r = recorder::misalignment_row(m);
+  const results::MisalignmentRow r = recorder::misalignment_row(m);
   EXPECT_EQ(r.t_s, 12.3);
   EXPECT_EQ(r.heading_rad, deg_to_rad(0.8));
   EXPECT_TRUE(std::isnan(r.heading_std_rad));
@@ -58,7 +58,7 @@ TEST(RecorderRows, MisalignmentUnknownSigmaIsEmptyAndStateIsNamed) {
   const std::string dir = std::string(ODONAV_BINARY_DIR) + "/test-recorder-rows";
   ::mkdir(dir.c_str(), 0755);
   {
-    offline::MisalignmentCsv csv(dir + "/misalignment.csv");
+    results::MisalignmentCsv csv(dir + "/misalignment.csv");
     csv.write(r);
     csv.close();
   }
@@ -91,7 +91,7 @@ TEST(RecorderRows, ScaleFactorWithoutValueAndWithValue) {
   m.estimator("vff_lm_rls");
   m.samples_accepted(3);
   m.samples_rejected(7);
-  offline::ScaleFactorRow r = recorder::scale_factor_row(m);
+  results::ScaleFactorRow r = recorder::scale_factor_row(m);
   EXPECT_FALSE(r.k_m_per_pulse.has_value());
   EXPECT_FALSE(r.sigma_m_per_pulse.has_value());
   EXPECT_FALSE(r.lambda_vff_lm_rls.has_value());
@@ -123,7 +123,7 @@ TEST(RecorderRows, DeadReckoningWithoutReference) {
   m.heading_rad(1.0);
   m.horizontal_error_m(-1.0);
   m.error_percent_distance(-1.0);
-  const offline::DeadReckoningRow r = recorder::dead_reckoning_row(m);
+  const results::DeadReckoningRow r = recorder::dead_reckoning_row(m);
   EXPECT_EQ(r.t_s, 100.25);
   EXPECT_EQ(rad_to_deg(r.lat_rad), 52.5001);
   EXPECT_EQ(rad_to_deg(r.lon_rad), 13.4002);

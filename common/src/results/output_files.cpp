@@ -1,4 +1,5 @@
-#include "output_files.hpp"
+// The output files (odonav/results/output_files.hpp): writers on CsvWriter, and the reader back.
+#include "odonav/results/output_files.hpp"
 
 #include <sys/stat.h>
 
@@ -11,7 +12,7 @@
 
 #include "odonav/frames.hpp"
 
-namespace odonav::offline {
+namespace odonav::results {
 namespace {
 std::optional<double> finite_or_empty(double v) {
   return std::isfinite(v) ? std::optional<double>(v) : std::nullopt;
@@ -93,11 +94,11 @@ void DeadReckoningCsv::write(const DeadReckoningRow& r) {
   csv_.end_row();
 }
 
-}  // namespace odonav::offline
+}  // namespace odonav::results
 
 // ---- reading back --------------------------------------------------------------------------------
 
-namespace odonav::offline {
+namespace odonav::results {
 namespace {
 
 class CsvTable {
@@ -229,9 +230,9 @@ OutputRows read_output_rows(const std::string& dir) {
   return out;
 }
 
-}  // namespace odonav::offline
+}  // namespace odonav::results
 
-namespace odonav::offline {
+namespace odonav::results {
 void write_output_rows(const std::string& dir, const OutputRows& rows) {
   MisalignmentCsv mis(dir + "/misalignment.csv");
   for (const auto& r : rows.misalignment) mis.write(r);
@@ -248,4 +249,4 @@ void write_output_rows(const std::string& dir, const OutputRows& rows) {
     coarse.close();
   }
 }
-}  // namespace odonav::offline
+}  // namespace odonav::results

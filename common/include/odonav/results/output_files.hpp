@@ -1,6 +1,8 @@
 #pragma once
-// The output files of odonav-offline, and of the distributed pipeline's recorder (deploy/launch):
-// the same files and columns from both, so a user can run either and compare them directly.
+// odonav_results: the output files of odonav-offline, and of the distributed pipeline's recorder
+// (deploy/launch): the same files and columns from both, so a user can run either and compare them
+// directly; odonav-evaluate reads them back. A library of its own (middleware-free, no estimator or
+// core inside) so the recorder writes the formats without linking the offline chain.
 //
 //   misalignment.csv        t, heading_deg, pitch_deg, heading_std_deg, pitch_std_deg, converged,
 //                           state, samples_used                        (one row per GNSS epoch)
@@ -22,7 +24,7 @@
 
 #include "odonav/csv_writer.hpp"
 
-namespace odonav::offline {
+namespace odonav::results {
 
 /// The estimator columns of scale_factor.csv, in order.
 const std::vector<std::string>& scale_factor_estimator_columns();
@@ -97,10 +99,6 @@ class DeadReckoningCsv {
   CsvWriter csv_;
 };
 
-}  // namespace odonav::offline
-
-namespace odonav::offline {
-
 /// Everything the output files hold, read back (for odonav-evaluate and the pipeline's summary).
 struct OutputRows {
   std::vector<MisalignmentRow> misalignment;
@@ -113,10 +111,7 @@ struct OutputRows {
 /// std::runtime_error naming the file, line and column on a missing file or a malformed value.
 OutputRows read_output_rows(const std::string& dir);
 
-}  // namespace odonav::offline
-
-namespace odonav::offline {
 /// Writes misalignment.csv, scale_factor.csv, dead_reckoning.csv and (when it has rows)
 /// dead_reckoning_coarse.csv into dir (which must exist). Throws std::runtime_error naming the file.
 void write_output_rows(const std::string& dir, const OutputRows& rows);
-}  // namespace odonav::offline
+}  // namespace odonav::results

@@ -1,0 +1,101 @@
+#include "odonav/dead_reckoning/scale_factor_selection.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <spdlog/spdlog.h>
+
+#include "odonav/consumer_rules.hpp"
+
+namespace odonav {
+
+void ScaleFactorSelection::track_source(const std::string& source, double t_s, double now_s) {
+  // Which identification instance is followed (the DDS owner of the EXCLUSIVE topic: the strongest
+  // live instance): logged, and told in health for a while after a change (hot standby taking over,
+  // the primary coming back).
+  if (source == k_source_) return;
+  if (k_source_.empty()) {
+    spdlog::info("following K from '{}' (t={} s)", source, t_s);
+  } else {
+    ++counters_.k_source_changes;
+    std::ostringstream note;
+    note.precision(10);
+    note << "K source changed from '" << k_source_ << "' to '" << source << "' at t=" << t_s << " s";
+    spdlog::warn("{}", note.str());
+    k_source_note_ = note.str();
+    k_source_changed_at_s_ = now_s;
+  }
+  k_source_ = source;
+}
+
+std::optional<ScaleFactorUpdate> ScaleFactorSelection::on_identified(const IdentifiedScaleFactor& k, double now_s) {
+  track_source(k.source, k.t_s, now_s);
+  const bool valid = std::isfinite(k.k_m_per_pulse) && k.k_m_per_pulse > 0.0;
+  if (!scale_factor_applicable(valid, k.converged)) return std::nullopt;  // as odonav-offline
+  if (commanded_ || (last_k_stamp_s_ && k.t_s <= *last_k_stamp_s_)) {
+    ++counters_.k_ignored;
+    return std::nullopt;
+  }
+  last_k_stamp_s_ = k.t_s;
+  ++counters_.k_applied;
+  return ScaleFactorUpdate{k.t_s, k.k_m_per_pulse, ScaleFactorSource::kIdentified};
+}
+
+ScaleFactorCommandResult ScaleFactorSelection::set_commanded_k(double k, double processed_s) {
+  if (const auto problem = commanded_k_problem(k, nominal_k_m_per_pulse_)) return {false, "set_k: " + *problem, {}};
+  // In force after everything already processed and after the last K given to the DR. Before
+  // anything (processed_s = -inf, no K yet) the lowest finite time, so the stamp stays finite.
+  double base = std::max(processed_s, last_k_stamp_s_.value_or(-std::numeric_limits<double>::infinity()));
+  if (!std::isfinite(base)) base = -std::numeric_limits<double>::max();
+  const double t_s = std::nextafter(base, std::numeric_limits<double>::infinity());
+  last_k_stamp_s_ = t_s;
+  commanded_ = true;
+  std::ostringstream m;
+  m.precision(10);
+  m << "K = " << k << " m/pulse commanded (identified K ignored until release_k)";
+  return {true, m.str(), ScaleFactorUpdate{t_s, k, ScaleFactorSource::kCommanded}};
+}
+
+ScaleFactorCommandResult ScaleFactorSelection::release_commanded_k() {
+  commanded_ = false;
+  return {true, "following the identified K again (from its next estimate)", std::nullopt};
+}
+
+DeadReckoningHealth dead_reckoning_health(const DeadReckoningHealthFacts& f) {
+  using State = DeadReckoningHealthState;
+  using Level = DeadReckoningHealthLevel;
+  DeadReckoningHealth s;
+  auto add = [&s](const std::string& r) { s.reason = s.reason.empty() ? r : s.reason + "; " + r; };
+  if (!f.started) {
+    s.state = State::kStarting;
+    add("waiting for a valid GNSS fix to start from");
+  }
+  // K: the reason DR navigates with what it uses.
+  if (f.k_commanded) {
+    add("using commanded K");
+  } else if (f.scale_factor_absent) {
+    s.state = s.state == State::kStarting ? s.state : State::kDegraded;
+    s.level = Level::kWarn;
+    // Absent after being heard: the DR keeps the last identified K (it is not reset).
+    add(f.k_applied > 0 ? "no identification: keeping the last identified K" : "using nominal K: no identification");
+  } else if (!f.scale_factor_heard) {
+    add("waiting for identification");
+  } else if (f.k_applied == 0) {
+    add("K not converged yet: using nominal K");
+  }
+  if (!f.k_source_note.empty() && f.now_s < f.k_source_changed_at_s + kDeadReckoningNoticeDuration_s)
+    add(f.k_source_note);
+  // Odometer pulse jumps (a counter glitch): WARN for a while after the last one, with the total.
+  if (f.pulse_jumps_rejected > 0 && f.now_s < f.pulse_jumps_changed_at_s + kDeadReckoningNoticeDuration_s) {
+    s.level = Level::kWarn;
+    add("rejected " + std::to_string(f.pulse_jumps_rejected) + " odometer samples: pulse jump (counter glitch)");
+  }
+  if (f.misalignment_absent)
+    add("using zero misalignment: no calibration");
+  else if (f.misalignment_heard && f.misalignments_applied == 0)
+    add("misalignment not converged yet: using zero");
+  return s;
+}
+
+}  // namespace odonav
