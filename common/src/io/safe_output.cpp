@@ -70,9 +70,11 @@ OutputDirectory::OutputDirectory(const std::string& path, OutputPolicy policy) :
   for (const std::string& input : policy_.inputs) {
     if (input.empty()) continue;
     const fs::path in = resolved(input);
-    if (is_inside(dir, in) || is_inside(in, dir))
-      throw OutputError("refusing output directory '" + path_ + "': it " +
-                        (is_inside(in, dir) ? "holds" : "is inside") + " an input of this run ('" + input + "')");
+    if (is_inside(dir, in) || is_inside(in, dir)) {
+      const char* how = dir == in ? "is" : is_inside(in, dir) ? "holds" : "is inside";
+      throw OutputError("refusing output directory '" + path_ + "': it " + std::string(how) +
+                        " an input of this run ('" + input + "')");
+    }
   }
   const fs::file_status st = fs::status(path_, ec);
   if (!fs::exists(st)) {

@@ -245,6 +245,12 @@ void print_summary(const json& s, std::ostream& out) {
     out << "\n";
   }
   if (!dr["coarse_k"].is_null()) out << "    coarse K from: " << dr["coarse_k_origin"].get<std::string>() << "\n";
+  if (s.contains("warnings") && s["warnings"].is_array() && !s["warnings"].empty()) {
+    out << "  warnings\n";
+    for (const json& w : s["warnings"])
+      if (w.is_object() && w.contains("message") && w["message"].is_string())
+        out << "    " << w.value("code", std::string("-")) << ": " << w["message"].get<std::string>() << "\n";
+  }
 }
 
 }  // namespace odonav::offline
