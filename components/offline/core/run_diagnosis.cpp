@@ -34,7 +34,7 @@ std::string dominant_gate(const Dataset& d, const OfflineParams& p, const Sample
                   num(gnss_period_s) + " s"},
       {c.min_speed, "below the minimum speed " + num(b.min_speed_mps) + " m/s (--min-speed)"},
       {c.yaw_rate, "in turns above " + num(rad_to_deg(b.max_yaw_rate_rad_s)) + " deg/s (--max-yaw-rate-deg-s)"},
-      {c.invalid_fix, "with an invalid fix (fix 0 or 6)"},
+      {c.invalid_fix, "with an invalid fix (fix 0, 6, 7 or 8)"},
       {c.speed_jump, "as speed jumps above " + num(b.max_acceleration_mps2) + " m/s^2 x dt + " +
                          num(b.speed_jump_margin_mps) + " m/s"},
       {c.no_odometer, "with no odometer sample around the epoch (no time overlap?)"},

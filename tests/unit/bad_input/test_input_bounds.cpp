@@ -9,6 +9,7 @@
 #include <fstream>
 #include <future>
 #include <string>
+#include <vector>
 
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
@@ -141,4 +142,49 @@ TEST(InputBounds, TheConfigParserRefusesAFifoADirectoryAndAHugeFile) {
   d.put("binary.conf", std::string("\x07\x1b garbage\n", 11));
   const std::string why = parse_error(d.file("binary.conf"));
   EXPECT_NE(why.find("\\x07\\x1b garbage"), std::string::npos) << why;
+}
+
+// ---- physical limits of a land vehicle (docs/DATASET.md "Physical limits") ----
+
+TEST(PhysicalLimits, ImpossibleValuesAreBadRowsNamingFileLineAndColumn) {
+  struct Case {
+    const char* file;
+    std::string text;
+    const char* expect;
+  };
+  const std::string ins_header = "t,heading_deg,pitch_deg,roll_deg\n";
+  const std::vector<Case> cases = {
+      {"gnss.csv", "t,lat_deg,lon_deg,height_m,ve,vn,vu,fix\n0,52.5,13.4,80,0,1,0,1\n0.1,52.5,13.4,1e300,0,1,0,1\n",
+       "gnss.csv:3: column 'height_m': height (m) of a land vehicle outside [-1000, 10000]: '1e300'"},
+      {"gnss.csv", "t,lat_deg,lon_deg,height_m,ve,vn,vu,fix\n0,52.5,13.4,80,0,1,0,1\n0.1,52.5,13.4,80,1e6,1,0,1\n",
+       "gnss.csv:3: column 've': velocity (m/s) of a land vehicle outside [-500, 500]: '1e6'"},
+      {"ins.csv", ins_header + "0,10,0,0\n0.01,1e300,0,0\n", "ins.csv:3: column 'heading_deg': heading outside [-720, 720]"},
+      {"ins.csv", ins_header + "0,10,0,0\n0.01,10,0,270\n", "ins.csv:3: column 'roll_deg': roll outside [-180, 180]"},
+  };
+  for (const Case& c : cases) {
+    Dir d;
+    d.put(c.file, c.text);
+    const std::string why = read_error(d.str());
+    EXPECT_NE(why.find(c.expect), std::string::npos) << why;
+  }
+}
+
+TEST(PhysicalLimits, MetaJsonNominalKAndLeverArmOutOfRangeAreNamed) {
+  Dir d;
+  d.put("meta.json", R"({"format": "odonav-dataset/1", "odometer": {"k_nominal_m_per_pulse": 0}})");
+  EXPECT_NE(read_error(d.str()).find("key 'odometer.k_nominal_m_per_pulse' = 0"), std::string::npos);
+  d.put("meta.json", R"({"format": "odonav-dataset/1", "gnss": {"lever_arm_m": [1e6, 0, 2]}})");
+  const std::string why = read_error(d.str());
+  EXPECT_NE(why.find("key 'gnss.lever_arm_m' has a component beyond +-20 m"), std::string::npos) << why;
+  d.put("meta.json", R"({"format": "odonav-dataset/1", "gnss": {"lever_arm_m": [-0.5, 0.3, 2.2]}})");
+  EXPECT_EQ(read_error(d.str()), "");
+}
+
+TEST(PhysicalLimits, ManualAndSimulatedFixesAreNoReferenceButPpsAndSbasAre) {
+  for (int fix = 0; fix <= 9; ++fix) {
+    GnssSample g;
+    g.fix = fix;
+    const bool measured = fix != 0 && fix != 6 && fix != 7 && fix != 8;
+    EXPECT_EQ(g.valid(), measured) << "fix " << fix;
+  }
 }

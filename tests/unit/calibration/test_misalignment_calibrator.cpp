@@ -245,7 +245,7 @@ SyntheticData with_bad_velocity(std::size_t i, const Eigen::Vector3d& bad) {
 
 TEST(MisalignmentCalibratorOutlierGate, OneRowOfAMillionMetresPerSecondIsRejectedAndChangesNothing) {
   const MisalignmentOutput clean = run_all(simulate(drive(), noisy_config(3))).back();
-  for (const Eigen::Vector3d bad : {Eigen::Vector3d(1e6, 0.0, 0.0), Eigen::Vector3d(0.0, 1e6, 0.0),
+  for (const Eigen::Vector3d& bad : {Eigen::Vector3d(1e6, 0.0, 0.0), Eigen::Vector3d(0.0, 1e6, 0.0),
                                     Eigen::Vector3d(1e308, 1e308, 0.0)}) {
     MisalignmentCounters c;
     const auto out = run_all(with_bad_velocity(300, bad), {}, &c);

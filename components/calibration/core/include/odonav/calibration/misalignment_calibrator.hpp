@@ -101,7 +101,7 @@ const char* to_string(CalibrationState state);
 enum class CalibrationEpochStatus {
   kUsed,        ///< entered both regressions.
   kNoIns,       ///< use_ins is false: calibration impossible.
-  kInvalidFix,  ///< GNSS fix 0 or 6.
+  kInvalidFix,  ///< GNSS fix 0, 6, 7 or 8 (not a measured fix).
   kNoAttitude,  ///< no INS attitude can be interpolated at the epoch.
   kReversing,   ///< V_b,forward < 0.
   kLowSpeed,    ///< V_b,forward below min_speed_mps.
