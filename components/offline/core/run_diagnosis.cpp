@@ -136,6 +136,7 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
                 " odometer samples rejected by the pulse-jump gate (max " +
                 num(p.dead_reckoning.max_speed_mps) + " m/s at the nominal K " +
                 num(p.dead_reckoning.nominal_k_m_per_pulse, 6) + " m/pulse): check --nominal-k";
+      out.usable = false;  // most of the drive has no position
       warn("dead_reckoning_truncated", "dead reckoning ends at t = " + num(dr_end, 10) + " s, " + num(missing, 6) +
                                            " s before the odometer record" + cause);
     }

@@ -18,7 +18,8 @@ struct RunWarning {
 
 struct RunDiagnosis {
   std::vector<RunWarning> warnings;
-  /// False when the run's main result is missing: no identified K, or no dead-reckoning output.
+  /// False when the run's main result is missing: no identified K, or no (or truncated)
+  /// dead-reckoning output.
   /// odonav-offline then exits with kExitNoUsableResult.
   bool usable = true;
 };
