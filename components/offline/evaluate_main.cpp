@@ -1,13 +1,37 @@
 // odonav-evaluate: the summary of a folder of output files (from odonav-offline or from the
 // distributed pipeline's recorder) against its dataset, printed and written to summary.json.
-#include <fstream>
+#include <algorithm>
+#include <cmath>
+#include <limits>
 
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/logging.hpp"
 #include "odonav/tool_output.hpp"
 #include "odonav/results/output_files.hpp"
+#include "odonav/run_provenance.hpp"
+#include "odonav/safe_output.hpp"
 #include "summary.hpp"
+
+namespace {
+
+// The event-time span of every row of the results (s); NaN when there is none.
+std::pair<double, double> rows_span_s(const odonav::results::OutputRows& rows) {
+  double first = std::numeric_limits<double>::infinity(), last = -first;
+  const auto extend = [&](const auto& table) {
+    if (table.empty()) return;
+    first = std::min(first, table.front().t_s);
+    last = std::max(last, table.back().t_s);
+  };
+  extend(rows.misalignment);
+  extend(rows.scale_factor);
+  extend(rows.dead_reckoning);
+  extend(rows.dead_reckoning_coarse);
+  if (!std::isfinite(first)) return {std::nan(""), std::nan("")};
+  return {first, last};
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   odonav::Options opts("odonav-evaluate",
@@ -17,6 +41,9 @@ int main(int argc, char** argv) {
   opts.add_positional("dataset", "dataset directory the outputs were computed from");
   opts.add_positional("results", "folder with the output files");
   opts.add_string("coarse-k-origin", "", "where the coarse K came from, for the summary");
+  opts.add_bool("force", false,
+                "evaluate even when the results do not seem to belong to the dataset (other vehicle, other "
+                "recording, rows outside its time span)");
   opts.add_string("log-level", "", "log level (default: $ODONAV_LOG_LEVEL or info)");
   try {
     if (opts.parse(argc, argv) == odonav::ParseResult::kHelp) return 0;
@@ -28,13 +55,31 @@ int main(int argc, char** argv) {
   }
   try {
     const std::string results = opts.get_string("results");
-    const odonav::Dataset dataset = odonav::read_dataset(opts.get_string("dataset"), odonav::BadRowPolicy::kSkip);
+    const std::string dataset_dir = opts.get_string("dataset");
+    const odonav::Dataset dataset = odonav::read_dataset(dataset_dir, odonav::BadRowPolicy::kSkip);
     const odonav::results::OutputRows rows = odonav::results::read_output_rows(results);
+    // Results of another drive would be scored as if they were this one's (a 287 %D that means nothing).
+    const auto [t_first_s, t_last_s] = rows_span_s(rows);
+    const std::vector<std::string> mismatches =
+        odonav::provenance_mismatches(odonav::read_provenance(results), t_first_s, t_last_s, dataset);
+    for (const std::string& m : mismatches) spdlog::error("{} does not belong to {}: {}", results, dataset_dir, m);
+    if (!mismatches.empty()) {
+      if (!opts.get_bool("force")) {
+        spdlog::error("nothing evaluated (--force evaluates anyway)");
+        return 1;
+      }
+      spdlog::warn("evaluating anyway (--force)");
+    }
     odonav::offline::SummaryOptions o;
     o.dataset_name = opts.get_string("dataset");
     o.coarse_k_origin = opts.get_string("coarse-k-origin");
-    const nlohmann::json summary = odonav::offline::make_summary(dataset, rows, o);
-    std::ofstream(results + "/summary.json") << summary.dump(2) << "\n";
+    nlohmann::json summary = odonav::offline::make_summary(dataset, rows, o);
+    if (!mismatches.empty()) {
+      summary["warnings"] = nlohmann::json::array();
+      for (const std::string& m : mismatches)
+        summary["warnings"].push_back({{"code", "results_not_of_this_dataset"}, {"message", m}});
+    }
+    odonav::write_file_atomically(results + "/summary.json", summary.dump(2) + "\n", {dataset_dir});
     odonav::offline::print_summary(summary, odonav::tool_output());
     return 0;
   } catch (const std::exception& e) {

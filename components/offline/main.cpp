@@ -1,9 +1,7 @@
 // odonav-offline: runs calibration -> identification -> dead reckoning over a dataset directory
 // without DDS, writes the output files and summary.json, prints a summary. See README.md.
-#include <sys/stat.h>
 
 #include <chrono>
-#include <fstream>
 #include <optional>
 
 #include "odonav/calibration/calibration_options.hpp"
@@ -12,28 +10,15 @@
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 #include "odonav/identification/identification_options.hpp"
 #include "odonav/logging.hpp"
+#include "odonav/run_provenance.hpp"
+#include "odonav/safe_output.hpp"
 #include "odonav/stream_buffers.hpp"
 #include "odonav/tool_output.hpp"
 #include "offline_runner.hpp"
+#include "run_diagnosis.hpp"
 #include "summary.hpp"
 
 namespace {
-
-
-bool make_directory(const std::string& dir) {
-  std::string partial;
-  for (std::size_t i = 0; i <= dir.size(); ++i) {
-    if (i == dir.size() || dir[i] == '/') {
-      if (!partial.empty()) {
-        struct stat st {};
-        if (::stat(partial.c_str(), &st) != 0 && ::mkdir(partial.c_str(), 0755) != 0) return false;
-      }
-    }
-    if (i < dir.size()) partial += dir[i];
-  }
-  struct stat st {};
-  return ::stat(dir.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
-}
 
 std::string base_name(std::string path) {
   while (path.size() > 1 && path.back() == '/') path.pop_back();
@@ -49,7 +34,9 @@ odonav::Options make_options() {
                        "dead_reckoning.csv, dead_reckoning_coarse.csv and summary.json into --out, and prints a "
                        "summary; with truth.csv it also evaluates against the truth.");
   opts.add_positional("dataset", "dataset directory");
-  opts.add_string("out", "", "output directory (created if missing); required");
+  opts.add_string("out", "", "output directory (created if missing; an existing one must be empty or an odonav "
+                  "output directory, see --force); required");
+  opts.add_bool("force", false, "write into an existing non-empty directory that is not an odonav output directory");
   opts.add_choice("on-bad-row", "fail", {"fail", "skip"}, "a bad input row stops the run (fail) or is skipped and counted");
   opts.add_double("coarse-k", 0.0, "K for the coarse DR run (m/pulse); 0 = see --coarse-k-from", 0.0, 10.0);
   opts.add_string("coarse-k-from", "",
@@ -163,10 +150,16 @@ nlohmann::json offline_summary(const odonav::Dataset& dataset, const std::string
   return summary;
 }
 
-/// Reads, runs, writes the files and prints the summary. Exit code 0, or 1 (logged).
+/// Reads, runs, writes the files and prints the summary. Exit code 0, 1 (an error, logged) or
+/// kExitNoUsableResult (no K or no dead reckoning: the warnings say why).
 int run(const odonav::Options& opts, const std::string& dataset_dir, const std::string& out_dir,
         odonav::offline::OfflineParams params, const odonav::DeadReckoningFacts& dr_facts) {
   const auto t_start = std::chrono::steady_clock::now();
+  // Checked before any work: a user's directory (or the dataset itself) is never written into.
+  odonav::OutputPolicy policy;
+  policy.force = opts.get_bool("force");
+  policy.inputs = {dataset_dir, opts.get_string("coarse-k-from")};
+  const odonav::OutputDirectory out(out_dir, policy);
   odonav::DatasetReadReport report;
   const odonav::Dataset dataset = read_input(dataset_dir, opts, report);
   apply_dataset_defaults(dataset, opts, dr_facts, params);
@@ -182,15 +175,23 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
                std::chrono::duration<double>(t_done - t_read).count(), dataset.odometer.size(), dataset.gnss.size(),
                dataset.ins.size());
 
-  if (!make_directory(out_dir)) {
-    spdlog::error("{}: cannot create the output directory", out_dir);
-    return 1;
+  odonav::results::write_output_rows(out.path(), rows);
+  nlohmann::json summary = offline_summary(dataset, dataset_dir, result, rows, report, elapsed_s);
+  const odonav::offline::RunDiagnosis diagnosis = odonav::offline::diagnose_run(dataset, params, result);
+  summary["warnings"] = nlohmann::json::array();
+  for (const odonav::offline::RunWarning& w : diagnosis.warnings) {
+    spdlog::warn("{}", w.message);
+    summary["warnings"].push_back({{"code", w.code}, {"message", w.message}});
   }
-  odonav::results::write_output_rows(out_dir, rows);
-  const nlohmann::json summary = offline_summary(dataset, dataset_dir, result, rows, report, elapsed_s);
-  std::ofstream(out_dir + "/summary.json") << summary.dump(2) << "\n";
+  odonav::write_file_atomically(out.file("summary.json"), summary.dump(2) + "\n");
+  odonav::write_file_atomically(out.file(odonav::kProvenanceFile),
+                                odonav::provenance_json(odonav::provenance_of(dataset, "odonav-offline")));
   odonav::offline::print_summary(summary, odonav::tool_output());
   spdlog::info("outputs in {}", out_dir);
+  if (!diagnosis.usable) {
+    spdlog::error("no usable result (exit status {}): see the warnings", odonav::offline::kExitNoUsableResult);
+    return odonav::offline::kExitNoUsableResult;
+  }
   return 0;
 }
 

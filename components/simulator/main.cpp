@@ -8,7 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include <cstdint>
-#include <fstream>
+#include <filesystem>
 #include <iostream>
 #include <limits>
 #include <stdexcept>
@@ -19,6 +19,27 @@
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/logging.hpp"
+#include "odonav/safe_output.hpp"
+
+namespace {
+
+// A simulated drive never replaces a recording: an existing dataset (any of its files present) or
+// a non-empty directory that is not an odonav output directory is refused unless forced.
+void check_dataset_destination(const std::string& dir, bool force) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!force && fs::is_directory(dir, ec)) {
+    for (const char* name : {"odometer.csv", "gnss.csv", "ins.csv", "truth.csv", "meta.json"})
+      if (fs::exists(fs::path(dir) / name, ec))
+        throw odonav::OutputError("refusing to write into '" + dir + "': it already holds a dataset (" + name +
+                                  "); choose a new directory or pass --force");
+  }
+  odonav::OutputPolicy policy;
+  policy.force = force;
+  const odonav::OutputDirectory checked(dir, policy);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   namespace sim = odonav::sim;
@@ -27,7 +48,9 @@ int main(int argc, char** argv) {
                        "Simulates a tracked vehicle (odometer, GNSS, INS, truth) on a named scenario and "
                        "writes a dataset directory (docs/DATASET.md). Deterministic for a given seed.");
   opts.add_positional("scenario", "straight, ring or terrain");
-  opts.add_string("out", "", "dataset directory to write (created if missing); required unless --nmea is given");
+  opts.add_string("out", "", "dataset directory to write (created if missing; never an existing dataset or a "
+                  "non-empty foreign directory, see --force); required unless --nmea is given");
+  opts.add_bool("force", false, "write into an existing dataset or non-empty directory (replacing its files)");
   opts.add_string("nmea", "", "also (or only) write the GNSS as NMEA 0183 GGA, RMC, VTG and GST sentences, one fix "
                   "per GNSS row, to this file (for gpsfake / gpsd)");
   opts.add_double("nmea-utc-epoch-s", odonav::sim::NmeaSettings{}.utc_epoch_s,
@@ -80,15 +103,14 @@ int main(int argc, char** argv) {
     const odonav::Dataset ds = sim::simulate(cfg);
     if (!nmea_path.empty()) {
       // One fix per GNSS row, at the GNSS rate; CR LF ends each sentence as NMEA 0183 requires.
-      std::ofstream f(nmea_path, std::ios::binary | std::ios::trunc);
-      if (!f) throw std::runtime_error("--nmea: cannot open '" + nmea_path + "' for writing");
+      std::string text;
       for (const odonav::GnssSample& g : ds.gnss)
-        for (const std::string& sentence : sim::nmea_sentences(g, nmea)) f << sentence << "\r\n";
-      f.flush();
-      if (!f) throw std::runtime_error("--nmea: write to '" + nmea_path + "' failed");
+        for (const std::string& sentence : sim::nmea_sentences(g, nmea)) text += sentence + "\r\n";
+      odonav::write_file_atomically(nmea_path, text);
       spdlog::info("wrote {}: {} fixes as NMEA (UTC of t=0: {} s)", nmea_path, ds.gnss.size(), nmea.utc_epoch_s);
     }
     if (out_dir.empty()) return 0;
+    check_dataset_destination(out_dir, opts.get_bool("force"));
     odonav::write_dataset(out_dir, ds);
     spdlog::info("wrote {} ({}, seed {}): {:.2f} s, {:.1f} m; rows: {} odometer, {} gnss, {} ins, {} truth", out_dir,
                  cfg.scenario, cfg.seed, ds.truth.back().t_s - ds.truth.front().t_s, ds.truth.back().distance_m,

@@ -5,8 +5,11 @@
 // output files of odonav-offline and of the pipeline's recorder (odonav/results/output_files.hpp)
 // and by the dataset writer (docs/DATASET.md), which builds each file in memory first so that a bad
 // value leaves no half-written dataset.
+// A file writer writes through AtomicFile (odonav/safe_output.hpp): every write checked, the real
+// name only for a complete, closed file; a writer destroyed without close() (an exception, a failed
+// run) leaves the previous file untouched. A killed process leaves its rows in `<path>.tmp-<pid>`.
 #include <cstdint>
-#include <cstdio>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -18,8 +21,10 @@ class CsvWriter {
   /// Tag of the in-memory constructor.
   struct InMemory {};
 
-  /// Creates (truncates) `path` and writes the header. Throws std::runtime_error naming the path.
-  CsvWriter(const std::string& path, std::vector<std::string> columns);
+  /// Opens `<path>.tmp-<pid>` and writes the header; `path` itself is replaced at close(). Throws
+  /// OutputError (a std::runtime_error) naming the path, also when `path` is a symbolic link, a
+  /// directory or one of `inputs` (check_output_file).
+  CsvWriter(const std::string& path, std::vector<std::string> columns, const std::vector<std::string>& inputs = {});
   /// Writes nothing to disk: the whole file (header and rows) accumulates in text(). `path` only
   /// names the file in messages (and is what the caller writes text() to later).
   CsvWriter(InMemory, const std::string& path, std::vector<std::string> columns);
@@ -38,8 +43,8 @@ class CsvWriter {
   CsvWriter& empty();
   /// Ends the row; throws std::logic_error when the row has the wrong number of fields.
   void end_row();
-  /// Flushes and closes; throws std::runtime_error naming the path on an I/O error. Does nothing
-  /// for an in-memory writer.
+  /// Flushes, closes and renames the complete file to `path`; throws OutputError naming the path on
+  /// an I/O error (then `path` keeps its previous content). Does nothing for an in-memory writer.
   void close();
 
   const std::string& path() const { return path_; }
@@ -53,7 +58,7 @@ class CsvWriter {
   void flush_buffer();
   std::string path_;
   std::vector<std::string> columns_;
-  std::FILE* file_ = nullptr;
+  std::unique_ptr<class AtomicFile> file_;
   bool in_memory_ = false;
   std::string buffer_;  ///< file writer: not yet written; in-memory writer: the whole text.
   std::size_t fields_in_row_ = 0;

@@ -32,6 +32,22 @@ struct DatasetMeta {
   std::string raw_json;
 };
 
+/// Input bounds of the reader (docs/DATASET.md, "Limits"): a dataset file larger than this is refused
+/// (about 20 h of 100 Hz odometer, INS and 10 Hz GNSS); a line longer than this is a bad row (a
+/// real row has well under 1000 bytes).
+inline constexpr std::uintmax_t kMaxDatasetFileBytes = std::uintmax_t{2} << 30;  // 2 GiB
+inline constexpr std::size_t kMaxDatasetLineBytes = 64 * 1024;
+
+/// Physical limits of a ground vehicle's data (docs/DATASET.md, "Physical limits"): a value outside
+/// them is a bad row (or, in meta.json and --lever-arm, an error), because no recording of a land
+/// vehicle can hold it and an estimator would turn it into a result that looks fine and is not.
+inline constexpr double kMinHeight_m = -1000.0;       ///< WGS-84 ellipsoidal; the Dead Sea shore is about -400 m.
+inline constexpr double kMaxHeight_m = 10000.0;
+inline constexpr double kMaxVelocityComponent_mps = 500.0;  ///< per ENU component (GNSS, INS).
+inline constexpr double kMaxHeadingMagnitude_deg = 720.0;   ///< headings are taken modulo 360 within this.
+inline constexpr double kMaxRollMagnitude_deg = 180.0;
+inline constexpr double kMaxLeverArmComponent_m = 20.0;     ///< GNSS antenna from the INS, per axis.
+
 /// A whole dataset directory in memory.
 struct Dataset {
   std::vector<OdometerSample> odometer;

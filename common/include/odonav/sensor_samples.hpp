@@ -28,9 +28,11 @@ struct GnssSample {
   Eigen::Vector3d vel_enu_mps = Eigen::Vector3d::Zero();
   std::optional<double> pos_std_m;    ///< one-sigma horizontal accuracy if given.
   std::optional<double> vel_std_mps;  ///< one-sigma velocity accuracy if given.
-  int fix = 1;                        ///< NMEA GGA quality; 0 and 6 are not a reference.
-  /// True when the row may be used as a reference (fix not 0 or 6).
-  bool valid() const { return fix != 0 && fix != 6; }
+  int fix = 1;                        ///< NMEA GGA quality; 0, 6, 7 and 8 are not a reference.
+  /// True when the row may be used as a reference: a measured fix. Not 0 (invalid), 6 (the
+  /// receiver's own dead reckoning), 7 (a position typed in by hand) or 8 (the receiver's simulator
+  /// mode); 3 (PPS) and 9 (SBAS) are measured fixes.
+  bool valid() const { return fix != 0 && fix != 6 && fix != 7 && fix != 8; }
 };
 
 /// One INS attitude sample (ins.csv row, InsAttitude topic). Attitude of the body (see frames.hpp);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -16,6 +17,7 @@ namespace odonav {
 using io_detail::format_double;
 using io_detail::format_number;
 using io_detail::NumberStatus;
+using io_detail::printable_excerpt;
 using io_detail::trim;
 
 namespace {
@@ -190,6 +192,15 @@ void Options::assign(Option& o, const Assignment& a) {
 }
 
 void Options::load_config_file(const std::string& path, std::map<std::string, Assignment>& from_file) {
+  // Only a regular file of bounded size: a FIFO or /dev/zero would block or grow without end.
+  constexpr std::uintmax_t kMaxConfigBytes = 1 << 20;
+  std::error_code ec;
+  const std::filesystem::file_status st = std::filesystem::status(path, ec);
+  if (std::filesystem::is_directory(st)) throw ConfigError("config file '" + path + "' is a directory");
+  if (std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
+    throw ConfigError("config file '" + path + "' is not a regular file (a FIFO, socket or device)");
+  if (std::filesystem::exists(st) && std::filesystem::file_size(path, ec) > kMaxConfigBytes)
+    throw ConfigError("config file '" + path + "' is larger than " + std::to_string(kMaxConfigBytes) + " bytes");
   std::ifstream in(path);
   if (!in) throw ConfigError("cannot read config file '" + path + "': " + std::strerror(errno));
   std::map<std::string, std::size_t> first_line;
@@ -203,7 +214,7 @@ void Options::load_config_file(const std::string& path, std::map<std::string, As
     const std::string at = path + ":" + std::to_string(line_no);
     const std::size_t eq = line.find('=');
     if (eq == std::string_view::npos) {
-      throw ConfigError(at + ": expected 'key = value', got '" + std::string(line) + "'");
+      throw ConfigError(at + ": expected 'key = value', got '" + printable_excerpt(line) + "'");
     }
     const std::string key(trim(line.substr(0, eq)));
     const std::string value(trim(line.substr(eq + 1)));

@@ -6,15 +6,15 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "odonav/safe_output.hpp"
 #include "text_util.hpp"
 
 namespace odonav {
 
-CsvWriter::CsvWriter(const std::string& path, std::vector<std::string> columns)
+CsvWriter::CsvWriter(const std::string& path, std::vector<std::string> columns, const std::vector<std::string>& inputs)
     : CsvWriter(InMemory{}, path, std::move(columns)) {
   in_memory_ = false;
-  file_ = std::fopen(path.c_str(), "wb");
-  if (!file_) throw std::runtime_error(path + ": cannot create: " + std::strerror(errno));
+  file_ = std::make_unique<AtomicFile>(path, inputs);
 }
 
 CsvWriter::CsvWriter(InMemory, const std::string& path, std::vector<std::string> columns)
@@ -31,12 +31,8 @@ const std::string& CsvWriter::text() const {
   return buffer_;
 }
 
-CsvWriter::~CsvWriter() {
-  if (file_) {
-    flush_buffer();
-    std::fclose(file_);
-  }
-}
+// Without close() the AtomicFile discards its temporary: a half-written file never takes the name.
+CsvWriter::~CsvWriter() = default;
 
 void CsvWriter::separator() {
   if (fields_in_row_++) buffer_ += ',';
@@ -99,19 +95,16 @@ void CsvWriter::end_row() {
 
 void CsvWriter::flush_buffer() {
   if (!file_ || buffer_.empty()) return;
-  const std::size_t n = std::fwrite(buffer_.data(), 1, buffer_.size(), file_);
-  const bool ok = n == buffer_.size();
-  buffer_.clear();
-  if (!ok) throw std::runtime_error(path_ + ": write failed: " + std::strerror(errno));
+  std::string pending;
+  pending.swap(buffer_);
+  file_->write(pending);  // throws OutputError naming the path
 }
 
 void CsvWriter::close() {
   if (!file_) return;
   flush_buffer();
-  const bool ok = std::fflush(file_) == 0;
-  std::fclose(file_);
-  file_ = nullptr;
-  if (!ok) throw std::runtime_error(path_ + ": write failed: " + std::strerror(errno));
+  const std::unique_ptr<AtomicFile> file = std::move(file_);
+  file->commit();
 }
 
 }  // namespace odonav

@@ -52,6 +52,9 @@ DatasetMeta read_meta(const std::string& path) {
   read_meta_string(root, "vehicle_id", path, meta.vehicle_id);
   read_meta_string(root, "description", path, meta.description);
   meta.k_nominal_m_per_pulse = read_meta_number(root, "odometer", "k_nominal_m_per_pulse", path);
+  if (meta.k_nominal_m_per_pulse && !(*meta.k_nominal_m_per_pulse > 0.0 && *meta.k_nominal_m_per_pulse <= 10.0))
+    throw DatasetError(path + ": key 'odometer.k_nominal_m_per_pulse' = " + std::to_string(*meta.k_nominal_m_per_pulse) +
+                       ": the nominal K must be in (0, 10] m/pulse");
   meta.truth_misalignment_heading_deg = read_meta_number(root, "truth", "misalignment_heading_deg", path);
   meta.truth_misalignment_pitch_deg = read_meta_number(root, "truth", "misalignment_pitch_deg", path);
   if (root.contains("gnss") && root["gnss"].is_object() && root["gnss"].contains("lever_arm_m")) {
@@ -60,6 +63,10 @@ DatasetMeta read_meta(const std::string& path) {
       throw DatasetError(path + ": key 'gnss.lever_arm_m' must be an array of three numbers [x, y, z] in metres");
     meta.gnss_lever_arm_m = Eigen::Vector3d(arm[0].get<double>(), arm[1].get<double>(), arm[2].get<double>());
     if (!meta.gnss_lever_arm_m->allFinite()) throw DatasetError(path + ": key 'gnss.lever_arm_m' is not finite");
+    if (meta.gnss_lever_arm_m->cwiseAbs().maxCoeff() > kMaxLeverArmComponent_m)
+      throw DatasetError(path + ": key 'gnss.lever_arm_m' has a component beyond +-" +
+                         std::to_string(static_cast<int>(kMaxLeverArmComponent_m)) +
+                         " m: an antenna on a land vehicle is within that of the INS");
   }
   if (meta.format != "odonav-dataset/1") {
     spdlog::warn("{}: format '{}' is not 'odonav-dataset/1'; reading it as format v1", path, meta.format);

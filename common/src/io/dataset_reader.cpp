@@ -44,6 +44,18 @@ std::size_t DatasetReadReport::total_bad() const {
 namespace dataset_detail {
 
 std::string read_whole_file(const std::string& path) {
+  // Only regular files: a directory gives a library error naming nothing, a FIFO or a device
+  // (/dev/zero) blocks or grows memory without end.
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (ec && !fs::exists(st)) throw DatasetError(path + ": cannot open: " + ec.message());
+  if (fs::is_directory(st)) throw DatasetError(path + ": is a directory, not a dataset file");
+  if (!fs::is_regular_file(st))
+    throw DatasetError(path + ": not a regular file (a FIFO, socket or device): dataset files must be regular files");
+  const std::uintmax_t bytes = fs::file_size(path, ec);
+  if (!ec && bytes > kMaxDatasetFileBytes)
+    throw DatasetError(path + ": " + std::to_string(bytes) + " bytes, more than the limit of " +
+                       std::to_string(kMaxDatasetFileBytes) + " bytes per dataset file: split the recording");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw DatasetError(path + ": cannot open: " + std::strerror(errno));
   // One read into a string sized from the file length: an ostringstream << rdbuf() grows its buffer
@@ -58,11 +70,15 @@ std::string read_whole_file(const std::string& path) {
     content.resize(static_cast<std::size_t>(in.gcount()));
   }
   if (in.bad()) throw DatasetError(path + ": read error");
-  // A file that grew while being read (or is not seekable) keeps the rest.
+  // A file that grew while being read keeps the rest, up to the limit.
   in.clear();
-  std::ostringstream rest;
-  rest << in.rdbuf();
-  content += rest.str();
+  char buffer[1 << 16];
+  while (in.read(buffer, sizeof buffer) || in.gcount() > 0) {
+    content.append(buffer, static_cast<std::size_t>(in.gcount()));
+    if (content.size() > kMaxDatasetFileBytes)
+      throw DatasetError(path + ": grew past the limit of " + std::to_string(kMaxDatasetFileBytes) +
+                         " bytes per dataset file while being read");
+  }
   return content;
 }
 
@@ -85,7 +101,9 @@ struct RowError {
   std::string reason;
 };
 
-std::string in_quotes(std::string_view text) { return "'" + std::string(text) + "'"; }
+// A field quoted in a message: at most kMaxQuotedChars, non-printable bytes as \xNN, so a huge or
+// binary field cannot flood or garble the terminal.
+std::string in_quotes(std::string_view text) { return "'" + io_detail::printable_excerpt(text) + "'"; }
 
 // The fields of one data row, addressed by the id of a known column (its index in the file's
 // ColumnSpec list). Accessors record the first problem and return a neutral value afterwards, so a
@@ -212,7 +230,7 @@ ResolvedHeader resolve_header(const std::string& file, std::size_t line_no, std:
       throw DatasetError(where + "empty column name in the header at position " + std::to_string(i + 1));
     }
     for (const std::string& earlier : header.names) {
-      if (earlier == name) throw DatasetError(where + "column '" + name + "' appears twice in the header");
+      if (earlier == name) throw DatasetError(where + "column " + in_quotes(name) + " appears twice in the header");
     }
     header.names.push_back(name);
     bool known = false;
@@ -227,7 +245,7 @@ ResolvedHeader resolve_header(const std::string& file, std::size_t line_no, std:
   for (std::size_t id = 0; id < specs.size(); ++id) {
     if (specs[id].required && header.field_of_column[id] < 0) {
       throw DatasetError(file + ":" + std::to_string(line_no) + ": required column '" + specs[id].name +
-                         "' is missing (header: " + std::string(trim(line)) + ")");
+                         "' is missing (header: " + io_detail::printable_excerpt(trim(line)) + ")");
     }
   }
   return header;
@@ -261,6 +279,17 @@ std::vector<Sample> read_table(const std::string& path, const std::vector<Column
     pos = newline == std::string_view::npos ? content.size() : newline + 1;
     ++line_no;
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);  // CRLF files
+    if (line.size() > kMaxDatasetLineBytes) {
+      // Not split into fields: one 50 MB line of commas would otherwise take a gigabyte.
+      const BadRow bad{path, line_no, "",
+                       "line of " + std::to_string(line.size()) + " bytes, longer than the limit of " +
+                           std::to_string(kMaxDatasetLineBytes) + " (starts " + in_quotes(line) + ")"};
+      if (!header || context.policy == BadRowPolicy::kFail) throw DatasetError(bad.message());
+      ++file_report.rows_bad;
+      if (file_report.rows_bad <= kMaxLoggedBadRowsPerFile) spdlog::warn("skipping bad row: {}", bad.message());
+      if (context.report && context.report->bad_rows.size() < kMaxDetailedBadRows) context.report->bad_rows.push_back(bad);
+      continue;
+    }
     const std::string_view trimmed = trim(line);
     if (trimmed.empty() || trimmed.front() == '#') continue;
 
@@ -361,10 +390,15 @@ GnssSample parse_gnss_row(RowFields& row) {
   row.check_range(gnss::kLat, lat_deg, -90.0, 90.0, "latitude");
   const double lon_deg = row.required_double(gnss::kLon);
   row.check_range(gnss::kLon, lon_deg, -180.0, 180.0, "longitude");
-  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(lon_deg), row.required_double(gnss::kHeight)};
+  const double height_m = row.required_double(gnss::kHeight);
+  row.check_range(gnss::kHeight, height_m, kMinHeight_m, kMaxHeight_m, "height (m) of a land vehicle");
+  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(lon_deg), height_m};
   s.vel_enu_mps.x() = row.required_double(gnss::kVe);
   s.vel_enu_mps.y() = row.required_double(gnss::kVn);
   s.vel_enu_mps.z() = row.required_double(gnss::kVu);
+  for (int id : {gnss::kVe, gnss::kVn, gnss::kVu})
+    row.check_range(id, s.vel_enu_mps[id - gnss::kVe], -kMaxVelocityComponent_mps, kMaxVelocityComponent_mps,
+                    "velocity (m/s) of a land vehicle");
   s.pos_std_m = row.optional_double(gnss::kPosStd);
   row.check_not_negative(gnss::kPosStd, s.pos_std_m);
   s.vel_std_mps = row.optional_double(gnss::kVelStd);
@@ -376,11 +410,15 @@ GnssSample parse_gnss_row(RowFields& row) {
 InsSample parse_ins_row(RowFields& row) {
   InsSample s;
   s.t_s = row.required_double(ins::kT);
-  s.attitude.heading_rad = deg_to_rad(row.required_double(ins::kHeading));
+  const double heading_deg = row.required_double(ins::kHeading);
+  row.check_range(ins::kHeading, heading_deg, -kMaxHeadingMagnitude_deg, kMaxHeadingMagnitude_deg, "heading");
+  s.attitude.heading_rad = deg_to_rad(heading_deg);
   const double pitch_deg = row.required_double(ins::kPitch);
   row.check_range(ins::kPitch, pitch_deg, -90.0, 90.0, "pitch");
   s.attitude.pitch_rad = deg_to_rad(pitch_deg);
-  s.attitude.roll_rad = deg_to_rad(row.required_double(ins::kRoll));
+  const double roll_deg = row.required_double(ins::kRoll);
+  row.check_range(ins::kRoll, roll_deg, -kMaxRollMagnitude_deg, kMaxRollMagnitude_deg, "roll");
+  s.attitude.roll_rad = deg_to_rad(roll_deg);
   // The three velocity components come together: all empty (no velocity) or all given.
   const bool any = !row.is_empty(ins::kVe) || !row.is_empty(ins::kVn) || !row.is_empty(ins::kVu);
   if (any) {
@@ -388,6 +426,9 @@ InsSample parse_ins_row(RowFields& row) {
     v.x() = row.required_double(ins::kVe);
     v.y() = row.required_double(ins::kVn);
     v.z() = row.required_double(ins::kVu);
+    for (int id : {ins::kVe, ins::kVn, ins::kVu})
+      row.check_range(id, v[id - ins::kVe], -kMaxVelocityComponent_mps, kMaxVelocityComponent_mps,
+                      "velocity (m/s) of a land vehicle");
     s.vel_enu_mps = v;
   }
   return s;
@@ -410,8 +451,13 @@ TruthSample parse_truth_row(RowFields& row) {
   if (!std::isnan(lat_deg)) row.check_range(truth::kLat, lat_deg, -90.0, 90.0, "latitude");
   const double lon_deg = value_or_nan(truth::kLon);
   if (!std::isnan(lon_deg)) row.check_range(truth::kLon, lon_deg, -180.0, 180.0, "longitude");
-  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(lon_deg), value_or_nan(truth::kHeight)};
-  s.attitude.heading_rad = deg_to_rad(value_or_nan(truth::kHeading));
+  const double height_m = value_or_nan(truth::kHeight);
+  if (!std::isnan(height_m)) row.check_range(truth::kHeight, height_m, kMinHeight_m, kMaxHeight_m, "height (m) of a land vehicle");
+  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(lon_deg), height_m};
+  const double heading_deg = value_or_nan(truth::kHeading);
+  if (!std::isnan(heading_deg))
+    row.check_range(truth::kHeading, heading_deg, -kMaxHeadingMagnitude_deg, kMaxHeadingMagnitude_deg, "heading");
+  s.attitude.heading_rad = deg_to_rad(heading_deg);
   const double pitch_deg = value_or_nan(truth::kPitch);
   if (!std::isnan(pitch_deg)) row.check_range(truth::kPitch, pitch_deg, -90.0, 90.0, "pitch");
   s.attitude.pitch_rad = deg_to_rad(pitch_deg);

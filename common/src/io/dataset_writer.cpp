@@ -11,6 +11,7 @@
 #include "dataset_internal.hpp"
 #include "odonav/csv_writer.hpp"
 #include "odonav/dataset.hpp"
+#include "odonav/safe_output.hpp"
 #include "text_util.hpp"
 
 namespace odonav {
@@ -69,12 +70,13 @@ class CheckedCsv {
   std::size_t row_ = 0;
 };
 
+// Checked and atomic (safe_output.hpp): never through a link, never a half file under the name.
 void write_file(const std::string& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw DatasetError(path + ": cannot open for writing: " + std::strerror(errno));
-  out.write(text.data(), static_cast<std::streamsize>(text.size()));
-  out.close();
-  if (!out) throw DatasetError(path + ": write failed");
+  try {
+    write_file_atomically(path, text);
+  } catch (const OutputError& e) {
+    throw DatasetError(e.what());
+  }
 }
 
 void remove_stale(const std::string& path) {

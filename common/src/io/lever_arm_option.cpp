@@ -5,6 +5,8 @@
 #include <sstream>
 #include <string>
 
+#include "odonav/dataset.hpp"
+
 namespace odonav {
 
 void add_lever_arm_option(Options& o) {
@@ -26,6 +28,9 @@ std::optional<Eigen::Vector3d> lever_arm_from(const Options& o) {
     v[i++] = x;
   }
   if (i != 3) throw ConfigError("--lever-arm=" + text + ": expected three numbers x,y,z in metres");
+  if (v.cwiseAbs().maxCoeff() > kMaxLeverArmComponent_m)
+    throw ConfigError("--lever-arm=" + text + ": a component beyond +-20 m (an antenna on a land vehicle is within "
+                      "that of the INS)");
   return v;
 }
 

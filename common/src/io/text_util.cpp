@@ -1,6 +1,8 @@
 // Strict number parsing and exact number formatting for odonav_io (see text_util.hpp).
 #include "text_util.hpp"
 
+#include <algorithm>
+
 #include <charconv>
 #include <cmath>
 #include <limits>
@@ -114,6 +116,25 @@ std::string join(const std::vector<std::string>& parts, const std::string& separ
     text += parts[i];
   }
   return text;
+}
+
+std::string printable_excerpt(std::string_view text) {
+  std::string out;
+  const std::size_t n = std::min(text.size(), kMaxQuotedChars);
+  out.reserve(n + 24);
+  static const char* kHex = "0123456789abcdef";
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 15];
+    }
+  }
+  if (text.size() > n) out += "... (" + std::to_string(text.size()) + " bytes)";
+  return out;
 }
 
 }  // namespace odonav::io_detail

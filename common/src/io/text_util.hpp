@@ -44,6 +44,13 @@ std::vector<std::string_view> split_commas(std::string_view line);
 /// vector instead of allocating one per row.
 void split_commas(std::string_view line, std::vector<std::string_view>& fields);
 
+/// Longest excerpt of user text quoted in a message (characters before the "...").
+inline constexpr std::size_t kMaxQuotedChars = 80;
+/// `text` for a message: at most kMaxQuotedChars bytes (then "... (N bytes)"), every byte outside
+/// printable ASCII written as \xNN, so a NUL, an escape sequence or a 50 MB field cannot reach the
+/// terminal as it is.
+std::string printable_excerpt(std::string_view text);
+
 /// Joins with ", ".
 std::string join(const std::vector<std::string>& parts, const std::string& separator = ", ");
 

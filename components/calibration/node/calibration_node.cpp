@@ -142,6 +142,7 @@ void CalibrationNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("epochs", static_cast<double>(k.epochs));
   c.emplace_back("epochs_used", static_cast<double>(k.used));
   c.emplace_back("epochs_turning", static_cast<double>(k.turning));
+  c.emplace_back("epochs_outlier", static_cast<double>(k.outlier));
   c.emplace_back("epochs_low_speed", static_cast<double>(k.low_speed));
   c.emplace_back("epochs_invalid_fix", static_cast<double>(k.invalid_fix));
   c.emplace_back("epochs_no_attitude", static_cast<double>(k.no_attitude));

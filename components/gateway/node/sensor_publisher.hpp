@@ -27,7 +27,7 @@ odonav::msg::Odometer odometer_message(const OdometerSample& s, const std::strin
 /// INS attitude in radians, ENU velocity when the dataset has it (velocity_valid), valid, frame "body".
 odonav::msg::InsAttitude ins_message(const InsSample& s, const std::string& vehicle_id);
 /// GNSS fix: latitude/longitude in the degrees the dataset files hold (recorded_degrees), height,
-/// ENU velocity, fix quality; accuracies -1 when unknown; valid = fix not 0 or 6 and every value
+/// ENU velocity, fix quality; accuracies -1 when unknown; valid = fix not 0, 6, 7 or 8 and every value
 /// finite (a fix-0 row is published as an invalid fix, not dropped). Frame "wgs84".
 odonav::msg::GnssFix gnss_message(const GnssSample& s, const std::string& vehicle_id);
 

@@ -5,11 +5,14 @@
 namespace odonav::offline {
 namespace {
 
-std::vector<MisalignmentOutput> run_calibration(const Dataset& d, const MisalignmentCalibratorParams& params) {
+std::vector<MisalignmentOutput> run_calibration(const Dataset& d, const MisalignmentCalibratorParams& params,
+                                                MisalignmentCounters* counters) {
   MisalignmentCalibrator calibrator(params);
   for (const GnssSample& g : d.gnss) calibrator.add_gnss(g);
   for (const InsSample& i : d.ins) calibrator.add_ins(i);
-  return calibrator.finish();
+  std::vector<MisalignmentOutput> out = calibrator.finish();
+  if (counters) *counters = calibrator.counters();
+  return out;
 }
 
 template <class Consumer>
@@ -74,7 +77,7 @@ OfflineResult run_offline(const Dataset& dataset, const OfflineParams& given) {
   OfflineParams params = with_degraded_mode(dataset, given);
   params.identification.run_all_estimators = true;
   OfflineResult r;
-  r.misalignment = run_calibration(dataset, params.calibration);
+  r.misalignment = run_calibration(dataset, params.calibration, &r.calibration_counters);
   r.identification = run_identification(dataset, params.identification, r.misalignment, &r.estimator_names,
                                         &r.builder_counters);
   r.dr_online = run_dead_reckoning(dataset, params.dead_reckoning, r.misalignment, &r.identification, &r.dr_counters);
@@ -98,7 +101,7 @@ OfflineResult run_offline(const Dataset& dataset, const OfflineParams& given) {
 std::optional<double> coarse_k_of(const Dataset& dataset, const OfflineParams& given) {
   OfflineParams params = with_degraded_mode(dataset, given);
   params.identification.run_all_estimators = true;
-  const auto misalignment = run_calibration(dataset, params.calibration);
+  const auto misalignment = run_calibration(dataset, params.calibration, nullptr);
   std::vector<std::string> names;
   const auto identification = run_identification(dataset, params.identification, misalignment, &names, nullptr);
   return final_coarse_k(identification, names);

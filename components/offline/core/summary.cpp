@@ -14,11 +14,33 @@ using nlohmann::json;
 
 json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
+// meta.json's "simulation" object, with the keys the evaluation reads checked: a malformed one is a
+// DatasetError naming meta.json and the key, not a JSON library message.
 nlohmann::json simulation_meta(const Dataset& d) {
   if (d.meta.raw_json.empty()) return json::object();
   const json meta = json::parse(d.meta.raw_json, nullptr, /*allow_exceptions=*/false);
   if (meta.is_discarded() || !meta.is_object() || !meta.contains("simulation")) return json::object();
-  return meta["simulation"];
+  const json& sim = meta["simulation"];
+  const auto bad = [](const std::string& key, const std::string& expected) {
+    throw DatasetError("meta.json: key 'simulation." + key + "' must be " + expected);
+  };
+  if (!sim.is_object()) bad("", "an object");
+  if (sim.contains("k_true_initial_m_per_pulse") && !sim["k_true_initial_m_per_pulse"].is_number())
+    bad("k_true_initial_m_per_pulse", "a number (m/pulse)");
+  if (sim.contains("k_steps")) {
+    if (!sim["k_steps"].is_array()) bad("k_steps", "a list of {t_s, k_before, k_after}");
+    for (const json& step : sim["k_steps"])
+      if (!step.is_object() || !step.contains("t_s") || !step["t_s"].is_number() || !step.contains("k_before") ||
+          !step["k_before"].is_number() || !step.contains("k_after") || !step["k_after"].is_number())
+        bad("k_steps", "a list of {t_s, k_before, k_after} with numbers");
+  }
+  if (sim.contains("gnss_outages")) {
+    if (!sim["gnss_outages"].is_array()) bad("gnss_outages", "a list of [start_s, end_s]");
+    for (const json& o : sim["gnss_outages"])
+      if (!o.is_array() || o.size() != 2 || !o[0].is_number() || !o[1].is_number())
+        bad("gnss_outages", "a list of [start_s, end_s] with numbers");
+  }
+  return sim;
 }
 
 // The true K timeline: the simulator's base K with its steps (slip in turns excluded: the gates keep
@@ -245,6 +267,12 @@ void print_summary(const json& s, std::ostream& out) {
     out << "\n";
   }
   if (!dr["coarse_k"].is_null()) out << "    coarse K from: " << dr["coarse_k_origin"].get<std::string>() << "\n";
+  if (s.contains("warnings") && s["warnings"].is_array() && !s["warnings"].empty()) {
+    out << "  warnings\n";
+    for (const json& w : s["warnings"])
+      if (w.is_object() && w.contains("message") && w["message"].is_string())
+        out << "    " << w.value("code", std::string("-")) << ": " << w["message"].get<std::string>() << "\n";
+  }
 }
 
 }  // namespace odonav::offline

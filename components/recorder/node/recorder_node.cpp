@@ -1,7 +1,6 @@
 #include "recorder_node.hpp"
 
 #include <spdlog/spdlog.h>
-#include <sys/stat.h>
 
 #include <cerrno>
 #include <cmath>
@@ -13,6 +12,7 @@
 #include "odonav/dds/time.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/frames.hpp"
+#include "odonav/run_provenance.hpp"
 #include "odonav/topics.hpp"
 
 namespace odonav::recorder {
@@ -62,21 +62,6 @@ const char* health_level_name(odonav::msg::HealthLevel l) {
     case odonav::msg::HEALTH_LEVEL_STALE: return "stale";
   }
   return "?";
-}
-
-void make_directories(const std::string& dir) {
-  std::string partial;
-  for (std::size_t i = 0; i <= dir.size(); ++i) {
-    if ((i == dir.size() || dir[i] == '/') && !partial.empty()) {
-      struct stat st {};
-      if (::stat(partial.c_str(), &st) != 0 && ::mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST)
-        throw std::runtime_error(partial + ": cannot create the output directory: " + std::strerror(errno));
-    }
-    if (i < dir.size()) partial += dir[i];
-  }
-  struct stat st {};
-  if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
-    throw std::runtime_error(dir + ": not a directory (--out)");
 }
 
 }  // namespace
@@ -133,6 +118,7 @@ results::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m
 
 void add_recorder_options(Options& o) {
   o.add_string("out", "", "folder for misalignment.csv, scale_factor.csv, dead_reckoning.csv (created if missing); required");
+  o.add_bool("force", false, "write into an existing non-empty directory that is not an odonav output directory");
   o.add_double("progress-every-s", 10.0, "a progress line every this much simulated (event) time, s", 0.1, 1e6);
 }
 
@@ -141,22 +127,25 @@ RecorderSettings recorder_settings_from(const Options& o) {
   s.out_dir = o.get_string("out");
   if (s.out_dir.empty()) throw ConfigError("--out: the output folder is required");
   s.progress_every_s = o.get_double("progress-every-s");
+  s.force = o.get_bool("force");
   return s;
 }
 
 namespace {
-std::string prepared(const std::string& dir, const char* file) {
-  make_directories(dir);
-  return dir + "/" + file;
+OutputPolicy output_policy(const RecorderSettings& s) {
+  OutputPolicy p;
+  p.force = s.force;
+  return p;
 }
 }  // namespace
 
 RecorderNode::RecorderNode(dds::ComponentRuntime& runtime, const RecorderSettings& settings)
     : runtime_(runtime),
       settings_(settings),
-      misalignment_csv_(prepared(settings.out_dir, "misalignment.csv")),
-      scale_factor_csv_(prepared(settings.out_dir, "scale_factor.csv")),
-      dead_reckoning_csv_(prepared(settings.out_dir, "dead_reckoning.csv")) {
+      out_(settings.out_dir, output_policy(settings)),
+      misalignment_csv_(out_.file("misalignment.csv")),
+      scale_factor_csv_(out_.file("scale_factor.csv")),
+      dead_reckoning_csv_(out_.file("dead_reckoning.csv")) {
   const std::string vehicle = runtime.settings().vehicle_id;
   auto& p = runtime.participant();
   // Callbacks copy and queue; conversion and file I/O happen on the worker thread.
@@ -278,6 +267,11 @@ int RecorderNode::run() {
   misalignment_csv_.close();
   scale_factor_csv_.close();
   dead_reckoning_csv_.close();
+  // Which vehicle these rows are of: odonav-evaluate and odonav-report check it against the dataset.
+  RunProvenance provenance;
+  provenance.tool = "odonav-recorder";
+  provenance.vehicle_id = runtime_.settings().vehicle_id;
+  write_file_atomically(out_.file(kProvenanceFile), provenance_json(provenance));
   if (last_dead_reckoning_t_s_) progress(*last_dead_reckoning_t_s_, last_distance_m_);
   spdlog::info("wrote {} misalignment, {} scale-factor, {} dead-reckoning rows into {} (repeats skipped: {}, {}, {})",
                rows_[0], rows_[1], rows_[2], settings_.out_dir, repeated_[0], repeated_[1], repeated_[2]);

@@ -20,6 +20,7 @@
 #include "odonav/msg/Misalignment.h"
 #include "odonav/msg/ScaleFactor.h"
 #include "odonav/results/output_files.hpp"
+#include "odonav/safe_output.hpp"
 
 namespace odonav::recorder {
 
@@ -48,11 +49,12 @@ using topics::kScaleFactorRecorderReaderProfile;
 
 /// The recorder's own flags.
 struct RecorderSettings {
-  std::string out_dir;              ///< created if missing.
+  std::string out_dir;              ///< created if missing; see OutputDirectory (odonav/safe_output.hpp).
+  bool force = false;               ///< use a non-empty directory that is not an odonav output directory.
   double progress_every_s = 10.0;   ///< progress line every this much event (simulated) time, s.
 };
 
-/// Declares --out (required) and --progress-every-s.
+/// Declares --out (required), --force and --progress-every-s.
 void add_recorder_options(Options& options);
 /// Reads them. Throws ConfigError naming the flag (e.g. --out missing).
 RecorderSettings recorder_settings_from(const Options& options);
@@ -78,6 +80,7 @@ class RecorderNode {
 
   dds::ComponentRuntime& runtime_;
   RecorderSettings settings_;
+  OutputDirectory out_;  // checked (and created) before any file is opened
   results::MisalignmentCsv misalignment_csv_;
   results::ScaleFactorCsv scale_factor_csv_;
   results::DeadReckoningCsv dead_reckoning_csv_;

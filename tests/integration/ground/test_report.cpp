@@ -3,8 +3,11 @@
 // folder with a missing file fails naming it.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <regex>
 #include <set>
+#include <sstream>
+#include <vector>
 
 #include "ground_test_support.hpp"
 
@@ -49,4 +52,63 @@ TEST(Report, HtmlWithEveryFigureFromAnOfflineRun) {
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_NE(bad.err.find((dir / "out" / "scale_factor.csv").string()), std::string::npos) << bad.err;
   EXPECT_FALSE(fs::exists(dir / "bad.html"));
+}
+
+// Hostile and careless inputs: odonav-report never traces back, never writes over an input, a link
+// or a file that is not its own, and refuses results of another vehicle or time span.
+TEST(Report, RefusesWhatItMustNotWriteAndNeverTracesBack) {
+  const fs::path dir = scratch_dir("report-hostile");
+  ASSERT_EQ(run(binary("odonav-sim"), {"straight", "--duration-s", "60", "--out", (dir / "data").string()}, dir, "sim").exit_code, 0);
+  // A drive whose every fix is invalid: dead reckoning never starts (summary.json has nulls).
+  {
+    const std::string gnss = read_text(dir / "data" / "gnss.csv");
+    std::stringstream in(gnss), out;
+    std::string line;
+    std::getline(in, line);
+    out << line << "\n";
+    while (std::getline(in, line)) out << line.substr(0, line.rfind(',')) << ",0\n";  // fix is the last column
+    std::ofstream(dir / "data" / "gnss.csv") << out.str();
+  }
+  const RunResult off = run(binary("odonav-offline"), {(dir / "data").string(), "--out", (dir / "out").string()}, dir, "offline");
+  ASSERT_EQ(off.exit_code, 3) << off.err;  // no usable result
+  const auto report = [&](std::vector<std::string> args, const std::string& name) {
+    args.insert(args.begin(), (dir / "out").string());
+    return run(binary("odonav-report"), args, dir, name);
+  };
+  const RunResult never_started = report({"--out", (dir / "r.html").string(), "--dataset", (dir / "data").string()}, "ns");
+  EXPECT_EQ(never_started.exit_code, 0) << never_started.err;
+  EXPECT_NE(read_text(dir / "r.html").find("dead reckoning never started"), std::string::npos);
+  EXPECT_NE(read_text(dir / "r.html").find("no_k"), std::string::npos) << "the run's warnings are on the page";
+
+  const std::string gnss_before = read_text(dir / "data" / "gnss.csv");
+  const RunResult over_input = report({"--out", (dir / "data" / "gnss.csv").string(), "--dataset", (dir / "data").string()}, "oi");
+  EXPECT_EQ(over_input.exit_code, 1);
+  EXPECT_NE(over_input.err.find("inside the dataset"), std::string::npos) << over_input.err;
+  EXPECT_EQ(read_text(dir / "data" / "gnss.csv"), gnss_before);
+  const RunResult over_results = report({"--out", (dir / "out" / "scale_factor.csv").string()}, "or");
+  EXPECT_NE(over_results.err.find("it is an input of this report"), std::string::npos) << over_results.err;
+  std::ofstream(dir / "notes.html") << "my notes";
+  const RunResult foreign = report({"--out", (dir / "notes.html").string()}, "fo");
+  EXPECT_NE(foreign.err.find("is not an odonav report"), std::string::npos) << foreign.err;
+  EXPECT_EQ(read_text(dir / "notes.html"), "my notes");
+  fs::create_symlink(dir / "notes.html", dir / "link.html");
+  EXPECT_NE(report({"--out", (dir / "link.html").string()}, "ln").err.find("symbolic link"), std::string::npos);
+  EXPECT_EQ(read_text(dir / "notes.html"), "my notes");
+  // Our own page may be replaced.
+  EXPECT_EQ(report({"--out", (dir / "r.html").string()}, "again").exit_code, 0);
+
+  // Another vehicle's results (run.json) against this dataset.
+  std::string run_json = read_text(dir / "out" / "run.json");
+  run_json.replace(run_json.find("sim-"), 4, "xxx-");
+  std::ofstream(dir / "out" / "run.json") << run_json;
+  const RunResult other = report({"--out", (dir / "o.html").string(), "--dataset", (dir / "data").string()}, "ov");
+  EXPECT_EQ(other.exit_code, 1);
+  EXPECT_NE(other.err.find("does not belong to"), std::string::npos) << other.err;
+
+  // Not UTF-8, and not odonav output at all: a message, no traceback.
+  std::ofstream(dir / "out" / "misalignment.csv", std::ios::binary) << "t,heading_deg\n0,\xff\xfe\n";
+  const RunResult binary_file = report({"--out", (dir / "b.html").string()}, "bin");
+  EXPECT_EQ(binary_file.exit_code, 1);
+  EXPECT_NE(binary_file.err.find("not UTF-8"), std::string::npos) << binary_file.err;
+  EXPECT_EQ(binary_file.err.find("Traceback"), std::string::npos) << binary_file.err;
 }

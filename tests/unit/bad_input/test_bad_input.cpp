@@ -322,3 +322,52 @@ TEST(BadInput, MalformedXmlProfileMakesAComponentExitNonzeroNamingThePath) {
   EXPECT_NE(missing.exit_code, -1) << missing.output;
   EXPECT_NE(missing.output.find(dir.file("missing.xml")), std::string::npos) << missing.output;
 }
+
+// One wrong GNSS velocity row in a 60 s ring, through the real odonav-offline. 1e6 m/s is beyond
+// what a land vehicle can do: the reader names the row (strict) or skips it (skip). 30 m/s east is
+// possible but 30 m/s off the track: the calibrator's outlier gate keeps it out, so the misalignment
+// is the clean one (without the gate: 1e6 gave heading -89.2 deg "converged", 30 m/s 0.5 deg and no
+// convergence; 1e308 stopped the run on non-finite angles).
+TEST(BadInput, OneWrongGnssVelocityRowDoesNotMoveTheMisalignment) {
+  ScratchDir dir;
+  const std::string dataset = dir.file("ring");
+  ASSERT_EQ(run(binary("odonav-sim") + " ring --duration-s 60 --out " + dataset + " --log-level error").exit_code, 0);
+  const auto heading_error_deg = [&](const std::string& out, const std::string& flags = "") {
+    const RunResult r = run(binary("odonav-offline") + " " + dataset + " --out " + out + " --log-level warn " + flags);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    std::ifstream in(out + "/summary.json");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::size_t at = text.find("\"heading_error_deg\"");
+    EXPECT_NE(at, std::string::npos) << text.substr(0, 400);
+    return at == std::string::npos ? 1e9 : std::stod(text.substr(text.find(':', at) + 1));
+  };
+  const double clean = heading_error_deg(dir.file("clean"));
+  EXPECT_LT(std::abs(clean), 0.1);
+  // Column 5 of gnss.csv is ve (docs/DATASET.md); line 301 is t = 29.9 s at 10 Hz.
+  const auto replace_ve = [&](int line, const std::string& value) {
+    std::ifstream in(dataset + "/gnss.csv");
+    std::vector<std::string> lines;
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+    ASSERT_GT(lines.size(), static_cast<std::size_t>(line));
+    std::vector<std::string> fields;
+    std::stringstream ss(lines[line - 1]);
+    for (std::string f; std::getline(ss, f, ',');) fields.push_back(f);
+    fields.at(4) = value;
+    std::string joined;
+    for (std::size_t i = 0; i < fields.size(); ++i) joined += (i ? "," : "") + fields[i];
+    lines[line - 1] = joined;
+    std::ofstream o(dataset + "/gnss.csv");
+    for (const auto& l : lines) o << l << '\n';
+  };
+  replace_ve(301, "30");
+  const double spiked = heading_error_deg(dir.file("spiked"));
+  EXPECT_LT(std::abs(spiked), 0.1);
+  EXPECT_NEAR(spiked, clean, 0.01);
+  replace_ve(302, "1e6");
+  const RunResult strict = run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("strict"));
+  EXPECT_EQ(strict.exit_code, 1);
+  EXPECT_NE(strict.output.find("gnss.csv:302: column 've': velocity (m/s) of a land vehicle outside [-500, 500]: '1e6'"),
+            std::string::npos)
+      << strict.output;
+  EXPECT_NEAR(heading_error_deg(dir.file("skipped"), "--on-bad-row=skip"), clean, 0.01);
+}

@@ -231,3 +231,108 @@ TEST(MisalignmentCalibrator, DifferentInterleavingsGiveBitIdenticalOutputs) {
     EXPECT_EQ(oa[i].samples_used, ob[i].samples_used);
   }
 }
+
+// ---- outlier gate: one wrong GNSS velocity must not own the estimate ----
+
+namespace {
+// The 60 s drive with one epoch's GNSS velocity replaced by `bad` (ENU, m/s) at epoch index i.
+SyntheticData with_bad_velocity(std::size_t i, const Eigen::Vector3d& bad) {
+  SyntheticData d = simulate(drive(), noisy_config(3));
+  d.gnss.at(i).vel_enu_mps = bad;
+  return d;
+}
+}  // namespace
+
+TEST(MisalignmentCalibratorOutlierGate, OneRowOfAMillionMetresPerSecondIsRejectedAndChangesNothing) {
+  const MisalignmentOutput clean = run_all(simulate(drive(), noisy_config(3))).back();
+  for (const Eigen::Vector3d& bad : {Eigen::Vector3d(1e6, 0.0, 0.0), Eigen::Vector3d(0.0, 1e6, 0.0),
+                                    Eigen::Vector3d(1e308, 1e308, 0.0)}) {
+    MisalignmentCounters c;
+    const auto out = run_all(with_bad_velocity(300, bad), {}, &c);
+    EXPECT_EQ(out[300].epoch_status, CalibrationEpochStatus::kOutlier);
+    EXPECT_EQ(c.outlier, 1u);
+    EXPECT_EQ(c.used, 600u);
+    const MisalignmentOutput& last = out.back();
+    ASSERT_TRUE(std::isfinite(last.misalignment.heading_rad));
+    // Exactly the clean run's estimate without that epoch: within a tiny fraction of its sigma.
+    EXPECT_NEAR(last.misalignment.heading_rad, clean.misalignment.heading_rad, 0.2 * clean.sigma_heading_rad);
+    EXPECT_NEAR(last.misalignment.pitch_rad, clean.misalignment.pitch_rad, 0.2 * clean.sigma_pitch_rad);
+    EXPECT_TRUE(last.converged);
+  }
+}
+
+TEST(MisalignmentCalibratorOutlierGate, WithoutTheGateOneBadRowCorruptsTheEstimate) {
+  // The failure the gate exists for, measured: one 1e6 m/s row sideways moves the heading by degrees.
+  MisalignmentCalibratorParams off;
+  off.outlier_gate_enabled = false;
+  const auto u = drive().direction(0.0);
+  const Eigen::Vector3d sideways = 1e6 * Eigen::Vector3d(u.y(), -u.x(), 0.0).normalized() + 10.0 * u;
+  const MisalignmentOutput last = run_all(with_bad_velocity(300, sideways), off).back();
+  EXPECT_GT(std::abs(rad_to_deg(last.misalignment.heading_rad) - 0.8), 10.0);
+  MisalignmentCounters c;
+  const MisalignmentOutput gated = run_all(with_bad_velocity(300, sideways), {}, &c).back();
+  EXPECT_NEAR(rad_to_deg(gated.misalignment.heading_rad), 0.8, 0.03);
+  EXPECT_EQ(c.outlier, 1u);
+}
+
+TEST(MisalignmentCalibratorOutlierGate, ASpeedJumpOf20MetresPerSecondIsRejectedBeforeAnyEstimate) {
+  // Epoch 5: only 5 epochs used, so the innovation test is not active yet; the speed-jump test is.
+  const auto u = drive().direction(0.0);
+  SyntheticData d = simulate(drive(), noisy_config(3));
+  d.gnss.at(5).vel_enu_mps += 20.0 * u;
+  MisalignmentCounters c;
+  const auto out = run_all(d, {}, &c);
+  EXPECT_EQ(out[5].epoch_status, CalibrationEpochStatus::kOutlier);
+  EXPECT_EQ(c.outlier, 1u);
+  EXPECT_NEAR(rad_to_deg(out.back().misalignment.heading_rad), 0.8, 0.03);
+}
+
+TEST(MisalignmentCalibratorOutlierGate, AThreeMetrePerSecondSidewaysErrorIsCaughtByTheInnovation) {
+  // 3 m/s to the left at 10 m/s forward is a 17 deg "misalignment" for one epoch; the speed is
+  // unchanged (no speed jump), so only the innovation test can see it.
+  const auto u = drive().direction(0.0);
+  const Eigen::Vector3d left(-u.y(), u.x(), 0.0);
+  SyntheticData d = simulate(drive(), noisy_config(3));
+  for (std::size_t i : {200u, 350u, 500u}) d.gnss.at(i).vel_enu_mps += 3.0 * left;
+  MisalignmentCounters c;
+  const auto out = run_all(d, {}, &c);
+  EXPECT_EQ(c.outlier, 3u);
+  for (std::size_t i : {200u, 350u, 500u}) EXPECT_EQ(out[i].epoch_status, CalibrationEpochStatus::kOutlier);
+  EXPECT_NEAR(rad_to_deg(out.back().misalignment.heading_rad), 0.8, 0.03);
+}
+
+TEST(MisalignmentCalibratorOutlierGate, CleanNoisyDrivesLoseNoEpoch) {
+  // 5 sigma of 0.05 m/s noise plus 1 deg: a clean drive never trips the gate.
+  for (uint32_t seed = 1; seed <= 10; ++seed) {
+    MisalignmentCounters c;
+    run_all(simulate(drive(), noisy_config(seed)), {}, &c);
+    EXPECT_EQ(c.outlier, 0u) << "seed " << seed;
+    EXPECT_EQ(c.used, 601u) << "seed " << seed;
+  }
+}
+
+TEST(MisalignmentCalibratorOutlierGate, AWrongEarlyEstimateIsRecoveredAfterTheConsecutiveLimit) {
+  // The first 25 epochs say 10 deg of heading misalignment (a receiver bias at start-up); every
+  // later epoch disagrees. After 50 rejections in a row the test is suspended (until an epoch passes
+  // it again) and the regression takes the later epochs, so the estimate moves back to the truth.
+  SyntheticData d = simulate(drive(), noisy_config(3));
+  const auto u = drive().direction(0.0);
+  const Eigen::Vector3d left(-u.y(), u.x(), 0.0);
+  for (std::size_t i = 0; i < 25; ++i) d.gnss[i].vel_enu_mps += std::tan(deg_to_rad(10.0)) * 10.0 * left;
+  MisalignmentCounters c;
+  const auto out = run_all(d, {}, &c);
+  EXPECT_EQ(c.outlier, 50u);
+  EXPECT_GE(c.innovation_suspended, 1u);
+  EXPECT_LT(std::abs(rad_to_deg(out.back().misalignment.heading_rad) - 0.8), 1.0);
+}
+
+TEST(MisalignmentCalibratorOutlierGate, ParametersOutOfRangeAreRefusedByName) {
+  MisalignmentCalibratorParams p;
+  p.max_speed_mps = 0.0;
+  try {
+    MisalignmentCalibrator c(p);
+    FAIL() << "accepted max_speed_mps = 0";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("max_speed_mps"), std::string::npos) << e.what();
+  }
+}

@@ -25,6 +25,7 @@ const char* to_string(CalibrationEpochStatus status) {
     case CalibrationEpochStatus::kLowSpeed: return "low_speed";
     case CalibrationEpochStatus::kTurning: return "turning";
     case CalibrationEpochStatus::kFrozen: return "frozen";
+    case CalibrationEpochStatus::kOutlier: return "outlier";
   }
   return "unknown";
 }
@@ -48,6 +49,16 @@ MisalignmentCalibrator::MisalignmentCalibrator(const MisalignmentCalibratorParam
   require(p.residual_std_floor_mps > 0.0, "residual_std_floor_mps must be > 0");
   require(p.max_bracket_s > 0.0, "max_bracket_s must be > 0");
   require(!p.lever_arm_body_m || p.lever_arm_body_m->allFinite(), "lever_arm_body_m must be finite");
+  require(p.max_speed_mps > 0.0, "max_speed_mps must be > 0");
+  require(p.max_acceleration_mps2 > 0.0, "max_acceleration_mps2 must be > 0");
+  require(p.speed_jump_margin_mps >= 0.0, "speed_jump_margin_mps must be >= 0");
+  require(p.speed_jump_reference_max_age_s > 0.0, "speed_jump_reference_max_age_s must be > 0");
+  require(p.innovation_min_samples >= 2, "innovation_min_samples must be >= 2");
+  require(p.innovation_n_sigma > 0.0, "innovation_n_sigma must be > 0");
+  require(p.gnss_velocity_sigma_mps > 0.0, "gnss_velocity_sigma_mps must be > 0");
+  require(p.innovation_angle_margin_rad >= 0.0 && p.innovation_angle_margin_rad < 1.5,
+          "innovation_angle_margin_rad must be in [0, 1.5)");
+  require(p.innovation_max_consecutive_rejections >= 1, "innovation_max_consecutive_rejections must be >= 1");
 }
 
 void MisalignmentCalibrator::add_gnss(const GnssSample& sample) {
@@ -89,6 +100,47 @@ void MisalignmentCalibrator::reset() {
   heading_ = Regression{};
   pitch_ = Regression{};
   samples_used_ = 0;
+  last_used_forward_.reset();
+  consecutive_innovation_rejections_ = 0;
+}
+
+MisalignmentCalibrator::RegressionSpread MisalignmentCalibrator::spread(const Regression& r) const {
+  const double dof = static_cast<double>(samples_used_ - 1);
+  const double s = std::max(params_.residual_std_floor_mps, std::sqrt(r.residual_sum_squares() / dof));
+  return {s, s / std::sqrt(r.sum_phi2)};
+}
+
+bool MisalignmentCalibrator::is_outlier(const GnssSample& g, const Eigen::Vector3d& v_b) {
+  innovation_suspended_now_ = false;
+  if (!params_.outlier_gate_enabled) return false;
+  const double phi = v_b.x();
+  // 2. Speed jump against the last used epoch.
+  if (last_used_forward_) {
+    const double dt = g.t_s - last_used_forward_->first;
+    if (dt <= params_.speed_jump_reference_max_age_s &&
+        std::abs(phi - last_used_forward_->second) > params_.max_acceleration_mps2 * dt + params_.speed_jump_margin_mps)
+      return true;
+  }
+  // 3. Innovation against the current estimate.
+  if (samples_used_ < params_.innovation_min_samples) return false;
+  const double sigma_v = g.vel_std_mps && *g.vel_std_mps > 0.0 ? *g.vel_std_mps : params_.gnss_velocity_sigma_mps;
+  const double margin = std::tan(params_.innovation_angle_margin_rad) * phi;
+  auto fails = [&](const Regression& r, double y) {
+    const RegressionSpread sp = spread(r);
+    const double s = std::max(sp.residual_std_mps, sigma_v);
+    const double sigma_gate = std::sqrt(s * s + (sp.sigma_theta * phi) * (sp.sigma_theta * phi));
+    return std::abs(y - r.theta() * phi) > params_.innovation_n_sigma * sigma_gate + margin;
+  };
+  if (!fails(heading_, v_b.y()) && !fails(pitch_, v_b.z())) {
+    consecutive_innovation_rejections_ = 0;
+    return false;
+  }
+  if (consecutive_innovation_rejections_ < params_.innovation_max_consecutive_rejections) {
+    ++consecutive_innovation_rejections_;
+    return true;
+  }
+  innovation_suspended_now_ = true;
+  return false;
 }
 
 MisalignmentOutput MisalignmentCalibrator::current() const {
@@ -101,11 +153,8 @@ MisalignmentOutput MisalignmentCalibrator::current() const {
     const double a_p = std::atan(theta_p * std::cos(a_h));
     o.misalignment = Misalignment{a_h, a_p};
     if (samples_used_ >= 2) {
-      const double dof = static_cast<double>(samples_used_ - 1);
-      const double s_h = std::max(params_.residual_std_floor_mps, std::sqrt(heading_.residual_sum_squares() / dof));
-      const double s_p = std::max(params_.residual_std_floor_mps, std::sqrt(pitch_.residual_sum_squares() / dof));
-      const double sigma_theta_h = s_h / std::sqrt(heading_.sum_phi2);
-      const double sigma_theta_p = s_p / std::sqrt(pitch_.sum_phi2);
+      const double sigma_theta_h = spread(heading_).sigma_theta;
+      const double sigma_theta_p = spread(pitch_).sigma_theta;
       // d atan(x)/dx = 1 / (1 + x^2); a_p depends on theta_p through x = theta_p cos a_h.
       const double x_p = theta_p * std::cos(a_h);
       o.sigma_heading_rad = sigma_theta_h / (1.0 + theta_h * theta_h);
@@ -168,12 +217,20 @@ MisalignmentOutput MisalignmentCalibrator::process_epoch(const GnssSample& g) {
   Eigen::Vector3d v_b = enu_to_body(*att) * g.vel_enu_mps;
   if (params_.lever_arm_body_m) v_b -= omega_b.cross(*params_.lever_arm_body_m);
 
+  // 1. Physical limit, before the sign and speed tests so a spike is not counted as reversing (also
+  // catches 1e308 and its overflow to inf in the rotation).
+  if (!v_b.allFinite() ||
+      (params_.outlier_gate_enabled && g.vel_enu_mps.head<2>().norm() > params_.max_speed_mps))
+    return finish_epoch(CalibrationEpochStatus::kOutlier, counters_.outlier);
   if (v_b.x() < 0.0) return finish_epoch(CalibrationEpochStatus::kReversing, counters_.reversing);
   if (v_b.x() < params_.min_speed_mps) return finish_epoch(CalibrationEpochStatus::kLowSpeed, counters_.low_speed);
   if (std::abs(yaw_rate) > params_.max_yaw_rate_rad_s)
     return finish_epoch(CalibrationEpochStatus::kTurning, counters_.turning);
+  if (is_outlier(g, v_b)) return finish_epoch(CalibrationEpochStatus::kOutlier, counters_.outlier);
+  if (innovation_suspended_now_) ++counters_.innovation_suspended;
 
   const double phi = v_b.x();
+  last_used_forward_ = std::make_pair(g.t_s, phi);
   heading_.sum_phi2 += phi * phi;
   heading_.sum_phi_y += phi * v_b.y();
   heading_.sum_y2 += v_b.y() * v_b.y();

@@ -185,48 +185,6 @@ IdentificationCheckpoint parse_checkpoint(const std::string& text) {
   return c;
 }
 
-void write_file_atomically(const std::string& path, const std::string& text) {
-  const std::filesystem::path target(path);
-  const std::filesystem::path dir = target.has_parent_path() ? target.parent_path() : std::filesystem::path(".");
-  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw std::runtime_error(system_error("checkpoint: cannot create", tmp));
-  auto fail = [&](const std::string& step) {
-    const std::string message = system_error("checkpoint: " + step, tmp);
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    throw std::runtime_error(message);
-  };
-  std::size_t written = 0;
-  while (written < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      fail("cannot write");
-    }
-    written += static_cast<std::size_t>(n);
-  }
-  // Data on disk before the rename makes it visible: otherwise a power cut could leave the new
-  // name pointing at an empty file.
-  if (::fsync(fd) != 0) fail("cannot fsync");
-  if (::close(fd) != 0) {
-    const std::string message = system_error("checkpoint: cannot close", tmp);
-    ::unlink(tmp.c_str());
-    throw std::runtime_error(message);
-  }
-  if (::rename(tmp.c_str(), path.c_str()) != 0) {
-    const std::string message = system_error("checkpoint: cannot rename to '" + path + "' from", tmp);
-    ::unlink(tmp.c_str());
-    throw std::runtime_error(message);
-  }
-  // The rename itself is durable only once the directory entry is.
-  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dfd < 0) throw std::runtime_error(system_error("checkpoint: cannot open directory", dir.string()));
-  const int rc = ::fsync(dfd);
-  ::close(dfd);
-  if (rc != 0) throw std::runtime_error(system_error("checkpoint: cannot fsync directory", dir.string()));
-}
-
 std::string move_checkpoint_aside(const std::string& path, int64_t unix_time_s) {
   const std::string base = path + ".bad-" + std::to_string(unix_time_s);
   std::string target = base;

@@ -24,6 +24,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -58,6 +59,34 @@ struct MisalignmentCalibratorParams {
   double residual_std_floor_mps = 0.005;
   /// Longest INS gap across which attitude is interpolated (s). Default 1.
   double max_bracket_s = 1.0;
+
+  /// Outlier gate. Each epoch enters both regressions with weight phi^2 = V_forward^2, so a single
+  /// wrong GNSS velocity (a receiver glitch of 30 m/s, a row of 1e6 m/s) would own the estimate and
+  /// still look converged. The same three tests as the sample builder's gates (sample_builder.hpp),
+  /// applied to the body-frame velocity V_b of the epoch:
+  ///  1. physical limit: V_b not finite, or its horizontal GNSS speed above max_speed_mps;
+  ///  2. speed jump (works before any estimate): |V_forward - V_forward of the last used epoch| above
+  ///     max_acceleration_mps2 * dt + speed_jump_margin_mps, the reference used only if at most
+  ///     speed_jump_reference_max_age_s old;
+  ///  3. innovation, once innovation_min_samples epochs were used: for the left and the up
+  ///     regression, |y - theta phi| > innovation_n_sigma * sqrt(s^2 + (sigma_theta phi)^2)
+  ///     + tan(innovation_angle_margin_rad) * phi, with s = max(residual std, GNSS velocity sigma)
+  ///     (the row's vel_std_mps, else gnss_velocity_sigma_mps) and sigma_theta the regression's
+  ///     one-sigma. The angle margin lets side slip in gentle curves through. After
+  ///     innovation_max_consecutive_rejections rejections in a row the estimate is presumed wrong
+  ///     (an early outlier got in) and the innovation test is suspended until an epoch passes it.
+  /// Defaults: 100 m/s (as the odometer pulse-jump gate), 6 m/s^2, 1 m/s, 1 s, 20 epochs, 5 sigma,
+  /// 0.1 m/s, 1 deg, 50 epochs.
+  bool outlier_gate_enabled = true;
+  double max_speed_mps = 100.0;
+  double max_acceleration_mps2 = 6.0;
+  double speed_jump_margin_mps = 1.0;
+  double speed_jump_reference_max_age_s = 1.0;
+  uint64_t innovation_min_samples = 20;
+  double innovation_n_sigma = 5.0;
+  double gnss_velocity_sigma_mps = 0.1;
+  double innovation_angle_margin_rad = 1.0 * kDegToRad;
+  int innovation_max_consecutive_rejections = 50;
 };
 
 enum class CalibrationState {
@@ -72,12 +101,13 @@ const char* to_string(CalibrationState state);
 enum class CalibrationEpochStatus {
   kUsed,        ///< entered both regressions.
   kNoIns,       ///< use_ins is false: calibration impossible.
-  kInvalidFix,  ///< GNSS fix 0 or 6.
+  kInvalidFix,  ///< GNSS fix 0, 6, 7 or 8 (not a measured fix).
   kNoAttitude,  ///< no INS attitude can be interpolated at the epoch.
   kReversing,   ///< V_b,forward < 0.
   kLowSpeed,    ///< V_b,forward below min_speed_mps.
   kTurning,     ///< |yaw rate| above max_yaw_rate_rad_s.
   kFrozen,      ///< frozen: epoch not used.
+  kOutlier,     ///< GNSS velocity failed the outlier gate (physical limit, speed jump or innovation).
 };
 const char* to_string(CalibrationEpochStatus status);
 
@@ -91,6 +121,9 @@ struct MisalignmentCounters {
   uint64_t low_speed = 0;
   uint64_t turning = 0;
   uint64_t frozen = 0;
+  uint64_t outlier = 0;
+  /// Epochs used while the innovation test was suspended (also counted in used).
+  uint64_t innovation_suspended = 0;
 };
 
 /// One output per GNSS epoch.
@@ -138,6 +171,15 @@ class MisalignmentCalibrator {
     double residual_sum_squares() const;
   };
   MisalignmentOutput process_epoch(const GnssSample& gnss);
+  /// Tests 2 and 3 of the outlier gate (the physical limit is tested first, in process_epoch): true when the epoch's body velocity v_b (m/s)
+  /// must not enter the regressions. Updates the consecutive-rejection count.
+  bool is_outlier(const GnssSample& gnss, const Eigen::Vector3d& v_b);
+  /// One-sigma of theta (dimensionless) and the residual scale s (m/s) of a regression.
+  struct RegressionSpread {
+    double residual_std_mps;
+    double sigma_theta;
+  };
+  RegressionSpread spread(const Regression& r) const;
 
   MisalignmentCalibratorParams params_;
   AttitudeBuffer attitude_;
@@ -146,6 +188,10 @@ class MisalignmentCalibrator {
   double watermark_s_ = -std::numeric_limits<double>::infinity();
   Regression heading_, pitch_;
   uint64_t samples_used_ = 0;
+  /// Last used epoch (the speed-jump reference): time (s) and forward speed (m/s).
+  std::optional<std::pair<double, double>> last_used_forward_;
+  int consecutive_innovation_rejections_ = 0;
+  bool innovation_suspended_now_ = false;
   bool frozen_ = false;
   double last_t_s_ = 0.0;
   MisalignmentCounters counters_;

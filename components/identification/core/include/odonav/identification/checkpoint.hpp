@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "odonav/safe_output.hpp"
 #include "odonav/scale_factor_estimator.hpp"
 
 namespace odonav {
@@ -62,10 +63,8 @@ std::string serialize_checkpoint(const IdentificationCheckpoint& checkpoint);
 /// truncated, checksum mismatch, unknown version, missing or malformed field.
 IdentificationCheckpoint parse_checkpoint(const std::string& text);
 
-/// Writes `text` to `path` atomically: `<path>.tmp-<pid>` in the same directory, fsync, rename over
-/// `path`, fsync of the directory. Throws std::runtime_error naming the step and the system error;
-/// the temporary file is removed on failure and `path` keeps its previous content.
-void write_file_atomically(const std::string& path, const std::string& text);
+// Checkpoints are written with write_file_atomically (odonav/safe_output.hpp): temporary name,
+// fsync, rename over the previous checkpoint, fsync of the directory.
 
 /// Renames `path` to `<path>.bad-<unix_time_s>` (with `-2`, `-3`... if that exists). Never deletes.
 /// Returns the new name. Throws std::runtime_error when the rename fails.

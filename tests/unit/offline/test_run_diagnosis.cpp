@@ -1,0 +1,119 @@
+// "Never a silent zero": runs whose main result is missing or degenerate are named with the gate,
+// the threshold and the observed value (simulated drives with known causes).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/simulator.hpp"
+#include "offline_runner.hpp"
+#include "run_diagnosis.hpp"
+
+using namespace odonav;
+using namespace odonav::offline;
+
+namespace {
+
+sim::SimulationConfig straight(double duration_s = 120.0) {
+  sim::SimulationConfig cfg = sim::scenario_config("straight");
+  cfg.seed = 5;
+  cfg.duration_s = duration_s;
+  return cfg;
+}
+
+OfflineParams params_for(const Dataset& d) {
+  OfflineParams p;
+  p.dead_reckoning.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
+  return p;
+}
+
+const RunWarning* find(const RunDiagnosis& r, const std::string& code) {
+  for (const RunWarning& w : r.warnings)
+    if (w.code == code) return &w;
+  return nullptr;
+}
+
+}  // namespace
+
+TEST(RunDiagnosis, ACleanDriveHasNoWarning) {
+  const Dataset d = sim::simulate(straight());
+  const OfflineParams p = params_for(d);
+  const RunDiagnosis r = diagnose_run(d, p, run_offline(d, p));
+  EXPECT_TRUE(r.usable);
+  for (const RunWarning& w : r.warnings) ADD_FAILURE() << w.code << ": " << w.message;
+}
+
+TEST(RunDiagnosis, OneHertzGnssWithTheTenHertzGapGateNamesTheGateThePeriodAndTheFlag) {
+  sim::SimulationConfig cfg = straight();
+  cfg.gnss_rate_hz = 1.0;
+  const Dataset d = sim::simulate(cfg);
+  OfflineParams p = params_for(d);
+  p.identification.builder.max_interval_s = 0.5;  // the 10 Hz setting, given explicitly
+  const OfflineResult result = run_offline(d, p);
+  const RunDiagnosis r = diagnose_run(d, p, result);
+  EXPECT_FALSE(r.usable);
+  const RunWarning* w = find(r, "no_k");
+  ASSERT_NE(w, nullptr);
+  EXPECT_NE(w->message.find("as gaps > 0.5 s (--max-interval-s); the GNSS period is 1 s"), std::string::npos)
+      << w->message;
+  EXPECT_NE(w->message.find("0 of " + std::to_string(result.builder_counters.epochs)), std::string::npos)
+      << w->message;
+}
+
+TEST(RunDiagnosis, AWrongNominalKThatTruncatesTheDeadReckoningIsNamed) {
+  const Dataset d = sim::simulate(straight());
+  OfflineParams p = params_for(d);
+  p.dead_reckoning.nominal_k_m_per_pulse = 1.0;  // 80x the encoder's: every real increment is a "jump"
+  const OfflineResult result = run_offline(d, p);
+  const RunDiagnosis r = diagnose_run(d, p, result);
+  const RunWarning* w = find(r, "dead_reckoning_truncated");
+  if (result.dr_online.empty()) {
+    ASSERT_NE(find(r, "no_dead_reckoning"), nullptr);
+  } else {
+    ASSERT_NE(w, nullptr) << "DR ends at " << result.dr_online.back().t_s;
+    EXPECT_NE(w->message.find("pulse-jump gate"), std::string::npos) << w->message;
+    EXPECT_NE(w->message.find("--nominal-k"), std::string::npos) << w->message;
+  }
+}
+
+TEST(RunDiagnosis, NoTimeOverlapIsNamedWithBothSpans) {
+  Dataset d = sim::simulate(straight(60.0));
+  for (GnssSample& g : d.gnss) g.t_s += 1e6;  // GNSS in another time base
+  const OfflineParams p = params_for(d);
+  const RunDiagnosis r = diagnose_run(d, p, run_offline(d, p));
+  EXPECT_FALSE(r.usable);
+  const RunWarning* w = find(r, "no_time_overlap");
+  ASSERT_NE(w, nullptr);
+  EXPECT_NE(w->message.find("do not overlap"), std::string::npos) << w->message;
+  EXPECT_NE(w->message.find("1000000"), std::string::npos) << w->message;
+}
+
+TEST(RunDiagnosis, NegatedGnssVelocityIsNamed) {
+  Dataset d = sim::simulate(straight(60.0));
+  for (GnssSample& g : d.gnss) g.vel_enu_mps = -g.vel_enu_mps;
+  const OfflineParams p = params_for(d);
+  const RunDiagnosis r = diagnose_run(d, p, run_offline(d, p));
+  EXPECT_FALSE(r.usable);
+  const RunWarning* w = find(r, "no_k");
+  ASSERT_NE(w, nullptr);
+  EXPECT_NE(w->message.find("negative forward speed"), std::string::npos) << w->message;
+  const RunWarning* m = find(r, "no_misalignment");
+  ASSERT_NE(m, nullptr);
+  EXPECT_NE(m->message.find("reversing"), std::string::npos) << m->message;
+}
+
+TEST(RunDiagnosis, AKFarFromTheNominalIsCalledImplausible) {
+  const Dataset d = sim::simulate(straight());
+  OfflineParams p = params_for(d);
+  p.dead_reckoning.nominal_k_m_per_pulse = 0.0125 / 3.6;  // the encoder is said to be 3.6x finer
+  p.identification.builder.odometer_jump_gate.k_m_per_pulse = 0.0125;  // gate kept at the real encoder
+  p.dead_reckoning.max_speed_mps = 1000.0;
+  const RunDiagnosis r = diagnose_run(d, p, run_offline(d, p));
+  const RunWarning* w = find(r, "implausible_k");
+  ASSERT_NE(w, nullptr);
+  EXPECT_NE(w->message.find("x the nominal K"), std::string::npos) << w->message;
+}
+
+TEST(RunDiagnosis, MedianPeriodIgnoresOutagesAndJitter) {
+  EXPECT_NEAR(median_period_s({0.0, 1.0, 2.0, 3.01, 4.0, 100.0, 101.0}), 1.0, 0.02);
+  EXPECT_TRUE(std::isnan(median_period_s({5.0})));
+}
