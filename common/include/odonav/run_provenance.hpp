@@ -16,7 +16,12 @@ inline constexpr const char* kProvenanceFile = "run.json";
 
 struct RunProvenance {
   std::string tool;        ///< "odonav-offline", "odonav-recorder".
-  std::string vehicle_id;  ///< the dataset's meta.json vehicle_id, or the pipeline's --vehicle-id.
+  /// The dataset's meta.json vehicle_id (compared with the dataset's); empty when the writer did not
+  /// read the dataset.
+  std::string vehicle_id;
+  /// The pipeline's --vehicle-id (the DDS key), when a recorder wrote the folder: informational, it
+  /// need not equal the dataset's vehicle_id (a replay may run under any id).
+  std::string dds_vehicle_id;
   /// dataset_fingerprint() of the dataset, when the writer read it (odonav-offline); empty otherwise.
   std::string dataset_fingerprint;
   /// Event-time span of the data the run saw (s, the dataset's time base); NaN when unknown.

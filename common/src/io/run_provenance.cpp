@@ -84,6 +84,7 @@ std::string provenance_json(const RunProvenance& p) {
   nlohmann::json j;
   j["tool"] = p.tool;
   j["vehicle_id"] = p.vehicle_id;
+  if (!p.dds_vehicle_id.empty()) j["dds_vehicle_id"] = p.dds_vehicle_id;
   j["dataset_fingerprint"] = p.dataset_fingerprint;
   j["t_first_s"] = std::isfinite(p.t_first_s) ? nlohmann::json(p.t_first_s) : nlohmann::json(nullptr);
   j["t_last_s"] = std::isfinite(p.t_last_s) ? nlohmann::json(p.t_last_s) : nlohmann::json(nullptr);
@@ -101,6 +102,7 @@ std::optional<RunProvenance> read_provenance(const std::string& folder) {
     RunProvenance p;
     p.tool = j.at("tool").get<std::string>();
     p.vehicle_id = j.at("vehicle_id").get<std::string>();
+    p.dds_vehicle_id = j.value("dds_vehicle_id", std::string());
     p.dataset_fingerprint = j.value("dataset_fingerprint", std::string());
     if (j.contains("t_first_s") && j["t_first_s"].is_number()) p.t_first_s = j["t_first_s"].get<double>();
     if (j.contains("t_last_s") && j["t_last_s"].is_number()) p.t_last_s = j["t_last_s"].get<double>();

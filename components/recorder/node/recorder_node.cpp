@@ -270,7 +270,7 @@ int RecorderNode::run() {
   // Which vehicle these rows are of: odonav-evaluate and odonav-report check it against the dataset.
   RunProvenance provenance;
   provenance.tool = "odonav-recorder";
-  provenance.vehicle_id = runtime_.settings().vehicle_id;
+  provenance.dds_vehicle_id = runtime_.settings().vehicle_id;
   write_file_atomically(out_.file(kProvenanceFile), provenance_json(provenance));
   if (last_dead_reckoning_t_s_) progress(*last_dead_reckoning_t_s_, last_distance_m_);
   spdlog::info("wrote {} misalignment, {} scale-factor, {} dead-reckoning rows into {} (repeats skipped: {}, {}, {})",

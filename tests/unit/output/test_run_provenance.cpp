@@ -51,8 +51,8 @@ TEST(RunProvenance, FingerprintIsStableAndSeesAnotherDriveWithTheSameVehicleAndS
 
 TEST(RunProvenance, AnotherVehicleAndRowsOutsideTheSpanAreNamed) {
   const Dataset a = drive("veh-A", 10.0), b = drive("veh-B", 10.0, 1000.0);
-  RunProvenance recorder;  // the recorder knows the vehicle, not the dataset
-  recorder.tool = "odonav-recorder";
+  RunProvenance recorder;  // e.g. an older run that recorded the dataset's vehicle
+  recorder.tool = "odonav-offline";
   recorder.vehicle_id = "veh-A";
   EXPECT_TRUE(provenance_mismatches(recorder, 0.0, 10.0, a).empty());
   const auto m = provenance_mismatches(recorder, 0.0, 10.0, b);
@@ -63,6 +63,11 @@ TEST(RunProvenance, AnotherVehicleAndRowsOutsideTheSpanAreNamed) {
   // No provenance at all (an older results folder): the time span is still checked.
   EXPECT_EQ(provenance_mismatches(std::nullopt, 0.0, 10.0, b).size(), 1u);
   EXPECT_TRUE(provenance_mismatches(std::nullopt, 1000.5, 1010.5, b).empty());  // within the 1 s tolerance
+  // The pipeline's DDS vehicle id is not the dataset's: never compared.
+  RunProvenance pipeline;
+  pipeline.tool = "odonav-recorder";
+  pipeline.dds_vehicle_id = "vehicle-01";
+  EXPECT_TRUE(provenance_mismatches(pipeline, 1000.0, 1010.0, b).empty());
 }
 
 TEST(RunProvenance, RoundTripsThroughRunJsonAndABadFileIsNamed) {
