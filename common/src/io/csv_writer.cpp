@@ -1,9 +1,7 @@
 #include "odonav/csv_writer.hpp"
 
-#include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <cstring>
 #include <stdexcept>
 
 #include "odonav/safe_output.hpp"
@@ -95,9 +93,8 @@ void CsvWriter::end_row() {
 
 void CsvWriter::flush_buffer() {
   if (!file_ || buffer_.empty()) return;
-  std::string pending;
-  pending.swap(buffer_);
-  file_->write(pending);  // throws OutputError naming the path
+  file_->write(buffer_);  // throws OutputError naming the path
+  buffer_.clear();        // keeps its capacity: the next rows reuse it
 }
 
 void CsvWriter::close() {

@@ -2,9 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <stdexcept>
 
