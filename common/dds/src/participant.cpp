@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <functional>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -97,45 +98,135 @@ bool has_property(const DomainParticipantQos& qos, const std::string& name) {
 
 namespace detail {
 
+ParticipantEventLog::~ParticipantEventLog() {
+  if (!space_secure_discoveries_) return;
+  const Counts c = counts();
+  // One line with what the participant met over its life: the figures behind "a flood of strangers
+  // at start-up cost nothing" (docs/DDS.md §6).
+  spdlog::info("odonav::dds: {}: DDS Security summary: {} participants discovered, {} without credentials, "
+               "{} refused, {} authenticated; {} handshake set-ups spaced, {} held back for {:.3f} s in total; "
+               "{} strangers not tracked",
+               own_name_, c.discovered, c.without_credentials, c.refused, c.authenticated, c.setups_spaced,
+               c.setups_delayed, c.setup_wait_s, c.untracked);
+}
+
+ParticipantEventLog::Counts ParticipantEventLog::counts() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return counts_;
+}
+
+bool ParticipantEventLog::remember(const std::string& guid, const std::string& name, bool credentials) {
+  ++counts_.discovered;
+  if (!credentials) ++counts_.without_credentials;
+  if (peers_.size() >= kMaxTrackedStrangers && peers_.find(guid) == peers_.end()) {
+    ++counts_.untracked;
+    return false;
+  }
+  Peer& peer = peers_[guid];
+  peer.name = name;
+  peer.discovered = std::chrono::steady_clock::now();
+  peer.credentials = credentials;
+  return true;
+}
+
+void ParticipantEventLog::on_discovered_secure(const std::string& name, const std::string& guid, bool credentials) {
+  if (!credentials) {
+    // Fast DDS refuses it right after this callback, before any handshake set-up: nothing to
+    // space, and a flood of them is logged within a budget.
+    LogBudget::Grant grant;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      remember(guid, name, false);
+      grant = stranger_log_.take(std::chrono::steady_clock::now());
+    }
+    if (grant.log) {
+      spdlog::warn("odonav::dds: {} discovered participant '{}' ({}) without DDS Security credentials: refused, "
+                   "it gets no data{}",
+                   own_name_, name, guid,
+                   grant.left_out == 0 ? std::string()
+                                       : " (" + std::to_string(grant.left_out) + " more refusals not logged)");
+    }
+    return;
+  }
+  spdlog::info("odonav::dds: {} discovered participant '{}' ({})", own_name_, name, guid);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    remember(guid, name, true);
+  }
+  // Fast DDS prepares the new participant's handshake right after this returns, on this thread
+  // (see the class comment): wait if another thread's preparation may still be running.
+  std::lock_guard<std::mutex> spacing(spacing_mutex_);
+  const auto now = std::chrono::steady_clock::now();
+  const auto start = spacing_.admit(std::hash<std::thread::id>{}(std::this_thread::get_id()), now);
+  if (start > now) std::this_thread::sleep_until(start);
+  std::lock_guard<std::mutex> lock(mutex_);
+  counts_.setups_spaced = spacing_.admitted();
+  counts_.setups_delayed = spacing_.delayed();
+  counts_.setup_wait_s = std::chrono::duration<double>(spacing_.waited()).count();
+}
+
+void ParticipantEventLog::on_left(const std::string& name, const std::string& guid, bool lease_expired) {
+  bool stranger = false;
+  LogBudget::Grant grant;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto peer = peers_.find(guid);
+    if (peer != peers_.end()) {
+      // Refused, or never able to authenticate: a peer with credentials whose handshake is still
+      // pending is one of ours (perhaps caught by the race), so its loss stays a warning.
+      stranger = !peer->second.credentials || peer->second.auth == Peer::Auth::kRefused;
+      peers_.erase(peer);
+    }
+    if (stranger) grant = stranger_left_log_.take(std::chrono::steady_clock::now());
+  }
+  if (stranger) {
+    // Someone refused is gone: no loss to us, and a flood's end must not bury the log in warnings.
+    if (grant.log) {
+      spdlog::info("odonav::dds: {}: refused participant '{}' ({}) {}{}", own_name_, name, guid,
+                   lease_expired ? "gone (lease expired)" : "left",
+                   grant.left_out == 0 ? std::string()
+                                       : " (" + std::to_string(grant.left_out) + " more not logged)");
+    }
+    return;
+  }
+  if (!lease_expired) {
+    spdlog::info("odonav::dds: {}: participant '{}' ({}) left", own_name_, name, guid);
+  } else {
+    spdlog::warn("odonav::dds: {}: participant '{}' ({}) lost: its lease expired (process dead, host down "
+                 "or link cut)", own_name_, name, guid);
+  }
+}
+
 void ParticipantEventLog::on_participant_discovery(DomainParticipant* /*participant*/,
                                                    eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) {
   using Status = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo::DISCOVERY_STATUS;
-  const std::string name = info.info.m_participantName.to_string();
-  const std::string guid = guid_text(info.info.m_guid);
+  // Runs for every announcement of every participant (CHANGED_QOS each second): nothing is
+  // formatted before the status says it is needed.
   switch (info.status) {
     case Status::DISCOVERED_PARTICIPANT: {
-      spdlog::info("odonav::dds: {} discovered participant '{}' ({})", own_name_, name, guid);
-      if (space_secure_discoveries_) {
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          peers_[guid] = Peer{name, std::chrono::steady_clock::now()};
-        }
-        // Fast DDS calls this before preparing the new participant's handshake (see the class
-        // comment): wait until the previous one has had kSecureDiscoverySpacing to finish its own.
-        std::lock_guard<std::mutex> spacing(spacing_mutex_);
-        const auto ready = last_discovery_done_ + kSecureDiscoverySpacing;
-        if (std::chrono::steady_clock::now() < ready) std::this_thread::sleep_until(ready);
-        last_discovery_done_ = std::chrono::steady_clock::now();
+      const std::string name = info.info.m_participantName.to_string();
+      const std::string guid = guid_text(info.info.m_guid);
+      if (!space_secure_discoveries_) {
+        spdlog::info("odonav::dds: {} discovered participant '{}' ({})", own_name_, name, guid);
+        break;
       }
+#if HAVE_SECURITY
+      // Fast DDS 2.9 (PKIDH::validate_remote_identity) refuses a participant without an identity
+      // token before it prepares anything for it.
+      const bool credentials = !info.info.identity_token_.is_nil();
+#else
+      const bool credentials = true;
+#endif
+      on_discovered_secure(name, guid, credentials);
       break;
     }
     case Status::CHANGED_QOS_PARTICIPANT:
-      spdlog::debug("odonav::dds: {}: participant '{}' ({}) changed its QoS", own_name_, name, guid);
       break;
     case Status::REMOVED_PARTICIPANT:
-    case Status::DROPPED_PARTICIPANT: {
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        peers_.erase(guid);
-      }
-      if (info.status == Status::REMOVED_PARTICIPANT) {
-        spdlog::info("odonav::dds: {}: participant '{}' ({}) left", own_name_, name, guid);
-      } else {
-        spdlog::warn("odonav::dds: {}: participant '{}' ({}) lost: its lease expired (process dead, host down "
-                     "or link cut)", own_name_, name, guid);
-      }
+    case Status::DROPPED_PARTICIPANT:
+      on_left(info.info.m_participantName.to_string(), guid_text(info.info.m_guid),
+              info.status == Status::DROPPED_PARTICIPANT);
       break;
-    }
   }
 }
 
@@ -146,22 +237,41 @@ void ParticipantEventLog::onParticipantAuthentication(
   const std::string guid = guid_text(info.guid);
   const bool authorized = info.status == Status::AUTHORIZED_PARTICIPANT;
   std::uint64_t refusals = 0;
+  bool credentials = true;
+  LogBudget::Grant grant;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto peer = peers_.find(guid);
-    if (peer == peers_.end()) peer = peers_.emplace(guid, Peer{"", std::chrono::steady_clock::now()}).first;
-    peer->second.auth = authorized ? Peer::Auth::kAuthenticated : Peer::Auth::kRefused;
-    if (!authorized) refusals = ++peer->second.refusals;
+    if (peer == peers_.end() && peers_.size() < kMaxTrackedStrangers)
+      peer = peers_.emplace(guid, Peer{"", std::chrono::steady_clock::now()}).first;
+    if (peer != peers_.end()) {
+      peer->second.auth = authorized ? Peer::Auth::kAuthenticated : Peer::Auth::kRefused;
+      credentials = peer->second.credentials;
+      if (!authorized) refusals = ++peer->second.refusals;
+    } else if (!authorized) {
+      refusals = 1;  // not tracked: counted as a first refusal
+    }
+    if (authorized) {
+      ++counts_.authenticated;
+    } else if (refusals == 1) {
+      ++counts_.refused;
+      // Without credentials the discovery line already said it; a foreign identity gets its own
+      // line, within the same budget.
+      if (credentials) grant = stranger_log_.take(std::chrono::steady_clock::now());
+    }
   }
   if (authorized) {
     spdlog::info("odonav::dds: {} authenticated participant {}", own_name_, guid);
     return;
   }
-  // A refused participant keeps announcing itself, and is refused again each time: warn once.
-  if (refusals == 1) {
+  // A refused participant keeps announcing itself, and may be refused again: warn once.
+  if (grant.log) {
     spdlog::warn("odonav::dds: {}: participant {} failed DDS Security authentication (certificate not from "
-                 "our identity CA, or invalid permissions): it gets no data", own_name_, guid);
-  } else {
+                 "our identity CA, or invalid permissions): it gets no data{}",
+                 own_name_, guid,
+                 grant.left_out == 0 ? std::string()
+                                     : " (" + std::to_string(grant.left_out) + " more refusals not logged)");
+  } else if (refusals > 1) {
     spdlog::debug("odonav::dds: {}: participant {} refused again ({} times)", own_name_, guid, refusals);
   }
 }

@@ -1,7 +1,9 @@
 // The DDS layer's participant event log (odonav/dds/participant.hpp): what it logs about other
-// participants, that a refused participant is warned about once, and that with DDS Security the
-// set-up of two participants discovered together is spaced (the Fast DDS 2.9 race it works
-// around is described there). The callbacks are driven directly with the data Fast DDS passes.
+// participants, that a refused participant is warned about once, that with DDS Security the
+// set-up of two participants discovered together on two receive threads is spaced (the Fast DDS
+// 2.9 race it works around is described there), and that a flood of participants without
+// credentials is neither held nor logged one by one. The callbacks are driven directly with the
+// data Fast DDS passes.
 #include <gtest/gtest.h>
 
 #include <fastdds/rtps/attributes/RTPSParticipantAllocationAttributes.hpp>
@@ -14,6 +16,7 @@
 #include <cstdlib>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "odonav/dds/participant.hpp"
@@ -54,11 +57,18 @@ class LogCapture {
   std::shared_ptr<spdlog::logger> previous_;
 };
 
-/// A remote participant as discovery reports it.
+/// A remote participant as discovery reports it: with DDS Security credentials (the identity
+/// token class a Fast DDS PKI-DH participant announces) or without (a participant without DDS
+/// Security, which Fast DDS refuses before any handshake set-up).
 struct Remote {
-  explicit Remote(const std::string& name, unsigned char id) : data(RTPSParticipantAllocationAttributes()) {
+  explicit Remote(const std::string& name, unsigned char id, bool credentials = true)
+      : data(RTPSParticipantAllocationAttributes()) {
     data.m_participantName = name;
     for (auto& b : data.m_guid.guidPrefix.value) b = id;
+    if (credentials) data.identity_token_.class_id("DDS:Auth:PKI-DH:1.0");
+  }
+  Remote(const std::string& name, unsigned id, bool credentials) : Remote(name, static_cast<unsigned char>(0), credentials) {
+    for (int i = 0; i < 4; ++i) data.m_guid.guidPrefix.value[8 + i] = static_cast<unsigned char>(id >> (8 * i));
   }
   ParticipantProxyData data;
 };
@@ -152,18 +162,85 @@ TEST(ParticipantEvents, RefusedAndIncompleteHandshakesAreListedUntilTheParticipa
   EXPECT_TRUE(plain.unauthenticated(now).empty());
 }
 
-TEST(ParticipantEvents, SecureDiscoveriesAreSpaced) {
+TEST(ParticipantEvents, SecureDiscoveriesOnOneThreadAreNotHeldOnTwoThreadsTheyAreSpaced) {
   using Clock = std::chrono::steady_clock;
+  LogCapture capture;
   const auto spacing = ParticipantEventLog::kSecureDiscoverySpacing;
-  // With security: two back-to-back discoveries take at least the spacing (the first is not held,
-  // the second is held until the spacing after the first; a lower bound only: sleep_until never
-  // wakes early, so a slow machine cannot make this fail).
   ParticipantEventLog secure("odonav-calibration", true);
-  const auto start = Clock::now();
+  // One receive thread: the set-up of "a" is done when the thread delivers "b".
   discover(secure, Remote("a", 1), ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT);
   discover(secure, Remote("b", 2), ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT);
-  EXPECT_GE(Clock::now() - start, spacing);
+  auto c = secure.counts();
+  EXPECT_EQ(c.setups_spaced, 2u);
+  EXPECT_EQ(c.setups_delayed, 0u);
+  // Another thread right after: held until the spacing after "b" (a lower bound only: sleep_until
+  // never wakes early, so a slow machine cannot make this fail).
+  const auto start = Clock::now();
+  std::thread other([&] { discover(secure, Remote("c", 3), ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT); });
+  other.join();
+  const auto elapsed = Clock::now() - start;
+  c = secure.counts();
+  EXPECT_EQ(c.setups_spaced, 3u);
+  // Held back, unless the machine stalled for the whole spacing before the thread ran.
+  if (c.setups_delayed == 0u) {
+    EXPECT_GE(elapsed, spacing);
+  }
+  EXPECT_EQ(c.discovered, 3u);
+  EXPECT_EQ(c.without_credentials, 0u);
+}
 
+TEST(ParticipantEvents, AFloodWithoutCredentialsIsNeitherHeldNorLoggedPerParticipant) {
+  LogCapture capture;
+  std::vector<Remote> flood;
+  for (unsigned i = 0; i < 200; ++i) flood.emplace_back("odonav-flood-" + std::to_string(i), 1000u + i, false);
+  {
+    ParticipantEventLog secure("odonav-recorder", true);
+    const Remote peer("odonav-gateway", 0x21);
+    discover(secure, peer, ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT);
+    // As Fast DDS 2.9 does for each: the discovery, then at once the refusal (no identity token).
+    // Every other one from a second thread: not held either, whatever thread it comes on.
+    for (std::size_t i = 0; i < flood.size(); ++i) {
+      const auto one = [&] {
+        discover(secure, flood[i], ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT);
+        authenticate(secure, flood[i], ParticipantAuthenticationInfo::UNAUTHORIZED_PARTICIPANT);
+      };
+      if (i % 2 == 0) {
+        one();
+      } else {
+        std::thread t(one);
+        t.join();
+      }
+    }
+    authenticate(secure, peer, ParticipantAuthenticationInfo::AUTHORIZED_PARTICIPANT);
+    const auto c = secure.counts();
+    EXPECT_EQ(c.discovered, 201u);
+    EXPECT_EQ(c.without_credentials, 200u);
+    EXPECT_EQ(c.refused, 200u);
+    EXPECT_EQ(c.authenticated, 1u);
+    EXPECT_EQ(c.setups_spaced, 1u);  // the legitimate peer only
+    EXPECT_EQ(c.setups_delayed, 0u);
+    // Health lists every refused one (it shows the first and the count).
+    EXPECT_EQ(secure.unauthenticated(std::chrono::hours(1)).size(), 200u);
+    // A burst of lines, not one per participant, and the refusal callbacks add none.
+    EXPECT_EQ(capture.count("without DDS Security credentials: refused"),
+              static_cast<int>(ParticipantEventLog::kStrangerLogBurst));
+    EXPECT_EQ(capture.count("failed DDS Security authentication"), 0);
+    EXPECT_EQ(capture.count("discovered participant 'odonav-gateway'"), 1);
+    // The flood ends: their leases expire. No warning (they were never ours), a few lines only;
+    // the legitimate peer's loss is still a warning.
+    for (const auto& f : flood) discover(secure, f, ParticipantDiscoveryInfo::DROPPED_PARTICIPANT);
+    EXPECT_EQ(capture.count("lost: its lease expired"), 0);
+    EXPECT_EQ(capture.count("gone (lease expired)"), static_cast<int>(ParticipantEventLog::kStrangerLogBurst));
+    EXPECT_TRUE(secure.unauthenticated(std::chrono::hours(1)).empty());
+    discover(secure, peer, ParticipantDiscoveryInfo::DROPPED_PARTICIPANT);
+    EXPECT_EQ(capture.count("warning odonav::dds: odonav-recorder: participant 'odonav-gateway' "
+                            "(21.21.21.21.21.21.21.21.21.21.21.21) lost: its lease expired"),
+              1);
+  }
+  // Its life in one line when it goes.
+  EXPECT_EQ(capture.count("DDS Security summary: 201 participants discovered, 200 without credentials, 200 refused, "
+                          "1 authenticated; 1 handshake set-ups spaced, 0 held back"),
+            1);
 }
 
 TEST(ParticipantEvents, AnUnknownFastDdsLogLevelIsRefusedNamingTheVariable) {

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "odonav/dds/secure_discovery.hpp"
 #include "odonav/dds/security.hpp"
 
 namespace odonav::dds {
@@ -56,25 +57,52 @@ namespace detail {
 /// about once, its retries go to debug). Without this a peer that never authenticates is silent:
 /// its endpoints simply never match.
 ///
-/// With DDS Security it also spaces the set-up of newly discovered participants (see
-/// kSecureDiscoverySpacing): Fast DDS 2.9 prepares the security handshake of a new participant
-/// in whichever receive thread its first announcement arrived on (multicast, unicast, shared
-/// memory), and that preparation fills temporaries shared by the whole participant without a lock
-/// (SecurityManager::match_builtin_endpoints). Two participants discovered at the same moment on
-/// two threads can then leave one pair unable to exchange handshake messages for as long as both
-/// live: no error, the handshake is resent every second and ignored (seen in the multi-host test
-/// in about 1 run of 3). The discovery callback runs just before that preparation, serialized by
-/// Fast DDS, so holding it until the previous participant's preparation is long done serializes them.
+/// With DDS Security it also spaces the set-up of newly discovered participants (SetupSpacing,
+/// secure_discovery.hpp): Fast DDS 2.9 prepares the security handshake of a new participant in
+/// whichever receive thread its first announcement arrived on (multicast, unicast, shared memory),
+/// right after this callback, and that preparation fills temporaries shared by the whole
+/// participant without a lock (SecurityManager::match_builtin_endpoints). Two participants
+/// discovered at the same moment on two threads can then leave one pair unable to exchange
+/// handshake messages for as long as both live: no error, the handshake is resent every second
+/// and ignored (seen in the multi-host test in about 1 run of 3). The discovery callback runs just
+/// before that preparation, serialized by Fast DDS, so holding it until the previous participant's
+/// preparation on ANOTHER thread is long done serializes them.
+///
+/// A participant without DDS Security credentials (no identity token) is refused by Fast DDS
+/// before any preparation, so it is never held: a flood of them costs the receive thread nothing
+/// here, and their log lines are budgeted (LogBudget): a few per 10 s plus the count left out.
 class ParticipantEventLog : public eprosima::fastdds::dds::DomainParticipantListener {
  public:
   /// own_name: this participant's name, for the messages. space_secure_discoveries: apply the
   /// spacing above (participants with DDS Security).
   ParticipantEventLog(std::string own_name, bool space_secure_discoveries)
       : own_name_(std::move(own_name)), space_secure_discoveries_(space_secure_discoveries) {}
-  /// Minimum time between the set-up of two newly discovered participants with DDS Security. The
-  /// preparation it protects takes about a millisecond (certificate check, two endpoint matches);
-  /// 100 ms leaves room for a loaded machine and costs at most 0.1 s per participant at start-up.
+  ~ParticipantEventLog() override;
+  /// Minimum time between the set-ups of two newly discovered participants with DDS Security
+  /// handed to two different receive threads. The preparation it protects takes about a
+  /// millisecond (two endpoint matches after our announcement is resent to every known
+  /// participant); 100 ms leaves room for a loaded machine. Set-ups on one thread never wait.
   static constexpr std::chrono::milliseconds kSecureDiscoverySpacing{100};
+  /// Log lines per kStrangerLogWindow about participants refused, or without credentials, and
+  /// about them leaving; the rest is counted and the count given with the next line.
+  static constexpr std::size_t kStrangerLogBurst = 5;
+  static constexpr std::chrono::seconds kStrangerLogWindow{10};
+  /// At most this many refused or unauthenticated participants are kept by name (for Health);
+  /// beyond it they are only counted (a flood of fresh identities must not grow memory unbounded).
+  static constexpr std::size_t kMaxTrackedStrangers = 1024;
+
+  /// What this participant saw since it was created (all zero without DDS Security).
+  struct Counts {
+    std::uint64_t discovered = 0;             ///< participants discovered
+    std::uint64_t without_credentials = 0;    ///< of them, announced no DDS Security identity
+    std::uint64_t refused = 0;                ///< authentication refusals (first one per participant)
+    std::uint64_t authenticated = 0;          ///< authentications that succeeded
+    std::uint64_t setups_spaced = 0;          ///< handshake set-ups passed through SetupSpacing
+    std::uint64_t setups_delayed = 0;         ///< of them, held back (another thread's was < 100 ms ago)
+    double setup_wait_s = 0.0;                ///< total time they were held back (steady clock)
+    std::uint64_t untracked = 0;              ///< strangers beyond kMaxTrackedStrangers, not kept
+  };
+  Counts counts() const;
 
   /// A participant of the domain this secure participant does not exchange data with: refused by
   /// DDS Security (certificate not from our CA, bad permissions: an intruder or a misconfigured
@@ -101,18 +129,28 @@ class ParticipantEventLog : public eprosima::fastdds::dds::DomainParticipantList
  private:
   std::string own_name_;
   bool space_secure_discoveries_ = false;
-  // Held while a discovery waits out the spacing; never together with mutex_, so neither the
-  // authentication callbacks nor unauthenticated() (a component's worker thread) wait on it.
+  // Held while a discovery waits out the spacing; mutex_ is taken under it only after the wait,
+  // so neither the authentication callbacks nor unauthenticated() (a component's worker thread)
+  // ever wait for a spacing.
   std::mutex spacing_mutex_;
-  std::chrono::steady_clock::time_point last_discovery_done_{};
+  SetupSpacing spacing_{kSecureDiscoverySpacing};  // under spacing_mutex_
   struct Peer {
     std::string name;
     std::chrono::steady_clock::time_point discovered;
     enum class Auth { kPending, kAuthenticated, kRefused } auth = Auth::kPending;
+    bool credentials = true;  // announced a DDS Security identity token
     std::uint64_t refusals = 0;
   };
-  mutable std::mutex mutex_;           // peers_
+  // Records the discovery of a participant (secure participants only); false if it is not kept
+  // (a stranger beyond kMaxTrackedStrangers).
+  bool remember(const std::string& guid, const std::string& name, bool credentials);
+  void on_discovered_secure(const std::string& name, const std::string& guid, bool credentials);
+  void on_left(const std::string& name, const std::string& guid, bool lease_expired);
+  mutable std::mutex mutex_;           // peers_, counts_, the budgets
   std::map<std::string, Peer> peers_;  // GUID prefix -> peer, secure participants only, until it leaves
+  Counts counts_;
+  LogBudget stranger_log_{kStrangerLogBurst, kStrangerLogWindow};
+  LogBudget stranger_left_log_{kStrangerLogBurst, kStrangerLogWindow};
 };
 
 /// The DDS entities of a participant. Shared by the Participant and its endpoints, so the
