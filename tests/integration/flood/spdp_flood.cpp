@@ -4,7 +4,7 @@
 // It is not a DDS implementation: it writes the participant announcements of the RTPS
 // specification (SPDP DATA(p): protocol version, vendor, GUID, domain, unicast locators, lease,
 // builtin endpoints, name; no identity token, as a participant without DDS Security sends them),
-// N of them per round, to the discovery (metatraffic unicast) ports of participant ids
+// N of them per period (spread over it), to the discovery (metatraffic unicast) ports of participant ids
 // 0..--ports-of-1 of the domain on 127.0.0.1, the way a peer with initial peers on the loopback
 // probes them. Every fake participant names the one UDP socket of this process as its locators;
 // what arrives there is counted by the RTPS GUID prefix of its sender: the participants of the
@@ -238,10 +238,15 @@ int run(const odonav::Options& o) {
   std::uint64_t sent = 0, errors = 0, rounds = 0;
   const auto t0 = std::chrono::steady_clock::now();
   const auto end = t0 + std::chrono::microseconds(static_cast<std::int64_t>(o.get_double("duration-s") * 1e6));
+  // Each participant announces itself once a period, the N spread over the period (as N
+  // participants with their own timers do): a burst of all of them at once would overflow the
+  // receivers' socket buffers and hide the same tail of the flood every round.
+  const auto gap = std::chrono::microseconds(static_cast<std::int64_t>(period_s * 1e6 / static_cast<double>(count)));
   auto next = t0;
   while (!g_stop.load() && std::chrono::steady_clock::now() < end) {
     ++rounds;
     for (const auto& f : fakes) {
+      if (g_stop.load()) break;
       const auto message = announcement(f, vendor, domain, ntohs(own.sin_port), address, lease_s,
                                         static_cast<std::uint32_t>(rounds));
       for (int id = 0; id < ports_of; ++id) {
@@ -257,10 +262,9 @@ int run(const odonav::Options& o) {
           ++errors;  // ECONNREFUSED from a port nobody listens on is reported on a later send
         }
       }
+      next += gap;
+      std::this_thread::sleep_until(next);
     }
-    next += std::chrono::microseconds(static_cast<std::int64_t>(period_s * 1e6));
-    while (!g_stop.load() && std::chrono::steady_clock::now() < std::min(next, end))
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   g_stop.store(true);
   receiver.join();
