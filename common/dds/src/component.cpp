@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <iterator>
 #include <stdexcept>
 #include <tuple>
 
@@ -186,16 +187,26 @@ void ComponentRuntime::publish_health(odonav::msg::HealthState state, odonav::ms
   // station looks (deploy/README.md "DDS Security and Fast DDS 2.9").
   const auto strangers = participant_->unauthenticated_participants(kHandshakeStalledAfter);
   if (strangers.empty()) {
+    stalled_handshakes_warned_.clear();
     publish(level, reason, counters);
     return;
   }
+  std::set<std::string> listed;
   for (const auto& p : strangers) {
+    listed.insert(p.guid);
     if (!p.refused && stalled_handshakes_warned_.insert(p.guid).second) {
+      const auto grant = stalled_handshake_log_.take(std::chrono::steady_clock::now());
+      if (!grant.log) continue;
       spdlog::warn("DDS Security handshake with participant '{}' ({}) incomplete after {:.0f} s: no data flows "
-                   "between us (a peer of another PKI, or see deploy/README.md, DDS Security and Fast DDS 2.9)",
-                   p.name, p.guid, p.age_s);
+                   "between us (a peer of another PKI, or see deploy/README.md, DDS Security and Fast DDS 2.9){}",
+                   p.name, p.guid, p.age_s,
+                   grant.left_out == 0 ? std::string()
+                                       : " (" + std::to_string(grant.left_out) + " more not logged)");
     }
   }
+  // Forget those that left: the set stays as large as the list (bounded by the participant's).
+  for (auto it = stalled_handshakes_warned_.begin(); it != stalled_handshakes_warned_.end();)
+    it = listed.count(*it) == 0 ? stalled_handshakes_warned_.erase(it) : std::next(it);
   const auto& first = strangers.front();
   const std::string stranger =
       (first.refused ? "DDS Security refused '" + first.name + "'"

@@ -3,7 +3,8 @@
 //
 // It is not a DDS implementation: it writes the participant announcements of the RTPS
 // specification (SPDP DATA(p): protocol version, vendor, GUID, domain, unicast locators, lease,
-// builtin endpoints, name; no identity token, as a participant without DDS Security sends them),
+// builtin endpoints, name; no identity token, as a participant without DDS Security sends them;
+// with --identity-token a PKI-DH token, as a participant with credentials that never answers),
 // N of them per period (spread over it), to the discovery (metatraffic unicast) ports of participant ids
 // 0..--ports-of-1 of the domain on 127.0.0.1, the way a peer with initial peers on the loopback
 // probes them. Every fake participant names the one UDP socket of this process as its locators;
@@ -58,6 +59,7 @@ constexpr std::uint16_t kPidMetatrafficUnicastLocator = 0x0032;
 constexpr std::uint16_t kPidParticipantGuid = 0x0050;
 constexpr std::uint16_t kPidBuiltinEndpointSet = 0x0058;
 constexpr std::uint16_t kPidEntityName = 0x0062;
+constexpr std::uint16_t kPidIdentityToken = 0x1001;  // DDS Security 1.1, section 7.4.1.4
 constexpr std::int32_t kLocatorKindUdpV4 = 1;
 // Participant announcer and detector, publications and subscriptions announcer and detector,
 // participant message writer and reader: what an ordinary participant offers.
@@ -97,10 +99,20 @@ void locator(Buffer& b, std::uint16_t pid, std::uint16_t port, const in_addr& ad
   b.bytes(reinterpret_cast<const std::uint8_t*>(&address.s_addr), 4);  // network order, as RTPS wants
 }
 
-/// One RTPS message: header, INFO_TS, DATA(p) with the participant's parameter list.
+void cdr_string(Buffer& b, const std::string& text) {
+  b.u32(static_cast<std::uint32_t>(text.size() + 1));
+  b.bytes(reinterpret_cast<const std::uint8_t*>(text.data()), text.size());
+  b.u8(0);
+  b.pad4();
+}
+
+/// One RTPS message: header, INFO_TS, DATA(p) with the participant's parameter list. With
+/// identity_token, a PKI-DH identity token without properties: what a participant with DDS
+/// Security credentials announces (the certificate itself only travels in the handshake, which
+/// this process never answers).
 std::vector<std::uint8_t> announcement(const FakeParticipant& p, const std::uint8_t vendor[2], int domain,
                                        std::uint16_t own_port, const in_addr& own_address, double lease_s,
-                                       std::uint32_t sequence) {
+                                       std::uint32_t sequence, bool identity_token) {
   Buffer b;
   for (char c : {'R', 'T', 'P', 'S'}) b.u8(static_cast<std::uint8_t>(c));
   b.u8(2);
@@ -159,11 +171,18 @@ std::vector<std::uint8_t> announcement(const FakeParticipant& p, const std::uint
   const std::size_t name_length_at = b.size();
   b.u16(0);
   const std::size_t name_start = b.size();
-  b.u32(static_cast<std::uint32_t>(p.name.size() + 1));
-  b.bytes(reinterpret_cast<const std::uint8_t*>(p.name.data()), p.name.size());
-  b.u8(0);
-  b.pad4();
+  cdr_string(b, p.name);
   b.put_u16_at(name_length_at, static_cast<std::uint16_t>(b.size() - name_start));
+  if (identity_token) {
+    b.u16(kPidIdentityToken);
+    const std::size_t token_length_at = b.size();
+    b.u16(0);
+    const std::size_t token_start = b.size();
+    cdr_string(b, "DDS:Auth:PKI-DH:1.0");  // class id
+    b.u32(0);                              // properties
+    b.u32(0);                              // binary properties
+    b.put_u16_at(token_length_at, static_cast<std::uint16_t>(b.size() - token_start));
+  }
   b.u16(kPidSentinel);
   b.u16(0);
   b.put_u16_at(length_at, static_cast<std::uint16_t>(b.size() - body_start));
@@ -178,6 +197,7 @@ int run(const odonav::Options& o) {
   const double lease_s = o.get_double("lease-s");
   const std::string prefix = o.get_string("name-prefix");
   const auto vendor_id = static_cast<std::uint16_t>(o.get_int("vendor-id"));
+  const bool identity_token = o.get_bool("identity-token");
   const std::uint8_t vendor[2] = {static_cast<std::uint8_t>(vendor_id >> 8), static_cast<std::uint8_t>(vendor_id)};
 
   in_addr address{};
@@ -248,7 +268,7 @@ int run(const odonav::Options& o) {
     for (const auto& f : fakes) {
       if (g_stop.load()) break;
       const auto message = announcement(f, vendor, domain, ntohs(own.sin_port), address, lease_s,
-                                        static_cast<std::uint32_t>(rounds));
+                                        static_cast<std::uint32_t>(rounds), identity_token);
       for (int id = 0; id < ports_of; ++id) {
         sockaddr_in to{};
         to.sin_family = AF_INET;
@@ -291,6 +311,8 @@ int main(int argc, char** argv) {
   o.add_string("address", "127.0.0.1", "loopback address written to and announced (127.0.0.0/8 only)");
   o.add_string("name-prefix", "odonav-flood-", "participant names: prefix + index");
   o.add_int("vendor-id", 0x0110, "RTPS vendor id announced (default 0x0110, Eclipse Cyclone DDS)", 0, 0xffff);
+  o.add_bool("identity-token", false,
+             "announce a PKI-DH identity token (credentials that never answer the handshake) instead of none");
   struct sigaction sa {};
   sa.sa_handler = on_signal;
   sigaction(SIGINT, &sa, nullptr);

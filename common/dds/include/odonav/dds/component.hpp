@@ -120,7 +120,8 @@ class ComponentRuntime {
   /// participant of the domain it exchanges no data with turns an OK level into WARN, with the
   /// reason "DDS Security refused '<name>'" or "DDS Security handshake with '<name>' incomplete for
   /// N s" (pending for kHandshakeStalledAfter), "(and N more)", and the counter
-  /// dds_unauthenticated_participants; an incomplete handshake is also logged once as a warning.
+  /// dds_unauthenticated_participants; an incomplete handshake is also logged once as a warning
+  /// (within a budget: a flood of strangers with credentials costs a few lines, then a count).
   void publish_health(odonav::msg::HealthState state, odonav::msg::HealthLevel level, const std::string& reason,
                       const HealthCounters& counters, bool force = false);
 
@@ -136,7 +137,8 @@ class ComponentRuntime {
   std::unique_ptr<HealthPublisher> health_;
   CommandHandler command_handler_;
   bool ack_pending_ = false;  // worker thread: a command was acknowledged, tell it at once
-  std::set<std::string> stalled_handshakes_warned_;  // GUIDs already logged as incomplete
+  std::set<std::string> stalled_handshakes_warned_;  // GUIDs already logged as incomplete, while listed
+  LogBudget stalled_handshake_log_{5, std::chrono::seconds(10)};
   std::unique_ptr<Reader<odonav::msg::Command>> commands_;
 
   mutable std::mutex queue_mutex_;
