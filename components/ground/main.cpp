@@ -13,7 +13,9 @@
 #include "core/fleet_state.hpp"
 #include "core/mcap_writer.hpp"
 #include "core/recording.hpp"
+#include "core/web_api.hpp"
 #include "node/ground_node.hpp"
+#include "web/ground_web.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dds/component.hpp"
 #include "odonav/dds/security.hpp"
@@ -31,7 +33,7 @@ constexpr int kExitConfig = 2;
 constexpr int kExitTimeout = 3;  // command: no acknowledgement in time
 
 void declare_options(Options& o) {
-  o.add_positional("action", "monitor | record | command");
+  o.add_positional("action", "monitor | serve | record | command");
   o.add_positional("command", "command: reset | set-k | freeze | unfreeze | release-k", false);
   o.add_positional("value", "command set-k: K in metres per pulse", false);
   o.add_int("domain", 0, "DDS domain id of the fleet", 0, 232);
@@ -54,6 +56,15 @@ void declare_options(Options& o) {
   o.add_bool("best-effort", false,
              "record: read every topic best effort (weak links: odonav_ground_reader_best_effort, and "
              "odonav_estimate_ground_reader_best_effort for the estimates) instead of reliably");
+  // serve
+  o.add_int("port", 8765, "serve: TCP port of the page and the Foxglove WebSocket (0: any free port)", 0, 65535);
+  o.add_string("bind", "127.0.0.1", "serve: address to listen on (a warning when not loopback)");
+  o.add_string("token", "", "serve: the token commands from the web need (empty: commands disabled)");
+  o.add_string("token-file", "", "serve: read the token from the first line of this file instead");
+  o.add_double("diagnostics-period-s", 0.5, "serve: DiagnosticArray of each vehicle this often (s)", 0.05, 60.0);
+  o.add_int("client-queue-kib", 4096, "serve: data queued per Foxglove client before its frames are dropped (KiB)",
+            16, 1 << 20);
+  o.add_double("forget-after-s", 60.0, "serve: unadvertise a channel silent this long (s)", 1.0, 1e6);
   // command
   o.add_string("component", "", "command: the addressed component, e.g. odonav-identification");
   o.add_double("timeout-s", 5.0, "command: how long to wait for the acknowledgement (s)", 0.01, 3600.0);
@@ -163,10 +174,16 @@ int run_record(const Options& o, odonav::dds::StopSignals& stop) {
   const double start_s = odonav::dds::steady_now_s();
   double last_flush_s = start_s;
   double last_progress_s = start_s;
+  double last_diagnostics_s = start_s;
   while (!stop.stop_requested()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     const double now_s = odonav::dds::steady_now_s();
     if (duration_s > 0.0 && now_s - start_s >= duration_s) break;
+    // The standard diagnostics channel, as odonav-ground serve sends it live.
+    if (now_s - last_diagnostics_s >= 0.5) {
+      recorder.write_diagnostics();
+      last_diagnostics_s = now_s;
+    }
     // Every second: what a crash may lose.
     if (now_s - last_flush_s >= 1.0) {
       writer.flush();
@@ -180,9 +197,57 @@ int run_record(const Options& o, odonav::dds::StopSignals& stop) {
   }
   recorder.stop();
   writer.close();
-  tool_output() << "recorded " << writer.message_count() << " messages on " << chosen.size() << " topics to " << path
-                << std::endl;
+  const std::uint64_t standard = recorder.standard_messages();
+  tool_output() << "recorded " << writer.message_count() - standard << " messages on " << chosen.size() << " topics and "
+                << standard << " on the standard channels (NavSatFix, DiagnosticArray) to " << path << std::endl;
   return recorder.failures() == 0 ? kExitOk : kExitFailure;
+}
+
+bool is_loopback(const std::string& address) {
+  return address == "localhost" || address == "::1" || address.rfind("127.", 0) == 0;
+}
+
+int run_serve(const Options& o, odonav::dds::StopSignals& stop) {
+  ServeOptions serve;
+  if (o.was_set("token") && o.was_set("token-file")) throw ConfigError("serve: give --token or --token-file, not both");
+  serve.token = o.get_string("token");
+  if (o.was_set("token") && serve.token.empty()) throw ConfigError("serve: --token must not be empty");
+  if (!o.get_string("token-file").empty()) {
+    try {
+      serve.token = read_token_file(o.get_string("token-file"));
+    } catch (const std::runtime_error& e) {
+      throw ConfigError(e.what());
+    }
+  }
+  serve.diagnostics_period_s = o.get_double("diagnostics-period-s");
+  serve.forget_after_s = o.get_double("forget-after-s");
+  WebServerOptions web;
+  web.bind_address = o.get_string("bind");
+  web.port = static_cast<int>(o.get_int("port"));
+  web.max_queued_bytes_per_client = static_cast<std::size_t>(o.get_int("client-queue-kib")) * 1024;
+  if (!is_loopback(web.bind_address)) {
+    spdlog::warn("serve: listening on {}, not loopback: the page and the Foxglove channels are readable by anyone "
+                 "who reaches this address{}",
+                 web.bind_address, serve.token.empty() ? "" : " (commands still need the token)");
+  }
+  odonav::dds::Participant participant(participant_options(o));
+  serve.domain = participant.domain_id();
+  web.metadata = {{"domain", std::to_string(participant.domain_id())}};
+  GroundWeb ground(participant, serve, web);
+  ground.start();
+  const std::string host = web.bind_address.find(':') != std::string::npos ? "[" + web.bind_address + "]" : web.bind_address;
+  tool_output() << "odonav-ground serve: page http://" << host << ":" << ground.port() << "/  Foxglove ws://" << host << ":"
+                << ground.port() << "  (commands " << (serve.token.empty() ? "disabled: no --token" : "need the token")
+                << ")" << std::endl;
+  spdlog::info("serving domain {} on {}:{}", participant.domain_id(), web.bind_address, ground.port());
+  while (!stop.stop_requested()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    ground.tick(odonav::dds::steady_now_s());
+  }
+  ground.stop();
+  const auto st = ground.stats();
+  spdlog::info("serve: stopped; {} frames sent, {} dropped for slow clients", st.frames_sent, st.frames_dropped);
+  return kExitOk;
 }
 
 int run_command(const Options& o) {
@@ -239,6 +304,7 @@ int main(int argc, char** argv) {
   Options options("odonav-ground",
                   "The ground station of an odonav fleet.\n"
                   "  monitor [--once --json] [--vehicle ID,...]   live dashboard of every vehicle\n"
+                  "  serve [--port 8765] [--bind 127.0.0.1] [--token T | --token-file F]   fleet page + Foxglove WebSocket\n"
                   "  record --out FILE.mcap [--topics a,b] [--duration-s S]   MCAP recording (ros2msg + cdr)\n"
                   "  command --vehicle ID --component NAME (reset|set-k VALUE|freeze|unfreeze|release-k)\n"
                   "Exit codes: 0 done (command: accepted), 1 failure (command: rejected), 2 bad configuration, "
@@ -253,8 +319,9 @@ int main(int argc, char** argv) {
     }
     if (action == "monitor") return run_monitor(options, stop);
     if (action == "record") return run_record(options, stop);
+    if (action == "serve") return run_serve(options, stop);
     if (action == "command") return run_command(options);
-    throw ConfigError("unknown action '" + action + "' (monitor, record, command)");
+    throw ConfigError("unknown action '" + action + "' (monitor, serve, record, command)");
   } catch (const ConfigError& e) {
     // Possibly before logging is set up (spdlog's default logger writes to stdout): stderr directly.
     std::cerr << "odonav-ground: " << e.what() << " (--help for the usage)" << std::endl;

@@ -66,6 +66,9 @@ struct DeadReckoningView {
   std::string vehicle_id;
   double stamp_s = 0.0;
   double latitude_deg = 0.0, longitude_deg = 0.0;
+  double height_m = 0.0;                        ///< ellipsoidal [m]
+  double enu_east_m = 0.0, enu_north_m = 0.0;  ///< local ENU of the DR origin [m]
+  double origin_latitude_deg = 0.0, origin_longitude_deg = 0.0, origin_height_m = 0.0;
   double distance_m = 0.0;
   double k_m_per_pulse = 0.0;
   std::uint32_t k_source = 0;  ///< 0 nominal, 1 identified, 2 commanded
@@ -80,6 +83,8 @@ struct GnssView {
   bool valid = false;
   std::uint8_t fix_quality = 0;  ///< NMEA GGA quality
   double speed_mps = 0.0;        ///< horizontal speed from the ENU velocity
+  double latitude_deg = 0.0, longitude_deg = 0.0, height_m = 0.0;  ///< WGS-84, ellipsoidal [m]
+  double position_std_m = -1.0;  ///< one-sigma horizontal [m]; -1: unknown
 };
 
 /// Names for the numeric enumerations of the topics.

@@ -12,9 +12,11 @@
 #include <random>
 #include <stdexcept>
 #include <thread>
+#include <type_traits>
 
 #include "core/recording.hpp"
 #include "core/ros2msg_schema.hpp"
+#include "core/standard_channels.hpp"
 #include "node/topic_types.hpp"
 #include "odonav/dds/component.hpp"
 #include "odonav/dds/time.hpp"
@@ -24,8 +26,6 @@ namespace odonav::ground {
 
 namespace msg = odonav::msg;
 using dds::Reader;
-
-namespace {
 
 double stamp_of(const std_msgs::msg::Header& h) {
   try {
@@ -87,6 +87,12 @@ DeadReckoningView view_of(const msg::DeadReckoning& d) {
   v.stamp_s = stamp_of(d.header());
   v.latitude_deg = d.latitude_deg();
   v.longitude_deg = d.longitude_deg();
+  v.height_m = d.height_m();
+  v.enu_east_m = d.enu_east_m();
+  v.enu_north_m = d.enu_north_m();
+  v.origin_latitude_deg = d.origin_latitude_deg();
+  v.origin_longitude_deg = d.origin_longitude_deg();
+  v.origin_height_m = d.origin_height_m();
   v.distance_m = d.distance_m();
   v.k_m_per_pulse = d.k_m_per_pulse();
   v.k_source = static_cast<std::uint32_t>(d.k_source());
@@ -103,8 +109,14 @@ GnssView view_of(const msg::GnssFix& g) {
   v.valid = g.valid();
   v.fix_quality = g.fix_quality();
   v.speed_mps = std::hypot(g.velocity_east_mps(), g.velocity_north_mps());
+  v.latitude_deg = g.latitude_deg();
+  v.longitude_deg = g.longitude_deg();
+  v.height_m = g.height_m();
+  v.position_std_m = g.position_std_m();
   return v;
 }
+
+namespace {
 
 std::uint64_t unix_now_ns() {
   return static_cast<std::uint64_t>(
@@ -133,40 +145,63 @@ OfferedQos offered_qos(const dds::Participant& participant, const std::string& w
 
 // ---- FleetMonitor ----
 
-FleetMonitor::FleetMonitor(const dds::Participant& participant, FleetState& state, std::function<double()> clock) {
+FleetMonitor::FleetMonitor(const dds::Participant& participant, FleetState& state, std::function<double()> clock,
+                           SampleTap tap) {
   FleetState* s = &state;
   auto now = clock;
+  using topics::TopicId;
   readers_.push_back(std::make_unique<Reader<msg::Health>>(
       participant, topics::kHealth.name, topics::kHealthReaderProfile,
-      [s, now](const msg::Health& h) { s->on_health(view_of(h), now()); },
+      [s, now, tap](const msg::Health& h) {
+        s->on_health(view_of(h), now());
+        if (tap) tap(TopicId::kHealth, &h);
+      },
       [s](const msg::Health& last, bool silent) {
         s->on_silence(last.vehicle_id(), Stream::kHealth, last.component(), silent);
       }));
   readers_.push_back(std::make_unique<Reader<msg::ScaleFactor>>(
       participant, topics::kScaleFactor.name, topics::kEstimateReaderProfile,
-      [s, now](const msg::ScaleFactor& m) { s->on_scale_factor(view_of(m), now()); },
+      [s, now, tap](const msg::ScaleFactor& m) {
+        s->on_scale_factor(view_of(m), now());
+        if (tap) tap(TopicId::kScaleFactor, &m);
+      },
       [s](const msg::ScaleFactor& last, bool silent) {
         s->on_silence(last.vehicle_id(), Stream::kScaleFactor, "", silent);
       }));
   readers_.push_back(std::make_unique<Reader<msg::Misalignment>>(
       participant, topics::kMisalignment.name, topics::kEstimateReaderProfile,
-      [s, now](const msg::Misalignment& m) { s->on_misalignment(view_of(m), now()); },
+      [s, now, tap](const msg::Misalignment& m) {
+        s->on_misalignment(view_of(m), now());
+        if (tap) tap(TopicId::kMisalignment, &m);
+      },
       [s](const msg::Misalignment& last, bool silent) {
         s->on_silence(last.vehicle_id(), Stream::kMisalignment, "", silent);
       }));
   const char* best_effort = topics::kGroundBestEffortReaderProfile;
   readers_.push_back(std::make_unique<Reader<msg::DeadReckoning>>(
-      participant, topics::kDeadReckoning.name, best_effort,
-      [s, now](const msg::DeadReckoning& m) { s->on_dead_reckoning(view_of(m), now()); }));
+      participant, topics::kDeadReckoning.name, best_effort, [s, now, tap](const msg::DeadReckoning& m) {
+        s->on_dead_reckoning(view_of(m), now());
+        if (tap) tap(TopicId::kDeadReckoning, &m);
+      }));
   readers_.push_back(std::make_unique<Reader<msg::GnssFix>>(
-      participant, topics::kGnssFix.name, best_effort,
-      [s, now](const msg::GnssFix& m) { s->on_gnss(view_of(m), now()); }));
+      participant, topics::kGnssFix.name, best_effort, [s, now, tap](const msg::GnssFix& m) {
+        s->on_gnss(view_of(m), now());
+        if (tap) tap(TopicId::kGnssFix, &m);
+      }));
   readers_.push_back(std::make_unique<Reader<msg::Odometer>>(
-      participant, topics::kOdometer.name, best_effort,
-      [s, now](const msg::Odometer& m) { s->on_arrival(m.vehicle_id(), Stream::kOdometer, now()); }));
+      participant, topics::kOdometer.name, best_effort, [s, now, tap](const msg::Odometer& m) {
+        s->on_arrival(m.vehicle_id(), Stream::kOdometer, now());
+        if (tap) tap(TopicId::kOdometer, &m);
+      }));
   readers_.push_back(std::make_unique<Reader<msg::InsAttitude>>(
-      participant, topics::kInsAttitude.name, best_effort,
-      [s, now](const msg::InsAttitude& m) { s->on_arrival(m.vehicle_id(), Stream::kInsAttitude, now()); }));
+      participant, topics::kInsAttitude.name, best_effort, [s, now, tap](const msg::InsAttitude& m) {
+        s->on_arrival(m.vehicle_id(), Stream::kInsAttitude, now());
+        if (tap) tap(TopicId::kInsAttitude, &m);
+      }));
+  if (tap) {
+    readers_.push_back(std::make_unique<Reader<msg::Command>>(
+        participant, topics::kCommand.name, best_effort, [tap](const msg::Command& m) { tap(TopicId::kCommand, &m); }));
+  }
 }
 
 FleetMonitor::~FleetMonitor() {
@@ -175,9 +210,78 @@ FleetMonitor::~FleetMonitor() {
 
 // ---- TopicRecorder ----
 
+/// The standard channels of a recording (core/standard_channels.hpp): NavSatFix per vehicle from
+/// DeadReckoning and GnssFix, DiagnosticArray per vehicle from Health (with STALE from the Health
+/// reader's deadline and age, as the monitor shows it). Channels are added as vehicles appear.
+class TopicRecorder::Standard {
+ public:
+  Standard(McapWriter& writer, bool navsat, bool diagnostics) : writer_(writer) {
+    const MsgLibrary& library = embedded_msg_library();
+    if (navsat) navsat_schema_ = writer.add_schema(kNavSatFixType, "ros2msg", ros2msg_schema(library, kNavSatFixType));
+    if (diagnostics) {
+      diagnostics_schema_ =
+          writer.add_schema(kDiagnosticArrayType, "ros2msg", ros2msg_schema(library, kDiagnosticArrayType));
+    }
+  }
+  void on_dead_reckoning(const DeadReckoningView& v, std::uint64_t t_ns) {
+    const auto bytes = encode_cdr(navsat_from_dead_reckoning(v));
+    for (DerivedChannel kind : {DerivedChannel::kNavSatDeadReckoning, DerivedChannel::kNavSatNavigation}) {
+      writer_.write_message(channel_of(v.vehicle_id, kind), t_ns, t_ns, bytes.data(), bytes.size());
+      ++messages_;
+    }
+  }
+  void on_gnss(const GnssView& v, std::uint64_t t_ns) {
+    const auto bytes = encode_cdr(navsat_from_gnss(v));
+    writer_.write_message(channel_of(v.vehicle_id, DerivedChannel::kNavSatGnss), t_ns, t_ns, bytes.data(), bytes.size());
+    ++messages_;
+  }
+  std::uint64_t messages() const { return messages_; }
+  FleetState& fleet() { return fleet_; }
+  void write_diagnostics(double now_s, std::uint64_t t_ns) {
+    for (const VehicleSnapshot& v : fleet_.snapshot(now_s).vehicles) {
+      if (v.components.empty()) continue;
+      const auto bytes = encode_cdr(diagnostics_from(v));
+      writer_.write_message(channel_of(v.vehicle_id, DerivedChannel::kDiagnostics), t_ns, t_ns, bytes.data(),
+                            bytes.size());
+      ++messages_;
+    }
+  }
+
+ private:
+  std::uint16_t channel_of(const std::string& vehicle, DerivedChannel kind) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto key = std::make_pair(vehicle, kind);
+    auto it = channels_.find(key);
+    if (it != channels_.end()) return it->second;
+    const std::uint16_t schema = kind == DerivedChannel::kDiagnostics ? diagnostics_schema_ : navsat_schema_;
+    const char* source = kind == DerivedChannel::kDiagnostics ? topics::kHealth.name
+                         : kind == DerivedChannel::kNavSatGnss ? topics::kGnssFix.name
+                                                               : topics::kDeadReckoning.name;
+    const std::uint16_t id = writer_.add_channel(schema, derived_topic(vehicle, kind), "cdr",
+                                                 {{"odonav_derived_from", source}, {"odonav_vehicle_id", vehicle}});
+    channels_.emplace(key, id);
+    return id;
+  }
+
+  McapWriter& writer_;
+  std::uint16_t navsat_schema_ = 0, diagnostics_schema_ = 0;
+  FleetState fleet_;
+  std::mutex mutex_;
+  std::map<std::pair<std::string, DerivedChannel>, std::uint16_t> channels_;
+  std::atomic<std::uint64_t> messages_{0};
+};
+
 TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& writer,
                              const std::vector<topics::TopicSpec>& topic_list, bool best_effort) {
   const MsgLibrary& library = embedded_msg_library();
+  bool navsat = false, diagnostics = false;
+  for (const topics::TopicSpec& spec : topic_list) {
+    const auto id = topic_id_of(spec);
+    navsat = navsat || id == topics::TopicId::kDeadReckoning || id == topics::TopicId::kGnssFix;
+    diagnostics = diagnostics || id == topics::TopicId::kHealth;
+  }
+  standard_ = std::make_unique<Standard>(writer, navsat, diagnostics);
+  Standard* standard = standard_.get();
   std::map<std::string, std::uint16_t> schema_ids;
   for (const topics::TopicSpec& spec : topic_list) {
     auto schema = schema_ids.find(spec.ros_type_name);
@@ -193,7 +297,7 @@ TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& wr
     std::atomic<std::uint64_t>* failures = &failures_;
     with_message_type_of(topic_id_of(spec), [&](auto prototype, auto /*topic id*/) {
       using T = decltype(prototype);
-      auto on_data = [out, failures, channel, ros_topic](const T& sample) {
+      auto on_data = [out, failures, channel, ros_topic, standard](const T& sample) {
         // Serialized again with the generated type support: the CDR bytes (encapsulation header
         // first) that Fast DDS puts on the wire for this sample.
         typename dds::DdsType<T>::PubSubType type;
@@ -203,11 +307,22 @@ TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& wr
         try {
           if (!type.serialize(&copy, &payload)) throw std::runtime_error("serialization failed");
           out->write_message(channel, t, t, payload.data, payload.length);
+          if constexpr (std::is_same_v<T, msg::DeadReckoning>) standard->on_dead_reckoning(view_of(sample), t);
+          if constexpr (std::is_same_v<T, msg::GnssFix>) standard->on_gnss(view_of(sample), t);
+          if constexpr (std::is_same_v<T, msg::Health>) standard->fleet().on_health(view_of(sample), dds::steady_now_s());
         } catch (const std::exception& e) {
           if ((*failures)++ == 0) spdlog::error("record: sample of {} not written: {}", ros_topic, e.what());
         }
       };
-      readers_.push_back(std::make_unique<Reader<T>>(participant, spec.name, profile, on_data));
+      if constexpr (std::is_same_v<T, msg::Health>) {
+        // Health's deadline marks a silent component STALE in the recorded diagnostics, as live.
+        readers_.push_back(std::make_unique<Reader<T>>(
+            participant, spec.name, profile, on_data, [standard](const msg::Health& last, bool silent) {
+              standard->fleet().on_silence(last.vehicle_id(), Stream::kHealth, last.component(), silent);
+            }));
+      } else {
+        readers_.push_back(std::make_unique<Reader<T>>(participant, spec.name, profile, on_data));
+      }
     });
   }
 }
@@ -215,6 +330,17 @@ TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& wr
 TopicRecorder::~TopicRecorder() { stop(); }
 
 void TopicRecorder::stop() { readers_.clear(); }
+
+std::uint64_t TopicRecorder::standard_messages() const { return standard_ ? standard_->messages() : 0; }
+
+void TopicRecorder::write_diagnostics() {
+  if (!standard_) return;
+  try {
+    standard_->write_diagnostics(dds::steady_now_s(), unix_now_ns());
+  } catch (const std::exception& e) {
+    if (failures_++ == 0) spdlog::error("record: diagnostics not written: {}", e.what());
+  }
+}
 
 std::size_t TopicRecorder::matched_topics() const {
   std::size_t n = 0;

@@ -7,6 +7,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "core/fleet_state.hpp"
@@ -14,21 +15,47 @@
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/participant.hpp"
 #include "odonav/msg/Command.h"
+#include "odonav/msg/DeadReckoning.h"
+#include "odonav/msg/GnssFix.h"
+#include "odonav/msg/Health.h"
+#include "odonav/msg/InsAttitude.h"
+#include "odonav/msg/Misalignment.h"
+#include "odonav/msg/Odometer.h"
+#include "odonav/msg/ScaleFactor.h"
 #include "odonav/topics.hpp"
 
 namespace odonav::ground {
+
+/// One received sample of any topic of the contract (valid during the callback only).
+using AnySample = std::variant<const odonav::msg::Odometer*, const odonav::msg::InsAttitude*, const odonav::msg::GnssFix*,
+                               const odonav::msg::Misalignment*, const odonav::msg::ScaleFactor*,
+                               const odonav::msg::DeadReckoning*, const odonav::msg::Health*, const odonav::msg::Command*>;
+/// Sees every sample the monitor's readers receive (from the listener threads, after the FleetState).
+using SampleTap = std::function<void(topics::TopicId topic, AnySample sample)>;
+
+/// The plain views of the messages (fleet_state.hpp); a bad stamp becomes NaN.
+HealthView view_of(const odonav::msg::Health& h);
+ScaleFactorView view_of(const odonav::msg::ScaleFactor& s);
+MisalignmentView view_of(const odonav::msg::Misalignment& m);
+DeadReckoningView view_of(const odonav::msg::DeadReckoning& d);
+GnssView view_of(const odonav::msg::GnssFix& g);
+/// A header's stamp in seconds; NaN for a stamp the DDS layer refuses.
+double stamp_of(const std_msgs::msg::Header& h);
 
 /// Subscribes to every vehicle topic of the contract and feeds a FleetState (from listener threads).
 /// QoS: Health with odonav_health_reader (transient local: every component's latest Health at once;
 /// deadline 3 s), Misalignment and ScaleFactor with odonav_estimate_reader (latest estimate at once;
 /// deadline 1 s), the 10-100 Hz streams (odometer, INS, GNSS, dead reckoning) with
 /// odonav_ground_reader_best_effort (never makes a vehicle's writer resend). Deadline misses mark the
-/// instance silent in the FleetState (edge-detected by the DDS layer).
+/// instance silent in the FleetState (edge-detected by the DDS layer). With a tap (odonav-ground
+/// serve), every sample is also handed to it, and Command is read too (best effort, like the streams).
+/// These are the ground station's only readers of the live topics: their QoS is chosen here.
 class FleetMonitor {
  public:
   /// clock: the steady clock in seconds given to the FleetState. Throws std::runtime_error (from the
   /// DDS layer) when a reader cannot be created.
-  FleetMonitor(const dds::Participant& participant, FleetState& state, std::function<double()> clock);
+  FleetMonitor(const dds::Participant& participant, FleetState& state, std::function<double()> clock,
+               SampleTap tap = {});
   ~FleetMonitor();
   FleetMonitor(const FleetMonitor&) = delete;
   FleetMonitor& operator=(const FleetMonitor&) = delete;
@@ -60,8 +87,16 @@ class TopicRecorder {
   std::uint64_t failures() const { return failures_; }
   /// Closes the readers now (idempotent).
   void stop();
+  /// Writes one DiagnosticArray per vehicle heard on Health (/odonav/<vehicle>/diagnostics; call
+  /// periodically). NavSatFix channels (/odonav/<vehicle>/navsat/...) are written as DeadReckoning
+  /// and GnssFix samples arrive, when those topics are recorded.
+  void write_diagnostics();
+  /// Messages written on the standard channels so far.
+  std::uint64_t standard_messages() const;
 
  private:
+  class Standard;
+  std::unique_ptr<Standard> standard_;  // before readers_: stop() closes the readers first
   std::vector<std::unique_ptr<dds::detail::ReaderBase>> readers_;
   std::atomic<std::uint64_t> failures_{0};
 };

@@ -238,6 +238,51 @@ class VehiclePipeline {
   std::map<std::string, std::unique_ptr<ChildProcess>> processes_;
 };
 
+// ---- a real vehicle's expectations ----
+
+inline const std::vector<std::string> kVehicleComponents{"odonav-calibration", "odonav-dead-reckoning", "odonav-gateway",
+                                                  "odonav-identification"};
+
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// The simulator's truth for a scenario and seed (meta.json "truth" and "simulation"), from
+/// odonav-sim itself: initial K (m/pulse) and installation misalignment (deg).
+struct ScenarioTruth {
+  double k_m_per_pulse = 0.0;
+  double heading_deg = 0.0, pitch_deg = 0.0;
+};
+inline ScenarioTruth scenario_truth(const std::string& scenario, int seed, const std::filesystem::path& dir) {
+  const RunResult r = run(binary("odonav-sim"),
+                          {scenario, "--seed", std::to_string(seed), "--duration-s", "10", "--out", dir.string()}, dir.parent_path(),
+                          "sim-" + scenario);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json meta = nlohmann::json::parse(read_text(dir / "meta.json"));
+  ScenarioTruth t;
+  t.k_m_per_pulse = meta.at("simulation").at("k_true_initial_m_per_pulse").get<double>();
+  t.heading_deg = meta.at("truth").at("misalignment_heading_deg").get<double>();
+  t.pitch_deg = meta.at("truth").at("misalignment_pitch_deg").get<double>();
+  return t;
+}
+
+/// Every component of the vehicle live, and its estimates there: K converged with a sigma, the
+/// misalignment with sigmas, DR with an error against GNSS.
+inline bool vehicle_ready(const nlohmann::json& snap, const std::string& vehicle) {
+  const nlohmann::json* v = find_by(snap.at("vehicles"), "vehicle_id", vehicle);
+  if (!v) return false;
+  for (const auto& c : kVehicleComponents) {
+    const nlohmann::json* jc = find_by(v->at("components"), "component", c);
+    if (!jc || jc->at("stale").get<bool>() || jc->at("state") != "RUNNING") return false;
+  }
+  const nlohmann::json& k = v->at("scale_factor");
+  const nlohmann::json& m = v->at("misalignment");
+  const nlohmann::json& d = v->at("dead_reckoning");
+  return !k.is_null() && k.at("converged").get<bool>() && !k.at("sigma_m_per_pulse").is_null() && !m.is_null() &&
+         !m.at("heading_std_deg").is_null() && !d.is_null() && !d.at("horizontal_error_m").is_null() &&
+         !d.at("error_percent_distance").is_null() && !k.at("stale").get<bool>();
+}
+
 /// The common DDS flags of odonav-ground under test.
 inline std::vector<std::string> ground_args(const std::string& action, int domain, std::vector<std::string> extra = {}) {
   std::vector<std::string> a{action, "--domain", std::to_string(domain), "--profile", loopback_profile(),

@@ -4,6 +4,8 @@
 // A recording killed with SIGKILL must still yield every message flushed before its last second.
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <nlohmann/json.hpp>
 
 #include "ground_test_support.hpp"
@@ -322,15 +324,27 @@ TEST_F(GroundRecord, McapOfEveryTopicDecodesToThePublishedValues) {
   const json& doc = read.doc;
   EXPECT_TRUE(doc.at("complete").get<bool>());
   EXPECT_EQ(doc.at("bytes_left"), 0);
+  // The standard channels of the one vehicle (components/ground/README.md, "record"): three NavSatFix
+  // (navigation, dead reckoning, GNSS) and one DiagnosticArray, two more schemas.
+  const std::string prefix = "/odonav/veh-rec/";
+  const std::set<std::string> standard{prefix + "navsat/navigation", prefix + "navsat/dead_reckoning",
+                                       prefix + "navsat/gnss", prefix + "diagnostics"};
+  const auto decoded = by_topic(doc);
+  std::size_t standard_messages = 0;
+  for (const auto& t : standard) standard_messages += decoded.count(t) ? decoded.at(t).size() : 0;
   // Summary: statistics and the schema/channel records, as indexed readers use them.
-  EXPECT_EQ(doc.at("statistics").at("message_count"), std::to_string(8 * kSamples));
-  EXPECT_EQ(doc.at("statistics").at("channel_count"), 8);
-  EXPECT_EQ(doc.at("statistics").at("schema_count"), 8);
+  EXPECT_EQ(doc.at("statistics").at("message_count"), std::to_string(8 * kSamples + standard_messages));
+  EXPECT_EQ(doc.at("statistics").at("channel_count"), 8 + 4);
+  EXPECT_EQ(doc.at("statistics").at("schema_count"), 8 + 2);
   EXPECT_NE(doc.at("footer").at("summary_crc"), 0);  // computed, and @mcap/core checked it
-  ASSERT_EQ(doc.at("channels").size(), 8u);
+  ASSERT_EQ(doc.at("channels").size(), 12u);
   for (const auto& channel : doc.at("channels")) {
     SCOPED_TRACE(channel.dump());
     EXPECT_EQ(channel.at("message_encoding"), "cdr");
+    if (standard.count(channel.at("topic"))) {
+      EXPECT_EQ(channel.at("metadata").at("odonav_vehicle_id"), "veh-rec");
+      continue;
+    }
     EXPECT_EQ(channel.at("metadata").at("offered_qos_profiles").get<std::string>().rfind("- history: 1\n  depth: ", 0), 0u);
     EXPECT_EQ(doc.at("statistics").at("channel_message_counts").at(std::to_string(channel.at("id").get<int>())),
               std::to_string(kSamples));
@@ -339,6 +353,31 @@ TEST_F(GroundRecord, McapOfEveryTopicDecodesToThePublishedValues) {
     EXPECT_EQ(schema.at("encoding"), "ros2msg");
     EXPECT_EQ(schema.at("name").get<std::string>().find("/msg/") != std::string::npos, true);
   }
+  // NavSatFix: the published dead reckoning and GNSS positions, sample for sample (decoded by
+  // @foxglove/rosmsg2-serialization from the sensor_msgs schema).
+  for (const auto& [navsat, source] : {std::pair<std::string, std::string>{prefix + "navsat/dead_reckoning", "/odonav/dead_reckoning"},
+                                       {prefix + "navsat/navigation", "/odonav/dead_reckoning"},
+                                       {prefix + "navsat/gnss", "/odonav/gnss/fix"}}) {
+    SCOPED_TRACE(navsat);
+    ASSERT_EQ(decoded.count(navsat), 1u);
+    const auto& fixes = decoded.at(navsat);
+    const auto& published = expected.at(source);
+    ASSERT_EQ(fixes.size(), published.size());
+    for (std::size_t i = 0; i < fixes.size(); ++i) {
+      EXPECT_EQ(fixes[i].at("latitude"), published[i].at("latitude_deg"));
+      EXPECT_EQ(fixes[i].at("longitude"), published[i].at("longitude_deg"));
+      EXPECT_EQ(fixes[i].at("altitude"), published[i].at("height_m"));
+      EXPECT_EQ(fixes[i].at("header").at("stamp"), published[i].at("header").at("stamp"));
+    }
+  }
+  // DiagnosticArray: every component that sent Health, with its level.
+  ASSERT_EQ(decoded.count(prefix + "diagnostics"), 1u);
+  const json& last = decoded.at(prefix + "diagnostics").back();
+  std::set<std::string> names;
+  for (const auto& st : last.at("status")) names.insert(st.at("name").get<std::string>());
+  for (const auto& h : expected.at("/odonav/health")) {
+    EXPECT_TRUE(names.count("veh-rec/" + h.at("component").get<std::string>())) << last.dump();
+  }
   // The health QoS metadata says what the vehicle offers: reliable (1), transient local (1), deadline 3 s.
   for (const auto& channel : doc.at("channels")) {
     if (channel.at("topic") != "/odonav/health") continue;
@@ -346,8 +385,7 @@ TEST_F(GroundRecord, McapOfEveryTopicDecodesToThePublishedValues) {
     EXPECT_NE(qos.find("reliability: 1\n  durability: 1\n  deadline:\n    sec: 3\n    nsec: 0"), std::string::npos) << qos;
   }
 
-  const auto decoded = by_topic(doc);
-  ASSERT_EQ(decoded.size(), expected.size());
+  ASSERT_EQ(decoded.size(), expected.size() + standard.size());
   for (const auto& [topic, samples] : expected) {
     SCOPED_TRACE(topic);
     ASSERT_EQ(decoded.count(topic), 1u);
@@ -402,7 +440,7 @@ TEST_F(GroundRecord, RecordingKilledBySigkillKeepsEverythingBeforeItsLastSecond)
   ASSERT_EQ(stream.exit_code, 0) << stream.err;
   EXPECT_FALSE(stream.doc.at("complete").get<bool>());
   EXPECT_EQ(stream.doc.at("bytes_left"), 0);
-  EXPECT_EQ(stream.doc.at("channels").size(), 8u);
+  EXPECT_EQ(stream.doc.at("channels").size(), 8u + 4u);  // the topics and the standard channels of the vehicle
   const auto decoded = by_topic(stream.doc);
   for (const auto& [topic, samples] : early) {
     SCOPED_TRACE(topic);
