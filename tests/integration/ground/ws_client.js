@@ -111,16 +111,19 @@ async function main() {
   out({ event: "samples", frame_timestamps_ns: true, ...got, dead_reckoning: got.dead_reckoning.length,
         diagnostics: got.diagnostics.slice(-3), errors: main.errors });
 
-  // 5. A client that subscribes to everything and never reads.
-  const slow = await connect("foxglove.websocket.v1");
-  for (const c of slow.channels.values()) slow.client.subscribe(c.id);
-  await sleep(200);
-  slow.ws._socket.pause();
+  // 5. A client that subscribes to everything (each channel four times) and never reads a byte: it
+  // stops reading at once, so the kernel's buffers stay small and the server's queue for it fills.
+  const slowWs = new WebSocket(url, ["foxglove.websocket.v1"]);
+  await new Promise((resolve, reject) => { slowWs.on("open", resolve); slowWs.on("error", reject); });
+  slowWs._socket.pause();
+  const subscriptions = [];
+  for (const c of main.channels.values()) for (let k = 0; k < 4; k++) subscriptions.push({ id: subscriptions.length, channelId: c.id });
+  slowWs.send(JSON.stringify({ op: "subscribe", subscriptions }));
   phase = "slow";
   await sleep(10000);
   const fleet = await (await fetch(`http://127.0.0.1:${port}/api/fleet`)).json();
   out({ event: "slow", dr_stamps: slowWindow, server: fleet.server });
-  slow.ws.terminate();
+  slowWs.terminate();
 
   // 6. Every DiagnosticArray from now on, until the test stops us.
   phase = "watch";
