@@ -54,8 +54,8 @@ void declare_options(Options& o) {
                              "scale_factor, dead_reckoning, health, command); empty = all");
   o.add_double("duration-s", 0.0, "record: stop after this many seconds (0: until SIGINT/SIGTERM)", 0.0, 1e9);
   o.add_bool("best-effort", false,
-             "record: read every topic best effort (weak links: odonav_ground_reader_best_effort, and "
-             "odonav_estimate_ground_reader_best_effort for the estimates) instead of reliably");
+             "record: read every topic best effort (weak links: odonav_ground_reader_best_effort) instead "
+             "of reliably");
   // serve
   o.add_int("port", 8765, "serve: TCP port of the page and the Foxglove WebSocket (0: any free port)", 0, 65535);
   o.add_string("bind", "127.0.0.1", "serve: address to listen on (a warning when not loopback)");

@@ -115,8 +115,8 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
   }
   misalignment_reader_ = subscribe<odonav::msg::Misalignment>(
       topics::kMisalignment, misalignment_, [this](const auto& m, double t_s) { on_misalignment(m, t_s); });
-  scale_factor_reader_ = subscribe<odonav::msg::ScaleFactor>(
-      topics::kScaleFactorForDeadReckoning, scale_factor_, [this](const auto& m, double t_s) { on_scale_factor(m, t_s); });
+  scale_factor_reader_ = subscribe_arbitrated<odonav::msg::ScaleFactor>(
+      topics::kScaleFactor, scale_factor_, k_arbiter_, [this](const auto& m, double t_s) { on_scale_factor(m, t_s); });
 }
 
 DeadReckoningNode::~DeadReckoningNode() { close_inputs(); }

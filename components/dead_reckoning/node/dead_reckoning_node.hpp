@@ -15,16 +15,11 @@
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/Misalignment.h"
 #include "odonav/msg/ScaleFactor.h"
+#include "odonav/source_arbiter.hpp"
 #include "odonav/stream_buffers.hpp"
 #include "odonav/topics.hpp"
 
 namespace odonav::nodes {
-
-/// Dead reckoning reads the scale factor with its own profile (topics::kScaleFactorForDeadReckoning:
-/// kScaleFactorReaderProfile, EXCLUSIVE ownership with a 300 ms deadline), so when the owning
-/// identification dies the reader follows the hot standby about 300 ms later (odonav_estimate_reader's
-/// 1 s deadline would take over a second).
-using topics::kScaleFactorReaderProfile;
 
 /// --nominal-k, --dr-mode (add_dead_reckoning_options), --lever-arm and --use-ins.
 void add_dead_reckoning_node_options(Options& options);
@@ -74,6 +69,9 @@ class DeadReckoningNode : public dds::EventTimeNode {
   dds::NodeInput& misalignment_;
   dds::NodeInput& scale_factor_;
   dds::Writer<odonav::msg::DeadReckoning> writer_;
+  /// One K stream out of the identification instances (hot standby): the highest-priority live one,
+  /// each stamp once; on a switch the new source's estimates from the stamp after the last one on.
+  SourceArbiter<odonav::msg::ScaleFactor> k_arbiter_;
   // Last members: destroyed first, so no callback reaches a half-destroyed node.
   std::unique_ptr<dds::Reader<odonav::msg::Odometer>> odometer_reader_;
   std::unique_ptr<dds::Reader<odonav::msg::GnssFix>> gnss_reader_;

@@ -16,7 +16,7 @@ const char* recording_reader_profile(const topics::TopicSpec& spec, bool best_ef
   const std::string name = spec.name;
   const bool misalignment = name == topics::kMisalignment.name;
   const bool scale_factor = name == topics::kScaleFactor.name;
-  if (best_effort) return misalignment || scale_factor ? kEstimateGroundBestEffortReaderProfile : topics::kGroundBestEffortReaderProfile;
+  if (best_effort) return topics::kGroundBestEffortReaderProfile;
   if (misalignment) return kMisalignmentRecorderReaderProfile;
   if (scale_factor) return kScaleFactorRecorderReaderProfile;
   return spec.reader_profile;

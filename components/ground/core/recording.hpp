@@ -19,15 +19,13 @@ std::vector<topics::TopicSpec> select_topics(const std::string& comma_separated)
 
 /// The recorders' reader profiles are in topics.hpp: kMisalignmentRecorderReaderProfile and
 /// kScaleFactorRecorderReaderProfile (deep: KEEP_LAST 1000 per vehicle, so a replay at maximum speed
-/// loses no sample), kEstimateGroundBestEffortReaderProfile (weak links, EXCLUSIVE like the writers).
-using topics::kEstimateGroundBestEffortReaderProfile;
+/// loses no sample); on weak links topics::kGroundBestEffortReaderProfile, as for every topic.
 using topics::kMisalignmentRecorderReaderProfile;
 using topics::kScaleFactorRecorderReaderProfile;
 
 /// The data_reader profile a recording reads a topic with. Reliable (default): the recorder
 /// profiles above for Misalignment and ScaleFactor, the topic's own reader profile (topics.hpp)
-/// for the others. best_effort (--best-effort, weak links): kEstimateGroundBestEffortReaderProfile
-/// for the estimates, topics::kGroundBestEffortReaderProfile for the others.
+/// for the others. best_effort (--best-effort, weak links): topics::kGroundBestEffortReaderProfile.
 const char* recording_reader_profile(const topics::TopicSpec& spec, bool best_effort = false);
 
 /// The short name of a topic: "rt/odonav/gnss/fix" -> "gnss/fix".

@@ -21,6 +21,7 @@
 #include "odonav/dds/component.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/dds/types.hpp"
+#include "odonav/source_arbiter.hpp"
 
 namespace odonav::ground {
 
@@ -124,6 +125,22 @@ std::uint64_t unix_now_ns() {
           .count());
 }
 
+/// The samples `arbiter` hands on for `m` (its vehicle's stream), plus the heartbeats (repeated last
+/// stamp) of the followed source, as a single writer's reader saw them; a stamp that is no time is
+/// passed through for the consumer to refuse, as before.
+std::vector<msg::ScaleFactor> arbitrated(KeyedSourceArbiter<msg::ScaleFactor>& arbiter, const msg::ScaleFactor& m) {
+  double t_s = 0.0;
+  try {
+    t_s = dds::to_seconds(m.header().stamp());
+  } catch (const std::invalid_argument&) {
+    return {m};
+  }
+  std::vector<msg::ScaleFactor> out = arbiter.offer(m.vehicle_id(), m.source(), m.source_priority(), t_s, m);
+  const SourceArbiter<msg::ScaleFactor>* a = arbiter.find(m.vehicle_id());
+  if (out.empty() && a != nullptr && a->selected() == m.source() && a->last_delivered_s() == t_s) out.push_back(m);
+  return out;
+}
+
 OfferedQos offered_qos(const dds::Participant& participant, const std::string& writer_profile) {
   eprosima::fastdds::dds::DataWriterQos qos;
   OfferedQos o;
@@ -159,11 +176,16 @@ FleetMonitor::FleetMonitor(const dds::Participant& participant, FleetState& stat
       [s](const msg::Health& last, bool silent) {
         s->on_silence(last.vehicle_id(), Stream::kHealth, last.component(), silent);
       }));
+  // One K stream per vehicle out of its identification instances (hot standby), as dead reckoning
+  // follows them; the reader's callbacks never run concurrently, so the arbiter needs no lock.
+  auto k_arbiter = std::make_shared<KeyedSourceArbiter<msg::ScaleFactor>>();
   readers_.push_back(std::make_unique<Reader<msg::ScaleFactor>>(
       participant, topics::kScaleFactor.name, topics::kEstimateReaderProfile,
-      [s, now, tap](const msg::ScaleFactor& m) {
-        s->on_scale_factor(view_of(m), now());
-        if (tap) tap(TopicId::kScaleFactor, &m);
+      [s, now, tap, k_arbiter](const msg::ScaleFactor& m) {
+        for (const auto& k : arbitrated(*k_arbiter, m)) {
+          s->on_scale_factor(view_of(k), now());
+          if (tap) tap(TopicId::kScaleFactor, &k);
+        }
       },
       [s](const msg::ScaleFactor& last, bool silent) {
         s->on_silence(last.vehicle_id(), Stream::kScaleFactor, "", silent);
@@ -320,6 +342,13 @@ TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& wr
             participant, spec.name, profile, on_data, [standard](const msg::Health& last, bool silent) {
               standard->fleet().on_silence(last.vehicle_id(), Stream::kHealth, last.component(), silent);
             }));
+      } else if constexpr (std::is_same_v<T, msg::ScaleFactor>) {
+        // The recording holds one K stream per vehicle, as dead reckoning and odonav-recorder
+        // follow it (the highest-priority live identification; nothing skipped on a switch).
+        auto arbiter = std::make_shared<KeyedSourceArbiter<msg::ScaleFactor>>();
+        readers_.push_back(std::make_unique<Reader<T>>(participant, spec.name, profile, [on_data, arbiter](const T& m) {
+          for (const auto& k : arbitrated(*arbiter, m)) on_data(k);
+        }));
       } else {
         readers_.push_back(std::make_unique<Reader<T>>(participant, spec.name, profile, on_data));
       }

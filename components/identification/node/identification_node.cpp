@@ -46,8 +46,8 @@ void add_identification_node_options(Options& o) {
                "name of this instance, published as ScaleFactor.source and naming its state files "
                "(e.g. identification/standby for a hot standby; letters, digits, . _ - /)");
   o.add_int("ownership-strength", 10,
-            "OWNERSHIP_STRENGTH of the scale-factor writer: readers follow the strongest live instance "
-            "(primary e.g. 20, standby 10)",
+            "priority of this instance, published as ScaleFactor.source_priority: consumers follow the "
+            "highest-priority live instance (primary e.g. 20, standby 10)",
             0, 1000000);
   o.add_double("nominal-k", 0.0125, "reference K (m/pulse) a set_k command must stay within 0.1x..10x of", 1e-6,
                10.0);
@@ -84,7 +84,8 @@ IdentificationParams identification_node_params_from(const Options& o) {
 }
 
 odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& out, const std::string& estimator,
-                                              const std::string& vehicle_id, const std::string& source) {
+                                              const std::string& vehicle_id, const std::string& source,
+                                              uint32_t source_priority) {
   odonav::msg::ScaleFactor m;
   m.header(dds::make_header(out.t_s, "odometer"));
   m.vehicle_id(vehicle_id);
@@ -102,6 +103,7 @@ odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& out, c
   m.samples_rejected(clamp_u32(out.samples_rejected));
   m.frozen(out.frozen);
   m.source(source);
+  m.source_priority(source_priority);
   return m;
 }
 
@@ -204,13 +206,16 @@ void IdentificationNode::publish(const std::vector<IdentificationOutput>& output
 
 void IdentificationNode::write_scale_factor(const IdentificationOutput& o, double now_s) {
   scale_factor_->publish(
-      scale_factor_message(o, core_.main_estimator_name(), runtime_.settings().vehicle_id, instance_.instance), now_s);
+      scale_factor_message(o, core_.main_estimator_name(), runtime_.settings().vehicle_id, instance_.instance,
+                           instance_.ownership_strength),
+      now_s);
 }
 
 void IdentificationNode::on_tick(double now_s) {
-  // The heartbeat keeps the 300 ms deadline of the EXCLUSIVE scale-factor topic while nothing new
-  // is published (GNSS outage, gated epochs are published anyway): a silent owner is one that died,
-  // and readers then switch to the standby. Same stamp: consumers take it as a repeat.
+  // The heartbeat keeps the writer's offered 300 ms deadline while nothing new is published (GNSS
+  // outage; gated epochs are published anyway), so readers' deadlines mean "producer gone". Same
+  // stamp: consumers take it as a repeat (the standby hand-over itself is decided on event time by
+  // the consumers' SourceArbiter, not by this).
   scale_factor_->heartbeat_if_due(now_s);
 }
 

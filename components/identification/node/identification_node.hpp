@@ -38,13 +38,16 @@ struct InstanceSettings {
   /// ScaleFactor.source and the name of its state files (instance.hpp); "identification" by default,
   /// e.g. "identification/standby" for a standby.
   std::string instance = kDefaultIdentificationInstance;
-  /// OWNERSHIP_STRENGTH of the scale-factor writer (0..1e6): readers follow the strongest live
-  /// instance; give the primary the higher value (e.g. 20) and the standby a lower one (10).
+  /// This instance's priority (0..1e6), published as ScaleFactor.source_priority: consumers follow
+  /// the highest-priority live instance (odonav/source_arbiter.hpp); give the primary the higher
+  /// value (e.g. 20) and the standby a lower one (10). The flag keeps its historical name
+  /// (--ownership-strength); the writer's OWNERSHIP_STRENGTH QoS is set to it too, which the SHARED
+  /// topic ignores.
   uint32_t ownership_strength = 10;
   /// Reference K [m/pulse] (> 0) a set_k command is checked against: [0.1, 10] x this.
   double nominal_k_m_per_pulse = 0.0125;
   /// The last ScaleFactor is republished (same stamp) when nothing was written for this long
-  /// (wall clock, s, > 0): well inside the 300 ms deadline, even in a GNSS outage.
+  /// (wall clock, s, > 0): well inside the writer's offered 300 ms deadline, even in a GNSS outage.
   double heartbeat_period_s = 0.1;
 };
 /// Reads --instance, --ownership-strength and --nominal-k. Throws ConfigError naming the option.
@@ -53,10 +56,11 @@ InstanceSettings instance_settings_from(const Options& options);
 /// ScaleFactor message of one output: stamp = output t_s, frame "odometer", the main estimator's
 /// K (m/pulse; 0 while it has no value: consumers take k > 0 as "valid"), sigma (m/pulse, -1 when
 /// unknown), lambda, window fill, estimator name, converged, sample counts, frozen.
-/// source = the publishing instance (InstanceSettings::instance).
+/// source = the publishing instance (InstanceSettings::instance), source_priority its priority.
 odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& output, const std::string& estimator,
                                               const std::string& vehicle_id,
-                                              const std::string& source = kDefaultIdentificationInstance);
+                                              const std::string& source = kDefaultIdentificationInstance,
+                                              uint32_t source_priority = InstanceSettings{}.ownership_strength);
 
 class IdentificationNode : public dds::EventTimeNode {
  public:

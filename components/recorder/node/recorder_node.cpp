@@ -201,6 +201,23 @@ void RecorderNode::on_misalignment(const odonav::msg::Misalignment& m) {
 }
 
 void RecorderNode::on_scale_factor(const odonav::msg::ScaleFactor& m) {
+  double t_s = 0.0;
+  try {
+    t_s = dds::to_seconds(m.header().stamp());
+  } catch (const std::invalid_argument& e) {
+    spdlog::warn("scale factor of '{}': {}: not recorded", m.source(), e.what());
+    return;
+  }
+  const std::uint64_t switches = k_arbiter_.counters().switches;
+  const std::vector<odonav::msg::ScaleFactor> released = k_arbiter_.offer(m.source(), m.source_priority(), t_s, m);
+  if (k_arbiter_.counters().switches != switches && !k_arbiter_.switches().empty()) {
+    const SourceSwitch& sw = k_arbiter_.switches().back();
+    spdlog::info("scale factor: recording '{}' from t={:.3f} s ({})", sw.to, sw.at_stamp_s, sw.reason);
+  }
+  for (const auto& k : released) write_scale_factor(k);
+}
+
+void RecorderNode::write_scale_factor(const odonav::msg::ScaleFactor& m) {
   const results::ScaleFactorRow r = scale_factor_row(m);
   if (!is_new(last_scale_factor_t_s_, r.t_s, repeated_[1], backwards_[1], "scale factor")) return;
   scale_factor_csv_.write(r);
@@ -249,7 +266,10 @@ void RecorderNode::tick() {
   dds::HealthCounters c{{"misalignment_rows", static_cast<double>(rows_[0])},
                         {"scale_factor_rows", static_cast<double>(rows_[1])},
                         {"dead_reckoning_rows", static_cast<double>(rows_[2])},
-                        {"queue_depth", static_cast<double>(runtime_.queue_depth())}};
+                        {"queue_depth", static_cast<double>(runtime_.queue_depth())},
+                        {"scale_factor_source_switches", static_cast<double>(k_arbiter_.counters().switches)},
+                        {"scale_factor_other_source", static_cast<double>(k_arbiter_.counters().superseded)},
+                        {"scale_factor_filled", static_cast<double>(k_arbiter_.counters().filled)}};
   runtime_.publish_health(odonav::msg::HEALTH_STATE_RUNNING, odonav::msg::HEALTH_LEVEL_OK,
                           producers_matched_logged_ ? "" : "waiting for producers", c);
 }
@@ -272,7 +292,12 @@ int RecorderNode::run() {
   write_file_atomically(out_.file(kProvenanceFile), provenance_json(provenance));
   if (last_dead_reckoning_t_s_) progress(*last_dead_reckoning_t_s_, last_distance_m_);
   spdlog::info("wrote {} misalignment, {} scale-factor, {} dead-reckoning rows into {} (repeats skipped: {}, {}, {})",
-               rows_[0], rows_[1], rows_[2], settings_.out_dir, repeated_[0], repeated_[1], repeated_[2]);
+               rows_[0], rows_[1], rows_[2], settings_.out_dir, repeated_[0],
+               repeated_[1] + k_arbiter_.counters().repeated, repeated_[2]);
+  if (k_arbiter_.counters().switches > 1 || k_arbiter_.counters().superseded > 0)
+    spdlog::info("scale factor sources: {} switches, {} rows of a source not followed skipped (epochs written by "
+                 "another), {} epochs filled from another source",
+                 k_arbiter_.counters().switches, k_arbiter_.counters().superseded, k_arbiter_.counters().filled);
   runtime_.publish_health(odonav::msg::HEALTH_STATE_STOPPING, odonav::msg::HEALTH_LEVEL_OK, "stopped: files closed",
                           {}, true);
   dds::wait_for_acknowledgments_logged(runtime_.health().writer(), std::chrono::seconds(1));

@@ -21,6 +21,7 @@
 #include "odonav/msg/ScaleFactor.h"
 #include "odonav/results/output_files.hpp"
 #include "odonav/safe_output.hpp"
+#include "odonav/source_arbiter.hpp"
 
 namespace odonav::recorder {
 
@@ -43,7 +44,10 @@ results::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m
 
 /// Estimates are read with topics::kMisalignmentRecorderReaderProfile and
 /// kScaleFactorRecorderReaderProfile (KEEP_LAST 1000 per vehicle: a replay at maximum speed loses
-/// no estimate; the vehicle's consumers keep the latest one only).
+/// no estimate; the vehicle's consumers keep the latest one only). The scale factor of several
+/// identification instances (hot standby) goes through a SourceArbiter, as dead reckoning's does:
+/// scale_factor.csv holds one row per epoch, of the highest-priority live instance, and after a
+/// switch continues with the new instance's row of the epoch after the last one written.
 using topics::kMisalignmentRecorderReaderProfile;
 using topics::kScaleFactorRecorderReaderProfile;
 
@@ -72,6 +76,7 @@ class RecorderNode {
  private:
   void on_misalignment(const odonav::msg::Misalignment& m);
   void on_scale_factor(const odonav::msg::ScaleFactor& m);
+  void write_scale_factor(const odonav::msg::ScaleFactor& m);
   void on_dead_reckoning(const odonav::msg::DeadReckoning& m);
   void on_health(const odonav::msg::Health& h);
   void tick();
@@ -90,6 +95,7 @@ class RecorderNode {
   std::uint64_t repeated_[3] = {0, 0, 0};  // heartbeats and repeats (same stamp): not written
   std::uint64_t backwards_[3] = {0, 0, 0};
   std::optional<odonav::msg::ScaleFactor> last_k_;
+  SourceArbiter<odonav::msg::ScaleFactor> k_arbiter_;
   std::optional<double> next_progress_t_s_;
   double last_distance_m_ = 0.0;
   bool producers_matched_logged_ = false;

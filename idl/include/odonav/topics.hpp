@@ -16,7 +16,11 @@ struct TopicSpec {
   const char* reader_profile;  ///< data_reader profile in qos.xml for the vehicle's consumers.
 };
 
-// QoS profile names (deploy/profiles/qos.xml). See idl/README.md for what each one means.
+// QoS profile names (deploy/profiles/qos.xml). See idl/README.md for what each one means. Every
+// profile is SHARED ownership (the default), as ROS 2 readers and other vendors' default-QoS readers
+// are: every topic is readable by them. Redundant estimate producers (hot standby) are told apart by
+// ScaleFactor.source / source_priority, and consumers wanting one stream arbitrate them in event
+// time (odonav/source_arbiter.hpp).
 inline constexpr const char* kSensorWriterProfile = "odonav_sensor_writer";
 inline constexpr const char* kSensorReaderProfile = "odonav_sensor_reader";
 /// The gateway's sensor writers when replaying as fast as possible: odonav_sensor_writer with a
@@ -34,13 +38,6 @@ inline constexpr const char* kCommandReaderProfile = "odonav_command_reader";
 /// vehicle's writers down (a reliable reader on a weak link would make them resend).
 inline constexpr const char* kGroundBestEffortReaderProfile = "odonav_ground_reader_best_effort";
 
-/// EXCLUSIVE-ownership variants for the estimate topics (misalignment, scale factor), whose writers
-/// are EXCLUSIVE (hot standby of the identification): a reader must have the same ownership kind.
-/// Dead reckoning's scale-factor reader: a 300 ms deadline, so it follows the standby that fast
-/// (read through kScaleFactorForDeadReckoning below).
-inline constexpr const char* kScaleFactorReaderProfile = "odonav_scale_factor_reader";
-/// The ground station's best-effort reader of the estimate topics.
-inline constexpr const char* kEstimateGroundBestEffortReaderProfile = "odonav_estimate_ground_reader_best_effort";
 /// Recorders (odonav-recorder, odonav-ground record): every estimate, KEEP_LAST 1000 per vehicle.
 inline constexpr const char* kMisalignmentRecorderReaderProfile = "odonav_misalignment_recorder_reader";
 inline constexpr const char* kScaleFactorRecorderReaderProfile = "odonav_scale_factor_recorder_reader";
@@ -57,6 +54,8 @@ inline constexpr TopicSpec kGnssFix{"rt/odonav/gnss/fix", "odonav::msg::dds_::Gn
 inline constexpr TopicSpec kMisalignment{"rt/odonav/misalignment", "odonav::msg::dds_::Misalignment_",
                                          "odonav/msg/Misalignment", kEstimateWriterProfile,
                                          kEstimateReaderProfile};
+/// Every instance of odonav-identification (primary, hot standby) writes here; consumers that want
+/// one stream put each vehicle's samples through an odonav::SourceArbiter (source, source_priority).
 inline constexpr TopicSpec kScaleFactor{"rt/odonav/scale_factor", "odonav::msg::dds_::ScaleFactor_",
                                         "odonav/msg/ScaleFactor", kEstimateWriterProfile,
                                         kEstimateReaderProfile};
@@ -67,15 +66,6 @@ inline constexpr TopicSpec kHealth{"rt/odonav/health", "odonav::msg::dds_::Healt
                                    kHealthWriterProfile, kHealthReaderProfile};
 inline constexpr TopicSpec kCommand{"rt/odonav/command", "odonav::msg::dds_::Command_",
                                     "odonav/msg/Command", kCommandWriterProfile, kCommandReaderProfile};
-
-/// The scale-factor topic as odonav-dead-reckoning reads it: kScaleFactor with the fast-failover
-/// reader profile kScaleFactorReaderProfile (deploy/profiles/qos.xml: kEstimateReaderProfile with a
-/// 300 ms deadline instead of 1 s). The deadline is what hands ownership over: when the owning
-/// identification falls silent for 300 ms, the reader follows the strongest other live writer (the
-/// hot standby). Same name, type and writer profile as kScaleFactor; not in kAllTopics (one topic).
-inline constexpr TopicSpec kScaleFactorForDeadReckoning{kScaleFactor.name, kScaleFactor.dds_type_name,
-                                                        kScaleFactor.ros_type_name, kScaleFactor.writer_profile,
-                                                        kScaleFactorReaderProfile};
 
 /// Every topic, in the order of idl/README.md.
 inline constexpr std::array<TopicSpec, 8> kAllTopics{kOdometer,     kInsAttitude,   kGnssFix,

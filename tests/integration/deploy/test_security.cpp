@@ -228,7 +228,7 @@ TEST_F(DdsSecurity, ForeignCaParticipantReceivesNothingAndCannotInject) {
                                   [&](const msg::ScaleFactor& m) { legit.add(m); });
   Writer<msg::ScaleFactor> fake(rogue_writer_side, topics::kScaleFactor.name, topics::kScaleFactor.writer_profile);
   Reader<msg::ScaleFactor> eavesdropper(rogue_reader_side, topics::kScaleFactor.name,
-                                        topics::kEstimateGroundBestEffortReaderProfile,
+                                        topics::kGroundBestEffortReaderProfile,
                                         [&](const msg::ScaleFactor& m) { stolen.add(m); });
   ASSERT_TRUE(writer.wait_for_matched(1, kMatchTimeout));
 
@@ -266,7 +266,7 @@ TEST_F(DdsSecurity, ParticipantWithoutCredentialsReceivesNothingAndCannotInject)
   Reader<msg::ScaleFactor> reader(dead_reckoning, topics::kScaleFactor.name, topics::kScaleFactor.reader_profile,
                                   [&](const msg::ScaleFactor& m) { legit.add(m); });
   Writer<msg::ScaleFactor> fake(intruder, topics::kScaleFactor.name, topics::kScaleFactor.writer_profile);
-  Reader<msg::ScaleFactor> eavesdropper(intruder, topics::kScaleFactor.name, topics::kEstimateGroundBestEffortReaderProfile,
+  Reader<msg::ScaleFactor> eavesdropper(intruder, topics::kScaleFactor.name, topics::kGroundBestEffortReaderProfile,
                                         [&](const msg::ScaleFactor& m) { stolen.add(m); });
   ASSERT_TRUE(writer.wait_for_matched(1, kMatchTimeout));
   for (int i = 0; i < 30; ++i) {

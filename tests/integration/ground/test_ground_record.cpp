@@ -166,7 +166,10 @@ class KnownPublisher {
       m.samples_accepted(static_cast<uint32_t>(10 * i));
       m.samples_rejected(static_cast<uint32_t>(i));
       m.frozen(i == 3);
-      m.source(i % 2 == 0 ? "identification" : "identification/standby");
+      // One instance: the recording follows one source per vehicle (SourceArbiter), which is then
+      // every sample as written.
+      m.source("identification/standby");
+      m.source_priority(10);
       EXPECT_TRUE(scale_factor_.write(m));
       expected["/odonav/scale_factor"].push_back({{"header", header_json(t, "odometer")},
                                                   {"vehicle_id", veh},
@@ -179,7 +182,8 @@ class KnownPublisher {
                                                   {"samples_accepted", m.samples_accepted()},
                                                   {"samples_rejected", m.samples_rejected()},
                                                   {"frozen", m.frozen()},
-                                                  {"source", m.source()}});
+                                                  {"source", m.source()},
+                                                  {"source_priority", 10}});
     }
     {
       msg::DeadReckoning m;

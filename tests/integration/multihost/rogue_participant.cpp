@@ -70,8 +70,9 @@ int run(const odonav::Options& o) {
   // The writer first: a refused writer is the point of the permissions check.
   std::unique_ptr<odonav::dds::Writer<msg::ScaleFactor>> fake;
   if (!listen_only) {
-    // A stronger ownership than identification's (10): without security, every reader of the
-    // vehicle would follow this writer instead, so "never reaches DR" is what security achieves.
+    // A higher priority than identification's (10), as source_priority and as ownership strength:
+    // without security, every consumer's arbiter would follow this writer instead, so "never
+    // reaches DR" is what security achieves.
     odonav::dds::WriterSettings w;
     w.ownership_strength = static_cast<uint32_t>(o.get_int("ownership-strength"));
     fake = std::make_unique<odonav::dds::Writer<msg::ScaleFactor>>(participant, topics::kScaleFactor.name,
@@ -89,10 +90,9 @@ int run(const odonav::Options& o) {
       return decltype(make())();
     }
   };
-  // The estimates are EXCLUSIVE-ownership topics: their readers must be EXCLUSIVE too.
   auto k_reader = optional_reader([&] {
     return std::make_unique<odonav::dds::Reader<msg::ScaleFactor>>(
-        participant, topics::kScaleFactor.name, topics::kEstimateGroundBestEffortReaderProfile,
+        participant, topics::kScaleFactor.name, topics::kGroundBestEffortReaderProfile,
         [&](const msg::ScaleFactor& m) {
           ++counts.scale_factor;
           if (m.k_m_per_pulse() != fake_k) ++counts.scale_factor_not_fake;
@@ -123,6 +123,8 @@ int run(const odonav::Options& o) {
       m.sigma_m_per_pulse(1e-6);
       m.estimator("vff-lm-rls");
       m.converged(true);
+      m.source("identification");
+      m.source_priority(static_cast<std::uint32_t>(o.get_int("ownership-strength")));
       if (fake->write(m)) ++written;
       matched_max = std::max(matched_max, fake->matched_readers());
     }
@@ -158,7 +160,7 @@ int main(int argc, char** argv) {
   o.add_double("stamp-start-s", 0.0, "event time (s) of the first fake sample; then + wall time", 0.0, 1e9);
   o.add_double("duration-s", 10.0, "how long to run (s)", 0.1, 3600.0);
   o.add_bool("listen-only", false, "only listen, write nothing");
-  o.add_int("ownership-strength", 1000, "ownership strength of the fake writer (identification's: 10)", 0, 1000000);
+  o.add_int("ownership-strength", 1000, "priority (source_priority, ownership strength) of the fake writer (identification's: 10)", 0, 1000000);
   odonav::dds::add_security_options(o);
   struct sigaction sa {};
   sa.sa_handler = on_signal;

@@ -105,6 +105,7 @@ inline Fields fields(const odonav::msg::ScaleFactor& m) {
   f.emplace_back("samples_rejected", text(m.samples_rejected()));
   f.emplace_back("frozen", text(m.frozen()));
   f.emplace_back("source", text(m.source()));
+  f.emplace_back("source_priority", text(m.source_priority()));
   return f;
 }
 
@@ -254,6 +255,7 @@ inline odonav::msg::ScaleFactor make_scale_factor() {
   m.samples_rejected(8765);
   m.frozen(true);
   m.source("identification/standby-7");
+  m.source_priority(4000000007u);
   return m;
 }
 

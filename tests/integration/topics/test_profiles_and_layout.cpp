@@ -51,19 +51,14 @@ const std::map<std::string, ExpectedQos>& expected_qos() {
   static const std::map<std::string, ExpectedQos> table{
       {topics::kSensorWriterProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
       {topics::kSensorReaderProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
-      // Estimates: EXCLUSIVE (hot standby); the writer offers 300 ms so DR's 300 ms reader matches.
-      {topics::kEstimateWriterProfile,
-       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 0.3, EXCLUSIVE_OWNERSHIP_QOS}},
-      {topics::kEstimateReaderProfile,
-       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 1.0, EXCLUSIVE_OWNERSHIP_QOS}},
-      {topics::kScaleFactorReaderProfile,
-       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 0.3, EXCLUSIVE_OWNERSHIP_QOS}},
+      // Estimates: SHARED like everything (hot standby arbitrated by the consumers); the writer offers
+      // 300 ms, no longer than any reader requests.
+      {topics::kEstimateWriterProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 0.3}},
+      {topics::kEstimateReaderProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 1.0}},
       {topics::kMisalignmentRecorderReaderProfile,
-       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1000, kNoDeadline, EXCLUSIVE_OWNERSHIP_QOS}},
+       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1000, kNoDeadline}},
       {topics::kScaleFactorRecorderReaderProfile,
-       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1000, kNoDeadline, EXCLUSIVE_OWNERSHIP_QOS}},
-      {topics::kEstimateGroundBestEffortReaderProfile,
-       {BEST_EFFORT_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 100, kNoDeadline, EXCLUSIVE_OWNERSHIP_QOS}},
+       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1000, kNoDeadline}},
       {topics::kDeadReckoningWriterProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
       {topics::kDeadReckoningReaderProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 200, kNoDeadline}},
       {topics::kHealthWriterProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 3.0}},
@@ -90,7 +85,6 @@ void expect_qos(const std::string& profile, const Qos& qos) {
   EXPECT_EQ(qos.ownership().kind, e.ownership) << profile;
 }
 
-// The ground station's best-effort reader of a topic: the EXCLUSIVE variant for the estimates.
 bool is_estimate_topic(const topics::TopicSpec& spec) {
   return std::string(spec.writer_profile) == topics::kEstimateWriterProfile;
 }
@@ -107,18 +101,16 @@ TEST(QosProfiles, EveryProfileHasTheDocumentedQosAndTopicsMatchTheirReaders) {
     DataReaderQos r, ground;
     ASSERT_EQ(publisher.get_datawriter_qos_from_profile(spec.writer_profile, w), ReturnCode_t::RETCODE_OK);
     ASSERT_EQ(subscriber.get_datareader_qos_from_profile(spec.reader_profile, r), ReturnCode_t::RETCODE_OK);
-    const char* ground_profile = is_estimate_topic(spec) ? topics::kEstimateGroundBestEffortReaderProfile
-                                                         : topics::kGroundBestEffortReaderProfile;
+    const char* ground_profile = topics::kGroundBestEffortReaderProfile;
     ASSERT_EQ(subscriber.get_datareader_qos_from_profile(ground_profile, ground), ReturnCode_t::RETCODE_OK);
     expect_qos(spec.writer_profile, w);
     expect_qos(spec.reader_profile, r);
     expect_qos(ground_profile, ground);
     std::vector<const DataReaderQos*> readers{&r, &ground};
-    // The estimate topics' other readers: DR's fast-failover scale-factor reader, the recorders.
+    // The estimate topics' other readers: the recorders.
     std::vector<DataReaderQos> extra;
     if (is_estimate_topic(spec)) {
-      for (const char* profile : {topics::kScaleFactorReaderProfile, topics::kMisalignmentRecorderReaderProfile,
-                                  topics::kScaleFactorRecorderReaderProfile}) {
+      for (const char* profile : {topics::kMisalignmentRecorderReaderProfile, topics::kScaleFactorRecorderReaderProfile}) {
         extra.emplace_back();
         ASSERT_EQ(subscriber.get_datareader_qos_from_profile(profile, extra.back()), ReturnCode_t::RETCODE_OK);
         expect_qos(profile, extra.back());
@@ -135,52 +127,32 @@ TEST(QosProfiles, EveryProfileHasTheDocumentedQosAndTopicsMatchTheirReaders) {
   }
 }
 
-// Dead reckoning reads the scale factor with its own profile: the contract names it
-// (topics::kScaleFactorForDeadReckoning), qos.xml alone defines it, and it is the estimate reader with
-// a 300 ms deadline, so DR follows a hot standby within 300 ms and still matches the writer.
-TEST(QosProfiles, DeadReckoningReadsTheScaleFactorWithTheFailoverProfileOfQosXml) {
-  const topics::TopicSpec& dr = topics::kScaleFactorForDeadReckoning;
-  EXPECT_STREQ(dr.name, topics::kScaleFactor.name);
-  EXPECT_STREQ(dr.dds_type_name, topics::kScaleFactor.dds_type_name);
-  EXPECT_STREQ(dr.ros_type_name, topics::kScaleFactor.ros_type_name);
-  EXPECT_STREQ(dr.writer_profile, topics::kScaleFactor.writer_profile);
-  EXPECT_STREQ(dr.reader_profile, topics::kScaleFactorReaderProfile);
-  EXPECT_STREQ(dr.reader_profile, "odonav_scale_factor_reader");
-
-  // Defined once, in qos.xml, and in no other profile file.
-  const auto count_in = [](const std::string& file, const std::string& needle) {
+// Every profile is SHARED, which is what a ROS 2 reader (its QoS has no ownership field) and another
+// vendor's default-QoS reader ask for: ownership kinds must be equal to match, so one EXCLUSIVE
+// writer would hide its topic from them (tests/integration/interop reads every topic with Cyclone
+// DDS). No profile file sets an ownership kind at all.
+TEST(QosProfiles, EveryProfileIsSharedSoDefaultQosReadersOfAnyVendorMatch) {
+  odonav::dds::Participant participant(loopback_options());
+  auto& publisher = participant.core()->publisher();
+  auto& subscriber = participant.core()->subscriber();
+  for (const auto& [profile, expected] : expected_qos()) {
+    DataWriterQos w;
+    DataReaderQos r;
+    if (publisher.get_datawriter_qos_from_profile(profile, w) == ReturnCode_t::RETCODE_OK) {
+      EXPECT_EQ(w.ownership().kind, SHARED_OWNERSHIP_QOS) << profile;
+    } else {
+      ASSERT_EQ(subscriber.get_datareader_qos_from_profile(profile, r), ReturnCode_t::RETCODE_OK) << profile;
+      EXPECT_EQ(r.ownership().kind, SHARED_OWNERSHIP_QOS) << profile;
+    }
+  }
+  for (const char* file : {"qos.xml", "loopback.xml", "vehicle.xml", "discovery-server.xml", "secure.xml"}) {
     std::ifstream in(kProfilesDir + "/" + file);
-    EXPECT_TRUE(in) << file;
+    ASSERT_TRUE(in) << file;
     std::ostringstream text;
     text << in.rdbuf();
-    const std::string s = text.str();
-    int n = 0;
-    for (auto at = s.find(needle); at != std::string::npos; at = s.find(needle, at + 1)) ++n;
-    return n;
-  };
-  const std::string definition = std::string("profile_name=\"") + dr.reader_profile + "\"";
-  EXPECT_EQ(count_in("qos.xml", definition), 1);
-  for (const char* other : {"loopback.xml", "vehicle.xml", "discovery-server.xml", "secure.xml"})
-    EXPECT_EQ(count_in(other, definition), 0) << other;
-
-  odonav::dds::Participant participant(loopback_options());
-  auto& subscriber = participant.core()->subscriber();
-  DataReaderQos failover, estimate;
-  DataWriterQos writer;
-  ASSERT_EQ(subscriber.get_datareader_qos_from_profile(dr.reader_profile, failover), ReturnCode_t::RETCODE_OK);
-  ASSERT_EQ(subscriber.get_datareader_qos_from_profile(topics::kScaleFactor.reader_profile, estimate),
-            ReturnCode_t::RETCODE_OK);
-  ASSERT_EQ(participant.core()->publisher().get_datawriter_qos_from_profile(dr.writer_profile, writer),
-            ReturnCode_t::RETCODE_OK);
-  expect_qos(dr.reader_profile, failover);
-  EXPECT_EQ(failover.reliability().kind, estimate.reliability().kind);
-  EXPECT_EQ(failover.durability().kind, estimate.durability().kind);
-  EXPECT_EQ(failover.history().depth, estimate.history().depth);
-  EXPECT_EQ(failover.ownership().kind, EXCLUSIVE_OWNERSHIP_QOS);
-  EXPECT_DOUBLE_EQ(seconds_of(failover.deadline().period), 0.3);
-  EXPECT_LT(seconds_of(failover.deadline().period), seconds_of(estimate.deadline().period));
-  EXPECT_LE(seconds_of(writer.deadline().period), seconds_of(failover.deadline().period));  // matches
-  EXPECT_EQ(writer.ownership().kind, failover.ownership().kind);
+    EXPECT_EQ(text.str().find("EXCLUSIVE"), std::string::npos) << file;
+    EXPECT_EQ(text.str().find("<ownership>"), std::string::npos) << file;
+  }
 }
 
 TEST(QosProfiles, LoopbackParticipantKeepsEverythingOnLoopback) {

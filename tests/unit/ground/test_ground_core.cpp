@@ -332,7 +332,7 @@ TEST(Recording, TopicSelectionAndQosMetadata) {
   EXPECT_STREQ(recording_reader_profile(odonav::topics::kScaleFactor), "odonav_scale_factor_recorder_reader");
   EXPECT_STREQ(recording_reader_profile(odonav::topics::kMisalignment), "odonav_misalignment_recorder_reader");
   EXPECT_STREQ(recording_reader_profile(odonav::topics::kGnssFix), odonav::topics::kGnssFix.reader_profile);
-  EXPECT_STREQ(recording_reader_profile(odonav::topics::kScaleFactor, true), "odonav_estimate_ground_reader_best_effort");
+  EXPECT_STREQ(recording_reader_profile(odonav::topics::kScaleFactor, true), odonav::topics::kGroundBestEffortReaderProfile);
   EXPECT_STREQ(recording_reader_profile(odonav::topics::kOdometer, true), odonav::topics::kGroundBestEffortReaderProfile);
   try {
     select_topics("odometer,bogus");

@@ -11,8 +11,8 @@
 namespace odonav {
 
 void ScaleFactorSelection::track_source(const std::string& source, double t_s, double now_s) {
-  // Which identification instance is followed (the DDS owner of the EXCLUSIVE topic: the strongest
-  // live instance): logged, and told in health for a while after a change (hot standby taking over,
+  // Which identification instance is followed (the one the node's SourceArbiter hands on: the
+  // highest-priority live instance): logged, and told in health for a while after a change (hot standby taking over,
   // the primary coming back).
   if (source == k_source_) return;
   if (k_source_.empty()) {

@@ -34,8 +34,8 @@ namespace odonav::dds {
 /// Settings of one writer that depend on the process (its command line), so they cannot live in a
 /// shared XML profile: applied on top of the profile's QoS when the writer is created.
 struct WriterSettings {
-  /// OWNERSHIP_STRENGTH value (Fast DDS holds it unsigned; higher wins). Meaningful with EXCLUSIVE ownership in the
-  /// profile (readers then follow the strongest live writer of each key). Nothing = the profile's.
+  /// OWNERSHIP_STRENGTH value (Fast DDS holds it unsigned; higher wins). Only meaningful with EXCLUSIVE
+  /// ownership, which no odonav profile uses (docs/DDS.md section 4); nothing = the profile's.
   std::optional<uint32_t> ownership_strength;
   /// TRANSIENT durability instead of the profile's: the writer's history outlives the process in
   /// the persistence service named by `properties` (dds.persistence.plugin, ...sqlite3.filename,

@@ -15,8 +15,11 @@
 #include <tuple>
 #include <vector>
 
+#include <spdlog/spdlog.h>
+
 #include "odonav/dds/component.hpp"
 #include "odonav/dds/node_support.hpp"
+#include "odonav/source_arbiter.hpp"
 #include "odonav/topics.hpp"
 
 namespace odonav::dds {
@@ -57,6 +60,46 @@ class EventTimeNode {
           if (m.vehicle_id() != vehicle) return;
           runtime_.post([this, in, feed, m] {
             admit_sample(aligner_, *in, m.header().stamp(), steady_now_s(), [&](double t_s) { feed(m, t_s); });
+          });
+        });
+  }
+
+  /// subscribe() for an estimate topic whose producers may be redundant (a hot standby: Msg has
+  /// source() and source_priority()): on the worker thread each sample of this vehicle first goes
+  /// through `arbiter` (odonav/source_arbiter.hpp), and only what it hands on (one stream, the
+  /// highest-priority live source, each stamp once, in order) is admitted and fed; repeats of the
+  /// last stamp handed on reach the aligner as heartbeats. Each switch of source is logged with its
+  /// reason. `arbiter` must outlive the returned reader.
+  template <class Msg, class Feed>
+  std::unique_ptr<Reader<Msg>> subscribe_arbitrated(const odonav::topics::TopicSpec& topic, NodeInput& input,
+                                                    SourceArbiter<Msg>& arbiter, Feed feed) {
+    const std::string vehicle = runtime_.settings().vehicle_id;
+    NodeInput* in = &input;
+    SourceArbiter<Msg>* arb = &arbiter;
+    const std::string name = topic.name;
+    return std::make_unique<Reader<Msg>>(
+        runtime_.participant(), topic.name, topic.reader_profile, [this, vehicle, in, arb, feed, name](const Msg& m) {
+          if (m.vehicle_id() != vehicle) return;
+          runtime_.post([this, in, arb, feed, m, name] {
+            double t_s = 0.0;
+            try {
+              t_s = to_seconds(m.header().stamp());
+            } catch (const std::invalid_argument&) {  // not a time: the aligner names it
+              admit_sample(aligner_, *in, m.header().stamp(), steady_now_s(), [&](double s) { feed(m, s); });
+              return;
+            }
+            const std::uint64_t switches = arb->counters().switches;
+            const std::vector<Msg> released = arb->offer(m.source(), m.source_priority(), t_s, m);
+            if (arb->counters().switches != switches && !arb->switches().empty()) {
+              const SourceSwitch& sw = arb->switches().back();
+              spdlog::info("{}: following '{}' from t={:.3f} s ({})", name, sw.to, sw.at_stamp_s, sw.reason);
+            }
+            for (const Msg& r : released)
+              admit_sample(aligner_, *in, r.header().stamp(), steady_now_s(), [&](double s) { feed(r, s); });
+            // A repeat of the last stamp handed on (a heartbeat of any instance) still tells the
+            // aligner the input is alive; it is never fed (the aligner takes it as a repeat).
+            if (released.empty() && arb->last_delivered_s() && t_s == *arb->last_delivered_s())
+              admit_sample(aligner_, *in, m.header().stamp(), steady_now_s(), [](double) {});
           });
         });
   }
