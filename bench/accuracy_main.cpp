@@ -1,7 +1,8 @@
 // odonav-bench-accuracy: every estimator compared side by side against the simulator's truth, so the
 // choice of the main estimator and its defaults rests on measured figures (BENCHMARKS.md §4).
 //
-// For every scenario (straight, ring, terrain) and every seed, simulates the drive in memory, runs the
+// For every scenario (straight, ring, terrain, slow_robot, and variants such as terrain+1hz or
+// terrain+lat100) and every seed, simulates the drive in memory, runs the
 // whole offline chain (run_offline: calibration, every estimator side by side on the same samples, DR
 // with the online K and with the coarse K of the straight run of the SAME seed) and evaluates it with
 // make_summary, exactly as odonav-offline does. Prints, per scenario and estimator, the median and the
@@ -87,22 +88,52 @@ std::size_t count_never(const Figure& f) {
 
 // ---- one run ---------------------------------------------------------------------------------------
 
+// A scenario with variants: "terrain", "terrain+1hz" (GNSS rate), "terrain+lat50" (GNSS latency in
+// ms), combinable ("ring+1hz+lat100"). Throws std::invalid_argument naming an unknown modifier.
+odonav::sim::SimulationConfig scenario_variant(const std::string& spec) {
+  std::stringstream parts(spec);
+  std::string name;
+  std::getline(parts, name, '+');
+  odonav::sim::SimulationConfig cfg = odonav::sim::scenario_config(name);
+  for (std::string m; std::getline(parts, m, '+');) {
+    if (m.size() > 2 && m.compare(m.size() - 2, 2, "hz") == 0) {
+      cfg.gnss_rate_hz = std::stod(m.substr(0, m.size() - 2));
+    } else if (m.rfind("lat", 0) == 0) {
+      cfg.gnss_latency_s = std::stod(m.substr(3)) / 1000.0;
+    } else {
+      throw std::invalid_argument("scenario '" + spec + "': unknown modifier '" + m + "' (<N>hz or lat<ms>)");
+    }
+  }
+  return cfg;
+}
+
 odonav::Dataset simulate(const std::string& scenario, uint64_t seed) {
-  odonav::sim::SimulationConfig cfg = odonav::sim::scenario_config(scenario);
+  odonav::sim::SimulationConfig cfg = scenario_variant(scenario);
   cfg.seed = seed;
   return odonav::sim::simulate(cfg);
 }
 
-// What odonav-offline's main does with a dataset's meta before running (lever arm, nominal K).
+// What odonav-offline's main does with a dataset before running (apply_dataset_defaults): the
+// lever arm and nominal K from meta.json unless given, dead_reckoner_params for DR and
+// identification_params_for with the same vehicle facts, so the bench measures the defaults a user
+// gets.
 odonav::offline::OfflineParams params_for(const odonav::Dataset& d, odonav::offline::OfflineParams p,
-                                          bool lever_arm_given) {
-  if (!lever_arm_given && d.meta.gnss_lever_arm_m) {
-    p.dead_reckoning.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+                                          const odonav::Options& opts) {
+  odonav::DeadReckoningFacts facts = odonav::dead_reckoning_facts_from(opts);
+  if (!facts.lever_arm_body_m && d.meta.gnss_lever_arm_m) {
+    facts.lever_arm_body_m = d.meta.gnss_lever_arm_m;
     p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
   }
-  p.identification.builder.lever_arm_body_m = p.dead_reckoning.lever_arm_body_m;
-  if (p.dead_reckoning.nominal_k_m_per_pulse <= 0.0)
-    p.dead_reckoning.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
+  facts.use_ins = d.has_ins();
+  facts.dataset_nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse;
+  p.dead_reckoning = odonav::dead_reckoner_params(facts);
+  odonav::IdentificationVehicleFacts vehicle;
+  vehicle.use_ins = d.has_ins();
+  vehicle.lever_arm_body_m = p.dead_reckoning.lever_arm_body_m;
+  vehicle.nominal_k_m_per_pulse = p.dead_reckoning.nominal_k_m_per_pulse;
+  vehicle.run_all_estimators = true;
+  p.identification = odonav::identification_params_for(opts, vehicle);
+  p.calibration.use_ins = d.has_ins();
   return p;
 }
 
@@ -202,8 +233,8 @@ json identification_summary(const odonav::Dataset& d, const odonav::offline::Off
   return summary_of(d, rows, "terrain");
 }
 
-void run_sensitivity(const odonav::offline::OfflineParams& base, std::size_t seeds, uint64_t first_seed,
-                     std::ostream& out) {
+void run_sensitivity(const odonav::offline::OfflineParams& base, const odonav::Options& opts, std::size_t seeds,
+                     uint64_t first_seed, std::ostream& out) {
   const odonav::ScaleFactorEstimatorParams& e = base.identification.estimator;
   std::vector<Setting> settings;
   const auto add = [&](const std::string& label, std::size_t window, double kappa, double lambda_min) {
@@ -228,8 +259,8 @@ void run_sensitivity(const odonav::offline::OfflineParams& base, std::size_t see
   std::vector<EstimatorFigures> figures(settings.size());
   for (uint64_t seed = first_seed; seed < first_seed + seeds; ++seed) {
     const odonav::Dataset d = simulate("terrain", seed);
-    odonav::offline::OfflineParams p = params_for(d, base, base.dead_reckoning.lever_arm_body_m.has_value());
-    p.calibration.use_ins = d.has_ins();
+    odonav::offline::OfflineParams p = params_for(d, base, opts);
+    p.identification.estimator = base.identification.estimator;
     odonav::MisalignmentCalibrator calibrator(p.calibration);
     for (const auto& g : d.gnss) calibrator.add_gnss(g);
     for (const auto& i : d.ins) calibrator.add_ins(i);
@@ -276,7 +307,9 @@ int main(int argc, char** argv) {
   opts.add_int("seeds", 10, "seeds per scenario", 1, 1000);
   opts.add_int("first-seed", 1, "first seed", 0, std::numeric_limits<int64_t>::max() / 2);
   opts.add_int("sensitivity-seeds", 3, "seeds of the sensitivity table on terrain (0: skip it)", 0, 1000);
-  opts.add_string("scenarios", "straight,ring,terrain", "comma-separated scenarios to compare");
+  opts.add_string("scenarios", "straight,ring,terrain",
+                  "comma-separated scenarios to compare; variants: +<N>hz (GNSS rate), +lat<ms> (GNSS latency), e.g. "
+                  "terrain+1hz,terrain+lat100,slow_robot");
   opts.add_string("log-level", "warn", "trace, debug, info, warn, error, critical, off");
   odonav::add_identification_options(opts);
   odonav::add_calibration_options(opts);
@@ -288,14 +321,12 @@ int main(int argc, char** argv) {
     odonav::setup_logging("bench-accuracy", opts.get_string("log-level"));
     base.identification = odonav::identification_params_from(opts);
     base.calibration = odonav::calibration_params_from(opts);
-    base.dead_reckoning = odonav::dead_reckoning_params_from(opts);
-    base.dead_reckoning.lever_arm_body_m = odonav::lever_arm_from(opts);
+    base.dead_reckoning = odonav::dead_reckoner_params(odonav::dead_reckoning_facts_from(opts));
     base.calibration.lever_arm_body_m = base.dead_reckoning.lever_arm_body_m;
   } catch (const odonav::ConfigError& e) {
     std::cerr << "odonav-bench-accuracy: " << e.what() << "\n";
     return 2;
   }
-  const bool lever_arm_given = base.dead_reckoning.lever_arm_body_m.has_value();
   const auto seeds = static_cast<std::size_t>(opts.get_int("seeds"));
   const auto first_seed = static_cast<uint64_t>(opts.get_int("first-seed"));
   std::vector<std::string> scenarios;
@@ -313,10 +344,10 @@ int main(int argc, char** argv) {
       // crew would calibrate before the drive.
       const odonav::Dataset straight = simulate("straight", seed);
       const std::optional<double> coarse_k =
-          odonav::offline::coarse_k_of(straight, params_for(straight, base, lever_arm_given));
+          odonav::offline::coarse_k_of(straight, params_for(straight, base, opts));
       for (const std::string& scenario : scenarios) {
         const odonav::Dataset d = scenario == "straight" ? straight : simulate(scenario, seed);
-        odonav::offline::OfflineParams p = params_for(d, base, lever_arm_given);
+        odonav::offline::OfflineParams p = params_for(d, base, opts);
         if (coarse_k) {
           p.coarse_k_m_per_pulse = *coarse_k;
           p.coarse_k_origin = "coarse S/N of straight";
@@ -335,7 +366,7 @@ int main(int argc, char** argv) {
                  "the new K; %D against the truth track.\n";
     for (const std::string& scenario : scenarios) print_scenario(scenario, figures[scenario], seeds, std::cout);
     const auto sensitivity_seeds = static_cast<std::size_t>(opts.get_int("sensitivity-seeds"));
-    if (sensitivity_seeds > 0) run_sensitivity(base, sensitivity_seeds, first_seed, std::cout);
+    if (sensitivity_seeds > 0) run_sensitivity(base, opts, sensitivity_seeds, first_seed, std::cout);
     std::cout << "\n(run time " << std::fixed << std::setprecision(1)
               << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s)\n";
   } catch (const std::exception& e) {

@@ -1,6 +1,6 @@
 // odonav-sim: writes a simulated dataset directory (docs/DATASET.md) for a named scenario.
 //
-//   odonav-sim <straight|ring|terrain> --out DIR [--seed N] [--gnss-rate 10|1] [--duration-s S] ...
+//   odonav-sim <straight|ring|terrain|slow_robot> --out DIR [--seed N] [--gnss-rate 1|2|5|10|20] [--duration-s S] ...
 //   odonav-sim <scenario> --nmea FILE [--nmea-utc-epoch-s S] ...   the GNSS as NMEA 0183 (core/nmea.hpp)
 //   (odonav-sim --help lists every option; --config FILE reads `name = value` lines.)
 //
@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
   odonav::Options opts("odonav-sim",
                        "Simulates a tracked vehicle (odometer, GNSS, INS, truth) on a named scenario and "
                        "writes a dataset directory (docs/DATASET.md). Deterministic for a given seed.");
-  opts.add_positional("scenario", "straight, ring or terrain");
+  opts.add_positional("scenario", "straight, ring, terrain or slow_robot");
   opts.add_string("out", "", "dataset directory to write (created if missing; never an existing dataset or a "
                   "non-empty foreign directory, see --force); required unless --nmea is given");
   opts.add_bool("force", false, "write into an existing dataset or non-empty directory (replacing its files)");
@@ -56,7 +56,8 @@ int main(int argc, char** argv) {
   opts.add_double("nmea-utc-epoch-s", odonav::sim::NmeaSettings{}.utc_epoch_s,
                   "--nmea: UTC of t = 0, s since 1970 (a fix at t is reported at this + t)", 0.0, 4e9);
   opts.add_int("seed", 1, "random seed of the sensor noise", 0, std::numeric_limits<int64_t>::max());
-  opts.add_choice("gnss-rate", "10", {"10", "1"}, "GNSS rate, Hz");
+  opts.add_choice("gnss-rate", "default", {"default", "1", "2", "5", "10", "20"},
+                  "GNSS rate, Hz (default: the scenario's, 10 Hz except slow_robot's 1 Hz)");
   opts.add_double("duration-s", 0.0, "run length, s; more laps (or a longer road) are driven and the data cut "
                   "there (0: the scenario's natural length)", 0.0, 604800.0);
   opts.add_int("laps", base.laps, "laps of the ring/terrain course", 1, 10000);
@@ -82,7 +83,7 @@ int main(int argc, char** argv) {
     if (out_dir.empty() && nmea_path.empty())
       throw odonav::ConfigError("--out: a dataset directory is required (or --nmea FILE)");
     cfg.seed = static_cast<std::uint64_t>(opts.get_int("seed"));
-    cfg.gnss_rate_hz = std::stod(opts.get_string("gnss-rate"));
+    if (opts.get_string("gnss-rate") != "default") cfg.gnss_rate_hz = std::stod(opts.get_string("gnss-rate"));
     cfg.duration_s = opts.get_double("duration-s");
     if (opts.was_set("laps")) cfg.laps = static_cast<int>(opts.get_int("laps"));
     cfg.gnss_latency_s = opts.get_double("gnss-latency-s");

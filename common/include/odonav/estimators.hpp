@@ -74,7 +74,7 @@ struct ScaleFactorEstimatorParams {
   /// Lower clamp of the variable forgetting factor, in (0, 1].
   double lambda_min = 0.95;
   /// Residual variance scale C of the VFF law [m^2], >= 0. 0 = automatic: C = vff_kappa * sigma_y^2
-  /// with sigma_y^2 = (sigma_v_mps * sample_interval_s)^2 / 2 + K^2 / 6 (GNSS velocity noise plus
+  /// with sigma_y^2 = (sigma_v_mps * T)^2 / 2 + K^2 / 6 (GNSS velocity noise plus
   /// pulse quantisation, K the current estimate; regression_noise_variance_m2), never below
   /// sigma_y_floor_m^2.
   double vff_c_m2 = 0.0;
@@ -82,7 +82,8 @@ struct ScaleFactorEstimatorParams {
   double vff_kappa = 4.0;
   /// One-sigma GNSS velocity noise [m/s], >= 0 (automatic C, kf_rw measurement noise prior).
   double sigma_v_mps = 0.05;
-  /// Nominal sample interval T [s], > 0 (automatic C).
+  /// Sample interval T [s], > 0, for samples that do not carry their own (dt_s 0): every sample of
+  /// the sample builder carries its GNSS interval, so the noise model follows the data's rate.
   double sample_interval_s = 0.1;
 
   // --- coarse ---
@@ -200,8 +201,9 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
   WindowSums exact_window_sums() const;
   /// Running sum of ln(lambda) since the last re-basing; stays within M * |ln lambda_min|.
   double log_weight() const { return log_weight_; }
-  /// The residual variance scale C [m^2] the VFF law would use with the estimate K [m/pulse].
-  double vff_c_m2(double k_m_per_pulse) const;
+  /// The residual variance scale C [m^2] the VFF law would use with the estimate K [m/pulse] for a
+  /// sample spanning interval_s [s] (0: params' sample_interval_s).
+  double vff_c_m2(double k_m_per_pulse, double interval_s = 0.0) const;
 
  protected:
   WindowRlsEstimator(const ScaleFactorEstimatorParams& params, bool variable_forgetting);

@@ -49,13 +49,29 @@ int fix_quality_rank(int fix);
 struct SampleBuilderParams {
   /// Use the INS attitude to project the GNSS velocity (false: |v_ENU|, degraded mode without INS).
   bool use_ins = true;
-  /// Minimum forward speed at BOTH ends of an interval (m/s, >= 0). Default 2.
-  double min_speed_mps = 2.0;
+  /// Minimum forward speed at BOTH ends of an interval (m/s, >= 0). Default 0.5: slow robots and
+  /// manoeuvring vehicles crawl at 0.5-3 m/s. The real limit is min_pulses below; this one only keeps
+  /// out the last metres before a stop, where GNSS velocity noise is of the order of the speed.
+  double min_speed_mps = 0.5;
+  /// Minimum pulses counted over a sample (pulses, >= 0). Default 16: the quantisation of phi (one
+  /// pulse at each end, sqrt(1/6) pulse one-sigma) is then at most 2.5 % of the sample, whatever K
+  /// and the GNSS rate (with K = 0.0125 m/pulse at 10 Hz that is 2 m/s; with an 800-pulse encoder on
+  /// a 0.15 m wheel at 1 Hz it is 1 cm/s). 15.9, not 16: interpolated counts are often whole or
+  /// half pulses, and a threshold on such a value would let the last bit of a time stamp (a DDS
+  /// stamp has nanoseconds) decide.
+  double min_pulses = 15.9;
   /// Minimum fix_quality_rank (1..4). Default 1: every valid fix (codes 0 and 6 are always rejected).
   int min_fix_rank = 1;
-  /// Longest interval between consecutive GNSS epochs that makes a sample (s, > 0). A longer gap
-  /// breaks the chain: no sample across an outage. Default 0.5.
-  double max_interval_s = 0.5;
+  /// Longest interval between consecutive GNSS epochs that makes a sample (s). A longer gap breaks
+  /// the chain: no sample across an outage. 0 (default) = derived from the GNSS period P observed in
+  /// the data (the median of the last intervals between GNSS rows, gnss_period_window rows):
+  /// max(max_interval_floor_s, max_interval_periods * P), i.e. 0.5 s at 10 Hz and 2.5 s at 1 Hz
+  /// (effective_max_interval_s). > 0: that value, whatever the data.
+  double max_interval_s = 0.0;
+  double max_interval_periods = 2.5;
+  double max_interval_floor_s = 0.5;
+  /// Intervals between GNSS rows the period P is the median of (>= 1). Default 15.
+  int gnss_period_window = 15;
   /// Yaw-rate gate: reject intervals whose |heading change| / dt exceeds max_yaw_rate_rad_s (track
   /// skid in turns). Heading from the INS, or from the GNSS course without INS. Default on, 3 deg/s:
   /// a skid-steered track slips in any turn, by tenths of a percent already at 5-10 deg/s, which an
@@ -63,11 +79,16 @@ struct SampleBuilderParams {
   /// excursions of K through; 3 deg/s removed them at the cost of ~8 % of the samples).
   bool yaw_rate_gate_enabled = true;
   double max_yaw_rate_rad_s = 3.0 * kDegToRad;
+  /// With INS, the yaw rate of an interval longer than this (s, > 0) is the largest over steps of
+  /// about this length (INS heading), not the mean: a 1 s interval may hold a turn whose mean rate
+  /// passes the gate. Default 0.1 s (one step at 10 Hz: the mean, as before).
+  double yaw_rate_step_s = 0.1;
   /// Intervals with |yaw rate| below this are marked straight (for the coarse S/N estimator). Default 1 deg/s.
   double straight_yaw_rate_rad_s = 1.0 * kDegToRad;
   /// Speed-jump gate (works before any K estimate): an epoch whose forward speed differs from the
   /// last good epoch's by more than max_acceleration_mps2 * dt + speed_jump_margin_mps is an outlier.
-  /// The reference is used only if at most speed_jump_reference_max_age_s old. Defaults 6 m/s^2, 1 m/s, 1 s.
+  /// The reference is used only if at most max(speed_jump_reference_max_age_s, the effective
+  /// max interval) old, so a 1 Hz receiver keeps the gate. Defaults 6 m/s^2, 1 m/s, 1 s.
   double max_acceleration_mps2 = 6.0;
   double speed_jump_margin_mps = 1.0;
   double speed_jump_reference_max_age_s = 1.0;
@@ -83,8 +104,10 @@ struct SampleBuilderParams {
   double innovation_k_change_fraction = 0.10;
   /// After this many consecutive innovation rejections the estimate is presumed stale (a K change
   /// beyond k_change_fraction) and the innovation test is suspended until a sample passes it again;
-  /// the speed-jump gate still applies. Default 50 (5 s at 10 Hz).
-  int innovation_max_consecutive_rejections = 50;
+  /// the speed-jump gate still applies. 0 (default) = derived from the observed GNSS period P:
+  /// the epochs in innovation_suspend_after_s (5 s: 50 at 10 Hz, 5 at 1 Hz), at least 3.
+  int innovation_max_consecutive_rejections = 0;
+  double innovation_suspend_after_s = 5.0;
   /// Longest gap between two odometer / INS samples across which they are interpolated (s). Default 1.
   double max_bracket_s = 1.0;
   /// Odometer pulse-jump gate (stream_buffers.hpp): increments above max_speed_mps / k_m_per_pulse
@@ -98,6 +121,71 @@ struct SampleBuilderParams {
   std::optional<Eigen::Vector3d> lever_arm_body_m;
   /// h above (s, > 0). Default 0.05 (the INS at 100 Hz gives the rate over 10 samples).
   double lever_arm_rate_half_window_s = 0.05;
+
+  /// GNSS latency (s): the receiver stamps a fix latency seconds after the instant it describes
+  /// (processing delay, or a clock offset between receiver and odometer/INS time). The odometer
+  /// count and the INS attitude of an epoch stamped t are taken at t - latency. A set value is
+  /// used as it is (--gnss-latency-s); unset (default) it is estimated online (GnssLatencyEstimate,
+  /// docs/ALGORITHM.md "GNSS latency").
+  std::optional<double> gnss_latency_fixed_s;
+  /// Online estimation: candidate latencies from latency_search_min_s to latency_search_max_s in
+  /// steps of latency_search_step_s (defaults -0.2, 0.5, 0.01 s). For every candidate the squared
+  /// residuals of the accepted samples against the current K estimate are summed; the estimate is
+  /// the vertex of a parabola fitted around the smallest sum, its sigma from the curvature.
+  bool latency_estimation_enabled = true;
+  double latency_search_min_s = -0.2;
+  double latency_search_max_s = 0.5;
+  double latency_search_step_s = 0.01;
+  /// Pulse rate at a time: the count difference over [t - h, t + h] / 2h, h = this (s, in (0, 1]).
+  /// Default 0.05 s. Used by the latency estimate and the trapezoid correction.
+  double pulse_rate_half_window_s = 0.05;
+  /// Samples spanning at least this long (s, > 0; default 0.3: GNSS below about 3 Hz) get the
+  /// trapezoid correction: y += K^ (phi - T/2 (rate(t0) + rate(t1))), the distance the trapezoid of
+  /// the two speeds misses, as the odometer's pulse-rate profile shows it (docs/ALGORITHM.md §2).
+  /// At 10 Hz the curvature error is far below the GNSS noise and the rate's quantisation would
+  /// only add noise.
+  double trapezoid_correction_min_interval_s = 0.3;
+  /// Half width of the least-squares parabola fitted around the smallest sum (s, > 0; at least 5
+  /// candidates). Default 0.1 s.
+  double latency_fit_half_width_s = 0.1;
+  /// The estimate is applied (replaces the value in force, initially 0) once it comes from at least
+  /// latency_min_samples (default 200) samples, lies inside the search range and either its sigma is
+  /// at most latency_apply_sigma_s (default 0.002 s) and it differs from the value in force by more
+  /// than that sigma, or it is more than 5 sigma from the value in force (below).
+  double latency_apply_sigma_s = 0.002;
+  int latency_min_samples = 200;
+  /// An estimate more than 5 sigma away from the value in force is applied at once, however large
+  /// its sigma; when the applied value moves by more than latency_restart_s (default 0.02 s) from the
+  /// one the sums were collected at, the sums start again (they were gated at the old value).
+  double latency_restart_s = 0.02;
+  /// ... but only when that sigma is at most latency_apply_coarse_sigma_s (default 0.01 s).
+  double latency_apply_coarse_sigma_s = 0.01;
+  /// Samples enter the latency sums only while the K estimate's one-sigma is at most this fraction
+  /// of K (default 0.005).
+  double latency_max_k_rel_sigma = 0.005;
+  /// ... and only while every K estimate of the last latency_k_stable_s (default 20 s) is within
+  /// latency_k_stable_rel (default 0.003) of the current one.
+  double latency_k_stable_s = 20.0;
+  double latency_k_stable_rel = 0.003;
+};
+
+/// The max interval in force for an observed GNSS period (s; NaN: not yet observed):
+/// params.max_interval_s when > 0, else max(max_interval_floor_s, max_interval_periods * period).
+double effective_max_interval_s(const SampleBuilderParams& params, double gnss_period_s);
+
+/// The GNSS latency the builder works with (all in s).
+struct GnssLatencyEstimate {
+  /// Latency applied to the epochs (fixed, or the last estimate that met the apply rule, else 0).
+  double applied_s = 0.0;
+  /// The online estimate and its one-sigma; sigma -1 while there is none (too few samples, no
+  /// minimum inside the search range). With a fixed latency: the fixed value, sigma 0.
+  double estimate_s = 0.0;
+  double sigma_s = -1.0;
+  /// Samples in the estimate.
+  uint64_t samples = 0;
+  bool fixed = false;
+  /// Why there is no usable estimate (empty when there is): names the rule and the observed value.
+  std::string reason;
 };
 
 /// What happened to one GNSS epoch (the first gate that rejected it, or accepted).
@@ -169,6 +257,8 @@ struct SampleBuilderEpoch {
   double forward_speed_mps = 0.0;
   /// The sample ending at this epoch, present iff status == kAccepted.
   std::optional<ScaleFactorSample> sample;
+  /// The GNSS latency after this epoch.
+  GnssLatencyEstimate latency;
 };
 
 class SampleBuilder {
@@ -204,6 +294,12 @@ class SampleBuilder {
   const std::optional<LocalEnuFrame>& position_frame() const { return frame_; }
   /// GNSS epochs buffered and not yet processed.
   std::size_t pending_epochs() const { return pending_gnss_.size(); }
+  /// The GNSS period observed so far (s; NaN before two GNSS rows) and the gates derived from it.
+  double gnss_period_s() const { return gnss_period_s_; }
+  double max_interval_in_force_s() const { return effective_max_interval_s(params_, gnss_period_s_); }
+  int innovation_rejections_before_suspension() const;
+  /// The GNSS latency in force and its online estimate.
+  const GnssLatencyEstimate& latency() const { return latency_; }
 
  private:
   struct GoodEpoch {
@@ -247,6 +343,23 @@ class SampleBuilder {
   /// GNSS velocity moved from the antenna to the INS reference point (ENU, m/s).
   Eigen::Vector3d reference_point_velocity(const GnssSample& g, const Attitude& att) const;
   void count(EpochStatus status);
+  /// Whether every K estimate stamped in [t_s - latency_k_stable_s, t_s) is within
+  /// latency_k_stable_rel of k_m_per_pulse (and there is one).
+  bool k_recently_stable(double t_s, double k_m_per_pulse) const;
+  /// latency_k_stable_s plus half the observed GNSS period.
+  double k_stable_window_s() const;
+  /// Pulse rate (pulses/s) at sensor time t_s (pulse_rate_half_window_s); nullopt without counts.
+  std::optional<double> pulse_rate_at(double t_s) const;
+  /// Updates the observed GNSS period with a new row at t_s.
+  void observe_gnss_period(double t_s);
+  /// Sensor time of a GNSS epoch stamped t_s: t_s - applied latency.
+  double sensor_time(double t_s) const { return t_s - latency_.applied_s; }
+  /// The largest and the smallest latency any query may use (applied value and candidates).
+  double earliest_sensor_offset_s() const;
+  double latest_sensor_offset_s() const;
+  /// Adds an accepted sample between the epochs stamped t0_s and t1_s to the latency candidates and
+  /// updates latency_ (estimation only; the applied value changes for the following epochs).
+  void update_latency(double t0_s, double t1_s, double y_m, double k_m_per_pulse);
 
   SampleBuilderParams params_;
   OdometerBuffer odometer_;
@@ -261,6 +374,16 @@ class SampleBuilder {
   int consecutive_innovation_rejections_ = 0;
   std::optional<LocalEnuFrame> frame_;
   SampleBuilderCounters counters_;
+  std::deque<double> gnss_intervals_s_;
+  std::optional<double> last_period_row_t_s_;
+  double gnss_period_s_ = std::numeric_limits<double>::quiet_NaN();
+  GnssLatencyEstimate latency_;
+  std::vector<double> latency_candidates_s_;
+  std::vector<double> latency_sse_m2_;  ///< per candidate: sum of squared residuals against K^.
+  uint64_t latency_samples_ = 0;
+  double latency_sums_applied_s_ = 0.0;  ///< the applied latency the sums were collected at.
+  uint64_t latency_restarts_ = 0;
+  std::deque<std::pair<double, double>> recent_k_;  ///< (t_s, K) of the last latency_k_stable_s.
 };
 
 }  // namespace odonav

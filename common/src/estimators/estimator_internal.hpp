@@ -35,8 +35,13 @@ inline bool sample_is_valid(const ScaleFactorSample& sample) {
 /// (scale_factor_estimator.hpp, docs/ALGORITHM.md "Estimators") with the params' sigma_v_mps and
 /// sample_interval_s, at least sigma_y_floor_m^2.
 /// Inline (with the two below): called on every update, a call costs as much as the arithmetic.
-inline double model_sigma_y2_m2(const ScaleFactorEstimatorParams& params, double k_m_per_pulse) {
-  const double model = regression_noise_variance_m2(params.sigma_v_mps, params.sample_interval_s, k_m_per_pulse);
+/// interval_s: the sample's own GNSS interval when known (> 0), so the model follows the GNSS rate
+/// of the data (1 Hz samples carry ten times the velocity noise of 10 Hz ones); else
+/// params.sample_interval_s.
+inline double model_sigma_y2_m2(const ScaleFactorEstimatorParams& params, double k_m_per_pulse,
+                                double interval_s = 0.0) {
+  const double t = interval_s > 0.0 ? interval_s : params.sample_interval_s;
+  const double model = regression_noise_variance_m2(params.sigma_v_mps, t, k_m_per_pulse);
   return std::max(model, params.sigma_y_floor_m * params.sigma_y_floor_m);
 }
 

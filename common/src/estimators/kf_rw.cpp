@@ -31,7 +31,7 @@ void KfRandomWalkEstimator::update(const ScaleFactorSample& sample) {
   const double k_for_model = initialised_ ? k_ : (params_.prior_weight_pulses2 > 0.0 ? params_.k_prior_m_per_pulse : y / phi);
   const double r = residual_scale_.count() >= kMinResidualsForOnlineScale
                        ? std::pow(residual_scale_.sigma_m(), 2)
-                       : model_sigma_y2_m2(params_, k_for_model);
+                       : model_sigma_y2_m2(params_, k_for_model, sample.dt_s);
   if (!initialised_ && params_.prior_weight_pulses2 > 0.0) {
     k_ = params_.k_prior_m_per_pulse;
     p_ = r / params_.prior_weight_pulses2;

@@ -36,9 +36,9 @@ const WindowRlsEstimator::Entry& WindowRlsEstimator::entry(std::size_t age_index
   return buffer_[ring_index(oldest_, age_index, capacity_)];
 }
 
-double WindowRlsEstimator::vff_c_m2(double k_m_per_pulse) const {
+double WindowRlsEstimator::vff_c_m2(double k_m_per_pulse, double interval_s) const {
   if (params_.vff_c_m2 > 0.0) return params_.vff_c_m2;
-  return params_.vff_kappa * model_sigma_y2_m2(params_, k_m_per_pulse);
+  return params_.vff_kappa * model_sigma_y2_m2(params_, k_m_per_pulse, interval_s);
 }
 
 void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
@@ -56,7 +56,7 @@ void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
     residual_scale_.add(eps, s);
     // Ordinary RLS while the window fills (fewer than L held), the VFF law afterwards.
     if (variable_forgetting_ && held_ == capacity_) {
-      const double c = vff_c_m2(k_prev);
+      const double c = vff_c_m2(k_prev, sample.dt_s);
       lambda = std::clamp(1.0 - eps * eps / (s * static_cast<double>(capacity_) * c), params_.lambda_min, 1.0);
     }
   }

@@ -22,7 +22,8 @@ std::vector<std::string> scale_factor_header() {
   std::vector<std::string> h{"t"};
   for (const std::string& c : scale_factor_estimator_columns()) h.push_back(c);
   for (const char* c : {"lambda_vff_lm_rls", "estimator", "k_m_per_pulse", "sigma_m_per_pulse", "forgetting_factor",
-                        "window_fill", "converged", "samples_accepted", "samples_rejected", "epoch_status"})
+                        "window_fill", "converged", "samples_accepted", "samples_rejected", "epoch_status",
+                        "gnss_latency_s", "gnss_latency_sigma_s"})
     h.push_back(c);
   return h;
 }
@@ -69,7 +70,9 @@ void ScaleFactorCsv::write(const ScaleFactorRow& r) {
       .field(r.converged)
       .field(r.samples_accepted)
       .field(r.samples_rejected)
-      .field(r.epoch_status);
+      .field(r.epoch_status)
+      .field(r.gnss_latency_s)
+      .field(r.gnss_latency_sigma_s);
   csv_.end_row();
 }
 
@@ -221,6 +224,8 @@ OutputRows read_output_rows(const std::string& dir) {
       r.samples_accepted = static_cast<uint64_t>(t.number(i, "samples_accepted", 0.0));
       r.samples_rejected = static_cast<uint64_t>(t.number(i, "samples_rejected", 0.0));
       r.epoch_status = t.text(i, "epoch_status");
+      r.gnss_latency_s = t.number(i, "gnss_latency_s", 0.0);
+      r.gnss_latency_sigma_s = t.has("gnss_latency_sigma_s") ? t.optional_number(i, "gnss_latency_sigma_s") : std::nullopt;
       out.scale_factor.push_back(r);
     }
   }

@@ -1,5 +1,6 @@
 #include "odonav/sample_builder.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -89,6 +90,12 @@ double innovation_bound_m(const SampleBuilderParams& params, double sigma_v_mps,
          params.innovation_k_change_fraction * std::abs(k_m_per_pulse * phi_pulses);
 }
 
+double effective_max_interval_s(const SampleBuilderParams& params, double gnss_period_s) {
+  if (params.max_interval_s > 0.0) return params.max_interval_s;
+  if (!std::isfinite(gnss_period_s)) return params.max_interval_floor_s;
+  return std::max(params.max_interval_floor_s, params.max_interval_periods * gnss_period_s);
+}
+
 namespace {
 void require(bool ok, const char* what) {
   if (!ok) throw std::invalid_argument(std::string("SampleBuilderParams: ") + what);
@@ -98,8 +105,12 @@ void require(bool ok, const char* what) {
 SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
     : params_(p), odometer_(p.max_bracket_s, p.odometer_jump_gate), attitude_(p.max_bracket_s) {
   require(p.min_speed_mps >= 0.0, "min_speed_mps must be >= 0");
+  require(p.min_pulses >= 0.0, "min_pulses must be >= 0");
   require(p.min_fix_rank >= 1 && p.min_fix_rank <= 4, "min_fix_rank must be in 1..4");
-  require(p.max_interval_s > 0.0, "max_interval_s must be > 0");
+  require(p.max_interval_s >= 0.0, "max_interval_s must be > 0 (or 0: derived from the GNSS period)");
+  require(p.max_interval_periods > 0.0 && p.max_interval_floor_s > 0.0,
+          "max_interval_periods and max_interval_floor_s must be > 0");
+  require(p.gnss_period_window >= 1, "gnss_period_window must be >= 1");
   require(p.max_yaw_rate_rad_s > 0.0, "max_yaw_rate_rad_s must be > 0");
   require(p.straight_yaw_rate_rad_s >= 0.0, "straight_yaw_rate_rad_s must be >= 0");
   require(p.max_acceleration_mps2 > 0.0 && p.speed_jump_margin_mps >= 0.0,
@@ -108,10 +119,168 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
   require(p.innovation_n_sigma > 0.0, "innovation_n_sigma must be > 0");
   require(p.gnss_velocity_sigma_mps > 0.0, "gnss_velocity_sigma_mps must be > 0");
   require(p.innovation_k_change_fraction >= 0.0, "innovation_k_change_fraction must be >= 0");
-  require(p.innovation_max_consecutive_rejections >= 1, "innovation_max_consecutive_rejections must be >= 1");
+  require(p.innovation_max_consecutive_rejections >= 0,
+          "innovation_max_consecutive_rejections must be >= 1 (or 0: derived from the GNSS period)");
+  require(p.innovation_suspend_after_s > 0.0, "innovation_suspend_after_s must be > 0");
   require(p.max_bracket_s > 0.0, "max_bracket_s must be > 0");
   require(!p.lever_arm_body_m || p.lever_arm_body_m->allFinite(), "lever_arm_body_m must be finite");
   require(p.lever_arm_rate_half_window_s > 0.0, "lever_arm_rate_half_window_s must be > 0");
+  require(!p.gnss_latency_fixed_s || (std::isfinite(*p.gnss_latency_fixed_s) && std::abs(*p.gnss_latency_fixed_s) < 10.0),
+          "gnss_latency_fixed_s must be finite and within +-10 s");
+  require(p.latency_search_step_s > 0.0 && p.latency_search_max_s >= p.latency_search_min_s + 2.0 * p.latency_search_step_s &&
+              p.latency_search_min_s > -10.0 && p.latency_search_max_s < 10.0,
+          "latency search range: step > 0, max >= min + 2 steps, within +-10 s");
+  require(p.latency_apply_sigma_s > 0.0, "latency_apply_sigma_s must be > 0");
+  require(p.pulse_rate_half_window_s > 0.0 && p.pulse_rate_half_window_s <= 1.0,
+          "pulse_rate_half_window_s must be in (0, 1] s");
+  require(p.trapezoid_correction_min_interval_s > 0.0, "trapezoid_correction_min_interval_s must be > 0");
+  require(p.yaw_rate_step_s > 0.0, "yaw_rate_step_s must be > 0");
+  require(p.latency_fit_half_width_s >= 2.0 * p.latency_search_step_s, "latency_fit_half_width_s must be >= 2 steps");
+  require(p.latency_min_samples >= 1, "latency_min_samples must be >= 1");
+  if (p.gnss_latency_fixed_s) {
+    latency_.fixed = true;
+    latency_.applied_s = latency_.estimate_s = *p.gnss_latency_fixed_s;
+    latency_.sigma_s = 0.0;
+  } else if (p.latency_estimation_enabled) {
+    const int n = static_cast<int>(std::floor((p.latency_search_max_s - p.latency_search_min_s) / p.latency_search_step_s + 1e-9)) + 1;
+    for (int i = 0; i < n; ++i) latency_candidates_s_.push_back(p.latency_search_min_s + i * p.latency_search_step_s);
+    latency_sse_m2_.assign(latency_candidates_s_.size(), 0.0);
+    latency_.reason = "no accepted sample yet";
+  } else {
+    latency_.reason = "estimation disabled";
+  }
+}
+
+std::optional<double> SampleBuilder::pulse_rate_at(double t_s) const {
+  const double h = params_.pulse_rate_half_window_s;
+  const std::optional<double> before = odometer_.count_at(t_s - h, watermark_s_);
+  const std::optional<double> after = odometer_.count_at(t_s + h, watermark_s_);
+  if (!before || !after) return std::nullopt;
+  return (*after - *before) / (2.0 * h);
+}
+
+int SampleBuilder::innovation_rejections_before_suspension() const {
+  if (params_.innovation_max_consecutive_rejections > 0) return params_.innovation_max_consecutive_rejections;
+  const double period = std::isfinite(gnss_period_s_) && gnss_period_s_ > 0.0 ? gnss_period_s_ : 0.1;
+  return std::max(3, static_cast<int>(std::lround(params_.innovation_suspend_after_s / period)));
+}
+
+void SampleBuilder::observe_gnss_period(double t_s) {
+  if (last_period_row_t_s_) {
+    gnss_intervals_s_.push_back(t_s - *last_period_row_t_s_);
+    if (gnss_intervals_s_.size() > static_cast<std::size_t>(params_.gnss_period_window)) gnss_intervals_s_.pop_front();
+    std::vector<double> sorted(gnss_intervals_s_.begin(), gnss_intervals_s_.end());
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    gnss_period_s_ = sorted[sorted.size() / 2];
+  }
+  last_period_row_t_s_ = t_s;
+}
+
+double SampleBuilder::earliest_sensor_offset_s() const {
+  // The largest latency a query may subtract (for pruning) ...
+  double m = latency_.applied_s;
+  if (!latency_candidates_s_.empty()) m = std::max(m, latency_candidates_s_.back());
+  return m;
+}
+
+double SampleBuilder::latest_sensor_offset_s() const {
+  // ... and the smallest (negative: data after the stamp is needed, for waiting).
+  double m = latency_.applied_s;
+  if (!latency_candidates_s_.empty()) m = std::min(m, latency_candidates_s_.front());
+  return m;
+}
+
+void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m, double k_m_per_pulse) {
+  if (latency_candidates_s_.empty()) return;
+  // Every candidate on the same samples: skip a sample for which one candidate has no count.
+  // The candidates compare like with like: y is the trapezoid of the two GNSS speeds, so the pulses
+  // are the trapezoid of the two pulse rates. Against the exact pulse count the trapezoid's own
+  // error (T^3/12 times the speed's second derivative, which is large where an acceleration ends)
+  // would correlate with the speed change and pull the estimate by milliseconds at 10 Hz.
+  std::vector<double> phi(latency_candidates_s_.size());
+  const double dt = t1_s - t0_s;
+  for (std::size_t i = 0; i < latency_candidates_s_.size(); ++i) {
+    const std::optional<double> r0 = pulse_rate_at(t0_s - latency_candidates_s_[i]);
+    const std::optional<double> r1 = pulse_rate_at(t1_s - latency_candidates_s_[i]);
+    if (!r0 || !r1) return;
+    phi[i] = 0.5 * dt * (*r0 + *r1);
+  }
+  for (std::size_t i = 0; i < phi.size(); ++i) {
+    const double r = y_m - k_m_per_pulse * phi[i];
+    latency_sse_m2_[i] += r * r;
+  }
+  ++latency_samples_;
+  latency_.samples = latency_samples_;
+  const std::size_t best = static_cast<std::size_t>(
+      std::min_element(latency_sse_m2_.begin(), latency_sse_m2_.end()) - latency_sse_m2_.begin());
+  std::ostringstream why;
+  // Below the minimum the sums are nearly flat and their smallest value jumps from candidate to
+  // candidate with the last bits of the data: no estimate yet.
+  if (latency_samples_ < static_cast<uint64_t>(std::max(3, params_.latency_min_samples))) {
+    why << "too few samples (" << latency_samples_ << " of " << params_.latency_min_samples << ")";
+    latency_.reason = why.str();
+    latency_.sigma_s = -1.0;
+    return;
+  }
+  if (best == 0 || best + 1 == latency_sse_m2_.size()) {
+    why << "the residuals are smallest at the bound " << latency_candidates_s_[best]
+        << " s of the search range [" << latency_candidates_s_.front() << ", " << latency_candidates_s_.back() << "] s";
+    latency_.reason = why.str();
+    latency_.sigma_s = -1.0;
+    return;
+  }
+  // A least-squares parabola through the candidates within latency_fit_half_width_s of the
+  // smallest sum: the sums wiggle from candidate to candidate (pulse quantisation differs with the
+  // shift), so the three nearest points alone would follow the wiggles, not the minimum.
+  const double half = params_.latency_fit_half_width_s;
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  int points = 0;
+  for (std::size_t i = 0; i < latency_sse_m2_.size(); ++i) {
+    const double x = latency_candidates_s_[i] - latency_candidates_s_[best];
+    if (std::abs(x) > half + 1e-12) continue;
+    const Eigen::Vector3d basis(1.0, x, x * x);
+    normal += basis * basis.transpose();
+    rhs += basis * latency_sse_m2_[i];
+    ++points;
+  }
+  const Eigen::Vector3d c = points >= 5 ? Eigen::Vector3d(normal.ldlt().solve(rhs)) : Eigen::Vector3d::Zero();
+  const double curvature = c[2];  // J ~ J_min + curvature (tau - tau^)^2
+  if (points < 5 || !(curvature > 0.0)) {
+    latency_.reason = "the residuals do not depend on the latency (no acceleration yet)";
+    latency_.sigma_s = -1.0;
+    return;
+  }
+  const double vertex = -c[1] / (2.0 * curvature);
+  if (std::abs(vertex) > half) {
+    latency_.reason = "the fitted minimum lies outside the fitted range";
+    latency_.sigma_s = -1.0;
+    return;
+  }
+  const double j_min = std::max(0.0, c[0] - curvature * vertex * vertex);
+  const double sigma_y2 = j_min / static_cast<double>(latency_samples_ - 2);
+  latency_.estimate_s = latency_candidates_s_[best] + vertex;
+  latency_.sigma_s = std::sqrt(sigma_y2 / curvature);
+  latency_.reason.clear();
+  if (latency_samples_ < static_cast<uint64_t>(params_.latency_min_samples)) return;
+  // Apply a precise estimate, or one that says the value in force is clearly wrong (a latency of
+  // 100 ms spoils every sample long before the estimate is within a few ms).
+  // Each change of the applied value moves K a little (0.1 % per 10 ms at 1 m/s^2 and 10 m/s), so a
+  // change must be significant, not the estimate's own wandering.
+  const bool precise = latency_.sigma_s <= params_.latency_apply_sigma_s &&
+                       std::abs(latency_.estimate_s - latency_.applied_s) > latency_.sigma_s;
+  const bool clearly_off = latency_.sigma_s <= params_.latency_apply_coarse_sigma_s &&
+                           std::abs(latency_.estimate_s - latency_.applied_s) > 5.0 * latency_.sigma_s;
+  if (!precise && !clearly_off) return;
+  latency_.applied_s = latency_.estimate_s;
+  if (std::abs(latency_.applied_s - latency_sums_applied_s_) > params_.latency_restart_s) {
+    // The samples summed so far were gated and projected at a latency far from the new one (the
+    // innovation gate kept those that fitted it, which pulls the minimum towards it): start again.
+    std::fill(latency_sse_m2_.begin(), latency_sse_m2_.end(), 0.0);
+    latency_samples_ = 0;
+    latency_sums_applied_s_ = latency_.applied_s;
+    ++latency_restarts_;
+  }
 }
 
 OdometerAddResult SampleBuilder::add_odometer(const OdometerSample& sample) {
@@ -149,6 +318,26 @@ void SampleBuilder::add_scale_factor_estimate(double t_s, double k, double sigma
     throw StreamInputError(s.str());
   }
   k_estimates_.add(t_s, KEstimate{k, sigma});
+  recent_k_.emplace_back(t_s, k);
+  while (!recent_k_.empty() && recent_k_.front().first < t_s - k_stable_window_s()) recent_k_.pop_front();
+}
+
+double SampleBuilder::k_stable_window_s() const {
+  // Half a GNSS period more, so the window's edge lies between two epochs: stamps that are a whole
+  // number of periods apart up to rounding (a DDS stamp has nanoseconds) are in or out alike.
+  const double period = std::isfinite(gnss_period_s_) ? gnss_period_s_ : 0.0;
+  return params_.latency_k_stable_s + 0.5 * period;
+}
+
+bool SampleBuilder::k_recently_stable(double t_s, double k_m_per_pulse) const {
+  bool any = false;
+  for (const auto& [t, k] : recent_k_) {
+    if (!(t < t_s)) break;
+    if (t < t_s - k_stable_window_s()) continue;
+    any = true;
+    if (std::abs(k - k_m_per_pulse) > params_.latency_k_stable_rel * k_m_per_pulse) return false;
+  }
+  return any;
 }
 
 std::vector<SampleBuilderEpoch> SampleBuilder::process_until(double watermark_s, const EpochCallback& on_epoch) {
@@ -157,19 +346,22 @@ std::vector<SampleBuilderEpoch> SampleBuilder::process_until(double watermark_s,
   std::vector<SampleBuilderEpoch> out;
   while (!pending_gnss_.empty() && pending_gnss_.front().t_s <= watermark_s_) {
     const double t = pending_gnss_.front().t_s;
-    // Wait until the epoch's odometer count and attitude are final (see stream_buffers.hpp).
-    if (odometer_.state_at(t, watermark_s_) == BracketState::kPending) break;
-    if (params_.use_ins && attitude_.state_at(t, watermark_s_) == BracketState::kPending) break;
+    // Wait until the epoch's odometer count and attitude are final (see stream_buffers.hpp), at
+    // every sensor time the epoch may be looked at (the latency candidates included).
+    const double latest = t - latest_sensor_offset_s() + params_.pulse_rate_half_window_s;
+    if (odometer_.state_at(latest, watermark_s_) == BracketState::kPending) break;
+    if (params_.use_ins && attitude_.state_at(latest, watermark_s_) == BracketState::kPending) break;
     if (compensates_lever_arm() &&
-        attitude_.state_at(t + params_.lever_arm_rate_half_window_s, watermark_s_) == BracketState::kPending)
+        attitude_.state_at(latest + params_.lever_arm_rate_half_window_s, watermark_s_) == BracketState::kPending)
       break;
     out.push_back(process_epoch(pending_gnss_.front()));
     pending_gnss_.pop_front();
-    // Everything before this epoch is no longer needed: the next interval starts here and the
-    // chain start keeps its own copy of what it needs.
-    odometer_.drop_before(t);
+    // Everything before this epoch's earliest sensor time is no longer needed: the next interval
+    // starts here.
+    const double earliest = t - std::max(0.0, earliest_sensor_offset_s()) - params_.pulse_rate_half_window_s;
+    odometer_.drop_before(earliest);
     // Keep the INS window [t - h, ...] for the next epoch's body rate (lever arm).
-    attitude_.drop_before(compensates_lever_arm() ? t - params_.lever_arm_rate_half_window_s : t);
+    attitude_.drop_before(compensates_lever_arm() ? earliest - params_.lever_arm_rate_half_window_s : earliest);
     misalignment_.drop_before(t);
     k_estimates_.drop_before(t);
     if (on_epoch) on_epoch(out.back());
@@ -186,8 +378,9 @@ bool SampleBuilder::compensates_lever_arm() const { return params_.use_ins && pa
 Eigen::Vector3d SampleBuilder::reference_point_velocity(const GnssSample& g, const Attitude& att) const {
   if (!compensates_lever_arm()) return g.vel_enu_mps;
   const double h = params_.lever_arm_rate_half_window_s;
-  std::optional<Attitude> before = attitude_.attitude_at(g.t_s - h, watermark_s_);
-  std::optional<Attitude> after = attitude_.attitude_at(g.t_s + h, watermark_s_);
+  const double t = sensor_time(g.t_s);
+  std::optional<Attitude> before = attitude_.attitude_at(t - h, watermark_s_);
+  std::optional<Attitude> after = attitude_.attitude_at(t + h, watermark_s_);
   double window_s = 2.0 * h;
   if (!before && !after) return g.vel_enu_mps;  // no rate: leave uncompensated (isolated INS sample)
   if (!before) {
@@ -214,11 +407,12 @@ std::optional<EpochStatus> SampleBuilder::check_epoch_velocity(const GnssSample&
   if (fix_quality_rank(g.fix) < params_.min_fix_rank) return EpochStatus::kLowFixQuality;
   if (!frame_) frame_.emplace(g.position);
 
-  const std::optional<double> count_now = odometer_.count_at(g.t_s, watermark_s_);
+  const double t_sensor = sensor_time(g.t_s);
+  const std::optional<double> count_now = odometer_.count_at(t_sensor, watermark_s_);
   if (!count_now) return EpochStatus::kNoOdometer;
   Attitude att;
   if (params_.use_ins) {
-    const std::optional<Attitude> a = attitude_.attitude_at(g.t_s, watermark_s_);
+    const std::optional<Attitude> a = attitude_.attitude_at(t_sensor, watermark_s_);
     if (!a) return EpochStatus::kNoAttitude;
     att = *a;
   }
@@ -231,7 +425,7 @@ std::optional<EpochStatus> SampleBuilder::check_epoch_velocity(const GnssSample&
   // Speed jump against the last epoch whose velocity was judged good (if recent enough).
   if (last_good_speed_) {
     const double dt = g.t_s - last_good_speed_->first;
-    if (dt <= params_.speed_jump_reference_max_age_s &&
+    if (dt <= std::max(params_.speed_jump_reference_max_age_s, max_interval_in_force_s()) &&
         std::abs(v - last_good_speed_->second) > params_.max_acceleration_mps2 * dt + params_.speed_jump_margin_mps)
       return EpochStatus::kSpeedJump;
   }
@@ -240,7 +434,13 @@ std::optional<EpochStatus> SampleBuilder::check_epoch_velocity(const GnssSample&
 }
 
 EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs& in, ScaleFactorSample& sample) const {
-  const GoodEpoch& s = *chain_start_;
+  GoodEpoch s = *chain_start_;
+  // Both ends at the latency in force now: the start's count and attitude again at its sensor
+  // time, so a latency applied since the start cannot make the two ends inconsistent.
+  const double start_sensor_t = sensor_time(s.t_s);
+  if (const std::optional<double> n = odometer_.count_at(start_sensor_t, watermark_s_)) s.count_pulses = *n;
+  if (params_.use_ins)
+    if (const std::optional<Attitude> a = attitude_.attitude_at(start_sensor_t, watermark_s_)) s.attitude = *a;
   const double dt = g.t_s - s.t_s;
   const double v = in.forward_speed_mps;
   // Both ends with the same (latest) misalignment, so the sample is one consistent projection.
@@ -248,19 +448,49 @@ EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs
   double yaw_rate = 0.0;
   if (params_.use_ins) {
     yaw_rate = wrap_pi(in.epoch.attitude.heading_rad - s.attitude.heading_rad) / dt;
+    // Over a long interval (1 Hz GNSS) the mean hides the turn in it: take the largest rate over
+    // steps of yaw_rate_step_s, so the gate means the same at every GNSS rate.
+    // The margin keeps an interval of exactly one step (up to the rounding of its stamps) one step.
+    const int steps = static_cast<int>(std::ceil(dt / params_.yaw_rate_step_s - 1e-6));
+    if (steps > 1) {
+      const double step_s = dt / steps;
+      std::optional<Attitude> previous = s.attitude;
+      for (int i = 1; i <= steps; ++i) {
+        const std::optional<Attitude> now =
+            i == steps ? std::optional<Attitude>(in.epoch.attitude)
+                       : attitude_.attitude_at(start_sensor_t + i * step_s, watermark_s_);
+        if (!now) continue;  // no INS inside a gap: the mean over the interval still stands
+        const double rate = wrap_pi(now->heading_rad - previous->heading_rad) / step_s;
+        if (std::abs(rate) > std::abs(yaw_rate)) yaw_rate = rate;
+        previous = now;
+      }
+    }
   } else {
     yaw_rate = wrap_pi(gnss_course_rad(g.vel_enu_mps) - gnss_course_rad(s.vel_enu_mps)) / dt;
   }
   const double phi = in.epoch.count_pulses - s.count_pulses;
-  if (dt > params_.max_interval_s) return EpochStatus::kGap;
+  if (dt > max_interval_in_force_s()) return EpochStatus::kGap;
   if (v_start < params_.min_speed_mps || v < params_.min_speed_mps) return EpochStatus::kMinSpeed;
-  if (odometer_.any_reversing(s.t_s, g.t_s)) return EpochStatus::kReversing;
+  if (odometer_.any_reversing(start_sensor_t, sensor_time(g.t_s))) return EpochStatus::kReversing;
   if (params_.yaw_rate_gate_enabled && std::abs(yaw_rate) > params_.max_yaw_rate_rad_s) return EpochStatus::kYawRate;
   if (!(phi > 0.0)) return EpochStatus::kNoPulses;
+  if (phi < params_.min_pulses) return EpochStatus::kMinSpeed;
   sample.t_s = g.t_s;
   sample.phi_pulses = phi;
   sample.dt_s = dt;
   sample.y_m = 0.5 * (v_start + v) * dt;
+  if (dt >= params_.trapezoid_correction_min_interval_s) {
+    // Long intervals: the trapezoid of the two speeds misses the speed's curvature in between
+    // (T^3/12 v'', centimetres at 1 Hz where an acceleration ends). The odometer sees that shape:
+    // add K^ times the pulses the same trapezoid misses (K^: the latest estimate, else nominal).
+    const std::optional<double> r0 = pulse_rate_at(start_sensor_t);
+    const std::optional<double> r1 = pulse_rate_at(sensor_time(g.t_s));
+    if (r0 && r1) {
+      const std::optional<KEstimate> k = k_estimates_.before(g.t_s);
+      const double k_m = k ? k->k_m_per_pulse : params_.odometer_jump_gate.k_m_per_pulse;
+      sample.y_m += k_m * (phi - 0.5 * dt * (*r0 + *r1));
+    }
+  }
   sample.gnss_position_enu_m = frame_->to_enu(g.position);
   sample.straight = std::abs(yaw_rate) < params_.straight_yaw_rate_rad_s;
   return EpochStatus::kAccepted;
@@ -278,7 +508,7 @@ SampleBuilder::InnovationVerdict SampleBuilder::innovation_gate(const GnssSample
     consecutive_innovation_rejections_ = 0;
     return InnovationVerdict::kPassed;
   }
-  if (consecutive_innovation_rejections_ < params_.innovation_max_consecutive_rejections) {
+  if (consecutive_innovation_rejections_ < innovation_rejections_before_suspension()) {
     ++consecutive_innovation_rejections_;
     return InnovationVerdict::kOutlier;
   }
@@ -287,8 +517,10 @@ SampleBuilder::InnovationVerdict SampleBuilder::innovation_gate(const GnssSample
 
 SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
   ++counters_.epochs;
+  observe_gnss_period(g.t_s);
   SampleBuilderEpoch r;
   r.t_s = g.t_s;
+  r.latency = latency_;
   EpochInputs in;
   const std::optional<EpochStatus> bad_velocity = check_epoch_velocity(g, in);
   r.forward_speed_mps = in.forward_speed_mps;
@@ -301,6 +533,7 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
   }
 
   bool velocity_good = true;
+  std::optional<double> latency_start_t_s;
   if (!chain_start_) {
     r.status = EpochStatus::kChainStart;
   } else {
@@ -310,6 +543,7 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
       switch (innovation_gate(g, sample)) {
         case InnovationVerdict::kPassed:
           r.sample = sample;
+          latency_start_t_s = chain_start_->t_s;
           break;
         case InnovationVerdict::kSuspended:
           ++counters_.innovation_suspended;
@@ -323,6 +557,18 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
     }
   }
   count(r.status);
+  // The latency candidates learn from samples that passed against a K estimate (a suspended test
+  // means the estimate is stale, and without one there is nothing to compare with).
+  if (latency_start_t_s) {
+    // Only against an estimate of K that is already precise: the errors of a K still converging
+    // follow the speed, which correlates with the acceleration the latency is read from.
+    // And only while K holds still: after a step of K the estimate lags for seconds, and its error
+    // times whatever the vehicle's speed did meanwhile pulls the latency by many milliseconds.
+    const std::optional<KEstimate> k = k_estimates_.before(g.t_s);
+    if (k && k->sigma_m_per_pulse <= params_.latency_max_k_rel_sigma * k->k_m_per_pulse && k_recently_stable(g.t_s, k->k_m_per_pulse))
+      update_latency(*latency_start_t_s, g.t_s, r.sample->y_m, k->k_m_per_pulse);
+    r.latency = latency_;
+  }
   if (velocity_good) {
     chain_start_ = in.epoch;
     last_good_speed_ = std::make_pair(g.t_s, in.forward_speed_mps);

@@ -104,6 +104,8 @@ odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& out, c
   m.frozen(out.frozen);
   m.source(source);
   m.source_priority(source_priority);
+  m.gnss_latency_s(out.latency.applied_s);
+  m.gnss_latency_sigma_s(out.latency.sigma_s >= 0.0 ? out.latency.sigma_s : -1.0);
   return m;
 }
 

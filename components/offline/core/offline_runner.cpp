@@ -146,6 +146,8 @@ results::ScaleFactorRow to_row(const IdentificationOutput& k, const std::string&
   r.samples_accepted = k.samples_accepted;
   r.samples_rejected = k.samples_rejected;
   r.epoch_status = to_string(k.epoch_status);
+  r.gnss_latency_s = k.latency.applied_s;
+  if (k.latency.sigma_s >= 0.0) r.gnss_latency_sigma_s = k.latency.sigma_s;
   return r;
 }
 

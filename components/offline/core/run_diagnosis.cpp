@@ -30,9 +30,11 @@ std::string dominant_gate(const Dataset& d, const OfflineParams& p, const Sample
   const SampleBuilderParams& b = p.identification.builder;
   const double gnss_period_s = median_period_s(times_of(d.gnss));
   std::vector<std::pair<uint64_t, std::string>> gates = {
-      {c.gap, "as gaps > " + num(b.max_interval_s) + " s (--max-interval-s); the GNSS period is " +
-                  num(gnss_period_s) + " s"},
-      {c.min_speed, "below the minimum speed " + num(b.min_speed_mps) + " m/s (--min-speed)"},
+      {c.gap, "as gaps > " + num(effective_max_interval_s(b, gnss_period_s)) +
+                  " s (--max-interval-s" + (b.max_interval_s > 0.0 ? "" : ", derived from the GNSS period") +
+                  "); the GNSS period is " + num(gnss_period_s) + " s"},
+      {c.min_speed, "below the minimum speed " + num(b.min_speed_mps) + " m/s (--min-speed) or the minimum of " +
+                        num(b.min_pulses) + " pulses per sample (--min-pulses)"},
       {c.yaw_rate, "in turns above " + num(rad_to_deg(b.max_yaw_rate_rad_s)) + " deg/s (--max-yaw-rate-deg-s)"},
       {c.invalid_fix, "with an invalid fix (fix 0, 6, 7 or 8)"},
       {c.speed_jump, "as speed jumps above " + num(b.max_acceleration_mps2) + " m/s^2 x dt + " +

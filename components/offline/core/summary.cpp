@@ -189,6 +189,10 @@ json make_summary(const Dataset& d, const results::OutputRows& rows, const Summa
     sf["samples_accepted"] = last.samples_accepted;
     sf["samples_rejected"] = last.samples_rejected;
     sf["first_motion_t_s"] = number_or_null(first_motion);
+    sf["gnss_latency_s"] = number_or_null(last.gnss_latency_s);
+    sf["gnss_latency_sigma_s"] = last.gnss_latency_sigma_s ? number_or_null(*last.gnss_latency_sigma_s) : json();
+    if (sim.is_object() && sim.contains("gnss_latency_s") && sim["gnss_latency_s"].is_number())
+      sf["gnss_latency_error_s"] = number_or_null(last.gnss_latency_s - sim["gnss_latency_s"].get<double>());
   }
   if (!k_ref.empty()) {
     sf["true_k_final_m_per_pulse"] = k_ref.back().value;
@@ -254,6 +258,11 @@ void print_summary(const json& s, std::ostream& out) {
     out << "\n";
   }
   if (sf.contains("true_k_final_m_per_pulse")) out << "    true K (final) " << fmt(sf["true_k_final_m_per_pulse"], 7) << "\n";
+  if (sf.contains("gnss_latency_s")) {
+    out << "    GNSS latency  " << fmt(sf["gnss_latency_s"], 4, " s") << " +- " << fmt(sf.value("gnss_latency_sigma_s", json()), 4, " s");
+    if (sf.contains("gnss_latency_error_s")) out << "  (error vs simulation " << fmt(sf["gnss_latency_error_s"], 4, " s") << ")";
+    out << "\n";
+  }
   const json& dr = s["dead_reckoning"];
   out << "  dead reckoning (vs " << dr["reference"].get<std::string>() << ")\n";
   out << "    K             final err m   final %D   max %D   outage err m (% of outage distance)\n";

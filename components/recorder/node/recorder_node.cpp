@@ -93,6 +93,9 @@ results::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m) {
   r.converged = m.converged();
   r.samples_accepted = m.samples_accepted();
   r.samples_rejected = m.samples_rejected();
+  r.gnss_latency_s = m.gnss_latency_s();
+  if (std::isfinite(m.gnss_latency_sigma_s()) && m.gnss_latency_sigma_s() >= 0.0)
+    r.gnss_latency_sigma_s = m.gnss_latency_sigma_s();
   return r;
 }
 

@@ -272,4 +272,48 @@ SpeedProfile::State SpeedProfile::at(double time_s) const {
   return st;
 }
 
+MotionPlan::State MotionPlan::end() const {
+  if (phases_.empty()) return State{};
+  const Phase& p = phases_.back();
+  return State{p.s0_m + p.v0_mps * p.duration_s + 0.5 * p.accel_mps2 * p.duration_s * p.duration_s,
+               p.v0_mps + p.accel_mps2 * p.duration_s};
+}
+
+void MotionPlan::add(double accel_mps2, double length_s) {
+  if (!(length_s > 0.0)) return;
+  const State e = end();
+  phases_.push_back(Phase{this->duration_s(), e.s_m, e.speed_mps, accel_mps2, length_s});
+  const State after = end();
+  max_s_m_ = std::max({max_s_m_, e.s_m, after.s_m});
+}
+
+void MotionPlan::go(double speed_mps, double accel_mps2, double hold_s) {
+  if (!std::isfinite(speed_mps) || !(std::abs(accel_mps2) > 0.0) || !(hold_s >= 0.0))
+    throw std::invalid_argument("MotionPlan::go: speed must be finite, |accel| > 0, hold >= 0");
+  const double v0 = end().speed_mps;
+  const double a = std::copysign(std::abs(accel_mps2), speed_mps - v0);
+  add(a, std::abs(speed_mps - v0) / std::abs(accel_mps2));
+  // The end speed exactly (no rounding left over for the hold or the next phase).
+  if (!phases_.empty()) {
+    Phase& last = phases_.back();
+    last.accel_mps2 = (speed_mps - last.v0_mps) / last.duration_s;
+  }
+  add(0.0, hold_s);
+}
+
+void MotionPlan::dwell(double dwell_s) {
+  if (end().speed_mps != 0.0) throw std::invalid_argument("MotionPlan::dwell: the vehicle must stand still first");
+  add(0.0, dwell_s);
+}
+
+MotionPlan::State MotionPlan::at(double time_s) const {
+  if (phases_.empty() || time_s <= 0.0) return State{};
+  if (time_s >= duration_s()) return State{end().s_m, 0.0};
+  const auto it = std::upper_bound(phases_.begin(), phases_.end(), time_s,
+                                   [](double t, const Phase& p) { return t < p.t0_s; });
+  const Phase& p = *(it - 1);
+  const double tau = time_s - p.t0_s;
+  return State{p.s0_m + p.v0_mps * tau + 0.5 * p.accel_mps2 * tau * tau, p.v0_mps + p.accel_mps2 * tau};
+}
+
 }  // namespace odonav::sim

@@ -103,6 +103,36 @@ struct DriverLimits {
   double speed_variation_mps = 0.4;   ///< amplitude of the slow speed wander on top of the target.
 };
 
+/// A drive along the road as phases of constant acceleration, forward AND backward (a signed speed
+/// along the road's arc length): the stop-and-go and reversing manoeuvres of a slow robot, which
+/// the one-way SpeedProfile cannot express. Starts at s = 0, standstill.
+class MotionPlan {
+ public:
+  struct State {
+    double s_m = 0.0;        ///< arc length along the road (decreases while reversing).
+    double speed_mps = 0.0;  ///< signed ds/dt: negative while reversing.
+  };
+  /// Accelerates (|accel_mps2| > 0) from the current speed to speed_mps (signed), then holds it
+  /// for hold_s seconds (>= 0).
+  void go(double speed_mps, double accel_mps2, double hold_s);
+  /// Stands still for dwell_s seconds (the speed must already be 0: after go(0, ...)).
+  void dwell(double dwell_s);
+  double duration_s() const { return phases_.empty() ? 0.0 : phases_.back().t0_s + phases_.back().duration_s; }
+  /// Largest arc length reached (the road must be at least this long).
+  double max_s_m() const { return max_s_m_; }
+  /// State at time_s after the start, clamped to [0, duration_s()].
+  State at(double time_s) const;
+
+ private:
+  struct Phase {
+    double t0_s, s0_m, v0_mps, accel_mps2, duration_s;
+  };
+  void add(double accel_mps2, double length_s);
+  State end() const;
+  std::vector<Phase> phases_;
+  double max_s_m_ = 0.0;
+};
+
 /// The horizontal speed along the road as a function of time: starts from standstill at s = 0,
 /// stops at s = total_length_m. Built on a grid of grid_step_m: the speed limit at each node is the
 /// segment target (plus a slow deterministic wander), capped by the cornering limit, then forward

@@ -68,12 +68,13 @@ struct TruthRow {
   double k_base_m_per_pulse = 0.0;
   double k_true_m_per_pulse = 0.0;  // base divided by (1 + slip)
   double distance_m = 0.0;
+  double s_m = 0.0;  // arc length along the road (decreases while reversing)
   std::uint32_t pulses = 0;
 };
 
 }  // namespace
 
-std::vector<std::string> scenario_names() { return {"straight", "ring", "terrain"}; }
+std::vector<std::string> scenario_names() { return {"straight", "ring", "terrain", "slow_robot"}; }
 
 SimulationConfig scenario_config(const std::string& name) {
   SimulationConfig c;
@@ -105,6 +106,30 @@ SimulationConfig scenario_config(const std::string& name) {
     c.turn_slip_max = 0.03;
     c.gnss_outages = {GnssOutage{560.0, 680.0}};
     c.gnss_velocity_outliers = 6;
+    return c;
+  }
+  if (name == "slow_robot") {
+    c.description =
+        "slow robot: stop-and-go legs at 0.6-3 m/s with a reversing manoeuvre after every third stop, on the "
+        "training-ground course; 1 Hz RTK-grade GNSS, no INS, an 800-pulse encoder on a 0.15 m wheel, true K "
+        "2 % above nominal";
+    c.course = CourseKind::kTrainingGround;
+    c.drive = DriveKind::kStopAndGo;
+    c.road_grade = 0.0;
+    c.hills = {Undulation{1.0, 570.0, 0.0}, Undulation{0.3, 200.0, 0.5}};
+    c.cross_slopes = {Undulation{1.0 * kDegToRad, 300.0, 0.0}};
+    c.k_nominal_m_per_pulse = kPi * 0.15 / 800.0;
+    c.k_true_m_per_pulse = c.k_nominal_m_per_pulse * 1.02;
+    c.odometer_rate_hz = 50.0;
+    c.gnss_rate_hz = 1.0;
+    // RTK fixed: centimetre positions, Doppler velocity of about 2 cm/s.
+    c.gnss_pos_gm_std_m = 0.01;
+    c.gnss_pos_white_std_m = 0.01;
+    c.gnss_vel_std_mps = 0.02;
+    c.gnss_vel_up_std_mps = 0.03;
+    c.lever_arm_m = Eigen::Vector3d(0.1, 0.0, 0.4);
+    c.has_ins = false;
+    c.roll_per_lateral_accel_rad = 0.0;
     return c;
   }
   std::string names;
@@ -188,10 +213,32 @@ struct Drive {
   int laps;
   SpeedProfile profile;
   double total_time_s;  ///< length of the simulated data, s.
+  std::optional<MotionPlan> plan;  ///< DriveKind::kStopAndGo: replaces the profile.
 };
 
 double natural_duration_s(const SimulationConfig& cfg, const SpeedProfile& profile) {
   return cfg.standstill_start_s + profile.duration_s() + cfg.standstill_end_s;
+}
+
+// The slow robot's legs (speed m/s, hold s), driven in this order and repeated: after each a stop of
+// 3 s, after every third a reversing manoeuvre (0.6 m/s backwards for 8 s, about 5 m, then 2 s
+// standing). Accelerations of a small tracked robot: 0.5 m/s^2 up, 0.8 m/s^2 braking.
+MotionPlan slow_robot_plan(double min_duration_s) {
+  const std::pair<double, double> legs[] = {{1.0, 40.0}, {2.5, 60.0}, {0.8, 30.0}, {3.0, 70.0},
+                                            {1.8, 50.0}, {0.6, 30.0}, {2.2, 60.0}, {1.4, 45.0}};
+  MotionPlan plan;
+  for (int i = 0; plan.duration_s() < min_duration_s || i < 8; ++i) {
+    const auto& leg = legs[i % 8];
+    plan.go(leg.first, 0.5, leg.second);
+    plan.go(0.0, 0.8, 0.0);
+    plan.dwell(3.0);
+    if (i % 3 == 2) {
+      plan.go(-0.6, 0.4, 8.0);
+      plan.go(0.0, 0.4, 0.0);
+      plan.dwell(2.0);
+    }
+  }
+  return plan;
 }
 
 Drive plan_drive(const SimulationConfig& cfg) {
@@ -202,6 +249,12 @@ Drive plan_drive(const SimulationConfig& cfg) {
   int laps = cfg.laps;
   double road_length_m = course.closed() ? laps * course.lap_length_m() : cfg.straight_length_m;
   SpeedProfile profile(course, road_length_m, cfg.driver);
+  if (cfg.drive == DriveKind::kStopAndGo) {
+    MotionPlan plan = slow_robot_plan(cfg.duration_s - cfg.standstill_start_s - cfg.standstill_end_s);
+    const double natural_s = cfg.standstill_start_s + plan.duration_s() + cfg.standstill_end_s;
+    const double total_s = cfg.duration_s > 0.0 ? cfg.duration_s : natural_s;
+    return Drive{std::move(course), std::move(terrain), laps, std::move(profile), total_s, std::move(plan)};
+  }
   if (cfg.duration_s > 0.0) {
     while (natural_duration_s(cfg, profile) < cfg.duration_s) {
       const double factor = cfg.duration_s / natural_duration_s(cfg, profile);
@@ -215,11 +268,18 @@ Drive plan_drive(const SimulationConfig& cfg) {
     }
   }
   const double total_time_s = cfg.duration_s > 0.0 ? cfg.duration_s : natural_duration_s(cfg, profile);
-  return Drive{std::move(course), std::move(terrain), laps, std::move(profile), total_time_s};
+  return Drive{std::move(course), std::move(terrain), laps, std::move(profile), total_time_s, std::nullopt};
 }
 
-// Horizontal arc length and speed at t_rel_s after the start of the data (standstill first).
+// Horizontal arc length and (signed) speed at t_rel_s after the start of the data (standstill first).
 SpeedProfile::State drive_state(const SimulationConfig& cfg, const Drive& drive, double t_rel_s) {
+  if (drive.plan) {
+    const MotionPlan::State st = drive.plan->at(t_rel_s - cfg.standstill_start_s);
+    SpeedProfile::State out;
+    out.s_m = st.s_m;
+    out.speed_mps = st.speed_mps;
+    return out;
+  }
   return drive.profile.at(t_rel_s - cfg.standstill_start_s);
 }
 
@@ -304,6 +364,7 @@ class TruthIntegrator {
     r.k_base_m_per_pulse = k_base_at(cfg_, t_rel);
     r.k_true_m_per_pulse = r.k_base_m_per_pulse / (1.0 + slip_at(cfg_, st.speed_mps * cp.curvature_per_m));
     r.distance_m = distance_m_;
+    r.s_m = st.s_m;
     // The counter shows whole pulses, modulo 2^32.
     r.pulses = static_cast<std::uint32_t>(
         (static_cast<std::uint64_t>(cfg_.counter_start) + static_cast<std::uint64_t>(std::floor(pulse_phase_))) &
@@ -352,7 +413,10 @@ std::vector<OdometerSample> odometer_samples(const SimulationConfig& cfg, const 
   std::vector<OdometerSample> odometer;
   const int every = rate_ratio(cfg.truth_rate_hz, cfg.odometer_rate_hz, "odometer_rate_hz");
   for (std::size_t k = 0; k < rows.size(); k += every) {
-    odometer.push_back(OdometerSample{cfg.start_time_s + rows[k].t_rel_s, rows[k].pulses, 1});
+    // The counter counts up in both directions; the direction flag says which way the interval
+    // ending here was driven (a quadrature encoder's direction bit).
+    const int direction = k >= static_cast<std::size_t>(every) && rows[k].s_m < rows[k - every].s_m ? -1 : 1;
+    odometer.push_back(OdometerSample{cfg.start_time_s + rows[k].t_rel_s, rows[k].pulses, direction});
   }
   return odometer;
 }
@@ -595,7 +659,7 @@ Dataset simulate(const SimulationConfig& cfg) {
   Dataset ds;
   ds.truth = truth_samples(cfg, rows);
   ds.odometer = odometer_samples(cfg, rows);
-  ds.ins = ins_samples(cfg, rows);
+  if (cfg.has_ins) ds.ins = ins_samples(cfg, rows);
   // Each sensor draws from its own random stream (make_stream), so the order of these calls does
   // not change any number; within a stream the draw order is fixed.
   const std::vector<std::size_t> epoch_rows = gnss_epoch_rows(cfg, rows);

@@ -30,6 +30,13 @@ struct GnssOutage {
   double end_s = 0.0;
 };
 
+/// How the vehicle moves along the road.
+enum class DriveKind {
+  kProfile,     ///< one way, the driver's SpeedProfile (start, drive, stop).
+  kStopAndGo,   ///< the slow robot: legs at 0.6-3 m/s, a stop after each, a reversing manoeuvre
+                ///< after every third (slow_robot_plan in simulator.cpp); repeated to fill duration_s.
+};
+
 enum class CourseKind {
   kStraight,        ///< one straight road of straight_length_m at straight_heading_rad.
   kTrainingGround,  ///< the closed lap of Course::training_ground(), driven `laps` times clockwise.
@@ -55,6 +62,7 @@ struct SimulationConfig {
   double standstill_start_s = 5.0;     ///< standing still before driving off, s.
   double standstill_end_s = 5.0;       ///< standing still after the stop, s.
   DriverLimits driver;
+  DriveKind drive = DriveKind::kProfile;
   double road_grade = 0.01;            ///< constant slope of the straight road (dh/ds); 0 on laps.
   std::vector<Undulation> hills;       ///< height undulations (amplitude in m).
   std::vector<Undulation> cross_slopes;  ///< ground roll undulations (amplitude in rad).
@@ -100,13 +108,14 @@ struct SimulationConfig {
   double gnss_outlier_max_mps = 10.0;
 
   // --- INS ---
+  bool has_ins = true;                  ///< false: no ins.csv (a vehicle without INS).
   double ins_rate_hz = 100.0;
   double ins_heading_bias_rad = 0.02 * kDegToRad;
   double ins_heading_noise_rad = 0.01 * kDegToRad;  ///< white, one sigma.
   double ins_tilt_noise_rad = 0.005 * kDegToRad;    ///< white, pitch and roll, one sigma.
 };
 
-/// Names of the built-in scenarios: "straight", "ring", "terrain".
+/// Names of the built-in scenarios: "straight", "ring", "terrain", "slow_robot".
 std::vector<std::string> scenario_names();
 
 /// The configuration of a named scenario (see README.md). Throws std::invalid_argument listing the

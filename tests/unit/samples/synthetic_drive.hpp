@@ -82,6 +82,7 @@ struct SensorConfig {
   Misalignment misalignment;
   Geodetic origin{deg_to_rad(52.5), deg_to_rad(13.4), 50.0};
   Eigen::Vector3d lever_arm_body_m = Eigen::Vector3d::Zero();  ///< antenna in body FLU.
+  double gnss_latency_s = 0.0;  ///< GNSS stamp = measurement time + this (s).
 };
 
 struct SyntheticData {
@@ -110,7 +111,7 @@ inline SyntheticData simulate(const Trajectory& tr, const SensorConfig& c) {
   for (long i = 0; i <= n_gnss; ++i) {
     const double t = static_cast<double>(i) * c.gnss_period_s;
     GnssSample g;
-    g.t_s = t;
+    g.t_s = t + c.gnss_latency_s;
     g.position = frame.to_geodetic(antenna_enu(t));
     Eigen::Vector3d v = tr.speed_mps(t) * tr.direction(t);
     if (c.lever_arm_body_m.squaredNorm() > 0.0) {

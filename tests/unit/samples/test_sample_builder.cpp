@@ -384,7 +384,7 @@ TEST(SampleBuilder, DifferentInterleavingsGiveBitIdenticalSamples) {
 
 TEST(SampleBuilder, BadInputAndParamsAreRejectedWithClearErrors) {
   SampleBuilderParams bad;
-  bad.max_interval_s = 0.0;
+  bad.max_interval_s = -1.0;
   EXPECT_THROW(SampleBuilder{bad}, std::invalid_argument);
   SampleBuilder b;
   GnssSample g;
@@ -520,4 +520,122 @@ TEST(SampleBuilder, InnovationBoundFollowsTheNoiseModelPlusTheKChangeAllowance) 
   EXPECT_NEAR(innovation_bound_m(p, 0.1, 0.0125, 0.0, 80.0, 0.1),
               5.0 * std::sqrt(regression_noise_variance_m2(0.1, 0.1, 0.0125)), 1e-17);
   EXPECT_NEAR(innovation_bound_m(p, 0.1, 0.0125, 0.0, 80.0, 0.1), 5.0 * std::sqrt(7.60416666666667e-05), 1e-15);
+}
+
+// ---- rates and scales from the data, GNSS latency ----------------------------------------------
+
+namespace {
+// Speed 8 + 2 sin(2 pi t / 12) m/s on a straight line: accelerations of up to 1 m/s^2 that change
+// all the time, the signal the latency is read from.
+Trajectory wavy_drive() {
+  Trajectory tr = straight(deg_to_rad(30.0), 0.0, 8.0, 0.0);
+  const double w = 2.0 * kPi / 12.0;
+  const Eigen::Vector3d u = tr.direction(0.0);
+  tr.speed_mps = [=](double t) { return 8.0 + 2.0 * std::sin(w * t); };
+  tr.distance_m = [=](double t) { return 8.0 * t + 2.0 / w * (1.0 - std::cos(w * t)); };
+  tr.enu_m = [=](double t) { return Eigen::Vector3d((8.0 * t + 2.0 / w * (1.0 - std::cos(w * t))) * u); };
+  return tr;
+}
+}  // namespace
+
+TEST(SampleBuilder, OneHertzGnssIsAcceptedBecauseTheGapGateFollowsTheObservedPeriod) {
+  SensorConfig c = accel_config();
+  c.gnss_period_s = 1.0;
+  SampleBuilder b;
+  const SyntheticData d = simulate(accel_drive(), c);
+  for (const auto& s : d.odometer) b.add_odometer(s);
+  for (const auto& s : d.gnss) b.add_gnss(s);
+  for (const auto& s : d.ins) b.add_ins(s);
+  const auto epochs = b.finish();
+  ASSERT_EQ(epochs.size(), 21u);
+  // The old fixed 0.5 s would have rejected every interval as a gap.
+  EXPECT_EQ(b.counters().gap, 0u);
+  EXPECT_EQ(b.counters().accepted, 20u);
+  EXPECT_DOUBLE_EQ(b.gnss_period_s(), 1.0);
+  EXPECT_DOUBLE_EQ(b.max_interval_in_force_s(), 2.5);
+  EXPECT_EQ(b.innovation_rejections_before_suspension(), 5);  // 5 s at 1 Hz
+  for (const auto& s : samples_of(epochs)) {
+    EXPECT_NEAR(s.dt_s, 1.0, 1e-9);
+    // Linear speed: the trapezoid is exact, so only quantisation is left (< 2 pulses).
+    EXPECT_LT(std::abs(s.y_m - kK * s.phi_pulses), 2.0 * kK) << s.t_s;
+  }
+  // At 10 Hz the derived gap is the 0.5 s floor; an explicit value still wins.
+  EXPECT_DOUBLE_EQ(effective_max_interval_s(SampleBuilderParams{}, 0.1), 0.5);
+  SampleBuilderParams fixed;
+  fixed.max_interval_s = 0.7;
+  EXPECT_DOUBLE_EQ(effective_max_interval_s(fixed, 1.0), 0.7);
+}
+
+TEST(SampleBuilder, TheMinimumPulsesGateRejectsSamplesWithTooFewPulses) {
+  // 5 to 7 m/s at 10 Hz with K = 0.05 m/pulse: 10 to 14 pulses per sample, all below 16.
+  SensorConfig c = accel_config();
+  c.k_m_per_pulse = 0.05;
+  c.duration_s = 2.0;
+  SampleBuilderParams p;
+  p.odometer_jump_gate.k_m_per_pulse = 0.05;
+  SampleBuilderCounters counters;
+  run_all(simulate(accel_drive(), c), p, false, &counters);
+  EXPECT_EQ(counters.accepted, 0u);
+  EXPECT_EQ(counters.min_speed, 20u);
+  p.min_pulses = 8.0;
+  run_all(simulate(accel_drive(), c), p, false, &counters);
+  EXPECT_EQ(counters.accepted, 20u);
+}
+
+TEST(SampleBuilder, GnssLatencyIsEstimatedOnlineAndCompensated) {
+  for (const double latency_s : {0.0, 0.1}) {
+    SensorConfig c;
+    c.duration_s = 300.0;
+    c.velocity_noise_mps = 0.02;
+    c.gnss_latency_s = latency_s;
+    const SyntheticData d = simulate(wavy_drive(), c);
+    SampleBuilder b;
+    for (const auto& s : d.odometer) b.add_odometer(s);
+    for (const auto& s : d.gnss) b.add_gnss(s);
+    for (const auto& s : d.ins) b.add_ins(s);
+    FeedbackK fk;
+    double sum_err2 = 0.0;
+    int late = 0;
+    b.finish([&](const SampleBuilderEpoch& e) {
+      fk.attach(b, e);
+      // Once the latency is in force every sample is y = K phi up to noise.
+      if (e.sample && e.t_s > 200.0) {
+        sum_err2 += std::pow(e.sample->y_m - kK * e.sample->phi_pulses, 2);
+        ++late;
+      }
+    });
+    const GnssLatencyEstimate& l = b.latency();
+    EXPECT_FALSE(l.fixed);
+    EXPECT_NEAR(l.estimate_s, latency_s, 0.003) << latency_s;
+    EXPECT_NEAR(l.applied_s, latency_s, 0.003) << latency_s;
+    EXPECT_GT(l.sigma_s, 0.0);
+    EXPECT_LT(l.sigma_s, 0.002);
+    EXPECT_TRUE(l.reason.empty()) << l.reason;
+    // Residual RMS: GNSS noise 0.02 m/s over 0.1 s and quantisation, about 5 mm; an uncompensated
+    // 0.1 s latency would add 0.1 s x the speed change per interval (up to 0.1 m/s): 10 mm.
+    ASSERT_GT(late, 500);
+    EXPECT_LT(std::sqrt(sum_err2 / late), 0.0065) << latency_s;
+  }
+}
+
+TEST(SampleBuilder, AFixedGnssLatencyIsUsedAsGiven) {
+  SensorConfig c;
+  c.duration_s = 30.0;
+  c.gnss_latency_s = 0.1;
+  SampleBuilderParams p;
+  p.gnss_latency_fixed_s = 0.1;
+  const auto epochs = run_all(simulate(wavy_drive(), c), p);
+  const auto samples = samples_of(epochs);
+  ASSERT_GT(samples.size(), 250u);
+  for (const auto& s : samples) EXPECT_LT(std::abs(s.y_m - kK * s.phi_pulses), 2.0 * kK + 0.001) << s.t_s;
+  EXPECT_TRUE(epochs.back().latency.fixed);
+  EXPECT_DOUBLE_EQ(epochs.back().latency.applied_s, 0.1);
+  EXPECT_DOUBLE_EQ(epochs.back().latency.sigma_s, 0.0);
+  // Without compensation the same samples are off by the speed change over the latency.
+  SampleBuilderParams off;
+  off.latency_estimation_enabled = false;
+  double worst = 0.0;
+  for (const auto& s : samples_of(run_all(simulate(wavy_drive(), c), off)))
+    worst = std::max(worst, std::abs(s.y_m - kK * s.phi_pulses));
+  EXPECT_GT(worst, 0.008);
 }

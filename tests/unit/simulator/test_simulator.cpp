@@ -135,9 +135,17 @@ TEST(Simulator, CounterWrapsInEveryDefaultScenarioWithRightIncrements) {
       if (ds.odometer[i].pulses >= ds.odometer[i - 1].pulses) continue;
       ++wraps;
       const uint32_t inc = pulse_increment(ds.odometer[i - 1].pulses, ds.odometer[i].pulses);
-      const double d = ds.truth[i].distance_m - ds.truth[i - 1].distance_m;
-      const double k = ds.truth[i].k_true_m_per_pulse;
-      EXPECT_LT(inc, 20u) << name;  // < 15 m/s * 0.01 s / K, not a 2^32 jump
+      // Truth rows at the two odometer instants (the odometer may run slower than truth).
+      const auto truth_at = [&](double t) {
+        return *std::lower_bound(ds.truth.begin(), ds.truth.end(), t - 1e-9,
+                                 [](const TruthSample& a, double v) { return a.t_s < v; });
+      };
+      const TruthSample& a = truth_at(ds.odometer[i - 1].t_s);
+      const TruthSample& b = truth_at(ds.odometer[i].t_s);
+      const double d = b.distance_m - a.distance_m;
+      const double k = b.k_true_m_per_pulse;
+      // < 15 m/s * dt / K, not a 2^32 jump
+      EXPECT_LT(inc, 15.0 * (ds.odometer[i].t_s - ds.odometer[i - 1].t_s) / k + 2.0) << name;
       EXPECT_LE(std::abs(inc * k - d), k + 1e-9) << name;
     }
     EXPECT_EQ(wraps, 1) << name;
@@ -490,9 +498,57 @@ TEST(Simulator, ExecutableWritesReadableDatasetAndRejectsBadArguments) {
   std::filesystem::remove_all(dir);
   // Bad arguments: exit code 2, nothing written.
   for (const std::string& args : std::vector<std::string>{"moon --out " + dir.string(), "ring", "ring --out " + dir.string() + " --seed x",
-                                 "ring --out " + dir.string() + " --gnss-rate 5"}) {
+                                 "ring --out " + dir.string() + " --gnss-rate 3"}) {
     const int rc = std::system((exe + " " + args + " > /dev/null 2>&1").c_str());
     EXPECT_TRUE(WIFEXITED(rc) && WEXITSTATUS(rc) == 2) << args;
   }
   EXPECT_FALSE(std::filesystem::exists(dir));
+}
+
+TEST(Simulator, SlowRobotStopsReversesAndHasNoIns) {
+  const SimulationConfig cfg = scenario_config("slow_robot");
+  const Dataset& ds = scenario("slow_robot");
+  EXPECT_FALSE(ds.has_ins());
+  EXPECT_NEAR(cfg.k_nominal_m_per_pulse, kPi * 0.15 / 800.0, 1e-15);
+  EXPECT_NEAR(cfg.k_true_m_per_pulse / cfg.k_nominal_m_per_pulse, 1.02, 1e-12);
+  // 1 Hz GNSS, 50 Hz odometer.
+  ASSERT_GT(ds.gnss.size(), 400u);
+  EXPECT_NEAR(ds.gnss[1].t_s - ds.gnss[0].t_s, 1.0, 1e-9);
+  EXPECT_NEAR(ds.odometer[1].t_s - ds.odometer[0].t_s, 0.02, 1e-9);
+  // Speeds up to 3 m/s, stops, and reversing: odometer direction -1 exactly while the truth
+  // distance grows but the GNSS velocity points backwards along the heading of the road.
+  double max_speed = 0.0;
+  std::size_t reversing = 0, stopped = 0;
+  for (const GnssSample& g : ds.gnss) max_speed = std::max(max_speed, g.vel_enu_mps.head<2>().norm());
+  for (const OdometerSample& o : ds.odometer) reversing += o.direction < 0 ? 1 : 0;
+  for (std::size_t i = 1; i < ds.odometer.size(); ++i) stopped += ds.odometer[i].pulses == ds.odometer[i - 1].pulses;
+  EXPECT_LT(max_speed, 3.2);
+  EXPECT_GT(max_speed, 2.8);
+  EXPECT_GT(reversing, 1000u);  // two manoeuvres of about 9.5 s at 50 Hz
+  EXPECT_GT(stopped, 1000u);
+  // While reversing the pulses still count up, and the distance they make is the path driven.
+  const double k = cfg.k_true_m_per_pulse;
+  for (std::size_t i = 1; i < ds.odometer.size(); ++i) {
+    if (ds.odometer[i].direction > 0) continue;
+    const uint32_t inc = pulse_increment(ds.odometer[i - 1].pulses, ds.odometer[i].pulses);
+    EXPECT_LE(inc * k, 0.6 * 0.02 + k + 1e-9);
+  }
+}
+
+TEST(Simulator, MotionPlanGoesForwardBackwardAndStops) {
+  MotionPlan plan;
+  plan.go(2.0, 0.5, 10.0);  // 4 s to 2 m/s (4 m), 10 s at 2 m/s (20 m)
+  plan.go(0.0, 1.0, 0.0);   // 2 s braking (2 m)
+  plan.dwell(3.0);
+  plan.go(-1.0, 0.5, 4.0);  // 2 s to -1 m/s (-1 m), 4 s (-4 m)
+  plan.go(0.0, 0.5, 0.0);   // 2 s (-1 m)
+  EXPECT_NEAR(plan.duration_s(), 4 + 10 + 2 + 3 + 2 + 4 + 2, 1e-12);
+  EXPECT_NEAR(plan.at(4.0).s_m, 4.0, 1e-12);
+  EXPECT_NEAR(plan.at(14.0).s_m, 24.0, 1e-12);
+  EXPECT_NEAR(plan.at(17.0).s_m, 26.0, 1e-12);
+  EXPECT_EQ(plan.at(17.0).speed_mps, 0.0);
+  EXPECT_NEAR(plan.at(24.0).speed_mps, -1.0, 1e-12);
+  EXPECT_NEAR(plan.at(plan.duration_s()).s_m, 20.0, 1e-12);
+  EXPECT_NEAR(plan.max_s_m(), 26.0, 1e-12);
+  EXPECT_THROW(plan.go(1.0, 0.0, 1.0), std::invalid_argument);
 }

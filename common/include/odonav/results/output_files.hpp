@@ -56,6 +56,9 @@ struct ScaleFactorRow {
   uint64_t samples_accepted = 0;
   uint64_t samples_rejected = 0;
   std::string epoch_status;
+  /// GNSS latency in force [s] and the online estimate's one-sigma [s] (nullopt = unknown).
+  double gnss_latency_s = 0.0;
+  std::optional<double> gnss_latency_sigma_s;
 };
 
 /// One dead_reckoning.csv row (angles in radians here, degrees in the file).

@@ -67,6 +67,7 @@ IdentificationOutput IdentificationCore::set_k(double k, double t_s) {
   out.samples_accepted = accepted_;
   out.samples_rejected = rejected_;
   out.frozen = frozen_;
+  out.latency = builder_.latency();
   feed_gate(t_s, out.main);
   return out;
 }
@@ -110,6 +111,7 @@ IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoc
   out.samples_accepted = accepted_;
   out.samples_rejected = rejected_;
   out.frozen = frozen_;
+  out.latency = epoch.latency;
   return out;
 }
 

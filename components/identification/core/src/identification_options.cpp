@@ -25,8 +25,33 @@ void add_identification_options(Options& o) {
                1.0, 1000.0);
   o.add_double("gnss-velocity-sigma", d.builder.gnss_velocity_sigma_mps,
                "one-sigma GNSS velocity noise assumed by the outlier gate (m/s)", 1e-4, 10.0);
-  o.add_double("max-interval-s", d.builder.max_interval_s, "gate: longest GNSS interval a sample may span (s)", 0.01,
-               100.0);
+  o.add_double("max-interval-s", d.builder.max_interval_s,
+               "gate: longest GNSS interval a sample may span (s); 0 = from the observed GNSS period P: "
+               "max(0.5 s, 2.5 P)", 0.0, 100.0);
+  o.add_double("min-pulses", d.builder.min_pulses, "gate: minimum pulses counted over a sample (quantisation)", 0.0,
+               1e9);
+  o.add_string("gnss-latency-s", "auto",
+               "GNSS latency (s) the fixes are stamped late by (receiver delay or clock offset): 'auto' "
+               "estimates it online, 'off' assumes 0, a number fixes it");
+}
+
+std::optional<double> parse_gnss_latency_option(const std::string& text, bool& estimate) {
+  estimate = false;
+  if (text == "auto") {
+    estimate = true;
+    return std::nullopt;
+  }
+  if (text == "off") return std::nullopt;
+  std::size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty() || !std::isfinite(v) || std::abs(v) >= 10.0)
+    throw ConfigError("--gnss-latency-s: '" + text + "' is not 'auto', 'off' or a latency in seconds within +-10");
+  return v;
 }
 
 IdentificationParams identification_params_from(const Options& o) {
@@ -43,6 +68,10 @@ IdentificationParams identification_params_from(const Options& o) {
   p.builder.innovation_n_sigma = o.get_double("innovation-n-sigma");
   p.builder.gnss_velocity_sigma_mps = o.get_double("gnss-velocity-sigma");
   p.builder.max_interval_s = o.get_double("max-interval-s");
+  p.builder.min_pulses = o.get_double("min-pulses");
+  bool estimate_latency = true;
+  p.builder.gnss_latency_fixed_s = parse_gnss_latency_option(o.get_string("gnss-latency-s"), estimate_latency);
+  p.builder.latency_estimation_enabled = estimate_latency;
   try {
     p.estimator.validate();
   } catch (const std::invalid_argument& e) {

@@ -39,6 +39,7 @@ struct IdentificationOutput {
   uint64_t samples_accepted = 0;           ///< accepted regression samples so far.
   uint64_t samples_rejected = 0;           ///< gated-out epochs so far (not counting chain starts).
   bool frozen = false;                     ///< identification frozen by command: K held.
+  GnssLatencyEstimate latency;             ///< the GNSS latency in force after this epoch.
 };
 
 class IdentificationCore {

@@ -12,8 +12,12 @@ namespace odonav {
 
 /// Declares --estimator, --window, --lambda-min, --vff-kappa, --vff-c, --ff-lambda,
 /// --converged-rel-sigma, --min-speed, --max-yaw-rate-deg-s, --innovation-n-sigma,
-/// --gnss-velocity-sigma, --max-interval-s.
+/// --gnss-velocity-sigma, --max-interval-s, --min-pulses, --gnss-latency-s.
 void add_identification_options(Options& options);
+
+/// --gnss-latency-s: "auto" (estimate = true, nothing fixed), "off" (estimate = false, nothing
+/// fixed: latency 0) or seconds within +-10 (fixed). Throws ConfigError naming the option otherwise.
+std::optional<double> parse_gnss_latency_option(const std::string& text, bool& estimate);
 
 /// Reads them back (after Options::parse). Throws ConfigError naming the option when the
 /// combination is invalid (e.g. an unknown estimator).

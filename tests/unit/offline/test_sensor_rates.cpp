@@ -1,0 +1,140 @@
+// Real-sensor conditions with the default settings, against the simulator's truth: 1 Hz GNSS, GNSS
+// latency (estimated online), the slow reversing robot without INS; and the real smartLoc drive.
+// Parameters come from identification_params_for with no options, as odonav-offline builds them.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "core/simulator.hpp"
+#include "odonav/config.hpp"
+#include "odonav/dataset.hpp"
+#include "odonav/identification/identification_options.hpp"
+#include "offline_runner.hpp"
+#include "summary.hpp"
+
+using namespace odonav;
+using namespace odonav::offline;
+using nlohmann::json;
+
+namespace {
+
+Dataset scenario(const std::string& name, double gnss_rate_hz = 0.0, double latency_s = 0.0, uint64_t seed = 1) {
+  sim::SimulationConfig cfg = sim::scenario_config(name);
+  cfg.seed = seed;
+  if (gnss_rate_hz > 0.0) cfg.gnss_rate_hz = gnss_rate_hz;
+  cfg.gnss_latency_s = latency_s;
+  return sim::simulate(cfg);
+}
+
+// What odonav-offline does with a dataset and no flags (apply_dataset_defaults).
+OfflineParams user_params(const Dataset& d) {
+  Options o("test", "identification options");
+  add_identification_options(o);
+  std::ostringstream help;
+  o.parse(std::vector<std::string>{}, help);
+  OfflineParams p;
+  p.dead_reckoning.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
+  p.dead_reckoning.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  p.dead_reckoning.use_ins = d.has_ins();
+  p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  p.calibration.use_ins = d.has_ins();
+  IdentificationVehicleFacts facts;
+  facts.use_ins = d.has_ins();
+  facts.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  facts.nominal_k_m_per_pulse = p.dead_reckoning.nominal_k_m_per_pulse;
+  facts.run_all_estimators = true;
+  p.identification = identification_params_for(o, facts);
+  return p;
+}
+
+json summarize(const Dataset& d, const OfflineResult& r, const OfflineParams& p) {
+  SummaryOptions o;
+  o.dataset_name = d.meta.description;
+  return make_summary(d, to_output_rows(r, p.identification.estimator_name), o);
+}
+
+double vff_rms_percent(const json& s) {
+  return s["scale_factor"]["estimators"]["vff_lm_rls"]["rms_rel_error_percent"].get<double>();
+}
+
+}  // namespace
+
+TEST(SensorRates, TerrainAtOneHertzIdentifiesKWithTheDefaults) {
+  const Dataset d = scenario("terrain", 1.0);
+  const OfflineParams p = user_params(d);
+  const OfflineResult r = run_offline(d, p);
+  const json s = summarize(d, r, p);
+  SCOPED_TRACE(s["scale_factor"].dump(1));
+  // Before the gates followed the data, every 1 Hz interval was a "gap" (0 of 799 accepted).
+  EXPECT_EQ(r.builder_counters.gap, 0u);
+  EXPECT_GT(r.builder_counters.accepted, 500u);
+  // Measured 0.39 % (10 Hz: 0.06 %): a 100-sample window is 100 s at 1 Hz, so the K steps settle
+  // slowly; the goal of 0.1 % is not reached yet.
+  EXPECT_LE(vff_rms_percent(s), 0.5);
+  const double final_error = s["scale_factor"]["estimators"]["vff_lm_rls"]["final_rel_error_percent"].get<double>();
+  EXPECT_LE(std::abs(final_error), 0.1);
+}
+
+TEST(SensorRates, GnssLatencySweepIsEstimatedWithin5msAndKStaysAccurate) {
+  const Dataset d0 = scenario("terrain");
+  const OfflineParams p0 = user_params(d0);
+  const double rms0 = vff_rms_percent(summarize(d0, run_offline(d0, p0), p0));
+  EXPECT_LE(rms0, 0.1);
+  for (const double latency_s : {0.05, 0.1, 0.2}) {
+    const Dataset d = scenario("terrain", 0.0, latency_s);
+    const OfflineParams p = user_params(d);
+    const OfflineResult r = run_offline(d, p);
+    const json s = summarize(d, r, p);
+    SCOPED_TRACE(s["scale_factor"].dump(1));
+    const GnssLatencyEstimate& l = r.identification.back().latency;
+    EXPECT_NEAR(l.applied_s, latency_s, 0.005) << latency_s;
+    EXPECT_GT(l.sigma_s, 0.0);
+    EXPECT_LT(l.sigma_s, 0.003);
+    EXPECT_NEAR(s["scale_factor"]["gnss_latency_error_s"].get<double>(), 0.0, 0.005);
+    // Without the estimate a 0.2 s latency gave 1.1 %; with it, within 40 % of the zero-latency
+    // figure (the first minute runs before the latency is known).
+    EXPECT_LE(vff_rms_percent(s), 1.4 * rms0) << latency_s;
+  }
+}
+
+TEST(SensorRates, SlowReversingRobotWithoutInsGetsKWithin03Percent) {
+  const Dataset d = scenario("slow_robot");
+  ASSERT_FALSE(d.has_ins());
+  const OfflineParams p = user_params(d);
+  const OfflineResult r = run_offline(d, p);
+  const json s = summarize(d, r, p);
+  SCOPED_TRACE(s["scale_factor"].dump(1));
+  const json& vff = s["scale_factor"]["estimators"]["vff_lm_rls"];
+  EXPECT_LE(vff["rms_rel_error_percent"].get<double>(), 0.3);
+  EXPECT_LE(std::abs(vff["final_rel_error_percent"].get<double>()), 0.3);
+  // The reversing intervals are excluded and counted (direction flag of the odometer).
+  EXPECT_GT(r.builder_counters.reversing, 0u);
+  EXPECT_GT(r.builder_counters.accepted, 300u);
+}
+
+TEST(SensorRates, SmartLocDriveKWithin03PercentOfTheReferenceRatio) {
+  const Dataset d = read_dataset(ODONAV_SOURCE_DIR "/tests/data/smartloc-berlin", BadRowPolicy::kFail);
+  // Reference computed here, independently (as in test_offline_acceptance): reference path length
+  // over the pulses counted.
+  double distance_m = 0.0;
+  for (std::size_t i = 1; i < d.gnss.size(); ++i) {
+    const Geodetic& a = d.gnss[i - 1].position;
+    const Geodetic& b = d.gnss[i].position;
+    distance_m += 6371000.0 * std::hypot(b.lat_rad - a.lat_rad, (b.lon_rad - a.lon_rad) * std::cos(a.lat_rad));
+  }
+  uint64_t pulses = 0;
+  for (std::size_t i = 1; i < d.odometer.size(); ++i)
+    pulses += pulse_increment(d.odometer[i - 1].pulses, d.odometer[i].pulses);
+  const double k_reference = distance_m / static_cast<double>(pulses);
+  const OfflineParams p = user_params(d);
+  const OfflineResult r = run_offline(d, p);
+  std::vector<double> converged_k;
+  for (const IdentificationOutput& o : r.identification)
+    if (o.main.valid && o.main.converged) converged_k.push_back(o.main.k_m_per_pulse);
+  ASSERT_GT(converged_k.size(), 50u);
+  std::nth_element(converged_k.begin(), converged_k.begin() + converged_k.size() / 2, converged_k.end());
+  const double median = converged_k[converged_k.size() / 2];
+  EXPECT_NEAR(median / k_reference, 1.0, 0.003) << "median " << median << " reference " << k_reference;
+}
