@@ -158,8 +158,9 @@ struct SampleBuilderParams {
   /// its sigma; when the applied value moves by more than latency_restart_s (default 0.02 s) from the
   /// one the sums were collected at, the sums start again (they were gated at the old value).
   double latency_restart_s = 0.02;
-  /// ... but only when that sigma is at most latency_apply_coarse_sigma_s (default 0.01 s).
-  double latency_apply_coarse_sigma_s = 0.01;
+  /// ... but only when that sigma is at most latency_apply_coarse_sigma_s (default 0.007 s: at 1 Hz
+  /// a sigma of 10 ms still let a wrong 60 ms through on 3 of 10 seeds).
+  double latency_apply_coarse_sigma_s = 0.007;
   /// Samples enter the latency sums only while the K estimate's one-sigma is at most this fraction
   /// of K (default 0.005).
   double latency_max_k_rel_sigma = 0.005;
