@@ -170,6 +170,8 @@ class KnownPublisher {
       // every sample as written.
       m.source("identification/standby");
       m.source_priority(10);
+      m.gnss_latency_s(0.001 * i);
+      m.gnss_latency_sigma_s(i == 0 ? -1.0 : 0.0005);
       EXPECT_TRUE(scale_factor_.write(m));
       expected["/odonav/scale_factor"].push_back({{"header", header_json(t, "odometer")},
                                                   {"vehicle_id", veh},
@@ -183,7 +185,9 @@ class KnownPublisher {
                                                   {"samples_rejected", m.samples_rejected()},
                                                   {"frozen", m.frozen()},
                                                   {"source", m.source()},
-                                                  {"source_priority", 10}});
+                                                  {"source_priority", 10},
+                                                  {"gnss_latency_s", m.gnss_latency_s()},
+                                                  {"gnss_latency_sigma_s", m.gnss_latency_sigma_s()}});
     }
     {
       msg::DeadReckoning m;

@@ -106,6 +106,8 @@ inline Fields fields(const odonav::msg::ScaleFactor& m) {
   f.emplace_back("frozen", text(m.frozen()));
   f.emplace_back("source", text(m.source()));
   f.emplace_back("source_priority", text(m.source_priority()));
+  f.emplace_back("gnss_latency_s", text(m.gnss_latency_s()));
+  f.emplace_back("gnss_latency_sigma_s", text(m.gnss_latency_sigma_s()));
   return f;
 }
 
@@ -256,6 +258,8 @@ inline odonav::msg::ScaleFactor make_scale_factor() {
   m.frozen(true);
   m.source("identification/standby-7");
   m.source_priority(4000000007u);
+  m.gnss_latency_s(d.next());
+  m.gnss_latency_sigma_s(d.next());
   return m;
 }
 
