@@ -180,7 +180,7 @@ FleetMonitor::FleetMonitor(const dds::Participant& participant, FleetState& stat
   // follows them; the reader's callbacks never run concurrently, so the arbiter needs no lock.
   auto k_arbiter = std::make_shared<KeyedSourceArbiter<msg::ScaleFactor>>();
   readers_.push_back(std::make_unique<Reader<msg::ScaleFactor>>(
-      participant, topics::kScaleFactor.name, topics::kEstimateReaderProfile,
+      participant, topics::kScaleFactor.name, topics::kGroundEstimateReaderProfile,
       [s, now, tap, k_arbiter](const msg::ScaleFactor& m) {
         for (const auto& k : arbitrated(*k_arbiter, m)) {
           s->on_scale_factor(view_of(k), now());
@@ -191,7 +191,7 @@ FleetMonitor::FleetMonitor(const dds::Participant& participant, FleetState& stat
         s->on_silence(last.vehicle_id(), Stream::kScaleFactor, "", silent);
       }));
   readers_.push_back(std::make_unique<Reader<msg::Misalignment>>(
-      participant, topics::kMisalignment.name, topics::kEstimateReaderProfile,
+      participant, topics::kMisalignment.name, topics::kGroundEstimateReaderProfile,
       [s, now, tap](const msg::Misalignment& m) {
         s->on_misalignment(view_of(m), now());
         if (tap) tap(TopicId::kMisalignment, &m);

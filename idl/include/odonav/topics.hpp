@@ -37,6 +37,9 @@ inline constexpr const char* kCommandReaderProfile = "odonav_command_reader";
 /// Best-effort, volatile reader for the ground station: watches any topic without slowing the
 /// vehicle's writers down (a reliable reader on a weak link would make them resend).
 inline constexpr const char* kGroundBestEffortReaderProfile = "odonav_ground_reader_best_effort";
+/// The ground station's K and misalignment readers: odonav_estimate_reader sized for up to 1024
+/// vehicles (one instance each; a reader keeps 10 by default).
+inline constexpr const char* kGroundEstimateReaderProfile = "odonav_ground_estimate_reader";
 
 /// Recorders (odonav-recorder, odonav-ground record): every estimate, KEEP_LAST 1000 per vehicle.
 inline constexpr const char* kMisalignmentRecorderReaderProfile = "odonav_misalignment_recorder_reader";

@@ -55,6 +55,7 @@ const std::map<std::string, ExpectedQos>& expected_qos() {
       // 300 ms, no longer than any reader requests.
       {topics::kEstimateWriterProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 0.3}},
       {topics::kEstimateReaderProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 1.0}},
+      {topics::kGroundEstimateReaderProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 1.0}},
       {topics::kMisalignmentRecorderReaderProfile,
        {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1000, kNoDeadline}},
       {topics::kScaleFactorRecorderReaderProfile,
@@ -110,7 +111,8 @@ TEST(QosProfiles, EveryProfileHasTheDocumentedQosAndTopicsMatchTheirReaders) {
     // The estimate topics' other readers: the recorders.
     std::vector<DataReaderQos> extra;
     if (is_estimate_topic(spec)) {
-      for (const char* profile : {topics::kMisalignmentRecorderReaderProfile, topics::kScaleFactorRecorderReaderProfile}) {
+      for (const char* profile : {topics::kMisalignmentRecorderReaderProfile, topics::kScaleFactorRecorderReaderProfile,
+                                  topics::kGroundEstimateReaderProfile}) {
         extra.emplace_back();
         ASSERT_EQ(subscriber.get_datareader_qos_from_profile(profile, extra.back()), ReturnCode_t::RETCODE_OK);
         expect_qos(profile, extra.back());
@@ -124,6 +126,26 @@ TEST(QosProfiles, EveryProfileHasTheDocumentedQosAndTopicsMatchTheirReaders) {
       EXPECT_LE(seconds_of(w.deadline().period), seconds_of(reader->deadline().period));
       EXPECT_EQ(w.ownership().kind, reader->ownership().kind);
     }
+  }
+}
+
+// The ground station's readers keep one instance per vehicle (health: per vehicle x component).
+// Fast DDS keeps 10 instances per reader unless told otherwise, and the samples of any further
+// vehicle are refused without an error: a fleet of 200 was seen as 103 vehicles (BENCHMARKS.md §9).
+TEST(QosProfiles, GroundStationReadersHoldAFleetOf1024Vehicles) {
+  odonav::dds::Participant participant(loopback_options());
+  auto& subscriber = participant.core()->subscriber();
+  const std::map<std::string, int> min_instances{
+      {topics::kGroundEstimateReaderProfile, 1024},      {topics::kGroundBestEffortReaderProfile, 1024},
+      {topics::kMisalignmentRecorderReaderProfile, 1024}, {topics::kScaleFactorRecorderReaderProfile, 1024},
+      {topics::kHealthReaderProfile, 8192}};
+  for (const auto& [profile, instances] : min_instances) {
+    DataReaderQos r;
+    ASSERT_EQ(subscriber.get_datareader_qos_from_profile(profile, r), ReturnCode_t::RETCODE_OK) << profile;
+    EXPECT_GE(r.resource_limits().max_instances, instances) << profile;
+    // Every instance can hold its full history.
+    EXPECT_GE(r.resource_limits().max_samples, r.resource_limits().max_instances * r.history().depth) << profile;
+    EXPECT_GE(r.resource_limits().max_samples_per_instance, r.history().depth) << profile;
   }
 }
 
