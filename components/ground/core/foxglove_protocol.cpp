@@ -105,6 +105,7 @@ std::vector<nlohmann::json> ClientSubscriptions::handle(const nlohmann::json& me
         continue;
       }
       by_subscription_[id] = channel;
+      by_channel_[channel].insert(id);
     }
   } else if (op == "unsubscribe") {
     if (!message.contains("subscriptionIds") || !message["subscriptionIds"].is_array()) {
@@ -112,8 +113,15 @@ std::vector<nlohmann::json> ClientSubscriptions::handle(const nlohmann::json& me
       return replies;
     }
     for (const auto& id : message["subscriptionIds"]) {
-      if (!id.is_number_unsigned() || by_subscription_.erase(id.get<std::uint32_t>()) == 0)
+      const auto it = id.is_number_unsigned() ? by_subscription_.find(id.get<std::uint32_t>()) : by_subscription_.end();
+      if (it == by_subscription_.end()) {
         replies.push_back(status_json(1, "unsubscribe: no subscription " + id.dump()));
+        continue;
+      }
+      auto& subs = by_channel_[it->second];
+      subs.erase(it->first);
+      if (subs.empty()) by_channel_.erase(it->second);
+      by_subscription_.erase(it);
     }
   } else if (op == "advertise" || op == "unadvertise" || op == "getParameters" || op == "setParameters" ||
              op == "subscribeParameterUpdates" || op == "unsubscribeParameterUpdates" ||
@@ -126,20 +134,23 @@ std::vector<nlohmann::json> ClientSubscriptions::handle(const nlohmann::json& me
 }
 
 std::vector<std::uint32_t> ClientSubscriptions::subscriptions_of(std::uint32_t channel_id) const {
-  std::vector<std::uint32_t> ids;
-  for (const auto& [sub, channel] : by_subscription_)
-    if (channel == channel_id) ids.push_back(sub);
-  return ids;
+  // Called for every frame of every channel: a lookup by channel, not a walk over all subscriptions
+  // (a client subscribed to a fleet's thousand channels made that walk the server's main cost).
+  const auto it = by_channel_.find(channel_id);
+  if (it == by_channel_.end()) return {};
+  return {it->second.begin(), it->second.end()};
 }
 
 void ClientSubscriptions::remove_channel(std::uint32_t channel_id) {
-  for (auto it = by_subscription_.begin(); it != by_subscription_.end();)
-    it = it->second == channel_id ? by_subscription_.erase(it) : std::next(it);
+  const auto it = by_channel_.find(channel_id);
+  if (it == by_channel_.end()) return;
+  for (std::uint32_t sub : it->second) by_subscription_.erase(sub);
+  by_channel_.erase(it);
 }
 
 std::set<std::uint32_t> ClientSubscriptions::channels() const {
   std::set<std::uint32_t> c;
-  for (const auto& [sub, channel] : by_subscription_) c.insert(channel);
+  for (const auto& [channel, subs] : by_channel_) c.insert(channel);
   return c;
 }
 

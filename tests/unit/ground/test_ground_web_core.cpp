@@ -179,6 +179,32 @@ TEST(FoxgloveProtocol, Subscriptions) {
   EXPECT_EQ(c.size(), 0u);
 }
 
+// Two subscriptions of one channel, others elsewhere: the lookup by channel, unsubscribe and a
+// channel going away keep every other subscription, and the ids of one channel come back sorted.
+TEST(FoxgloveProtocol, SubscriptionsByChannelStayConsistent) {
+  ClientSubscriptions c;
+  auto exists = [](std::uint32_t id) { return id >= 1 && id <= 3; };
+  EXPECT_TRUE(c.handle_text(R"({"op":"subscribe","subscriptions":[{"id":9,"channelId":1},{"id":4,"channelId":1},)"
+                            R"({"id":5,"channelId":2},{"id":6,"channelId":3}]})",
+                            exists)
+                  .empty());
+  EXPECT_EQ(c.subscriptions_of(1), (std::vector<std::uint32_t>{4, 9}));
+  EXPECT_EQ(c.channels(), (std::set<std::uint32_t>{1, 2, 3}));
+  EXPECT_TRUE(c.handle_text(R"({"op":"unsubscribe","subscriptionIds":[9]})", exists).empty());
+  EXPECT_EQ(c.subscriptions_of(1), std::vector<std::uint32_t>{4});
+  c.remove_channel(2);
+  EXPECT_TRUE(c.subscriptions_of(2).empty());
+  EXPECT_EQ(c.channels(), (std::set<std::uint32_t>{1, 3}));
+  EXPECT_EQ(c.size(), 2u);
+  // The id of a removed channel's subscription is free again; the unsubscribed one too.
+  EXPECT_TRUE(c.handle_text(R"({"op":"subscribe","subscriptions":[{"id":5,"channelId":3},{"id":9,"channelId":3}]})", exists)
+                  .empty());
+  EXPECT_EQ(c.subscriptions_of(3), (std::vector<std::uint32_t>{5, 6, 9}));
+  EXPECT_TRUE(c.handle_text(R"({"op":"unsubscribe","subscriptionIds":[4]})", exists).empty());
+  EXPECT_TRUE(c.subscriptions_of(1).empty());
+  EXPECT_EQ(c.channels(), (std::set<std::uint32_t>{3}));
+}
+
 TEST(FoxgloveProtocol, ChannelSetIdsAndExpiry) {
   ChannelSet set;
   bool added = false;
