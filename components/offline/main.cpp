@@ -31,7 +31,8 @@ odonav::Options make_options() {
                        "Runs misalignment calibration, scale-factor identification (every estimator side by "
                        "side) and dead reckoning (with the identified K and with a coarse K) over a dataset "
                        "directory (docs/DATASET.md), without DDS. Writes misalignment.csv, scale_factor.csv, "
-                       "dead_reckoning.csv, dead_reckoning_coarse.csv and summary.json into --out, and prints a "
+                       "dead_reckoning.csv, dead_reckoning_coarse.csv, navigation_position.csv (the GNSS-anchored "
+                       "position) and summary.json into --out, and prints a "
                        "summary; with truth.csv it also evaluates against the truth.");
   opts.add_positional("dataset", "dataset directory");
   opts.add_string("out", "", "output directory (created if missing; an existing one must be empty or an odonav "
@@ -98,6 +99,7 @@ void apply_dataset_defaults(const odonav::Dataset& dataset, const odonav::Option
   dr_facts.use_ins = dataset.has_ins();
   dr_facts.dataset_nominal_k_m_per_pulse = dataset.meta.k_nominal_m_per_pulse;
   params.dead_reckoning = odonav::dead_reckoner_params(dr_facts);  // as odonav-dead-reckoning's
+  params.anchored = odonav::anchored_position_params(dr_facts);    // likewise
   // The same function as odonav-identification, with the same vehicle facts the launcher gives
   // it as flags (deploy/launch): INS present, lever arm, nominal K (the pulse-jump gate's K).
   odonav::IdentificationVehicleFacts vehicle;

@@ -97,6 +97,27 @@ void DeadReckoningCsv::write(const DeadReckoningRow& r) {
   csv_.end_row();
 }
 
+NavigationPositionCsv::NavigationPositionCsv(const std::string& path)
+    : csv_(path, {"t", "lat_deg", "lon_deg", "height_m", "east_m", "north_m", "up_m", "var_east_m2", "var_north_m2",
+                  "var_up_m2", "status", "last_fix_t", "distance_since_fix_m"}) {}
+
+void NavigationPositionCsv::write(const NavigationPositionRow& r) {
+  csv_.field(r.t_s)
+      .field(rad_to_deg(r.lat_rad))
+      .field(rad_to_deg(r.lon_rad))
+      .field(r.height_m)
+      .field(r.east_m)
+      .field(r.north_m)
+      .field(r.up_m)
+      .field(finite_or_empty(r.var_east_m2))
+      .field(finite_or_empty(r.var_north_m2))
+      .field(finite_or_empty(r.var_up_m2))
+      .field(r.status)
+      .field(finite_or_empty(r.last_fix_t_s))
+      .field(finite_or_empty(r.distance_since_fix_m));
+  csv_.end_row();
+}
+
 }  // namespace odonav::results
 
 // ---- reading back --------------------------------------------------------------------------------
@@ -183,6 +204,28 @@ std::vector<DeadReckoningRow> read_dead_reckoning(const std::string& path) {
   return rows;
 }
 
+std::vector<NavigationPositionRow> read_navigation_position(const std::string& path) {
+  const CsvTable t(path);
+  std::vector<NavigationPositionRow> rows(t.size());
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    NavigationPositionRow& r = rows[i];
+    r.t_s = t.number(i, "t");
+    r.lat_rad = deg_to_rad(t.number(i, "lat_deg"));
+    r.lon_rad = deg_to_rad(t.number(i, "lon_deg"));
+    r.height_m = t.number(i, "height_m");
+    r.east_m = t.number(i, "east_m");
+    r.north_m = t.number(i, "north_m");
+    r.up_m = t.number(i, "up_m");
+    r.var_east_m2 = t.number(i, "var_east_m2");
+    r.var_north_m2 = t.number(i, "var_north_m2");
+    r.var_up_m2 = t.number(i, "var_up_m2");
+    r.status = t.text(i, "status");
+    r.last_fix_t_s = t.number(i, "last_fix_t");
+    r.distance_since_fix_m = t.number(i, "distance_since_fix_m");
+  }
+  return rows;
+}
+
 bool file_exists(const std::string& path) {
   struct stat st {};
   return ::stat(path.c_str(), &st) == 0;
@@ -232,6 +275,8 @@ OutputRows read_output_rows(const std::string& dir) {
   out.dead_reckoning = read_dead_reckoning(dir + "/dead_reckoning.csv");
   if (file_exists(dir + "/dead_reckoning_coarse.csv"))
     out.dead_reckoning_coarse = read_dead_reckoning(dir + "/dead_reckoning_coarse.csv");
+  if (file_exists(dir + "/navigation_position.csv"))
+    out.navigation_position = read_navigation_position(dir + "/navigation_position.csv");
   return out;
 }
 
@@ -252,6 +297,11 @@ void write_output_rows(const std::string& dir, const OutputRows& rows) {
     DeadReckoningCsv coarse(dir + "/dead_reckoning_coarse.csv");
     for (const auto& r : rows.dead_reckoning_coarse) coarse.write(r);
     coarse.close();
+  }
+  if (!rows.navigation_position.empty()) {
+    NavigationPositionCsv nav(dir + "/navigation_position.csv");
+    for (const auto& r : rows.navigation_position) nav.write(r);
+    nav.close();
   }
 }
 }  // namespace odonav::results

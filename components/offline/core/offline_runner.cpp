@@ -55,6 +55,16 @@ std::vector<DeadReckoningOutput> run_dead_reckoning(const Dataset& d, const Dead
   return out;
 }
 
+std::vector<AnchoredPosition> anchor_positions(const std::vector<DeadReckoningOutput>& dr,
+                                               const AnchoredPositionParams& params, AnchoredPositionCounters* counters) {
+  AnchoredPositionFilter filter(params);
+  std::vector<AnchoredPosition> out;
+  out.reserve(dr.size());
+  for (const DeadReckoningOutput& o : dr) out.push_back(filter.step(o));
+  if (counters) *counters = filter.counters();
+  return out;
+}
+
 OfflineParams with_degraded_mode(const Dataset& d, OfflineParams p) {
   const bool ins = d.has_ins();
   p.calibration.use_ins = ins;
@@ -81,6 +91,7 @@ OfflineResult run_offline(const Dataset& dataset, const OfflineParams& given) {
   r.identification = run_identification(dataset, params.identification, r.misalignment, &r.estimator_names,
                                         &r.builder_counters);
   r.dr_online = run_dead_reckoning(dataset, params.dead_reckoning, r.misalignment, &r.identification, &r.dr_counters);
+  r.navigation_position = anchor_positions(r.dr_online, params.anchored, &r.anchored_counters);
 
   if (params.coarse_k_m_per_pulse) {
     r.coarse_k_m_per_pulse = *params.coarse_k_m_per_pulse;
@@ -169,6 +180,24 @@ results::DeadReckoningRow to_row(const DeadReckoningOutput& o) {
   return r;
 }
 
+results::NavigationPositionRow to_row(const AnchoredPosition& p) {
+  results::NavigationPositionRow r;
+  r.t_s = p.t_s;
+  r.lat_rad = p.position.lat_rad;
+  r.lon_rad = p.position.lon_rad;
+  r.height_m = p.position.height_m;
+  r.east_m = p.enu_m.x();
+  r.north_m = p.enu_m.y();
+  r.up_m = p.enu_m.z();
+  r.var_east_m2 = p.covariance_enu_m2(0, 0);
+  r.var_north_m2 = p.covariance_enu_m2(1, 1);
+  r.var_up_m2 = p.covariance_enu_m2(2, 2);
+  r.status = to_string(p.status);
+  r.last_fix_t_s = p.last_fix_t_s;
+  r.distance_since_fix_m = p.distance_since_fix_m;
+  return r;
+}
+
 results::OutputRows to_output_rows(const OfflineResult& result, const std::string& main_estimator) {
   results::OutputRows rows;
   rows.misalignment.reserve(result.misalignment.size());
@@ -179,6 +208,8 @@ results::OutputRows to_output_rows(const OfflineResult& result, const std::strin
   for (const auto& o : result.dr_online) rows.dead_reckoning.push_back(to_row(o));
   rows.dead_reckoning_coarse.reserve(result.dr_coarse.size());
   for (const auto& o : result.dr_coarse) rows.dead_reckoning_coarse.push_back(to_row(o));
+  rows.navigation_position.reserve(result.navigation_position.size());
+  for (const auto& p : result.navigation_position) rows.navigation_position.push_back(to_row(p));
   return rows;
 }
 

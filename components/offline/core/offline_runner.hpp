@@ -18,6 +18,7 @@ struct OfflineParams {
   MisalignmentCalibratorParams calibration;
   IdentificationParams identification;
   DeadReckonerParams dead_reckoning;  ///< nominal_k is the K before identification converges.
+  AnchoredPositionParams anchored;    ///< the navigation position anchored on GNSS (online DR).
   /// K for the "coarse" DR run (m/pulse). Unset: the coarse S/N estimate of this dataset (its final
   /// value, as a calibration run done before the drive would give), or the nominal K without one.
   std::optional<double> coarse_k_m_per_pulse;
@@ -29,12 +30,14 @@ struct OfflineResult {
   std::vector<IdentificationOutput> identification;  ///< one per GNSS epoch.
   std::vector<std::string> estimator_names;          ///< order of IdentificationOutput::all.
   std::vector<DeadReckoningOutput> dr_online;        ///< DR with the identified K.
+  std::vector<AnchoredPosition> navigation_position; ///< dr_online anchored on GNSS, one per output.
   std::vector<DeadReckoningOutput> dr_coarse;        ///< DR with the coarse K.
   double coarse_k_m_per_pulse = 0.0;
   std::string coarse_k_origin;
   SampleBuilderCounters builder_counters;
   MisalignmentCounters calibration_counters;
   DeadReckonerCounters dr_counters;
+  AnchoredPositionCounters anchored_counters;
 };
 
 /// Runs the three stages. Throws StreamInputError / std::invalid_argument on bad input or params.
@@ -56,6 +59,7 @@ results::MisalignmentRow to_row(const MisalignmentOutput& m);
 results::ScaleFactorRow to_row(const IdentificationOutput& k, const std::string& main_estimator,
                       const std::vector<std::string>& estimator_names);
 results::DeadReckoningRow to_row(const DeadReckoningOutput& dr);
+results::NavigationPositionRow to_row(const AnchoredPosition& p);
 results::OutputRows to_output_rows(const OfflineResult& result, const std::string& main_estimator);
 
 }  // namespace odonav::offline

@@ -1,11 +1,14 @@
 #include "summary.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <iterator>
 #include <ostream>
 #include <sstream>
 
 #include "odonav/frames.hpp"
+#include "odonav/geodesy.hpp"
 
 namespace odonav::offline {
 namespace {
@@ -108,6 +111,132 @@ json dr_json(const std::vector<results::DeadReckoningRow>& rows, const std::vect
                  {"error_m", number_or_null(e.outage_error_m[i])},
                  {"error_percent_of_outage_distance", number_or_null(e.outage_error_percent[i])}});
   j["outages"] = o;
+  return j;
+}
+
+// A track's ENU position at t_s, interpolated between the rows bracketing it (at most 1 s apart).
+template <class Row>
+std::optional<Eigen::Vector3d> track_at(const std::vector<Row>& rows, const LocalEnuFrame& frame, double t_s) {
+  const auto it = std::lower_bound(rows.begin(), rows.end(), t_s, [](const Row& r, double t) { return r.t_s < t; });
+  if (it == rows.end()) return std::nullopt;
+  const Eigen::Vector3d b = frame.to_enu(Geodetic{it->lat_rad, it->lon_rad, it->height_m});
+  if (it->t_s == t_s) return b;
+  if (it == rows.begin() || it->t_s - std::prev(it)->t_s > 1.0) return std::nullopt;
+  const auto& p = *std::prev(it);
+  const Eigen::Vector3d a = frame.to_enu(Geodetic{p.lat_rad, p.lon_rad, p.height_m});
+  return Eigen::Vector3d(a + (t_s - p.t_s) / (it->t_s - p.t_s) * (b - a));
+}
+
+// The truth (INS reference point) at t_s in ENU, and the attitude of the nearer sample.
+std::optional<std::pair<Eigen::Vector3d, Attitude>> truth_at(const Dataset& d, const LocalEnuFrame& frame, double t_s) {
+  const auto& tr = d.truth;
+  const auto it = std::lower_bound(tr.begin(), tr.end(), t_s, [](const TruthSample& r, double t) { return r.t_s < t; });
+  if (it == tr.end() || (it == tr.begin() && it->t_s != t_s)) return std::nullopt;
+  const Eigen::Vector3d b = frame.to_enu(it->position);
+  if (it->t_s == t_s) return std::make_pair(b, it->attitude);
+  const TruthSample& p = *std::prev(it);
+  const double f = (t_s - p.t_s) / (it->t_s - p.t_s);
+  const Eigen::Vector3d a = frame.to_enu(p.position);
+  return std::make_pair(Eigen::Vector3d(a + f * (b - a)), f < 0.5 ? p.attitude : it->attitude);
+}
+
+// The INS attitude nearest to t_s (for the lever arm of a GNSS fix), if within 0.1 s.
+std::optional<Attitude> ins_attitude_at(const Dataset& d, double t_s) {
+  const auto& ins = d.ins;
+  auto it = std::lower_bound(ins.begin(), ins.end(), t_s, [](const InsSample& r, double t) { return r.t_s < t; });
+  if (it != ins.begin() && (it == ins.end() || t_s - std::prev(it)->t_s < it->t_s - t_s)) --it;
+  if (it == ins.end() || std::abs(it->t_s - t_s) > 0.1) return std::nullopt;
+  return it->attitude;
+}
+
+double rms_of(double sum_sq, std::size_t n) { return n > 0 ? std::sqrt(sum_sq / static_cast<double>(n)) : std::nan(""); }
+
+// The anchored navigation position against GNSS while it is valid (the reference point from each
+// valid fix: antenna minus the lever arm turned by the INS attitude), beside the pure DR; and against
+// truth when there is one: while GNSS is valid (with the fixes' own error) and across each outage.
+json navigation_json(const Dataset& d, const results::OutputRows& rows, const std::vector<Outage>& outages) {
+  const auto& nav = rows.navigation_position;
+  if (nav.empty()) return nullptr;
+  const LocalEnuFrame frame(Geodetic{nav.front().lat_rad, nav.front().lon_rad, nav.front().height_m});
+  const std::optional<Eigen::Vector3d> lever = d.meta.gnss_lever_arm_m;
+  auto anchored_at = [&](double t_s) {
+    const auto it = std::upper_bound(nav.begin(), nav.end(), t_s,
+                                     [](double t, const results::NavigationPositionRow& r) { return t < r.t_s; });
+    return it != nav.begin() && std::prev(it)->status == "anchored";
+  };
+  double nav_sq = 0.0, dr_sq = 0.0;
+  std::size_t n = 0, n_dr = 0;
+  for (const GnssSample& g : d.gnss) {
+    if (!g.valid() || !anchored_at(g.t_s)) continue;
+    Eigen::Vector3d ref = frame.to_enu(g.position);
+    if (lever) {
+      const std::optional<Attitude> att = ins_attitude_at(d, g.t_s);
+      if (!att) continue;
+      ref -= body_to_enu(*att) * *lever;
+    }
+    const auto p = track_at(nav, frame, g.t_s);
+    if (!p) continue;
+    nav_sq += ((*p - ref).head<2>()).squaredNorm();
+    ++n;
+    if (const auto q = track_at(rows.dead_reckoning, frame, g.t_s)) {
+      dr_sq += ((*q - ref).head<2>()).squaredNorm();
+      ++n_dr;
+    }
+  }
+  json j;
+  j["vs_gnss"] = {{"epochs", n},
+                  {"horizontal_rms_m", number_or_null(rms_of(nav_sq, n))},
+                  {"pure_dr_horizontal_rms_m", number_or_null(rms_of(dr_sq, n_dr))}};
+  std::size_t anchored = 0, bridging = 0;
+  for (const auto& r : nav) {
+    if (r.status == "anchored") ++anchored;
+    if (r.status == "dead_reckoning") ++bridging;
+  }
+  j["rows_anchored"] = anchored;
+  j["rows_dead_reckoning"] = bridging;
+  if (d.has_truth() && std::isfinite(d.truth.front().position.lat_rad)) {
+    double a_sq = 0.0, b_sq = 0.0, g_sq = 0.0;
+    std::size_t na = 0, ng = 0;
+    for (std::size_t i = 0; i < nav.size(); ++i) {
+      if (nav[i].status != "anchored") continue;
+      const auto tr = truth_at(d, frame, nav[i].t_s);
+      const auto q = track_at(rows.dead_reckoning, frame, nav[i].t_s);
+      if (!tr || !q) continue;
+      a_sq += (frame.to_enu(Geodetic{nav[i].lat_rad, nav[i].lon_rad, nav[i].height_m}) - tr->first).head<2>().squaredNorm();
+      b_sq += (*q - tr->first).head<2>().squaredNorm();
+      ++na;
+    }
+    for (const GnssSample& g : d.gnss) {
+      if (!g.valid() || !anchored_at(g.t_s)) continue;
+      const auto tr = truth_at(d, frame, g.t_s);
+      if (!tr) continue;
+      Eigen::Vector3d antenna = tr->first;
+      if (lever && std::isfinite(tr->second.heading_rad)) antenna += body_to_enu(tr->second) * *lever;
+      g_sq += (frame.to_enu(g.position) - antenna).head<2>().squaredNorm();
+      ++ng;
+    }
+    json o = json::array();
+    for (const Outage& out : outages) {
+      // The last row before the outage, and the last before GNSS returns.
+      const auto before = [&](double t) {
+        auto it = std::lower_bound(nav.begin(), nav.end(), t, [](const results::NavigationPositionRow& r, double x) { return r.t_s < x; });
+        return it == nav.begin() ? nav.end() : std::prev(it);
+      };
+      const auto a = before(out.start_s), b = before(out.end_s);
+      if (a == nav.end() || b == nav.end() || a == b) continue;
+      const auto ta = truth_at(d, frame, a->t_s), tb = truth_at(d, frame, b->t_s);
+      if (!ta || !tb) continue;
+      const double ea = (frame.to_enu(Geodetic{a->lat_rad, a->lon_rad, a->height_m}) - ta->first).head<2>().norm();
+      const double eb = (frame.to_enu(Geodetic{b->lat_rad, b->lon_rad, b->height_m}) - tb->first).head<2>().norm();
+      o.push_back({{"start_s", out.start_s}, {"end_s", out.end_s}, {"error_at_start_m", ea}, {"error_at_end_m", eb},
+                   {"distance_m", number_or_null(b->distance_since_fix_m - a->distance_since_fix_m)}});
+    }
+    j["vs_truth"] = {{"rows", na},
+                     {"horizontal_rms_m", number_or_null(rms_of(a_sq, na))},
+                     {"pure_dr_horizontal_rms_m", number_or_null(rms_of(b_sq, na))},
+                     {"gnss_horizontal_rms_m", number_or_null(rms_of(g_sq, ng))},
+                     {"outages", o}};
+  }
   return j;
 }
 
@@ -218,6 +347,7 @@ json make_summary(const Dataset& d, const results::OutputRows& rows, const Summa
                          {"online_k", dr_json(rows.dead_reckoning, reference, outages, options.dr_min_distance_m)},
                          {"coarse_k", dr_json(rows.dead_reckoning_coarse, reference, outages, options.dr_min_distance_m)},
                          {"coarse_k_origin", options.coarse_k_origin}};
+  s["navigation_position"] = navigation_json(d, rows, outages);
   return s;
 }
 
@@ -276,6 +406,20 @@ void print_summary(const json& s, std::ostream& out) {
     out << "\n";
   }
   if (!dr["coarse_k"].is_null()) out << "    coarse K from: " << dr["coarse_k_origin"].get<std::string>() << "\n";
+  if (s.contains("navigation_position") && !s["navigation_position"].is_null()) {
+    const json& nav = s["navigation_position"];
+    out << "  navigation position (anchored on GNSS)   horizontal RMS: anchored / pure DR / GNSS fixes\n";
+    out << "    vs GNSS while valid   " << fmt(nav["vs_gnss"]["horizontal_rms_m"], 2, " m") << " / "
+        << fmt(nav["vs_gnss"]["pure_dr_horizontal_rms_m"], 2, " m") << " / -\n";
+    if (nav.contains("vs_truth")) {
+      const json& t = nav["vs_truth"];
+      out << "    vs truth while valid  " << fmt(t["horizontal_rms_m"], 2, " m") << " / "
+          << fmt(t["pure_dr_horizontal_rms_m"], 2, " m") << " / " << fmt(t["gnss_horizontal_rms_m"], 2, " m") << "\n";
+      for (const json& o : t["outages"])
+        out << "    outage " << fmt(o["start_s"], 0) << "-" << fmt(o["end_s"], 0) << " s: error " << fmt(o["error_at_start_m"], 2)
+            << " -> " << fmt(o["error_at_end_m"], 2, " m") << " over " << fmt(o["distance_m"], 0, " m") << "\n";
+    }
+  }
   if (s.contains("warnings") && s["warnings"].is_array() && !s["warnings"].empty()) {
     out << "  warnings\n";
     for (const json& w : s["warnings"])

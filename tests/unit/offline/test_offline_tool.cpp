@@ -67,6 +67,9 @@ TEST_F(OfflineTool, WritesEveryFileWithItsColumnsAndASummary) {
   EXPECT_EQ(header_of(dir_ / "out/scale_factor.csv").rfind("t,k_rls,k_ff_rls,k_lm_rls,k_vff_lm_rls,k_coarse,k_kf_rw,lambda_vff_lm_rls", 0), 0u);
   for (const char* f : {"dead_reckoning.csv", "dead_reckoning_coarse.csv"})
     EXPECT_EQ(header_of(dir_ / "out" / f).rfind("t,lat_deg,lon_deg,height_m,distance_m,k_m_per_pulse", 0), 0u) << f;
+  EXPECT_EQ(header_of(dir_ / "out/navigation_position.csv"),
+            "t,lat_deg,lon_deg,height_m,east_m,north_m,up_m,var_east_m2,var_north_m2,var_up_m2,status,last_fix_t,"
+            "distance_since_fix_m");
   ASSERT_TRUE(fs::exists(dir_ / "out/summary.json"));
   // One scale-factor and one misalignment row per GNSS epoch; one DR row per odometer sample after
   // the DR start.

@@ -15,6 +15,11 @@
 //   dead_reckoning.csv,     t, lat_deg, lon_deg, height_m, distance_m, k_m_per_pulse, k_source,
 //   dead_reckoning_coarse.csv  east_m, north_m, up_m, heading_deg, horizontal_error_m,
 //                           error_percent                               (one row per odometer sample)
+//   navigation_position.csv t, lat_deg, lon_deg, height_m, east_m, north_m, up_m, var_east_m2,
+//                           var_north_m2, var_up_m2, status, last_fix_t, distance_since_fix_m
+//                           (one row per odometer sample: the GNSS-anchored position of the online
+//                           DR; status not_started | anchored | dead_reckoning; the variances and
+//                           last_fix_t empty while not_started)
 // Numbers are written in the shortest form that reads back to the same double; unknown values are
 // empty fields.
 #include <memory>
@@ -74,6 +79,17 @@ struct DeadReckoningRow {
   double error_percent = 0.0;       ///< NaN when undefined (written empty).
 };
 
+/// One navigation_position.csv row (angles in radians here, degrees in the file).
+struct NavigationPositionRow {
+  double t_s = 0.0;
+  double lat_rad = 0.0, lon_rad = 0.0, height_m = 0.0;
+  double east_m = 0.0, north_m = 0.0, up_m = 0.0;
+  double var_east_m2 = 0.0, var_north_m2 = 0.0, var_up_m2 = 0.0;  ///< NaN = unknown (written empty).
+  std::string status;
+  double last_fix_t_s = 0.0;          ///< NaN = none yet (written empty).
+  double distance_since_fix_m = 0.0;  ///< NaN = none yet (written empty).
+};
+
 /// Writers; each constructor creates the file with its header (throws std::runtime_error naming it).
 class MisalignmentCsv {
  public:
@@ -102,19 +118,29 @@ class DeadReckoningCsv {
   CsvWriter csv_;
 };
 
+class NavigationPositionCsv {
+ public:
+  explicit NavigationPositionCsv(const std::string& path);
+  void write(const NavigationPositionRow& row);
+  void close() { csv_.close(); }
+ private:
+  CsvWriter csv_;
+};
+
 /// Everything the output files hold, read back (for odonav-evaluate and the pipeline's summary).
 struct OutputRows {
   std::vector<MisalignmentRow> misalignment;
   std::vector<ScaleFactorRow> scale_factor;
   std::vector<DeadReckoningRow> dead_reckoning;
   std::vector<DeadReckoningRow> dead_reckoning_coarse;  ///< empty when the file is absent.
+  std::vector<NavigationPositionRow> navigation_position;  ///< empty when the file is absent.
 };
 
-/// Reads the output files of a folder (dead_reckoning_coarse.csv optional). Throws
+/// Reads the output files of a folder (dead_reckoning_coarse.csv, navigation_position.csv optional). Throws
 /// std::runtime_error naming the file, line and column on a missing file or a malformed value.
 OutputRows read_output_rows(const std::string& dir);
 
-/// Writes misalignment.csv, scale_factor.csv, dead_reckoning.csv and (when it has rows)
-/// dead_reckoning_coarse.csv into dir (which must exist). Throws std::runtime_error naming the file.
+/// Writes misalignment.csv, scale_factor.csv, dead_reckoning.csv and (when they have rows)
+/// dead_reckoning_coarse.csv and navigation_position.csv into dir (which must exist). Throws std::runtime_error naming the file.
 void write_output_rows(const std::string& dir, const OutputRows& rows);
 }  // namespace odonav::results

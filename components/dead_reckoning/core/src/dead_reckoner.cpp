@@ -161,6 +161,8 @@ DeadReckoner::Readiness DeadReckoner::try_start(double t_j) {
     if (att) reference = move_geodetic(g.position, -lever_arm_enu(*att));
     frame_.emplace(reference);
     position_ = reference;
+    start_fix_ = AnchorFix{g.t_s, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0,
+                           g.pos_std_m.value_or(std::numeric_limits<double>::quiet_NaN())};
     last_t_s_ = g.t_s;
     last_count_ = *count;
     distance_m_ = 0.0;
@@ -227,6 +229,12 @@ std::vector<DeadReckoningOutput> DeadReckoner::finish() {
   return process_until(std::numeric_limits<double>::infinity());
 }
 
+std::optional<Attitude> DeadReckoner::lever_arm_attitude_at(double t_s) const {
+  if (params_.use_ins) return attitude_.attitude_at(t_s, watermark_s_);
+  if (held_heading_rad_) return Attitude{*held_heading_rad_, 0.0, 0.0};
+  return std::nullopt;
+}
+
 DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
   ++counters_.odometer_samples;
   ++counters_.outputs;
@@ -290,6 +298,9 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
     }
   }
   if (!have_heading) ++counters_.distance_lost;
+  const Eigen::Vector3d enu_before = frame_->to_enu(position_);
+  const double distance_before = distance_m_;
+  const double t_before = last_t_s_;
   position_ = move_geodetic(position_, ds_n);
   distance_m_ += std::abs(ds);
   last_t_s_ = t_j;
@@ -298,13 +309,35 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
   o.position = position_;
   o.enu_m = frame_->to_enu(position_);
   o.distance_m = distance_m_;
-  std::optional<Attitude> att_now;
-  if (params_.lever_arm_body_m) {
-    if (params_.use_ins)
-      att_now = attitude_.attitude_at(t_j, watermark_s_);
-    else if (held_heading_rad_)
-      att_now = Attitude{*held_heading_rad_, 0.0, 0.0};
+  if (start_fix_) {
+    o.gnss_fixes.push_back(*start_fix_);
+    ++counters_.anchor_fixes;
+    start_fix_.reset();
   }
+  for (const GnssSample& g : gnss_) {
+    if (g.t_s <= t_before) continue;
+    if (g.t_s > t_j) break;
+    if (!g.valid()) continue;
+    std::optional<Attitude> att_g;
+    if (params_.lever_arm_body_m) {
+      att_g = lever_arm_attitude_at(g.t_s);
+      if (!att_g) {
+        ++counters_.anchor_fixes_no_attitude;
+        continue;
+      }
+    }
+    const double f = (g.t_s - t_before) / (t_j - t_before);
+    AnchorFix fix;
+    fix.t_s = g.t_s;
+    fix.fix_enu_m = frame_->to_enu(g.position);
+    if (att_g) fix.fix_enu_m -= lever_arm_enu(*att_g);
+    fix.dr_enu_m = enu_before + f * (o.enu_m - enu_before);
+    fix.dr_distance_m = distance_before + f * (distance_m_ - distance_before);
+    fix.sigma_m = g.pos_std_m.value_or(std::numeric_limits<double>::quiet_NaN());
+    o.gnss_fixes.push_back(fix);
+    ++counters_.anchor_fixes;
+  }
+  const std::optional<Attitude> att_now = params_.lever_arm_body_m ? lever_arm_attitude_at(t_j) : std::nullopt;
   const std::optional<Eigen::Vector3d> ref = gnss_reference_enu(t_j, att_now);
   if (ref) {
     o.gnss_reference = true;

@@ -36,4 +36,6 @@ DeadReckonerParams dead_reckoner_params(const DeadReckoningFacts& f) {
   return p;
 }
 
+AnchoredPositionParams anchored_position_params(const DeadReckoningFacts& /*facts*/) { return AnchoredPositionParams{}; }
+
 }  // namespace odonav

@@ -23,6 +23,13 @@
 // gnss_max_gap_s apart (or the epoch at exactly t_j). Interpolating instead of taking the nearest
 // epoch matters: at 10 Hz GNSS and 10 m/s the nearest epoch is up to 0.5 m away from the vehicle.
 //
+// GNSS fixes for the anchored position (anchored_position.hpp): each output carries the valid GNSS
+// epochs g of its interval (t_{j-1}, t_j] (the first output also the start fix) as AnchorFix: the
+// reference point from the fix (lever arm turned by the attitude at g, as for the error reference)
+// and the DR position and distance at g, interpolated linearly over the interval. An epoch whose
+// attitude is missing while a lever arm is configured is left out and counted. This relies on the
+// rule below that t_j is processed only once every GNSS stamped <= t_j is in.
+//
 // Event time: as sample_builder.hpp. One output per odometer sample after the start, emitted once
 // its attitude, GNSS reference and K / misalignment streams are complete up to the watermark.
 #include <cstdint>
@@ -34,6 +41,7 @@
 #include <Eigen/Dense>
 
 #include "odonav/dataset.hpp"
+#include "odonav/dead_reckoning/anchored_position.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
 #include "odonav/stream_buffers.hpp"
@@ -88,6 +96,8 @@ struct DeadReckoningOutput {
   bool gnss_reference = false;     ///< a GNSS reference existed at t_s.
   double horizontal_error_m = std::numeric_limits<double>::quiet_NaN();   ///< |DR - GNSS| horizontal.
   double error_percent_distance = std::numeric_limits<double>::quiet_NaN();  ///< 100 error / distance.
+  /// Valid GNSS epochs of this interval seen in the DR frame (for AnchoredPositionFilter).
+  std::vector<AnchorFix> gnss_fixes;
 };
 
 struct DeadReckonerCounters {
@@ -100,6 +110,8 @@ struct DeadReckonerCounters {
   uint64_t distance_lost = 0;          ///< intervals with no heading at all yet: not integrated.
   uint64_t pulse_jumps_rejected = 0;   ///< odometer samples dropped by the pulse-jump gate.
   uint64_t pulse_rebases = 0;          ///< counter steps re-based on (one interval's pulses estimated).
+  uint64_t anchor_fixes = 0;           ///< valid GNSS epochs reported in gnss_fixes.
+  uint64_t anchor_fixes_no_attitude = 0;  ///< valid epochs left out: no attitude for the lever arm.
 };
 
 class DeadReckoner {
@@ -140,6 +152,7 @@ class DeadReckoner {
   bool gnss_final_at(double t_s) const;
   Eigen::Vector3d lever_arm_enu(const Attitude& att) const;
   DeadReckoningOutput step(const OdometerBuffer::Entry& sample);
+  std::optional<Attitude> lever_arm_attitude_at(double t_s) const;
 
   DeadReckonerParams params_;
   OdometerBuffer odometer_;
@@ -158,6 +171,7 @@ class DeadReckoner {
   double distance_m_ = 0.0;
   std::optional<double> held_heading_rad_;
   std::optional<Attitude> last_attitude_;
+  std::optional<AnchorFix> start_fix_;  ///< reported with the first output
   DeadReckonerCounters counters_;
 };
 

@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 
 #include "odonav/config.hpp"
+#include "odonav/dead_reckoning/anchored_position.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 
 namespace odonav {
@@ -43,5 +44,9 @@ DeadReckoningFacts dead_reckoning_facts_from(const Options& options);
 /// DeadReckoner derives the gate from it) and the reference of the commanded-K range
 /// (consumer_rules.hpp commanded_k_problem), so both programs gate and accept alike.
 DeadReckonerParams dead_reckoner_params(const DeadReckoningFacts& facts);
+
+/// The one AnchoredPositionParams of the navigation position (odonav-offline and
+/// odonav-dead-reckoning): the defaults of anchored_position.hpp; no vehicle fact changes them yet.
+AnchoredPositionParams anchored_position_params(const DeadReckoningFacts& facts);
 
 }  // namespace odonav

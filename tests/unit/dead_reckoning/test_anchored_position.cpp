@@ -1,0 +1,146 @@
+// AnchoredPositionFilter on hand-made tracks: the event-time hold-off, independence from the order in
+// which fixes and steps arrive, the gate, the status and the covariance's growth with distance.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "odonav/dead_reckoning/anchored_position.hpp"
+#include "odonav/geodesy.hpp"
+#include "odonav/stream_buffers.hpp"
+
+using namespace odonav;
+
+namespace {
+const Geodetic kOrigin{52.5 * kDegToRad, 13.4 * kDegToRad, 80.0};
+
+// DR driving north at 10 m/s from the origin, sampled at 100 Hz.
+AnchorDrStep dr_at(double t_s, double speed_mps = 10.0) {
+  AnchorDrStep s;
+  s.t_s = t_s;
+  s.enu_m = Eigen::Vector3d(0.0, speed_mps * t_s, 0.0);
+  s.position = move_geodetic(kOrigin, s.enu_m);
+  s.distance_m = speed_mps * t_s;
+  return s;
+}
+
+// A fix that sees the DR offset by `offset` at epoch t_s.
+AnchorFix fix_at(double t_s, const Eigen::Vector3d& offset, double sigma_m = 1.0, double speed_mps = 10.0) {
+  AnchorFix f;
+  f.t_s = t_s;
+  f.dr_enu_m = Eigen::Vector3d(0.0, speed_mps * t_s, 0.0);
+  f.fix_enu_m = f.dr_enu_m + offset;
+  f.dr_distance_m = speed_mps * t_s;
+  f.sigma_m = sigma_m;
+  return f;
+}
+}  // namespace
+
+TEST(AnchoredPosition, AFixAppliesFromItsEpochPlusTheHoldOffOnly) {
+  AnchoredPositionFilter filter;  // hold-off 0.2 s
+  filter.add_fix(fix_at(1.0, Eigen::Vector3d(3.0, -2.0, 0.5)));
+  for (int j = 1; j <= 119; ++j) {  // t = 0.01 .. 1.19 s
+    const AnchoredPosition p = filter.step(dr_at(0.01 * j));
+    ASSERT_EQ(p.status, AnchorStatus::kNotStarted) << p.t_s;
+    EXPECT_EQ(p.enu_m, dr_at(0.01 * j).enu_m);  // pure DR until then
+    EXPECT_TRUE(std::isnan(p.horizontal_sigma_m()));
+  }
+  const AnchoredPosition p = filter.step(dr_at(1.2));
+  EXPECT_EQ(p.status, AnchorStatus::kAnchored);
+  // The first fix sets the offset: DR(1.2) + (3, -2, 0.5).
+  EXPECT_NEAR(p.enu_m.x(), 3.0, 1e-12);
+  EXPECT_NEAR(p.enu_m.y(), 12.0 - 2.0, 1e-12);
+  EXPECT_NEAR(p.enu_m.z(), 0.5, 1e-12);
+  // Its geodetic position is the same point (the offset is laid out in the ENU axes at the DR point,
+  // which turn by distance / earth radius from the origin's: micrometres here).
+  const LocalEnuFrame frame(kOrigin);
+  EXPECT_NEAR((frame.to_enu(p.position) - p.enu_m).norm(), 0.0, 1e-4);
+  EXPECT_DOUBLE_EQ(p.last_fix_t_s, 1.0);
+  EXPECT_NEAR(p.distance_since_fix_m, 2.0, 1e-12);
+  // Covariance: the fix's variance, 1 m per horizontal axis and 1.5 m vertical.
+  EXPECT_DOUBLE_EQ(p.covariance_enu_m2(0, 0), 1.0);
+  EXPECT_DOUBLE_EQ(p.covariance_enu_m2(2, 2), 2.25);
+  EXPECT_EQ(p.covariance_enu_m2(0, 1), 0.0);
+  // The next step adds the process noise of its 0.1 m.
+  const AnchoredPosition next = filter.step(dr_at(1.21));
+  EXPECT_NEAR(next.covariance_enu_m2(0, 0), 1.0 + 0.1 * std::pow(0.2 / 100.0, 2) * 400.0, 1e-12);
+  EXPECT_EQ(filter.counters().fixes_applied, 1u);
+}
+
+TEST(AnchoredPosition, ArrivalOrderChangesNothing) {
+  // Fixes at 10 Hz with an alternating offset; once all added before the steps, once each added
+  // only when its hold-off is due (the latest a node may have it).
+  std::vector<AnchorFix> fixes;
+  AnchoredPositionParams white;
+  white.fix_correlation_time_s = 0.0;  // independent fixes: the offset converges on their mean
+  for (int i = 0; i <= 100; ++i) fixes.push_back(fix_at(0.1 * i, Eigen::Vector3d(i % 2 ? 1.0 : -1.0, 0.5, 0.0)));
+  AnchoredPositionFilter early(white), late(white);
+  for (const AnchorFix& f : fixes) early.add_fix(f);
+  std::size_t next = 0;
+  for (int j = 1; j <= 1000; ++j) {
+    const double t = 0.01 * j;
+    while (next < fixes.size() && fixes[next].t_s + 0.2 <= t) late.add_fix(fixes[next++]);
+    const AnchoredPosition a = early.step(dr_at(t)), b = late.step(dr_at(t));
+    ASSERT_EQ(a.enu_m, b.enu_m) << t;
+    ASSERT_EQ(a.status, b.status);
+  }
+  // The offset converged near the fixes' mean (0, 0.5).
+  const AnchoredPosition p = early.step(dr_at(10.01));
+  EXPECT_NEAR(p.enu_m.x(), 0.0, 0.3);
+  EXPECT_NEAR(p.enu_m.y() - 100.1, 0.5, 0.1);
+}
+
+TEST(AnchoredPosition, AJumpingFixIsGatedAndCounted) {
+  AnchoredPositionFilter filter;
+  for (int i = 0; i <= 50; ++i) filter.add_fix(fix_at(0.1 * i, Eigen::Vector3d(i == 30 ? 60.0 : 0.0, 0.0, 0.0)));
+  AnchoredPosition p;
+  for (int j = 1; j <= 600; ++j) p = filter.step(dr_at(0.01 * j));
+  EXPECT_EQ(filter.counters().fixes_rejected_gate, 1u);
+  EXPECT_NEAR(filter.counters().last_rejected_innovation_m, 60.0, 1e-9);
+  EXPECT_EQ(filter.counters().fixes_applied, 50u);
+  EXPECT_NEAR(p.enu_m.x(), 0.0, 1e-9);
+  EXPECT_LT(filter.counters().last_rejected_gate_m, 20.0);
+}
+
+TEST(AnchoredPosition, BridgesAGapByDeadReckoningAndItsSigmaGrowsWithDistanceOnly) {
+  AnchoredPositionFilter filter;
+  for (int i = 0; i <= 20; ++i) filter.add_fix(fix_at(0.1 * i, Eigen::Vector3d(2.0, 0.0, 0.0)));
+  AnchoredPosition p;
+  for (int j = 1; j <= 220; ++j) p = filter.step(dr_at(0.01 * j));
+  ASSERT_EQ(p.status, AnchorStatus::kAnchored);
+  const double sigma_at_last_fix = p.horizontal_sigma_m();
+  // No fix after t = 2 s: at 2 + 2.5 s the position is still anchored, after it dead reckoning.
+  for (int j = 221; j <= 450; ++j) p = filter.step(dr_at(0.01 * j));
+  EXPECT_EQ(p.status, AnchorStatus::kAnchored);
+  p = filter.step(dr_at(4.51));
+  EXPECT_EQ(p.status, AnchorStatus::kDeadReckoning);
+  EXPECT_NEAR(p.distance_since_fix_m, 25.1, 1e-9);
+  EXPECT_NEAR(p.enu_m.x(), 2.0, 1e-9);  // the DR carried on from the last corrected state
+  const double sigma_moving = p.horizontal_sigma_m();
+  EXPECT_GT(sigma_moving, sigma_at_last_fix);
+  // Standing still (the DR does not move) adds nothing.
+  AnchorDrStep still = dr_at(4.51);
+  for (int j = 1; j <= 100; ++j) {
+    still.t_s = 4.51 + 0.01 * j;
+    p = filter.step(still);
+  }
+  EXPECT_DOUBLE_EQ(p.horizontal_sigma_m(), sigma_moving);
+}
+
+TEST(AnchoredPosition, BadParametersAndInputAreNamed) {
+  AnchoredPositionParams p;
+  p.hold_off_s = -0.1;
+  try {
+    AnchoredPositionFilter f(p);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("hold_off_s"), std::string::npos);
+  }
+  AnchoredPositionFilter filter;
+  filter.add_fix(fix_at(1.0, Eigen::Vector3d::Zero()));
+  EXPECT_THROW(filter.add_fix(fix_at(1.0, Eigen::Vector3d::Zero())), StreamInputError);
+  AnchorFix nan = fix_at(2.0, Eigen::Vector3d::Zero());
+  nan.fix_enu_m.x() = std::nan("");
+  EXPECT_THROW(filter.add_fix(nan), StreamInputError);
+}

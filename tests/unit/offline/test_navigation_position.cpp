@@ -1,0 +1,173 @@
+// The GNSS-anchored navigation position (anchored_position.hpp) through odonav-offline's chain on
+// the simulator's terrain drive, against the simulator's truth: better than the GNSS fixes while
+// GNSS is valid, and across the 120 s outage no worse than the pure DR from the last fix.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "core/simulator.hpp"
+#include "odonav/dataset.hpp"
+#include "odonav/frames.hpp"
+#include "offline_runner.hpp"
+
+using namespace odonav;
+using namespace odonav::offline;
+
+namespace {
+
+OfflineParams default_params(const Dataset& d) {
+  OfflineParams p;
+  p.dead_reckoning.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
+  p.dead_reckoning.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  p.identification.builder.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  return p;
+}
+
+// Truth (INS reference point) interpolated at t_s, in the local ENU frame; and the attitude of the
+// nearer sample (for the antenna's truth).
+struct TruthAt {
+  Eigen::Vector3d enu_m;
+  Attitude attitude;
+};
+
+class Truth {
+ public:
+  Truth(const Dataset& d, const LocalEnuFrame& frame) : d_(d), frame_(frame) {}
+  TruthAt at(double t_s) {
+    const auto& tr = d_.truth;
+    if (tr[i_].t_s > t_s) i_ = 0;  // asked for an earlier time: search again from the start
+    while (i_ + 1 < tr.size() && tr[i_ + 1].t_s <= t_s) ++i_;
+    const std::size_t j = std::min(i_ + 1, tr.size() - 1);
+    const Eigen::Vector3d a = frame_.to_enu(tr[i_].position), b = frame_.to_enu(tr[j].position);
+    const double f = j == i_ ? 0.0 : (t_s - tr[i_].t_s) / (tr[j].t_s - tr[i_].t_s);
+    return {a + f * (b - a), f < 0.5 ? tr[i_].attitude : tr[j].attitude};
+  }
+
+ private:
+  const Dataset& d_;
+  const LocalEnuFrame& frame_;
+  std::size_t i_ = 0;
+};
+
+double horizontal(const Eigen::Vector3d& v) { return v.head<2>().norm(); }
+
+struct Figures {
+  double nav_rms_valid_m = 0.0;   ///< anchored position vs truth while GNSS valid (after the first 60 s)
+  double gnss_rms_m = 0.0;        ///< GNSS fixes (antenna) vs truth antenna, same span
+  double dr_rms_valid_m = 0.0;    ///< pure DR, same span
+  double outage_start_error_m = 0.0, outage_end_error_m = 0.0;
+  double outage_dr_growth_m = 0.0, outage_distance_m = 0.0;
+  double sigma_start_m = 0.0, sigma_end_m = 0.0;  ///< reported horizontal one-sigma across the outage
+  std::size_t rejected = 0, applied = 0;
+};
+
+Figures figures(uint64_t seed, double gnss_rate_hz = 10.0) {
+  sim::SimulationConfig cfg = sim::scenario_config("terrain");
+  cfg.seed = seed;
+  cfg.gnss_rate_hz = gnss_rate_hz;
+  const Dataset d = sim::simulate(cfg);
+  const OfflineResult r = run_offline(d, default_params(d));
+  EXPECT_EQ(r.navigation_position.size(), r.dr_online.size());
+  const LocalEnuFrame frame(d.truth.front().position);
+  Truth truth(d, frame);
+  const sim::GnssOutage outage = cfg.gnss_outages.at(0);
+  const double t0 = d.truth.front().t_s;
+  const double settle_s = 60.0;  // identification and calibration converge first
+
+  Figures f;
+  double nav2 = 0.0, dr2 = 0.0;
+  std::size_t n = 0;
+  // Across the outage: the last sample before its start and the last before GNSS is applied again.
+  std::size_t i_start = 0, i_end = 0;
+  for (std::size_t i = 0; i < r.navigation_position.size(); ++i) {
+    const AnchoredPosition& p = r.navigation_position[i];
+    const DeadReckoningOutput& dr = r.dr_online[i];
+    const double t = p.t_s - t0;
+    if (t < outage.start_s) i_start = i;
+    if (t < outage.end_s + 0.2) i_end = i;
+    if (t < settle_s || (t >= outage.start_s && t < outage.end_s + 1.0) || p.status != AnchorStatus::kAnchored) continue;
+    const Eigen::Vector3d tr = truth.at(p.t_s).enu_m;
+    nav2 += std::pow(horizontal(frame.to_enu(p.position) - tr), 2);
+    dr2 += std::pow(horizontal(frame.to_enu(dr.position) - tr), 2);
+    ++n;
+  }
+  f.nav_rms_valid_m = std::sqrt(nav2 / n);
+  f.dr_rms_valid_m = std::sqrt(dr2 / n);
+
+  double g2 = 0.0;
+  std::size_t m = 0;
+  const Eigen::Vector3d lever = *d.meta.gnss_lever_arm_m;
+  for (const GnssSample& g : d.gnss) {
+    const double t = g.t_s - t0;
+    if (!g.valid() || t < settle_s) continue;
+    const TruthAt tr = truth.at(g.t_s);
+    const Eigen::Vector3d antenna = tr.enu_m + body_to_enu(tr.attitude) * lever;
+    g2 += std::pow(horizontal(frame.to_enu(g.position) - antenna), 2);
+    ++m;
+  }
+  f.gnss_rms_m = std::sqrt(g2 / m);
+
+  const auto err = [&](std::size_t i) {
+    return frame.to_enu(r.navigation_position[i].position) - truth.at(r.navigation_position[i].t_s).enu_m;
+  };
+  f.outage_start_error_m = horizontal(err(i_start));
+  f.outage_end_error_m = horizontal(err(i_end));
+  const Eigen::Vector3d dr_move = frame.to_enu(r.dr_online[i_end].position) - frame.to_enu(r.dr_online[i_start].position);
+  const Eigen::Vector3d true_move = truth.at(r.dr_online[i_end].t_s).enu_m - truth.at(r.dr_online[i_start].t_s).enu_m;
+  f.outage_dr_growth_m = horizontal(dr_move - true_move);
+  f.outage_distance_m = r.dr_online[i_end].distance_m - r.dr_online[i_start].distance_m;
+  EXPECT_EQ(r.navigation_position[i_end].status, AnchorStatus::kDeadReckoning);
+  // From the last fix, at most one GNSS period (1 s, up to 15 m) before the last sample before the outage.
+  EXPECT_NEAR(r.navigation_position[i_end].distance_since_fix_m, f.outage_distance_m, 16.0);
+  f.applied = r.anchored_counters.fixes_applied;
+  f.sigma_start_m = r.navigation_position[i_start].horizontal_sigma_m();
+  f.sigma_end_m = r.navigation_position[i_end].horizontal_sigma_m();
+  f.rejected = r.anchored_counters.fixes_rejected_gate;
+  return f;
+}
+
+}  // namespace
+
+TEST(NavigationPosition, TerrainBeatsGnssWhileValidAndBridgesTheOutageFromTheLastFix) {
+  for (uint64_t seed = 1; seed <= 5; ++seed) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const Figures f = figures(seed);
+    std::printf("seed %llu: anchored RMS %.3f m, GNSS RMS %.3f m, pure DR RMS %.3f m (GNSS valid, after 60 s); "
+                "outage %.1f m: error %.3f -> %.3f m (sigma %.3f -> %.3f m), pure DR growth %.3f m; fixes applied %zu, "
+                "rejected %zu\n",
+                static_cast<unsigned long long>(seed), f.nav_rms_valid_m, f.gnss_rms_m, f.dr_rms_valid_m,
+                f.outage_distance_m, f.outage_start_error_m, f.outage_end_error_m, f.sigma_start_m, f.sigma_end_m, f.outage_dr_growth_m, f.applied,
+                f.rejected);
+    EXPECT_LT(f.nav_rms_valid_m, f.gnss_rms_m);
+    EXPECT_LE(f.outage_end_error_m, f.outage_start_error_m + f.outage_dr_growth_m + 0.01);
+    EXPECT_GT(f.outage_distance_m, 500.0);
+    // Issue goal: the end of the outage within its start error plus 0.1 % of the outage distance.
+    EXPECT_LE(f.outage_end_error_m, f.outage_start_error_m + 0.001 * f.outage_distance_m);
+    // The covariance is honest: the RMS error is within a factor 2 of the reported sigma, and the
+    // sigma grows across the outage.
+    EXPECT_LT(f.nav_rms_valid_m, 2.0 * f.sigma_start_m);
+    EXPECT_GT(f.nav_rms_valid_m, 0.5 * f.sigma_start_m);
+    EXPECT_GT(f.sigma_end_m, f.sigma_start_m);
+    EXPECT_EQ(f.rejected, 0u);
+  }
+}
+
+// At 1 Hz the chain's own DR is far worse (identification and calibration see a tenth of the epochs:
+// pure DR RMS about 25 m against 4 m at 10 Hz, 1.6 %D across the outage), and a filter tuned for a
+// DR drifting 0.2 %D follows it too slowly to beat the fixes: what holds is the bridging from the
+// last fix and a large gain over the pure DR.
+TEST(NavigationPosition, AtOneHertzGnssItBridgesFromTheLastFixAndBeatsThePureDr) {
+  for (uint64_t seed = 1; seed <= 2; ++seed) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const Figures f = figures(seed, 1.0);
+    std::printf("1 Hz seed %llu: anchored RMS %.3f m, GNSS RMS %.3f m, pure DR RMS %.3f m; outage %.1f m: error %.3f -> "
+                "%.3f m (sigma %.3f -> %.3f m), pure DR growth %.3f m\n",
+                static_cast<unsigned long long>(seed), f.nav_rms_valid_m, f.gnss_rms_m, f.dr_rms_valid_m,
+                f.outage_distance_m, f.outage_start_error_m, f.outage_end_error_m, f.sigma_start_m, f.sigma_end_m,
+                f.outage_dr_growth_m);
+    EXPECT_LT(f.nav_rms_valid_m, 0.5 * f.dr_rms_valid_m);
+    EXPECT_LE(f.outage_end_error_m, f.outage_start_error_m + f.outage_dr_growth_m + 0.01);
+  }
+}
