@@ -227,7 +227,9 @@ json identification_summary(const odonav::Dataset& d, const odonav::offline::Off
   for (const auto& g : d.gnss) core.add_gnss(g);
   for (const auto& i : d.ins) core.add_ins(i);
   for (const auto& m : misalignment)
-    if (odonav::misalignment_applicable(m.converged, m.samples_used)) core.add_misalignment(m.t_s, m.misalignment);
+    if (odonav::misalignment_applicable(m.converged, m.samples_used, m.misalignment.heading_rad,
+                                        m.misalignment.pitch_rad, m.sigma_heading_rad, m.sigma_pitch_rad))
+      core.add_misalignment(m.t_s, m.misalignment);
   odonav::results::OutputRows rows;
   for (const auto& k : core.finish()) rows.scale_factor.push_back(odonav::offline::to_row(k, "vff_lm_rls", {}));
   return summary_of(d, rows, "terrain");

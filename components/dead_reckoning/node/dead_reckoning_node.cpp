@@ -130,7 +130,8 @@ void DeadReckoningNode::close_inputs() {
 }
 
 void DeadReckoningNode::on_misalignment(const odonav::msg::Misalignment& m, double t_s) {
-  if (!misalignment_applicable(m.converged(), m.samples_used())) return;  // consumer_rules.hpp, as odonav-offline
+  if (!misalignment_applicable(m.converged(), m.samples_used(), m.heading_rad(), m.pitch_rad(), m.heading_std_rad(),
+                               m.pitch_std_rad())) return;  // consumer_rules.hpp, as odonav-offline
   const Misalignment mis{m.heading_rad(), m.pitch_rad()};
   core_.add_misalignment(t_s, mis);  // throws StreamInputError on non-finite angles: counted
   applied_misalignment_.add(t_s, mis);
@@ -138,7 +139,8 @@ void DeadReckoningNode::on_misalignment(const odonav::msg::Misalignment& m, doub
 }
 
 void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s) {
-  const IdentifiedScaleFactor k{t_s, m.k_m_per_pulse(), m.converged(), m.source()};
+  const IdentifiedScaleFactor k{t_s, m.k_m_per_pulse(), m.converged(), m.source(), m.sigma_m_per_pulse(),
+                                m.samples_accepted()};
   if (const auto update = k_selection_.on_identified(k, dds::steady_now_s()))
     core_.add_scale_factor(update->t_s, update->k_m_per_pulse, update->source);
 }

@@ -191,7 +191,8 @@ void IdentificationNode::close_inputs() {
 
 void IdentificationNode::on_misalignment(const odonav::msg::Misalignment& m, double t_s) {
   // Same rule as odonav-offline (consumer_rules.hpp).
-  if (!misalignment_applicable(m.converged(), m.samples_used())) return;
+  if (!misalignment_applicable(m.converged(), m.samples_used(), m.heading_rad(), m.pitch_rad(), m.heading_std_rad(),
+                               m.pitch_std_rad())) return;
   if (!std::isfinite(m.heading_rad()) || !std::isfinite(m.pitch_rad()))
     throw StreamInputError("misalignment: angles are not finite");
   core_.add_misalignment(t_s, Misalignment{m.heading_rad(), m.pitch_rad()});

@@ -18,7 +18,9 @@ std::vector<MisalignmentOutput> run_calibration(const Dataset& d, const Misalign
 template <class Consumer>
 void add_applicable_misalignments(Consumer& consumer, const std::vector<MisalignmentOutput>& outputs) {
   for (const MisalignmentOutput& m : outputs)
-    if (misalignment_applicable(m.converged, m.samples_used)) consumer.add_misalignment(m.t_s, m.misalignment);
+    if (misalignment_applicable(m.converged, m.samples_used, m.misalignment.heading_rad, m.misalignment.pitch_rad,
+                                m.sigma_heading_rad, m.sigma_pitch_rad))
+      consumer.add_misalignment(m.t_s, m.misalignment);
 }
 
 std::vector<IdentificationOutput> run_identification(const Dataset& d, const IdentificationParams& params,
@@ -47,7 +49,8 @@ std::vector<DeadReckoningOutput> run_dead_reckoning(const Dataset& d, const Dead
   add_applicable_misalignments(dr, misalignment);
   if (identification) {
     for (const IdentificationOutput& k : *identification)
-      if (scale_factor_applicable(k.main.valid, k.main.converged))
+      if (scale_factor_applicable(k.main.valid, k.main.converged, k.main.k_m_per_pulse, k.main.sigma_m_per_pulse,
+                                  k.samples_accepted, params.nominal_k_m_per_pulse))
         dr.add_scale_factor(k.t_s, k.main.k_m_per_pulse, ScaleFactorSource::kIdentified);
   }
   std::vector<DeadReckoningOutput> out = dr.finish();

@@ -90,7 +90,9 @@ std::vector<IdentificationOutput> reference_identification(const Dataset& d,
   for (const auto& g : d.gnss) core.add_gnss(g);
   for (const auto& i : d.ins) core.add_ins(i);
   for (const auto& m : mis)
-    if (misalignment_applicable(m.converged, m.samples_used)) core.add_misalignment(m.t_s, m.misalignment);
+    if (misalignment_applicable(m.converged, m.samples_used, m.misalignment.heading_rad, m.misalignment.pitch_rad,
+                                m.sigma_heading_rad, m.sigma_pitch_rad))
+      core.add_misalignment(m.t_s, m.misalignment);
   return core.finish();
 }
 
@@ -101,10 +103,13 @@ std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d, cons
   for (const auto& i : d.ins) dr.add_ins(i);
   for (const auto& g : d.gnss) dr.add_gnss(g);
   for (const auto& m : mis)
-    if (misalignment_applicable(m.converged, m.samples_used)) dr.add_misalignment(m.t_s, m.misalignment);
+    if (misalignment_applicable(m.converged, m.samples_used, m.misalignment.heading_rad, m.misalignment.pitch_rad,
+                                m.sigma_heading_rad, m.sigma_pitch_rad))
+      dr.add_misalignment(m.t_s, m.misalignment);
   if (k)
     for (const auto& s : *k)
-      if (scale_factor_applicable(s.k_m_per_pulse() > 0.0, s.converged()))
+      if (scale_factor_applicable(s.k_m_per_pulse() > 0.0, s.converged(), s.k_m_per_pulse(), s.sigma_m_per_pulse(),
+                                  s.samples_accepted(), DeadReckonerParams{}.nominal_k_m_per_pulse))
         dr.add_scale_factor(odonav::dds::to_seconds(s.header().stamp()), s.k_m_per_pulse(), ScaleFactorSource::kIdentified);
   return dr.finish();
 }

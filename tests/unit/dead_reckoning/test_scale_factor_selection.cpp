@@ -26,6 +26,70 @@ IdentifiedScaleFactor identified(double t_s, double k, bool converged = true,
 
 }  // namespace
 
+// ---- consumer_rules.hpp: when an estimate replaces the nominal value ----
+
+TEST(ScaleFactorApplicable, ConvergedIsAppliedWhateverItsDistanceFromTheNominal) {
+  EXPECT_TRUE(scale_factor_applicable(true, true, kNominalK, 1e-6, 20, kNominalK));
+  EXPECT_FALSE(scale_factor_applicable(false, true, kNominalK, 1e-6, 20, kNominalK));  // no value
+}
+
+TEST(ScaleFactorApplicable, ProvisionalKBeatingTheNominalByThreeSigmaIsApplied) {
+  // Nominal 100 % wrong (true K 0.025): a 5-sample K of 0.0246 +- 0.0005 (2 %) is 24 sigma away.
+  EXPECT_TRUE(scale_factor_applicable(true, false, 0.0246, 0.0005, 5, kNominalK));
+  // 1.5 % away with sigma 0.45 %: 3.3 sigma, applied; with sigma 0.67 %: 2.2 sigma, not yet.
+  EXPECT_TRUE(scale_factor_applicable(true, false, 0.0126875, 0.0125 * 0.0045, 29, kNominalK));
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.0126875, 0.0125 * 0.0067, 13, kNominalK));
+  // 2.9 sigma is not enough, 3.1 sigma is.
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.01279, 0.0001, 50, kNominalK));
+  EXPECT_TRUE(scale_factor_applicable(true, false, 0.01281, 0.0001, 50, kNominalK));
+}
+
+TEST(ScaleFactorApplicable, ProvisionalKNeedsFiveSamplesAndAKnownSigma) {
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.025, 0.0001, 4, kNominalK));  // sigma rests on < 4 residuals
+  EXPECT_TRUE(scale_factor_applicable(true, false, 0.025, 0.0001, 5, kNominalK));
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.025, -1.0, 50, kNominalK));  // unknown (message)
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.025, kInf, 50, kNominalK));
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.025, 0.0, 50, kNominalK));
+  EXPECT_FALSE(scale_factor_applicable(true, false, std::nan(""), 0.0001, 50, kNominalK));
+}
+
+TEST(MisalignmentApplicable, ConvergedOrHundredEpochsAsBefore) {
+  EXPECT_TRUE(misalignment_applicable(true, 3, 0.0, 0.0, 1.0, 1.0));
+  EXPECT_TRUE(misalignment_applicable(false, 100, 0.0, 0.0, 1.0, 1.0));
+  EXPECT_FALSE(misalignment_applicable(false, 99, 0.0, 0.0, 1.0, 1.0));
+}
+
+TEST(MisalignmentApplicable, ProvisionalWhenEitherAngleBeatsZeroByThreeSigma) {
+  const double deg = M_PI / 180.0;
+  // sim:terrain seed 1 after 11 epochs: heading 1.19 +- 0.29 deg (4.1 sigma), pitch -0.37 +- 0.14 deg.
+  EXPECT_TRUE(misalignment_applicable(false, 11, 1.19 * deg, -0.37 * deg, 0.29 * deg, 0.14 * deg));
+  // Heading alone within 3 sigma of zero, pitch 4 sigma away: applied (both angles).
+  EXPECT_TRUE(misalignment_applicable(false, 20, 0.1 * deg, -0.4 * deg, 0.1 * deg, 0.1 * deg));
+  // After 6 epochs, 1.32 +- 0.49 deg is 2.7 sigma and the pitch 1.6 sigma: zero is kept.
+  EXPECT_FALSE(misalignment_applicable(false, 6, 1.32 * deg, -0.36 * deg, 0.49 * deg, 0.23 * deg));
+  // Fewer than five epochs, or unknown sigmas (-1 in the message, infinity in the core): zero.
+  EXPECT_FALSE(misalignment_applicable(false, 4, 5.0 * deg, 0.0, 0.01 * deg, 0.01 * deg));
+  EXPECT_FALSE(misalignment_applicable(false, 50, 5.0 * deg, 5.0 * deg, -1.0, kInf));
+}
+
+TEST(DeadReckoningScaleFactorSelection, AppliesAProvisionalKThatBeatsTheNominal) {
+  ScaleFactorSelection sel(kNominalK);
+  IdentifiedScaleFactor k = identified(1.0, 0.025, false);
+  k.sigma_m_per_pulse = 0.0005;
+  k.samples_accepted = 4;
+  EXPECT_FALSE(sel.on_identified(k, 0.0));  // four samples: not yet
+  k.t_s = 1.1;
+  k.samples_accepted = 5;
+  const auto u = sel.on_identified(k, 0.0);
+  ASSERT_TRUE(u);
+  EXPECT_DOUBLE_EQ(u->k_m_per_pulse, 0.025);
+  EXPECT_EQ(u->source, ScaleFactorSource::kIdentified);
+  // Close to the nominal and not converged: the nominal (or the K already given) stays.
+  k.t_s = 1.2;
+  k.k_m_per_pulse = 0.0126;
+  EXPECT_FALSE(sel.on_identified(k, 0.0));
+}
+
 // ---- consumer_rules.hpp: commanded_k_problem ----
 
 TEST(CommandedKProblem, AcceptsTheTenthToTenTimesTheNominalBoundsIncluded) {

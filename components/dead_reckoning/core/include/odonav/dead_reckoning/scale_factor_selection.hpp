@@ -7,7 +7,8 @@
 //   commanded  set_commanded_k() (COMMAND_SET_K) latches an operator's K; identified K is ignored
 //              until release_commanded_k() (COMMAND_RELEASE_K), after which the next applicable
 //              identified K is used again;
-//   identified a ScaleFactor that consumer_rules.hpp says is applicable (valid and converged),
+//   identified a ScaleFactor that consumer_rules.hpp says is applicable (valid, and converged or
+//              provisionally better than the nominal K),
 //              stamped after every K already given to the DR (event time, s);
 //   nominal    DeadReckonerParams::nominal_k_m_per_pulse until one of the above arrives.
 // Every K handed out is stamped strictly after the previous one, so DeadReckoner::add_scale_factor
@@ -40,6 +41,8 @@ struct IdentifiedScaleFactor {
   double k_m_per_pulse = 0.0;  ///< 0 or not finite: no value yet (the message has no "valid" flag)
   bool converged = false;
   std::string source;          ///< publishing identification instance (ScaleFactor.source)
+  double sigma_m_per_pulse = -1.0;  ///< one-sigma of K (m/pulse); -1 = unknown
+  uint64_t samples_accepted = 0;    ///< samples the identification accepted so far
 };
 
 /// Answer to a command: accepted or rejected, with the text the Health acknowledgement carries.
