@@ -1,6 +1,8 @@
 // Dead reckoner (docs/ALGORITHM.md §4) on synthetic drives with exact K and attitude.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
@@ -191,6 +193,78 @@ TEST(DeadReckoner, WithoutInsUsesTheGnssCourseAndHoldsItInAnOutage) {
   EXPECT_FALSE(in_outage.gnss_reference);
   EXPECT_TRUE(std::isnan(in_outage.error_percent_distance));
   EXPECT_GT(n.heading_held, 700u);
+}
+
+namespace {
+// Without INS, 1 Hz GNSS (exact positions and velocities, no accuracy fields), odometer at 50 Hz:
+// 20 m forward at 2 m/s on azimuth 30 deg, a 2 s stop, then 5 m in reverse at 0.5 m/s (below the
+// course's 1 m/s minimum speed: the course is held across the change of direction).
+SyntheticData reversing_crawl() {
+  const double az = deg_to_rad(30.0);
+  const Eigen::Vector3d u(std::sin(az), std::cos(az), 0.0);
+  auto along_m = [](double t) { return t <= 10.0 ? 2.0 * t : t <= 12.0 ? 20.0 : 20.0 - 0.5 * (std::min(t, 22.0) - 12.0); };
+  auto speed_mps = [](double t) { return t < 10.0 ? 2.0 : t < 12.0 ? 0.0 : t < 22.0 ? -0.5 : 0.0; };
+  auto path_m = [&](double t) { return t <= 12.0 ? along_m(t) : 20.0 + (20.0 - along_m(t)); };
+  SyntheticData d;
+  const LocalEnuFrame frame(Geodetic{deg_to_rad(52.5), deg_to_rad(13.4), 50.0});
+  for (int i = 0; i <= 1200; ++i) {
+    const double t = 0.02 * i;
+    const auto pulses = static_cast<uint32_t>(std::floor(path_m(t) / kK + 1e-7));
+    d.odometer.push_back({t, 1000u + pulses, t > 12.0 && t <= 22.0 ? -1 : 1});
+  }
+  for (int i = 0; i <= 24; ++i) {
+    const double t = i;
+    GnssSample g;
+    g.t_s = t;
+    g.position = frame.to_geodetic(along_m(t) * u);
+    g.vel_enu_mps = speed_mps(t) * u;
+    d.gnss.push_back(g);
+  }
+  return d;
+}
+}  // namespace
+
+TEST(DeadReckoner, WithoutInsAReversingCrawlAtOneHertzIsDeadReckonedExactly) {
+  DeadReckonerParams p = exact_k();
+  p.use_ins = false;
+  DeadReckonerCounters n;
+  const auto out = run_all(reversing_crawl(), p, std::nullopt, &n);
+  ASSERT_FALSE(out.empty());
+  const DeadReckoningOutput& end = out.back();
+  // 20 m out, 5 m back: 15 m from the start along 30 deg (pulse quantisation: under 2 pulses).
+  const double az = deg_to_rad(30.0);
+  EXPECT_NEAR(end.enu_m.x(), 15.0 * std::sin(az), 0.03);
+  EXPECT_NEAR(end.enu_m.y(), 15.0 * std::cos(az), 0.03);
+  EXPECT_NEAR(end.distance_m, 25.0, 0.03);
+  EXPECT_LT(end.horizontal_error_m, 0.03);
+  EXPECT_GT(n.reversing, 490u);
+  EXPECT_GT(n.heading_held, 490u);   // the reverse leg is below the course's minimum speed
+  EXPECT_EQ(n.distance_lost, 0u);
+  // The 1 s GNSS interval is bridged (the gap follows the observed period): a reference at 5.5 s.
+  const auto mid = std::find_if(out.begin(), out.end(), [](const auto& o) { return std::abs(o.t_s - 5.5) < 1e-9; });
+  ASSERT_NE(mid, out.end());
+  EXPECT_TRUE(mid->gnss_reference);
+  EXPECT_LT(mid->horizontal_error_m, 0.03);
+}
+
+TEST(DeadReckoner, GnssGapFollowsTheObservedPeriod) {
+  DeadReckonerParams p;
+  EXPECT_DOUBLE_EQ(dead_reckoning_gnss_max_gap_s(p, std::nan("")), 0.5);  // nothing observed yet
+  EXPECT_DOUBLE_EQ(dead_reckoning_gnss_max_gap_s(p, 0.1), 0.5);           // 10 Hz: the floor
+  EXPECT_DOUBLE_EQ(dead_reckoning_gnss_max_gap_s(p, 1.0), 2.5);           // 1 Hz: 2.5 periods
+  p.gnss_max_gap_s = 0.7;                                                  // fixed by the user
+  EXPECT_DOUBLE_EQ(dead_reckoning_gnss_max_gap_s(p, 1.0), 0.7);
+  // At 10 Hz a 1 s hole in the fixes is not bridged.
+  SensorConfig c;
+  c.duration_s = 10.0;
+  SyntheticData d = simulate(straight(0.0, 0.0, 5.0, 0.0), c);
+  d.gnss.erase(std::remove_if(d.gnss.begin(), d.gnss.end(),
+                              [](const GnssSample& g) { return g.t_s > 5.05 && g.t_s < 5.95; }),
+               d.gnss.end());
+  const auto out = run_all(d, exact_k());
+  const auto hole = std::find_if(out.begin(), out.end(), [](const auto& o) { return std::abs(o.t_s - 5.5) < 1e-9; });
+  ASSERT_NE(hole, out.end());
+  EXPECT_FALSE(hole->gnss_reference);
 }
 
 TEST(DeadReckoner, PercentIsUndefinedBelowOneMetre) {

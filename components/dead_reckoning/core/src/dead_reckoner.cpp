@@ -1,5 +1,6 @@
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -35,8 +36,13 @@ DeadReckoner::DeadReckoner(const DeadReckonerParams& p)
           "nominal_k_m_per_pulse must be finite and > 0");
   require(std::isfinite(p.max_speed_mps) && p.max_speed_mps > 0.0, "max_speed_mps must be finite and > 0");
   require(p.max_bracket_s > 0.0, "max_bracket_s must be > 0");
-  require(p.gnss_max_gap_s > 0.0, "gnss_max_gap_s must be > 0");
+  require(std::isfinite(p.gnss_max_gap_s) && p.gnss_max_gap_s >= 0.0, "gnss_max_gap_s must be >= 0 (0: derived)");
+  require(std::isfinite(p.gnss_max_gap_floor_s) && p.gnss_max_gap_floor_s > 0.0, "gnss_max_gap_floor_s must be > 0");
+  require(std::isfinite(p.gnss_max_gap_periods) && p.gnss_max_gap_periods > 0.0, "gnss_max_gap_periods must be > 0");
+  require(p.gnss_period_window >= 1, "gnss_period_window must be >= 1");
   require(p.course_min_speed_mps >= 0.0, "course_min_speed_mps must be >= 0");
+  require(p.course_min_speed_floor_mps > 0.0, "course_min_speed_floor_mps must be > 0");
+  require(p.course_min_speed_sigmas > 0.0, "course_min_speed_sigmas must be > 0");
   require(p.percent_min_distance_m >= 0.0, "percent_min_distance_m must be >= 0");
   require(!p.lever_arm_body_m || p.lever_arm_body_m->allFinite(), "lever_arm_body_m must be finite");
 }
@@ -56,8 +62,22 @@ void DeadReckoner::add_ins(const InsSample& sample) {
 void DeadReckoner::add_gnss(const GnssSample& sample) {
   detail::check_stream_time("gnss", sample.t_s, last_gnss_t_s_);
   check_gnss_sample("gnss", sample);
+  // The period observed up to this row (median of the last intervals, robust to a missed fix or an
+  // outage), so the gap in force is a function of the data before the row, whatever the arrival.
+  if (last_gnss_t_s_) {
+    gnss_intervals_s_.push_back(sample.t_s - *last_gnss_t_s_);
+    if (gnss_intervals_s_.size() > static_cast<std::size_t>(params_.gnss_period_window)) gnss_intervals_s_.pop_front();
+  }
+  double period_s = std::numeric_limits<double>::quiet_NaN();
+  if (!gnss_intervals_s_.empty()) {
+    std::vector<double> sorted(gnss_intervals_s_.begin(), gnss_intervals_s_.end());
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    period_s = sorted[sorted.size() / 2];
+  }
+  last_gnss_gap_s_ = dead_reckoning_gnss_max_gap_s(params_, period_s);
   last_gnss_t_s_ = sample.t_s;
   gnss_.push_back(sample);
+  gnss_gap_s_.push_back(last_gnss_gap_s_);
 }
 
 void DeadReckoner::add_scale_factor(double t_s, double k, ScaleFactorSource source) {
@@ -78,6 +98,17 @@ void DeadReckoner::add_misalignment(double t_s, const Misalignment& m) {
   misalignment_.add(t_s, m);
 }
 
+double dead_reckoning_gnss_max_gap_s(const DeadReckonerParams& params, double gnss_period_s) {
+  if (params.gnss_max_gap_s > 0.0) return params.gnss_max_gap_s;
+  if (!std::isfinite(gnss_period_s)) return params.gnss_max_gap_floor_s;
+  return std::max(params.gnss_max_gap_floor_s, params.gnss_max_gap_periods * gnss_period_s);
+}
+
+void DeadReckoner::pop_gnss_front() {
+  gnss_.pop_front();
+  gnss_gap_s_.pop_front();
+}
+
 std::optional<Geodetic> DeadReckoner::origin() const {
   if (!frame_) return std::nullopt;
   return frame_->origin();
@@ -89,12 +120,17 @@ Eigen::Vector3d DeadReckoner::lever_arm_enu(const Attitude& att) const {
 }
 
 bool DeadReckoner::gnss_final_at(double t_s) const {
-  return (last_gnss_t_s_ && *last_gnss_t_s_ >= t_s) || watermark_s_ >= t_s + params_.gnss_max_gap_s;
+  // Without a row at or after t_s the last row is the earlier end of any bracket of t_s: a later
+  // row beyond its gap can no longer make one.
+  const double gap_s = last_gnss_t_s_ ? last_gnss_gap_s_ : dead_reckoning_gnss_max_gap_s(params_, std::nan(""));
+  return (last_gnss_t_s_ && *last_gnss_t_s_ >= t_s) || watermark_s_ >= t_s + gap_s;
 }
 
 namespace {
 // Indices of the GNSS epochs bracketing t_s (last <= t_s, first >= t_s), both valid and close enough.
-bool gnss_bracket(const std::deque<GnssSample>& g, double t_s, double max_gap_s, std::size_t& lo, std::size_t& hi) {
+// The gap allowed between them is the one in force after the earlier epoch (gap_s[lo]).
+bool gnss_bracket(const std::deque<GnssSample>& g, const std::deque<double>& gap_s, double t_s, std::size_t& lo,
+                  std::size_t& hi) {
   std::size_t i = 0;
   while (i < g.size() && g[i].t_s < t_s) ++i;
   if (i == g.size()) return false;
@@ -105,13 +141,22 @@ bool gnss_bracket(const std::deque<GnssSample>& g, double t_s, double max_gap_s,
   if (i == 0) return false;
   lo = i - 1;
   hi = i;
-  return g[lo].valid() && g[hi].valid() && g[hi].t_s - g[lo].t_s <= max_gap_s;
+  return g[lo].valid() && g[hi].valid() && g[hi].t_s - g[lo].t_s <= gap_s[lo];
 }
 }  // namespace
 
+double DeadReckoner::course_min_speed_at(double t_s) const {
+  if (params_.course_min_speed_mps > 0.0) return params_.course_min_speed_mps;
+  std::size_t lo = 0, hi = 0;
+  if (!gnss_bracket(gnss_, gnss_gap_s_, t_s, lo, hi) || !gnss_[lo].vel_std_mps || !gnss_[hi].vel_std_mps)
+    return 1.0;  // no accuracy given: the 1 m/s that suits a 0.05 m/s receiver
+  const double sigma = std::max(*gnss_[lo].vel_std_mps, *gnss_[hi].vel_std_mps);
+  return std::max(params_.course_min_speed_floor_mps, params_.course_min_speed_sigmas * sigma);
+}
+
 std::optional<Eigen::Vector3d> DeadReckoner::gnss_velocity_at(double t_s) const {
   std::size_t lo = 0, hi = 0;
-  if (!gnss_bracket(gnss_, t_s, params_.gnss_max_gap_s, lo, hi)) return std::nullopt;
+  if (!gnss_bracket(gnss_, gnss_gap_s_, t_s, lo, hi)) return std::nullopt;
   if (lo == hi) return gnss_[lo].vel_enu_mps;
   const double f = (t_s - gnss_[lo].t_s) / (gnss_[hi].t_s - gnss_[lo].t_s);
   return Eigen::Vector3d(gnss_[lo].vel_enu_mps + f * (gnss_[hi].vel_enu_mps - gnss_[lo].vel_enu_mps));
@@ -119,7 +164,7 @@ std::optional<Eigen::Vector3d> DeadReckoner::gnss_velocity_at(double t_s) const 
 
 std::optional<Eigen::Vector3d> DeadReckoner::gnss_reference_enu(double t_s, const std::optional<Attitude>& att) const {
   std::size_t lo = 0, hi = 0;
-  if (!gnss_bracket(gnss_, t_s, params_.gnss_max_gap_s, lo, hi)) return std::nullopt;
+  if (!gnss_bracket(gnss_, gnss_gap_s_, t_s, lo, hi)) return std::nullopt;
   Eigen::Vector3d p = frame_->to_enu(gnss_[lo].position);
   if (lo != hi) {
     const double f = (t_s - gnss_[lo].t_s) / (gnss_[hi].t_s - gnss_[lo].t_s);
@@ -135,12 +180,12 @@ DeadReckoner::Readiness DeadReckoner::try_start(double t_j) {
     const GnssSample& g = gnss_.front();
     // A candidate rejected here can never become valid later (its bracket is final): drop it.
     if (!g.valid()) {
-      gnss_.pop_front();
+      pop_gnss_front();
       continue;
     }
     const std::optional<double> count = odometer_.count_at(g.t_s, watermark_s_);
     if (!count) {
-      gnss_.pop_front();
+      pop_gnss_front();
       continue;
     }
     std::optional<Attitude> att;
@@ -148,12 +193,12 @@ DeadReckoner::Readiness DeadReckoner::try_start(double t_j) {
       const BracketState st = attitude_.state_at(g.t_s, watermark_s_);
       if (st == BracketState::kPending) return Readiness::kWait;
       if (st == BracketState::kMissing) {
-        gnss_.pop_front();
+        pop_gnss_front();
         continue;
       }
       att = attitude_.attitude_at(g.t_s, watermark_s_);
     } else if (!params_.use_ins && params_.lever_arm_body_m &&
-               g.vel_enu_mps.head<2>().norm() >= params_.course_min_speed_mps) {
+               g.vel_enu_mps.head<2>().norm() >= course_min_speed_at(g.t_s)) {
       // Degraded mode: the lever arm turned by the GNSS course (pitch and roll unknown, taken as 0).
       att = Attitude{gnss_course_rad(g.vel_enu_mps), 0.0, 0.0};
     }
@@ -166,8 +211,10 @@ DeadReckoner::Readiness DeadReckoner::try_start(double t_j) {
     last_t_s_ = g.t_s;
     last_count_ = *count;
     distance_m_ = 0.0;
-    if (!params_.use_ins && g.vel_enu_mps.head<2>().norm() >= params_.course_min_speed_mps)
+    if (!params_.use_ins && g.vel_enu_mps.head<2>().norm() >= course_min_speed_at(g.t_s)) {
       held_heading_rad_ = gnss_course_rad(g.vel_enu_mps);
+      held_direction_ = 0;  // the first interval's direction is taken as the one it was measured with
+    }
     return Readiness::kReady;
   }
   return Readiness::kReady;
@@ -218,7 +265,7 @@ std::vector<DeadReckoningOutput> DeadReckoner::process_until(double watermark_s)
     // What later intervals (starting at t_j) can still need.
     odometer_.drop_before(t_j);
     attitude_.drop_before(t_j);
-    while (gnss_.size() >= 2 && gnss_[1].t_s <= t_j) gnss_.pop_front();
+    while (gnss_.size() >= 2 && gnss_[1].t_s <= t_j) pop_gnss_front();
     k_history_.drop_before(t_j);
     misalignment_.drop_before(t_j);
   }
@@ -283,15 +330,20 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
   } else {
     o.degraded = true;
     const std::optional<Eigen::Vector3d> v = gnss_velocity_at(mid);
-    if (v && v->head<2>().norm() >= params_.course_min_speed_mps) {
+    if (v && v->head<2>().norm() >= course_min_speed_at(mid)) {
       held_heading_rad_ = gnss_course_rad(*v);
+      held_direction_ = direction;
     } else {
       o.heading_held = true;
       ++counters_.heading_held;
     }
     if (held_heading_rad_) {
       const double c = *held_heading_rad_;
-      ds_n = Eigen::Vector3d(std::abs(ds) * std::sin(c), std::abs(ds) * std::cos(c), 0.0);
+      if (held_direction_ == 0) held_direction_ = direction;
+      // Measured course: the direction of motion. Held across a change of direction: motion is
+      // against the course it was measured with.
+      const double along = held_direction_ == direction ? std::abs(ds) : -std::abs(ds);
+      ds_n = Eigen::Vector3d(along * std::sin(c), along * std::cos(c), 0.0);
       o.heading_rad = c;
     } else {
       have_heading = false;

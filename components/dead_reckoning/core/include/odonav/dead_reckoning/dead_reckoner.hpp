@@ -17,10 +17,14 @@
 // Without INS (params.use_ins = false, degraded mode): horizontal only, along the GNSS course
 // atan2(ve, vn) interpolated to mid-interval while GNSS is valid and moving, held otherwise; the
 // course is the direction of motion already, so |dS| is laid along it whatever the direction flag.
+// A held course remembers the odometer direction it was measured with: when the vehicle changes
+// direction below the course's minimum speed (stop, then reverse at a crawl), |dS| is laid against
+// the held course, so a straight reversing manoeuvre is dead-reckoned exactly.
 //
 // GNSS reference for the error at t_j: the antenna position interpolated linearly (in the local
 // ENU frame of the DR origin) between the two valid GNSS epochs bracketing t_j when they are at most
-// gnss_max_gap_s apart (or the epoch at exactly t_j). Interpolating instead of taking the nearest
+// the GNSS gap apart (dead_reckoning_gnss_max_gap_s, from the GNSS period observed up to the earlier
+// epoch), or the epoch at exactly t_j. Interpolating instead of taking the nearest
 // epoch matters: at 10 Hz GNSS and 10 m/s the nearest epoch is up to 0.5 m away from the vehicle.
 //
 // GNSS fixes for the anchored position (anchored_position.hpp): each output carries the valid GNSS
@@ -74,10 +78,28 @@ struct DeadReckonerParams {
   /// sample is dropped and counted, so one bad count cannot move the position by kilometres.
   /// Fastest physically possible speed (m/s, > 0). Default 100 (8000 pulses/s at 0.0125 m/pulse).
   double max_speed_mps = 100.0;
-  /// Longest gap between two GNSS epochs across which the reference is interpolated (s). Default 0.5.
-  double gnss_max_gap_s = 0.5;
-  /// Degraded mode: the GNSS course is used only at horizontal speed >= this (m/s). Default 1.
-  double course_min_speed_mps = 1.0;
+  /// Longest gap between two GNSS epochs across which the reference (and, without INS, the GNSS
+  /// course) is interpolated (s). 0 (default) = from the GNSS period P observed in the data, as the
+  /// identification's interval gate: max(gnss_max_gap_floor_s, gnss_max_gap_periods * P), with P the
+  /// median of the last gnss_period_window intervals between GNSS rows up to the earlier epoch of the
+  /// pair (dead_reckoning_gnss_max_gap_s): 0.5 s at 10 Hz, 2.5 s at 1 Hz. A fixed 0.5 s left a 1 Hz
+  /// vehicle without INS with no course at all (the slow robot's DR did not move: 86 %D).
+  double gnss_max_gap_s = 0.0;
+  /// Floor of the derived gap (s, > 0) and the gap before two GNSS rows were seen. Default 0.5.
+  double gnss_max_gap_floor_s = 0.5;
+  /// The derived gap in GNSS periods (> 0). Default 2.5: one missed fix is bridged, two are not.
+  double gnss_max_gap_periods = 2.5;
+  /// Intervals between GNSS rows the period is the median of (>= 1). Default 15.
+  int gnss_period_window = 15;
+  /// Degraded mode: the GNSS course is used only at horizontal speed >= this (m/s). 0 (default) =
+  /// from the fixes' velocity accuracy (vel_std_mps, the larger of the two bracketing epochs):
+  /// max(course_min_speed_floor_mps, course_min_speed_sigmas * vel_std), i.e. a course good to
+  /// 1/20 rad (3 deg) or better; 1 m/s when the fixes carry no accuracy. An RTK receiver at
+  /// 0.02 m/s gives 0.4 m/s (a robot reversing at 0.6 m/s keeps its course), the simulator's
+  /// 0.05 m/s gives 1 m/s.
+  double course_min_speed_mps = 0.0;
+  double course_min_speed_floor_mps = 0.1;  ///< floor of the derived speed (m/s, > 0)
+  double course_min_speed_sigmas = 20.0;    ///< the derived speed in velocity sigmas (> 0)
   /// %D is NaN while the distance travelled is below this (m). Default 1.
   double percent_min_distance_m = 1.0;
 };
@@ -113,6 +135,12 @@ struct DeadReckonerCounters {
   uint64_t anchor_fixes = 0;           ///< valid GNSS epochs reported in gnss_fixes.
   uint64_t anchor_fixes_no_attitude = 0;  ///< valid epochs left out: no attitude for the lever arm.
 };
+
+/// The GNSS gap in force for an observed GNSS period (s; NaN: fewer than two rows seen):
+/// params.gnss_max_gap_s when > 0, else max(gnss_max_gap_floor_s, gnss_max_gap_periods * period).
+/// One function, so odonav-offline and odonav-dead-reckoning (which build their DeadReckonerParams
+/// with dead_reckoner_params) bridge the same gaps.
+double dead_reckoning_gnss_max_gap_s(const DeadReckonerParams& params, double gnss_period_s);
 
 class DeadReckoner {
  public:
@@ -159,6 +187,11 @@ class DeadReckoner {
   AttitudeBuffer attitude_;
   std::deque<double> pending_odometer_t_s_;
   std::deque<GnssSample> gnss_;
+  /// The gap in force after each row of gnss_ (same index): the period observed up to that row.
+  std::deque<double> gnss_gap_s_;
+  std::deque<double> gnss_intervals_s_;  ///< the last gnss_period_window intervals between rows
+  double last_gnss_gap_s_ = 0.0;         ///< the gap in force after the last row added
+  void pop_gnss_front();
   std::optional<double> last_gnss_t_s_;
   StepHistory<KInForce> k_history_{"scale_factor"};
   StepHistory<Misalignment> misalignment_{"misalignment"};
@@ -170,6 +203,9 @@ class DeadReckoner {
   double last_count_ = 0.0;
   double distance_m_ = 0.0;
   std::optional<double> held_heading_rad_;
+  int held_direction_ = 0;  ///< odometer direction the held course was measured with (0: not known)
+  /// Degraded mode: the course's minimum speed in force at t_s (course_min_speed_mps).
+  double course_min_speed_at(double t_s) const;
   std::optional<Attitude> last_attitude_;
   std::optional<AnchorFix> start_fix_;  ///< reported with the first output
   DeadReckonerCounters counters_;
