@@ -6,11 +6,13 @@ int main(int argc, char** argv) {
       argc, argv, "odonav-dead-reckoning",
       "Dead-reckons with the SINS attitude and the odometer (docs/ALGORITHM.md section 4): reads rt/odonav/odometer, "
       "rt/odonav/ins/attitude, rt/odonav/gnss/fix, rt/odonav/misalignment and rt/odonav/scale_factor, publishes "
-      "rt/odonav/dead_reckoning once per odometer sample, in event time. Uses the nominal K until an identified "
+      "rt/odonav/dead_reckoning and the GNSS-anchored rt/odonav/navigation_position once per odometer sample, in "
+      "event time. Uses the nominal K until an identified "
       "K converges, and goes on without identification. Stops on SIGINT/SIGTERM after publishing every output.",
       [](odonav::Options& o) { odonav::nodes::add_dead_reckoning_node_options(o); },
       [](const odonav::Options& o, odonav::dds::ComponentRuntime& runtime) {
-        odonav::nodes::DeadReckoningNode node(runtime, odonav::nodes::dead_reckoning_node_params_from(o));
+        odonav::nodes::DeadReckoningNode node(runtime, odonav::nodes::dead_reckoning_node_params_from(o),
+                                              odonav::nodes::anchored_position_node_params_from(o));
         return node.run();
       });
 }

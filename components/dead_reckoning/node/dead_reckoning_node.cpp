@@ -59,6 +59,12 @@ DeadReckonerParams dead_reckoning_node_params_from(const Options& o) {
   return dead_reckoner_params(facts);  // the function odonav-offline uses too
 }
 
+AnchoredPositionParams anchored_position_node_params_from(const Options& o) {
+  DeadReckoningFacts facts = dead_reckoning_facts_from(o);
+  facts.use_ins = o.get_bool("use-ins");
+  return anchored_position_params(facts);
+}
+
 odonav::msg::DeadReckoning dead_reckoning_message(const DeadReckoningOutput& o, const Geodetic& origin,
                                                   const Misalignment& mis, const std::string& vehicle_id) {
   odonav::msg::DeadReckoning m;
@@ -85,16 +91,45 @@ odonav::msg::DeadReckoning dead_reckoning_message(const DeadReckoningOutput& o, 
   return m;
 }
 
-DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadReckonerParams& params)
+odonav::msg::NavigationPosition navigation_position_message(const AnchoredPosition& p, const std::string& vehicle_id) {
+  odonav::msg::NavigationPosition m;
+  m.header(dds::make_header(p.t_s, "wgs84"));
+  m.vehicle_id(vehicle_id);
+  m.latitude_deg(rad_to_deg(p.position.lat_rad));
+  m.longitude_deg(rad_to_deg(p.position.lon_rad));
+  m.height_m(p.position.height_m);
+  m.enu_east_m(p.enu_m.x());
+  m.enu_north_m(p.enu_m.y());
+  m.enu_up_m(p.enu_m.z());
+  const bool known = p.covariance_enu_m2.diagonal().allFinite();
+  m.position_covariance_east_m2(known ? p.covariance_enu_m2(0, 0) : -1.0);
+  m.position_covariance_north_m2(known ? p.covariance_enu_m2(1, 1) : -1.0);
+  m.position_covariance_up_m2(known ? p.covariance_enu_m2(2, 2) : -1.0);
+  m.position_covariance_type(known ? 2 : 0);  // NavSatFix: COVARIANCE_TYPE_DIAGONAL_KNOWN / UNKNOWN
+  switch (p.status) {
+    case AnchorStatus::kNotStarted: m.status(odonav::msg::NAVIGATION_STATUS_NOT_STARTED); break;
+    case AnchorStatus::kAnchored: m.status(odonav::msg::NAVIGATION_STATUS_ANCHORED); break;
+    case AnchorStatus::kDeadReckoning: m.status(odonav::msg::NAVIGATION_STATUS_DEAD_RECKONING); break;
+  }
+  m.last_fix_stamp_s(or_minus_one(p.last_fix_t_s));
+  m.distance_since_fix_m(or_minus_one(p.distance_since_fix_m));
+  return m;
+}
+
+DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadReckonerParams& params,
+                                     const AnchoredPositionParams& anchored)
     : EventTimeNode(runtime),
       params_(params),
       core_(make_core(params)),
+      anchor_(anchored),
       k_selection_(params.nominal_k_m_per_pulse),
       odometer_(add_input("odometer", true)),
       gnss_(add_input("gnss", true)),
       misalignment_(add_input("misalignment", false, &gnss_)),
       scale_factor_(add_input("scale_factor", false, &gnss_)),
-      writer_(runtime.participant(), topics::kDeadReckoning.name, topics::kDeadReckoning.writer_profile) {
+      writer_(runtime.participant(), topics::kDeadReckoning.name, topics::kDeadReckoning.writer_profile),
+      navigation_writer_(runtime.participant(), topics::kNavigationPosition.name,
+                         topics::kNavigationPosition.writer_profile) {
   if (params_.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
 
@@ -152,6 +187,8 @@ void DeadReckoningNode::publish(const std::vector<DeadReckoningOutput>& outputs)
     const Misalignment mis = applied_misalignment_.at_or_before(o.t_s).value_or(Misalignment{});
     if (!writer_.write(dead_reckoning_message(o, origin, mis, runtime_.settings().vehicle_id)))
       spdlog::warn("{}: write refused by the middleware", writer_.topic_name());
+    if (!navigation_writer_.write(navigation_position_message(anchor_.step(o), runtime_.settings().vehicle_id)))
+      spdlog::warn("{}: write refused by the middleware", navigation_writer_.topic_name());
     // A burst (catching up after a wait, the drain) larger than the KEEP_LAST history would
     // overwrite samples not yet delivered: let the transport drain.
     throttle_.after_write();
@@ -165,7 +202,7 @@ void DeadReckoningNode::process_until(double watermark_s) { publish(core_.proces
 
 void DeadReckoningNode::finish() { publish(core_.finish()); }
 
-std::vector<dds::detail::WriterBase*> DeadReckoningNode::output_writers() { return {&writer_}; }
+std::vector<dds::detail::WriterBase*> DeadReckoningNode::output_writers() { return {&writer_, &navigation_writer_}; }
 
 dds::CommandAck DeadReckoningNode::on_command(const odonav::msg::Command& c) {
   using namespace odonav::msg;
@@ -228,6 +265,11 @@ void DeadReckoningNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("k_ignored", static_cast<double>(s.k_ignored));
   c.emplace_back("k_source_changes", static_cast<double>(s.k_source_changes));
   c.emplace_back("misalignments_applied", static_cast<double>(misalignments_applied_));
+  const AnchoredPositionCounters& a = anchor_.counters();
+  c.emplace_back("anchor_fixes_applied", static_cast<double>(a.fixes_applied));
+  c.emplace_back("anchor_fixes_rejected_gate", static_cast<double>(a.fixes_rejected_gate));
+  c.emplace_back("anchor_gate_restarts", static_cast<double>(a.gate_restarts));
+  c.emplace_back("anchor_fixes_no_attitude", static_cast<double>(k.anchor_fixes_no_attitude));
   if (last_output_) {
     c.emplace_back("distance_m", last_output_->distance_m);
     c.emplace_back("k_m_per_pulse", last_output_->k_m_per_pulse);

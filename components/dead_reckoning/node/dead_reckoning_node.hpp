@@ -14,6 +14,7 @@
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/Misalignment.h"
+#include "odonav/msg/NavigationPosition.h"
 #include "odonav/msg/ScaleFactor.h"
 #include "odonav/source_arbiter.hpp"
 #include "odonav/stream_buffers.hpp"
@@ -27,6 +28,9 @@ void add_dead_reckoning_node_options(Options& options);
 /// --nominal-k 0 means kDefaultNominalK_m_per_pulse (0.0125 m/pulse). Throws ConfigError naming the
 /// option when a value is invalid.
 DeadReckonerParams dead_reckoning_node_params_from(const Options& options);
+/// The anchored position's parameters from the same facts, through anchored_position_params()
+/// (dead_reckoning_options.hpp), as odonav-offline does.
+AnchoredPositionParams anchored_position_node_params_from(const Options& options);
 
 /// DeadReckoning message of one output: stamp = output t_s, frame "wgs84", degrees for latitude
 /// and longitude, metres, radians; origin = the DR origin; misalignment = the one applied at t_s;
@@ -34,10 +38,17 @@ DeadReckonerParams dead_reckoning_node_params_from(const Options& options);
 odonav::msg::DeadReckoning dead_reckoning_message(const DeadReckoningOutput& output, const Geodetic& origin,
                                                   const Misalignment& misalignment, const std::string& vehicle_id);
 
+/// NavigationPosition message of one anchored position: stamp = its t_s, frame "wgs84", degrees for
+/// latitude and longitude; covariance diagonal (type 2) or -1 with type 0 while not started; last fix
+/// stamp and distance since it -1 before the first fix.
+odonav::msg::NavigationPosition navigation_position_message(const AnchoredPosition& position,
+                                                            const std::string& vehicle_id);
+
 class DeadReckoningNode : public dds::EventTimeNode {
  public:
   /// Creates the core (ConfigError naming a bad parameter), the DeadReckoning writer and the readers.
-  DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadReckonerParams& params);
+  DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadReckonerParams& params,
+                    const AnchoredPositionParams& anchored = {});
   ~DeadReckoningNode() override;
 
  private:
@@ -55,6 +66,8 @@ class DeadReckoningNode : public dds::EventTimeNode {
 
   DeadReckonerParams params_;
   DeadReckoner core_;
+  /// The GNSS-anchored position, fed every DR output as odonav-offline feeds it.
+  AnchoredPositionFilter anchor_;
   /// The misalignments given to the core, to report the one applied in each output.
   StepHistory<Misalignment> applied_misalignment_{"misalignment"};
   /// The K policy: commanded-K latch, identified K applicability, K source (scale_factor_selection.hpp).
@@ -69,6 +82,7 @@ class DeadReckoningNode : public dds::EventTimeNode {
   dds::NodeInput& misalignment_;
   dds::NodeInput& scale_factor_;
   dds::Writer<odonav::msg::DeadReckoning> writer_;
+  dds::Writer<odonav::msg::NavigationPosition> navigation_writer_;
   /// One K stream out of the identification instances (hot standby): the highest-priority live one,
   /// each stamp once; on a switch the new source's estimates from the stamp after the last one on.
   SourceArbiter<odonav::msg::ScaleFactor> k_arbiter_;

@@ -77,6 +77,17 @@ struct DeadReckoningView {
   double error_percent_distance = -1.0;  ///< %D; -1: no reference
 };
 
+/// The GNSS-anchored navigation position (NavigationPosition).
+struct NavigationPositionView {
+  std::string vehicle_id;
+  double stamp_s = 0.0;
+  double latitude_deg = 0.0, longitude_deg = 0.0;
+  double height_m = 0.0;  ///< ellipsoidal [m]
+  double covariance_east_m2 = -1.0, covariance_north_m2 = -1.0, covariance_up_m2 = -1.0;  ///< -1 unknown
+  std::uint32_t status = 0;  ///< 0 not started, 1 anchored, 2 dead reckoning
+  double distance_since_fix_m = -1.0;
+};
+
 struct GnssView {
   std::string vehicle_id;
   double stamp_s = 0.0;

@@ -113,6 +113,22 @@ NavSatFixMsg navsat_from_dead_reckoning(const DeadReckoningView& dr) {
   return m;
 }
 
+NavSatFixMsg navsat_from_navigation(const NavigationPositionView& n) {
+  NavSatFixMsg m;
+  m.stamp_s = n.stamp_s;
+  m.frame_id = "wgs84";
+  m.status = n.status == 0 ? -1 : 0;
+  m.service = n.status == 1 ? 1 : 0;
+  m.latitude_deg = n.latitude_deg;
+  m.longitude_deg = n.longitude_deg;
+  m.altitude_m = n.height_m;
+  if (n.covariance_east_m2 >= 0.0 && n.covariance_north_m2 >= 0.0 && n.covariance_up_m2 >= 0.0) {
+    m.position_covariance_m2 = {n.covariance_east_m2, 0, 0, 0, n.covariance_north_m2, 0, 0, 0, n.covariance_up_m2};
+    m.position_covariance_type = 2;
+  }
+  return m;
+}
+
 NavSatFixMsg navsat_from_gnss(const GnssView& g) {
   NavSatFixMsg m;
   m.stamp_s = g.stamp_s;

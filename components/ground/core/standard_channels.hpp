@@ -3,14 +3,14 @@
 // understand them without configuration (Foxglove's Map and Diagnostics panels, PlotJuggler), the
 // same in `odonav-ground serve` (live) and `odonav-ground record` (MCAP):
 //
-//   /odonav/<vehicle>/navsat/navigation      sensor_msgs/msg/NavSatFix   the vehicle's navigation position
+//   /odonav/<vehicle>/navsat/navigation      sensor_msgs/msg/NavSatFix   GNSS-anchored position (NavigationPosition)
 //   /odonav/<vehicle>/navsat/dead_reckoning  sensor_msgs/msg/NavSatFix   pure dead reckoning (DeadReckoning)
 //   /odonav/<vehicle>/navsat/gnss            sensor_msgs/msg/NavSatFix   the GNSS receiver's fix (GnssFix)
 //   /odonav/<vehicle>/diagnostics            diagnostic_msgs/msg/DiagnosticArray   one status per component
 //   /odonav/<vehicle>/k                      JSON (jsonschema)          K with its one-sigma band, plottable
 //
-// The navigation position is the dead-reckoning solution (the odonav contract has no other
-// position topic): the same numbers as navsat/dead_reckoning, under the name map tools look for.
+// The navigation position is the one to steer by (kept on GNSS while valid, dead reckoning from the
+// last fix through outages), under the name map tools look for; navsat/dead_reckoning is the pure DR.
 // No DDS here: views (fleet_state.hpp) in, CDR bytes out.
 #include <array>
 #include <cstdint>
@@ -75,6 +75,10 @@ std::string derived_schema(DerivedChannel channel);
 /// The pure dead-reckoning position as a NavSatFix: status FIX (a position exists; it comes from no
 /// satellite, service 0), covariance unknown (DR reports an error only against GNSS), frame "wgs84".
 NavSatFixMsg navsat_from_dead_reckoning(const DeadReckoningView& dr);
+/// The GNSS-anchored navigation position as a NavSatFix (the "navigation" channel): status FIX while
+/// anchored or bridging by dead reckoning (service 0 when bridging, GPS when anchored), NO_FIX before
+/// the first fix; covariance diagonal ENU (type DIAGONAL_KNOWN) when known, else unknown.
+NavSatFixMsg navsat_from_navigation(const NavigationPositionView& nav);
 /// The GNSS fix as a NavSatFix: status from the fix quality (invalid: NO_FIX; single: FIX;
 /// DGPS: SBAS; RTK fixed/float: GBAS; dead-reckoning fixes: NO_FIX) and `valid`; covariance
 /// diagonal (position_std_m squared east, north and up, type APPROXIMATED: the receiver gives one

@@ -103,6 +103,21 @@ DeadReckoningView view_of(const msg::DeadReckoning& d) {
   return v;
 }
 
+NavigationPositionView view_of(const msg::NavigationPosition& n) {
+  NavigationPositionView v;
+  v.vehicle_id = n.vehicle_id();
+  v.stamp_s = stamp_of(n.header());
+  v.latitude_deg = n.latitude_deg();
+  v.longitude_deg = n.longitude_deg();
+  v.height_m = n.height_m();
+  v.covariance_east_m2 = n.position_covariance_east_m2();
+  v.covariance_north_m2 = n.position_covariance_north_m2();
+  v.covariance_up_m2 = n.position_covariance_up_m2();
+  v.status = static_cast<std::uint32_t>(n.status());
+  v.distance_since_fix_m = n.distance_since_fix_m();
+  return v;
+}
+
 GnssView view_of(const msg::GnssFix& g) {
   GnssView v;
   v.vehicle_id = g.vehicle_id();
@@ -205,6 +220,11 @@ FleetMonitor::FleetMonitor(const dds::Participant& participant, FleetState& stat
         s->on_dead_reckoning(view_of(m), now());
         if (tap) tap(TopicId::kDeadReckoning, &m);
       }));
+  if (tap) {
+    readers_.push_back(std::make_unique<Reader<msg::NavigationPosition>>(
+        participant, topics::kNavigationPosition.name, best_effort,
+        [tap](const msg::NavigationPosition& m) { tap(TopicId::kNavigationPosition, &m); }));
+  }
   readers_.push_back(std::make_unique<Reader<msg::GnssFix>>(
       participant, topics::kGnssFix.name, best_effort, [s, now, tap](const msg::GnssFix& m) {
         s->on_gnss(view_of(m), now());
@@ -233,7 +253,7 @@ FleetMonitor::~FleetMonitor() {
 // ---- TopicRecorder ----
 
 /// The standard channels of a recording (core/standard_channels.hpp): NavSatFix per vehicle from
-/// DeadReckoning and GnssFix, DiagnosticArray per vehicle from Health (with STALE from the Health
+/// NavigationPosition, DeadReckoning and GnssFix, DiagnosticArray per vehicle from Health (with STALE from the Health
 /// reader's deadline and age, as the monitor shows it). Channels are added as vehicles appear.
 class TopicRecorder::Standard {
  public:
@@ -247,10 +267,15 @@ class TopicRecorder::Standard {
   }
   void on_dead_reckoning(const DeadReckoningView& v, std::uint64_t t_ns) {
     const auto bytes = encode_cdr(navsat_from_dead_reckoning(v));
-    for (DerivedChannel kind : {DerivedChannel::kNavSatDeadReckoning, DerivedChannel::kNavSatNavigation}) {
-      writer_.write_message(channel_of(v.vehicle_id, kind), t_ns, t_ns, bytes.data(), bytes.size());
-      ++messages_;
-    }
+    writer_.write_message(channel_of(v.vehicle_id, DerivedChannel::kNavSatDeadReckoning), t_ns, t_ns, bytes.data(),
+                          bytes.size());
+    ++messages_;
+  }
+  void on_navigation(const NavigationPositionView& v, std::uint64_t t_ns) {
+    const auto bytes = encode_cdr(navsat_from_navigation(v));
+    writer_.write_message(channel_of(v.vehicle_id, DerivedChannel::kNavSatNavigation), t_ns, t_ns, bytes.data(),
+                          bytes.size());
+    ++messages_;
   }
   void on_gnss(const GnssView& v, std::uint64_t t_ns) {
     const auto bytes = encode_cdr(navsat_from_gnss(v));
@@ -278,7 +303,8 @@ class TopicRecorder::Standard {
     const std::uint16_t schema = kind == DerivedChannel::kDiagnostics ? diagnostics_schema_ : navsat_schema_;
     const char* source = kind == DerivedChannel::kDiagnostics ? topics::kHealth.name
                          : kind == DerivedChannel::kNavSatGnss ? topics::kGnssFix.name
-                                                               : topics::kDeadReckoning.name;
+                         : kind == DerivedChannel::kNavSatNavigation ? topics::kNavigationPosition.name
+                                                                     : topics::kDeadReckoning.name;
     const std::uint16_t id = writer_.add_channel(schema, derived_topic(vehicle, kind), "cdr",
                                                  {{"odonav_derived_from", source}, {"odonav_vehicle_id", vehicle}});
     channels_.emplace(key, id);
@@ -299,7 +325,8 @@ TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& wr
   bool navsat = false, diagnostics = false;
   for (const topics::TopicSpec& spec : topic_list) {
     const auto id = topic_id_of(spec);
-    navsat = navsat || id == topics::TopicId::kDeadReckoning || id == topics::TopicId::kGnssFix;
+    navsat = navsat || id == topics::TopicId::kDeadReckoning || id == topics::TopicId::kGnssFix ||
+             id == topics::TopicId::kNavigationPosition;
     diagnostics = diagnostics || id == topics::TopicId::kHealth;
   }
   standard_ = std::make_unique<Standard>(writer, navsat, diagnostics);
@@ -330,6 +357,7 @@ TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& wr
           if (!type.serialize(&copy, &payload)) throw std::runtime_error("serialization failed");
           out->write_message(channel, t, t, payload.data, payload.length);
           if constexpr (std::is_same_v<T, msg::DeadReckoning>) standard->on_dead_reckoning(view_of(sample), t);
+          if constexpr (std::is_same_v<T, msg::NavigationPosition>) standard->on_navigation(view_of(sample), t);
           if constexpr (std::is_same_v<T, msg::GnssFix>) standard->on_gnss(view_of(sample), t);
           if constexpr (std::is_same_v<T, msg::Health>) standard->fleet().on_health(view_of(sample), dds::steady_now_s());
         } catch (const std::exception& e) {

@@ -20,6 +20,7 @@
 #include "odonav/msg/Health.h"
 #include "odonav/msg/InsAttitude.h"
 #include "odonav/msg/Misalignment.h"
+#include "odonav/msg/NavigationPosition.h"
 #include "odonav/msg/Odometer.h"
 #include "odonav/msg/ScaleFactor.h"
 #include "odonav/topics.hpp"
@@ -29,7 +30,8 @@ namespace odonav::ground {
 /// One received sample of any topic of the contract (valid during the callback only).
 using AnySample = std::variant<const odonav::msg::Odometer*, const odonav::msg::InsAttitude*, const odonav::msg::GnssFix*,
                                const odonav::msg::Misalignment*, const odonav::msg::ScaleFactor*,
-                               const odonav::msg::DeadReckoning*, const odonav::msg::Health*, const odonav::msg::Command*>;
+                               const odonav::msg::DeadReckoning*, const odonav::msg::Health*, const odonav::msg::Command*,
+                               const odonav::msg::NavigationPosition*>;
 /// Sees every sample the monitor's readers receive (from the listener threads, after the FleetState).
 using SampleTap = std::function<void(topics::TopicId topic, AnySample sample)>;
 
@@ -38,6 +40,7 @@ HealthView view_of(const odonav::msg::Health& h);
 ScaleFactorView view_of(const odonav::msg::ScaleFactor& s);
 MisalignmentView view_of(const odonav::msg::Misalignment& m);
 DeadReckoningView view_of(const odonav::msg::DeadReckoning& d);
+NavigationPositionView view_of(const odonav::msg::NavigationPosition& n);
 GnssView view_of(const odonav::msg::GnssFix& g);
 /// A header's stamp in seconds; NaN for a stamp the DDS layer refuses.
 double stamp_of(const std_msgs::msg::Header& h);

@@ -14,6 +14,7 @@
 #include "odonav/msg/Health.h"
 #include "odonav/msg/InsAttitude.h"
 #include "odonav/msg/Misalignment.h"
+#include "odonav/msg/NavigationPosition.h"
 #include "odonav/msg/Odometer.h"
 #include "odonav/msg/ScaleFactor.h"
 #include "odonav/topics.hpp"
@@ -30,6 +31,7 @@ template <> struct MessageOf<topics::TopicId::kScaleFactor> { using type = odona
 template <> struct MessageOf<topics::TopicId::kDeadReckoning> { using type = odonav::msg::DeadReckoning; };
 template <> struct MessageOf<topics::TopicId::kHealth> { using type = odonav::msg::Health; };
 template <> struct MessageOf<topics::TopicId::kCommand> { using type = odonav::msg::Command; };
+template <> struct MessageOf<topics::TopicId::kNavigationPosition> { using type = odonav::msg::NavigationPosition; };
 
 namespace detail {
 template <class F, std::size_t... I>

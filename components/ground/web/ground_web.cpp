@@ -105,10 +105,20 @@ void GroundWeb::on_sample(topics::TopicId topic, AnySample sample) {
         if constexpr (std::is_same_v<T, odonav::msg::DeadReckoning>) {
           const DeadReckoningView v = view_of(*m);
           history_.on_dead_reckoning(v);
-          const auto bytes = encode_cdr(navsat_from_dead_reckoning(v));
-          for (DerivedChannel kind : {DerivedChannel::kNavSatDeadReckoning, DerivedChannel::kNavSatNavigation}) {
-            const std::uint32_t c = channel(vehicle, derived_key(kind), [&] { return derived_info(vehicle, kind); });
-            if (server_->subscribed(c)) server_->publish(c, stamp_ns(v.stamp_s), bytes.data(), bytes.size());
+          const DerivedChannel kind = DerivedChannel::kNavSatDeadReckoning;
+          const std::uint32_t c = channel(vehicle, derived_key(kind), [&] { return derived_info(vehicle, kind); });
+          if (server_->subscribed(c)) {
+            const auto bytes = encode_cdr(navsat_from_dead_reckoning(v));
+            server_->publish(c, stamp_ns(v.stamp_s), bytes.data(), bytes.size());
+          }
+        } else if constexpr (std::is_same_v<T, odonav::msg::NavigationPosition>) {
+          // The "navigation" NavSatFix: the GNSS-anchored position, not the pure DR.
+          const NavigationPositionView v = view_of(*m);
+          const DerivedChannel kind = DerivedChannel::kNavSatNavigation;
+          const std::uint32_t c = channel(vehicle, derived_key(kind), [&] { return derived_info(vehicle, kind); });
+          if (server_->subscribed(c)) {
+            const auto bytes = encode_cdr(navsat_from_navigation(v));
+            server_->publish(c, stamp_ns(v.stamp_s), bytes.data(), bytes.size());
           }
         } else if constexpr (std::is_same_v<T, odonav::msg::GnssFix>) {
           const GnssView v = view_of(*m);

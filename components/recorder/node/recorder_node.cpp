@@ -117,8 +117,31 @@ results::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m
   return r;
 }
 
+results::NavigationPositionRow navigation_position_row(const odonav::msg::NavigationPosition& m) {
+  results::NavigationPositionRow r;
+  r.t_s = dds::to_seconds(m.header().stamp());
+  r.lat_rad = exact_radians_of(m.latitude_deg());
+  r.lon_rad = exact_radians_of(m.longitude_deg());
+  r.height_m = m.height_m();
+  r.east_m = m.enu_east_m();
+  r.north_m = m.enu_north_m();
+  r.up_m = m.enu_up_m();
+  r.var_east_m2 = known_or_nan(m.position_covariance_east_m2());
+  r.var_north_m2 = known_or_nan(m.position_covariance_north_m2());
+  r.var_up_m2 = known_or_nan(m.position_covariance_up_m2());
+  switch (m.status()) {
+    case odonav::msg::NAVIGATION_STATUS_NOT_STARTED: r.status = to_string(AnchorStatus::kNotStarted); break;
+    case odonav::msg::NAVIGATION_STATUS_ANCHORED: r.status = to_string(AnchorStatus::kAnchored); break;
+    case odonav::msg::NAVIGATION_STATUS_DEAD_RECKONING: r.status = to_string(AnchorStatus::kDeadReckoning); break;
+  }
+  r.last_fix_t_s = known_or_nan(m.last_fix_stamp_s());
+  r.distance_since_fix_m = known_or_nan(m.distance_since_fix_m());
+  return r;
+}
+
 void add_recorder_options(Options& o) {
-  o.add_string("out", "", "folder for misalignment.csv, scale_factor.csv, dead_reckoning.csv (created if missing); required");
+  o.add_string("out", "", "folder for misalignment.csv, scale_factor.csv, dead_reckoning.csv, navigation_position.csv "
+               "(created if missing); required");
   o.add_bool("force", false, "write into an existing non-empty directory that is not an odonav output directory");
   o.add_double("progress-every-s", 10.0, "a progress line every this much simulated (event) time, s", 0.1, 1e6);
 }
@@ -146,7 +169,8 @@ RecorderNode::RecorderNode(dds::ComponentRuntime& runtime, const RecorderSetting
       out_(settings.out_dir, output_policy(settings)),
       misalignment_csv_(out_.file("misalignment.csv")),
       scale_factor_csv_(out_.file("scale_factor.csv")),
-      dead_reckoning_csv_(out_.file("dead_reckoning.csv")) {
+      dead_reckoning_csv_(out_.file("dead_reckoning.csv")),
+      navigation_position_csv_(out_.file("navigation_position.csv")) {
   const std::string vehicle = runtime.settings().vehicle_id;
   auto& p = runtime.participant();
   // Callbacks copy and queue; conversion and file I/O happen on the worker thread.
@@ -165,6 +189,11 @@ RecorderNode::RecorderNode(dds::ComponentRuntime& runtime, const RecorderSetting
       [this, vehicle](const odonav::msg::DeadReckoning& m) {
         if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_dead_reckoning(m); });
       });
+  navigation_reader_ = std::make_unique<dds::Reader<odonav::msg::NavigationPosition>>(
+      p, topics::kNavigationPosition.name, topics::kNavigationPosition.reader_profile,
+      [this, vehicle](const odonav::msg::NavigationPosition& m) {
+        if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_navigation_position(m); });
+      });
   health_reader_ = std::make_unique<dds::Reader<odonav::msg::Health>>(
       p, topics::kHealth.name, topics::kHealth.reader_profile, [this, vehicle](const odonav::msg::Health& h) {
         if (h.vehicle_id() == vehicle) runtime_.post([this, h] { on_health(h); });
@@ -177,6 +206,7 @@ void RecorderNode::close_readers() {
   misalignment_reader_.reset();
   scale_factor_reader_.reset();
   dead_reckoning_reader_.reset();
+  navigation_reader_.reset();
   health_reader_.reset();
 }
 
@@ -241,6 +271,13 @@ void RecorderNode::on_dead_reckoning(const odonav::msg::DeadReckoning& m) {
   }
 }
 
+void RecorderNode::on_navigation_position(const odonav::msg::NavigationPosition& m) {
+  const results::NavigationPositionRow r = navigation_position_row(m);
+  if (!is_new(last_navigation_t_s_, r.t_s, navigation_repeated_, navigation_backwards_, "navigation position")) return;
+  navigation_position_csv_.write(r);
+  ++navigation_rows_;
+}
+
 void RecorderNode::progress(double t_s, double distance_m) {
   if (!last_k_ || !(last_k_->k_m_per_pulse() > 0.0)) {
     spdlog::info("progress: t={:.1f} s distance {:.0f} m K=- (no identified K yet)", t_s, distance_m);
@@ -269,6 +306,7 @@ void RecorderNode::tick() {
   dds::HealthCounters c{{"misalignment_rows", static_cast<double>(rows_[0])},
                         {"scale_factor_rows", static_cast<double>(rows_[1])},
                         {"dead_reckoning_rows", static_cast<double>(rows_[2])},
+                        {"navigation_position_rows", static_cast<double>(navigation_rows_)},
                         {"queue_depth", static_cast<double>(runtime_.queue_depth())},
                         {"scale_factor_source_switches", static_cast<double>(k_arbiter_.counters().switches)},
                         {"scale_factor_other_source", static_cast<double>(k_arbiter_.counters().superseded)},
@@ -288,15 +326,17 @@ int RecorderNode::run() {
   misalignment_csv_.close();
   scale_factor_csv_.close();
   dead_reckoning_csv_.close();
+  navigation_position_csv_.close();
   // Which vehicle these rows are of: odonav-evaluate and odonav-report check it against the dataset.
   RunProvenance provenance;
   provenance.tool = "odonav-recorder";
   provenance.dds_vehicle_id = runtime_.settings().vehicle_id;
   write_file_atomically(out_.file(kProvenanceFile), provenance_json(provenance));
   if (last_dead_reckoning_t_s_) progress(*last_dead_reckoning_t_s_, last_distance_m_);
-  spdlog::info("wrote {} misalignment, {} scale-factor, {} dead-reckoning rows into {} (repeats skipped: {}, {}, {})",
-               rows_[0], rows_[1], rows_[2], settings_.out_dir, repeated_[0],
-               repeated_[1] + k_arbiter_.counters().repeated, repeated_[2]);
+  spdlog::info("wrote {} misalignment, {} scale-factor, {} dead-reckoning, {} navigation-position rows into {} "
+               "(repeats skipped: {}, {}, {}, {})",
+               rows_[0], rows_[1], rows_[2], navigation_rows_, settings_.out_dir, repeated_[0],
+               repeated_[1] + k_arbiter_.counters().repeated, repeated_[2], navigation_repeated_);
   if (k_arbiter_.counters().switches > 1 || k_arbiter_.counters().superseded > 0)
     spdlog::info("scale factor sources: {} switches, {} rows of a source not followed skipped (epochs written by "
                  "another), {} epochs filled from another source",

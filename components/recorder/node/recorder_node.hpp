@@ -16,6 +16,7 @@
 #include "odonav/dds/component.hpp"
 #include "odonav/topics.hpp"
 #include "odonav/msg/DeadReckoning.h"
+#include "odonav/msg/NavigationPosition.h"
 #include "odonav/msg/Health.h"
 #include "odonav/msg/Misalignment.h"
 #include "odonav/msg/ScaleFactor.h"
@@ -41,6 +42,9 @@ results::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m);
 /// offsets, heading (rad); horizontal error and %D: negative (-1 = no reference) or non-finite ->
 /// NaN (written empty).
 results::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m);
+/// NavigationPosition: position as dead_reckoning_row; -1 (unknown) covariance, last fix stamp and
+/// distance -> NaN (written empty, as odonav-offline writes them); status by name.
+results::NavigationPositionRow navigation_position_row(const odonav::msg::NavigationPosition& m);
 
 /// Estimates are read with topics::kMisalignmentRecorderReaderProfile and
 /// kScaleFactorRecorderReaderProfile (KEEP_LAST 1000 per vehicle: a replay at maximum speed loses
@@ -78,6 +82,7 @@ class RecorderNode {
   void on_scale_factor(const odonav::msg::ScaleFactor& m);
   void write_scale_factor(const odonav::msg::ScaleFactor& m);
   void on_dead_reckoning(const odonav::msg::DeadReckoning& m);
+  void on_navigation_position(const odonav::msg::NavigationPosition& m);
   void on_health(const odonav::msg::Health& h);
   void tick();
   void progress(double t_s, double distance_m);
@@ -89,8 +94,11 @@ class RecorderNode {
   results::MisalignmentCsv misalignment_csv_;
   results::ScaleFactorCsv scale_factor_csv_;
   results::DeadReckoningCsv dead_reckoning_csv_;
+  results::NavigationPositionCsv navigation_position_csv_;
   // Worker thread only:
   std::optional<double> last_misalignment_t_s_, last_scale_factor_t_s_, last_dead_reckoning_t_s_;
+  std::optional<double> last_navigation_t_s_;
+  std::uint64_t navigation_rows_ = 0, navigation_repeated_ = 0, navigation_backwards_ = 0;
   std::uint64_t rows_[3] = {0, 0, 0};      // misalignment, scale factor, dead reckoning
   std::uint64_t repeated_[3] = {0, 0, 0};  // heartbeats and repeats (same stamp): not written
   std::uint64_t backwards_[3] = {0, 0, 0};
@@ -104,6 +112,7 @@ class RecorderNode {
   std::unique_ptr<dds::Reader<odonav::msg::Misalignment>> misalignment_reader_;
   std::unique_ptr<dds::Reader<odonav::msg::ScaleFactor>> scale_factor_reader_;
   std::unique_ptr<dds::Reader<odonav::msg::DeadReckoning>> dead_reckoning_reader_;
+  std::unique_ptr<dds::Reader<odonav::msg::NavigationPosition>> navigation_reader_;
   std::unique_ptr<dds::Reader<odonav::msg::Health>> health_reader_;
 };
 

@@ -48,11 +48,13 @@ class KnownPublisher {
         misalignment_(p, topics::kMisalignment.name, topics::kMisalignment.writer_profile),
         scale_factor_(p, topics::kScaleFactor.name, topics::kScaleFactor.writer_profile),
         dead_reckoning_(p, topics::kDeadReckoning.name, topics::kDeadReckoning.writer_profile),
+        navigation_(p, topics::kNavigationPosition.name, topics::kNavigationPosition.writer_profile),
         health_(p, topics::kHealth.name, topics::kHealth.writer_profile),
         command_(p, topics::kCommand.name, topics::kCommand.writer_profile) {}
 
   std::vector<odonav::dds::detail::WriterBase*> writers() {
-    return {&odometer_, &ins_, &gnss_, &misalignment_, &scale_factor_, &dead_reckoning_, &health_, &command_};
+    return {&odometer_, &ins_, &gnss_, &misalignment_, &scale_factor_, &dead_reckoning_, &health_, &command_,
+            &navigation_};
   }
   bool wait_matched(std::chrono::milliseconds timeout) {
     for (auto* w : writers())
@@ -234,6 +236,42 @@ class KnownPublisher {
                                                     {"error_percent_distance", m.error_percent_distance()}});
     }
     {
+      msg::NavigationPosition m;
+      m.header(odonav::dds::make_header(t, "wgs84"));
+      m.vehicle_id(veh);
+      m.latitude_deg(52.5002 + 1e-8 * i);
+      m.longitude_deg(13.4001);
+      m.height_m(80.5);
+      m.enu_east_m(1.5 * i);
+      m.enu_north_m(-0.25 * i);
+      m.enu_up_m(0.5);
+      const double var = i == 0 ? -1.0 : 0.5 + 0.01 * i;
+      m.position_covariance_east_m2(var);
+      m.position_covariance_north_m2(var);
+      m.position_covariance_up_m2(i == 0 ? -1.0 : 1.125);
+      m.position_covariance_type(i == 0 ? 0 : 2);
+      m.status(i == 0 ? msg::NAVIGATION_STATUS_NOT_STARTED
+                      : i % 4 == 3 ? msg::NAVIGATION_STATUS_DEAD_RECKONING : msg::NAVIGATION_STATUS_ANCHORED);
+      m.last_fix_stamp_s(i == 0 ? -1.0 : t - 0.1);
+      m.distance_since_fix_m(i == 0 ? -1.0 : 1.25);
+      EXPECT_TRUE(navigation_.write(m));
+      expected["/odonav/navigation_position"].push_back({{"header", header_json(t, "wgs84")},
+                                                         {"vehicle_id", veh},
+                                                         {"latitude_deg", m.latitude_deg()},
+                                                         {"longitude_deg", 13.4001},
+                                                         {"height_m", 80.5},
+                                                         {"enu_east_m", m.enu_east_m()},
+                                                         {"enu_north_m", m.enu_north_m()},
+                                                         {"enu_up_m", 0.5},
+                                                         {"position_covariance_east_m2", var},
+                                                         {"position_covariance_north_m2", var},
+                                                         {"position_covariance_up_m2", m.position_covariance_up_m2()},
+                                                         {"position_covariance_type", m.position_covariance_type()},
+                                                         {"status", static_cast<uint32_t>(m.status())},
+                                                         {"last_fix_stamp_s", m.last_fix_stamp_s()},
+                                                         {"distance_since_fix_m", m.distance_since_fix_m()}});
+    }
+    {
       const odonav::dds::HealthCounters counters{{"queue_depth", static_cast<double>(i)}, {"odometer_in", 1e6 + i}};
       odonav::dds::CommandAck ack{static_cast<uint32_t>(70000 + i), msg::COMMAND_RESULT_REJECTED, "nope " + std::to_string(i)};
       const msg::Health m = odonav::dds::make_health(veh, "odonav-comp-" + std::to_string(i), t, msg::HEALTH_STATE_DEGRADED,
@@ -278,6 +316,7 @@ class KnownPublisher {
   Writer<msg::Misalignment> misalignment_;
   Writer<msg::ScaleFactor> scale_factor_;
   Writer<msg::DeadReckoning> dead_reckoning_;
+  Writer<msg::NavigationPosition> navigation_;
   Writer<msg::Health> health_;
   Writer<msg::Command> command_;
 };
@@ -324,7 +363,7 @@ TEST_F(GroundRecord, McapOfEveryTopicDecodesToThePublishedValues) {
   recorder.signal(SIGINT);
   ASSERT_TRUE(recorder.wait_exit(20s));
   ASSERT_EQ(recorder.exit_code(), 0) << recorder.err();
-  EXPECT_NE(recorder.out().find("recorded " + std::to_string(8 * kSamples) + " messages on 8 topics"), std::string::npos)
+  EXPECT_NE(recorder.out().find("recorded " + std::to_string(9 * kSamples) + " messages on 9 topics"), std::string::npos)
       << recorder.out();
 
   const McapRead read = read_mcap(file, "indexed");
@@ -341,11 +380,11 @@ TEST_F(GroundRecord, McapOfEveryTopicDecodesToThePublishedValues) {
   std::size_t standard_messages = 0;
   for (const auto& t : standard) standard_messages += decoded.count(t) ? decoded.at(t).size() : 0;
   // Summary: statistics and the schema/channel records, as indexed readers use them.
-  EXPECT_EQ(doc.at("statistics").at("message_count"), std::to_string(8 * kSamples + standard_messages));
-  EXPECT_EQ(doc.at("statistics").at("channel_count"), 8 + 4);
-  EXPECT_EQ(doc.at("statistics").at("schema_count"), 8 + 2);
+  EXPECT_EQ(doc.at("statistics").at("message_count"), std::to_string(9 * kSamples + standard_messages));
+  EXPECT_EQ(doc.at("statistics").at("channel_count"), 9 + 4);
+  EXPECT_EQ(doc.at("statistics").at("schema_count"), 9 + 2);
   EXPECT_NE(doc.at("footer").at("summary_crc"), 0);  // computed, and @mcap/core checked it
-  ASSERT_EQ(doc.at("channels").size(), 12u);
+  ASSERT_EQ(doc.at("channels").size(), 13u);
   for (const auto& channel : doc.at("channels")) {
     SCOPED_TRACE(channel.dump());
     EXPECT_EQ(channel.at("message_encoding"), "cdr");
@@ -364,7 +403,7 @@ TEST_F(GroundRecord, McapOfEveryTopicDecodesToThePublishedValues) {
   // NavSatFix: the published dead reckoning and GNSS positions, sample for sample (decoded by
   // @foxglove/rosmsg2-serialization from the sensor_msgs schema).
   for (const auto& [navsat, source] : {std::pair<std::string, std::string>{prefix + "navsat/dead_reckoning", "/odonav/dead_reckoning"},
-                                       {prefix + "navsat/navigation", "/odonav/dead_reckoning"},
+                                       {prefix + "navsat/navigation", "/odonav/navigation_position"},
                                        {prefix + "navsat/gnss", "/odonav/gnss/fix"}}) {
     SCOPED_TRACE(navsat);
     ASSERT_EQ(decoded.count(navsat), 1u);
@@ -448,7 +487,7 @@ TEST_F(GroundRecord, RecordingKilledBySigkillKeepsEverythingBeforeItsLastSecond)
   ASSERT_EQ(stream.exit_code, 0) << stream.err;
   EXPECT_FALSE(stream.doc.at("complete").get<bool>());
   EXPECT_EQ(stream.doc.at("bytes_left"), 0);
-  EXPECT_EQ(stream.doc.at("channels").size(), 8u + 4u);  // the topics and the standard channels of the vehicle
+  EXPECT_EQ(stream.doc.at("channels").size(), 9u + 4u);  // the topics and the standard channels of the vehicle
   const auto decoded = by_topic(stream.doc);
   for (const auto& [topic, samples] : early) {
     SCOPED_TRACE(topic);

@@ -148,6 +148,7 @@ TEST_F(GroundWeb, FoxgloveClientReadsTheVehicleAsStandardRosMessages) {
   odonav::dds::Participant participant(participant_options(kDomain, "test-web-reference"));
   std::mutex mutex;
   std::map<long long, std::pair<double, double>> dr_by_stamp_us;  // stamp (us) -> lat, lon
+  std::map<long long, std::pair<double, double>> nav_by_stamp_us;  // the anchored position
   std::map<long long, double> k_by_stamp_us;
   auto us = [](const std_msgs::msg::Header& h) { return std::llround(odonav::dds::to_seconds(h.stamp()) * 1e6); };
   odonav::dds::Reader<msg::DeadReckoning> dr_reader(
@@ -155,6 +156,13 @@ TEST_F(GroundWeb, FoxgloveClientReadsTheVehicleAsStandardRosMessages) {
         if (d.vehicle_id() != vehicle) return;
         std::lock_guard<std::mutex> lock(mutex);
         dr_by_stamp_us[us(d.header())] = {d.latitude_deg(), d.longitude_deg()};
+      });
+  odonav::dds::Reader<msg::NavigationPosition> nav_reader(
+      participant, topics::kNavigationPosition.name, topics::kGroundBestEffortReaderProfile,
+      [&](const msg::NavigationPosition& n) {
+        if (n.vehicle_id() != vehicle) return;
+        std::lock_guard<std::mutex> lock(mutex);
+        nav_by_stamp_us[us(n.header())] = {n.latitude_deg(), n.longitude_deg()};
       });
   odonav::dds::Reader<msg::ScaleFactor> k_reader(
       participant, topics::kScaleFactor.name, topics::kEstimateReaderProfile, [&](const msg::ScaleFactor& k) {
@@ -190,7 +198,7 @@ TEST_F(GroundWeb, FoxgloveClientReadsTheVehicleAsStandardRosMessages) {
   // only once a command was sent), and the derived standard ones.
   const json ch = wait_event(out, err, "channels", 90);
   const std::vector<std::string> documented{"odometer", "ins/attitude", "gnss/fix", "misalignment", "scale_factor",
-                                            "dead_reckoning", "health", "navsat/navigation", "navsat/dead_reckoning",
+                                            "dead_reckoning", "navigation_position", "health", "navsat/navigation", "navsat/dead_reckoning",
                                             "navsat/gnss", "diagnostics", "k"};
   std::set<std::string> topics_seen;
   for (const auto& t : ch["topics"]) topics_seen.insert(t.get<std::string>());
@@ -213,24 +221,28 @@ TEST_F(GroundWeb, FoxgloveClientReadsTheVehicleAsStandardRosMessages) {
   EXPECT_EQ(re["topics"], ch["topics"]) << "a reconnected client is advertised the same channels";
 
   const json samples = wait_event(out, err, "samples", 60);
-  // NavSatFix (navigation and pure DR) against this test's own DeadReckoning reader, same stamp.
+  // NavSatFix against this test's own readers, same stamp: navigation = the GNSS-anchored
+  // NavigationPosition, dead_reckoning = the pure DeadReckoning.
   {
     std::lock_guard<std::mutex> lock(mutex);
-    for (const char* name : {"navsat/navigation", "navsat/dead_reckoning"}) {
+    for (const auto& [name, reference] : {std::make_pair("navsat/navigation", &nav_by_stamp_us),
+                                          std::make_pair("navsat/dead_reckoning", &dr_by_stamp_us)}) {
       SCOPED_TRACE(name);
       const json& fixes = samples[name];
       ASSERT_GT(fixes.size(), 50u) << samples.dump().substr(0, 2000);
       std::size_t compared = 0;
       for (const auto& f : fixes) {
-        const auto it = dr_by_stamp_us.find(std::llround(f["stamp"].get<double>() * 1e6));
-        if (it == dr_by_stamp_us.end()) continue;
+        const auto it = reference->find(std::llround(f["stamp"].get<double>() * 1e6));
+        if (it == reference->end()) continue;
         ++compared;
         ASSERT_NEAR(f["lat"].get<double>(), it->second.first, 1e-9);
         ASSERT_NEAR(f["lon"].get<double>(), it->second.second, 1e-9);
         EXPECT_EQ(f["frame_id"], "wgs84");
-        EXPECT_EQ(f["status"], 0);
+        // The navigation position is NO_FIX (-1) only in the 0.2 s before its first fix applies.
+        if (std::string(name) == "navsat/dead_reckoning") EXPECT_EQ(f["status"], 0);
+        else EXPECT_GE(f["status"].get<int>(), -1);
       }
-      EXPECT_GT(compared, fixes.size() * 8 / 10) << "stamps not found in the DDS reader's dead reckoning";
+      EXPECT_GT(compared, fixes.size() * 8 / 10) << "stamps not found in the DDS reader's " << name;
     }
     ASSERT_GT(samples["navsat/gnss"].size(), 5u);
     // ScaleFactor's K: the pipeline's, sample for sample.

@@ -19,7 +19,8 @@ const url = `ws://127.0.0.1:${port}`;
 const out = (o) => process.stdout.write(JSON.stringify(o, (k, v) => (typeof v === "bigint" ? v.toString() : v)) + "\n");
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const nowMs = () => performance.timeOrigin + performance.now();
-const expected = ["odometer", "ins/attitude", "gnss/fix", "misalignment", "scale_factor", "dead_reckoning", "health",
+const expected = ["odometer", "ins/attitude", "gnss/fix", "misalignment", "scale_factor", "dead_reckoning",
+                  "navigation_position", "health",
                   "navsat/navigation", "navsat/dead_reckoning", "navsat/gnss", "diagnostics", "k"]
   .map((t) => `/odonav/${vehicle}/${t}`);
 

@@ -21,6 +21,7 @@
 #include "odonav/msg/Health.h"
 #include "odonav/msg/InsAttitude.h"
 #include "odonav/msg/Misalignment.h"
+#include "odonav/msg/NavigationPosition.h"
 #include "odonav/msg/Odometer.h"
 #include "odonav/msg/ScaleFactor.h"
 
@@ -50,6 +51,7 @@ static topic_entry topics[] = {
     TOPIC("rt/odonav/dead_reckoning", "DeadReckoning", odonav_msg_DeadReckoning_desc),
     TOPIC("rt/odonav/health", "Health", odonav_msg_Health_desc),
     TOPIC("rt/odonav/command", "Command", odonav_msg_Command_desc),
+    TOPIC("rt/odonav/navigation_position", "NavigationPosition", odonav_msg_NavigationPosition_desc),
 };
 #define N_TOPICS (sizeof topics / sizeof topics[0])
 

@@ -123,13 +123,15 @@ TEST(Interop, EveryTopicIsReadByACycloneDdsReaderWithDefaultQosAndRosTypeNames) 
   Writer<msg::ScaleFactor> standby(participant, topics::kScaleFactor.name, topics::kScaleFactor.writer_profile, weak);
   Writer<msg::DeadReckoning> dead_reckoning(participant, topics::kDeadReckoning.name,
                                             topics::kDeadReckoning.writer_profile);
+  Writer<msg::NavigationPosition> navigation(participant, topics::kNavigationPosition.name,
+                                             topics::kNavigationPosition.writer_profile);
   Writer<msg::Health> health(participant, topics::kHealth.name, topics::kHealth.writer_profile);
   Writer<msg::Command> command(participant, topics::kCommand.name, topics::kCommand.writer_profile);
 
   const std::vector<std::pair<const char*, odonav::dds::detail::WriterBase*>> writers{
       {"odometer", &odometer}, {"ins", &ins},     {"gnss", &gnss},     {"misalignment", &misalignment},
       {"primary", &primary},   {"standby", &standby}, {"dead_reckoning", &dead_reckoning},
-      {"health", &health},     {"command", &command}};
+      {"health", &health},     {"command", &command}, {"navigation_position", &navigation}};
   // Matching is where an incompatible QoS (EXCLUSIVE against the reader's SHARED) shows.
   for (const auto& [name, w] : writers)
     EXPECT_TRUE(w->wait_for_matched(1, seconds(30))) << name << " writer never matched the Cyclone DDS reader\n"
@@ -156,6 +158,7 @@ TEST(Interop, EveryTopicIsReadByACycloneDdsReaderWithDefaultQosAndRosTypeNames) 
       std::this_thread::sleep_for(milliseconds(50));
     }
     dead_reckoning.write(stamped(odonav::test::make_dead_reckoning(), steps));
+    navigation.write(stamped(odonav::test::make_navigation_position(), steps));
     msg::Health h = stamped(odonav::test::make_health_sample(), steps);
     h.component("odonav-identification");
     health.write(h);

@@ -193,6 +193,33 @@ void expect_close(const std::optional<double>& a, const std::optional<double>& b
   else expect_close(*a, *b, tol, what, row);
 }
 
+// The GNSS-anchored navigation position, row by row (the DR node's filter against odonav-offline's).
+// mostly_anchored: GNSS valid through most of the drive, and a DR that can use it.
+void expect_navigation_equal(const results::OutputRows& pipe, const results::OutputRows& ref, double tol,
+                             bool mostly_anchored = false) {
+  ASSERT_EQ(pipe.navigation_position.size(), ref.navigation_position.size());
+  ASSERT_EQ(ref.navigation_position.size(), ref.dead_reckoning.size());  // one per DR output
+  std::size_t anchored = 0;
+  for (std::size_t i = 0; i < ref.navigation_position.size(); ++i) {
+    const auto& a = pipe.navigation_position[i];
+    const auto& b = ref.navigation_position[i];
+    ASSERT_NEAR(a.t_s, b.t_s, tol) << "navigation-position row " << i;
+    expect_close(rad_to_deg(a.lat_rad), rad_to_deg(b.lat_rad), tol, "nav lat_deg", i);
+    expect_close(rad_to_deg(a.lon_rad), rad_to_deg(b.lon_rad), tol, "nav lon_deg", i);
+    expect_close(a.height_m, b.height_m, tol, "nav height_m", i);
+    expect_close(a.east_m, b.east_m, tol, "nav east_m", i);
+    expect_close(a.north_m, b.north_m, tol, "nav north_m", i);
+    expect_close(a.var_east_m2, b.var_east_m2, tol, "nav var_east_m2", i);
+    expect_close(a.var_up_m2, b.var_up_m2, tol, "nav var_up_m2", i);
+    expect_close(a.last_fix_t_s, b.last_fix_t_s, tol, "nav last_fix_t", i);
+    expect_close(a.distance_since_fix_m, b.distance_since_fix_m, tol, "nav distance_since_fix_m", i);
+    EXPECT_EQ(a.status, b.status) << i;
+    anchored += b.status == "anchored";
+    if (::testing::Test::HasFailure()) FAIL() << "first difference at navigation-position row " << i;
+  }
+  if (mostly_anchored) EXPECT_GT(anchored, ref.navigation_position.size() / 2);
+}
+
 TEST_F(Pipeline, EveryPublishedSampleEqualsTheOfflineTool) {
   const std::string out = fresh_dir("equivalence");
   const std::string estimator = "lm_rls";  // not the default: the flag must reach the component
@@ -265,6 +292,7 @@ TEST_F(Pipeline, EveryPublishedSampleEqualsTheOfflineTool) {
   }
   // The identified K was in use by the end (the comparison covered more than the nominal phase).
   EXPECT_EQ(pipe.dead_reckoning.back().k_source, "identified");
+  expect_navigation_equal(pipe, ref, kTol, true);
 }
 
 // The pipeline's files against odonav-offline's on the same dataset, row by row: scale factor (K,
@@ -303,6 +331,7 @@ void expect_pipeline_equals_offline(const std::string& data, const std::string& 
     expect_close_rel(a.k_m_per_pulse, b.k_m_per_pulse, kTol, "k_m_per_pulse", i);
     if (::testing::Test::HasFailure()) FAIL() << "first difference at dead-reckoning row " << i;
   }
+  expect_navigation_equal(pipe, ref, kTol);
 }
 
 // 10 Hz GNSS stamped 0.105 s late: the latency is estimated and applied alike in both. (0.105, not
@@ -348,7 +377,7 @@ TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFiles) {
   launch_ok({"--source", "replay:" + data, "--speed", "1", "--domain", "53", "--out", real}, real, 200);
   shm_clean();
   launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "54", "--out", fast}, fast, 200);
-  for (const char* file : {"misalignment.csv", "scale_factor.csv", "dead_reckoning.csv"}) {
+  for (const char* file : {"misalignment.csv", "scale_factor.csv", "dead_reckoning.csv", "navigation_position.csv"}) {
     const std::string a = read_text(real + "/" + file);
     const std::string b = read_text(fast + "/" + file);
     EXPECT_EQ(a, b) << file << " differs between --speed 1 and --speed max";

@@ -136,6 +136,26 @@ inline Fields fields(const odonav::msg::DeadReckoning& m) {
   return f;
 }
 
+inline Fields fields(const odonav::msg::NavigationPosition& m) {
+  Fields f;
+  add_header(f, m.header());
+  f.emplace_back("vehicle_id", text(m.vehicle_id()));
+  f.emplace_back("latitude_deg", text(m.latitude_deg()));
+  f.emplace_back("longitude_deg", text(m.longitude_deg()));
+  f.emplace_back("height_m", text(m.height_m()));
+  f.emplace_back("enu_east_m", text(m.enu_east_m()));
+  f.emplace_back("enu_north_m", text(m.enu_north_m()));
+  f.emplace_back("enu_up_m", text(m.enu_up_m()));
+  f.emplace_back("position_covariance_east_m2", text(m.position_covariance_east_m2()));
+  f.emplace_back("position_covariance_north_m2", text(m.position_covariance_north_m2()));
+  f.emplace_back("position_covariance_up_m2", text(m.position_covariance_up_m2()));
+  f.emplace_back("position_covariance_type", text(m.position_covariance_type()));
+  f.emplace_back("status", text(static_cast<std::uint32_t>(m.status())));
+  f.emplace_back("last_fix_stamp_s", text(m.last_fix_stamp_s()));
+  f.emplace_back("distance_since_fix_m", text(m.distance_since_fix_m()));
+  return f;
+}
+
 inline Fields fields(const odonav::msg::Health& m) {
   Fields f;
   add_header(f, m.header());
@@ -286,6 +306,27 @@ inline odonav::msg::DeadReckoning make_dead_reckoning() {
   m.gnss_valid(true);
   m.horizontal_error_m(d.next());
   m.error_percent_distance(d.next());
+  return m;
+}
+
+inline odonav::msg::NavigationPosition make_navigation_position() {
+  Distinct d(108);
+  odonav::msg::NavigationPosition m;
+  m.header(distinct_header("wgs84"));
+  m.vehicle_id("vehicle-nav-7");
+  m.latitude_deg(d.next());
+  m.longitude_deg(d.next());
+  m.height_m(d.next());
+  m.enu_east_m(d.next());
+  m.enu_north_m(d.next());
+  m.enu_up_m(d.next());
+  m.position_covariance_east_m2(d.next());
+  m.position_covariance_north_m2(d.next());
+  m.position_covariance_up_m2(d.next());
+  m.position_covariance_type(2);
+  m.status(odonav::msg::NAVIGATION_STATUS_DEAD_RECKONING);
+  m.last_fix_stamp_s(d.next());
+  m.distance_since_fix_m(d.next());
   return m;
 }
 

@@ -390,6 +390,7 @@ TEST(MsgTwins, EveryMsgFileDescribesTheCdrLayoutOfItsIdlType) {
   expect_msg_twin_matches_wire(topics::kMisalignment, odonav::test::make_misalignment());
   expect_msg_twin_matches_wire(topics::kScaleFactor, odonav::test::make_scale_factor());
   expect_msg_twin_matches_wire(topics::kDeadReckoning, odonav::test::make_dead_reckoning());
+  expect_msg_twin_matches_wire(topics::kNavigationPosition, odonav::test::make_navigation_position());
   expect_msg_twin_matches_wire(topics::kHealth, odonav::test::make_health_sample());
   expect_msg_twin_matches_wire(topics::kCommand, odonav::test::make_command());
 }

@@ -133,6 +133,10 @@ TEST_F(DdsTopics, ScaleFactorRoundTripsEveryField) {
 TEST_F(DdsTopics, DeadReckoningRoundTripsEveryField) {
   expect_round_trip(topics::kDeadReckoning, odonav::test::make_dead_reckoning());
 }
+
+TEST_F(DdsTopics, NavigationPositionRoundTripsEveryField) {
+  expect_round_trip(topics::kNavigationPosition, odonav::test::make_navigation_position());
+}
 TEST_F(DdsTopics, HealthRoundTripsEveryField) { expect_round_trip(topics::kHealth, odonav::test::make_health_sample()); }
 TEST_F(DdsTopics, CommandRoundTripsEveryField) { expect_round_trip(topics::kCommand, odonav::test::make_command()); }
 

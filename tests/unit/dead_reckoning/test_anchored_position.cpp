@@ -144,3 +144,16 @@ TEST(AnchoredPosition, BadParametersAndInputAreNamed) {
   nan.fix_enu_m.x() = std::nan("");
   EXPECT_THROW(filter.add_fix(nan), StreamInputError);
 }
+
+TEST(AnchoredPosition, AGateThatStaysShutRestartsOnTheFixesAndCountsIt) {
+  // The fixes jump 60 m for good at t = 3 s (the DR, say, lost its heading): five are gated, the
+  // sixth restarts the filter on them.
+  AnchoredPositionFilter filter;
+  for (int i = 0; i <= 60; ++i) filter.add_fix(fix_at(0.1 * i, Eigen::Vector3d(i >= 30 ? 60.0 : 0.0, 0.0, 0.0)));
+  AnchoredPosition p;
+  for (int j = 1; j <= 700; ++j) p = filter.step(dr_at(0.01 * j));
+  EXPECT_EQ(filter.counters().fixes_rejected_gate, 5u);
+  EXPECT_EQ(filter.counters().gate_restarts, 1u);
+  EXPECT_NEAR(p.enu_m.x(), 60.0, 1e-9);
+  EXPECT_EQ(p.status, AnchorStatus::kAnchored);
+}

@@ -327,7 +327,7 @@ TEST(Recording, TopicSelectionAndQosMetadata) {
   EXPECT_STREQ(chosen[0].name, "rt/odonav/gnss/fix");
   EXPECT_STREQ(chosen[1].name, "rt/odonav/health");
   EXPECT_STREQ(chosen[2].name, "rt/odonav/odometer");
-  EXPECT_EQ(select_topics("").size(), 8u);
+  EXPECT_EQ(select_topics("").size(), 9u);  // every topic of the contract
   // Recordings read the estimates with the deep recorder profiles, the rest with the topic's own.
   EXPECT_STREQ(recording_reader_profile(odonav::topics::kScaleFactor), "odonav_scale_factor_recorder_reader");
   EXPECT_STREQ(recording_reader_profile(odonav::topics::kMisalignment), "odonav_misalignment_recorder_reader");

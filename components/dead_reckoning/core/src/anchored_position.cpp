@@ -33,6 +33,7 @@ AnchoredPositionFilter::AnchoredPositionFilter(const AnchoredPositionParams& p) 
   require(positive(p.min_fix_sigma_m), "min_fix_sigma_m must be finite and > 0");
   require(positive(p.vertical_sigma_factor), "vertical_sigma_factor must be finite and > 0");
   require(positive(p.gate_sigma), "gate_sigma must be finite and > 0");
+  require(p.gate_restart_after >= 1, "gate_restart_after must be >= 1");
   require(positive(p.anchored_max_age_s), "anchored_max_age_s must be finite and > 0");
   const double rate = p.drift_percent_distance / 100.0;
   q_m2_per_m_ = rate * rate * p.correlation_distance_m;
@@ -60,11 +61,15 @@ void AnchoredPositionFilter::apply(const AnchorFix& fix) {
   previous_fix_t_s_ = fix.t_s;
   const Eigen::Vector3d r = correlation * Eigen::Vector3d(sigma_h * sigma_h, sigma_h * sigma_h, sigma_v * sigma_v);
   const Eigen::Vector3d z = fix.fix_enu_m - fix.dr_enu_m;  // the DR error at the fix epoch
-  if (!initialised_) {
-    // No prior: the first fix sets the offset (the DR starts on a fix, so it is 0 there).
+  const bool restart = initialised_ && consecutive_gated_ >= params_.gate_restart_after;
+  if (!initialised_ || restart) {
+    // No prior (or none worth keeping): the fix sets the offset (the DR starts on a fix, so it is
+    // 0 at the first one).
     offset_m_ = z;
     variance_m2_ = r / correlation;  // one fix alone: its own variance
     initialised_ = true;
+    consecutive_gated_ = 0;
+    if (restart) ++counters_.gate_restarts;
   } else {
     const Eigen::Vector3d innovation = z - offset_m_;
     const Eigen::Vector3d s = variance_m2_ + r;
@@ -74,10 +79,12 @@ void AnchoredPositionFilter::apply(const AnchorFix& fix) {
     const double gate_m = params_.gate_sigma * std::sqrt(variance_m2_.x() + variance_m2_.y() + 2.0 * sigma_h * sigma_h);
     if (innovation_h_m > gate_m) {
       ++counters_.fixes_rejected_gate;
+      ++consecutive_gated_;
       counters_.last_rejected_innovation_m = innovation_h_m;
       counters_.last_rejected_gate_m = gate_m;
       return;
     }
+    consecutive_gated_ = 0;
     for (int i = 0; i < 3; ++i) {
       const double gain = variance_m2_[i] / s[i];
       offset_m_[i] += gain * innovation[i];

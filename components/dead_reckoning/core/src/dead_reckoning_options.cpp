@@ -36,6 +36,10 @@ DeadReckonerParams dead_reckoner_params(const DeadReckoningFacts& f) {
   return p;
 }
 
-AnchoredPositionParams anchored_position_params(const DeadReckoningFacts& /*facts*/) { return AnchoredPositionParams{}; }
+AnchoredPositionParams anchored_position_params(const DeadReckoningFacts& facts) {
+  AnchoredPositionParams p;
+  if (!facts.use_ins) p.drift_percent_distance = 1.0;
+  return p;
+}
 
 }  // namespace odonav

@@ -6,6 +6,8 @@
 #include "odonav/msg/CommandPubSubTypes.h"
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/DeadReckoningPubSubTypes.h"
+#include "odonav/msg/NavigationPosition.h"
+#include "odonav/msg/NavigationPositionPubSubTypes.h"
 #include "odonav/msg/GnssFix.h"
 #include "odonav/msg/GnssFixPubSubTypes.h"
 #include "odonav/msg/Health.h"
@@ -30,6 +32,9 @@ template <> struct DdsType<odonav::msg::GnssFix> { using PubSubType = odonav::ms
 template <> struct DdsType<odonav::msg::Misalignment> { using PubSubType = odonav::msg::MisalignmentPubSubType; };
 template <> struct DdsType<odonav::msg::ScaleFactor> { using PubSubType = odonav::msg::ScaleFactorPubSubType; };
 template <> struct DdsType<odonav::msg::DeadReckoning> { using PubSubType = odonav::msg::DeadReckoningPubSubType; };
+template <> struct DdsType<odonav::msg::NavigationPosition> {
+  using PubSubType = odonav::msg::NavigationPositionPubSubType;
+};
 template <> struct DdsType<odonav::msg::Health> { using PubSubType = odonav::msg::HealthPubSubType; };
 template <> struct DdsType<odonav::msg::Command> { using PubSubType = odonav::msg::CommandPubSubType; };
 

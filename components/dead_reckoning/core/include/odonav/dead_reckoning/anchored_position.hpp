@@ -70,6 +70,10 @@ struct AnchoredPositionParams {
   double vertical_sigma_factor = 1.5;
   /// Innovation gate on the horizontal innovation, in predicted sigmas (> 0).
   double gate_sigma = 6.0;
+  /// After this many consecutive gated fixes (>= 1) the filter restarts on the next fix: the DR,
+  /// not the GNSS, has left the gate (a precise receiver, a DR drifting faster than modelled), and
+  /// a gate that never reopens would leave the position unanchored for good. Counted.
+  int gate_restart_after = 5;
   /// Status ANCHORED while the last applied fix's epoch is at most this old (s, > 0); after it,
   /// DEAD_RECKONING. 2.5 s covers a 1 Hz receiver with one epoch missing.
   double anchored_max_age_s = 2.5;
@@ -117,6 +121,7 @@ struct AnchoredPositionCounters {
   uint64_t fixes_added = 0;
   uint64_t fixes_applied = 0;
   uint64_t fixes_rejected_gate = 0;  ///< innovation above gate_sigma.
+  uint64_t gate_restarts = 0;        ///< restarts on a fix after gate_restart_after gated ones.
   double last_rejected_innovation_m = std::numeric_limits<double>::quiet_NaN();
   double last_rejected_gate_m = std::numeric_limits<double>::quiet_NaN();
 };
@@ -151,7 +156,8 @@ class AnchoredPositionFilter {
   double last_distance_m_ = 0.0;
   double last_fix_t_s_ = std::numeric_limits<double>::quiet_NaN();
   double last_fix_distance_m_ = 0.0;
-  std::optional<double> previous_fix_t_s_;  ///< epoch of the previous fix taken (applied or gated)
+  std::optional<double> previous_fix_t_s_;
+  int consecutive_gated_ = 0;  ///< epoch of the previous fix taken (applied or gated)
   AnchoredPositionCounters counters_;
 };
 

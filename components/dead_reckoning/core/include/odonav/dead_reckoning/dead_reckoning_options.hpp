@@ -46,7 +46,8 @@ DeadReckoningFacts dead_reckoning_facts_from(const Options& options);
 DeadReckonerParams dead_reckoner_params(const DeadReckoningFacts& facts);
 
 /// The one AnchoredPositionParams of the navigation position (odonav-offline and
-/// odonav-dead-reckoning): the defaults of anchored_position.hpp; no vehicle fact changes them yet.
+/// odonav-dead-reckoning): the defaults of anchored_position.hpp, except without INS (degraded
+/// mode), where the DR heading is the GNSS course held through stops and turns: 1 %D drift.
 AnchoredPositionParams anchored_position_params(const DeadReckoningFacts& facts);
 
 }  // namespace odonav
