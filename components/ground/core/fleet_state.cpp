@@ -120,6 +120,12 @@ void FleetState::on_dead_reckoning(const DeadReckoningView& d, double now_s) {
   count(v, Stream::kDeadReckoning, now_s);
 }
 
+void FleetState::on_navigation(const NavigationPositionView& n, double now_s) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Vehicle& v = vehicle(n.vehicle_id);
+  v.navigation = std::make_pair(n, Timed{now_s, false});
+}
+
 void FleetState::on_gnss(const GnssView& g, double now_s) {
   std::lock_guard<std::mutex> lock(mutex_);
   Vehicle& v = vehicle(g.vehicle_id);
@@ -184,6 +190,7 @@ FleetSnapshot FleetState::snapshot(double now_s, const std::vector<std::string>&
     fill(v.scale_factor, vs.scale_factor, Stream::kScaleFactor);
     fill(v.misalignment, vs.misalignment, Stream::kMisalignment);
     fill(v.dead_reckoning, vs.dead_reckoning, Stream::kDeadReckoning);
+    fill(v.navigation, vs.navigation, Stream::kDeadReckoning);
     fill(v.gnss, vs.gnss, Stream::kGnssFix);
     for (int s = 0; s < kStreamCount; ++s) {
       const auto& q = v.arrivals[s];
@@ -270,6 +277,22 @@ nlohmann::json snapshot_json(const FleetSnapshot& snap) {
                               {"stale", v.dead_reckoning->stale}};
     } else {
       jv["dead_reckoning"] = nullptr;
+    }
+    if (v.navigation) {
+      const auto& n = v.navigation->view;
+      const char* status = n.status == 1 ? "anchored" : n.status == 2 ? "dead_reckoning" : "not_started";
+      const bool known = n.covariance_east_m2 >= 0.0 && n.covariance_north_m2 >= 0.0;
+      jv["navigation"] = {{"status", status},
+                          {"latitude_deg", n.latitude_deg},
+                          {"longitude_deg", n.longitude_deg},
+                          {"horizontal_sigma_m", known ? nlohmann::json(std::sqrt(n.covariance_east_m2 + n.covariance_north_m2))
+                                                       : nlohmann::json(nullptr)},
+                          {"distance_since_fix_m", known_or_null(n.distance_since_fix_m)},
+                          {"stamp_s", n.stamp_s},
+                          {"age_s", v.navigation->age_s},
+                          {"stale", v.navigation->stale}};
+    } else {
+      jv["navigation"] = nullptr;
     }
     if (v.gnss) {
       const auto& g = v.gnss->view;

@@ -136,6 +136,7 @@ struct VehicleSnapshot {
   std::optional<ItemSnapshot<ScaleFactorView>> scale_factor;
   std::optional<ItemSnapshot<MisalignmentView>> misalignment;
   std::optional<ItemSnapshot<DeadReckoningView>> dead_reckoning;
+  std::optional<ItemSnapshot<NavigationPositionView>> navigation;  ///< stale as dead_reckoning
   std::optional<ItemSnapshot<GnssView>> gnss;
   double rate_hz[kStreamCount] = {0, 0, 0, 0, 0, 0, 0};  ///< arrivals per second over the rate window
   bool stale = false;  ///< some producer of this vehicle is stale
@@ -156,6 +157,8 @@ class FleetState {
   void on_misalignment(const MisalignmentView& v, double now_s);
   void on_dead_reckoning(const DeadReckoningView& v, double now_s);
   void on_gnss(const GnssView& v, double now_s);
+  /// The GNSS-anchored position (same producer and rate as dead reckoning: no rate of its own).
+  void on_navigation(const NavigationPositionView& v, double now_s);
   /// An arrival of a stream that keeps no content here (odometer, INS): counted for its rate.
   void on_arrival(const std::string& vehicle_id, Stream stream, double now_s);
   /// The reader's deadline edge: `silent` true when the instance (vehicle, and component for
@@ -175,6 +178,7 @@ class FleetState {
     std::optional<std::pair<ScaleFactorView, Timed>> scale_factor;
     std::optional<std::pair<MisalignmentView, Timed>> misalignment;
     std::optional<std::pair<DeadReckoningView, Timed>> dead_reckoning;
+    std::optional<std::pair<NavigationPositionView, Timed>> navigation;
     std::optional<std::pair<GnssView, Timed>> gnss;
     std::deque<double> arrivals[kStreamCount];
   };
@@ -190,7 +194,8 @@ class FleetState {
 /// The snapshot as JSON (for --once --json): {"vehicles": [{"vehicle_id", "stale", "components":
 /// [{"component", "state", "level", "reason", "stale", "age_s", "last_command": {...}, "counters":
 /// {...}}], "scale_factor" (with "source": the instance K comes from), "misalignment" (degrees
-/// added), "dead_reckoning", "gnss": objects or null, "rates_hz": {stream: Hz}}]}. Unknown
+/// added), "dead_reckoning", "navigation" ("status" not_started | anchored | dead_reckoning,
+/// "horizontal_sigma_m", "distance_since_fix_m"), "gnss": objects or null, "rates_hz": {stream: Hz}}]}. Unknown
 /// sigmas/errors (-1) are null.
 nlohmann::json snapshot_json(const FleetSnapshot& snapshot);
 

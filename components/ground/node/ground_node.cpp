@@ -220,11 +220,11 @@ FleetMonitor::FleetMonitor(const dds::Participant& participant, FleetState& stat
         s->on_dead_reckoning(view_of(m), now());
         if (tap) tap(TopicId::kDeadReckoning, &m);
       }));
-  if (tap) {
-    readers_.push_back(std::make_unique<Reader<msg::NavigationPosition>>(
-        participant, topics::kNavigationPosition.name, best_effort,
-        [tap](const msg::NavigationPosition& m) { tap(TopicId::kNavigationPosition, &m); }));
-  }
+  readers_.push_back(std::make_unique<Reader<msg::NavigationPosition>>(
+      participant, topics::kNavigationPosition.name, best_effort, [s, now, tap](const msg::NavigationPosition& m) {
+        s->on_navigation(view_of(m), now());
+        if (tap) tap(TopicId::kNavigationPosition, &m);
+      }));
   readers_.push_back(std::make_unique<Reader<msg::GnssFix>>(
       participant, topics::kGnssFix.name, best_effort, [s, now, tap](const msg::GnssFix& m) {
         s->on_gnss(view_of(m), now());

@@ -297,6 +297,15 @@ TEST(FleetState, JsonAndDashboardOfManyVehiclesFitEightyByTwentyFour) {
     d.k_source = 1;
     d.distance_m = 1234.0;
     fleet.on_dead_reckoning(d, 1.0);
+    if (v == 0) {
+      NavigationPositionView n;
+      n.vehicle_id = id;
+      n.status = 2;  // bridging an outage
+      n.covariance_east_m2 = 2.25;
+      n.covariance_north_m2 = 1.75;
+      n.distance_since_fix_m = 412.5;
+      fleet.on_navigation(n, 1.0);
+    }
   }
   const FleetSnapshot snap = fleet.snapshot(1.5);
   const std::string text = render_dashboard(snap, 80, 24, false, "odonav-ground test");
@@ -315,6 +324,11 @@ TEST(FleetState, JsonAndDashboardOfManyVehiclesFitEightyByTwentyFour) {
   EXPECT_TRUE(j["vehicles"][0]["scale_factor"]["sigma_m_per_pulse"].is_null());  // -1 = unknown
   EXPECT_EQ(j["vehicles"][0]["components"].size(), 4u);
   EXPECT_TRUE(j["vehicles"][0]["misalignment"].is_null());
+  // The anchored position: status, sqrt(2.25 + 1.75) = 2 m horizontal sigma, distance since the fix.
+  EXPECT_EQ(j["vehicles"][0]["navigation"]["status"], "dead_reckoning");
+  EXPECT_DOUBLE_EQ(j["vehicles"][0]["navigation"]["horizontal_sigma_m"].get<double>(), 2.0);
+  EXPECT_DOUBLE_EQ(j["vehicles"][0]["navigation"]["distance_since_fix_m"].get<double>(), 412.5);
+  EXPECT_TRUE(j["vehicles"][1]["navigation"].is_null());
   // Which instance publishes K: in the JSON and on the DR line of the dashboard.
   EXPECT_EQ(j["vehicles"][0]["scale_factor"]["source"], "identification/standby");
   EXPECT_EQ(j["vehicles"][1]["scale_factor"]["source"], "identification");
