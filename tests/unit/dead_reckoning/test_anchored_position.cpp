@@ -39,6 +39,7 @@ AnchorFix fix_at(double t_s, const Eigen::Vector3d& offset, double sigma_m = 1.0
 
 TEST(AnchoredPosition, AFixAppliesFromItsEpochPlusTheHoldOffOnly) {
   AnchoredPositionFilter filter;  // hold-off 0.2 s
+  EXPECT_DOUBLE_EQ(filter.applies_from_s(1.0), 1.2 - 1e-6);
   filter.add_fix(fix_at(1.0, Eigen::Vector3d(3.0, -2.0, 0.5)));
   for (int j = 1; j <= 119; ++j) {  // t = 0.01 .. 1.19 s
     const AnchoredPosition p = filter.step(dr_at(0.01 * j));
@@ -80,7 +81,7 @@ TEST(AnchoredPosition, ArrivalOrderChangesNothing) {
   std::size_t next = 0;
   for (int j = 1; j <= 1000; ++j) {
     const double t = 0.01 * j;
-    while (next < fixes.size() && fixes[next].t_s + 0.2 <= t) late.add_fix(fixes[next++]);
+    while (next < fixes.size() && late.applies_from_s(fixes[next].t_s) <= t) late.add_fix(fixes[next++]);
     const AnchoredPosition a = early.step(dr_at(t)), b = late.step(dr_at(t));
     ASSERT_EQ(a.enu_m, b.enu_m) << t;
     ASSERT_EQ(a.status, b.status);

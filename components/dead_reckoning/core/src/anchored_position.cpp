@@ -39,6 +39,15 @@ AnchoredPositionFilter::AnchoredPositionFilter(const AnchoredPositionParams& p) 
   q_m2_per_m_ = rate * rate * p.correlation_distance_m;
 }
 
+double AnchoredPositionFilter::applies_from_s(double epoch_s) const {
+  // 1 us early for a hold-off > 0: GNSS epochs and odometer samples often share a grid (10 and
+  // 100 Hz), so epoch + hold-off is an odometer instant up to the last bit, and a stamp that crossed
+  // DDS (integer nanoseconds) may come back a few ulps off; 1 us is far above that and far below any
+  // sensor period, so odonav-offline and the node put the sample on the same side. The estimates'
+  // hold-off rule has the same guard.
+  return params_.hold_off_s > 0.0 ? epoch_s + params_.hold_off_s - kAnchorApplicationGuard_s : epoch_s;
+}
+
 void AnchoredPositionFilter::add_fix(const AnchorFix& fix) {
   detail::check_stream_time("anchor_fix", fix.t_s, last_added_t_s_);
   if (!fix.fix_enu_m.allFinite() || !fix.dr_enu_m.allFinite() || !std::isfinite(fix.dr_distance_m)) {
@@ -109,7 +118,7 @@ AnchoredPosition AnchoredPositionFilter::step(const AnchorDrStep& s) {
   // standing still does not drift).
   if (initialised_) variance_m2_.array() += q_m2_per_m_ * std::abs(s.distance_m - last_distance_m_);
   last_distance_m_ = s.distance_m;
-  while (!queued_.empty() && queued_.front().t_s + params_.hold_off_s <= s.t_s) {
+  while (!queued_.empty() && applies_from_s(queued_.front().t_s) <= s.t_s) {
     apply(queued_.front());
     queued_.pop_front();
   }

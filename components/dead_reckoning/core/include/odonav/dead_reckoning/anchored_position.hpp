@@ -44,9 +44,12 @@ struct DeadReckoningOutput;
 /// Delay between a GNSS epoch and the first odometer sample its fix is applied to (s): covers the
 /// normal arrival delay of a fix after its epoch so that the position never waits for it.
 inline constexpr double kDefaultAnchorHoldOff_s = 0.2;
+/// A fix applies from epoch + hold-off - this (s) when the hold-off is > 0 (see applies_from_s).
+inline constexpr double kAnchorApplicationGuard_s = 1e-6;
 
 struct AnchoredPositionParams {
-  /// A fix of epoch g applies from odometer time g + hold_off_s on (s, >= 0).
+  /// A fix of epoch g applies from odometer time g + hold_off_s on (s, >= 0; 1 us earlier when > 0,
+  /// see AnchoredPositionFilter::applies_from_s).
   double hold_off_s = kDefaultAnchorHoldOff_s;
   /// One-sigma DR error growth per axis, % of distance: an identified K to ~0.1 % and a calibrated
   /// heading misalignment to ~0.05 deg (0.09 % cross-track) give about 0.13 %D; 0.2 leaves margin for
@@ -140,6 +143,9 @@ class AnchoredPositionFilter {
   AnchoredPosition step(const DeadReckoningOutput& dr);
 
   const AnchoredPositionCounters& counters() const { return counters_; }
+  /// Odometer time from which a fix of epoch epoch_s applies: epoch + hold_off_s - 1 us (hold-off
+  /// > 0), else the epoch itself.
+  double applies_from_s(double epoch_s) const;
   const AnchoredPositionParams& params() const { return params_; }
 
  private:
