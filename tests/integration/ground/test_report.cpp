@@ -45,6 +45,8 @@ TEST(Report, HtmlWithEveryFigureFromAnOfflineRun) {
   // The summary table comes from summary.json: the main estimator's final K is on the page.
   EXPECT_NE(html.find("K vff_lm_rls"), std::string::npos);
   EXPECT_NE(html.find("DR online k"), std::string::npos);
+  // The GNSS-anchored position beside the pure DR and the GNSS fixes (summary.json's navigation_position).
+  EXPECT_NE(html.find("horizontal RMS vs truth while valid [m]: anchored / pure DR / GNSS"), std::string::npos);
 
   // A folder with a missing file: exit 1, the message names it.
   fs::remove(dir / "out" / "scale_factor.csv");
