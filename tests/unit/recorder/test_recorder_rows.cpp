@@ -131,3 +131,42 @@ TEST(RecorderRows, DeadReckoningWithoutReference) {
   EXPECT_TRUE(std::isnan(r.horizontal_error_m));
   EXPECT_TRUE(std::isnan(r.error_percent));
 }
+
+TEST(RecorderRows, NavigationPositionUnknownsAreEmptyAndStatusIsNamedAsOfflineWritesIt) {
+  odonav::msg::NavigationPosition m;
+  m.header(odonav::dds::make_header(100.25, "wgs84"));
+  m.latitude_deg(52.5001);
+  m.longitude_deg(13.4002);
+  m.height_m(81.5);
+  m.enu_east_m(12.5);
+  m.enu_north_m(-3.25);
+  m.enu_up_m(0.5);
+  // Before the first fix: covariance, last fix and distance unknown on the wire (-1).
+  m.position_covariance_east_m2(-1.0);
+  m.position_covariance_north_m2(-1.0);
+  m.position_covariance_up_m2(-1.0);
+  m.position_covariance_type(0);
+  m.status(odonav::msg::NAVIGATION_STATUS_NOT_STARTED);
+  m.last_fix_stamp_s(-1.0);
+  m.distance_since_fix_m(-1.0);
+  results::NavigationPositionRow r = recorder::navigation_position_row(m);
+  EXPECT_EQ(r.t_s, 100.25);
+  EXPECT_EQ(rad_to_deg(r.lat_rad), 52.5001);
+  EXPECT_EQ(r.east_m, 12.5);
+  EXPECT_EQ(r.status, "not_started");  // to_string(AnchorStatus::kNotStarted), as odonav-offline writes it
+  EXPECT_TRUE(std::isnan(r.var_east_m2) && std::isnan(r.var_up_m2) && std::isnan(r.last_fix_t_s) &&
+              std::isnan(r.distance_since_fix_m));
+  // Bridging an outage: every value known.
+  m.position_covariance_east_m2(1.5);
+  m.position_covariance_north_m2(1.25);
+  m.position_covariance_up_m2(3.0);
+  m.position_covariance_type(2);
+  m.status(odonav::msg::NAVIGATION_STATUS_DEAD_RECKONING);
+  m.last_fix_stamp_s(98.5);
+  m.distance_since_fix_m(17.5);
+  r = recorder::navigation_position_row(m);
+  EXPECT_EQ(r.status, "dead_reckoning");
+  EXPECT_EQ(r.var_north_m2, 1.25);
+  EXPECT_EQ(r.last_fix_t_s, 98.5);
+  EXPECT_EQ(r.distance_since_fix_m, 17.5);
+}
