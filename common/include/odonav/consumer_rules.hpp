@@ -5,6 +5,7 @@
 // include directory of odonav_core and every other common area library).
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -51,6 +52,16 @@ inline bool misalignment_applicable(bool converged, uint64_t samples_used, doubl
   if (converged || samples_used >= kMisalignmentMinSamplesToApply) return true;
   if (samples_used < kProvisionalMinSamples) return false;
   return beats_nominal(heading_rad, 0.0, heading_std_rad) || beats_nominal(pitch_rad, 0.0, pitch_std_rad);
+}
+
+/// While the calibration is silent, the identification and dead reckoning keep applying the last
+/// misalignment they applied (stamped held_t_s, event time); their health says so, with how long
+/// the calibration has been silent (wall clock): "holding misalignment of t=40.0 s (calibration
+/// silent 5 s)".
+inline std::string held_misalignment_text(double held_t_s, double silent_s) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "holding misalignment of t=%.1f s (calibration silent %.0f s)", held_t_s, silent_s);
+  return buf;
 }
 
 /// Dead reckoning applies an identified K (valid: finite and > 0) when its estimator says converged

@@ -171,6 +171,7 @@ void DeadReckoningNode::on_misalignment(const odonav::msg::Misalignment& m, doub
   core_.add_misalignment(t_s, mis);  // throws StreamInputError on non-finite angles: counted
   applied_misalignment_.add(t_s, mis);
   ++misalignments_applied_;
+  held_misalignment_t_s_ = t_s;
 }
 
 void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s) {
@@ -248,6 +249,8 @@ dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
   f.misalignment_absent = input_absent(misalignment_, now_s);
   f.misalignment_heard = input_heard(misalignment_, now_s);
   f.misalignments_applied = misalignments_applied_;
+  f.held_misalignment_t_s = held_misalignment_t_s_;
+  f.misalignment_silent_s = aligner_.status(misalignment_.id, now_s).silent_for_s;
   const DeadReckoningHealth h = dead_reckoning_health(f);
   return {to_message_state(h.state), to_message_level(h.level), h.reason};
 }

@@ -74,6 +74,7 @@ class DeadReckoningNode : public dds::EventTimeNode {
   ScaleFactorSelection k_selection_;
   CountChangeTime pulse_jumps_;  ///< when the pulse-jump total last changed (health WARN window)
   uint64_t misalignments_applied_ = 0;
+  std::optional<double> held_misalignment_t_s_;  // stamp of the last misalignment applied
   dds::BurstThrottle throttle_;
   std::optional<DeadReckoningOutput> last_output_;
   dds::NodeInput& odometer_;

@@ -197,6 +197,7 @@ void IdentificationNode::on_misalignment(const odonav::msg::Misalignment& m, dou
     throw StreamInputError("misalignment: angles are not finite");
   core_.add_misalignment(t_s, Misalignment{m.heading_rad(), m.pitch_rad()});
   ++misalignments_applied_;
+  held_misalignment_t_s_ = t_s;
 }
 
 void IdentificationNode::publish(const std::vector<IdentificationOutput>& outputs) {
@@ -272,6 +273,8 @@ dds::EventTimeNode::Status IdentificationNode::node_status(double now_s) {
   facts.misalignment_absent = input_absent(misalignment_, now_s);
   facts.misalignment_heard = input_heard(misalignment_, now_s);
   facts.misalignments_applied = misalignments_applied_;
+  facts.held_misalignment_t_s = held_misalignment_t_s_;
+  facts.misalignment_silent_s = aligner_.status(misalignment_.id, now_s).silent_for_s;
   const IdentificationHealth h = identification_health(facts);
   using namespace odonav::msg;
   Status s;

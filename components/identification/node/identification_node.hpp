@@ -97,6 +97,7 @@ class IdentificationNode : public dds::EventTimeNode {
   IdentificationCore core_;
   IdentificationLifecycle lifecycle_;
   uint64_t misalignments_applied_ = 0;
+  std::optional<double> held_misalignment_t_s_;  // stamp of the last misalignment applied
   dds::NodeInput& odometer_;
   dds::NodeInput& gnss_;
   dds::NodeInput* ins_ = nullptr;

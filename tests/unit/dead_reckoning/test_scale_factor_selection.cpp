@@ -355,6 +355,13 @@ TEST(DeadReckoningHealthDecision, MisalignmentReasonsAndTheirOrderAfterK) {
   f.misalignment_absent = true;
   EXPECT_EQ(dead_reckoning_health(f).reason, "using zero misalignment: no calibration");
   EXPECT_EQ(dead_reckoning_health(f).level, DeadReckoningHealthLevel::kOk);
+  // Absent after some were applied: the last one is held, and the text says so (not "zero").
+  f.misalignments_applied = 12;
+  f.held_misalignment_t_s = 40.0;
+  f.misalignment_silent_s = 5.2;
+  EXPECT_EQ(dead_reckoning_health(f).reason, "holding misalignment of t=40.0 s (calibration silent 5 s)");
+  f.misalignments_applied = 0;
+  f.held_misalignment_t_s.reset();
   f.misalignment_absent = false;
   f.misalignments_applied = 0;
   EXPECT_EQ(dead_reckoning_health(f).reason, "misalignment not converged yet: using zero");

@@ -501,6 +501,15 @@ TEST(IdentificationHealthDecision, ZeroMisalignmentTextsNeverRaiseTheLevel) {
   EXPECT_EQ(h.reason, "using zero misalignment: no calibration");
   EXPECT_EQ(h.state, State::kDegraded) << "a calibration that went away degrades the node";
   EXPECT_EQ(h.level, Level::kOk);
+  // Gone after some were applied: the core holds the last one, and the text says so (not "zero").
+  {
+    IdentificationHealthFacts held = f;
+    held.misalignments_applied = 7;
+    held.held_misalignment_t_s = 61.3;
+    held.misalignment_silent_s = 3.4;
+    EXPECT_EQ(identification_health(held).reason, "holding misalignment of t=61.3 s (calibration silent 3 s)");
+    EXPECT_EQ(identification_health(held).state, State::kDegraded);
+  }
 
   f = running_facts(false);
   f.misalignment_absent = true;

@@ -93,7 +93,10 @@ DeadReckoningHealth dead_reckoning_health(const DeadReckoningHealthFacts& f) {
     s.level = Level::kWarn;
     add("rejected " + std::to_string(f.pulse_jumps_rejected) + " odometer samples: pulse jump (counter glitch)");
   }
-  if (f.misalignment_absent)
+  // Absent after some were applied: the DR keeps applying the last one (it is not reset).
+  if (f.misalignment_absent && f.misalignments_applied > 0 && f.held_misalignment_t_s)
+    add(held_misalignment_text(*f.held_misalignment_t_s, f.misalignment_silent_s));
+  else if (f.misalignment_absent)
     add("using zero misalignment: no calibration");
   else if (f.misalignment_heard && f.misalignments_applied == 0)
     add("misalignment not converged yet: using zero");

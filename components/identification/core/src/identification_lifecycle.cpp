@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include "odonav/config.hpp"
+#include "odonav/consumer_rules.hpp"
 
 namespace odonav {
 
@@ -23,7 +24,9 @@ IdentificationHealth identification_health(const IdentificationHealthFacts& f) {
   }
   // The misalignment is optional: say why zero is used, without raising the level.
   std::string mis;
-  if (f.misalignment_absent)
+  if (f.misalignment_absent && f.misalignments_applied > 0 && f.held_misalignment_t_s)
+    mis = held_misalignment_text(*f.held_misalignment_t_s, f.misalignment_silent_s);
+  else if (f.misalignment_absent)
     mis = "using zero misalignment: no calibration";
   else if (!f.misalignment_heard)
     mis = "no misalignment received yet: using zero";

@@ -137,6 +137,8 @@ struct DeadReckoningHealthFacts {
   bool misalignment_absent = false;     ///< the misalignment input is declared absent
   bool misalignment_heard = false;      ///< a Misalignment was received
   uint64_t misalignments_applied = 0;   ///< misalignments given to the DR
+  std::optional<double> held_misalignment_t_s;  ///< stamp of the last one given (event time, s)
+  double misalignment_silent_s = 0.0;   ///< wall time since the calibration was last heard (s)
 };
 
 struct DeadReckoningHealth {

@@ -63,6 +63,10 @@ struct IdentificationHealthFacts {
   bool misalignment_heard = false;
   /// Misalignments applied to the core so far (converged ones only, consumer_rules.hpp).
   uint64_t misalignments_applied = 0;
+  /// The stamp of the last one applied (event time, s): the core keeps applying it while the
+  /// calibration is silent; and how long that is (wall clock, s).
+  std::optional<double> held_misalignment_t_s;
+  double misalignment_silent_s = 0.0;
   /// What the restore did, shown until restore_note_until_s (steady, s); "" = nothing to say.
   std::string restore_note;
   /// The checkpoint was unusable: WARN while the note shows.
@@ -79,7 +83,9 @@ struct IdentificationHealthFacts {
 /// Reasons (operators and tests rely on the exact texts):
 ///  - no output: STARTING "waiting for the first GNSS epoch to process";
 ///  - frozen: "frozen by command: K held"; no valid or converged K: "K not converged yet";
-///  - misalignment absent: "using zero misalignment: no calibration" (and DEGRADED when RUNNING);
+///  - misalignment absent: "using zero misalignment: no calibration" when none was ever applied,
+///    "holding misalignment of t=40.0 s (calibration silent 5 s)" when the last one applied is
+///    held (DEGRADED when RUNNING either way);
 ///    never heard: "no misalignment received yet: using zero"; heard but none applied:
 ///    "misalignment not converged yet: using zero" (the level is never raised for these);
 ///  - "<n> checkpoint writes failed" with WARN when the level was OK.
