@@ -11,7 +11,7 @@ int main(int argc, char** argv) {
       "Publishes rt/odonav/odometer (100 Hz), rt/odonav/ins/attitude (100 Hz) and rt/odonav/gnss/fix (10 Hz) of "
       "one vehicle from --source sim:<scenario> or replay:<dataset dir>, stamped with the sample time, in time "
       "order, at --speed 1 (real time), N or max (as fast as the readers acknowledge), or live from line-protocol "
-      "devices (--source udp:... or serial:..., optionally with --gnss-source gpsd:...) or gpsd (--source gpsd:...). Exits 0 at the end of the data or on SIGINT/SIGTERM.",
+      "devices (--source udp:... or serial:..., optionally with --gnss-source gpsd:...) or gpsd (--source gpsd:...). Exits 0 at the end of the data or on SIGINT/SIGTERM, 4 when a reliable reader was lost before the data was complete (--tolerate-lost-readers: 0).",
       [](odonav::Options& o) { odonav::gateway::add_gateway_options(o); },
       [](const odonav::Options& o, odonav::dds::ComponentRuntime& runtime) {
         if (odonav::gateway::is_live_mode(o)) return odonav::gateway::run_live_gateway(o, runtime);

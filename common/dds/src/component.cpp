@@ -172,10 +172,33 @@ void ComponentRuntime::run_pending() {
 }
 
 void ComponentRuntime::publish_health(odonav::msg::HealthState state, odonav::msg::HealthLevel level,
-                                      const std::string& reason, const HealthCounters& counters, bool force) {
+                                      const std::string& reason_in, const HealthCounters& counters_in, bool force) {
   const double now = unix_now_s();
   if (ack_pending_) force = true;
   ack_pending_ = false;
+  // A producer discovered (its writer matched) that sends nothing while the others do: cut off or
+  // stalled. Each silence is logged once when it starts and once when it ends, and Health is sent
+  // at once on either edge.
+  std::string reason = reason_in;
+  HealthCounters counters = counters_in;
+  PeerTracker& peers = participant_->core()->peers();
+  const double steady = steady_now_s();
+  for (const auto& e : peers.edges(steady)) {
+    force = true;
+    if (e.silent)
+      spdlog::warn("no {} from {} for {:.1f} s although it is matched and others are heard (cut off, stalled, "
+                   "or gone without leaving)", e.who.stream, e.who.peer, e.who.silent_s);
+    else
+      spdlog::info("{} from {} heard again", e.who.stream, e.who.peer);
+  }
+  if (state != odonav::msg::HEALTH_STATE_STOPPING) {
+    const auto silent = peers.silent(steady);
+    counters.emplace_back("peers_silent", static_cast<double>(silent.size()));
+    if (const auto r = peers.reason(steady)) {
+      if (level == odonav::msg::HEALTH_LEVEL_OK) level = odonav::msg::HEALTH_LEVEL_WARN;
+      reason = reason.empty() ? *r : *r + "; " + reason;
+    }
+  }
   const auto publish = [&](odonav::msg::HealthLevel l, const std::string& r, const HealthCounters& c) {
     if (force)
       health_->publish_now(now, state, l, r, c);

@@ -5,7 +5,11 @@
 #include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
 #include <spdlog/spdlog.h>
 
+#include <cstring>
 #include <stdexcept>
+
+#include "odonav/dds/component.hpp"
+#include "odonav/topics.hpp"
 
 namespace odonav::dds::detail {
 
@@ -96,7 +100,34 @@ bool WriterBase::wait_for_acknowledgments(std::chrono::milliseconds timeout) {
 
 void WriterBase::on_publication_matched(DataWriter* /*writer*/,
                                         const eprosima::fastdds::dds::PublicationMatchedStatus& status) {
+  {
+    std::lock_guard<std::mutex> lock(readers_mutex_);
+    const auto& handle = status.last_subscription_handle;
+    const auto guid = eprosima::fastrtps::rtps::iHandle2GUID(handle);
+    if (status.current_count_change > 0) {
+      const auto* log = core_->event_log();
+      reader_names_[handle] = {core_->participant_name(guid), log == nullptr || log->reader_is_reliable(guid)};
+    } else if (status.current_count_change < 0) {
+      const auto it = reader_names_.find(handle);
+      if (it == reader_names_.end()) {
+        lost_.push_back({core_->participant_name(guid), steady_now_s()});
+      } else {
+        if (it->second.reliable) lost_.push_back({it->second.name, steady_now_s()});
+        reader_names_.erase(it);
+      }
+    }
+  }
   matched_.set(status.current_count);
+}
+
+std::vector<WriterBase::LostReader> WriterBase::lost_readers() const {
+  std::lock_guard<std::mutex> lock(readers_mutex_);
+  return lost_;
+}
+
+std::string endpoint_key(const eprosima::fastdds::dds::InstanceHandle_t& handle) {
+  const eprosima::fastrtps::rtps::octet* bytes = handle.value;  // the GUID: prefix, entity id
+  return std::string(reinterpret_cast<const char*>(bytes), 16);
 }
 
 // ---- ReaderBase ----
@@ -110,6 +141,7 @@ ReaderBase::ReaderBase(const Participant& participant, const std::string& topic_
                              "' for topic '" + topic_name + "' (" + core_->description() + ")");
   }
   topic_ = &core_->topic(topic_name, type);
+  track_peers_ = topic_name != odonav::topics::kHealth.name && topic_name != odonav::topics::kCommand.name;
 }
 
 void ReaderBase::open(bool listen_for_data, bool listen_for_deadline) {
@@ -146,6 +178,10 @@ void ReaderBase::close() {
     spdlog::error("odonav::dds: cannot delete the reader of topic '{}'", topic_name_);
   }
   reader_ = nullptr;
+  // No unmatch callback follows: this reader's writers are no longer anyone's peers.
+  std::lock_guard<std::mutex> lock(tracked_mutex_);
+  for (const std::string& key : tracked_) core_->peers().unmatched(key);
+  tracked_.clear();
 }
 
 ReaderBase::~ReaderBase() { close(); }
@@ -156,15 +192,32 @@ bool ReaderBase::wait_for_data(std::chrono::milliseconds timeout) {
 
 void ReaderBase::on_subscription_matched(DataReader* /*reader*/,
                                          const eprosima::fastdds::dds::SubscriptionMatchedStatus& status) {
+  if (track_peers_) {
+    const auto& handle = status.last_publication_handle;
+    const std::string key = endpoint_key(handle);
+    std::lock_guard<std::mutex> lock(tracked_mutex_);
+    if (status.current_count_change > 0) {
+      core_->peers().matched(odonav::stream_name_of_topic(topic_name_), key,
+                             core_->participant_name(eprosima::fastrtps::rtps::iHandle2GUID(handle)), steady_now_s());
+      tracked_.insert(key);
+    } else if (status.current_count_change < 0) {
+      core_->peers().unmatched(key);
+      tracked_.erase(key);
+    }
+  }
   matched_.set(status.current_count);
 }
 
-void ReaderBase::on_data_available(DataReader* /*reader*/) {
+void ReaderBase::heard_from(const eprosima::fastdds::dds::InstanceHandle_t& publication) {
+  if (track_peers_) core_->peers().heard(endpoint_key(publication), steady_now_s());
+}
+
+void ReaderBase::on_data_available(DataReader* reader) {
   {
     std::lock_guard<std::recursive_mutex> lock(state_mutex_);
     if (closed_) return;
   }
-  handle_data_available();
+  if (reader != nullptr) handle_data_available(*reader);
 }
 
 void ReaderBase::on_requested_deadline_missed(

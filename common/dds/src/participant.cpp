@@ -206,6 +206,10 @@ void ParticipantEventLog::on_participant_discovery(DomainParticipant* /*particip
     case Status::DISCOVERED_PARTICIPANT: {
       const std::string name = info.info.m_participantName.to_string();
       const std::string guid = guid_text(info.info.m_guid);
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (names_.size() < kMaxNamedParticipants) names_[guid] = name;
+      }
       if (!space_secure_discoveries_) {
         spdlog::info("odonav::dds: {} discovered participant '{}' ({})", own_name_, name, guid);
         break;
@@ -224,6 +228,10 @@ void ParticipantEventLog::on_participant_discovery(DomainParticipant* /*particip
       break;
     case Status::REMOVED_PARTICIPANT:
     case Status::DROPPED_PARTICIPANT:
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        names_.erase(guid_text(info.info.m_guid));
+      }
       on_left(info.info.m_participantName.to_string(), guid_text(info.info.m_guid),
               info.status == Status::DROPPED_PARTICIPANT);
       break;
@@ -292,6 +300,31 @@ std::vector<ParticipantEventLog::UnauthenticatedParticipant> ParticipantEventLog
   return out;
 }
 
+void ParticipantEventLog::on_subscriber_discovery(DomainParticipant* /*participant*/,
+                                                  eprosima::fastrtps::rtps::ReaderDiscoveryInfo&& info) {
+  using Status = eprosima::fastrtps::rtps::ReaderDiscoveryInfo::DISCOVERY_STATUS;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (info.status == Status::REMOVED_READER) {
+    reader_reliable_.erase(info.info.guid());
+  } else if (reader_reliable_.size() < 16 * kMaxNamedParticipants ||
+             reader_reliable_.count(info.info.guid()) > 0) {
+    reader_reliable_[info.info.guid()] =
+        info.info.m_qos.m_reliability.kind == eprosima::fastdds::dds::RELIABLE_RELIABILITY_QOS;
+  }
+}
+
+bool ParticipantEventLog::reader_is_reliable(const eprosima::fastrtps::rtps::GUID_t& guid) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = reader_reliable_.find(guid);
+  return it == reader_reliable_.end() || it->second;
+}
+
+std::string ParticipantEventLog::name_of(const std::string& guid_prefix) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = names_.find(guid_prefix);
+  return it == names_.end() ? std::string() : it->second;
+}
+
 ParticipantCore::ParticipantCore(DomainParticipant* participant, std::string description,
                                  std::optional<SecurityMaterial> security,
                                  std::unique_ptr<ParticipantEventLog> event_log)
@@ -319,6 +352,12 @@ ParticipantCore::~ParticipantCore() {
   if (DomainParticipantFactory::get_instance()->delete_participant(participant_) != ReturnCode_t::RETCODE_OK) {
     spdlog::error("odonav::dds: delete_participant failed for {}", description_);
   }
+}
+
+std::string ParticipantCore::participant_name(const eprosima::fastrtps::rtps::GUID_t& endpoint) const {
+  const std::string prefix = guid_text(endpoint);
+  const std::string name = event_log_ ? event_log_->name_of(prefix) : std::string();
+  return name.empty() ? prefix : name + " (" + prefix + ")";
 }
 
 eprosima::fastdds::dds::Topic& ParticipantCore::topic(const std::string& topic_name,

@@ -42,6 +42,9 @@ void add_gateway_options(Options& o) {
                "writers keep the last 200 samples, 2 s at 100 Hz)",
                0.01, 1.0);
   o.add_double("ack-timeout-s", 30.0, "longest wait for the readers' acknowledgments, s", 0.1, 3600.0);
+  o.add_bool("tolerate-lost-readers", false,
+             "exit 0 even when a reliable reader went away (left, killed, cut off) before the data was complete "
+             "(default: exit 4 naming it)");
 }
 
 GatewaySettings gateway_settings_from(const Options& o) {
@@ -55,6 +58,7 @@ GatewaySettings gateway_settings_from(const Options& o) {
   s.wait_for_readers_timeout_s = o.get_double("wait-for-readers-timeout-s");
   s.ack_timeout_s = o.get_double("ack-timeout-s");
   s.ack_interval_s = o.get_double("ack-interval-s");
+  s.tolerate_lost_readers = o.get_bool("tolerate-lost-readers");
   return s;
 }
 
@@ -199,9 +203,20 @@ int GatewayNode::run() {
   spdlog::info("{}: published {} odometer, {} INS, {} GNSS ({} invalid fixes) in {:.1f} s{}", reason.str(),
                counts.published[0], counts.published[1], counts.published[2], counts.gnss_invalid,
                dds::steady_now_s() - wall_start, acknowledged ? "" : "; not every sample was acknowledged");
+  // A reader that went away while samples were owed to it never got them: say who, and fail.
+  const std::vector<std::string> lost = publisher_.readers_lost_since(wall_start);
+  int rc = 0;
+  if (!lost.empty()) {
+    std::string who;
+    for (const auto& l : lost) who += (who.empty() ? "" : "; ") + l;
+    spdlog::error("lost {} reliable reader(s) before the data was complete: {}{}", lost.size(), who,
+                  settings_.tolerate_lost_readers ? " (tolerated: --tolerate-lost-readers)" : "");
+    reason << "; lost " << lost.size() << " reader(s) before the data was complete: " << who;
+    if (!settings_.tolerate_lost_readers) rc = kExitLostReaders;
+  }
   health(HEALTH_STATE_STOPPING, reason.str(), true);
   dds::wait_for_acknowledgments_logged(runtime_.health().writer(), std::chrono::seconds(1));
-  return 0;
+  return rc;
 }
 
 }  // namespace odonav::gateway

@@ -31,10 +31,17 @@ struct GatewaySettings {
   double ack_timeout_s = 30.0;               ///< one acknowledgment wait in "max" mode, and at the end.
   /// "max" mode: data time between acknowledgment waits, s, (0, 1] (half the writers' 2 s history).
   double ack_interval_s = 0.5;
+  /// A reliable reader lost before the data was complete (it left or was cut off while samples
+  /// were still owed to it) ends the run with exit code 4 unless this is set: the producer could
+  /// not deliver everything, and says to whom.
+  bool tolerate_lost_readers = false;
 };
 
+/// Exit code of a run that ended with readers lost before everything reached them.
+inline constexpr int kExitLostReaders = 4;
+
 /// Declares --source, --seed, --duration-s, --on-bad-row, --speed, --wait-for-readers,
-/// --wait-for-readers-timeout-s, --ack-interval-s, --ack-timeout-s.
+/// --wait-for-readers-timeout-s, --ack-interval-s, --ack-timeout-s, --tolerate-lost-readers.
 void add_gateway_options(Options& options);
 /// Reads them. Throws ConfigError naming the flag when a value is unusable.
 GatewaySettings gateway_settings_from(const Options& options);
@@ -47,7 +54,8 @@ class GatewayNode {
 
   /// Waits for the readers, publishes everything (or until SIGINT/SIGTERM), waits for the final
   /// acknowledgments, publishes Health "stopping". Returns the exit code: 0 on a completed or
-  /// interrupted run, 1 when the expected readers never matched.
+  /// interrupted run, 1 when the expected readers never matched, kExitLostReaders (4) when a
+  /// reliable reader was lost while publishing (unless tolerate_lost_readers).
   int run();
 
  private:

@@ -7,6 +7,7 @@
 
 #include "core/sensor_source.hpp"
 #include "odonav/dds/time.hpp"
+#include "odonav/peer_tracker.hpp"
 #include "odonav/topics.hpp"
 
 namespace odonav::gateway {
@@ -107,6 +108,24 @@ PublishedCounts SensorPublisher::counts() const {
 std::uint64_t SensorPublisher::ack_timeouts() const {
   const std::lock_guard<std::mutex> lock(mutex_);
   return ack_timeouts_;
+}
+
+std::vector<std::string> SensorPublisher::readers_lost_since(double since_s) const {
+  std::vector<std::pair<std::string, std::string>> lost;  // participant, streams
+  for (const dds::detail::WriterBase* w : {static_cast<const dds::detail::WriterBase*>(&odometer_),
+                                           static_cast<const dds::detail::WriterBase*>(&ins_),
+                                           static_cast<const dds::detail::WriterBase*>(&gnss_)}) {
+    for (const auto& r : w->lost_readers()) {
+      if (r.at_s < since_s) continue;
+      const std::string stream = stream_name_of_topic(w->topic_name());
+      auto it = std::find_if(lost.begin(), lost.end(), [&](const auto& l) { return l.first == r.reader; });
+      if (it == lost.end()) lost.emplace_back(r.reader, stream);
+      else if (it->second.find(stream) == std::string::npos) it->second += ", " + stream;
+    }
+  }
+  std::vector<std::string> out;
+  for (const auto& [who, streams] : lost) out.push_back(who + " on " + streams);
+  return out;
 }
 
 std::array<std::size_t, 3> SensorPublisher::matched_readers() const {

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "core/live_input.hpp"
 #include "core/sensor_health.hpp"
@@ -51,6 +52,10 @@ class SensorPublisher : public SampleSink {
   std::uint64_t ack_timeouts() const;
   /// Matched readers of the odometer, INS and GNSS writers.
   std::array<std::size_t, 3> matched_readers() const;
+  /// The reliable readers that went away since since_s (steady clock), before the data was
+  /// complete: "odonav-identification (<guid>) on odometer, ins/attitude, gnss/fix", one per
+  /// participant, in the order they were lost.
+  std::vector<std::string> readers_lost_since(double since_s) const;
   /// The GNSS writer (every SINS/OD consumer reads it: what the replay waits for).
   const dds::Writer<odonav::msg::GnssFix>& gnss_writer() const { return gnss_; }
 

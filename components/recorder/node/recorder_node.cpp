@@ -144,6 +144,10 @@ void add_recorder_options(Options& o) {
                "(created if missing); required");
   o.add_bool("force", false, "write into an existing non-empty directory that is not an odonav output directory");
   o.add_double("progress-every-s", 10.0, "a progress line every this much simulated (event) time, s", 0.1, 1e6);
+  o.add_double("dead-reckoning-period-s", 0.0,
+               "period of the dead-reckoning outputs (the odometer's), s, for the gap count; 0 = the smallest "
+               "interval seen",
+               0.0, 3600.0);
 }
 
 RecorderSettings recorder_settings_from(const Options& o) {
@@ -152,6 +156,7 @@ RecorderSettings recorder_settings_from(const Options& o) {
   if (s.out_dir.empty()) throw ConfigError("--out: the output folder is required");
   s.progress_every_s = o.get_double("progress-every-s");
   s.force = o.get_bool("force");
+  s.dead_reckoning_period_s = o.get_double("dead-reckoning-period-s");
   return s;
 }
 
@@ -263,6 +268,11 @@ void RecorderNode::on_dead_reckoning(const odonav::msg::DeadReckoning& m) {
   if (!is_new(last_dead_reckoning_t_s_, r.t_s, repeated_[2], backwards_[2], "dead reckoning")) return;
   dead_reckoning_csv_.write(r);
   ++rows_[2];
+  if (const auto gap = dr_gaps_.offer(r.t_s)) {
+    last_gap_wall_s_ = dds::steady_now_s();
+    spdlog::warn("{} (no such rows were received: the producer or the link lost them)",
+                 describe_gap(*gap, "dead-reckoning"));
+  }
   last_distance_m_ = r.distance_m;
   if (!next_progress_t_s_) next_progress_t_s_ = r.t_s + settings_.progress_every_s;
   if (r.t_s >= *next_progress_t_s_) {
@@ -310,9 +320,20 @@ void RecorderNode::tick() {
                         {"queue_depth", static_cast<double>(runtime_.queue_depth())},
                         {"scale_factor_source_switches", static_cast<double>(k_arbiter_.counters().switches)},
                         {"scale_factor_other_source", static_cast<double>(k_arbiter_.counters().superseded)},
-                        {"scale_factor_filled", static_cast<double>(k_arbiter_.counters().filled)}};
-  runtime_.publish_health(odonav::msg::HEALTH_STATE_RUNNING, odonav::msg::HEALTH_LEVEL_OK,
-                          producers_matched_logged_ ? "" : "waiting for producers", c);
+                        {"scale_factor_filled", static_cast<double>(k_arbiter_.counters().filled)},
+                        {"dead_reckoning_missed", static_cast<double>(dr_gaps_.missed())},
+                        {"dead_reckoning_gaps", static_cast<double>(dr_gaps_.gaps())}};
+  // A hole in the dead-reckoning rows stays in the reason for a while after it is found (the
+  // counters keep it for good), so a monitor polling at 1 Hz sees it.
+  std::string reason = producers_matched_logged_ ? "" : "waiting for producers";
+  auto level = odonav::msg::HEALTH_LEVEL_OK;
+  if (dr_gaps_.last_gap() && dds::steady_now_s() - last_gap_wall_s_ < kGapReasonHold_s) {
+    level = odonav::msg::HEALTH_LEVEL_WARN;
+    reason = describe_gap(*dr_gaps_.last_gap(), "dead-reckoning");
+    if (dr_gaps_.gaps() > 1)
+      reason += " (" + std::to_string(dr_gaps_.gaps()) + " gaps, " + std::to_string(dr_gaps_.missed()) + " outputs in all)";
+  }
+  runtime_.publish_health(odonav::msg::HEALTH_STATE_RUNNING, level, reason, c);
 }
 
 int RecorderNode::run() {
@@ -337,6 +358,9 @@ int RecorderNode::run() {
                "(repeats skipped: {}, {}, {}, {})",
                rows_[0], rows_[1], rows_[2], navigation_rows_, settings_.out_dir, repeated_[0],
                repeated_[1] + k_arbiter_.counters().repeated, repeated_[2], navigation_repeated_);
+  if (dr_gaps_.gaps() > 0)
+    spdlog::warn("dead_reckoning.csv has {} gaps, {} outputs missing in all; the last: {}", dr_gaps_.gaps(),
+                 dr_gaps_.missed(), describe_gap(*dr_gaps_.last_gap(), "dead-reckoning"));
   if (k_arbiter_.counters().switches > 1 || k_arbiter_.counters().superseded > 0)
     spdlog::info("scale factor sources: {} switches, {} rows of a source not followed skipped (epochs written by "
                  "another), {} epochs filled from another source",

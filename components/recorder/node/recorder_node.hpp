@@ -14,6 +14,7 @@
 #include <string>
 
 #include "odonav/dds/component.hpp"
+#include "odonav/gap_detector.hpp"
 #include "odonav/topics.hpp"
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/NavigationPosition.h"
@@ -60,9 +61,11 @@ struct RecorderSettings {
   std::string out_dir;              ///< created if missing; see OutputDirectory (odonav/safe_output.hpp).
   bool force = false;               ///< use a non-empty directory that is not an odonav output directory.
   double progress_every_s = 10.0;   ///< progress line every this much event (simulated) time, s.
+  /// Period of the dead-reckoning outputs for the gap count (GapDetector), s; 0 = learned.
+  double dead_reckoning_period_s = 0.0;
 };
 
-/// Declares --out (required), --force and --progress-every-s.
+/// Declares --out (required), --force, --progress-every-s and --dead-reckoning-period-s.
 void add_recorder_options(Options& options);
 /// Reads them. Throws ConfigError naming the flag (e.g. --out missing).
 RecorderSettings recorder_settings_from(const Options& options);
@@ -104,6 +107,9 @@ class RecorderNode {
   std::uint64_t backwards_[3] = {0, 0, 0};
   std::optional<odonav::msg::ScaleFactor> last_k_;
   SourceArbiter<odonav::msg::ScaleFactor> k_arbiter_;
+  GapDetector dr_gaps_{settings_.dead_reckoning_period_s};  // holes in the dead-reckoning rows
+  double last_gap_wall_s_ = 0.0;                            // steady clock, when the last was found
+  static constexpr double kGapReasonHold_s = 30.0;
   std::optional<double> next_progress_t_s_;
   double last_distance_m_ = 0.0;
   bool producers_matched_logged_ = false;

@@ -106,7 +106,9 @@ class IdentificationRestart : public ::testing::Test {
   std::vector<std::string> gateway_args(int domain, double duration_s, const std::string& speed) const {
     return node_args(domain, 2.0,
                      {"--source", "sim:ring", "--seed", "3", "--duration-s", std::to_string(duration_s), "--speed",
-                      speed, "--wait-for-readers", "2", "--wait-for-readers-timeout-s", "30"});
+                      speed, "--wait-for-readers", "2", "--wait-for-readers-timeout-s", "30",
+                      // The identification is killed on purpose while the gateway publishes.
+                      "--tolerate-lost-readers"});
   }
 
   struct DriveResult {

@@ -142,7 +142,9 @@ class HotStandby : public ::testing::Test {
                                 node_args(domain, 2.0,
                                           {"--source", "sim:ring", "--seed", "3", "--duration-s",
                                            std::to_string(kDurationS), "--speed", "1", "--wait-for-readers", "4",
-                                           "--wait-for-readers-timeout-s", "30"}),
+                                           "--wait-for-readers-timeout-s", "30",
+                                           // the primary is killed while it publishes
+                                           "--tolerate-lost-readers"}),
                                 dir + "/gateway.log");
     ASSERT_TRUE(gateway->started());
 

@@ -21,6 +21,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -79,6 +80,16 @@ class WriterBase : public eprosima::fastdds::dds::DataWriterListener {
   const std::string& topic_name() const { return topic_name_; }
   eprosima::fastdds::dds::DataWriter& native() const { return *writer_; }
 
+  /// A matched reader that went away (it left, its lease expired, or it was closed): whatever it
+  /// had not acknowledged by then it never gets.
+  struct LostReader {
+    std::string reader;  ///< the owning participant, as ParticipantCore::participant_name gives it
+    double at_s;         ///< steady clock (steady_now_s)
+  };
+  /// Every RELIABLE reader unmatched since this writer was created, in order (a best-effort reader
+  /// is never owed anything).
+  std::vector<LostReader> lost_readers() const;
+
   void on_publication_matched(eprosima::fastdds::dds::DataWriter* writer,
                               const eprosima::fastdds::dds::PublicationMatchedStatus& status) override;
 
@@ -90,6 +101,13 @@ class WriterBase : public eprosima::fastdds::dds::DataWriterListener {
   std::string topic_name_;
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
   MatchCounter matched_;
+  mutable std::mutex readers_mutex_;
+  struct MatchedReader {
+    std::string name;
+    bool reliable = true;
+  };
+  std::map<eprosima::fastdds::dds::InstanceHandle_t, MatchedReader> reader_names_;  // matched readers
+  std::vector<LostReader> lost_;
 };
 
 /// The untyped part of Reader<T>: profile lookup, creation, matching, deadline edge detection.
@@ -126,10 +144,15 @@ class ReaderBase : public eprosima::fastdds::dds::DataReaderListener {
   /// first, so no callback can reach a half-destroyed object.
   void close();
 
-  /// Listener thread: samples are available (only when open() asked to listen for data).
-  virtual void handle_data_available() = 0;
+  /// Listener thread: samples are available in `reader` (only when open() asked to listen for
+  /// data). Use `reader`, not native(): the first samples can arrive while create_datareader has
+  /// not returned yet, before reader_ is set (a restarted process joining a running stream).
+  virtual void handle_data_available(eprosima::fastdds::dds::DataReader& reader) = 0;
   /// Called under state_mutex_, once per silence edge of an instance.
   virtual void instance_went_silent(const eprosima::fastdds::dds::InstanceHandle_t& instance) = 0;
+  /// A sample of the remote writer `publication` (SampleInfo::publication_handle) arrived: the
+  /// participant's peer tracker hears from it (data topics only).
+  void heard_from(const eprosima::fastdds::dds::InstanceHandle_t& publication);
 
   SilenceTracker<eprosima::fastdds::dds::InstanceHandle_t> silence_;
   std::recursive_mutex state_mutex_;  // user callbacks and last samples; see the class comment
@@ -142,7 +165,13 @@ class ReaderBase : public eprosima::fastdds::dds::DataReaderListener {
   eprosima::fastdds::dds::Topic* topic_ = nullptr;
   eprosima::fastdds::dds::DataReader* reader_ = nullptr;
   MatchCounter matched_;
+  bool track_peers_ = false;  // a data topic: its writers are reported to core_->peers()
+  std::mutex tracked_mutex_;
+  std::set<std::string> tracked_;  // writer keys reported matched to core_->peers()
 };
+
+/// The peer tracker's key of a remote endpoint: its GUID (the handle's 16 bytes).
+std::string endpoint_key(const eprosima::fastdds::dds::InstanceHandle_t& handle);
 
 }  // namespace detail
 
@@ -213,6 +242,7 @@ class Reader : public detail::ReaderBase {
     eprosima::fastdds::dds::SampleInfo info;
     while (native().take_next_sample(&sample, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data) continue;  // disposal or unregistration notices carry no data
+      heard_from(info.publication_handle);
       note_arrival(info.instance_handle, sample);
       samples.push_back(sample);
     }
@@ -223,11 +253,12 @@ class Reader : public detail::ReaderBase {
   // an unread sample is available), topic_name(), native().
 
  protected:
-  void handle_data_available() override {
+  void handle_data_available(eprosima::fastdds::dds::DataReader& reader) override {
     T sample;
     eprosima::fastdds::dds::SampleInfo info;
-    while (native().take_next_sample(&sample, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+    while (reader.take_next_sample(&sample, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data) continue;
+      heard_from(info.publication_handle);
       note_arrival(info.instance_handle, sample);
       std::lock_guard<std::recursive_mutex> lock(state_mutex_);
       if (!closed_) on_data_(sample);

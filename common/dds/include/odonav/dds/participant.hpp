@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "odonav/peer_tracker.hpp"
+
 #include "odonav/dds/secure_discovery.hpp"
 #include "odonav/dds/security.hpp"
 
@@ -119,8 +121,20 @@ class ParticipantEventLog : public eprosima::fastdds::dds::DomainParticipantList
   /// known first. Always empty without DDS Security.
   std::vector<UnauthenticatedParticipant> unauthenticated(std::chrono::steady_clock::duration pending_for) const;
 
+  /// The name a participant of the domain announced, by its GUID prefix as text ("" if it is not
+  /// known: not discovered, gone, or beyond kMaxNamedParticipants). Kept for every participant,
+  /// secure or not, so endpoints can say whose writer is silent or which reader was lost.
+  std::string name_of(const std::string& guid_prefix) const;
+  static constexpr std::size_t kMaxNamedParticipants = 4096;
+
   void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
                                 eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override;
+  /// Remembers whether each remote reader is RELIABLE (a writer's lost reader only lost data if it
+  /// was: a best-effort display never acknowledges anything).
+  void on_subscriber_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
+                               eprosima::fastrtps::rtps::ReaderDiscoveryInfo&& info) override;
+  /// Whether the remote reader `guid` asked for RELIABLE delivery (true when it is not known).
+  bool reader_is_reliable(const eprosima::fastrtps::rtps::GUID_t& guid) const;
 #if HAVE_SECURITY
   void onParticipantAuthentication(eprosima::fastdds::dds::DomainParticipant* participant,
                                    eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) override;
@@ -146,7 +160,9 @@ class ParticipantEventLog : public eprosima::fastdds::dds::DomainParticipantList
   bool remember(const std::string& guid, const std::string& name, bool credentials);
   void on_discovered_secure(const std::string& name, const std::string& guid, bool credentials);
   void on_left(const std::string& name, const std::string& guid, bool lease_expired);
-  mutable std::mutex mutex_;           // peers_, counts_, the budgets
+  mutable std::mutex mutex_;           // peers_, counts_, the budgets, names_
+  std::map<std::string, std::string> names_;  // GUID prefix -> announced name, until it leaves
+  std::map<eprosima::fastrtps::rtps::GUID_t, bool> reader_reliable_;  // remote readers, until removed
   std::map<std::string, Peer> peers_;  // GUID prefix -> peer, secure participants only, until it leaves
   Counts counts_;
   LogBudget stranger_log_{kStrangerLogBurst, kStrangerLogWindow};
@@ -175,6 +191,13 @@ class ParticipantCore {
   const std::optional<SecurityMaterial>& security() const { return security_; }
   /// The participant's event log (null if none was given).
   const ParticipantEventLog* event_log() const { return event_log_.get(); }
+  /// "odonav-gateway (01.0f.3a...)": the name of the participant owning a remote endpoint (writer
+  /// or reader GUID), or its GUID prefix alone when the name is not known.
+  std::string participant_name(const eprosima::fastrtps::rtps::GUID_t& endpoint) const;
+  /// The matched writers of this participant's data readers and whether they are silent
+  /// (odonav/peer_tracker.hpp; silence 2 s). Readers of health and commands are not tracked: their
+  /// writers are silent by design between messages.
+  PeerTracker& peers() const { return *peers_; }
 
   /// The topic `topic_name` of `type`, registering the type and creating the topic on first use.
   /// Throws if registration or creation fails, or if the topic exists with another type.
@@ -188,6 +211,7 @@ class ParticipantCore {
   std::string description_;
   std::optional<SecurityMaterial> security_;
   std::unique_ptr<ParticipantEventLog> event_log_;
+  std::unique_ptr<PeerTracker> peers_ = std::make_unique<PeerTracker>(2.0);
   std::mutex mutex_;  // topic creation and type registration
 };
 }  // namespace detail
