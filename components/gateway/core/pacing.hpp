@@ -49,7 +49,7 @@ class PacingClock {
 
 /// Flow control in "max" mode: tells when `interval_s` of event time has been published since the
 /// last acknowledgment wait. interval_s > 0 (the gateway uses 0.1 s: with 100 Hz streams that is
-/// 10 samples per topic, far below the writers' KEEP_LAST 200, so nothing is overwritten unread).
+/// 10 samples per topic, far below the writers' KEEP_LAST 3000, so nothing is overwritten unread).
 class AckSchedule {
  public:
   /// Throws std::invalid_argument unless interval_s is finite and > 0.

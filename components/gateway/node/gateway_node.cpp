@@ -153,7 +153,7 @@ GatewayNode::Outcome GatewayNode::publish_all(const std::vector<SensorEvent>& ev
       if (!sleep_until(*due)) return Outcome::kInterrupted;
     } else if (acks.wait_before(e.t_s)) {
       // As fast as possible: every ack_interval_s of data (at most 1 s: 100 samples at 100 Hz),
-      // let every reader acknowledge what it got, so no writer history (KEEP_LAST 200) ever
+      // let every reader acknowledge what it got, so no writer history (KEEP_LAST 3000) ever
       // overwrites a sample a reader has not received.
       publisher_.wait_for_acknowledgments(ack_timeout);
     }
