@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -371,12 +372,22 @@ TEST_F(IdentificationRestart, ResentStreamIsNotCountedTwiceAfterARestore) {
   if (HasFatalFailure()) return;
 
   ASSERT_FALSE(second.k.empty());
-  for (const auto& m : second.k) {  // the restored estimate and its heartbeats only
-    EXPECT_EQ(stamp_s(m), stamp_s(*last));
-    EXPECT_EQ(m.k_m_per_pulse(), last->k_m_per_pulse());
-    EXPECT_EQ(m.samples_accepted(), last->samples_accepted());
-    EXPECT_EQ(m.samples_rejected(), last->samples_rejected());
+  // Nothing new: the restored estimate and its heartbeats, and what the persistent writer serves a
+  // late reader from run 1 (its last 300 estimates, the writer's history): each equal to run 1's
+  // estimate of that stamp, none after run 1's last.
+  std::map<double, const msg::ScaleFactor*> run1;
+  for (const auto& m : first.k) run1[stamp_s(m)] = &m;
+  bool restored_seen = false;
+  for (const auto& m : second.k) {
+    ASSERT_LE(stamp_s(m), stamp_s(*last));
+    const auto it = run1.find(stamp_s(m));
+    ASSERT_NE(it, run1.end()) << "t=" << stamp_s(m) << " s was not published by run 1";
+    EXPECT_EQ(m.k_m_per_pulse(), it->second->k_m_per_pulse());
+    EXPECT_EQ(m.samples_accepted(), it->second->samples_accepted());
+    EXPECT_EQ(m.samples_rejected(), it->second->samples_rejected());
+    if (stamp_s(m) == stamp_s(*last)) restored_seen = true;
   }
+  EXPECT_TRUE(restored_seen) << "the last K of run 1 is served after the restore";
   ASSERT_FALSE(second.health.empty());
   const msg::Health& h = second.health.back();
   EXPECT_EQ(counter(h, "checkpoint_restored"), 1.0);
@@ -438,9 +449,12 @@ TEST_F(IdentificationRestart, LateReaderAfterARestartWithNoInputGetsTheLastKFrom
   // A reader created after the restart (TRANSIENT_LOCAL, the consumers' profile).
   odonav::dds::Participant late(test_participant(kDomain));
   Collector<msg::ScaleFactor> k(late, topics::kScaleFactor);
-  ASSERT_TRUE(k.wait_until([](const std::vector<msg::ScaleFactor>& v) { return !v.empty(); }, seconds(20)))
-      << "no ScaleFactor for a late reader after the restart\n" << read_text(dir + "/id-2.log");
-  const msg::ScaleFactor got = k.samples().front();
+  // The writer serves its history (the last 300 estimates, oldest first): the newest is the last K.
+  const double last_t = stamp_s(*last_before_kill);
+  ASSERT_TRUE(k.wait_until(
+      [&](const std::vector<msg::ScaleFactor>& v) { return !v.empty() && stamp_s(v.back()) >= last_t; }, seconds(20)))
+      << "no ScaleFactor of t=" << last_t << " s for a late reader after the restart\n" << read_text(dir + "/id-2.log");
+  const msg::ScaleFactor got = k.samples().back();
   std::cerr << "last K before the kill " << last_before_kill->k_m_per_pulse() << " at t=" << stamp_s(*last_before_kill)
             << " s; late reader after the restart got " << got.k_m_per_pulse() << " at t=" << stamp_s(got)
             << " s (source '" << got.source() << "')\n";
