@@ -71,7 +71,9 @@ struct ScaleFactorEstimatorParams {
   std::size_t resum_interval = 0;
 
   // --- vff_lm_rls ---
-  /// Lower clamp of the variable forgetting factor, in (0, 1].
+  /// Lower clamp of the variable forgetting factor per sample_interval_s of sample interval, in
+  /// (0, 1]: a sample spanning n such intervals is clamped at lambda_min^n, and the law's memory L
+  /// counts in the same intervals (L / n samples), so VFF forgets per second at every GNSS rate.
   double lambda_min = 0.95;
   /// Residual variance scale C of the VFF law [m^2], >= 0. 0 = automatic: C = vff_kappa * sigma_y^2
   /// with sigma_y^2 = (sigma_v_mps * T)^2 / 2 + K^2 / 6 (GNSS velocity noise plus
@@ -84,6 +86,7 @@ struct ScaleFactorEstimatorParams {
   double sigma_v_mps = 0.05;
   /// Sample interval T [s], > 0, for samples that do not carry their own (dt_s 0): every sample of
   /// the sample builder carries its GNSS interval, so the noise model follows the data's rate.
+  /// Also the reference interval of the VFF law's lambda_min and memory (see lambda_min).
   double sample_interval_s = 0.1;
 
   // --- coarse ---

@@ -20,6 +20,18 @@ inline std::size_t ring_index(std::size_t oldest, std::size_t age, std::size_t c
   const std::size_t index = oldest + age;
   return index >= capacity ? index - capacity : index;
 }
+
+// How many reference intervals (sample_interval_s, 0.1 s) a sample spans; exactly 1 within 1e-6 of
+// the reference (10 Hz stamps with their rounding) and for samples without an interval.
+// The VFF law and its clamp count in reference intervals, not in samples: lambda_min per 0.1 s
+// (lambda_min^n per sample) and the law's memory L x 0.1 s (L / n samples), so tracking after a K
+// step takes the same time at every GNSS rate. Per sample, a 1 Hz K step settled in 50 s instead
+// of 8 (the law forgot ten times less per second).
+double reference_intervals(const ScaleFactorEstimatorParams& p, double interval_s) {
+  if (!(interval_s > 0.0) || !(p.sample_interval_s > 0.0)) return 1.0;
+  const double n = interval_s / p.sample_interval_s;
+  return std::abs(n - 1.0) < 1e-6 ? 1.0 : n;
+}
 }  // namespace
 
 WindowRlsEstimator::WindowRlsEstimator(const ScaleFactorEstimatorParams& params, bool variable_forgetting)
@@ -57,7 +69,10 @@ void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
     // Ordinary RLS while the window fills (fewer than L held), the VFF law afterwards.
     if (variable_forgetting_ && held_ == capacity_) {
       const double c = vff_c_m2(k_prev, sample.dt_s);
-      lambda = std::clamp(1.0 - eps * eps / (s * static_cast<double>(capacity_) * c), params_.lambda_min, 1.0);
+      const double n = reference_intervals(params_, sample.dt_s);
+      // The law's memory L in reference intervals: L / n samples of n intervals each (see above).
+      const double memory_samples = static_cast<double>(capacity_) / n;
+      lambda = std::clamp(1.0 - eps * eps / (s * memory_samples * c), std::pow(params_.lambda_min, n), 1.0);
     }
   }
 

@@ -306,6 +306,46 @@ TEST(Tracking, WindowsRecoverFromA3PercentStepWithinLSamplesGrowingRlsDoesNot) {
   }
 }
 
+namespace {
+// The same 8 m/s drive sampled every interval_s: phi and y are the distance over the interval, the
+// noise on y is the GNSS velocity noise (0.05 m/s, the estimators' default model) times the interval.
+// Returns the time (s) after a 3 % K step at 300 s until VFF-LM-RLS stays within 0.5 % of the new K.
+double vff_settle_time_s(double interval_s, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.05 * interval_s / std::sqrt(2.0));
+  const double k0 = 0.01;
+  const auto n = static_cast<std::size_t>(std::lround(600.0 / interval_s));
+  const auto step_at = static_cast<std::size_t>(std::lround(300.0 / interval_s));
+  ScaleFactorEstimatorParams params;  // defaults: L = 100, lambda_min 0.95, reference interval 0.1 s
+  VffLmRlsEstimator estimator(params);
+  double counter = 0.0, previous = 0.0, settled_at_s = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double k = i >= step_at ? k0 * 1.03 : k0;
+    const double distance_m = 8.0 * interval_s;
+    counter += distance_m / k;
+    const double count = std::floor(counter);
+    const double t_s = interval_s * static_cast<double>(i + 1);
+    estimator.update(make_sample(t_s, count - previous, distance_m + noise(rng), interval_s));
+    previous = count;
+    if (i >= step_at && relative_error(estimator.estimate().k_m_per_pulse, k) >= 0.005) settled_at_s = t_s;
+  }
+  return settled_at_s - interval_s * static_cast<double>(step_at);
+}
+}  // namespace
+
+TEST(Tracking, VffForgetsPerSecondSoAStepSettlesInAboutTheSameTimeAtOneAndTenHertz) {
+  // The law's memory and its clamp count in reference intervals (0.1 s), not in samples: at 1 Hz a
+  // per-sample clamp of 0.95 and memory of 100 samples settled a step ten times slower in time.
+  for (unsigned seed : {1u, 2u, 3u}) {
+    const double at_10hz = vff_settle_time_s(0.1, seed);
+    const double at_1hz = vff_settle_time_s(1.0, seed);
+    std::printf("[ info ] seed %u: 3 %% step settles in %.1f s at 10 Hz, %.1f s at 1 Hz\n", seed, at_10hz, at_1hz);
+    EXPECT_GT(at_10hz, 0.0);
+    EXPECT_LE(at_10hz, 10.0);
+    EXPECT_LE(at_1hz, 2.0 * at_10hz + 2.0) << "seed " << seed;
+  }
+}
+
 TEST(Tracking, KalmanRandomWalkIsQuieterThanTheWindowInSteadyStateAndDetectsTheStepOnce) {
   const std::size_t step_at = 3000;
   const Drive drive = simulate_drive(6000, 0.01, step_at, 0.03, 0.005, 4242);

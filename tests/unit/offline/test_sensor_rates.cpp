@@ -70,9 +70,10 @@ TEST(SensorRates, TerrainAtOneHertzIdentifiesKWithTheDefaults) {
   // Before the gates followed the data, every 1 Hz interval was a "gap" (0 of 799 accepted).
   EXPECT_EQ(r.builder_counters.gap, 0u);
   EXPECT_GT(r.builder_counters.accepted, 500u);
-  // Measured 0.39 % (10 Hz: 0.06 %): a 100-sample window is 100 s at 1 Hz, so the K steps settle
-  // slowly; the goal of 0.1 % is not reached yet.
-  EXPECT_LE(vff_rms_percent(s), 0.5);
+  // Measured 0.22 % (10 Hz: 0.06 %; 0.44 % while the VFF law forgot per sample, not per second):
+  // the goal of 0.1 % is not reached yet (held K through turns whose slip moves the true K,
+  // GNSS velocity outliers weighing ten times more per second at 1 Hz).
+  EXPECT_LE(vff_rms_percent(s), 0.3);
   const double final_error = s["scale_factor"]["estimators"]["vff_lm_rls"]["final_rel_error_percent"].get<double>();
   EXPECT_LE(std::abs(final_error), 0.1);
 }
@@ -131,7 +132,8 @@ TEST(SensorRates, DeadReckoningFollowsTheGnssPeriodAtOneHertzAndOnTheSlowRobot) 
     const OfflineParams p = user_params(d);
     const json s = summarize(d, run_offline(d, p), p);
     SCOPED_TRACE(s["dead_reckoning"].dump(1));
-    // Measured 0.098 %D (0.41 %D before the provisional estimates and the derived gap).
+    // Measured 0.015 %D (0.41 %D before the provisional estimates, the derived gap and the VFF
+    // forgetting per second; 0.098 %D with the first two).
     EXPECT_LE(s["dead_reckoning"]["online_k"]["final_error_percent"].get<double>(), 0.15);
   }
 }

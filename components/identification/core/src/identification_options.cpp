@@ -12,7 +12,9 @@ void add_identification_options(Options& o) {
   o.add_choice("estimator", d.estimator_name, names, "scale-factor estimator published and used by dead reckoning");
   o.add_int("window", static_cast<int64_t>(d.estimator.window_length),
             "window length L of lm_rls / vff_lm_rls, in accepted samples (L x GNSS period ~ memory)", 2, 1000000);
-  o.add_double("lambda-min", d.estimator.lambda_min, "lower bound of the variable forgetting factor", 0.5, 1.0);
+  o.add_double("lambda-min", d.estimator.lambda_min,
+               "lower bound of the variable forgetting factor per 0.1 s of GNSS interval (lambda_min^n for n x 0.1 s)",
+               0.5, 1.0);
   o.add_double("vff-kappa", d.estimator.vff_kappa, "VFF: C = kappa * sigma_y^2 when --vff-c is 0", 1e-3, 1e6);
   o.add_double("vff-c", d.estimator.vff_c_m2, "VFF: residual variance scale C (m^2); 0 = automatic", 0.0, 1e6);
   o.add_double("ff-lambda", d.estimator.forgetting_factor, "constant forgetting factor of ff_rls", 0.5, 1.0);
