@@ -29,6 +29,12 @@ int EventTimeNode::run() {
     ++process_errors_;
     spdlog::error("finishing the core failed: {}", e.what());
   }
+  for (const NodeInput* in : inputs_) {
+    const EventTimeAligner::StreamStatus st = aligner_.status(in->id, steady_now_s());
+    if (in->estimate || st.hold_off_s > 0.0)
+      spdlog::info("{}: {} waits for estimates later than their {} s hold-off", in->name, st.hold_off_waits,
+                   st.hold_off_s);
+  }
   bool acknowledged = true;
   for (detail::WriterBase* w : output_writers())
     acknowledged = wait_for_acknowledgments_logged(*w, std::chrono::seconds(5)) && acknowledged;
@@ -39,11 +45,12 @@ int EventTimeNode::run() {
   return 0;
 }
 
-NodeInput& EventTimeNode::add_input(const std::string& name, bool required, const NodeInput* pacing) {
+NodeInput& EventTimeNode::add_input(const std::string& name, bool required, const NodeInput* pacing,
+                                    double hold_off_s) {
   auto in = std::make_unique<NodeInput>();
   in->name = name;
   in->estimate = pacing != nullptr;
-  in->id = pacing ? aligner_.add_paced_stream(name, pacing->id) : aligner_.add_stream(name);
+  in->id = pacing ? aligner_.add_paced_stream(name, pacing->id, hold_off_s) : aligner_.add_stream(name, hold_off_s);
   inputs_.push_back(in.get());
   if (required) required_.push_back(in.get());
   owned_.push_back(std::move(in));

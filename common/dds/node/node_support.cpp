@@ -51,6 +51,7 @@ void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, c
   c.emplace_back(in.name + "_absent_events", static_cast<double>(st.absent_events));
   c.emplace_back(in.name + "_silent_s", std::round(st.silent_for_s * 10.0) / 10.0);
   if (in.estimate) c.emplace_back(in.name + "_skipped_epochs", static_cast<double>(st.skipped_pacing_epochs));
+  if (in.estimate || st.hold_off_s > 0.0) c.emplace_back(in.name + "_hold_off_waits", static_cast<double>(st.hold_off_waits));
 }
 
 std::optional<std::string> absent_reason(const EventTimeAligner& aligner,

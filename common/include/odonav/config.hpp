@@ -75,6 +75,9 @@ class Options {
 
   /// True when the user gave `name` on the command line or in the config file.
   bool was_set(const std::string& name) const;
+  /// True when an option or positional `name` has been declared (a shared option that several
+  /// add_* functions of one tool declare, declared once).
+  bool declared(const std::string& name) const;
   /// Every option and positional as "name=value", sorted by name: a stable text of the whole
   /// configuration (doubles in shortest round-trip form), e.g. to hash it.
   std::vector<std::string> values_as_text() const;

@@ -12,6 +12,31 @@
 
 namespace odonav {
 
+/// Hold-off d (s) of the estimate-application rule below, when no --estimate-hold-off-s is given. It
+/// covers a GNSS receiver's normal latency (the fix reaches the gateway ~0.05-0.1 s after its epoch)
+/// plus one processing hop (an estimate leaves its producer ms after the fix arrives), with margin.
+constexpr double kDefaultEstimateHoldOff_s = 0.2;
+
+/// The estimate-application rule: an estimate stamped at GNSS epoch `epoch_s` (misalignment, K), or
+/// a GNSS fix used as a reference, applies to the odometer samples stamped at or after
+/// estimate_applies_from_s(epoch_s, hold_off_s) = epoch + hold-off (s, event time). A consumer
+/// computing its output for odometer time t therefore needs the estimates of the epochs
+/// <= t - hold-off only, which were produced (in normal operation) long before t: it never waits for
+/// a GNSS epoch later than t, and its result does not depend on when the estimate arrived. The same
+/// function decides in the DDS nodes and in odonav-offline, so both give the same numbers.
+/// hold_off_s >= 0 (0 = the estimate applies from its own epoch, which makes the consumer wait).
+///
+/// Why 1 us earlier than epoch + hold-off for a hold-off > 0: GNSS epochs and odometer samples often
+/// lie on one grid (10 Hz and 100 Hz), so epoch + hold-off is an odometer instant up to the last bit,
+/// and a stamp carried over DDS (integer nanoseconds) comes back a few ulps off: the offline tool
+/// and a node would then put that sample on different sides. 1 us is far above that rounding and far
+/// below any sensor period, so both decide alike. With hold-off 0 the epoch itself is kept (the
+/// estimate's stamp is then a stamp of the same grid, rounded alike).
+constexpr double kEstimateApplicationGuard_s = 1e-6;
+inline double estimate_applies_from_s(double epoch_s, double hold_off_s) {
+  return hold_off_s > 0.0 ? epoch_s + hold_off_s - kEstimateApplicationGuard_s : epoch_s;
+}
+
 /// Epochs of calibration after which a misalignment estimate is applied even when not converged.
 constexpr uint64_t kMisalignmentMinSamplesToApply = 100;
 

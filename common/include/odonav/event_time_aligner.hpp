@@ -25,6 +25,20 @@
 // up with it (nothing new can be produced upstream without new pacing epochs). This is what keeps
 // a consumer deterministic while the producer runs, and lets it go on through GNSS outages.
 //
+// Hold-off. A stream declared with a hold-off h >= 0 (consumer_rules.hpp, estimate_applies_from_s)
+// feeds its core with samples that apply from t + h, not from their stamp t: its watermark, its
+// lateness and the comparison with the other streams are all taken at t + h. An estimate stream
+// with hold-off h therefore limits the consumer's watermark w only until the estimates of the
+// epochs <= w - h are in, which in normal operation arrived long before. When such a stream is
+// what holds w back (its producer is later than the hold-off), the wait is bounded by max_wait_s
+// as any other and counted (hold_off_waits: one per episode).
+//
+// Declared completeness. Topics have no mutual order, so the producer of a pacing stream (the
+// gateway, for GNSS) may declare on another stream's samples (each odometer sample) "every sample
+// stamped <= C has been published, the last one stamped L" (declare_published). Once the pacing
+// stream has shown L, it is complete up to C although its next sample is not there yet: a consumer
+// then knows, at an odometer time t, every GNSS epoch <= t and waits only for their estimates.
+//
 // Repeated stamps. A sample stamped exactly like the stream's previous one is a REPEAT: a producer's
 // heartbeat (an estimate republished so that its readers know it is alive) or a duplicate. It
 // refreshes the stream's liveness and is not fed.
@@ -35,8 +49,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace odonav {
@@ -72,6 +88,11 @@ class EventTimeAligner {
     /// Paced streams: pacing epochs skipped between two consecutive samples (a sample lost upstream
     /// or in transit). 0 for other streams.
     uint64_t skipped_pacing_epochs = 0;
+    /// Paced streams and streams with a hold-off: times this stream was the one holding the
+    /// watermark back while another present stream was ahead (its samples later than the
+    /// hold-off), one per episode.
+    uint64_t hold_off_waits = 0;
+    double hold_off_s = 0.0;           ///< its hold-off (s).
   };
 
   /// max_wait_s: how long (s, wall clock, finite, > 0) a stream may be silent while others are
@@ -80,10 +101,17 @@ class EventTimeAligner {
   EventTimeAligner(double max_wait_s, double start_s);
 
   /// Declares an input stream (name: for status and messages, e.g. "gnss"). Before the first sample.
-  StreamId add_stream(const std::string& name);
+  /// hold_off_s: see "Hold-off" (finite, >= 0; else std::invalid_argument).
+  StreamId add_stream(const std::string& name, double hold_off_s = 0.0);
   /// Declares a stream whose stamps are a subset of `pacing`'s stamps (one sample per pacing epoch
   /// at most). `pacing` must be a plain stream (add_stream). Throws std::invalid_argument otherwise.
-  StreamId add_paced_stream(const std::string& name, StreamId pacing);
+  StreamId add_paced_stream(const std::string& name, StreamId pacing, double hold_off_s = 0.0);
+
+  /// The producer of `stream` declares that every sample stamped <= complete_through_s (s) has been
+  /// published, the last one stamped last_stamp_s (nullopt: none yet). Non-finite or decreasing
+  /// declarations are ignored (a declaration only ever adds knowledge). Throws std::out_of_range for
+  /// an unknown stream id.
+  void declare_published(StreamId stream, double complete_through_s, std::optional<double> last_stamp_s);
 
   /// One sample of `stream` stamped t_s (s, event time) arrived at now_s (s, wall clock).
   /// Any sample (also late or repeated) proves the stream alive: an absent stream becomes present.
@@ -112,12 +140,21 @@ class EventTimeAligner {
     std::deque<double> pacing_stamps;     ///< pacing streams: own stamps newer than some follower's last.
     std::optional<double> last_arrival_s;
     std::optional<double> behind_since_s; ///< wall time since when others are ahead of it.
+    double hold_off_s = 0.0;
+    /// declare_published: complete up to here (the declarations whose last stamp has been seen) ...
+    double declared_through_s = -std::numeric_limits<double>::infinity();
+    /// ... and the declarations waiting for their last stamp: (complete through, last stamp).
+    std::deque<std::pair<double, double>> pending_declarations;
+    bool holding_back = false;            ///< hold-off streams: limited the last watermark.
     bool absent = false;
     StreamStatus counts;                  ///< counters only (name etc. filled by status()).
   };
   Stream& stream_at(StreamId id);
   const Stream& stream_at(StreamId id) const;
-  double watermark_of(const Stream& s) const;
+  /// Complete up to here in the stream's own stamps (declarations included).
+  double raw_watermark_of(const Stream& s) const;
+  /// The watermark in consumer time (hold-off applied), or in the stream's own stamps.
+  double watermark_of(const Stream& s, bool with_hold_off = true) const;
   void prune_pacing_stamps(Stream& pacing);
 
   double max_wait_s_;

@@ -348,6 +348,12 @@ bool Options::was_set(const std::string& name) const {
   return find(name, {Type::kString, Type::kDouble, Type::kInt, Type::kBool, Type::kChoice, Type::kPositional}).set;
 }
 
+bool Options::declared(const std::string& name) const {
+  for (const Option& o : options_)
+    if (o.name == name) return true;
+  return false;
+}
+
 std::vector<std::string> Options::values_as_text() const {
   std::vector<std::string> lines;
   for (const Option& o : options_) lines.push_back(o.name + "=" + o.text);

@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "odonav/consumer_rules.hpp"
 #include "odonav/event_time_aligner.hpp"
 
 using namespace odonav;
@@ -150,6 +151,65 @@ TEST(EventTimeAligner, PacedStreamIsCompleteUpToTheNextPacingEpoch) {
   a.on_sample(k, 0.3, 0.2);
   EXPECT_EQ(a.status(k, 0.2).skipped_pacing_epochs, 1u);
   EXPECT_EQ(a.advance(0.2), std::optional<double>(0.3));
+}
+
+// The hold-off rule with the gateway's GNSS completeness: at odometer time t the consumer waits only
+// for the estimates of the epochs <= t - hold-off, and an estimate later than that is a bounded,
+// counted wait, never a different result.
+TEST(EventTimeAligner, HoldOffStreamsLimitOnlyUpToTheirEpochPlusTheHoldOff) {
+  const double d = 0.2;
+  EventTimeAligner a(2.0, 0.0);
+  const auto odo = a.add_stream("odometer");
+  const auto gnss = a.add_stream("gnss", d);
+  const auto k = a.add_paced_stream("scale_factor", gnss, d);
+  for (double g : {0.0, 0.1, 0.2, 0.3}) a.on_sample(gnss, g, 0.0);
+  for (double g : {0.0, 0.1}) a.on_sample(k, g, 0.0);
+  for (int i = 0; i <= 35; ++i) a.on_sample(odo, 0.01 * i, 0.0);  // odometer to 0.35
+  // K of 0.2 is not in: everything before 0.2 + d is final, the odometer (0.35) is what limits.
+  EXPECT_EQ(a.status(k, 0.0).watermark_s, std::nextafter(estimate_applies_from_s(0.2, d), -kInf));
+  EXPECT_DOUBLE_EQ(*a.advance(0.0), 0.35);
+  EXPECT_EQ(a.status(k, 0.0).hold_off_waits, 0u);
+  // The odometer runs on to 0.45; K of 0.2 is still missing: it holds the watermark (a wait, counted
+  // once for the episode), and a K that arrives now is fed (0.2 + d > what was processed).
+  for (int i = 36; i <= 45; ++i) a.on_sample(odo, 0.01 * i, 0.1);
+  const auto w = a.advance(0.1);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_LT(*w, estimate_applies_from_s(0.2, d));
+  EXPECT_FALSE(a.advance(0.15).has_value());
+  EXPECT_EQ(a.status(k, 0.15).hold_off_waits, 1u);
+  EXPECT_EQ(a.on_sample(k, 0.2, 0.2), SampleAdmission::kAccepted);
+  a.on_sample(k, 0.3, 0.2);
+  EXPECT_DOUBLE_EQ(*a.advance(0.2), 0.45);
+  EXPECT_EQ(a.status(k, 0.2).hold_off_waits, 1u);
+  // GNSS itself (a reference with the same hold-off) is late only at or before processed - d.
+  EXPECT_EQ(a.on_sample(gnss, 0.4, 0.2), SampleAdmission::kAccepted);
+}
+
+TEST(EventTimeAligner, DeclaredCompletenessLetsAPacedStreamCatchUpWithoutTheNextEpoch) {
+  EventTimeAligner a(2.0, 0.0);
+  const auto odo = a.add_stream("odometer");
+  const auto gnss = a.add_stream("gnss");
+  const auto k = a.add_paced_stream("scale_factor", gnss);
+  a.on_sample(gnss, 1.0, 0.0);
+  a.on_sample(k, 1.0, 0.0);
+  for (int i = 0; i <= 9; ++i) a.on_sample(odo, 1.0 + 0.01 * i, 0.0);
+  // Without a declaration GNSS (and K, caught up with it) are complete up to 1.0 only.
+  EXPECT_DOUBLE_EQ(*a.advance(0.0), 1.0);
+  // The gateway declares with the odometer of 1.09: every GNSS <= 1.09 published, the last at 1.0.
+  a.declare_published(gnss, 1.09, 1.0);
+  EXPECT_DOUBLE_EQ(a.status(gnss, 0.0).watermark_s, 1.09);
+  EXPECT_DOUBLE_EQ(a.status(k, 0.0).watermark_s, 1.09);
+  EXPECT_DOUBLE_EQ(*a.advance(0.0), 1.09);
+  // A declaration naming a GNSS not received yet counts only once it is in (the earlier one stays).
+  a.on_sample(odo, 1.2, 0.1);
+  a.declare_published(gnss, 1.2, 1.1);
+  EXPECT_DOUBLE_EQ(a.status(gnss, 0.1).watermark_s, 1.09);
+  EXPECT_FALSE(a.advance(0.1).has_value());
+  a.on_sample(gnss, 1.1, 0.1);
+  // GNSS 1.1 is in, its K not: K is complete below 1.1.
+  EXPECT_EQ(*a.advance(0.1), std::nextafter(1.1, -kInf));
+  a.on_sample(k, 1.1, 0.1);
+  EXPECT_DOUBLE_EQ(*a.advance(0.1), 1.2);
 }
 
 TEST(EventTimeAligner, PacedStreamDoesNotHoldBackWhileItsPacingStreamIsAbsent) {

@@ -45,7 +45,9 @@ class EventTimeNode {
   /// Declares an input stream (plain, or paced by `pacing`, an input declared before). `required`:
   /// its absence degrades the node (WARN "no <name> for N s"); an optional input's absence is the
   /// node's to describe (node_status). Call in the derived constructor, before creating readers.
-  NodeInput& add_input(const std::string& name, bool required, const NodeInput* pacing = nullptr);
+  /// hold_off_s: the input's samples apply from stamp + hold-off (event_time_aligner.hpp "Hold-off").
+  NodeInput& add_input(const std::string& name, bool required, const NodeInput* pacing = nullptr,
+                       double hold_off_s = 0.0);
 
   /// A reader of one input topic for this node's vehicle: each sample of another vehicle is ignored;
   /// each of ours is posted to the worker thread, admitted by the aligner on its stamp (late,
@@ -53,15 +55,32 @@ class EventTimeNode {
   /// The reader lives as long as the returned pointer (reset it in close_inputs).
   template <class Msg, class Feed>
   std::unique_ptr<Reader<Msg>> subscribe(const odonav::topics::TopicSpec& topic, NodeInput& input, Feed feed) {
+    return subscribe<Msg>(topic, input, feed, [](const Msg&) {});
+  }
+  /// subscribe() with `before(msg)` called on the worker thread before the sample is admitted (e.g.
+  /// declare_gnss_published for the odometer, whose messages carry the GNSS completeness).
+  template <class Msg, class Feed, class Before>
+  std::unique_ptr<Reader<Msg>> subscribe(const odonav::topics::TopicSpec& topic, NodeInput& input, Feed feed,
+                                         Before before) {
     const std::string vehicle = runtime_.settings().vehicle_id;
     NodeInput* in = &input;
     return std::make_unique<Reader<Msg>>(
-        runtime_.participant(), topic.name, topic.reader_profile, [this, vehicle, in, feed](const Msg& m) {
+        runtime_.participant(), topic.name, topic.reader_profile, [this, vehicle, in, feed, before](const Msg& m) {
           if (m.vehicle_id() != vehicle) return;
-          runtime_.post([this, in, feed, m] {
+          runtime_.post([this, in, feed, before, m] {
+            before(m);
             admit_sample(aligner_, *in, m.header().stamp(), steady_now_s(), [&](double t_s) { feed(m, t_s); });
           });
         });
+  }
+
+  /// The GNSS completeness an Odometer message declares (idl Odometer), given to the aligner for the
+  /// `gnss` input, so that a consumer knows which GNSS epochs exist up to the odometer's time.
+  void declare_gnss_published(const NodeInput& gnss, const odonav::msg::Odometer& m) {
+    if (!m.gnss_complete_known()) return;
+    const double last = m.gnss_last_stamp_s();
+    aligner_.declare_published(gnss.id, m.gnss_complete_through_s(),
+                               last >= 0.0 ? std::optional<double>(last) : std::nullopt);
   }
 
   /// subscribe() for an estimate topic whose producers may be redundant (a hot standby: Msg has
