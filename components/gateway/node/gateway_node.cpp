@@ -6,6 +6,7 @@
 #include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <sstream>
 #include <thread>
@@ -127,9 +128,25 @@ bool GatewayNode::wait_for_readers() {
 
 void GatewayNode::publish(const SensorEvent& e) {
   switch (e.stream) {
-    case SensorEvent::Stream::kOdometer: publisher_.odometer(dataset_.odometer[e.index]); break;
+    case SensorEvent::Stream::kOdometer: {
+      // The file order is known: every GNSS before the next one to publish is out. Declared up to
+      // the odometer's own time at most (all a consumer of this sample needs). Both as the stamps
+      // reach the consumers (whole nanoseconds): a GNSS stamp a few ulps after the odometer's may
+      // arrive equal to it, and must not be declared published before it is.
+      const auto wire = [](double s) { return dds::to_seconds(dds::make_header(s, "").stamp()); };
+      const double t = wire(dataset_.odometer[e.index].t_s);
+      const double through =
+          gnss_published_ < dataset_.gnss.size()
+              ? std::min(t, std::nextafter(wire(dataset_.gnss[gnss_published_].t_s), -INFINITY))
+              : t;
+      publisher_.odometer(dataset_.odometer[e.index], through);
+      break;
+    }
     case SensorEvent::Stream::kIns: publisher_.ins(dataset_.ins[e.index]); break;
-    case SensorEvent::Stream::kGnss: publisher_.gnss(dataset_.gnss[e.index]); break;
+    case SensorEvent::Stream::kGnss:
+      publisher_.gnss(dataset_.gnss[e.index]);
+      gnss_published_ = e.index + 1;
+      break;
   }
 }
 

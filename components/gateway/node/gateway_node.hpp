@@ -74,6 +74,7 @@ class GatewayNode {
   dds::ComponentRuntime& runtime_;
   GatewaySettings settings_;
   Dataset dataset_;
+  std::size_t gnss_published_ = 0;  // GNSS of dataset_ published so far (in file order)
   SensorPublisher publisher_;
 };
 

@@ -12,12 +12,16 @@
 
 namespace odonav::gateway {
 
-odonav::msg::Odometer odometer_message(const OdometerSample& s, const std::string& vehicle_id) {
+odonav::msg::Odometer odometer_message(const OdometerSample& s, const std::string& vehicle_id,
+                                       double gnss_complete_through_s, std::optional<double> gnss_last_stamp_s) {
   odonav::msg::Odometer m;
   m.header(dds::make_header(s.t_s, "odometer"));
   m.vehicle_id(vehicle_id);
   m.pulses(s.pulses);
   m.direction(static_cast<int8_t>(s.direction));
+  m.gnss_complete_known(true);
+  m.gnss_complete_through_s(gnss_complete_through_s);
+  m.gnss_last_stamp_s(gnss_last_stamp_s.value_or(-1.0));
   return m;
 }
 
@@ -65,7 +69,14 @@ SensorPublisher::SensorPublisher(dds::ComponentRuntime& runtime, const std::stri
 
 void SensorPublisher::odometer(const OdometerSample& s) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  count(odometer_.write(odometer_message(s, vehicle())), 0, s.t_s);
+  // -1 before any GNSS: consumers take it as "nothing declared yet" (nothing below their data).
+  const double through = last_gnss_t_s_.value_or(-1.0);
+  count(odometer_.write(odometer_message(s, vehicle(), through, last_gnss_t_s_)), 0, s.t_s);
+}
+
+void SensorPublisher::odometer(const OdometerSample& s, double gnss_complete_through_s) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  count(odometer_.write(odometer_message(s, vehicle(), gnss_complete_through_s, last_gnss_t_s_)), 0, s.t_s);
 }
 
 void SensorPublisher::ins(const InsSample& s) {
@@ -78,6 +89,7 @@ void SensorPublisher::gnss(const GnssSample& s) {
   const odonav::msg::GnssFix m = gnss_message(s, vehicle());
   if (!m.valid()) ++counts_.gnss_invalid;
   count(gnss_.write(m), 2, s.t_s);
+  last_gnss_t_s_ = dds::to_seconds(m.header().stamp());  // as the consumers receive it
 }
 
 void SensorPublisher::count(bool written, std::size_t stream, double t_s) {

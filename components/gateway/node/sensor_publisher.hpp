@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstddef>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,10 @@ namespace odonav::gateway {
 // range (non-finite, beyond 2038) throws std::invalid_argument naming the value.
 
 /// Odometer: raw counter, direction (-1, 0, +1), frame "odometer".
-odonav::msg::Odometer odometer_message(const OdometerSample& s, const std::string& vehicle_id);
+/// GNSS completeness (idl Odometer): every GNSS fix stamped <= gnss_complete_through_s has been
+/// published, the last one stamped gnss_last_stamp_s (nullopt: none).
+odonav::msg::Odometer odometer_message(const OdometerSample& s, const std::string& vehicle_id,
+                                       double gnss_complete_through_s, std::optional<double> gnss_last_stamp_s);
 /// INS attitude in radians, ENU velocity when the dataset has it (velocity_valid), valid, frame "body".
 odonav::msg::InsAttitude ins_message(const InsSample& s, const std::string& vehicle_id);
 /// GNSS fix: latitude/longitude in the degrees the dataset files hold (recorded_degrees), height,
@@ -40,7 +44,12 @@ class SensorPublisher : public SampleSink {
  public:
   SensorPublisher(dds::ComponentRuntime& runtime, const std::string& writer_profile);
 
+  /// Publishes with the GNSS completeness: every GNSS stamped <= the last one published (a live
+  /// source knows no more).
   void odometer(const OdometerSample& s) override;
+  /// Publishes declaring every GNSS stamped <= gnss_complete_through_s published (a replay, which
+  /// knows the file order: the next GNSS of the file is stamped later).
+  void odometer(const OdometerSample& s, double gnss_complete_through_s);
   void ins(const InsSample& s) override;
   void gnss(const GnssSample& s) override;
 
@@ -73,6 +82,7 @@ class SensorPublisher : public SampleSink {
   dds::Writer<odonav::msg::InsAttitude> ins_;
   dds::Writer<odonav::msg::GnssFix> gnss_;
   mutable std::mutex mutex_;
+  std::optional<double> last_gnss_t_s_;  // stamp of the last GNSS published
   PublishedCounts counts_;
   std::uint64_t ack_timeouts_ = 0;
 };

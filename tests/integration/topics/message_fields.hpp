@@ -42,6 +42,9 @@ inline Fields fields(const odonav::msg::Odometer& m) {
   f.emplace_back("vehicle_id", text(m.vehicle_id()));
   f.emplace_back("pulses", text(m.pulses()));
   f.emplace_back("direction", text(m.direction()));
+  f.emplace_back("gnss_complete_known", text(m.gnss_complete_known()));
+  f.emplace_back("gnss_complete_through_s", text(m.gnss_complete_through_s()));
+  f.emplace_back("gnss_last_stamp_s", text(m.gnss_last_stamp_s()));
   return f;
 }
 
@@ -133,6 +136,7 @@ inline Fields fields(const odonav::msg::DeadReckoning& m) {
   f.emplace_back("gnss_valid", text(m.gnss_valid()));
   f.emplace_back("horizontal_error_m", text(m.horizontal_error_m()));
   f.emplace_back("error_percent_distance", text(m.error_percent_distance()));
+  f.emplace_back("error_t_s", text(m.error_t_s()));
   return f;
 }
 
@@ -210,6 +214,9 @@ inline odonav::msg::Odometer make_odometer() {
   m.vehicle_id("vehicle-odometer-7");
   m.pulses(4294967295u);  // the top of the wrapping counter
   m.direction(-1);
+  m.gnss_complete_known(true);
+  m.gnss_complete_through_s(1234.5678901);
+  m.gnss_last_stamp_s(1234.4678901);
   return m;
 }
 
@@ -306,6 +313,7 @@ inline odonav::msg::DeadReckoning make_dead_reckoning() {
   m.gnss_valid(true);
   m.horizontal_error_m(d.next());
   m.error_percent_distance(d.next());
+  m.error_t_s(d.next());
   return m;
 }
 
