@@ -78,7 +78,7 @@ void ScaleFactorCsv::write(const ScaleFactorRow& r) {
 
 DeadReckoningCsv::DeadReckoningCsv(const std::string& path)
     : csv_(path, {"t", "lat_deg", "lon_deg", "height_m", "distance_m", "k_m_per_pulse", "k_source", "east_m",
-                  "north_m", "up_m", "heading_deg", "horizontal_error_m", "error_percent"}) {}
+                  "north_m", "up_m", "heading_deg", "horizontal_error_m", "error_percent", "error_t"}) {}
 
 void DeadReckoningCsv::write(const DeadReckoningRow& r) {
   csv_.field(r.t_s)
@@ -93,7 +93,8 @@ void DeadReckoningCsv::write(const DeadReckoningRow& r) {
       .field(r.up_m)
       .field(rad_to_deg(r.heading_rad))
       .field(finite_or_empty(r.horizontal_error_m))
-      .field(finite_or_empty(r.error_percent));
+      .field(finite_or_empty(r.error_percent))
+      .field(finite_or_empty(r.error_t_s));
   csv_.end_row();
 }
 
@@ -200,6 +201,8 @@ std::vector<DeadReckoningRow> read_dead_reckoning(const std::string& path) {
     r.heading_rad = deg_to_rad(t.number(i, "heading_deg"));
     r.horizontal_error_m = t.number(i, "horizontal_error_m");
     r.error_percent = t.number(i, "error_percent");
+    // Files written before the error was evaluated per GNSS epoch have no error_t column.
+    r.error_t_s = t.has("error_t") ? t.number(i, "error_t") : std::numeric_limits<double>::quiet_NaN();
   }
   return rows;
 }

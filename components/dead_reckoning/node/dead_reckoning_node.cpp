@@ -88,6 +88,7 @@ odonav::msg::DeadReckoning dead_reckoning_message(const DeadReckoningOutput& o, 
   m.gnss_valid(o.gnss_reference);
   m.horizontal_error_m(or_minus_one(o.horizontal_error_m));
   m.error_percent_distance(or_minus_one(o.error_percent_distance));
+  m.error_t_s(or_minus_one(o.error_t_s));
   return m;
 }
 
@@ -124,18 +125,19 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
       anchor_(anchored),
       k_selection_(params.nominal_k_m_per_pulse),
       odometer_(add_input("odometer", true)),
-      gnss_(add_input("gnss", true)),
-      misalignment_(add_input("misalignment", false, &gnss_)),
-      scale_factor_(add_input("scale_factor", false, &gnss_)),
+      // GNSS is a reference (error, start) applied with the hold-off, as the estimates of its epochs.
+      gnss_(add_input("gnss", true, nullptr, params.estimate_hold_off_s)),
+      misalignment_(add_input("misalignment", false, &gnss_, params.estimate_hold_off_s)),
+      scale_factor_(add_input("scale_factor", false, &gnss_, params.estimate_hold_off_s)),
       writer_(runtime.participant(), topics::kDeadReckoning.name, topics::kDeadReckoning.writer_profile),
       navigation_writer_(runtime.participant(), topics::kNavigationPosition.name,
                          topics::kNavigationPosition.writer_profile) {
   if (params_.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
 
-  odometer_reader_ = subscribe<odonav::msg::Odometer>(topics::kOdometer, odometer_, [this](const auto& m, double) {
-    core_.add_odometer(dds::odometer_sample_from(m));
-  });
+  odometer_reader_ = subscribe<odonav::msg::Odometer>(
+      topics::kOdometer, odometer_, [this](const auto& m, double) { core_.add_odometer(dds::odometer_sample_from(m)); },
+      [this](const odonav::msg::Odometer& m) { declare_gnss_published(gnss_, m); });
   gnss_reader_ = subscribe<odonav::msg::GnssFix>(topics::kGnssFix, gnss_, [this](const auto& m, double) {
     core_.add_gnss(dds::gnss_sample_from(m));
   });
@@ -168,15 +170,16 @@ void DeadReckoningNode::on_misalignment(const odonav::msg::Misalignment& m, doub
   if (!misalignment_applicable(m.converged(), m.samples_used(), m.heading_rad(), m.pitch_rad(), m.heading_std_rad(),
                                m.pitch_std_rad())) return;  // consumer_rules.hpp, as odonav-offline
   const Misalignment mis{m.heading_rad(), m.pitch_rad()};
-  core_.add_misalignment(t_s, mis);  // throws StreamInputError on non-finite angles: counted
-  applied_misalignment_.add(t_s, mis);
+  const double from_s = estimate_applies_from_s(t_s, params_.estimate_hold_off_s);  // as odonav-offline
+  core_.add_misalignment(from_s, mis);  // throws StreamInputError on non-finite angles: counted
+  applied_misalignment_.add(from_s, mis);
   ++misalignments_applied_;
   held_misalignment_t_s_ = t_s;
 }
 
 void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s) {
-  const IdentifiedScaleFactor k{t_s, m.k_m_per_pulse(), m.converged(), m.source(), m.sigma_m_per_pulse(),
-                                m.samples_accepted()};
+  const IdentifiedScaleFactor k{estimate_applies_from_s(t_s, params_.estimate_hold_off_s), m.k_m_per_pulse(),
+                                m.converged(), m.source(), m.sigma_m_per_pulse(), m.samples_accepted()};
   if (const auto update = k_selection_.on_identified(k, dds::steady_now_s()))
     core_.add_scale_factor(update->t_s, update->k_m_per_pulse, update->source);
 }

@@ -146,7 +146,7 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
       lifecycle_(checkpoint, runtime.settings().vehicle_id, instance.instance),
       odometer_(add_input("odometer", true)),
       gnss_(add_input("gnss", true)),
-      misalignment_(add_input("misalignment", false, &gnss_)) {
+      misalignment_(add_input("misalignment", false, &gnss_, params.estimate_hold_off_s)) {
   if (params_.builder.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
   // Before any reader exists: no sample can reach the core before the restored state.
@@ -160,9 +160,13 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
     count_outputs(1);
   }
 
-  odometer_reader_ = subscribe<odonav::msg::Odometer>(topics::kOdometer, odometer_, [this](const auto& m, double t_s) {
-    if (!lifecycle_.skip_sample(IdentificationInput::kOdometer, t_s)) core_.add_odometer(dds::odometer_sample_from(m));
-  });
+  odometer_reader_ = subscribe<odonav::msg::Odometer>(
+      topics::kOdometer, odometer_,
+      [this](const auto& m, double t_s) {
+        if (!lifecycle_.skip_sample(IdentificationInput::kOdometer, t_s))
+          core_.add_odometer(dds::odometer_sample_from(m));
+      },
+      [this](const odonav::msg::Odometer& m) { declare_gnss_published(gnss_, m); });
   gnss_reader_ = subscribe<odonav::msg::GnssFix>(topics::kGnssFix, gnss_, [this](const auto& m, double t_s) {
     if (!lifecycle_.skip_sample(IdentificationInput::kGnss, t_s)) core_.add_gnss(dds::gnss_sample_from(m));
   });
@@ -195,7 +199,10 @@ void IdentificationNode::on_misalignment(const odonav::msg::Misalignment& m, dou
                                m.pitch_std_rad())) return;
   if (!std::isfinite(m.heading_rad()) || !std::isfinite(m.pitch_rad()))
     throw StreamInputError("misalignment: angles are not finite");
-  core_.add_misalignment(t_s, Misalignment{m.heading_rad(), m.pitch_rad()});
+  // In force from epoch + hold-off, as odonav-offline: K of epoch g never waits for the calibration
+  // of epoch g.
+  core_.add_misalignment(estimate_applies_from_s(t_s, params_.estimate_hold_off_s),
+                         Misalignment{m.heading_rad(), m.pitch_rad()});
   ++misalignments_applied_;
   held_misalignment_t_s_ = t_s;
 }

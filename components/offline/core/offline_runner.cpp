@@ -15,12 +15,14 @@ std::vector<MisalignmentOutput> run_calibration(const Dataset& d, const Misalign
   return out;
 }
 
+// Every estimate in force from its epoch + the hold-off (consumer_rules.hpp), as the nodes add it.
 template <class Consumer>
-void add_applicable_misalignments(Consumer& consumer, const std::vector<MisalignmentOutput>& outputs) {
+void add_applicable_misalignments(Consumer& consumer, const std::vector<MisalignmentOutput>& outputs,
+                                  double hold_off_s) {
   for (const MisalignmentOutput& m : outputs)
     if (misalignment_applicable(m.converged, m.samples_used, m.misalignment.heading_rad, m.misalignment.pitch_rad,
                                 m.sigma_heading_rad, m.sigma_pitch_rad))
-      consumer.add_misalignment(m.t_s, m.misalignment);
+      consumer.add_misalignment(estimate_applies_from_s(m.t_s, hold_off_s), m.misalignment);
 }
 
 std::vector<IdentificationOutput> run_identification(const Dataset& d, const IdentificationParams& params,
@@ -31,7 +33,7 @@ std::vector<IdentificationOutput> run_identification(const Dataset& d, const Ide
   for (const OdometerSample& o : d.odometer) core.add_odometer(o);
   for (const GnssSample& g : d.gnss) core.add_gnss(g);
   for (const InsSample& i : d.ins) core.add_ins(i);
-  add_applicable_misalignments(core, misalignment);
+  add_applicable_misalignments(core, misalignment, params.estimate_hold_off_s);
   std::vector<IdentificationOutput> out = core.finish();
   if (names) *names = core.estimator_names();
   if (counters) *counters = core.builder_counters();
@@ -46,12 +48,13 @@ std::vector<DeadReckoningOutput> run_dead_reckoning(const Dataset& d, const Dead
   for (const OdometerSample& o : d.odometer) dr.add_odometer(o);
   for (const InsSample& i : d.ins) dr.add_ins(i);
   for (const GnssSample& g : d.gnss) dr.add_gnss(g);
-  add_applicable_misalignments(dr, misalignment);
+  add_applicable_misalignments(dr, misalignment, params.estimate_hold_off_s);
   if (identification) {
     for (const IdentificationOutput& k : *identification)
       if (scale_factor_applicable(k.main.valid, k.main.converged, k.main.k_m_per_pulse, k.main.sigma_m_per_pulse,
                                   k.samples_accepted, params.nominal_k_m_per_pulse))
-        dr.add_scale_factor(k.t_s, k.main.k_m_per_pulse, ScaleFactorSource::kIdentified);
+        dr.add_scale_factor(estimate_applies_from_s(k.t_s, params.estimate_hold_off_s), k.main.k_m_per_pulse,
+                            ScaleFactorSource::kIdentified);
   }
   std::vector<DeadReckoningOutput> out = dr.finish();
   if (counters) *counters = dr.counters();
@@ -180,6 +183,7 @@ results::DeadReckoningRow to_row(const DeadReckoningOutput& o) {
   r.heading_rad = o.heading_rad;
   r.horizontal_error_m = o.horizontal_error_m;
   r.error_percent = o.error_percent_distance;
+  r.error_t_s = o.error_t_s;
   return r;
 }
 

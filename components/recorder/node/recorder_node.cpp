@@ -114,6 +114,7 @@ results::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m
   r.heading_rad = m.heading_rad();
   r.horizontal_error_m = known_or_nan(m.horizontal_error_m());
   r.error_percent = known_or_nan(m.error_percent_distance());
+  r.error_t_s = known_or_nan(m.error_t_s());
   return r;
 }
 

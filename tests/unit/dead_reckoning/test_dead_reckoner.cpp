@@ -272,7 +272,42 @@ TEST(DeadReckoner, PercentIsUndefinedBelowOneMetre) {
   c.duration_s = 2.0;
   const auto out = run_all(simulate(straight(0.0, 0.0, 5.0, 0.0), c), exact_k());
   EXPECT_TRUE(std::isnan(out[3].error_percent_distance));  // 0.08 s, 0.4 m
-  EXPECT_FALSE(std::isnan(out[20].error_percent_distance));
+  // 0.62 s: the error of the epoch 0.4 s (2 m driven), evaluated after its 0.2 s hold-off.
+  EXPECT_FALSE(std::isnan(out[30].error_percent_distance));
+  EXPECT_NEAR(out[30].error_t_s, 0.4, 1e-9);
+}
+
+// The hold-off rule: an output at t needs GNSS (and K, misalignment) of the epochs <= t - hold-off
+// only. With the GNSS up to 4.8 s, every output up to 5 s leaves, equal to the run with all data,
+// and the error it carries refers to an epoch at least the hold-off before it.
+TEST(DeadReckoner, AnOutputWaitsForNoGnssLaterThanItsTimeMinusTheHoldOff) {
+  SensorConfig c;
+  c.duration_s = 10.0;
+  const SyntheticData d = simulate(straight(0.0, 0.0, 5.0, 0.0), c);
+  DeadReckonerParams p = exact_k();
+  ASSERT_DOUBLE_EQ(p.estimate_hold_off_s, 0.2);
+  const auto all = run_all(d, p);
+  DeadReckoner dr(p);
+  for (const auto& s : d.odometer) dr.add_odometer(s);
+  for (const auto& s : d.ins) dr.add_ins(s);
+  for (const auto& s : d.gnss)
+    if (s.t_s <= 4.8 + 1e-9) dr.add_gnss(s);
+  const auto out = dr.process_until(5.0);
+  ASSERT_FALSE(out.empty());
+  EXPECT_NEAR(out.back().t_s, 5.0, 1e-9);
+  ASSERT_LE(out.size(), all.size());
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    EXPECT_EQ(out[i].t_s, all[i].t_s);
+    EXPECT_EQ(out[i].enu_m, all[i].enu_m) << i;
+    EXPECT_TRUE(out[i].horizontal_error_m == all[i].horizontal_error_m ||
+                (std::isnan(out[i].horizontal_error_m) && std::isnan(all[i].horizontal_error_m)))
+        << i;
+    if (std::isfinite(out[i].error_t_s)) {
+      EXPECT_LE(out[i].error_t_s, out[i].t_s - 0.2 + 1e-6) << i;
+    }
+  }
+  EXPECT_NEAR(out.back().error_t_s, 4.8, 1e-9);
+  EXPECT_LT(out.back().horizontal_error_m, 0.01);  // exact K, straight line
 }
 
 TEST(DeadReckoner, DifferentInterleavingsGiveBitIdenticalOutputs) {
@@ -321,7 +356,9 @@ TEST(DeadReckoner, DifferentInterleavingsGiveBitIdenticalOutputs) {
     EXPECT_EQ(oa[i].enu_m, ob[i].enu_m) << i;
     EXPECT_EQ(oa[i].position.lat_rad, ob[i].position.lat_rad) << i;
     EXPECT_EQ(oa[i].k_source, ob[i].k_source) << i;
-    EXPECT_EQ(oa[i].horizontal_error_m, ob[i].horizontal_error_m) << i;
+    EXPECT_TRUE(oa[i].horizontal_error_m == ob[i].horizontal_error_m ||
+                (std::isnan(oa[i].horizontal_error_m) && std::isnan(ob[i].horizontal_error_m)))
+        << i;
   }
   EXPECT_EQ(oa[100].k_source, ScaleFactorSource::kNominal);      // 2 s
   EXPECT_EQ(oa[500].k_source, ScaleFactorSource::kIdentified);   // 10 s

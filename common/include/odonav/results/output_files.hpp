@@ -14,7 +14,9 @@
 //     the columns after lambda_vff_lm_rls describe the main (published) estimator.
 //   dead_reckoning.csv,     t, lat_deg, lon_deg, height_m, distance_m, k_m_per_pulse, k_source,
 //   dead_reckoning_coarse.csv  east_m, north_m, up_m, heading_deg, horizontal_error_m,
-//                           error_percent                               (one row per odometer sample)
+//                           error_percent, error_t                      (one row per odometer sample)
+//     horizontal_error_m / error_percent: against the GNSS fix of epoch error_t, evaluated once that
+//     epoch's hold-off has passed (consumer_rules.hpp) and carried until the next epoch's.
 //   navigation_position.csv t, lat_deg, lon_deg, height_m, east_m, north_m, up_m, var_east_m2,
 //                           var_north_m2, var_up_m2, status, last_fix_t, distance_since_fix_m
 //                           (one row per odometer sample: the GNSS-anchored position of the online
@@ -77,6 +79,7 @@ struct DeadReckoningRow {
   double heading_rad = 0.0;
   double horizontal_error_m = 0.0;  ///< NaN when no GNSS reference (written empty).
   double error_percent = 0.0;       ///< NaN when undefined (written empty).
+  double error_t_s = 0.0;           ///< GNSS epoch the error refers to (s); NaN when none (written empty).
 };
 
 /// One navigation_position.csv row (angles in radians here, degrees in the file).

@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "odonav/consumer_rules.hpp"
+
 namespace odonav {
 
 const char* to_string(ScaleFactorSource source) {
@@ -44,6 +46,9 @@ DeadReckoner::DeadReckoner(const DeadReckonerParams& p)
   require(p.course_min_speed_floor_mps > 0.0, "course_min_speed_floor_mps must be > 0");
   require(p.course_min_speed_sigmas > 0.0, "course_min_speed_sigmas must be > 0");
   require(p.percent_min_distance_m >= 0.0, "percent_min_distance_m must be >= 0");
+  require(std::isfinite(p.estimate_hold_off_s) && p.estimate_hold_off_s >= 0.0,
+          "estimate_hold_off_s must be finite and >= 0");
+  require(std::isfinite(p.error_max_age_s) && p.error_max_age_s > 0.0, "error_max_age_s must be finite and > 0");
   require(!p.lever_arm_body_m || p.lever_arm_body_m->allFinite(), "lever_arm_body_m must be finite");
 }
 
@@ -78,6 +83,7 @@ void DeadReckoner::add_gnss(const GnssSample& sample) {
   last_gnss_t_s_ = sample.t_s;
   gnss_.push_back(sample);
   gnss_gap_s_.push_back(last_gnss_gap_s_);
+  error_epochs_.push_back(sample);
 }
 
 void DeadReckoner::add_scale_factor(double t_s, double k, ScaleFactorSource source) {
@@ -123,7 +129,13 @@ bool DeadReckoner::gnss_final_at(double t_s) const {
   // Without a row at or after t_s the last row is the earlier end of any bracket of t_s: a later
   // row beyond its gap can no longer make one.
   const double gap_s = last_gnss_t_s_ ? last_gnss_gap_s_ : dead_reckoning_gnss_max_gap_s(params_, std::nan(""));
-  return (last_gnss_t_s_ && *last_gnss_t_s_ >= t_s) || watermark_s_ >= t_s + gap_s;
+  return (last_gnss_t_s_ && *last_gnss_t_s_ >= t_s) ||
+         watermark_s_ >= estimate_applies_from_s(t_s + gap_s, params_.estimate_hold_off_s);
+}
+
+bool DeadReckoner::gnss_complete_at(double t_s) const {
+  return (last_gnss_t_s_ && *last_gnss_t_s_ >= t_s) ||
+         watermark_s_ >= estimate_applies_from_s(t_s, params_.estimate_hold_off_s);
 }
 
 namespace {
@@ -208,6 +220,11 @@ DeadReckoner::Readiness DeadReckoner::try_start(double t_j) {
     position_ = reference;
     start_fix_ = AnchorFix{g.t_s, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0,
                            g.pos_std_m.value_or(std::numeric_limits<double>::quiet_NaN())};
+    start_t_s_ = g.t_s;
+    past_.clear();
+    past_.push_back(Past{g.t_s, Eigen::Vector3d::Zero(), 0.0,
+                         params_.lever_arm_body_m ? std::optional<Eigen::Vector3d>(att ? lever_arm_enu(*att) : Eigen::Vector3d::Zero())
+                                                  : std::optional<Eigen::Vector3d>(Eigen::Vector3d::Zero())});
     last_t_s_ = g.t_s;
     last_count_ = *count;
     distance_m_ = 0.0;
@@ -230,6 +247,8 @@ std::vector<DeadReckoningOutput> DeadReckoner::process_until(double watermark_s)
   while (!pending_odometer_t_s_.empty() && pending_odometer_t_s_.front() <= watermark_s_) {
     const double t_j = pending_odometer_t_s_.front();
     if (!frame_) {
+      // The start fix is the first valid one at or before t_j: all of them must be in.
+      if (!gnss_complete_at(t_j)) break;
       if (try_start(t_j) == Readiness::kWait) break;
       if (!frame_) {
         ++counters_.odometer_samples;
@@ -251,7 +270,8 @@ std::vector<DeadReckoningOutput> DeadReckoner::process_until(double watermark_s)
       if (attitude_.state_at(mid, watermark_s_) == BracketState::kPending) break;
       if (params_.lever_arm_body_m && attitude_.state_at(t_j, watermark_s_) == BracketState::kPending) break;
     }
-    if (!gnss_final_at(t_j)) break;
+    // Only the degraded mode steers by GNSS (course interpolated at mid-interval).
+    if (!params_.use_ins && !gnss_final_at(t_j)) break;
 
     const OdometerBuffer::Entry* entry = nullptr;
     for (const auto& e : odometer_.entries()) {  // near the front: earlier samples are pruned
@@ -350,9 +370,6 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
     }
   }
   if (!have_heading) ++counters_.distance_lost;
-  const Eigen::Vector3d enu_before = frame_->to_enu(position_);
-  const double distance_before = distance_m_;
-  const double t_before = last_t_s_;
   position_ = move_geodetic(position_, ds_n);
   distance_m_ += std::abs(ds);
   last_t_s_ = t_j;
@@ -366,38 +383,67 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
     ++counters_.anchor_fixes;
     start_fix_.reset();
   }
-  for (const GnssSample& g : gnss_) {
-    if (g.t_s <= t_before) continue;
-    if (g.t_s > t_j) break;
-    if (!g.valid()) continue;
-    std::optional<Attitude> att_g;
-    if (params_.lever_arm_body_m) {
-      att_g = lever_arm_attitude_at(g.t_s);
-      if (!att_g) {
-        ++counters_.anchor_fixes_no_attitude;
-        continue;
-      }
-    }
-    const double f = (g.t_s - t_before) / (t_j - t_before);
-    AnchorFix fix;
-    fix.t_s = g.t_s;
-    fix.fix_enu_m = frame_->to_enu(g.position);
-    if (att_g) fix.fix_enu_m -= lever_arm_enu(*att_g);
-    fix.dr_enu_m = enu_before + f * (o.enu_m - enu_before);
-    fix.dr_distance_m = distance_before + f * (distance_m_ - distance_before);
-    fix.sigma_m = g.pos_std_m.value_or(std::numeric_limits<double>::quiet_NaN());
-    o.gnss_fixes.push_back(fix);
-    ++counters_.anchor_fixes;
+  std::optional<Eigen::Vector3d> lever_now = Eigen::Vector3d::Zero();
+  if (params_.lever_arm_body_m) {
+    const std::optional<Attitude> att_now = lever_arm_attitude_at(t_j);
+    lever_now = att_now ? std::optional<Eigen::Vector3d>(lever_arm_enu(*att_now)) : std::nullopt;
   }
-  const std::optional<Attitude> att_now = params_.lever_arm_body_m ? lever_arm_attitude_at(t_j) : std::nullopt;
-  const std::optional<Eigen::Vector3d> ref = gnss_reference_enu(t_j, att_now);
-  if (ref) {
+  past_.push_back(Past{t_j, o.enu_m, distance_m_, lever_now});
+  evaluate_errors(o);
+  if (last_error_ && t_j - last_error_->applies_s <= params_.error_max_age_s &&
+      std::isfinite(last_error_->horizontal_error_m)) {
     o.gnss_reference = true;
-    o.horizontal_error_m = std::hypot(o.enu_m.x() - ref->x(), o.enu_m.y() - ref->y());
-    if (distance_m_ >= params_.percent_min_distance_m && distance_m_ > 0.0)
-      o.error_percent_distance = 100.0 * o.horizontal_error_m / distance_m_;
+    o.error_t_s = last_error_->epoch_s;
+    o.horizontal_error_m = last_error_->horizontal_error_m;
+    o.error_percent_distance = last_error_->error_percent_distance;
   }
   return o;
+}
+
+void DeadReckoner::evaluate_errors(DeadReckoningOutput& o) {
+  const double t_j = o.t_s;
+  const double d = params_.estimate_hold_off_s;
+  while (!error_epochs_.empty() && estimate_applies_from_s(error_epochs_.front().t_s, d) <= t_j) {
+    const GnssSample g = error_epochs_.front();
+    error_epochs_.pop_front();
+    EpochError e{g.t_s, estimate_applies_from_s(g.t_s, d), std::numeric_limits<double>::quiet_NaN(),
+                 std::numeric_limits<double>::quiet_NaN()};
+    // DR at g: between the outputs bracketing it (none before the start, or g beyond the last one).
+    std::size_t hi = 0;
+    while (hi < past_.size() && past_[hi].t_s < g.t_s) ++hi;
+    const bool after_start = start_t_s_ && g.t_s > *start_t_s_;
+    if (g.valid() && after_start && hi < past_.size() && (hi > 0 || past_[0].t_s == g.t_s)) {
+      // Everything interpolated, so that an epoch a few ulps off an odometer instant (a stamp that
+      // crossed DDS) gives the same result to 1e-9.
+      const Past& b = past_[hi];
+      const Past& a = b.t_s == g.t_s ? b : past_[hi - 1];
+      const double f = b.t_s == g.t_s ? 1.0 : (g.t_s - a.t_s) / (b.t_s - a.t_s);
+      if (!a.lever_arm_enu_m || !b.lever_arm_enu_m) {
+        ++counters_.anchor_fixes_no_attitude;  // a lever arm without the attitude to turn it
+      } else {
+        const Eigen::Vector3d dr = a.enu_m + f * (b.enu_m - a.enu_m);
+        const Eigen::Vector3d lever = *a.lever_arm_enu_m + f * (*b.lever_arm_enu_m - *a.lever_arm_enu_m);
+        const double dist = a.distance_m + f * (b.distance_m - a.distance_m);
+        const Eigen::Vector3d ref = frame_->to_enu(g.position) - lever;
+        e.horizontal_error_m = std::hypot(dr.x() - ref.x(), dr.y() - ref.y());
+        if (dist >= params_.percent_min_distance_m && dist > 0.0)
+          e.error_percent_distance = 100.0 * e.horizontal_error_m / dist;
+        AnchorFix fix;
+        fix.t_s = g.t_s;
+        fix.fix_enu_m = ref;
+        fix.dr_enu_m = dr;
+        fix.dr_distance_m = dist;
+        fix.sigma_m = g.pos_std_m.value_or(std::numeric_limits<double>::quiet_NaN());
+        o.gnss_fixes.push_back(fix);
+        ++counters_.anchor_fixes;
+      }
+    }
+    last_error_ = e;
+  }
+  // Later epochs apply after t_j, i.e. are stamped after t_j - d: the outputs before that (but the
+  // one bracketing it) are no longer needed.
+  const double keep_from = error_epochs_.empty() ? t_j - d : std::min(t_j - d, error_epochs_.front().t_s);
+  while (past_.size() >= 2 && past_[1].t_s <= keep_from) past_.pop_front();
 }
 
 }  // namespace odonav

@@ -1,11 +1,13 @@
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 
+#include "odonav/hold_off_option.hpp"
 #include "odonav/lever_arm_option.hpp"
 
 namespace odonav {
 
 void add_dead_reckoning_options(Options& o) {
   o.add_double("nominal-k", 0.0, "K before identification converges (m/pulse); 0 = meta.json's, else 0.0125", 0.0, 10.0);
+  add_estimate_hold_off_option(o);
   o.add_choice("dr-mode", "3d", {"3d", "2d"}, "3d: full attitude and height; 2d: heading only, height held");
 }
 
@@ -22,6 +24,7 @@ DeadReckoningFacts dead_reckoning_facts_from(const Options& o) {
   f.mode = p.mode;
   f.nominal_k_option_m_per_pulse = p.nominal_k_m_per_pulse;
   f.lever_arm_body_m = lever_arm_from(o);
+  f.estimate_hold_off_s = estimate_hold_off_from(o);
   return f;
 }
 
@@ -30,6 +33,7 @@ DeadReckonerParams dead_reckoner_params(const DeadReckoningFacts& f) {
   p.mode = f.mode;
   p.use_ins = f.use_ins;
   p.lever_arm_body_m = f.lever_arm_body_m;
+  p.estimate_hold_off_s = f.estimate_hold_off_s;
   p.nominal_k_m_per_pulse = f.nominal_k_option_m_per_pulse > 0.0
                                 ? f.nominal_k_option_m_per_pulse
                                 : f.dataset_nominal_k_m_per_pulse.value_or(kDefaultNominalK_m_per_pulse);

@@ -4,9 +4,12 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "odonav/hold_off_option.hpp"
+
 namespace odonav {
 
 void add_identification_options(Options& o) {
+  add_estimate_hold_off_option(o);
   const IdentificationParams d;
   std::vector<std::string> names = estimator_names();
   o.add_choice("estimator", d.estimator_name, names, "scale-factor estimator published and used by dead reckoning");
@@ -94,6 +97,7 @@ IdentificationParams identification_params_for(const Options& o, const Identific
   p.builder.lever_arm_body_m = facts.lever_arm_body_m;
   p.builder.odometer_jump_gate.k_m_per_pulse = facts.nominal_k_m_per_pulse;
   p.run_all_estimators = facts.run_all_estimators;
+  p.estimate_hold_off_s = estimate_hold_off_from(o);
   return p;
 }
 

@@ -21,21 +21,27 @@
 // direction below the course's minimum speed (stop, then reverse at a crawl), |dS| is laid against
 // the held course, so a straight reversing manoeuvre is dead-reckoned exactly.
 //
-// GNSS reference for the error at t_j: the antenna position interpolated linearly (in the local
-// ENU frame of the DR origin) between the two valid GNSS epochs bracketing t_j when they are at most
-// the GNSS gap apart (dead_reckoning_gnss_max_gap_s, from the GNSS period observed up to the earlier
-// epoch), or the epoch at exactly t_j. Interpolating instead of taking the nearest
-// epoch matters: at 10 Hz GNSS and 10 m/s the nearest epoch is up to 0.5 m away from the vehicle.
+// Error against GNSS, per GNSS epoch g (valid fix, after the start): |DR(g) - GNSS(g)| horizontal,
+// DR(g) interpolated linearly (local ENU of the DR origin) between the outputs bracketing g, the
+// antenna moved to the reference point by the lever arm (ENU) interpolated alike. It is
+// evaluated at the first odometer sample t_j >= estimate_applies_from_s(g, hold-off) (the rule of
+// consumer_rules.hpp: by then the fix of epoch g has arrived) and carried, with error_t_s = g, on
+// the outputs until the next epoch is evaluated (at most error_max_age_s). So the error never holds
+// a position back: an output waits for no GNSS later than its own time minus the hold-off.
 //
-// GNSS fixes for the anchored position (anchored_position.hpp): each output carries the valid GNSS
-// epochs g of its interval (t_{j-1}, t_j] (the first output also the start fix) as AnchorFix: the
-// reference point from the fix (lever arm turned by the attitude at g, as for the error reference)
-// and the DR position and distance at g, interpolated linearly over the interval. An epoch whose
-// attitude is missing while a lever arm is configured is left out and counted. This relies on the
-// rule below that t_j is processed only once every GNSS stamped <= t_j is in.
+// GNSS fixes for the anchored position (anchored_position.hpp): the same evaluation gives, for each
+// valid epoch g, an AnchorFix (the reference point from the fix, the DR position and distance at g),
+// carried by the output at which g is evaluated (the first output also the start fix). An epoch
+// without the lever arm at g (attitude missing while a lever arm is configured) is left out of both
+// and counted.
 //
-// Event time: as sample_builder.hpp. One output per odometer sample after the start, emitted once
-// its attitude, GNSS reference and K / misalignment streams are complete up to the watermark.
+// Event time: as sample_builder.hpp, with the hold-off: the contract of process_until(w) is "every
+// odometer and INS sample stamped <= w, and every GNSS fix, K and misalignment whose
+// estimate_applies_from_s(stamp, hold-off) <= w, has been added" (K and misalignment are added by
+// the caller stamped with their application time already). Before the start (and in the degraded
+// mode, which steers by the GNSS course) the GNSS around t_j itself is needed: the output waits for
+// it. One output per odometer sample after the start, emitted once its attitude and inputs are
+// complete up to the watermark.
 #include <cstdint>
 #include <deque>
 #include <limits>
@@ -102,6 +108,14 @@ struct DeadReckonerParams {
   double course_min_speed_sigmas = 20.0;    ///< the derived speed in velocity sigmas (> 0)
   /// %D is NaN while the distance travelled is below this (m). Default 1.
   double percent_min_distance_m = 1.0;
+  /// Hold-off d (s, >= 0) of the estimate-application rule (consumer_rules.hpp). The node and
+  /// odonav-offline add misalignment and K of epoch g as in force from g + d; the core itself
+  /// evaluates the error against the GNSS fix of epoch g at the first odometer sample >= g + d.
+  double estimate_hold_off_s = 0.2;
+  /// The error of the last evaluated GNSS epoch is carried on the outputs until the next epoch is
+  /// evaluated, at most this long after that epoch's own evaluation time (s, > 0); NaN after it
+  /// (a GNSS outage without rows). Default 3.
+  double error_max_age_s = 3.0;
 };
 
 /// One output per odometer sample after the start.
@@ -118,8 +132,10 @@ struct DeadReckoningOutput {
   bool gnss_reference = false;     ///< a GNSS reference existed at t_s.
   double horizontal_error_m = std::numeric_limits<double>::quiet_NaN();   ///< |DR - GNSS| horizontal.
   double error_percent_distance = std::numeric_limits<double>::quiet_NaN();  ///< 100 error / distance.
-  /// Valid GNSS epochs of this interval seen in the DR frame (for AnchoredPositionFilter).
+  /// Valid GNSS epochs evaluated at this output, seen in the DR frame (for AnchoredPositionFilter).
   std::vector<AnchorFix> gnss_fixes;
+  /// The GNSS epoch (s) the error refers to; NaN when no error is carried.
+  double error_t_s = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct DeadReckonerCounters {
@@ -178,6 +194,22 @@ class DeadReckoner {
   std::optional<Eigen::Vector3d> gnss_reference_enu(double t_s, const std::optional<Attitude>& att) const;
   std::optional<Eigen::Vector3d> gnss_velocity_at(double t_s) const;
   bool gnss_final_at(double t_s) const;
+  bool gnss_complete_at(double t_s) const;
+  void evaluate_errors(DeadReckoningOutput& o);
+  struct Past {  ///< a recent output, for the error at GNSS epochs between outputs.
+    double t_s;
+    Eigen::Vector3d enu_m;
+    double distance_m;
+    /// The lever arm in ENU at t_s: zero without a lever arm, unset when it is configured but
+    /// the attitude (INS, or the GNSS course without INS) is not known at t_s.
+    std::optional<Eigen::Vector3d> lever_arm_enu_m;
+  };
+  struct EpochError {
+    double epoch_s;
+    double applies_s;
+    double horizontal_error_m;
+    double error_percent_distance;
+  };
   Eigen::Vector3d lever_arm_enu(const Attitude& att) const;
   DeadReckoningOutput step(const OdometerBuffer::Entry& sample);
   std::optional<Attitude> lever_arm_attitude_at(double t_s) const;
@@ -193,6 +225,10 @@ class DeadReckoner {
   double last_gnss_gap_s_ = 0.0;         ///< the gap in force after the last row added
   void pop_gnss_front();
   std::optional<double> last_gnss_t_s_;
+  std::deque<GnssSample> error_epochs_;  ///< GNSS epochs whose error is not evaluated yet.
+  std::deque<Past> past_;                ///< outputs (and the start) the next errors may need.
+  std::optional<EpochError> last_error_;
+  std::optional<double> start_t_s_;      ///< epoch of the start fix.
   StepHistory<KInForce> k_history_{"scale_factor"};
   StepHistory<Misalignment> misalignment_{"misalignment"};
   double watermark_s_ = -std::numeric_limits<double>::infinity();

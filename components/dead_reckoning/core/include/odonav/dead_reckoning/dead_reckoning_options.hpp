@@ -32,6 +32,8 @@ struct DeadReckoningFacts {
   double nominal_k_option_m_per_pulse = 0.0;
   /// The dataset's meta.json nominal K (m/pulse), if any (odonav-offline; none on a vehicle).
   std::optional<double> dataset_nominal_k_m_per_pulse;
+  /// --estimate-hold-off-s (s): hold_off_option.hpp.
+  double estimate_hold_off_s = 0.2;
 };
 
 /// --dr-mode, --nominal-k and --lever-arm (throws ConfigError naming --lever-arm when it is not

@@ -26,6 +26,11 @@ struct IdentificationParams {
   std::string estimator_name = "vff_lm_rls";
   /// Also run every other estimator on the same samples (for comparison; offline tool).
   bool run_all_estimators = false;
+  /// Hold-off d (s, >= 0) of the estimate-application rule (consumer_rules.hpp): the misalignment of
+  /// epoch g is added (by the node and by odonav-offline) as in force from
+  /// estimate_applies_from_s(g, d), so K of epoch g uses the misalignment of the epochs <= g - d and
+  /// never waits for calibration's output of its own epoch.
+  double estimate_hold_off_s = 0.2;
 };
 
 /// One output per processed GNSS epoch (the estimate after that epoch).
