@@ -79,13 +79,15 @@ std::vector<MisalignmentOutput> MisalignmentCalibrator::process_until(double wat
   const double h = params_.yaw_rate_half_window_s;
   while (!pending_gnss_.empty() && pending_gnss_.front().t_s <= watermark_s_) {
     const double t = pending_gnss_.front().t_s;
-    if (params_.use_ins && (attitude_.state_at(t, watermark_s_) == BracketState::kPending ||
-                            attitude_.state_at(t + h, watermark_s_) == BracketState::kPending))
+    if (params_.use_ins && attitude_.state_at(t, watermark_s_) == BracketState::kPending) break;
+    // Only where the INS record starts (no INS h before the epoch) the window looks forwards.
+    if (params_.use_ins && attitude_.state_at(t - h, watermark_s_) == BracketState::kMissing &&
+        attitude_.state_at(t + h, watermark_s_) == BracketState::kPending)
       break;
     out.push_back(process_epoch(pending_gnss_.front()));
     pending_gnss_.pop_front();
-    // The next epoch is later; its yaw window starts no earlier than t_next - h > t - h.
-    attitude_.drop_before(t - h);
+    // The next epoch is later; its yaw window starts no earlier than t_next - 2h > t - 2h.
+    attitude_.drop_before(t - 2.0 * h);
   }
   return out;
 }
@@ -198,19 +200,27 @@ MisalignmentOutput MisalignmentCalibrator::process_epoch(const GnssSample& g) {
   const double h = params_.yaw_rate_half_window_s;
   const std::optional<Attitude> att = attitude_.attitude_at(g.t_s, watermark_s_);
   if (!att) return finish_epoch(CalibrationEpochStatus::kNoAttitude, counters_.no_attitude);
-  // The rate window [t - h, t + h], one-sided where the INS record starts or ends.
-  std::optional<Attitude> before = attitude_.attitude_at(g.t_s - h, watermark_s_);
-  std::optional<Attitude> after = attitude_.attitude_at(g.t_s + h, watermark_s_);
+  // The rate window [t - 2h, t], backwards (the epoch's own INS is the last one needed); [t - h, t]
+  // where the INS record starts less than 2h before the epoch, [t, t + h] where it starts less
+  // than h before it (the first epochs only).
+  std::optional<Attitude> after = att;
+  std::optional<Attitude> before = attitude_.attitude_at(g.t_s - 2.0 * h, watermark_s_);
+  std::optional<Attitude> mid = attitude_.attitude_at(g.t_s - h, watermark_s_);
   double window_s = 2.0 * h;
-  if (!before && !after) return finish_epoch(CalibrationEpochStatus::kNoAttitude, counters_.no_attitude);
-  if (!before) {
-    before = att;
+  if (!before && mid) {
+    before = mid;
+    mid = attitude_.attitude_at(g.t_s - 0.5 * h, watermark_s_);
     window_s = h;
-  } else if (!after) {
-    after = att;
+  } else if (!mid) {
+    before = att;
+    after = attitude_.attitude_at(g.t_s + h, watermark_s_);
+    mid = attitude_.attitude_at(g.t_s + 0.5 * h, watermark_s_);
     window_s = h;
   }
-  const Eigen::Vector3d omega_b = body_rate_rad_s(*before, *att, *after, window_s);
+  if (!before || !mid || !after) return finish_epoch(CalibrationEpochStatus::kNoAttitude, counters_.no_attitude);
+  // The rate at the window's middle, applied at t: the lever-arm term lags by h (it is small: a
+  // straight-line gate follows).
+  const Eigen::Vector3d omega_b = body_rate_rad_s(*before, *mid, *after, window_s);
   // The yaw rate about the navigation vertical (heading is clockwise, so the sign flips; only |.| matters).
   const double yaw_rate = wrap_pi(after->heading_rad - before->heading_rad) / window_s;
 

@@ -41,13 +41,15 @@ struct MisalignmentCalibratorParams {
   /// Minimum forward speed V_b,forward (m/s, > 0). Default 3: below it GNSS velocity noise dominates
   /// the ratio V_left / V_forward.
   double min_speed_mps = 3.0;
-  /// Straight-line gate: |yaw rate| from the INS heading over [t - h, t + h] below this (rad/s).
+  /// Straight-line gate: |yaw rate| from the INS heading over [t - 2h, t] below this (rad/s). The
+  /// window looks backwards so that the misalignment of epoch t leaves as soon as GNSS(t) and the
+  /// INS at t are in: no output waits for INS after its epoch (that is, for the next GNSS epochs).
   /// Default 3 deg/s: side slip in turns and an uncompensated lever arm (omega x l) corrupt V_left.
   double max_yaw_rate_rad_s = 3.0 * kDegToRad;
-  /// h above (s, > 0). Default 0.25.
+  /// h above (s, > 0): the window is 2h long. Default 0.25 (a 0.5 s window).
   double yaw_rate_half_window_s = 0.25;
   /// GNSS antenna position in the INS body frame (forward-left-up, metres, from the INS reference
-  /// point). When set, omega x l (omega from the INS attitude rates over [t - h, t + h]) is subtracted
+  /// point). When set, omega x l (omega from the INS attitude rates over [t - 2h, t]) is subtracted
   /// from the antenna velocity. When unset (default), the straight-line gate is what protects.
   std::optional<Eigen::Vector3d> lever_arm_body_m;
   /// Converged when both sigmas are below this (rad) with at least min_samples epochs used.
