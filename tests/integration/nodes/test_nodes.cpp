@@ -92,7 +92,7 @@ std::vector<IdentificationOutput> reference_identification(const Dataset& d,
   for (const auto& m : mis)
     if (misalignment_applicable(m.converged, m.samples_used, m.misalignment.heading_rad, m.misalignment.pitch_rad,
                                 m.sigma_heading_rad, m.sigma_pitch_rad))
-      core.add_misalignment(m.t_s, m.misalignment);
+      core.add_misalignment(estimate_applies_from_s(m.t_s, kDefaultEstimateHoldOff_s), m.misalignment);
   return core.finish();
 }
 
@@ -105,12 +105,13 @@ std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d, cons
   for (const auto& m : mis)
     if (misalignment_applicable(m.converged, m.samples_used, m.misalignment.heading_rad, m.misalignment.pitch_rad,
                                 m.sigma_heading_rad, m.sigma_pitch_rad))
-      dr.add_misalignment(m.t_s, m.misalignment);
+      dr.add_misalignment(estimate_applies_from_s(m.t_s, kDefaultEstimateHoldOff_s), m.misalignment);
   if (k)
     for (const auto& s : *k)
       if (scale_factor_applicable(s.k_m_per_pulse() > 0.0, s.converged(), s.k_m_per_pulse(), s.sigma_m_per_pulse(),
                                   s.samples_accepted(), DeadReckonerParams{}.nominal_k_m_per_pulse))
-        dr.add_scale_factor(odonav::dds::to_seconds(s.header().stamp()), s.k_m_per_pulse(), ScaleFactorSource::kIdentified);
+        dr.add_scale_factor(estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
+                            s.k_m_per_pulse(), ScaleFactorSource::kIdentified);
   return dr.finish();
 }
 
@@ -132,6 +133,7 @@ void expect_same_dead_reckoning(const std::vector<msg::DeadReckoning>& got, cons
     EXPECT_EQ(g.gnss_valid(), w.gnss_reference) << i;
     if (std::isfinite(w.horizontal_error_m)) {
       EXPECT_EQ(g.horizontal_error_m(), w.horizontal_error_m) << i;
+      EXPECT_EQ(g.error_t_s(), w.error_t_s) << i;
     }
     if (::testing::Test::HasFailure()) return;  // one mismatch is enough to read
   }
@@ -165,8 +167,9 @@ TEST_F(NodeProcess, CalibrationNodePublishesWhatTheCalibratorComputesAndDrainsOn
   ASSERT_TRUE(node.wait_exit(30s));
   EXPECT_EQ(node.exit_code(), 0);
   const auto got = without_repeats(out.samples());
-  // The last epochs need INS after the end of the data: only the drain (finish) publishes them.
-  EXPECT_LT(before_stop, expected.size());
+  // The yaw-rate window looks backwards: no epoch waits for INS after it, so every one was
+  // published before the stop (the drain has nothing left).
+  EXPECT_EQ(before_stop, expected.size());
   ASSERT_EQ(got.size(), expected.size());
   std::size_t converged = 0;
   for (std::size_t i = 0; i < got.size(); ++i) {
@@ -411,11 +414,18 @@ TEST_F(NodeProcess, LateJoiningDeadReckoningGetsTheLastPublishedK) {
 
   const auto got = out.samples();
   std::size_t first_interval = 0;
+  // The hold-off rule (consumer_rules.hpp): the K of epoch g applies from g + 0.2 s.
+  const double from0 = estimate_applies_from_s(g0, kDefaultEstimateHoldOff_s);
+  const double from1 = estimate_applies_from_s(g1, kDefaultEstimateHoldOff_s);
   for (const auto& g : got) {
     const double t = odonav::dds::to_seconds(g.header().stamp());
     ASSERT_GT(t, g0);
+    if (t < from0) {
+      ASSERT_EQ(g.k_source(), msg::K_SOURCE_NOMINAL) << t;
+      continue;
+    }
     ASSERT_EQ(g.k_source(), msg::K_SOURCE_IDENTIFIED) << t;
-    if (t < g1) {
+    if (t < from1) {
       ++first_interval;
       EXPECT_EQ(g.k_m_per_pulse(), 0.0131) << t;  // only the late-joiner delivery carries it
     } else {

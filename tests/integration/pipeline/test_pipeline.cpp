@@ -1,5 +1,6 @@
 // The distributed pipeline as processes (gateway, calibration, identification, dead reckoning,
-// recorder) started by deploy/launch on loopback DDS, each test in its own domain (50-59, 170-171):
+// recorder) started by deploy/launch on loopback DDS, each test in its own domain (50-59, 170-171,
+// 220-229):
 //   1. accuracy against the simulator's truth on a short drive;
 //   2. equivalence with odonav-offline on the same dataset, row by row, to 1e-9;
 //   3. speed invariance: a replay at real time and as fast as possible give identical files.
@@ -9,6 +10,7 @@
 
 #include <algorithm>
 #include <optional>
+#include <regex>
 
 #include <chrono>
 #include <cmath>
@@ -297,9 +299,10 @@ TEST_F(Pipeline, EveryPublishedSampleEqualsTheOfflineTool) {
 
 // The pipeline's files against odonav-offline's on the same dataset, row by row: scale factor (K,
 // sigma, the GNSS latency in force and its sigma) and dead reckoning.
-void expect_pipeline_equals_offline(const std::string& data, const std::string& out) {
+void expect_pipeline_equals_offline(const std::string& data, const std::string& out,
+                                    const std::string& offline_flags = "") {
   const std::string offline_dir = out + "/offline-check";
-  ASSERT_EQ(run(kBin + "/odonav-offline " + data + " --out " + offline_dir + " >" + out +
+  ASSERT_EQ(run(kBin + "/odonav-offline " + data + " --out " + offline_dir + " " + offline_flags + " >" + out +
                 "/offline-check.log 2>&1"),
             0)
       << read_text(out + "/offline-check.log");
@@ -329,6 +332,8 @@ void expect_pipeline_equals_offline(const std::string& data, const std::string& 
     expect_close(rad_to_deg(a.lon_rad), rad_to_deg(b.lon_rad), kTol, "lon_deg", i);
     expect_close(a.distance_m, b.distance_m, kTol, "distance_m", i);
     expect_close_rel(a.k_m_per_pulse, b.k_m_per_pulse, kTol, "k_m_per_pulse", i);
+    expect_close(a.horizontal_error_m, b.horizontal_error_m, kTol, "horizontal_error_m", i);
+    expect_close(a.error_t_s, b.error_t_s, kTol, "error_t", i);
     if (::testing::Test::HasFailure()) FAIL() << "first difference at dead-reckoning row " << i;
   }
   expect_navigation_equal(pipe, ref, kTol);
@@ -365,6 +370,60 @@ TEST_F(Pipeline, OneHertzSlowRobotEqualsTheOfflineTool) {
   EXPECT_GT(rows.scale_factor.back().samples_accepted, 300u);
 }
 
+// The hold-off rule at 1 Hz and 10 Hz GNSS whose fixes are stamped 0.1 s late (a receiver's
+// latency): the estimates of epoch g apply from g + 0.2 s, the stamps g + 0.1 lie on odometer
+// instants, and pipeline and offline tool still agree to 1e-9 (the rule's 1 us guard).
+TEST_F(Pipeline, OneHertzTerrainWithReceiverLatencyEqualsTheOfflineTool) {
+  const std::string dir = fresh_dir("terrain-1hz-latency");
+  const std::string data = dir + "/data";
+  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s 150 --seed 1 --gnss-rate 1 --gnss-latency-s 0.1 --out " +
+                data + " >" + dir + "/sim.log 2>&1"),
+            0);
+  const std::string out = dir + "/out";
+  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "220", "--out", out}, out, 300);
+  expect_pipeline_equals_offline(data, out);
+  const results::OutputRows rows = results::read_output_rows(out);
+  ASSERT_GT(rows.scale_factor.size(), 140u);  // one per epoch at 1 Hz
+  EXPECT_EQ(rows.dead_reckoning.back().k_source, "identified");
+  // The error refers to an epoch at least the hold-off before the output it is carried on.
+  std::size_t with_error = 0;
+  for (const auto& r : rows.dead_reckoning)
+    if (std::isfinite(r.error_t_s)) {
+      ++with_error;
+      ASSERT_LE(r.error_t_s, r.t_s - 0.2 + 1e-6) << "t=" << r.t_s;
+    }
+  EXPECT_GT(with_error, rows.dead_reckoning.size() / 2);
+}
+
+TEST_F(Pipeline, TenHertzTerrainWithReceiverLatencyEqualsTheOfflineTool) {
+  const std::string dir = fresh_dir("terrain-10hz-latency");
+  const std::string data = dir + "/data";
+  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s 120 --seed 1 --gnss-rate 10 --gnss-latency-s 0.1 --out " +
+                data + " >" + dir + "/sim.log 2>&1"),
+            0);
+  const std::string out = dir + "/out";
+  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "221", "--out", out}, out, 300);
+  expect_pipeline_equals_offline(data, out);
+}
+
+// Hold-off 0: every estimate arrives after the odometer samples it applies to, so dead reckoning
+// waits for each (bounded by the maximum wait) and counts it; the result is still the offline one.
+TEST_F(Pipeline, EstimatesLaterThanTheirHoldOffAreWaitedForCountedAndStillEqualTheOfflineTool) {
+  const std::string dir = fresh_dir("hold-off-0");
+  const std::string data = dir + "/data";
+  ASSERT_EQ(run(kBin + "/odonav-sim ring --duration-s 90 --seed 3 --out " + data + " >" + dir + "/sim.log 2>&1"), 0);
+  const std::string out = dir + "/out";
+  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "222", "--estimate-hold-off-s", "0", "--out",
+             out},
+            out, 300);
+  expect_pipeline_equals_offline(data, out, "--estimate-hold-off-s 0");
+  // The node's drain line: "scale_factor: N waits for estimates later than their 0 s hold-off".
+  const std::string log = read_text(out + "/logs/odonav-dead-reckoning.log");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(log, m, std::regex(R"(scale_factor: (\d+) waits for estimates later than)"))) << log;
+  EXPECT_GT(std::stoul(m[1].str()), 0u) << log;
+}
+
 // ---- 3. speed invariance ------------------------------------------------------------------------
 
 TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFiles) {
@@ -386,6 +445,27 @@ TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFiles) {
   EXPECT_GT(rows.dead_reckoning.size(), 2400u);  // 25 s at 100 Hz
   EXPECT_GT(rows.scale_factor.size(), 200u);     // 25 s at 10 Hz
   EXPECT_GT(rows.misalignment.size(), 200u);
+}
+
+TEST_F(Pipeline, OneHertzGnssReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFiles) {
+  const std::string dir = fresh_dir("speed-1hz");
+  const std::string data = dir + "/data";
+  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s 40 --seed 5 --gnss-rate 1 --out " + data + " >" + dir +
+                "/sim.log 2>&1"),
+            0);
+  const std::string real = dir + "/real-time";
+  const std::string fast = dir + "/max";
+  launch_ok({"--source", "replay:" + data, "--speed", "1", "--domain", "223", "--out", real}, real, 200);
+  shm_clean();
+  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "224", "--out", fast}, fast, 200);
+  for (const char* file : {"misalignment.csv", "scale_factor.csv", "dead_reckoning.csv"}) {
+    const std::string a = read_text(real + "/" + file);
+    const std::string b = read_text(fast + "/" + file);
+    EXPECT_EQ(a, b) << file << " differs between --speed 1 and --speed max";
+  }
+  const results::OutputRows rows = results::read_output_rows(fast);
+  EXPECT_GT(rows.dead_reckoning.size(), 3900u);  // 40 s at 100 Hz
+  EXPECT_GT(rows.scale_factor.size(), 35u);      // 40 s at 1 Hz
 }
 
 TEST_F(Pipeline, GnssRemovedMidRunIdentificationHoldsKAndDeadReckoningContinues) {
@@ -427,7 +507,8 @@ TEST_F(Pipeline, GnssRemovedMidRunIdentificationHoldsKAndDeadReckoningContinues)
     last_t = r.t_s;
     if (r.t_s >= gap_start_s && r.t_s < gap_end_s) {
       ++in_gap;
-      EXPECT_EQ(r.k_m_per_pulse, *before->k_m_per_pulse) << "t=" << r.t_s;
+      // The last K before the gap applies from its epoch + the 0.2 s hold-off (consumer_rules.hpp).
+      if (r.t_s >= before->t_s + 0.2) EXPECT_EQ(r.k_m_per_pulse, *before->k_m_per_pulse) << "t=" << r.t_s;
       EXPECT_EQ(r.k_source, "identified");
     }
   }
