@@ -8,9 +8,12 @@
 //      odometer sample time). Both receive times come from one steady clock in one process, and the
 //      reception hop (gateway -> here, DR -> here) is the same kind of hop on both sides, so it cancels:
 //      what remains is "gateway publication -> DR publication" with no cross-process clock at all.
-//      Also split: the time after the LAST input the DR output needed was received here (the output is
-//      final only once INS and GNSS are at or past its time and the estimates of the GNSS epoch at or
-//      before it arrived: components/dead_reckoning/README.md, "Event time");
+//      Also split: the time after the LAST input the DR output needed was received here: its odometer
+//      sample, the INS at or past its time, and the GNSS fix and estimates (misalignment, K) of the
+//      epochs up to its time minus the estimate hold-off (consumer_rules.hpp; the rule of
+//      components/dead_reckoning/README.md, "Event time");
+//      and the estimates' own latency: each Misalignment (calibration) and ScaleFactor
+//      (identification) received here minus the GNSS fix of the same epoch received here;
 //  (b) in the same run, the raw latency of one Fast DDS hop with the same transport and QoS: a ping
 //      (Odometer type, odonav_sensor_writer / _reader profiles) to a child echo process and back at
 //      the odometer rate, one hop = round trip / 2 (again one clock, one process);
@@ -243,6 +246,7 @@ struct RunResult {
   double samples_per_s = 0.0;
   Percentiles end_to_end, after_last_input, hop;
   Percentiles end_to_end_steady, after_last_input_steady;  // outputs after the warm-up only
+  Percentiles calibration_after_gnss, identification_after_gnss;  // estimate received - its GNSS received
   std::vector<ComponentFigures> components;
   std::size_t dr_outputs = 0;
   uint64_t samples_accepted = 0;
@@ -257,6 +261,9 @@ struct Setup {
   std::string work;
   int domain = 140;
   double warmup_s = 10.0;  // data time excluded from the steady-state latency (standing start, first fixes)
+  double gnss_rate_hz = 10.0;   // odonav-sim --gnss-rate
+  double hold_off_s = 0.2;      // the components' --estimate-hold-off-s (given to them when pass_hold_off)
+  bool pass_hold_off = false;
   std::string vehicle_id = "bench-vehicle";
 };
 
@@ -294,8 +301,9 @@ std::size_t column_index(const std::string& header, const std::string& name, con
 }
 
 Reference offline_reference(const Setup& setup, const std::string& dataset, const std::string& out) {
-  run_or_throw("odonav-offline", "'" + setup.bin_dir + "/odonav-offline' '" + dataset + "' --out '" + out +
-                                     "' --log-level warn >'" + out + ".log' 2>&1");
+  const std::string hold = setup.pass_hold_off ? " --estimate-hold-off-s " + shortest(setup.hold_off_s) : "";
+  run_or_throw("odonav-offline", "'" + setup.bin_dir + "/odonav-offline' '" + dataset + "' --out '" + out + "'" +
+                                     hold + " --log-level warn >'" + out + ".log' 2>&1");
   Reference ref;
   std::string line, header;
   {
@@ -330,10 +338,10 @@ Reference offline_reference(const Setup& setup, const std::string& dataset, cons
 DatasetInfo make_dataset(const Setup& setup, const std::string& scenario, int64_t seed, double duration_s) {
   DatasetInfo info;
   std::ostringstream name;
-  name << scenario << "-" << seed << "-" << duration_s << "s";
+  name << scenario << "-" << seed << "-" << duration_s << "s-" << setup.gnss_rate_hz << "hz";
   info.dir = setup.work + "/" + name.str();
   run_or_throw("odonav-sim", "'" + setup.bin_dir + "/odonav-sim' " + scenario + " --seed " + std::to_string(seed) +
-                                 " --duration-s " + shortest(duration_s) + " --out '" + info.dir +
+                                 " --duration-s " + shortest(duration_s) + " --gnss-rate " + shortest(setup.gnss_rate_hz) + " --out '" + info.dir +
                                  "' --log-level warn >'" + info.dir + ".log' 2>&1");
   const odonav::Dataset d = odonav::read_dataset(info.dir, odonav::BadRowPolicy::kFail);
   info.odometer = d.odometer.size();
@@ -434,16 +442,16 @@ struct Latencies {
   std::vector<int64_t> end_to_end_steady, after_last_input_steady;  // outputs after the warm-up only
 };
 
-// Receive time of the last input a DR output at `stamp` needed: its odometer sample, INS and GNSS at
-// or past its time, and the estimates of the GNSS epoch at or before it.
+// Receive time of the last input a DR output at `stamp` needed: its odometer sample, the INS at or
+// past its time, and the GNSS fix and estimates of the last epoch at or before stamp - hold-off.
 int64_t release_time_ns(int64_t stamp, int64_t odometer_recv, const std::vector<Arrivals::Row>& ins_rows,
                         const std::vector<Arrivals::Row>& gnss_rows, const std::vector<Arrivals::Row>& sf_rows,
-                        const std::vector<Arrivals::Row>& mis_rows) {
+                        const std::vector<Arrivals::Row>& mis_rows, int64_t hold_off_ns) {
   int64_t release = odometer_recv;
-  for (int64_t r : {first_recv_at_or_after(ins_rows, stamp), first_recv_at_or_after(gnss_rows, stamp)})
-    release = std::max(release, r);
-  auto g = std::upper_bound(gnss_rows.begin(), gnss_rows.end(), stamp,
+  release = std::max(release, first_recv_at_or_after(ins_rows, stamp));
+  auto g = std::upper_bound(gnss_rows.begin(), gnss_rows.end(), stamp - hold_off_ns,
                             [](int64_t v, const auto& r) { return v < r.stamp_ns; });
+  if (g != gnss_rows.begin()) release = std::max(release, std::prev(g)->recv_ns);
   if (g != gnss_rows.begin()) {
     const int64_t epoch = std::prev(g)->stamp_ns;
     for (int64_t r : {first_recv_at_or_after(sf_rows, epoch), first_recv_at_or_after(mis_rows, epoch)})
@@ -501,6 +509,8 @@ class PipelineRun {
     node.insert(node.end(), data_.component_flags.begin(), data_.component_flags.end());
     for (const std::string c : {"odonav-dead-reckoning", "odonav-identification", "odonav-calibration"}) {
       std::vector<std::string> args = node;
+      if (setup_.pass_hold_off && c != "odonav-calibration")
+        args.insert(args.end(), {"--estimate-hold-off-s", shortest(setup_.hold_off_s)});
       if (c == "odonav-dead-reckoning")
         args.insert(args.end(), data_.dead_reckoning_flags.begin(), data_.dead_reckoning_flags.end());
       components_.push_back(std::make_unique<Child>(c, setup_.bin_dir + "/" + c, args, logs_ + "/" + c + ".log"));
@@ -629,7 +639,8 @@ class PipelineRun {
                                        [](const auto& r, int64_t v) { return r.stamp_ns < v; });
       if (it == a.odo.end() || it->stamp_ns != dr.stamp_ns) continue;
       l.end_to_end.push_back(dr.recv_ns - it->recv_ns);
-      l.after_last_input.push_back(dr.recv_ns - release_time_ns(dr.stamp_ns, it->recv_ns, a.ins, a.gnss, a.sf, a.mis));
+      l.after_last_input.push_back(dr.recv_ns - release_time_ns(dr.stamp_ns, it->recv_ns, a.ins, a.gnss, a.sf, a.mis,
+                                                                static_cast<int64_t>(std::llround(setup_.hold_off_s * 1e9))));
       if (dr.stamp_ns >= steady_from) {
         l.end_to_end_steady.push_back(l.end_to_end.back());
         l.after_last_input_steady.push_back(l.after_last_input.back());
@@ -655,6 +666,20 @@ class PipelineRun {
     }
     result_.end_to_end = percentiles_ms(l.end_to_end);
     result_.after_last_input = percentiles_ms(l.after_last_input);
+    // An estimate's latency after its GNSS epoch arrived here (same stamp), after the warm-up.
+    auto after_gnss = [&](const std::vector<Arrivals::Row>& est) {
+      std::vector<int64_t> v;
+      const int64_t from = a.odo.empty() ? 0 : a.odo.front().stamp_ns + static_cast<int64_t>(setup_.warmup_s * 1e9);
+      for (const auto& e : est) {
+        if (e.stamp_ns < from) continue;
+        const auto g = std::lower_bound(a.gnss.begin(), a.gnss.end(), e.stamp_ns,
+                                        [](const auto& r, int64_t x) { return r.stamp_ns < x; });
+        if (g != a.gnss.end() && g->stamp_ns == e.stamp_ns) v.push_back(e.recv_ns - g->recv_ns);
+      }
+      return percentiles_ms(v);
+    };
+    result_.calibration_after_gnss = after_gnss(a.mis);
+    result_.identification_after_gnss = after_gnss(a.sf);
     std::vector<int64_t> hop;
     for (const auto& r : probes_->pong_rtt.rows()) hop.push_back((r.recv_ns - r.stamp_ns) / 2);
     result_.hop = percentiles_ms(hop);
@@ -714,6 +739,9 @@ void print_run(std::ostream& out, const RunResult& r, const DatasetInfo& data, d
   out << "  of which after the last input the output needed was received: " << format_ms(r.after_last_input) << "\n";
   out << "steady state (outputs after the first " << std::setprecision(0) << warmup_s << " s of data): end-to-end "
       << format_ms(r.end_to_end_steady) << "\n  after the last input: " << format_ms(r.after_last_input_steady) << "\n";
+  out << "misalignment (calibration) after its GNSS epoch arrived: " << format_ms(r.calibration_after_gnss) << "\n";
+  out << "scale factor (identification) after its GNSS epoch arrived: " << format_ms(r.identification_after_gnss)
+      << "\n";
   out << "raw Fast DDS hop (ping-pong / 2, same transport and QoS, same run): " << format_ms(r.hop) << "\n";
   if (r.hop.p99 > 0.0)
     out << std::setprecision(1) << "ratios (steady state): end-to-end p99 / (" << kCriticalPathHops
@@ -770,6 +798,10 @@ int main(int argc, char** argv) {
   opts.add_double("warmup-s", 10.0, "data time at the start left out of the steady-state latency, s", 0.0, 3600.0);
   opts.add_bool("echo", false, "internal: run as the echo process of the raw-hop measurement");
   opts.add_string("vehicle-id", "bench-vehicle", "vehicle id of the run (the DDS key)");
+  opts.add_double("gnss-rate", 10.0, "GNSS rate of the simulated datasets (odonav-sim --gnss-rate), Hz", 0.1, 100.0);
+  opts.add_double("estimate-hold-off-s", -1.0,
+                  "hold-off given to dead reckoning and identification, s; < 0 = their default (0.2 s, not passed)",
+                  -1.0, 10.0);
   opts.add_string("log-level", "warn", "trace, debug, info, warn, error, critical, off");
   Setup setup;
   try {
@@ -783,6 +815,9 @@ int main(int argc, char** argv) {
     setup.domain = static_cast<int>(opts.get_int("domain"));
     setup.vehicle_id = opts.get_string("vehicle-id");
     setup.warmup_s = opts.get_double("warmup-s");
+    setup.gnss_rate_hz = opts.get_double("gnss-rate");
+    setup.pass_hold_off = opts.get_double("estimate-hold-off-s") >= 0.0;
+    if (setup.pass_hold_off) setup.hold_off_s = opts.get_double("estimate-hold-off-s");
     if (setup.vehicle_id.empty()) throw odonav::ConfigError("--vehicle-id: must not be empty");
     for (const auto& s : split(opts.get_string("speeds")) ) {
       if (s == "max") continue;
