@@ -508,7 +508,9 @@ TEST_F(Pipeline, GnssRemovedMidRunIdentificationHoldsKAndDeadReckoningContinues)
     if (r.t_s >= gap_start_s && r.t_s < gap_end_s) {
       ++in_gap;
       // The last K before the gap applies from its epoch + the 0.2 s hold-off (consumer_rules.hpp).
-      if (r.t_s >= before->t_s + 0.2) EXPECT_EQ(r.k_m_per_pulse, *before->k_m_per_pulse) << "t=" << r.t_s;
+      if (r.t_s >= before->t_s + 0.2) {
+        EXPECT_EQ(r.k_m_per_pulse, *before->k_m_per_pulse) << "t=" << r.t_s;
+      }
       EXPECT_EQ(r.k_source, "identified");
     }
   }
