@@ -229,7 +229,7 @@ json identification_summary(const odonav::Dataset& d, const odonav::offline::Off
   for (const auto& m : misalignment)
     if (odonav::misalignment_applicable(m.converged, m.samples_used, m.misalignment.heading_rad,
                                         m.misalignment.pitch_rad, m.sigma_heading_rad, m.sigma_pitch_rad))
-      core.add_misalignment(m.t_s, m.misalignment);
+      core.add_misalignment(odonav::estimate_applies_from_s(m.t_s, ip.estimate_hold_off_s), m.misalignment);
   odonav::results::OutputRows rows;
   for (const auto& k : core.finish()) rows.scale_factor.push_back(odonav::offline::to_row(k, "vff_lm_rls", {}));
   return summary_of(d, rows, "terrain");

@@ -254,7 +254,8 @@ TEST(DeadReckoner, GnssGapFollowsTheObservedPeriod) {
   EXPECT_DOUBLE_EQ(dead_reckoning_gnss_max_gap_s(p, 1.0), 2.5);           // 1 Hz: 2.5 periods
   p.gnss_max_gap_s = 0.7;                                                  // fixed by the user
   EXPECT_DOUBLE_EQ(dead_reckoning_gnss_max_gap_s(p, 1.0), 0.7);
-  // At 10 Hz a 1 s hole in the fixes is not bridged.
+  // At 10 Hz a 1 s hole in the fixes is not bridged: the error of the epoch 5.0 s (evaluated at
+  // 5.2 s, after the hold-off) is carried for the 0.5 s gap, not to 5.8 s.
   SensorConfig c;
   c.duration_s = 10.0;
   SyntheticData d = simulate(straight(0.0, 0.0, 5.0, 0.0), c);
@@ -262,9 +263,12 @@ TEST(DeadReckoner, GnssGapFollowsTheObservedPeriod) {
                               [](const GnssSample& g) { return g.t_s > 5.05 && g.t_s < 5.95; }),
                d.gnss.end());
   const auto out = run_all(d, exact_k());
-  const auto hole = std::find_if(out.begin(), out.end(), [](const auto& o) { return std::abs(o.t_s - 5.5) < 1e-9; });
+  const auto hole = std::find_if(out.begin(), out.end(), [](const auto& o) { return std::abs(o.t_s - 5.8) < 1e-9; });
   ASSERT_NE(hole, out.end());
   EXPECT_FALSE(hole->gnss_reference);
+  const auto carried = std::find_if(out.begin(), out.end(), [](const auto& o) { return std::abs(o.t_s - 5.6) < 1e-9; });
+  ASSERT_NE(carried, out.end());
+  EXPECT_NEAR(carried->error_t_s, 5.0, 1e-9);
 }
 
 TEST(DeadReckoner, PercentIsUndefinedBelowOneMetre) {

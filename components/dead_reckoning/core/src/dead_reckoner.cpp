@@ -48,7 +48,6 @@ DeadReckoner::DeadReckoner(const DeadReckonerParams& p)
   require(p.percent_min_distance_m >= 0.0, "percent_min_distance_m must be >= 0");
   require(std::isfinite(p.estimate_hold_off_s) && p.estimate_hold_off_s >= 0.0,
           "estimate_hold_off_s must be finite and >= 0");
-  require(std::isfinite(p.error_max_age_s) && p.error_max_age_s > 0.0, "error_max_age_s must be finite and > 0");
   require(!p.lever_arm_body_m || p.lever_arm_body_m->allFinite(), "lever_arm_body_m must be finite");
 }
 
@@ -83,7 +82,7 @@ void DeadReckoner::add_gnss(const GnssSample& sample) {
   last_gnss_t_s_ = sample.t_s;
   gnss_.push_back(sample);
   gnss_gap_s_.push_back(last_gnss_gap_s_);
-  error_epochs_.push_back(sample);
+  error_epochs_.emplace_back(sample, last_gnss_gap_s_);
 }
 
 void DeadReckoner::add_scale_factor(double t_s, double k, ScaleFactorSource source) {
@@ -390,7 +389,7 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
   }
   past_.push_back(Past{t_j, o.enu_m, distance_m_, lever_now});
   evaluate_errors(o);
-  if (last_error_ && t_j - last_error_->applies_s <= params_.error_max_age_s &&
+  if (last_error_ && t_j - last_error_->applies_s <= last_error_->carry_s &&
       std::isfinite(last_error_->horizontal_error_m)) {
     o.gnss_reference = true;
     o.error_t_s = last_error_->epoch_s;
@@ -403,11 +402,11 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
 void DeadReckoner::evaluate_errors(DeadReckoningOutput& o) {
   const double t_j = o.t_s;
   const double d = params_.estimate_hold_off_s;
-  while (!error_epochs_.empty() && estimate_applies_from_s(error_epochs_.front().t_s, d) <= t_j) {
-    const GnssSample g = error_epochs_.front();
-    error_epochs_.pop_front();
+  while (!error_epochs_.empty() && estimate_applies_from_s(error_epochs_.front().first.t_s, d) <= t_j) {
+    const GnssSample g = error_epochs_.front().first;
     EpochError e{g.t_s, estimate_applies_from_s(g.t_s, d), std::numeric_limits<double>::quiet_NaN(),
-                 std::numeric_limits<double>::quiet_NaN()};
+                 std::numeric_limits<double>::quiet_NaN(), error_epochs_.front().second};
+    error_epochs_.pop_front();
     // DR at g: between the outputs bracketing it (none before the start, or g beyond the last one).
     std::size_t hi = 0;
     while (hi < past_.size() && past_[hi].t_s < g.t_s) ++hi;
@@ -442,7 +441,7 @@ void DeadReckoner::evaluate_errors(DeadReckoningOutput& o) {
   }
   // Later epochs apply after t_j, i.e. are stamped after t_j - d: the outputs before that (but the
   // one bracketing it) are no longer needed.
-  const double keep_from = error_epochs_.empty() ? t_j - d : std::min(t_j - d, error_epochs_.front().t_s);
+  const double keep_from = error_epochs_.empty() ? t_j - d : std::min(t_j - d, error_epochs_.front().first.t_s);
   while (past_.size() >= 2 && past_[1].t_s <= keep_from) past_.pop_front();
 }
 

@@ -26,7 +26,8 @@
 // antenna moved to the reference point by the lever arm (ENU) interpolated alike. It is
 // evaluated at the first odometer sample t_j >= estimate_applies_from_s(g, hold-off) (the rule of
 // consumer_rules.hpp: by then the fix of epoch g has arrived) and carried, with error_t_s = g, on
-// the outputs until the next epoch is evaluated (at most error_max_age_s). So the error never holds
+// the outputs until the next epoch is evaluated, at most the GNSS gap in force after g (the one the
+// reference interpolation bridged: 0.5 s at 10 Hz, 2.5 s at 1 Hz) past its evaluation. So the error never holds
 // a position back: an output waits for no GNSS later than its own time minus the hold-off.
 //
 // GNSS fixes for the anchored position (anchored_position.hpp): the same evaluation gives, for each
@@ -112,10 +113,6 @@ struct DeadReckonerParams {
   /// odonav-offline add misalignment and K of epoch g as in force from g + d; the core itself
   /// evaluates the error against the GNSS fix of epoch g at the first odometer sample >= g + d.
   double estimate_hold_off_s = 0.2;
-  /// The error of the last evaluated GNSS epoch is carried on the outputs until the next epoch is
-  /// evaluated, at most this long after that epoch's own evaluation time (s, > 0); NaN after it
-  /// (a GNSS outage without rows). Default 3.
-  double error_max_age_s = 3.0;
 };
 
 /// One output per odometer sample after the start.
@@ -209,6 +206,7 @@ class DeadReckoner {
     double applies_s;
     double horizontal_error_m;
     double error_percent_distance;
+    double carry_s;  ///< carried on the outputs up to this long after applies_s (the GNSS gap).
   };
   Eigen::Vector3d lever_arm_enu(const Attitude& att) const;
   DeadReckoningOutput step(const OdometerBuffer::Entry& sample);
@@ -225,7 +223,8 @@ class DeadReckoner {
   double last_gnss_gap_s_ = 0.0;         ///< the gap in force after the last row added
   void pop_gnss_front();
   std::optional<double> last_gnss_t_s_;
-  std::deque<GnssSample> error_epochs_;  ///< GNSS epochs whose error is not evaluated yet.
+  /// GNSS epochs whose error is not evaluated yet, with the GNSS gap in force after each.
+  std::deque<std::pair<GnssSample, double>> error_epochs_;
   std::deque<Past> past_;                ///< outputs (and the start) the next errors may need.
   std::optional<EpochError> last_error_;
   std::optional<double> start_t_s_;      ///< epoch of the start fix.
