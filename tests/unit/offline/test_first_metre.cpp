@@ -14,10 +14,12 @@
 #include "odonav/geodesy.hpp"
 #include "odonav/identification/identification_options.hpp"
 #include "offline_runner.hpp"
+#include "offline_test_params.hpp"
 #include "summary.hpp"
 
 using namespace odonav;
 using namespace odonav::offline;
+using namespace odonav::offline::test;
 using nlohmann::json;
 
 namespace {
@@ -27,27 +29,6 @@ Dataset terrain(uint64_t seed, double k_true_m_per_pulse = 0.0) {
   cfg.seed = seed;
   if (k_true_m_per_pulse > 0.0) cfg.k_true_m_per_pulse = k_true_m_per_pulse;
   return sim::simulate(cfg);
-}
-
-// What odonav-offline does with a dataset and no flags (apply_dataset_defaults).
-OfflineParams user_params(const Dataset& d) {
-  Options o("test", "identification options");
-  add_identification_options(o);
-  std::ostringstream help;
-  o.parse(std::vector<std::string>{}, help);
-  OfflineParams p;
-  p.dead_reckoning.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
-  p.dead_reckoning.lever_arm_body_m = d.meta.gnss_lever_arm_m;
-  p.dead_reckoning.use_ins = d.has_ins();
-  p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
-  p.calibration.use_ins = d.has_ins();
-  IdentificationVehicleFacts facts;
-  facts.use_ins = d.has_ins();
-  facts.lever_arm_body_m = d.meta.gnss_lever_arm_m;
-  facts.nominal_k_m_per_pulse = p.dead_reckoning.nominal_k_m_per_pulse;
-  facts.run_all_estimators = true;
-  p.identification = identification_params_for(o, facts);
-  return p;
 }
 
 struct FirstMetres {

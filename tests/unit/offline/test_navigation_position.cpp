@@ -10,20 +10,13 @@
 #include "odonav/dataset.hpp"
 #include "odonav/frames.hpp"
 #include "offline_runner.hpp"
+#include "offline_test_params.hpp"
 
 using namespace odonav;
 using namespace odonav::offline;
+using namespace odonav::offline::test;
 
 namespace {
-
-OfflineParams default_params(const Dataset& d) {
-  OfflineParams p;
-  p.dead_reckoning.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
-  p.dead_reckoning.lever_arm_body_m = d.meta.gnss_lever_arm_m;
-  p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
-  p.identification.builder.lever_arm_body_m = d.meta.gnss_lever_arm_m;
-  return p;
-}
 
 // Truth (INS reference point) interpolated at t_s, in the local ENU frame; and the attitude of the
 // nearer sample (for the antenna's truth).

@@ -9,12 +9,14 @@
 #include <map>
 
 #include "offline_runner.hpp"
+#include "offline_test_params.hpp"
 #include "odonav/dataset.hpp"
 #include "core/simulator.hpp"
 #include "summary.hpp"
 
 using namespace odonav;
 using namespace odonav::offline;
+using namespace odonav::offline::test;
 using nlohmann::json;
 
 namespace {
@@ -23,17 +25,6 @@ Dataset scenario(const std::string& name, uint64_t seed = 1) {
   sim::SimulationConfig cfg = sim::scenario_config(name);
   cfg.seed = seed;
   return sim::simulate(cfg);
-}
-
-// The configuration a user gets from odonav-offline on a simulated dataset: defaults, nominal K and
-// lever arm from meta.json.
-OfflineParams default_params(const Dataset& d) {
-  OfflineParams p;
-  p.dead_reckoning.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
-  p.dead_reckoning.lever_arm_body_m = d.meta.gnss_lever_arm_m;
-  p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
-  p.identification.builder.lever_arm_body_m = d.meta.gnss_lever_arm_m;
-  return p;
 }
 
 json summarize(const Dataset& d, const OfflineResult& r, const OfflineParams& p) {

@@ -1,0 +1,50 @@
+#pragma once
+// Offline parameters as a user gets them, for the offline accuracy tests: one definition, so every
+// test measures the same configuration.
+#include <ostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "odonav/config.hpp"
+#include "odonav/dataset.hpp"
+#include "odonav/identification/identification_options.hpp"
+#include "offline_runner.hpp"
+
+namespace odonav::offline::test {
+
+/// The defaults with nominal K and lever arm from the dataset's meta.json; every other parameter as
+/// the OfflineParams struct has it.
+inline OfflineParams default_params(const Dataset& d) {
+  OfflineParams p;
+  p.dead_reckoning.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
+  p.dead_reckoning.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  p.identification.builder.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  return p;
+}
+
+/// What odonav-offline does with a dataset and no flags: the identification's parameters through
+/// identification_params_for with no options given (as the tool and the node build them), INS use and
+/// lever arm from the dataset, every estimator run.
+inline OfflineParams user_params(const Dataset& d) {
+  Options o("test", "identification options");
+  add_identification_options(o);
+  std::ostringstream help;
+  o.parse(std::vector<std::string>{}, help);
+  OfflineParams p;
+  p.dead_reckoning.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
+  p.dead_reckoning.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  p.dead_reckoning.use_ins = d.has_ins();
+  p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  p.calibration.use_ins = d.has_ins();
+  IdentificationVehicleFacts facts;
+  facts.use_ins = d.has_ins();
+  facts.lever_arm_body_m = d.meta.gnss_lever_arm_m;
+  facts.nominal_k_m_per_pulse = p.dead_reckoning.nominal_k_m_per_pulse;
+  facts.run_all_estimators = true;
+  p.identification = identification_params_for(o, facts);
+  return p;
+}
+
+}  // namespace odonav::offline::test
