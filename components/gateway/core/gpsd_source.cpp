@@ -165,6 +165,10 @@ class GpsdSession {
   /// Waits at most timeout_ms for a report; returns its JSON text (empty on timeout). Throws when
   /// the daemon went away.
   std::string read(int timeout_ms) {
+    // gps_waiting returns false both on a timeout and on an error, and sets errno only on an error:
+    // without clearing it, a stale errno of any earlier call in this thread (EDOM from a maths
+    // function) read as a lost connection and dropped the session.
+    errno = 0;
     if (!::gps_waiting(&data_, timeout_ms * 1000)) {
       if (errno != 0 && errno != EINTR && errno != EAGAIN && errno != ETIMEDOUT)
         throw std::runtime_error(where_ + ": connection lost: " + std::strerror(errno));

@@ -77,9 +77,17 @@ class KnownPublisher {
       m.vehicle_id(veh);
       m.pulses(4294967290u + static_cast<uint32_t>(i));  // wraps past 2^32 - 1 within the run
       m.direction(static_cast<int8_t>(i % 3 - 1));
+      m.gnss_complete_known(i > 0);
+      m.gnss_complete_through_s(i > 0 ? t - 0.05 : 0.0);
+      m.gnss_last_stamp_s(i > 0 ? t - 0.05 : -1.0);
       EXPECT_TRUE(odometer_.write(m));
-      expected["/odonav/odometer"].push_back(
-          {{"header", header_json(t, "odometer")}, {"vehicle_id", veh}, {"pulses", m.pulses()}, {"direction", m.direction()}});
+      expected["/odonav/odometer"].push_back({{"header", header_json(t, "odometer")},
+                                              {"vehicle_id", veh},
+                                              {"pulses", m.pulses()},
+                                              {"direction", m.direction()},
+                                              {"gnss_complete_known", m.gnss_complete_known()},
+                                              {"gnss_complete_through_s", m.gnss_complete_through_s()},
+                                              {"gnss_last_stamp_s", m.gnss_last_stamp_s()}});
     }
     {
       msg::InsAttitude m;
@@ -213,6 +221,7 @@ class KnownPublisher {
       m.gnss_valid(true);
       m.horizontal_error_m(0.75 + i);
       m.error_percent_distance(i == 0 ? -1.0 : 0.12);
+      m.error_t_s(i == 0 ? -1.0 : t - 0.3);
       EXPECT_TRUE(dead_reckoning_.write(m));
       expected["/odonav/dead_reckoning"].push_back({{"header", header_json(t, "wgs84")},
                                                     {"vehicle_id", veh},
@@ -233,7 +242,8 @@ class KnownPublisher {
                                                     {"misalignment_pitch_rad", -0.0087},
                                                     {"gnss_valid", true},
                                                     {"horizontal_error_m", m.horizontal_error_m()},
-                                                    {"error_percent_distance", m.error_percent_distance()}});
+                                                    {"error_percent_distance", m.error_percent_distance()},
+                                                    {"error_t_s", m.error_t_s()}});
     }
     {
       msg::NavigationPosition m;

@@ -436,11 +436,13 @@ TEST_F(MultiHost, PipelineAcrossHostsSurvivesAFiveSecondLinkCutOfEcu2) {
                                 kCutAfter_s + 60.0))
       << "DR never used an identified K by t=" << kCutAfter_s << " s\n"
       << rig.log_tail("odonav-dead-reckoning") << rig.log_tail("odonav-identification") << rig.log_tail("monitor");
-  // SHM within a host, privately: ECU2's two components share its own /dev/shm.
+  // UDP only, also between the two components on one ECU: Fast DDS 2.9's shared-memory transport
+  // cuts a restarted process off (docs/DDS.md §3), so the vehicle profile leaves it out and ECU2's
+  // private /dev/shm holds no Fast DDS segment.
   bool ecu2_uses_shm = false;
   for (const auto& e : fs::directory_iterator(net.shm_dir("ecu2")))
     if (e.path().filename().string().rfind("fastrtps_", 0) == 0) ecu2_uses_shm = true;
-  EXPECT_TRUE(ecu2_uses_shm) << "no Fast DDS segment in ECU2's private /dev/shm";
+  EXPECT_FALSE(ecu2_uses_shm) << "a Fast DDS shared-memory segment in ECU2's private /dev/shm";
 
   // ---- the cut ----
   const double dr_stamp_at_cut = rig.snapshots().back().dr_stamp_s().value();
