@@ -12,6 +12,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -177,6 +178,36 @@ TEST(QosProfiles, EveryProfileIsSharedSoDefaultQosReadersOfAnyVendorMatch) {
     text << in.rdbuf();
     EXPECT_EQ(text.str().find("EXCLUSIVE"), std::string::npos) << file;
     EXPECT_EQ(text.str().find("<ownership>"), std::string::npos) << file;
+  }
+}
+
+// The DDS Security grants (deploy/security/grants, from which make-pki signs every identity's
+// permissions) cover every topic of the contract: some identity publishes it and the ground station
+// reads it. A topic missing there works on the plain profiles and stops the secure pipeline at start
+// (a reader the permissions refuse cannot be created).
+TEST(SecurityGrants, EveryTopicHasAPublisherAndTheGroundStationReadsIt) {
+  std::ifstream in(std::string(ODONAV_SOURCE_DIR) + "/deploy/security/grants");
+  ASSERT_TRUE(in) << "deploy/security/grants";
+  std::map<std::string, std::set<std::string>> publishers_of, subscribers_of;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::string identity, publish, subscribe;
+    ASSERT_TRUE(fields >> identity >> publish >> subscribe) << "grants line: " << line;
+    auto add = [&](const std::string& list, std::map<std::string, std::set<std::string>>& to) {
+      std::istringstream items(list);
+      for (std::string topic; std::getline(items, topic, ',');)
+        if (topic != "-") to["rt/odonav/" + topic].insert(identity);
+    };
+    add(publish, publishers_of);
+    add(subscribe, subscribers_of);
+  }
+  for (const auto& spec : topics::kAllTopics) {
+    const std::string name = spec.name;
+    EXPECT_FALSE(publishers_of[name].empty()) << name << ": no identity may publish it";
+    if (name != topics::kCommand.name)  // the ground station writes commands, it does not read them
+      EXPECT_TRUE(subscribers_of[name].count("odonav-ground")) << name << ": the ground station may not read it";
   }
 }
 
