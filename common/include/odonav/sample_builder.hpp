@@ -355,9 +355,23 @@ class SampleBuilder {
   void observe_gnss_period(double t_s);
   /// Sensor time of a GNSS epoch stamped t_s: t_s - applied latency.
   double sensor_time(double t_s) const { return t_s - latency_.applied_s; }
-  /// The largest and the smallest latency any query may use (applied value and candidates).
+  /// The largest latency any query may use (applied value and candidates), for pruning.
   double earliest_sensor_offset_s() const;
-  double latest_sensor_offset_s() const;
+  /// An accepted sample waiting for the odometer its latency candidates look at (the smallest
+  /// candidate, -0.2 s by default, needs the pulse rate 0.25 s after the epoch).
+  struct PendingLatencySample {
+    double t0_s;
+    double t1_s;
+    double y_m;
+    double k_m_per_pulse;
+    double applied_s;      ///< latency in force when the sample was made.
+    double needs_until_s;  ///< sensor time up to which the odometer must be final to add it.
+  };
+  /// Queues an accepted sample between the epochs stamped t0_s and t1_s for the latency sums.
+  void defer_latency_sample(double t0_s, double t1_s, double y_m, double k_m_per_pulse);
+  /// Adds a deferred sample to the sums (update_latency), unless the sums restarted away from the
+  /// latency it was made at.
+  void fold_latency_sample(const PendingLatencySample& sample);
   /// Adds an accepted sample between the epochs stamped t0_s and t1_s to the latency candidates and
   /// updates latency_ (estimation only; the applied value changes for the following epochs).
   void update_latency(double t0_s, double t1_s, double y_m, double k_m_per_pulse);
@@ -381,6 +395,7 @@ class SampleBuilder {
   GnssLatencyEstimate latency_;
   std::vector<double> latency_candidates_s_;
   std::vector<double> latency_sse_m2_;  ///< per candidate: sum of squared residuals against K^.
+  std::deque<PendingLatencySample> latency_pending_;  ///< accepted, not yet in the sums (in order).
   uint64_t latency_samples_ = 0;
   double latency_sums_applied_s_ = 0.0;  ///< the applied latency the sums were collected at.
   uint64_t latency_restarts_ = 0;

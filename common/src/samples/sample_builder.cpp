@@ -177,17 +177,24 @@ void SampleBuilder::observe_gnss_period(double t_s) {
 }
 
 double SampleBuilder::earliest_sensor_offset_s() const {
-  // The largest latency a query may subtract (for pruning) ...
+  // The largest latency a query may subtract (for pruning).
   double m = latency_.applied_s;
   if (!latency_candidates_s_.empty()) m = std::max(m, latency_candidates_s_.back());
   return m;
 }
 
-double SampleBuilder::latest_sensor_offset_s() const {
-  // ... and the smallest (negative: data after the stamp is needed, for waiting).
-  double m = latency_.applied_s;
-  if (!latency_candidates_s_.empty()) m = std::min(m, latency_candidates_s_.front());
-  return m;
+
+void SampleBuilder::defer_latency_sample(double t0_s, double t1_s, double y_m, double k_m_per_pulse) {
+  if (latency_candidates_s_.empty()) return;
+  // The smallest candidate looks furthest ahead: its pulse rate at t1 - candidate ends h later.
+  const double needs_until_s = t1_s - latency_candidates_s_.front() + params_.pulse_rate_half_window_s;
+  latency_pending_.push_back(PendingLatencySample{t0_s, t1_s, y_m, k_m_per_pulse, latency_.applied_s, needs_until_s});
+}
+
+void SampleBuilder::fold_latency_sample(const PendingLatencySample& s) {
+  // Gated and projected at a latency the sums were restarted away from: it would pull them back.
+  if (std::abs(s.applied_s - latency_sums_applied_s_) > params_.latency_restart_s) return;
+  update_latency(s.t0_s, s.t1_s, s.y_m, s.k_m_per_pulse);
 }
 
 void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m, double k_m_per_pulse) {
@@ -346,19 +353,31 @@ std::vector<SampleBuilderEpoch> SampleBuilder::process_until(double watermark_s,
   std::vector<SampleBuilderEpoch> out;
   while (!pending_gnss_.empty() && pending_gnss_.front().t_s <= watermark_s_) {
     const double t = pending_gnss_.front().t_s;
-    // Wait until the epoch's odometer count and attitude are final (see stream_buffers.hpp), at
-    // every sensor time the epoch may be looked at (the latency candidates included).
-    const double latest = t - latest_sensor_offset_s() + params_.pulse_rate_half_window_s;
-    if (odometer_.state_at(latest, watermark_s_) == BracketState::kPending) break;
-    if (params_.use_ins && attitude_.state_at(latest, watermark_s_) == BracketState::kPending) break;
-    if (compensates_lever_arm() &&
-        attitude_.state_at(latest + params_.lever_arm_rate_half_window_s, watermark_s_) == BracketState::kPending)
-      break;
+    // Wait until the epoch's odometer count and attitude are final (see stream_buffers.hpp) at its
+    // sensor time: nothing after it is needed (the windows look backward). Before the epoch, the
+    // deferred latency samples whose look-ahead this epoch's data covers enter the latency sums, one
+    // at a time and in order: a latency decided from them applies from this epoch on. The order of
+    // these steps depends on the stamps only, so any chunking of the calls gives the same result.
+    bool ready = true;
+    for (;;) {
+      const double needed = sensor_time(t);
+      if (odometer_.state_at(needed, watermark_s_) == BracketState::kPending ||
+          (params_.use_ins && attitude_.state_at(needed, watermark_s_) == BracketState::kPending)) {
+        ready = false;
+        break;
+      }
+      if (latency_pending_.empty() || latency_pending_.front().needs_until_s > needed) break;
+      fold_latency_sample(latency_pending_.front());
+      latency_pending_.pop_front();
+    }
+    if (!ready) break;
     out.push_back(process_epoch(pending_gnss_.front()));
     pending_gnss_.pop_front();
     // Everything before this epoch's earliest sensor time is no longer needed: the next interval
     // starts here.
-    const double earliest = t - std::max(0.0, earliest_sensor_offset_s()) - params_.pulse_rate_half_window_s;
+    // The deferred latency samples still need their own interval at every candidate.
+    const double oldest = latency_pending_.empty() ? t : std::min(t, latency_pending_.front().t0_s);
+    const double earliest = oldest - std::max(0.0, earliest_sensor_offset_s()) - 2.0 * params_.pulse_rate_half_window_s;
     odometer_.drop_before(earliest);
     // Keep the INS window [t - h, ...] for the next epoch's body rate (lever arm).
     attitude_.drop_before(compensates_lever_arm() ? earliest - params_.lever_arm_rate_half_window_s : earliest);
@@ -370,27 +389,30 @@ std::vector<SampleBuilderEpoch> SampleBuilder::process_until(double watermark_s,
 }
 
 std::vector<SampleBuilderEpoch> SampleBuilder::finish(const EpochCallback& on_epoch) {
-  return process_until(std::numeric_limits<double>::infinity(), on_epoch);
+  std::vector<SampleBuilderEpoch> out = process_until(std::numeric_limits<double>::infinity(), on_epoch);
+  // End of data: the samples still deferred enter the sums with what there is (the latency they
+  // decide applies to no epoch any more, it is only reported).
+  while (!latency_pending_.empty()) {
+    fold_latency_sample(latency_pending_.front());
+    latency_pending_.pop_front();
+  }
+  return out;
 }
 
 bool SampleBuilder::compensates_lever_arm() const { return params_.use_ins && params_.lever_arm_body_m.has_value(); }
 
 Eigen::Vector3d SampleBuilder::reference_point_velocity(const GnssSample& g, const Attitude& att) const {
   if (!compensates_lever_arm()) return g.vel_enu_mps;
+  // The rate over [t - h, t], the window that ends at the epoch: nothing after the epoch is needed,
+  // so its sample leaves when the epoch's own data is in. Its lag (h / 2) is measured in
+  // BENCHMARKS.md against the centred window it replaced.
   const double h = params_.lever_arm_rate_half_window_s;
   const double t = sensor_time(g.t_s);
-  std::optional<Attitude> before = attitude_.attitude_at(t - h, watermark_s_);
-  std::optional<Attitude> after = attitude_.attitude_at(t + h, watermark_s_);
-  double window_s = 2.0 * h;
-  if (!before && !after) return g.vel_enu_mps;  // no rate: leave uncompensated (isolated INS sample)
-  if (!before) {
-    before = att;
-    window_s = h;
-  } else if (!after) {
-    after = att;
-    window_s = h;
-  }
-  const Eigen::Vector3d omega_b = body_rate_rad_s(*before, att, *after, window_s);
+  const std::optional<Attitude> before = attitude_.attitude_at(t - h, watermark_s_);
+  if (!before) return g.vel_enu_mps;  // no rate: leave uncompensated (isolated INS sample)
+  const Attitude& after = att;
+  const double window_s = h;
+  const Eigen::Vector3d omega_b = body_rate_rad_s(*before, att, after, window_s);
   return g.vel_enu_mps - body_to_enu(att) * omega_b.cross(*params_.lever_arm_body_m);
 }
 
@@ -483,12 +505,19 @@ EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs
     // Long intervals: the trapezoid of the two speeds misses the speed's curvature in between
     // (T^3/12 v'', centimetres at 1 Hz where an acceleration ends). The odometer sees that shape:
     // add K^ times the pulses the same trapezoid misses (K^: the latest estimate, else nominal).
-    const std::optional<double> r0 = pulse_rate_at(start_sensor_t);
-    const std::optional<double> r1 = pulse_rate_at(sensor_time(g.t_s));
-    if (r0 && r1) {
+    // The shape is read over the interval shifted back by h, where the pulse rates' windows
+    // [t - 2h, t] end at the epochs: the sample needs no odometer after its epoch. The curvature
+    // moves little in h (0.05 s against a 1 s interval).
+    const double h = params_.pulse_rate_half_window_s;
+    const double end_sensor_t = sensor_time(g.t_s);
+    const std::optional<double> n0 = odometer_.count_at(start_sensor_t - h, watermark_s_);
+    const std::optional<double> n1 = odometer_.count_at(end_sensor_t - h, watermark_s_);
+    const std::optional<double> r0 = pulse_rate_at(start_sensor_t - h);
+    const std::optional<double> r1 = pulse_rate_at(end_sensor_t - h);
+    if (n0 && n1 && r0 && r1) {
       const std::optional<KEstimate> k = k_estimates_.before(g.t_s);
       const double k_m = k ? k->k_m_per_pulse : params_.odometer_jump_gate.k_m_per_pulse;
-      sample.y_m += k_m * (phi - 0.5 * dt * (*r0 + *r1));
+      sample.y_m += k_m * ((*n1 - *n0) - 0.5 * dt * (*r0 + *r1));
     }
   }
   sample.gnss_position_enu_m = frame_->to_enu(g.position);
@@ -566,8 +595,7 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
     // times whatever the vehicle's speed did meanwhile pulls the latency by many milliseconds.
     const std::optional<KEstimate> k = k_estimates_.before(g.t_s);
     if (k && k->sigma_m_per_pulse <= params_.latency_max_k_rel_sigma * k->k_m_per_pulse && k_recently_stable(g.t_s, k->k_m_per_pulse))
-      update_latency(*latency_start_t_s, g.t_s, r.sample->y_m, k->k_m_per_pulse);
-    r.latency = latency_;
+      defer_latency_sample(*latency_start_t_s, g.t_s, r.sample->y_m, k->k_m_per_pulse);
   }
   if (velocity_good) {
     chain_start_ = in.epoch;

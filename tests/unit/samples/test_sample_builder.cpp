@@ -556,8 +556,10 @@ TEST(SampleBuilder, OneHertzGnssIsAcceptedBecauseTheGapGateFollowsTheObservedPer
   EXPECT_EQ(b.innovation_rejections_before_suspension(), 5);  // 5 s at 1 Hz
   for (const auto& s : samples_of(epochs)) {
     EXPECT_NEAR(s.dt_s, 1.0, 1e-9);
-    // Linear speed: the trapezoid is exact, so only quantisation is left (< 2 pulses).
-    EXPECT_LT(std::abs(s.y_m - kK * s.phi_pulses), 2.0 * kK) << s.t_s;
+    // Linear speed: the trapezoid is exact, so only quantisation is left: a pulse in phi and in the
+    // correction's shifted count, and the correction's two pulse rates (count differences over
+    // 2h = 0.1 s, each weighted T / 2: one pulse in each is T / 4h = 2.5 pulses at T = 1 s).
+    EXPECT_LT(std::abs(s.y_m - kK * s.phi_pulses), 5.0 * kK) << s.t_s;
   }
   // At 10 Hz the derived gap is the 0.5 s floor; an explicit value still wins.
   EXPECT_DOUBLE_EQ(effective_max_interval_s(SampleBuilderParams{}, 0.1), 0.5);
@@ -638,4 +640,75 @@ TEST(SampleBuilder, AFixedGnssLatencyIsUsedAsGiven) {
   for (const auto& s : samples_of(run_all(simulate(wavy_drive(), c), off)))
     worst = std::max(worst, std::abs(s.y_m - kK * s.phi_pulses));
   EXPECT_GT(worst, 0.008);
+}
+
+// An epoch needs nothing after its own sensor time: fed in time order, each GNSS epoch is processed
+// as soon as the odometer and the INS have reached it, although the latency search looks up to
+// 0.25 s past it (its sums are deferred). The result, the latency decisions included, is the one
+// of a single finish() over the whole data.
+TEST(SampleBuilder, AnEpochLeavesWhenItsOwnDataIsInAndTheDeferredLatencySearchIsChunkingFree) {
+  for (const double period_s : {0.1, 1.0}) {
+    SensorConfig c;
+    c.duration_s = 300.0;
+    c.velocity_noise_mps = 0.02;
+    c.gnss_latency_s = 0.1;
+    c.gnss_period_s = period_s;
+    const SyntheticData d = simulate(wavy_drive(), c);
+    SampleBuilderParams p;
+    p.lever_arm_body_m = Eigen::Vector3d(-0.5, 0.3, 2.2);
+    if (period_s > 0.5) p.latency_min_samples = 100;
+
+    SampleBuilder a(p);
+    for (const auto& s : d.odometer) a.add_odometer(s);
+    for (const auto& s : d.gnss) a.add_gnss(s);
+    for (const auto& s : d.ins) a.add_ins(s);
+    FeedbackK fa;
+    std::vector<SampleBuilderEpoch> ea;
+    a.finish([&](const SampleBuilderEpoch& e) {
+      fa.attach(a, e);
+      ea.push_back(e);
+    });
+
+    SampleBuilder b(p);
+    FeedbackK fb;
+    std::vector<SampleBuilderEpoch> eb;
+    auto sink = [&](const SampleBuilderEpoch& e) {
+      fb.attach(b, e);
+      eb.push_back(e);
+    };
+    std::size_t io = 0, ii = 0;
+    std::size_t late_epochs = 0;
+    for (const GnssSample& g : d.gnss) {
+      // The odometer and INS up to their first sample at or after the epoch, nothing later.
+      while (io < d.odometer.size() && (io == 0 || d.odometer[io - 1].t_s < g.t_s)) b.add_odometer(d.odometer[io++]);
+      while (ii < d.ins.size() && (ii == 0 || d.ins[ii - 1].t_s < g.t_s)) b.add_ins(d.ins[ii++]);
+      b.add_gnss(g);
+      b.process_until(g.t_s, sink);
+      // (The last fix, stamped after the last odometer sample, waits for the end of data.)
+      if (b.pending_epochs() != 0 && g.t_s <= d.odometer.back().t_s) ++late_epochs;
+    }
+    while (io < d.odometer.size()) b.add_odometer(d.odometer[io++]);
+    while (ii < d.ins.size()) b.add_ins(d.ins[ii++]);
+    b.finish(sink);
+    EXPECT_EQ(late_epochs, 0u) << period_s;
+
+    ASSERT_EQ(ea.size(), eb.size()) << period_s;
+    std::size_t accepted = 0;
+    for (std::size_t i = 0; i < ea.size(); ++i) {
+      ASSERT_EQ(ea[i].status, eb[i].status) << i;
+      EXPECT_EQ(ea[i].latency.applied_s, eb[i].latency.applied_s) << i;
+      EXPECT_EQ(ea[i].latency.samples, eb[i].latency.samples) << i;
+      ASSERT_EQ(ea[i].sample.has_value(), eb[i].sample.has_value()) << i;
+      if (!ea[i].sample) continue;
+      ++accepted;
+      EXPECT_EQ(ea[i].sample->y_m, eb[i].sample->y_m) << i;
+      EXPECT_EQ(ea[i].sample->phi_pulses, eb[i].sample->phi_pulses) << i;
+    }
+    EXPECT_GT(accepted, static_cast<std::size_t>(0.9 * c.duration_s / period_s)) << period_s;
+    // The deferred search still finds the receiver's latency, and it was applied during the run.
+    EXPECT_NEAR(a.latency().applied_s, 0.1, 0.005) << period_s;
+    // At 10 Hz it is applied during the run (at 1 Hz it wanders by tens of ms before it settles).
+    if (period_s < 0.5) EXPECT_NEAR(ea[ea.size() * 3 / 4].latency.applied_s, 0.1, 0.01);
+    EXPECT_EQ(a.latency().applied_s, b.latency().applied_s) << period_s;
+  }
 }
