@@ -1,6 +1,6 @@
 // The distributed pipeline as processes (gateway, calibration, identification, dead reckoning,
-// recorder) started by deploy/launch on loopback DDS, each test in its own domain (50-59, 170-171,
-// 220-229):
+// recorder) started by deploy/launch on loopback DDS, each test in its own domain (50-59, 165-167,
+// 170-171, 220-229):
 //   1. accuracy against the simulator's truth on a short drive;
 //   2. equivalence with odonav-offline on the same dataset, row by row, to 1e-9;
 //   3. speed invariance: a replay at real time and as fast as possible give identical files.
@@ -422,6 +422,71 @@ TEST_F(Pipeline, EstimatesLaterThanTheirHoldOffAreWaitedForCountedAndStillEqualT
   std::smatch m;
   ASSERT_TRUE(std::regex_search(log, m, std::regex(R"(scale_factor: (\d+) waits for estimates later than)"))) << log;
   EXPECT_GT(std::stoul(m[1].str()), 0u) << log;
+}
+
+// Any GNSS rate: 5 Hz and 20 Hz receivers (short drives: the rule is the same, only the epoch
+// spacing changes). Every GNSS epoch gives one estimate, and the files equal odonav-offline's.
+void expect_rate_equals_offline(const std::string& rate, const std::string& domain, std::size_t epochs_min) {
+  const std::string dir = fresh_dir("terrain-" + rate + "hz");
+  const std::string data = dir + "/data";
+  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s 25 --seed 4 --gnss-rate " + rate + " --gnss-latency-s 0.05 --out " +
+                data + " >" + dir + "/sim.log 2>&1"),
+            0);
+  const std::string out = dir + "/out";
+  shm_clean();
+  const LaunchResult r = launch({"--source", "replay:" + data, "--speed", "max", "--domain", domain, "--out", out},
+                                out + ".launch.log", 300);
+  ASSERT_FALSE(r.timed_out) << r.log;
+  ASSERT_EQ(r.exit_code, 0) << r.log;
+  expect_pipeline_equals_offline(data, out);
+  const results::OutputRows rows = results::read_output_rows(out);
+  EXPECT_GE(rows.scale_factor.size(), epochs_min) << rate << " Hz";
+  EXPECT_GE(rows.misalignment.size(), epochs_min) << rate << " Hz";
+  EXPECT_GT(rows.dead_reckoning.size(), 2400u);  // 25 s at 100 Hz
+}
+
+TEST_F(Pipeline, FiveHertzGnssEqualsTheOfflineTool) { expect_rate_equals_offline("5", "165", 120); }
+TEST_F(Pipeline, TwentyHertzGnssEqualsTheOfflineTool) { expect_rate_equals_offline("20", "166", 480); }
+
+// GNSS absent for 135 s, replayed at 10x real time with a 5 s maximum wait: dead reckoning keeps
+// publishing at the odometer rate on the estimates held from before the outage. The odometer
+// messages declare that no GNSS was published, so neither consumer waits for it: one that did would
+// declare GNSS absent after 5 s of wall time (13.5 s of the outage pass in wall time) and say so in
+// its health ("no gnss for N s"). The files still equal odonav-offline's.
+TEST_F(Pipeline, GnssAbsentForMinutesDeadReckoningKeepsPublishingOnHeldEstimatesWithoutWaiting) {
+  const std::string dir = fresh_dir("gnss-absent-minutes");
+  const std::string full = dir + "/full";
+  ASSERT_EQ(run(kBin + "/odonav-sim ring --duration-s 200 --seed 3 --out " + full + " >" + dir + "/sim.log 2>&1"), 0);
+  Dataset d = read_dataset(full, BadRowPolicy::kFail);
+  const double gap_start_s = 50.0, gap_end_s = 185.0;
+  d.gnss.erase(std::remove_if(d.gnss.begin(), d.gnss.end(),
+                              [&](const GnssSample& g) { return g.t_s >= gap_start_s && g.t_s < gap_end_s; }),
+               d.gnss.end());
+  const std::string data = dir + "/data";
+  write_dataset(data, d);
+  const std::string out = dir + "/out";
+  launch_ok({"--source", "replay:" + data, "--speed", "10", "--max-wait-s", "5", "--domain", "167", "--out", out}, out,
+            300);
+  expect_pipeline_equals_offline(data, out);
+  const results::OutputRows rows = results::read_output_rows(out);
+  const results::ScaleFactorRow* before = nullptr;
+  for (const results::ScaleFactorRow& r : rows.scale_factor)
+    if (r.t_s < gap_start_s) before = &r;
+  ASSERT_TRUE(before && before->k_m_per_pulse);
+  std::size_t in_gap = 0;
+  for (const results::DeadReckoningRow& r : rows.dead_reckoning) {
+    if (r.t_s < gap_start_s + 0.2 || r.t_s >= gap_end_s) continue;
+    ++in_gap;
+    EXPECT_EQ(r.k_m_per_pulse, *before->k_m_per_pulse) << "t=" << r.t_s;
+    EXPECT_EQ(r.k_source, "identified") << "t=" << r.t_s;
+  }
+  EXPECT_GE(in_gap, 13470u);  // 134.8 s at 100 Hz
+  // (The calibration reads GNSS and INS only, has nothing to compute without GNSS, and rightly
+  // declares it absent.)
+  for (const char* node : {"odonav-dead-reckoning", "odonav-identification"}) {
+    const std::string log = read_text(out + "/logs/" + node + ".log");
+    EXPECT_EQ(log.find("no gnss for"), std::string::npos) << node << " waited for GNSS:\n" << log;
+  }
 }
 
 // ---- 3. speed invariance ------------------------------------------------------------------------
