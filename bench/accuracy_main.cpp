@@ -155,6 +155,8 @@ struct DrFigures {
 struct ScenarioFigures {
   std::map<std::string, EstimatorFigures> estimators;
   DrFigures online, coarse;
+  Figure latency_error_ms, latency_sigma_ms;  ///< final GNSS latency estimate minus the simulated one
+  std::vector<double> rms_by_seed;            ///< vff_lm_rls RMS K error per seed (%), for the worst seed
   std::size_t steps = 0;
   bool has_outage = false;
 };
@@ -170,6 +172,12 @@ void collect(const json& s, ScenarioFigures& f) {
     const json settle = e.value("settle_times_s", json::array());
     for (std::size_t i = 0; i < f.steps; ++i) ef.settle_s[i].add(i < settle.size() ? settle[i] : json());
   }
+  if (sf.contains("gnss_latency_error_s") && sf["gnss_latency_error_s"].is_number())
+    f.latency_error_ms.add(1000.0 * sf["gnss_latency_error_s"].get<double>());
+  if (sf.contains("gnss_latency_sigma_s"))
+    f.latency_sigma_ms.add(sf["gnss_latency_sigma_s"].is_number() ? 1000.0 * sf["gnss_latency_sigma_s"].get<double>() : kNaN);
+  if (sf["estimators"].contains("vff_lm_rls"))
+    f.rms_by_seed.push_back(sf["estimators"]["vff_lm_rls"].value("rms_rel_error_percent", kNaN));
   for (const char* which : {"online_k", "coarse_k"}) {
     const json& j = s["dead_reckoning"][which];
     DrFigures& d = std::string(which) == "online_k" ? f.online : f.coarse;
@@ -196,6 +204,13 @@ void print_scenario(const std::string& scenario, const ScenarioFigures& f, std::
     for (std::size_t i = 0; i < f.steps; ++i) out << " " << describe(e.settle_s[i], 1) << " |";
     out << "\n";
   }
+  if (!f.latency_error_ms.values.empty()) {
+    out << "\nGNSS latency: final estimate minus simulated (ms) " << describe(f.latency_error_ms, 1) << ", sigma (ms) "
+        << describe(f.latency_sigma_ms, 1) << "\n";
+  }
+  out << "\nvff_lm_rls RMS K error per seed (%):";
+  for (double v : f.rms_by_seed) out << " " << std::fixed << std::setprecision(3) << v;
+  out << "\n";
   out << "\n| DR with | final %D | max %D (after 100 m) |" << (f.has_outage ? " outage error (m) | outage error (% of outage distance) |" : "")
       << "\n|---|---|---|" << (f.has_outage ? "---|---|" : "") << "\n";
   for (const auto& [label, d] : {std::pair<const char*, const DrFigures*>{"online K (vff_lm_rls)", &f.online},

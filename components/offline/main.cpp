@@ -147,6 +147,7 @@ nlohmann::json offline_summary(const odonav::Dataset& dataset, const std::string
                       {"yaw_rate", result.builder_counters.yaw_rate},
                       {"gap", result.builder_counters.gap},
                       {"innovation", result.builder_counters.innovation},
+                      {"cross_track", result.builder_counters.cross_track},
                       {"reversing", result.builder_counters.reversing}};
   summary["bad_rows_skipped"] = report.total_bad();
   return summary;

@@ -50,6 +50,7 @@ constexpr EpochStatusEntry kEpochStatusTable[] = {
     {EpochStatus::kYawRate, &SampleBuilderCounters::yaw_rate, "yaw_rate"},
     {EpochStatus::kNoPulses, &SampleBuilderCounters::no_pulses, "no_pulses"},
     {EpochStatus::kInnovation, &SampleBuilderCounters::innovation, "innovation"},
+    {EpochStatus::kCrossTrack, &SampleBuilderCounters::cross_track, "cross_track"},
 };
 
 constexpr std::size_t kEpochStatusCount = static_cast<std::size_t>(kLastEpochStatus) + 1;
@@ -116,6 +117,8 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
   require(p.max_acceleration_mps2 > 0.0 && p.speed_jump_margin_mps >= 0.0,
           "max_acceleration_mps2 must be > 0 and speed_jump_margin_mps >= 0");
   require(p.speed_jump_reference_max_age_s > 0.0, "speed_jump_reference_max_age_s must be > 0");
+  require(p.cross_track_n_sigma > 0.0 && p.cross_track_angle_rad >= 0.0 && p.cross_track_angle_rad < 0.5 * kPi,
+          "cross_track_n_sigma must be > 0 and cross_track_angle_rad in [0, pi/2)");
   require(p.innovation_n_sigma > 0.0, "innovation_n_sigma must be > 0");
   require(p.gnss_velocity_sigma_mps > 0.0, "gnss_velocity_sigma_mps must be > 0");
   require(p.innovation_k_change_fraction >= 0.0, "innovation_k_change_fraction must be >= 0");
@@ -443,6 +446,12 @@ std::optional<EpochStatus> SampleBuilder::check_epoch_velocity(const GnssSample&
   const double v = forward_speed(vel_enu_mps, att, in.misalignment);
   in.forward_speed_mps = v;
   if (v < 0.0) return EpochStatus::kNegativeSpeed;
+  if (params_.use_ins && params_.cross_track_gate_enabled) {
+    const Eigen::Vector3d v_odo = odometer_to_body(in.misalignment).transpose() * (enu_to_body(att) * vel_enu_mps);
+    const double sigma_v = g.vel_std_mps && *g.vel_std_mps > 0.0 ? *g.vel_std_mps : params_.gnss_velocity_sigma_mps;
+    const double bound = params_.cross_track_n_sigma * sigma_v + std::tan(params_.cross_track_angle_rad) * std::abs(v);
+    if (std::hypot(v_odo.y(), v_odo.z()) > bound) return EpochStatus::kCrossTrack;
+  }
 
   // Speed jump against the last epoch whose velocity was judged good (if recent enough).
   if (last_good_speed_) {

@@ -300,6 +300,7 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("epochs", static_cast<double>(b.epochs));
   c.emplace_back("samples_accepted", static_cast<double>(b.accepted));
   c.emplace_back("rejected_innovation", static_cast<double>(b.innovation));
+  c.emplace_back("rejected_cross_track", static_cast<double>(b.cross_track));
   c.emplace_back("rejected_min_speed", static_cast<double>(b.min_speed));
   c.emplace_back("rejected_invalid_fix", static_cast<double>(b.invalid_fix));
   c.emplace_back("rejected_yaw_rate", static_cast<double>(b.yaw_rate));

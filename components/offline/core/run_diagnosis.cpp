@@ -45,6 +45,8 @@ std::string dominant_gate(const Dataset& d, const OfflineParams& p, const Sample
       {c.negative_speed, "with a negative forward speed (GNSS velocity negated or INS heading off by 180 deg?)"},
       {c.no_pulses, "with no odometer pulses over the interval (constant counter?)"},
       {c.innovation, "by the innovation gate"},
+      {c.cross_track, "with GNSS velocity across the odometer axis above " + num(b.cross_track_n_sigma) +
+                          " sigma + tan(" + num(rad_to_deg(b.cross_track_angle_rad)) + " deg) x speed (cross-track gate)"},
       {c.low_fix_quality, "below the minimum fix quality"},
   };
   std::stable_sort(gates.begin(), gates.end(), [](const auto& a, const auto& b) { return a.first > b.first; });

@@ -264,6 +264,34 @@ TEST(SampleBuilder, InnovationGateRejectsAnOutlierTheSpeedJumpGateLetsThrough) {
   EXPECT_EQ(c.innovation, 0u);
 }
 
+TEST(SampleBuilder, CrossTrackGateRejectsAVelocityGlitchAcrossTheOdometerAxis) {
+  // A receiver glitch of 3 m/s at right angles to the travel (heading 30 deg): the forward speed
+  // barely moves (the speed-jump and innovation gates cannot see it), the odometer-frame velocity
+  // across the axis is 3 m/s against a bound of 5 x 0.1 + tan(5 deg) x 12 m/s = 1.55 m/s.
+  SyntheticData d = simulate(accel_drive(), accel_config());
+  const Eigen::Vector3d u = accel_drive().direction(0.0);
+  const Eigen::Vector3d across(u.y(), -u.x(), 0.0);
+  d.gnss[70].vel_enu_mps += 3.0 * across;
+  SampleBuilderCounters c;
+  const auto e = run_all(d, {}, true, &c);
+  EXPECT_EQ(e[70].status, EpochStatus::kCrossTrack);
+  EXPECT_STREQ(to_string(e[70].status), "cross_track");
+  EXPECT_EQ(e[71].status, EpochStatus::kChainStart);  // the glitch enters no sample
+  EXPECT_EQ(c.cross_track, 1u);
+  EXPECT_EQ(c.accepted, 198u);
+  // Clean epochs never trip it (straight, level, misalignment 0: the cross-track velocity is noise).
+  SampleBuilderCounters clean;
+  run_all(simulate(accel_drive(), accel_config()), {}, true, &clean);
+  EXPECT_EQ(clean.cross_track, 0u);
+  // Off, the same glitch is accepted: at right angles it leaves the forward speed as it is, so no
+  // other gate rejects it.
+  SampleBuilderParams off;
+  off.cross_track_gate_enabled = false;
+  run_all(d, off, true, &c);
+  EXPECT_EQ(c.cross_track, 0u);
+  EXPECT_EQ(c.accepted, 200u);
+}
+
 TEST(SampleBuilder, InnovationGateIsSuspendedAfterALongRunSoAKJumpCanBeTracked) {
   SyntheticData d = simulate(accel_drive(), accel_config());
   // K drops 20 % at 10 s (e.g. a track change): the odometer counts 25 % more pulses from then on.
@@ -466,12 +494,12 @@ TEST(SampleBuilder, JumpGateUsesTheConfiguredNominalKAndMaximumSpeed) {
 TEST(SampleBuilder, EpochStatusTableNamesAndCountsEveryStatus) {
   const char* const names[] = {"accepted", "chain_start",    "invalid_fix", "low_fix_quality", "no_odometer",
                                "no_attitude", "negative_speed", "speed_jump", "gap",          "min_speed",
-                               "reversing", "yaw_rate",        "no_pulses",  "innovation"};
+                               "reversing", "yaw_rate",        "no_pulses",  "innovation", "cross_track"};
   ASSERT_EQ(std::size(names), static_cast<std::size_t>(kLastEpochStatus) + 1);
   SampleBuilderCounters c;
   uint64_t* const fields[] = {&c.accepted,   &c.chain_starts,   &c.invalid_fix, &c.low_fix_quality, &c.no_odometer,
                               &c.no_attitude, &c.negative_speed, &c.speed_jump,  &c.gap,             &c.min_speed,
-                              &c.reversing,  &c.yaw_rate,       &c.no_pulses,   &c.innovation};
+                              &c.reversing,  &c.yaw_rate,       &c.no_pulses,   &c.innovation, &c.cross_track};
   for (std::size_t i = 0; i < std::size(fields); ++i) *fields[i] = 100 + i;
   c.epochs = 7;
   c.innovation_suspended = 9;
