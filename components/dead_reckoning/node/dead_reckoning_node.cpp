@@ -178,6 +178,10 @@ void DeadReckoningNode::on_misalignment(const odonav::msg::Misalignment& m, doub
 }
 
 void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s) {
+  // The latency of every ScaleFactor, as odonav-offline adds it: the error against GNSS and the
+  // anchor fixes compare each fix with the DR at its stamp minus the latency.
+  if (std::isfinite(m.gnss_latency_s()) && std::abs(m.gnss_latency_s()) < 10.0)
+    core_.add_gnss_latency(estimate_applies_from_s(t_s, params_.estimate_hold_off_s), m.gnss_latency_s());
   const IdentifiedScaleFactor k{estimate_applies_from_s(t_s, params_.estimate_hold_off_s), m.k_m_per_pulse(),
                                 m.converged(), m.source(), m.sigma_m_per_pulse(), m.samples_accepted()};
   if (const auto update = k_selection_.on_identified(k, dds::steady_now_s()))

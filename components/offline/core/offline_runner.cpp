@@ -50,6 +50,9 @@ std::vector<DeadReckoningOutput> run_dead_reckoning(const Dataset& d, const Dead
   for (const GnssSample& g : d.gnss) dr.add_gnss(g);
   add_applicable_misalignments(dr, misalignment, params.estimate_hold_off_s);
   if (identification) {
+    // Every ScaleFactor carries the GNSS latency in force: the DR node adds each one alike.
+    for (const IdentificationOutput& k : *identification)
+      dr.add_gnss_latency(estimate_applies_from_s(k.t_s, params.estimate_hold_off_s), k.latency.applied_s);
     for (const IdentificationOutput& k : *identification)
       if (scale_factor_applicable(k.main.valid, k.main.converged, k.main.k_m_per_pulse, k.main.sigma_m_per_pulse,
                                   k.samples_accepted, params.nominal_k_m_per_pulse))

@@ -108,6 +108,10 @@ std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d, cons
       dr.add_misalignment(estimate_applies_from_s(m.t_s, kDefaultEstimateHoldOff_s), m.misalignment);
   if (k)
     for (const auto& s : *k)
+      dr.add_gnss_latency(estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
+                          s.gnss_latency_s());
+  if (k)
+    for (const auto& s : *k)
       if (scale_factor_applicable(s.k_m_per_pulse() > 0.0, s.converged(), s.k_m_per_pulse(), s.sigma_m_per_pulse(),
                                   s.samples_accepted(), DeadReckonerParams{}.nominal_k_m_per_pulse))
         dr.add_scale_factor(estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),

@@ -480,3 +480,49 @@ TEST(DeadReckoner, JumpGateFollowsTheNominalKAndTheMaximumSpeed) {
   p.max_speed_mps = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(DeadReckoner{p}, std::invalid_argument);
 }
+
+TEST(DeadReckoner, ErrorAgainstGnssComparesEachFixWithTheDrAtItsStampMinusTheLatency) {
+  // From rest at 0.5 m/s^2 (20 m/s after 40 s), exact K: the DR is the truth. The receiver stamps
+  // every fix 0.2 s late, so fix g shows the truth at g - 0.2: 0.2 v behind the DR at g (4 m at the
+  // end). With the latency in force from 10 s on, the fixes from then on are compared with the DR
+  // at g - 0.2, and the error is the DR's own (pulse quantisation, millimetres).
+  SensorConfig c;
+  c.duration_s = 40.0;
+  c.k_m_per_pulse = kK;
+  SyntheticData d = simulate(straight(deg_to_rad(60.0), 0.0, 0.0, 0.5), c);
+  for (auto& g : d.gnss) g.t_s += 0.2;
+  const auto run = [&](bool compensate, DeadReckonerCounters* n) {
+    DeadReckoner dr(exact_k());
+    if (compensate) {
+      dr.add_gnss_latency(10.0, 0.2);
+      dr.add_gnss_latency(10.0, 0.3);  // not later than the previous one: ignored, counted
+      dr.add_gnss_latency(11.0, 0.2);  // unchanged: nothing new
+    }
+    for (const auto& s : d.odometer) dr.add_odometer(s);
+    for (const auto& s : d.ins) dr.add_ins(s);
+    for (const auto& s : d.gnss) dr.add_gnss(s);
+    auto out = dr.finish();
+    if (n) *n = dr.counters();
+    return out;
+  };
+  const auto raw = run(false, nullptr);
+  DeadReckonerCounters n;
+  const auto compensated = run(true, &n);
+  ASSERT_EQ(raw.size(), compensated.size());
+  EXPECT_EQ(n.gnss_latency_stale, 1u);
+  double worst_raw_after_10 = 0.0, worst_after_10 = 0.0;
+  for (std::size_t i = 0; i < raw.size(); ++i) {
+    // The positions are the same: the latency only moves the reference.
+    EXPECT_EQ(raw[i].enu_m, compensated[i].enu_m) << i;
+    if (!(compensated[i].error_t_s >= 10.5)) continue;  // epochs evaluated with the latency in force
+    worst_raw_after_10 = std::max(worst_raw_after_10, raw[i].horizontal_error_m);
+    worst_after_10 = std::max(worst_after_10, compensated[i].horizontal_error_m);
+  }
+  EXPECT_NEAR(raw.back().horizontal_error_m, 0.2 * 20.0, 0.05);  // 0.2 s x 20 m/s
+  EXPECT_GT(worst_raw_after_10, 3.9);
+  EXPECT_LT(worst_after_10, 0.02);
+  EXPECT_LT(compensated.back().horizontal_error_m, 0.02);
+  // A latency beyond +-10 s is not one.
+  DeadReckoner dr(exact_k());
+  EXPECT_THROW(dr.add_gnss_latency(1.0, 12.0), StreamInputError);
+}

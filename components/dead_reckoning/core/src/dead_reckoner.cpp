@@ -94,6 +94,21 @@ void DeadReckoner::add_scale_factor(double t_s, double k, ScaleFactorSource sour
   k_history_.add(t_s, KInForce{k, source});
 }
 
+void DeadReckoner::add_gnss_latency(double t_s, double latency_s) {
+  if (!std::isfinite(t_s) || !std::isfinite(latency_s) || !(std::abs(latency_s) < 10.0)) {
+    std::ostringstream m;
+    m << "gnss_latency: at t=" << t_s << " s, latency=" << latency_s << " s must be finite and within +-10 s";
+    throw StreamInputError(m.str());
+  }
+  if (last_gnss_latency_ && !(t_s > last_gnss_latency_->first)) {
+    ++counters_.gnss_latency_stale;
+    return;
+  }
+  const bool changed = !last_gnss_latency_ ? latency_s != 0.0 : latency_s != last_gnss_latency_->second;
+  last_gnss_latency_ = std::make_pair(t_s, latency_s);
+  if (changed) gnss_latency_.add(t_s, latency_s);
+}
+
 void DeadReckoner::add_misalignment(double t_s, const Misalignment& m) {
   if (!std::isfinite(m.heading_rad) || !std::isfinite(m.pitch_rad)) {
     std::ostringstream s;
@@ -404,19 +419,22 @@ void DeadReckoner::evaluate_errors(DeadReckoningOutput& o) {
   const double d = params_.estimate_hold_off_s;
   while (!error_epochs_.empty() && estimate_applies_from_s(error_epochs_.front().first.t_s, d) <= t_j) {
     const GnssSample g = error_epochs_.front().first;
-    EpochError e{g.t_s, estimate_applies_from_s(g.t_s, d), std::numeric_limits<double>::quiet_NaN(),
+    const double applies_s = estimate_applies_from_s(g.t_s, d);
+    EpochError e{g.t_s, applies_s, std::numeric_limits<double>::quiet_NaN(),
                  std::numeric_limits<double>::quiet_NaN(), error_epochs_.front().second};
     error_epochs_.pop_front();
-    // DR at g: between the outputs bracketing it (none before the start, or g beyond the last one).
+    // The fix describes the position at its stamp minus the latency in force when it is evaluated.
+    const double t_ref = g.t_s - gnss_latency_.at_or_before(applies_s).value_or(0.0);
+    // DR at t_ref: between the outputs bracketing it (none before the start, or beyond the last one).
     std::size_t hi = 0;
-    while (hi < past_.size() && past_[hi].t_s < g.t_s) ++hi;
-    const bool after_start = start_t_s_ && g.t_s > *start_t_s_;
-    if (g.valid() && after_start && hi < past_.size() && (hi > 0 || past_[0].t_s == g.t_s)) {
+    while (hi < past_.size() && past_[hi].t_s < t_ref) ++hi;
+    const bool after_start = start_t_s_ && t_ref > *start_t_s_;
+    if (g.valid() && after_start && hi < past_.size() && (hi > 0 || past_[0].t_s == t_ref)) {
       // Everything interpolated, so that an epoch a few ulps off an odometer instant (a stamp that
       // crossed DDS) gives the same result to 1e-9.
       const Past& b = past_[hi];
-      const Past& a = b.t_s == g.t_s ? b : past_[hi - 1];
-      const double f = b.t_s == g.t_s ? 1.0 : (g.t_s - a.t_s) / (b.t_s - a.t_s);
+      const Past& a = b.t_s == t_ref ? b : past_[hi - 1];
+      const double f = b.t_s == t_ref ? 1.0 : (t_ref - a.t_s) / (b.t_s - a.t_s);
       if (!a.lever_arm_enu_m || !b.lever_arm_enu_m) {
         ++counters_.anchor_fixes_no_attitude;  // a lever arm without the attitude to turn it
       } else {
@@ -439,10 +457,19 @@ void DeadReckoner::evaluate_errors(DeadReckoningOutput& o) {
     }
     last_error_ = e;
   }
-  // Later epochs apply after t_j, i.e. are stamped after t_j - d: the outputs before that (but the
-  // one bracketing it) are no longer needed.
-  const double keep_from = error_epochs_.empty() ? t_j - d : std::min(t_j - d, error_epochs_.front().first.t_s);
+  // Later epochs apply after t_j, i.e. are stamped after t_j - d, and look at the DR up to the
+  // latency before their stamp: the outputs before that (but the one bracketing it) are no longer
+  // needed. A later epoch's latency may be one not added yet: the margin is the one in force now
+  // and at least kLatencyKeepMarginS (the online estimate searches up to 0.5 s), the same whatever
+  // was added beyond the watermark, so the pipeline keeps what odonav-offline keeps.
+  const double next_applies_s = error_epochs_.empty() ? t_j : estimate_applies_from_s(error_epochs_.front().first.t_s, d);
+  constexpr double kLatencyKeepMarginS = 1.0;
+  const double latency_margin_s =
+      std::max(kLatencyKeepMarginS, gnss_latency_.at_or_before(std::min(t_j, next_applies_s)).value_or(0.0));
+  const double keep_from =
+      (error_epochs_.empty() ? t_j - d : std::min(t_j - d, error_epochs_.front().first.t_s)) - latency_margin_s;
   while (past_.size() >= 2 && past_[1].t_s <= keep_from) past_.pop_front();
+  gnss_latency_.drop_before(std::min(t_j, next_applies_s));
 }
 
 }  // namespace odonav

@@ -21,8 +21,9 @@
 // direction below the course's minimum speed (stop, then reverse at a crawl), |dS| is laid against
 // the held course, so a straight reversing manoeuvre is dead-reckoned exactly.
 //
-// Error against GNSS, per GNSS epoch g (valid fix, after the start): |DR(g) - GNSS(g)| horizontal,
-// DR(g) interpolated linearly (local ENU of the DR origin) between the outputs bracketing g, the
+// Error against GNSS, per GNSS epoch g (valid fix, after the start): |DR(g - L) - GNSS(g)| horizontal,
+// L the GNSS latency in force at estimate_applies_from_s(g, hold-off) (add_gnss_latency; 0 until
+// one is added: the fix stamped g describes the position at g - L), DR(g - L) interpolated linearly (local ENU of the DR origin) between the outputs bracketing g, the
 // antenna moved to the reference point by the lever arm (ENU) interpolated alike. It is
 // evaluated at the first odometer sample t_j >= estimate_applies_from_s(g, hold-off) (the rule of
 // consumer_rules.hpp: by then the fix of epoch g has arrived) and carried, with error_t_s = g, on
@@ -147,6 +148,7 @@ struct DeadReckonerCounters {
   uint64_t pulse_rebases = 0;          ///< counter steps re-based on (one interval's pulses estimated).
   uint64_t anchor_fixes = 0;           ///< valid GNSS epochs reported in gnss_fixes.
   uint64_t anchor_fixes_no_attitude = 0;  ///< valid epochs left out: no attitude for the lever arm.
+  uint64_t gnss_latency_stale = 0;     ///< add_gnss_latency calls not later than the previous one.
 };
 
 /// The GNSS gap in force for an observed GNSS period (s; NaN: fewer than two rows seen):
@@ -169,6 +171,14 @@ class DeadReckoner {
   void add_scale_factor(double t_s, double k_m_per_pulse, ScaleFactorSource source);
   /// Misalignment (rad) in force from t_s on (zero before the first).
   void add_misalignment(double t_s, const Misalignment& misalignment);
+  /// GNSS latency (s, |latency| < 10) in force from t_s on (zero before the first): a fix stamped g
+  /// describes the position at g - latency, so the error against GNSS and the anchor fix of epoch
+  /// g compare it with the DR at g - latency, the latency being the one in force at
+  /// estimate_applies_from_s(g, hold-off), when the epoch is evaluated. The node and odonav-offline
+  /// add the latency every ScaleFactor carries at the ScaleFactor's application time. A value not
+  /// later than the last one added is ignored and counted (gnss_latency_stale); an unchanged value
+  /// is not stored again.
+  void add_gnss_latency(double t_s, double latency_s);
 
   /// Emits, in time order, the output of every odometer sample stamped <= watermark_s whose inputs
   /// are final. Contract: every input stamped <= watermark_s has been added.
@@ -230,6 +240,8 @@ class DeadReckoner {
   std::optional<double> start_t_s_;      ///< epoch of the start fix.
   StepHistory<KInForce> k_history_{"scale_factor"};
   StepHistory<Misalignment> misalignment_{"misalignment"};
+  StepHistory<double> gnss_latency_{"gnss_latency"};
+  std::optional<std::pair<double, double>> last_gnss_latency_;  ///< (t_s, latency s) last added
   double watermark_s_ = -std::numeric_limits<double>::infinity();
 
   std::optional<LocalEnuFrame> frame_;
