@@ -4,7 +4,9 @@
 //
 // Event time: every stream is buffered by add_*() (each stream in increasing time, streams in any
 // order relative to each other); process_until(watermark_s) then emits every GNSS epoch whose inputs
-// are complete. The contract of process_until(w): every input stamped <= w (odometer, GNSS, INS,
+// are complete. An epoch stamped t needs the odometer and INS up to its sensor time t - latency in
+// force and nothing later (every window ends there); the GNSS-latency search, which looks up to
+// 0.25 s further, is fed deferred samples (see latency_search_min_s) and never holds an epoch back. The contract of process_until(w): every input stamped <= w (odometer, GNSS, INS,
 // misalignment, scale-factor estimate) has already been added. Under that contract the output for
 // given inputs is bit-identical whatever the interleaving of add_* and process_until calls.
 //
@@ -128,7 +130,8 @@ struct SampleBuilderParams {
   OdometerJumpGate odometer_jump_gate;
   /// GNSS antenna position in the INS body frame (forward-left-up, m) from the reference point.
   /// When set (and use_ins), the antenna's extra velocity C_b^n (omega_b x l) is removed from the
-  /// GNSS velocity before projection; omega_b from the INS attitude over [t - h, t + h]. With a mast of
+  /// GNSS velocity before projection; omega_b from the INS attitude over [t - h, t] (the window ends
+  /// at the epoch, so the sample needs no INS after it; lag h / 2). With a mast of
   /// 2 m, pitching on rough ground and yaw in bends otherwise bias K by tenths of a percent.
   std::optional<Eigen::Vector3d> lever_arm_body_m;
   /// h above (s, > 0). Default 0.05 (the INS at 100 Hz gives the rate over 10 samples).
@@ -144,16 +147,22 @@ struct SampleBuilderParams {
   /// steps of latency_search_step_s (defaults -0.2, 0.5, 0.01 s). For every candidate the squared
   /// residuals of the accepted samples against the current K estimate are summed; the estimate is
   /// the vertex of a parabola fitted around the smallest sum, its sigma from the curvature.
+  /// The sums are deferred: an accepted sample at t_k enters them before the first later epoch whose
+  /// sensor time reaches t_k - latency_search_min_s + pulse_rate_half_window_s (its look-ahead), and
+  /// a latency decided then applies from that epoch on (deterministic: it depends on stamps only).
   bool latency_estimation_enabled = true;
   double latency_search_min_s = -0.2;
   double latency_search_max_s = 0.5;
   double latency_search_step_s = 0.01;
   /// Pulse rate at a time: the count difference over [t - h, t + h] / 2h, h = this (s, in (0, 1]).
-  /// Default 0.05 s. Used by the latency estimate and the trapezoid correction.
+  /// Default 0.05 s. Used by the latency estimate (deferred, so it may look past the epoch) and the
+  /// trapezoid correction, which reads the rates at t - h (windows [t - 2h, t]) over the interval
+  /// shifted back by h, so it needs no odometer after the epoch.
   double pulse_rate_half_window_s = 0.05;
   /// Samples spanning at least this long (s, > 0; default 0.3: GNSS below about 3 Hz) get the
-  /// trapezoid correction: y += K^ (phi - T/2 (rate(t0) + rate(t1))), the distance the trapezoid of
-  /// the two speeds misses, as the odometer's pulse-rate profile shows it (docs/ALGORITHM.md §2).
+  /// trapezoid correction: y += K^ (phi' - T/2 (rate(t0 - h) + rate(t1 - h))), phi' the pulses over
+  /// [t0 - h, t1 - h]: the distance the trapezoid of the two speeds misses, as the odometer's
+  /// pulse-rate profile shows it (docs/ALGORITHM.md §2), read h earlier so that no window passes t1.
   /// At 10 Hz the curvature error is far below the GNSS noise and the rate's quantisation would
   /// only add noise.
   double trapezoid_correction_min_interval_s = 0.3;
