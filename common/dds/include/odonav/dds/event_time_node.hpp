@@ -10,6 +10,7 @@
 // every remaining output published, writers' acknowledgments awaited (bounded), Health "stopping".
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
 #include <tuple>
@@ -161,6 +162,8 @@ class EventTimeNode {
   Status last_{odonav::msg::HEALTH_STATE_STARTING, odonav::msg::HEALTH_LEVEL_STALE, "(none yet)"};
   uint64_t outputs_ = 0;
   uint64_t process_errors_ = 0;
+  /// Steady time (s) of the last health evaluation from tick().
+  double last_health_tick_s_ = -std::numeric_limits<double>::infinity();
   bool stopping_ = false;
   bool drained_ = false;
 };
