@@ -110,29 +110,19 @@ odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& out, c
 }
 
 namespace {
-// The scale-factor writer: the profile, plus ownership strength always, plus TRANSIENT with the
-// SQLite persistence when there is a state directory (docs/DDS.md §5: plugin, file, fixed GUID).
-dds::WriterSettings scale_factor_writer_settings(const std::string& state_dir, const std::string& vehicle_id,
-                                                 const InstanceSettings& instance) {
+// The scale-factor writer: the profile (TRANSIENT_LOCAL, so a late reader gets the latest
+// estimates), plus the ownership strength. No Fast DDS persistence: the checkpoint restores the
+// estimator, and the restored K is published at once.
+dds::WriterSettings scale_factor_writer_settings(const InstanceSettings& instance) {
   dds::WriterSettings w;
   w.ownership_strength = instance.ownership_strength;
-  if (state_dir.empty()) {
-    spdlog::info("scale-factor writer: TRANSIENT_LOCAL (no --state-dir: the last K survives in this process only)");
-    return w;
-  }
-  try {
-    std::filesystem::create_directories(state_dir);
-    const std::string db = persistence_db_path(state_dir, vehicle_id, instance.instance);
-    const std::string guid = persistence_guid(vehicle_id, instance.instance);
-    w.transient = true;
-    w.properties = {{"dds.persistence.plugin", "builtin.SQLITE3"},
-                    {"dds.persistence.sqlite3.filename", db},
-                    {"dds.persistence.guid", guid}};
-    spdlog::info("scale-factor writer: TRANSIENT, SQLite persistence {} (guid {})", db, guid);
-  } catch (const std::exception& e) {
-    throw ConfigError("--state-dir '" + state_dir + "': " + e.what());
-  }
   return w;
+}
+
+/// The topic with another reader profile (the same topic, type and writer profile).
+topics::TopicSpec with_reader_profile(topics::TopicSpec spec, const char* reader_profile) {
+  spec.reader_profile = reader_profile;
+  return spec;
 }
 
 }  // namespace
@@ -154,24 +144,35 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
   scale_factor_ = std::make_unique<dds::EstimatePublisher<odonav::msg::ScaleFactor>>(
       runtime.participant(), topics::kScaleFactor.name, topics::kScaleFactor.writer_profile,
       instance_.heartbeat_period_s,
-      scale_factor_writer_settings(checkpoint.state_dir, runtime.settings().vehicle_id, instance_));
+      scale_factor_writer_settings(instance_));
   if (const auto restored = lifecycle_.take_restored_output()) {
     write_scale_factor(*restored, dds::steady_now_s());
     count_outputs(1);
   }
+  // Resumed from a checkpoint: the sensor readers ask the producers for their history (30 s), so
+  // the data of the downtime is processed from the checkpoint on (what predates it is skipped).
+  // A fresh start reads like every other consumer: from the moment it matched.
+  const char* sensor_profile =
+      lifecycle_.restored_t_s() ? topics::kSensorReplayReaderProfile : topics::kSensorReaderProfile;
+  if (lifecycle_.restored_t_s())
+    spdlog::info("sensor readers: TRANSIENT_LOCAL, processing the producers' history from t={:.3f} s on",
+                 *lifecycle_.restored_t_s());
 
   odometer_reader_ = subscribe<odonav::msg::Odometer>(
-      topics::kOdometer, odometer_,
+      with_reader_profile(topics::kOdometer, sensor_profile), odometer_,
       [this](const auto& m, double t_s) {
+        lifecycle_.note_odometer_received(t_s, dds::steady_now_s());
         if (!lifecycle_.skip_sample(IdentificationInput::kOdometer, t_s))
           core_.add_odometer(dds::odometer_sample_from(m));
       },
       [this](const odonav::msg::Odometer& m) { declare_gnss_published(gnss_, m); });
-  gnss_reader_ = subscribe<odonav::msg::GnssFix>(topics::kGnssFix, gnss_, [this](const auto& m, double t_s) {
+  gnss_reader_ = subscribe<odonav::msg::GnssFix>(
+      with_reader_profile(topics::kGnssFix, sensor_profile), gnss_, [this](const auto& m, double t_s) {
     if (!lifecycle_.skip_sample(IdentificationInput::kGnss, t_s)) core_.add_gnss(dds::gnss_sample_from(m));
   });
   if (ins_) {
-    ins_reader_ = subscribe<odonav::msg::InsAttitude>(topics::kInsAttitude, *ins_, [this](const auto& m, double t_s) {
+    ins_reader_ = subscribe<odonav::msg::InsAttitude>(
+        with_reader_profile(topics::kInsAttitude, sensor_profile), *ins_, [this](const auto& m, double t_s) {
       if (lifecycle_.skip_sample(IdentificationInput::kIns, t_s)) return;
       if (!m.valid()) {
         ++ins_->dropped_invalid;
@@ -209,7 +210,8 @@ void IdentificationNode::on_misalignment(const odonav::msg::Misalignment& m, dou
 
 void IdentificationNode::publish(const std::vector<IdentificationOutput>& outputs) {
   const double now = dds::steady_now_s();
-  const std::vector<IdentificationOutput> to_publish = lifecycle_.outputs_to_publish(outputs);
+  const std::vector<IdentificationOutput> to_publish =
+      lifecycle_.outputs_to_publish(outputs, now);
   for (const IdentificationOutput& o : to_publish) write_scale_factor(o, now);
   count_outputs(to_publish.size());
   lifecycle_.checkpoint_if_due(core_.main_estimator());
@@ -318,6 +320,14 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
     c.emplace_back("checkpoints_written", static_cast<double>(lifecycle_.checkpoints_written()));
     c.emplace_back("checkpoint_errors", static_cast<double>(lifecycle_.checkpoint_errors()));
     c.emplace_back("skipped_before_checkpoint", static_cast<double>(lifecycle_.skipped_before_checkpoint()));
+    if (restored_t_s) {
+      // The catch-up of the downtime's data: estimates published late, and event time lost.
+      c.emplace_back("catch_up_outputs", static_cast<double>(lifecycle_.catch_up_outputs()));
+      c.emplace_back("catching_up", lifecycle_.catching_up() ? 1.0 : 0.0);
+      if (lifecycle_.catch_up_first_t_s()) c.emplace_back("catch_up_first_t_s", *lifecycle_.catch_up_first_t_s());
+      if (lifecycle_.catch_up_last_t_s()) c.emplace_back("catch_up_last_t_s", *lifecycle_.catch_up_last_t_s());
+      c.emplace_back("catch_up_lost_s", lifecycle_.catch_up_lost_s());
+    }
   }
   const auto& last = lifecycle_.last_output();
   if (last && last->main.valid) {

@@ -69,10 +69,11 @@ class IdentificationNode : public dds::EventTimeNode {
   /// aside and starts from nominal) and publishes the restored K at once, stamped with the
   /// checkpoint's time, so a late reader gets it before any new sample. ConfigError when the state
   /// directory cannot be created or the vehicle id cannot name a file.
-  /// With a state directory the scale-factor writer is also TRANSIENT (Fast DDS SQLite persistence in
-  /// `<state-dir>/<vehicle>-<instance>.db`, fixed GUID persistence_guid(vehicle, instance)): a reader
-  /// joining after a restart gets the last K even before the restored one is published. Without
-  /// one it is TRANSIENT_LOCAL (the profile's).
+  /// The scale-factor writer is TRANSIENT_LOCAL (the profile's): a reader joining after a restart
+  /// gets the restored K and what followed. After a restore the sensor readers are TRANSIENT_LOCAL
+  /// (odonav_sensor_replay_reader): the producers hand over their history (30 s), and the data of
+  /// the downtime is processed from the checkpoint on, its estimates published late (catch-up,
+  /// counted and named in the health).
   IdentificationNode(dds::ComponentRuntime& runtime, const IdentificationParams& params,
                      const CheckpointSettings& checkpoint = {}, const InstanceSettings& instance = {});
   ~IdentificationNode() override;

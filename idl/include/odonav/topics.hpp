@@ -23,6 +23,10 @@ struct TopicSpec {
 // time (odonav/source_arbiter.hpp).
 inline constexpr const char* kSensorWriterProfile = "odonav_sensor_writer";
 inline constexpr const char* kSensorReaderProfile = "odonav_sensor_reader";
+/// odonav_sensor_reader with TRANSIENT_LOCAL durability: the sensor writers (TRANSIENT_LOCAL, 30 s
+/// of history) hand such a reader their history when it matches. A restarted identification reads
+/// with it to process the data of its downtime from its checkpoint on.
+inline constexpr const char* kSensorReplayReaderProfile = "odonav_sensor_replay_reader";
 /// The gateway's sensor writers when replaying as fast as possible: odonav_sensor_writer with a
 /// 5 ms heartbeat, so each acknowledgment wait of its flow control takes milliseconds.
 inline constexpr const char* kGatewayFastAckSensorWriterProfile = "odonav_gateway_sensor_writer_fast_ack";

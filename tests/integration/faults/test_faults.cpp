@@ -7,6 +7,9 @@
 //      deploy/launch run (3x real time, so the consumers wait for each other): every output row is
 //      present afterwards and equal to odonav-offline's, and after the gateway's stall the data flows
 //      again (rows counted, not timed).
+//   3. kill -9 + restart of the identification 2 s later (domain 195): it resumes from its
+//      checkpoint, processes the producers' history of its downtime and publishes those estimates
+//      late (catch-up, in its health); every recorded row is present and equal to odonav-offline's.
 // ODONAV_FAULTS_PROFILE=<participant profile file> runs both against other profiles (with the qos.xml
 // beside it), e.g. the shared-memory ones of an earlier version, for the before/after figures.
 #include <gtest/gtest.h>
@@ -34,6 +37,7 @@
 #include "odonav/dds/participant.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/msg/DeadReckoning.h"
+#include "odonav/msg/Health.h"
 #include "odonav/msg/ScaleFactor.h"
 #include "odonav/results/output_files.hpp"
 #include "odonav/topics.hpp"
@@ -317,6 +321,53 @@ std::string missing_rows(const std::vector<Row>& got, const std::vector<Row>& re
   return out.str();
 }
 
+/// The recorder's rows in `out` against odonav-offline's in `offline_dir`: every row present (the
+/// missing ones printed as runs) and equal row by row (the pipeline test's 1e-9).
+void expect_rows_equal_offline(const std::string& out, const std::string& offline_dir) {
+  const results::OutputRows pipe = results::read_output_rows(out);
+  const results::OutputRows ref = results::read_output_rows(offline_dir);
+  std::size_t lost_mis = 0, lost_k = 0, lost_dr = 0;
+  const std::string gaps_mis = missing_rows(pipe.misalignment, ref.misalignment, lost_mis);
+  const std::string gaps_k = missing_rows(pipe.scale_factor, ref.scale_factor, lost_k);
+  const std::string gaps_dr = missing_rows(pipe.dead_reckoning, ref.dead_reckoning, lost_dr);
+  std::cerr << "rows missing against odonav-offline: misalignment " << lost_mis << "/" << ref.misalignment.size()
+            << gaps_mis << " scale factor " << lost_k << "/" << ref.scale_factor.size() << gaps_k
+            << " dead reckoning " << lost_dr << "/" << ref.dead_reckoning.size() << gaps_dr << "\n";
+  EXPECT_EQ(lost_mis, 0u);
+  EXPECT_EQ(lost_k, 0u);
+  EXPECT_EQ(lost_dr, 0u);
+
+  // Equal to the offline tool row by row (its tolerance: the pipeline test's 1e-9).
+  constexpr double kTol = 1e-9;
+  ASSERT_EQ(pipe.misalignment.size(), ref.misalignment.size());
+  for (std::size_t i = 0; i < ref.misalignment.size(); ++i) {
+    ASSERT_NEAR(pipe.misalignment[i].t_s, ref.misalignment[i].t_s, kTol) << "misalignment row " << i;
+    ASSERT_NEAR(pipe.misalignment[i].heading_rad, ref.misalignment[i].heading_rad, kTol) << "misalignment row " << i;
+    ASSERT_NEAR(pipe.misalignment[i].pitch_rad, ref.misalignment[i].pitch_rad, kTol) << "misalignment row " << i;
+  }
+  ASSERT_EQ(pipe.scale_factor.size(), ref.scale_factor.size());
+  for (std::size_t i = 0; i < ref.scale_factor.size(); ++i) {
+    ASSERT_NEAR(pipe.scale_factor[i].t_s, ref.scale_factor[i].t_s, kTol) << "scale factor row " << i;
+    ASSERT_EQ(pipe.scale_factor[i].k_m_per_pulse.has_value(), ref.scale_factor[i].k_m_per_pulse.has_value())
+        << "scale factor row " << i;
+    if (ref.scale_factor[i].k_m_per_pulse)
+      ASSERT_NEAR(*pipe.scale_factor[i].k_m_per_pulse, *ref.scale_factor[i].k_m_per_pulse,
+                  kTol * *ref.scale_factor[i].k_m_per_pulse)
+          << "scale factor row " << i;
+    ASSERT_EQ(pipe.scale_factor[i].samples_accepted, ref.scale_factor[i].samples_accepted) << "scale factor row " << i;
+  }
+  ASSERT_EQ(pipe.dead_reckoning.size(), ref.dead_reckoning.size());
+  for (std::size_t i = 0; i < ref.dead_reckoning.size(); ++i) {
+    const auto& a = pipe.dead_reckoning[i];
+    const auto& b = ref.dead_reckoning[i];
+    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "dead-reckoning row " << i;
+    ASSERT_NEAR(a.lat_rad, b.lat_rad, kTol) << "dead-reckoning row " << i;
+    ASSERT_NEAR(a.lon_rad, b.lon_rad, kTol) << "dead-reckoning row " << i;
+    ASSERT_NEAR(a.distance_m, b.distance_m, kTol) << "dead-reckoning row " << i;
+    ASSERT_NEAR(a.k_m_per_pulse, b.k_m_per_pulse, kTol * b.k_m_per_pulse) << "dead-reckoning row " << i;
+  }
+}
+
 TEST_F(Faults, FiveSecondStallsOfIdentificationDeadReckoningAndGatewayLoseNothing) {
   constexpr int kDomain = 161;
   const std::string out = fresh_dir("test-faults", "stalls").string();
@@ -381,48 +432,112 @@ TEST_F(Faults, FiveSecondStallsOfIdentificationDeadReckoningAndGatewayLoseNothin
                 "/offline-check.log 2>&1"),
             0)
       << read_text(out + "/offline-check.log");
-  const results::OutputRows pipe = results::read_output_rows(out);
-  const results::OutputRows ref = results::read_output_rows(offline_dir);
-  std::size_t lost_mis = 0, lost_k = 0, lost_dr = 0;
-  const std::string gaps_mis = missing_rows(pipe.misalignment, ref.misalignment, lost_mis);
-  const std::string gaps_k = missing_rows(pipe.scale_factor, ref.scale_factor, lost_k);
-  const std::string gaps_dr = missing_rows(pipe.dead_reckoning, ref.dead_reckoning, lost_dr);
-  std::cerr << "rows missing against odonav-offline: misalignment " << lost_mis << "/" << ref.misalignment.size()
-            << gaps_mis << " scale factor " << lost_k << "/" << ref.scale_factor.size() << gaps_k
-            << " dead reckoning " << lost_dr << "/" << ref.dead_reckoning.size() << gaps_dr << "\n";
-  EXPECT_EQ(lost_mis, 0u);
-  EXPECT_EQ(lost_k, 0u);
-  EXPECT_EQ(lost_dr, 0u);
+  expect_rows_equal_offline(out, offline_dir);
+}
 
-  // Equal to the offline tool row by row (its tolerance: the pipeline test's 1e-9).
-  constexpr double kTol = 1e-9;
-  ASSERT_EQ(pipe.misalignment.size(), ref.misalignment.size());
-  for (std::size_t i = 0; i < ref.misalignment.size(); ++i) {
-    ASSERT_NEAR(pipe.misalignment[i].t_s, ref.misalignment[i].t_s, kTol) << "misalignment row " << i;
-    ASSERT_NEAR(pipe.misalignment[i].heading_rad, ref.misalignment[i].heading_rad, kTol) << "misalignment row " << i;
-    ASSERT_NEAR(pipe.misalignment[i].pitch_rad, ref.misalignment[i].pitch_rad, kTol) << "misalignment row " << i;
+// ---- 3. kill -9 + restart: the downtime is caught up ----------------------------------------------
+
+double health_counter(const msg::Health& h, const std::string& name) {
+  for (const auto& c : h.counters())
+    if (c.name() == name) return c.value();
+  return std::nan("");
+}
+
+TEST_F(Faults, KillNineAndRestartOfTheIdentificationCatchesUpEveryRowEqualToOffline) {
+  // 120 s of the ring at 3x real time (40 s of wall time); the identification is killed once its
+  // K passes t = 52.5 s, between two checkpoints (every 5 s of event time), and restarted 2 s later
+  // (6 s of data): it resumes from the checkpoint of t = 50 s, the producers hand it their
+  // history, it processes again what it had published since (the consumers skip those repeats)
+  // and publishes the estimates of its downtime late. Faster than real time the consumers wait for it (--max-wait-s 30), so the
+  // recorder's rows, K and dead reckoning alike, must all be there and equal odonav-offline's.
+  constexpr int kDomain = 195;
+  constexpr const char* kSeed = "6";
+  constexpr const char* kDuration = "120";
+  const std::string dir = fresh_dir("test-faults", "catch-up").string();
+  const std::string out = dir + "/out";
+  const std::string state = dir + "/state";
+  const std::string arm = lever_arm("ring");
+  char nominal[64];
+  std::snprintf(nominal, sizeof nominal, "%.17g", sim::scenario_config("ring").k_nominal_m_per_pulse);
+  ASSERT_EQ(run(binary("odonav-sim") + " ring --out " + dir + "/dataset --seed " + kSeed + " --duration-s " + kDuration +
+                " >" + dir + "/sim.log 2>&1"),
+            0)
+      << read_text(dir + "/sim.log");
+
+  odonav::dds::Participant participant(participant_options(kDomain));
+  TimedCollector<msg::ScaleFactor> k(participant, topics::kScaleFactor, topics::kScaleFactorRecorderReaderProfile);
+  TimedCollector<msg::Health> health(participant, topics::kHealth, topics::kHealthReaderProfile);
+
+  const std::vector<std::string> node =
+      common_args(kDomain, {"--max-wait-s", "30", "--lever-arm", arm, "--nominal-k", nominal});
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = node;
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  auto recorder = start_logged("odonav-recorder", common_args(kDomain, {"--out", out, "--log-level", "info"}),
+                               dir + "/recorder.log");
+  auto dead_reckoning = start_logged("odonav-dead-reckoning", node, dir + "/dr.log");
+  auto calibration = start_logged("odonav-calibration", common_args(kDomain, {"--max-wait-s", "30", "--lever-arm", arm}),
+                                  dir + "/calibration.log");
+  const std::vector<std::string> id_args =
+      with({"--state-dir", state, "--checkpoint-every-s", "5", "--log-level", "info"});
+  auto identification = start_logged("odonav-identification", id_args, dir + "/id-1.log");
+  ASSERT_TRUE(recorder->started() && dead_reckoning->started() && calibration->started() &&
+              identification->started());
+  const auto t0 = std::chrono::steady_clock::now();
+  while (read_text(dir + "/recorder.log").find("every producer matched") == std::string::npos &&
+         std::chrono::steady_clock::now() - t0 < seconds(60))
+    std::this_thread::sleep_for(milliseconds(100));
+  ASSERT_TRUE(calibration->running() && identification->running() && dead_reckoning->running())
+      << read_text(dir + "/calibration.log") << read_text(dir + "/id-1.log") << read_text(dir + "/dr.log");
+  auto gateway = start_logged("odonav-gateway",
+                              common_args(kDomain, {"--source", "sim:ring", "--seed", kSeed, "--duration-s", kDuration,
+                                                    "--speed", "3", "--wait-for-readers", "3",
+                                                    "--wait-for-readers-timeout-s", "60", "--tolerate-lost-readers"}),
+                              dir + "/gateway.log");
+  ASSERT_TRUE(gateway->started());
+
+  ASSERT_TRUE(k.wait_until([](const auto& v) { return !v.empty() && stamp_s(v.back().sample) >= 52.5; }, seconds(90)))
+      << read_text(dir + "/id-1.log") << read_text(dir + "/gateway.log");
+  identification->signal(SIGKILL);
+  ASSERT_TRUE(identification->wait_exit(seconds(5)));
+  const double last_before_kill_s = stamp_s(k.items().back().sample);
+  std::this_thread::sleep_for(seconds(2));
+  identification = start_logged("odonav-identification", id_args, dir + "/id-2.log");
+  ASSERT_TRUE(identification->started());
+
+  ASSERT_TRUE(gateway->wait_exit(seconds(150))) << read_text(dir + "/gateway.log");
+  EXPECT_EQ(gateway->exit_code(), 0) << read_text(dir + "/gateway.log");
+  // Data-flow order, each one's inputs complete when it is told to stop (as deploy/launch does).
+  for (auto* c : {&calibration, &identification, &dead_reckoning, &recorder}) {
+    (*c)->signal(SIGINT);
+    EXPECT_TRUE((*c)->wait_exit(seconds(60)));
+    EXPECT_EQ((*c)->exit_code(), 0);
   }
-  ASSERT_EQ(pipe.scale_factor.size(), ref.scale_factor.size());
-  for (std::size_t i = 0; i < ref.scale_factor.size(); ++i) {
-    ASSERT_NEAR(pipe.scale_factor[i].t_s, ref.scale_factor[i].t_s, kTol) << "scale factor row " << i;
-    ASSERT_EQ(pipe.scale_factor[i].k_m_per_pulse.has_value(), ref.scale_factor[i].k_m_per_pulse.has_value())
-        << "scale factor row " << i;
-    if (ref.scale_factor[i].k_m_per_pulse)
-      ASSERT_NEAR(*pipe.scale_factor[i].k_m_per_pulse, *ref.scale_factor[i].k_m_per_pulse,
-                  kTol * *ref.scale_factor[i].k_m_per_pulse)
-          << "scale factor row " << i;
-    ASSERT_EQ(pipe.scale_factor[i].samples_accepted, ref.scale_factor[i].samples_accepted) << "scale factor row " << i;
-  }
-  ASSERT_EQ(pipe.dead_reckoning.size(), ref.dead_reckoning.size());
-  for (std::size_t i = 0; i < ref.dead_reckoning.size(); ++i) {
-    const auto& a = pipe.dead_reckoning[i];
-    const auto& b = ref.dead_reckoning[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "dead-reckoning row " << i;
-    ASSERT_NEAR(a.lat_rad, b.lat_rad, kTol) << "dead-reckoning row " << i;
-    ASSERT_NEAR(a.lon_rad, b.lon_rad, kTol) << "dead-reckoning row " << i;
-    ASSERT_NEAR(a.distance_m, b.distance_m, kTol) << "dead-reckoning row " << i;
-    ASSERT_NEAR(a.k_m_per_pulse, b.k_m_per_pulse, kTol * b.k_m_per_pulse) << "dead-reckoning row " << i;
-  }
+  std::cerr << "last K before the kill: t=" << last_before_kill_s << " s\n";
+
+  // The restarted instance says what it caught up, and that nothing was lost.
+  const msg::Health* last = nullptr;
+  const auto hs = health.items();
+  for (const auto& h : hs)
+    if (h.sample.component() == "odonav-identification" && !std::isnan(health_counter(h.sample, "catch_up_outputs")))
+      last = &h.sample;
+  ASSERT_NE(last, nullptr) << "no health of the restarted identification with catch-up counters";
+  std::cerr << "restarted identification: " << health_counter(*last, "catch_up_outputs")
+            << " estimates caught up, t=" << health_counter(*last, "catch_up_first_t_s") << "-"
+            << health_counter(*last, "catch_up_last_t_s") << " s, lost " << health_counter(*last, "catch_up_lost_s")
+            << " s, restored checkpoint t=" << health_counter(*last, "checkpoint_restored_t_s") << " s\n";
+  EXPECT_GT(health_counter(*last, "catch_up_outputs"), 10.0) << "the downtime (6 s of data) was published late";
+  EXPECT_EQ(health_counter(*last, "catch_up_lost_s"), 0.0);
+  EXPECT_LT(health_counter(*last, "checkpoint_restored_t_s"), last_before_kill_s);
+
+  const std::string offline_dir = dir + "/offline";
+  ASSERT_EQ(run(binary("odonav-offline") + " " + dir + "/dataset --out " + offline_dir + " >" + dir +
+                "/offline.log 2>&1"),
+            0)
+      << read_text(dir + "/offline.log");
+  expect_rows_equal_offline(out, offline_dir);
 }
 
 }  // namespace

@@ -7,9 +7,9 @@
 //      the kill within 0.05 %, the final K equals an uninterrupted run within 0.1 %.
 //   2. corrupt checkpoints (garbage, then a truncated real one) are moved aside, the node starts
 //      from nominal and its health says so.
-//   3. late reader after a restart: the scale-factor writer is TRANSIENT (SQLite persistence in the
-//      state directory, fixed GUID); killed and restarted with no input at all, it still serves
-//      the last K it published before the kill to a reader created after the restart.
+//   3. late reader after a restart: the scale-factor writer is TRANSIENT_LOCAL and the restored K
+//      is published at once; killed and restarted with no input at all, it serves a reader created
+//      after the restart the K of its checkpoint, equal to what it had published for that epoch.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "../nodes/node_test_support.hpp"
+#include "odonav/identification/checkpoint.hpp"
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/ScaleFactor.h"
 
@@ -372,9 +373,8 @@ TEST_F(IdentificationRestart, ResentStreamIsNotCountedTwiceAfterARestore) {
   if (HasFatalFailure()) return;
 
   ASSERT_FALSE(second.k.empty());
-  // Nothing new: the restored estimate and its heartbeats, and what the persistent writer serves a
-  // late reader from run 1 (its last 300 estimates, the writer's history): each equal to run 1's
-  // estimate of that stamp, none after run 1's last.
+  // Nothing new: the restored estimate and its heartbeats, each equal to run 1's estimate of that
+  // stamp, none after run 1's last.
   std::map<double, const msg::ScaleFactor*> run1;
   for (const auto& m : first.k) run1[stamp_s(m)] = &m;
   bool restored_seen = false;
@@ -404,11 +404,11 @@ TEST_F(IdentificationRestart, ResentStreamIsNotCountedTwiceAfterARestore) {
 
 namespace {
 
-TEST_F(IdentificationRestart, LateReaderAfterARestartWithNoInputGetsTheLastKFromPersistence) {
+TEST_F(IdentificationRestart, LateReaderAfterARestartWithNoInputGetsTheRestoredK) {
   constexpr int kDomain = 105;
-  const std::string dir = suite_dir("persistence");
+  const std::string dir = suite_dir("late-reader");
   const std::string state = dir + "/state";
-  std::optional<msg::ScaleFactor> last_before_kill;
+  std::vector<msg::ScaleFactor> before_kill;
   std::unique_ptr<ChildProcess> identification;
   {
     odonav::dds::Participant participant(test_participant(kDomain));
@@ -421,7 +421,7 @@ TEST_F(IdentificationRestart, LateReaderAfterARestartWithNoInputGetsTheLastKFrom
     ASSERT_TRUE(gateway->wait_exit(seconds(90))) << read_text(dir + "/gateway.log");
     EXPECT_EQ(gateway->exit_code(), 0) << read_text(dir + "/gateway.log");
     // The identification has processed everything once its newest stamp stops moving (its
-    // heartbeats repeat the last estimate): bounded wait, then the last K it published.
+    // heartbeats repeat the last estimate): bounded wait.
     double newest = -1.0;
     for (int i = 0; i < 60; ++i) {
       std::this_thread::sleep_for(milliseconds(500));
@@ -429,16 +429,20 @@ TEST_F(IdentificationRestart, LateReaderAfterARestartWithNoInputGetsTheLastKFrom
       if (!v.empty() && stamp_s(v.back()) == newest && newest > 39.0) break;
       if (!v.empty()) newest = stamp_s(v.back());
     }
-    last_before_kill = last_valid(k.samples(), k.size());
-    ASSERT_TRUE(last_before_kill.has_value());
-    ASSERT_GT(stamp_s(*last_before_kill), 39.0) << "the drive was processed to its end";
+    before_kill = k.samples();
+    ASSERT_GT(newest, 39.0) << "the drive was processed to its end";
     identification->signal(SIGKILL);
     ASSERT_TRUE(identification->wait_exit(seconds(5)));
     EXPECT_EQ(identification->exit_code(), 128 + SIGKILL);
     calibration->signal(SIGINT);
     EXPECT_TRUE(calibration->wait_exit(seconds(30)));
   }
-  ASSERT_TRUE(fs::exists(state + "/" + std::string(kVehicle) + "-identification.db"));
+  // The checkpoint the restart resumes from (every 5 s of event time: up to 5 s before the last K).
+  const IdentificationCheckpoint ckpt =
+      parse_checkpoint(read_text(state + "/identification-" + std::string(kVehicle) + ".ckpt"));
+  const auto published = std::find_if(before_kill.begin(), before_kill.end(),
+                                      [&](const msg::ScaleFactor& m) { return stamp_s(m) == ckpt.last_sample_t_s; });
+  ASSERT_NE(published, before_kill.end()) << "the checkpoint's epoch t=" << ckpt.last_sample_t_s << " s was published";
   shm_clean();
   // Restart with no input at all: nothing new can be computed or published.
   identification = start_logged(kIdentification, identification_args(kDomain, state), dir + "/id-2.log");
@@ -449,21 +453,20 @@ TEST_F(IdentificationRestart, LateReaderAfterARestartWithNoInputGetsTheLastKFrom
   // A reader created after the restart (TRANSIENT_LOCAL, the consumers' profile).
   odonav::dds::Participant late(test_participant(kDomain));
   Collector<msg::ScaleFactor> k(late, topics::kScaleFactor);
-  // The writer serves its history (the last 300 estimates, oldest first): the newest is the last K.
-  const double last_t = stamp_s(*last_before_kill);
-  ASSERT_TRUE(k.wait_until(
-      [&](const std::vector<msg::ScaleFactor>& v) { return !v.empty() && stamp_s(v.back()) >= last_t; }, seconds(20)))
-      << "no ScaleFactor of t=" << last_t << " s for a late reader after the restart\n" << read_text(dir + "/id-2.log");
+  ASSERT_TRUE(k.wait_until([&](const std::vector<msg::ScaleFactor>& v) { return !v.empty(); }, seconds(20)))
+      << "no ScaleFactor for a late reader after the restart\n" << read_text(dir + "/id-2.log");
+  std::this_thread::sleep_for(milliseconds(500));
   const msg::ScaleFactor got = k.samples().back();
-  std::cerr << "last K before the kill " << last_before_kill->k_m_per_pulse() << " at t=" << stamp_s(*last_before_kill)
-            << " s; late reader after the restart got " << got.k_m_per_pulse() << " at t=" << stamp_s(got)
+  std::cerr << "checkpoint t=" << ckpt.last_sample_t_s << " s, K published for it " << published->k_m_per_pulse()
+            << "; late reader after the restart got " << got.k_m_per_pulse() << " at t=" << stamp_s(got)
             << " s (source '" << got.source() << "')\n";
-  EXPECT_EQ(got.k_m_per_pulse(), last_before_kill->k_m_per_pulse());
-  EXPECT_EQ(stamp_s(got), stamp_s(*last_before_kill));
-  EXPECT_EQ(got.samples_accepted(), last_before_kill->samples_accepted());
+  EXPECT_EQ(stamp_s(got), ckpt.last_sample_t_s);
+  EXPECT_EQ(got.k_m_per_pulse(), published->k_m_per_pulse()) << "the checkpoint round-trips the estimator exactly";
+  EXPECT_EQ(got.samples_accepted(), published->samples_accepted());
   EXPECT_EQ(got.source(), "identification");
+  for (const auto& m : k.samples()) EXPECT_EQ(stamp_s(m), ckpt.last_sample_t_s) << "nothing older, nothing newer";
   const std::string log = read_text(dir + "/id-2.log");
-  EXPECT_NE(log.find("TRANSIENT, SQLite persistence"), std::string::npos) << log;
+  EXPECT_EQ(log.find("SQLite"), std::string::npos) << "no Fast DDS persistence any more\n" << log;
   identification->signal(SIGINT);
   EXPECT_TRUE(identification->wait_exit(seconds(30)));
   EXPECT_EQ(identification->exit_code(), 0) << read_text(dir + "/id-2.log");

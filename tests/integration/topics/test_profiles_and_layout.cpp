@@ -50,8 +50,12 @@ struct ExpectedQos {
 
 const std::map<std::string, ExpectedQos>& expected_qos() {
   static const std::map<std::string, ExpectedQos> table{
-      {topics::kSensorWriterProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 3000, kNoDeadline}},
+      // Sensor writers keep 30 s for a restarted reader that asks for it (the replay reader); the
+      // vehicle's other readers are VOLATILE, as a default-QoS reader of another vendor.
+      {topics::kSensorWriterProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 3000, kNoDeadline}},
       {topics::kSensorReaderProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 3000, kNoDeadline}},
+      {topics::kSensorReplayReaderProfile,
+       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 3000, kNoDeadline}},
       // Estimates: SHARED like everything (hot standby arbitrated by the consumers); the writer offers
       // 300 ms, no longer than any reader requests.
       {topics::kEstimateWriterProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 300, 0.3}},
@@ -121,8 +125,15 @@ TEST(QosProfiles, EveryProfileHasTheDocumentedQosAndTopicsMatchTheirReaders) {
         ASSERT_EQ(subscriber.get_datareader_qos_from_profile(profile, extra.back()), ReturnCode_t::RETCODE_OK);
         expect_qos(profile, extra.back());
       }
-      for (const DataReaderQos& q : extra) readers.push_back(&q);
     }
+    // The sensor topics' other reader: a restarted identification's, which asks for the history.
+    if (std::string(spec.writer_profile) == topics::kSensorWriterProfile) {
+      extra.emplace_back();
+      ASSERT_EQ(subscriber.get_datareader_qos_from_profile(topics::kSensorReplayReaderProfile, extra.back()),
+                ReturnCode_t::RETCODE_OK);
+      expect_qos(topics::kSensorReplayReaderProfile, extra.back());
+    }
+    for (const DataReaderQos& q : extra) readers.push_back(&q);
     // DDS request/offer rules, so every reader of the topic matches its writer.
     for (const DataReaderQos* reader : readers) {
       EXPECT_GE(w.reliability().kind, reader->reliability().kind);
@@ -254,7 +265,7 @@ TEST(QosProfiles, GatewayFastAckWriterIsTheSensorWriterWithA5msHeartbeat) {
       << "qos.xml has no data_writer profile " << topics::kGatewayFastAckSensorWriterProfile;
   ASSERT_EQ(subscriber.get_datareader_qos_from_profile(topics::kSensorReaderProfile, reader), ReturnCode_t::RETCODE_OK);
   EXPECT_EQ(fast.reliability().kind, RELIABLE_RELIABILITY_QOS);
-  EXPECT_EQ(fast.durability().kind, VOLATILE_DURABILITY_QOS);
+  EXPECT_EQ(fast.durability().kind, TRANSIENT_LOCAL_DURABILITY_QOS);
   EXPECT_EQ(fast.history().kind, KEEP_LAST_HISTORY_QOS);
   EXPECT_EQ(fast.history().depth, 3000);
   EXPECT_EQ(seconds_of(fast.deadline().period), kNoDeadline);

@@ -1,6 +1,6 @@
 // IdentificationLifecycle: the restart policy of odonav-identification in one process, on real
 // files in a scratch state directory: restore (none, restored, corrupt, other configuration), the
-// persistence database moved aside, which samples and outputs a restored run skips, the counters
+// catch-up of the downtime's data and what was lost, which samples and outputs a restored run skips, the counters
 // carried over, when checkpoints are written (and retried after a failure), the set_k stamp, and
 // the health decision with its exact texts.
 #include <gtest/gtest.h>
@@ -155,7 +155,7 @@ TEST_F(IdentificationLifecycleTest, RestoredCheckpointCarriesStateTimeAndCounter
   EXPECT_EQ(e->save_state(), before->save_state());
 
   const auto restored = l.take_restored_output();
-  ASSERT_TRUE(restored) << "no persistence database: the restored K is published at once";
+  ASSERT_TRUE(restored) << "the restored K is published at once";
   EXPECT_EQ(restored->t_s, 30.1);
   EXPECT_EQ(restored->samples_accepted, 300u) << "the restored counters, not added twice";
   EXPECT_EQ(restored->samples_rejected, 17u);
@@ -224,52 +224,93 @@ TEST_F(IdentificationLifecycleTest, CheckpointOfAnotherConfigurationIsMovedAside
   EXPECT_EQ(parse_checkpoint(read_text(ckpt_)).config_hash, kHash);
 }
 
-// ---- persistence database ----
+// ---- catch-up after a restore ----
 
-TEST_F(IdentificationLifecycleTest, PersistenceDatabaseIsMovedAsideWhenNothingWasRestored) {
-  fs::create_directories(dir_);
-  write_text(db_, "SQLite format 3");
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
-  IdentificationLifecycle l(settings(), kVehicle);
-  l.start(*e, kUnixTime_s, 0.0);
-  EXPECT_FALSE(fs::exists(db_)) << "its old K must not be served without the state it came from";
-  EXPECT_EQ(read_text(db_.string() + ".discarded-1700000000"), "SQLite format 3") << "moved, never deleted";
-  EXPECT_FALSE(l.persisted_history());
-}
-
-TEST_F(IdentificationLifecycleTest, EmptyPersistenceDatabaseIsNoHistoryAndStaysInPlace) {
-  fs::create_directories(dir_);
-  write_text(db_, "");
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
-  IdentificationLifecycle l(settings(), kVehicle);
-  l.start(*e, kUnixTime_s, 0.0);
-  EXPECT_TRUE(fs::exists(db_));
-  EXPECT_TRUE(files_starting_with("vehicle-07-identification.db.discarded-").empty());
-  EXPECT_FALSE(l.persisted_history());
-}
-
-TEST_F(IdentificationLifecycleTest, PersistenceDatabaseIsKeptWithARestoredCheckpointAndTheRestoredKIsNotRepublished) {
+TEST_F(IdentificationLifecycleTest, AnOldPersistenceDatabaseIsLeftAloneAndTheRestoredKIsPublished) {
+  // A state directory of an earlier version (its writer kept a SQLite history there).
   previous_run();
   write_text(db_, "SQLite format 3");
   auto e = make_scale_factor_estimator("vff_lm_rls", {});
   IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
-  ASSERT_TRUE(l.restored_t_s());
-  EXPECT_TRUE(fs::exists(db_));
-  EXPECT_TRUE(l.persisted_history());
-  EXPECT_FALSE(l.take_restored_output()) << "the TRANSIENT writer serves the previous run's (newer) last K";
-  ASSERT_TRUE(l.last_output()) << "the restored estimate is still the last output (health, checkpoints)";
-  EXPECT_EQ(l.last_output()->t_s, 30.1);
+  EXPECT_EQ(read_text(db_), "SQLite format 3") << "not read, not moved, never deleted";
+  const auto restored = l.take_restored_output();
+  ASSERT_TRUE(restored) << "the TRANSIENT_LOCAL writer serves the restored K to late readers";
+  EXPECT_EQ(restored->t_s, 30.1);
 }
 
-TEST_F(IdentificationLifecycleTest, PersistenceDatabaseOfAnotherInstanceIsLeftAlone) {
-  fs::create_directories(dir_);
-  const fs::path standby_db = dir_ / "vehicle-07-identification_standby.db";
-  write_text(standby_db, "SQLite format 3");
+TEST_F(IdentificationLifecycleTest, OutputsUpToTheLiveEdgeAfterARestoreAreCatchUpUntilTheFirstLiveOne) {
+  previous_run();  // checkpoint at t = 30.1 s
   auto e = make_scale_factor_estimator("vff_lm_rls", {});
-  IdentificationLifecycle l(settings(), kVehicle, "identification");
+  IdentificationLifecycle l(settings(), kVehicle);
+  l.start(*e, kUnixTime_s, 100.0);
+  EXPECT_TRUE(l.catching_up());
+  // The producers' history starts 20 s before the checkpoint: it reaches back, nothing is lost.
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kOdometer, 10.1));
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kGnss, 10.1));
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kIns, 10.1));
+  // The history arrives within the settling time (up to t = 45 s), the live data after it.
+  l.note_odometer_received(10.1, 100.0);
+  l.note_odometer_received(45.0, 100.4);
+  // Processed before the edge is fixed: catch-up.
+  auto out = l.outputs_to_publish({output_at(30.1, 0, 0), output_at(30.2, 1, 0), output_at(43.9, 130, 7)}, 100.5);
+  ASSERT_EQ(out.size(), 2u) << "the epoch of the checkpoint was published already";
+  EXPECT_EQ(l.catch_up_outputs(), 2u);
+  EXPECT_TRUE(l.catching_up());
+  EXPECT_EQ(l.health_facts(100.5).catch_up_note,
+            "catching up from the checkpoint: 2 estimates t=30.2-43.9 s published late");
+  EXPECT_FALSE(l.health_facts(100.5).catch_up_warn);
+  l.note_odometer_received(45.01, 101.2);  // live, after the settling time: the edge is t = 45 s
+  l.note_odometer_received(47.0, 103.0);
+  l.outputs_to_publish({output_at(45.0, 137, 7), output_at(45.1, 138, 7), output_at(45.2, 139, 7)}, 103.0);
+  EXPECT_FALSE(l.catching_up()) << "45.1 s is past the edge";
+  EXPECT_EQ(l.catch_up_outputs(), 3u);
+  EXPECT_EQ(*l.catch_up_first_t_s(), 30.2);
+  EXPECT_EQ(*l.catch_up_last_t_s(), 45.0);
+  EXPECT_DOUBLE_EQ(l.catch_up_lost_s(), 0.0);
+  l.outputs_to_publish({output_at(45.3, 140, 7)}, 103.1);
+  EXPECT_EQ(l.catch_up_outputs(), 3u) << "never catch-up again";
+  const auto f = l.health_facts(110.0);
+  EXPECT_EQ(f.catch_up_note, "caught up after restart: 3 estimates t=30.2-45.0 s published late");
+  EXPECT_EQ(f.catch_up_note_until_s, 103.0 + kRestoreNoteDuration_s);
+  EXPECT_EQ(identification_health(l.health_facts(103.0 + kRestoreNoteDuration_s + 1.0)).reason.find("caught up"),
+            std::string::npos)
+      << "the note goes after 30 s";
+}
+
+TEST_F(IdentificationLifecycleTest, AHistoryStartingAfterTheCheckpointIsALossNamedInTheHealth) {
+  previous_run();  // checkpoint at t = 30.1 s
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle);
+  l.start(*e, kUnixTime_s, 100.0);
+  // Down for longer than the odometer's 30 s history: its first sample is t = 42.5 s.
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kGnss, 30.1));
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, 42.5));
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, 30.5)) << "only the first sample tells";
+  ASSERT_TRUE(l.lost_until_t_s());
+  EXPECT_EQ(*l.lost_until_t_s(), 42.5);
+  EXPECT_NEAR(l.catch_up_lost_s(), 12.4, 1e-12);
+  const auto f = l.health_facts(100.0);
+  EXPECT_TRUE(f.catch_up_warn);
+  EXPECT_EQ(f.catch_up_note,
+            "lost t=30.1-42.5 s after the checkpoint (older than the producers' 30 s history): its estimates are "
+            "missing");
+  const auto h = identification_health(f);
+  EXPECT_EQ(h.level, Level::kWarn);
+  EXPECT_EQ(h.reason.rfind("lost t=30.1-42.5 s after the checkpoint", 0), 0u) << h.reason;
+}
+
+TEST_F(IdentificationLifecycleTest, AFreshStartHasNoCatchUp) {
+  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
-  EXPECT_TRUE(fs::exists(standby_db));
+  EXPECT_FALSE(l.catching_up());
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, 50.0));
+  l.note_odometer_received(50.0, 1.0);
+  l.outputs_to_publish({output_at(1.0, 0, 0)}, 1.0);
+  EXPECT_EQ(l.catch_up_outputs(), 0u);
+  EXPECT_FALSE(l.lost_until_t_s());
+  EXPECT_EQ(l.health_facts(1.0).catch_up_note, "");
 }
 
 TEST_F(IdentificationLifecycleTest, UnusableStateDirectoryIsAConfigErrorNamingIt) {

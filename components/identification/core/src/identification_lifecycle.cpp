@@ -1,6 +1,8 @@
 #include "odonav/identification/identification_lifecycle.hpp"
 
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <filesystem>
 #include <utility>
 
@@ -40,6 +42,10 @@ IdentificationHealth identification_health(const IdentificationHealthFacts& f) {
     s.reason = s.reason.empty() ? f.restore_note : f.restore_note + "; " + s.reason;
     if (f.restore_warn) s.level = Level::kWarn;
   }
+  if (!f.catch_up_note.empty() && f.now_s < f.catch_up_note_until_s) {
+    s.reason = s.reason.empty() ? f.catch_up_note : f.catch_up_note + "; " + s.reason;
+    if (f.catch_up_warn) s.level = Level::kWarn;
+  }
   if (f.checkpoint_errors > 0 && s.level == Level::kOk) {
     s.level = Level::kWarn;
     s.reason = std::to_string(f.checkpoint_errors) + " checkpoint writes failed" + (s.reason.empty() ? "" : "; " + s.reason);
@@ -53,19 +59,10 @@ IdentificationLifecycle::IdentificationLifecycle(CheckpointSettings settings, st
 
 void IdentificationLifecycle::start(ScaleFactorEstimator& estimator, int64_t unix_time_s, double steady_now_s) {
   if (settings_.state_dir.empty()) return;
-  // Looked at before anything is created in the state directory: only a previous run's file counts.
-  try {
-    const std::string db = persistence_db_path(settings_.state_dir, vehicle_id_, instance_);
-    persisted_history_ = std::filesystem::exists(db) && std::filesystem::file_size(db) > 0;
-  } catch (const std::exception&) {
-    persisted_history_ = false;  // restore() reports a bad state directory or name
-  }
   restore(estimator, unix_time_s, steady_now_s);
-  // The persistence database holds the previous run's last published K. It is served (TRANSIENT)
-  // only together with the estimator state it came from: without a restored checkpoint (none,
-  // corrupt, mismatched) the estimator starts from nominal K, and an old K stamped in another
-  // run's time would mislead every late reader. So it is moved aside, never deleted.
-  if (persisted_history_ && !restored_t_s_) move_persistence_aside(unix_time_s);
+  // The producers' histories start with the data of the downtime: what follows is catch-up until
+  // the processing is back at the live edge.
+  catching_up_ = restored_t_s_.has_value();
 }
 
 void IdentificationLifecycle::restore(ScaleFactorEstimator& estimator, int64_t unix_time_s, double steady_now_s) {
@@ -111,49 +108,59 @@ void IdentificationLifecycle::restore(ScaleFactorEstimator& estimator, int64_t u
   last_output_ = o;
 }
 
-void IdentificationLifecycle::move_persistence_aside(int64_t unix_time_s) {
-  const std::string db = persistence_db_path(settings_.state_dir, vehicle_id_, instance_);
-  const std::string aside = db + ".discarded-" + std::to_string(static_cast<long long>(unix_time_s));
-  std::error_code ec;
-  std::filesystem::rename(db, aside, ec);
-  if (ec)
-    spdlog::error("persistence database {} kept: could not move it aside ({}); late readers may get its old K", db,
-                  ec.message());
-  else
-    spdlog::warn("persistence database {} moved aside to {}: no checkpoint restored, so its K is not served", db,
-                 aside);
-  // Kept in place (the rename failed), it still serves the previous run's K.
-  persisted_history_ = static_cast<bool>(ec);
-}
-
 std::optional<IdentificationOutput> IdentificationLifecycle::take_restored_output() {
   if (restored_output_taken_ || !restored_t_s_ || !last_output_) return std::nullopt;
   restored_output_taken_ = true;
-  if (persisted_history_) {
-    // The TRANSIENT writer already serves the last estimate the previous run published (the
-    // checkpoint is written after publishing, so that one is as new or newer): publishing the
-    // restored K would step a late reader back to the checkpoint time.
-    spdlog::info("restored K not republished: the scale-factor writer serves the previous run's last estimate "
-                 "from its SQLite persistence");
-    return std::nullopt;
-  }
   return last_output_;
 }
 
 bool IdentificationLifecycle::skip_sample(IdentificationInput input, double t_s) {
+  if (!restored_t_s_) return false;
+  bool& seen = first_seen_[static_cast<int>(input)];
+  if (!seen) {
+    seen = true;
+    // The epoch at the checkpoint restarts the sample chain and needs odometer and INS samples at
+    // or before it (interpolation): a history that starts later lost what lies in between.
+    constexpr double kStampSlack_s = 1e-6;
+    if (t_s > *restored_t_s_ + kStampSlack_s && (!lost_until_t_s_ || t_s > *lost_until_t_s_)) {
+      lost_until_t_s_ = t_s;
+      spdlog::error("catch-up: the first {} sample after the restart is t={:.3f} s, {:.3f} s after the checkpoint "
+                    "(t={:.3f} s): the producers' history (30 s) did not reach back to it; the estimates of "
+                    "t={:.3f}-{:.3f} s are missing",
+                    input == IdentificationInput::kOdometer ? "odometer"
+                    : input == IdentificationInput::kGnss   ? "GNSS"
+                                                            : "INS",
+                    t_s, t_s - *restored_t_s_, *restored_t_s_, *restored_t_s_, t_s);
+    }
+  }
   const double margin_s = input == IdentificationInput::kGnss ? 0.0 : kSensorMarginBeforeCheckpoint_s;
-  if (!restored_t_s_ || t_s >= *restored_t_s_ - margin_s) return false;
+  if (t_s >= *restored_t_s_ - margin_s) return false;
   ++skipped_before_checkpoint_;
   return true;
 }
 
 std::vector<IdentificationOutput> IdentificationLifecycle::outputs_to_publish(
-    std::vector<IdentificationOutput> outputs) {
+    std::vector<IdentificationOutput> outputs, double steady_now_s) {
   std::vector<IdentificationOutput> kept;
   kept.reserve(outputs.size());
   for (IdentificationOutput& o : outputs) {
     // The epoch at the checkpoint time was published (by the previous run and at restore) already.
     if (restored_t_s_ && o.t_s <= *restored_t_s_) continue;
+    if (catching_up_) {
+      // Up to the live edge, or while it is not known yet (then the output is older than an
+      // odometer sample received in the settling time, so it is below the edge anyway).
+      if (!live_edge_fixed_ || (live_edge_t_s_ && o.t_s <= *live_edge_t_s_)) {
+        ++catch_up_outputs_;
+        if (!catch_up_first_t_s_) catch_up_first_t_s_ = o.t_s;
+        catch_up_last_t_s_ = o.t_s;
+      } else {
+        catching_up_ = false;
+        catch_up_ended_steady_s_ = steady_now_s;
+        if (catch_up_outputs_ > 0)
+          spdlog::info("caught up after the restart: {} estimates of t={:.3f}-{:.3f} s published late", catch_up_outputs_,
+                       *catch_up_first_t_s_, *catch_up_last_t_s_);
+      }
+    }
     o.samples_accepted += restored_accepted_;
     o.samples_rejected += restored_rejected_;
     last_output_ = o;
@@ -161,6 +168,19 @@ std::vector<IdentificationOutput> IdentificationLifecycle::outputs_to_publish(
     kept.push_back(std::move(o));
   }
   return kept;
+}
+
+void IdentificationLifecycle::note_odometer_received(double t_s, double steady_now_s) {
+  if (!catching_up_ || live_edge_fixed_) return;
+  if (!first_received_steady_s_) first_received_steady_s_ = steady_now_s;
+  if (steady_now_s - *first_received_steady_s_ > kCatchUpSettle_s) {
+    live_edge_fixed_ = true;
+    if (live_edge_t_s_)
+      spdlog::info("catch-up: live edge t={:.3f} s (the producers' history ends there); restored checkpoint t={:.3f} s",
+                   *live_edge_t_s_, *restored_t_s_);
+    return;
+  }
+  if (!live_edge_t_s_ || t_s > *live_edge_t_s_) live_edge_t_s_ = t_s;
 }
 
 IdentificationOutput IdentificationLifecycle::commanded_output(IdentificationOutput o) {
@@ -225,6 +245,27 @@ IdentificationHealthFacts IdentificationLifecycle::health_facts(double steady_no
   f.restore_note_until_s = restore_note_until_s_;
   f.now_s = steady_now_s;
   f.checkpoint_errors = checkpoint_errors_;
+  if (restored_t_s_ && (catch_up_outputs_ > 0 || lost_until_t_s_)) {
+    char buf[256];
+    std::string note;
+    if (lost_until_t_s_) {
+      std::snprintf(buf, sizeof buf,
+                    "lost t=%.1f-%.1f s after the checkpoint (older than the producers' 30 s history): its estimates "
+                    "are missing",
+                    *restored_t_s_, *lost_until_t_s_);
+      note = buf;
+    }
+    if (catch_up_outputs_ > 0) {
+      std::snprintf(buf, sizeof buf, "%s: %llu estimates t=%.1f-%.1f s published late",
+                    catching_up_ ? "catching up from the checkpoint" : "caught up after restart",
+                    static_cast<unsigned long long>(catch_up_outputs_), *catch_up_first_t_s_, *catch_up_last_t_s_);
+      note = note.empty() ? std::string(buf) : note + "; " + buf;
+    }
+    f.catch_up_note = note;
+    f.catch_up_warn = lost_until_t_s_.has_value();
+    f.catch_up_note_until_s = catching_up_ ? std::numeric_limits<double>::infinity()
+                                           : catch_up_ended_steady_s_ + kRestoreNoteDuration_s;
+  }
   return f;
 }
 

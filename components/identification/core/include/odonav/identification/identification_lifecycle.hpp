@@ -1,11 +1,14 @@
 #pragma once
 // The restart policy of odonav-identification around IdentificationCore, middleware-free so that it
 // is testable in one process (the DDS node only subscribes, converts, calls this and publishes):
-//  - at start: restore the checkpoint (checkpoint.hpp) or move a bad one aside, and move the
-//    writer's persistence database aside when no checkpoint was restored;
+//  - at start: restore the checkpoint (checkpoint.hpp) or move a bad one aside;
 //  - which restored output is published at once, which sensor samples are skipped because they
 //    predate the checkpoint, which outputs are published after a restore (with the restored
 //    counters added);
+//  - the catch-up after a restore: the producers hand a restarted reader their history (30 s), so
+//    the data of the downtime is processed from the checkpoint on and its estimates are published
+//    late; which outputs were catch-up, and what was lost when the history did not reach back to
+//    the checkpoint;
 //  - when a checkpoint is due, building and writing it;
 //  - the stamp of a commanded K (set_k);
 //  - the health decision, as a pure function over the facts the node supplies.
@@ -40,6 +43,12 @@ enum class IdentificationInput { kOdometer, kGnss, kIns };
 /// How long (steady clock) the health reason tells about the restore: long enough for an operator
 /// or a monitor to see it, short enough not to hide later reasons.
 inline constexpr double kRestoreNoteDuration_s = 30.0;
+/// After a restore, the producers hand over their history at once, then the live data follows. The
+/// live edge at the restart is taken as the newest odometer stamp received within this long (steady
+/// clock, s) after the first one; the outputs up to it are catch-up (published late). It only
+/// labels outputs (health, counters), it never changes a number: at real time it may count up to
+/// this much of live data as catch-up.
+inline constexpr double kCatchUpSettle_s = 1.0;
 /// Odometer and INS samples this much older than the checkpoint are still fed: the epochs right
 /// after it interpolate the pulse count and attitude between samples on both sides (max_bracket_s).
 inline constexpr double kSensorMarginBeforeCheckpoint_s = 1.0;
@@ -76,6 +85,11 @@ struct IdentificationHealthFacts {
   double now_s = 0.0;
   /// Checkpoint writes that failed since start: any makes the health WARN (if it is not already).
   uint64_t checkpoint_errors = 0;
+  /// The catch-up after a restore (IdentificationLifecycle::catch_up_note): "" = nothing to say;
+  /// shown while active or until catch_up_note_until_s (steady, s); WARN when data was lost.
+  std::string catch_up_note;
+  bool catch_up_warn = false;
+  double catch_up_note_until_s = 0.0;
 };
 
 /// The health decision. Precedence of the reason parts: restore note; checkpoint errors first when
@@ -88,7 +102,11 @@ struct IdentificationHealthFacts {
 ///    held (DEGRADED when RUNNING either way);
 ///    never heard: "no misalignment received yet: using zero"; heard but none applied:
 ///    "misalignment not converged yet: using zero" (the level is never raised for these);
-///  - "<n> checkpoint writes failed" with WARN when the level was OK.
+///  - "<n> checkpoint writes failed" with WARN when the level was OK;
+///  - after a restore, the catch-up note first: "catching up from checkpoint t=40.0 s: 12 estimates
+///    t=40.1-41.2 s published late", then "caught up after restart: ..." for 30 s; with a loss
+///    (WARN) "lost t=40.0-52.3 s after the checkpoint (older than the producers' history, 30 s):
+///    its estimates are missing".
 IdentificationHealth identification_health(const IdentificationHealthFacts& facts);
 
 /// One identification run's restart policy. Worker thread only (not thread-safe).
@@ -99,22 +117,16 @@ class IdentificationLifecycle {
   IdentificationLifecycle(CheckpointSettings settings, std::string vehicle_id,
                           std::string instance = kDefaultIdentificationInstance);
 
-  /// At start, before any input reaches the core. With a state directory: notes whether the
-  /// writer's persistence database holds a previous run's history (non-empty file), creates the
-  /// directory (ConfigError "--state-dir '<dir>': ..." when it cannot, or the vehicle or instance
-  /// cannot name a file), loads the checkpoint into `estimator` (restored, or none, or moved aside
-  /// when corrupt, of another vehicle, configuration or estimator: fresh start from nominal K),
-  /// logs what it did, and, when no checkpoint was restored, moves the persistence database aside
-  /// (`<db>.discarded-<unix_time_s>`, never deleted): without the estimator state it came from, its
-  /// old K stamped in another run's time would mislead every late reader.
-  /// unix_time_s names the moved-aside files; steady_now_s starts the restore note's 30 s.
+  /// At start, before any input reaches the core. With a state directory: creates the directory
+  /// (ConfigError "--state-dir '<dir>': ..." when it cannot, or the vehicle or instance cannot name
+  /// a file), loads the checkpoint into `estimator` (restored, or none, or moved aside when corrupt,
+  /// of another vehicle, configuration or estimator: fresh start from nominal K) and logs what it
+  /// did. unix_time_s names a moved-aside file; steady_now_s starts the restore note's 30 s.
   void start(ScaleFactorEstimator& estimator, int64_t unix_time_s, double steady_now_s);
 
   /// The restored output to publish at once (stamp = the checkpoint's time, restored counters), so
-  /// that a consumer that lost it, or a late reader, has it before any new sample. Nothing without
-  /// a restore, and nothing (logged once) when the persistence database was kept: the TRANSIENT
-  /// writer then serves the previous run's last estimate, as new as the checkpoint or newer, and
-  /// the restored K would step a late reader back. Returns it at most once.
+  /// that a consumer that lost it, or a late reader (the writer is TRANSIENT_LOCAL), has it before
+  /// any new sample. Nothing without a restore. Returns it at most once.
   std::optional<IdentificationOutput> take_restored_output();
 
   /// True (and counted in skipped_before_checkpoint) when a sample of `input` stamped t_s (event
@@ -122,13 +134,24 @@ class IdentificationLifecycle {
   /// before the checkpoint time (the epoch AT it is fed again: it re-starts the sample chain
   /// exactly where the checkpoint left it), odometer and INS more than
   /// kSensorMarginBeforeCheckpoint_s before it. Always false without a restore.
+  /// After a restore the first sample of each input (the oldest of the producer's history, which is
+  /// handed over oldest first) tells whether the history reached back to the checkpoint: when it
+  /// starts after it, the data in between is lost (logged once, in the health as WARN, and in
+  /// catch_up_lost_s()).
   bool skip_sample(IdentificationInput input, double t_s);
 
   /// The outputs of the core to publish, in order: after a restore those at or before the
   /// checkpoint time are dropped (the previous run and take_restored_output published them), and
   /// the restored counters (accepted, rejected) are added to the rest, so the counts go on across
   /// restarts. The last one becomes last_output() and last_processed_t_s().
-  std::vector<IdentificationOutput> outputs_to_publish(std::vector<IdentificationOutput> outputs);
+  /// After a restore, the outputs up to the live edge (note_odometer_received) are counted as
+  /// catch-up; the first one past it ends the catch-up. steady_now_s (monotonic wall clock, s) dates
+  /// that end, for the health note only.
+  std::vector<IdentificationOutput> outputs_to_publish(std::vector<IdentificationOutput> outputs,
+                                                       double steady_now_s = 0.0);
+  /// Each odometer sample received (event time t_s, steady clock steady_now_s): after a restore,
+  /// sets the live edge (kCatchUpSettle_s). Nothing otherwise.
+  void note_odometer_received(double t_s, double steady_now_s);
 
   /// The output of a commanded K (IdentificationCore::set_k), with the restored counters added;
   /// becomes last_output(). The processed event time is unchanged: the command adds no epoch.
@@ -161,8 +184,6 @@ class IdentificationLifecycle {
   /// Event time (s) of the restored checkpoint's last epoch; nothing without a restore.
   const std::optional<double>& restored_t_s() const { return restored_t_s_; }
   bool checkpoint_moved_aside() const { return checkpoint_moved_aside_; }
-  /// The persistence database is in place with a previous run's history (after start()).
-  bool persisted_history() const { return persisted_history_; }
   const std::optional<IdentificationOutput>& last_output() const { return last_output_; }
   const std::optional<double>& last_processed_t_s() const { return last_processed_t_s_; }
   uint64_t checkpoints_written() const { return checkpoints_written_; }
@@ -170,10 +191,19 @@ class IdentificationLifecycle {
   uint64_t skipped_before_checkpoint() const { return skipped_before_checkpoint_; }
   uint64_t restored_accepted() const { return restored_accepted_; }
   uint64_t restored_rejected() const { return restored_rejected_; }
+  /// Catch-up after a restore: outputs published late (from the producers' history), the first
+  /// and last of their stamps (event time, s), and whether it is still going on.
+  uint64_t catch_up_outputs() const { return catch_up_outputs_; }
+  const std::optional<double>& catch_up_first_t_s() const { return catch_up_first_t_s_; }
+  const std::optional<double>& catch_up_last_t_s() const { return catch_up_last_t_s_; }
+  bool catching_up() const { return catching_up_; }
+  /// Event time (s) lost after the checkpoint because the producers' history did not reach back to
+  /// it (0 when nothing was lost): the span [restored_t_s, lost_until_t_s].
+  double catch_up_lost_s() const { return lost_until_t_s_ ? *lost_until_t_s_ - *restored_t_s_ : 0.0; }
+  const std::optional<double>& lost_until_t_s() const { return lost_until_t_s_; }
 
  private:
   void restore(ScaleFactorEstimator& estimator, int64_t unix_time_s, double steady_now_s);
-  void move_persistence_aside(int64_t unix_time_s);
   void write_checkpoint(const ScaleFactorEstimator& estimator, double t_s);
 
   CheckpointSettings settings_;
@@ -187,7 +217,16 @@ class IdentificationLifecycle {
   bool restore_warn_ = false;
   double restore_note_until_s_ = 0.0;  ///< steady (s)
   bool checkpoint_moved_aside_ = false;
-  bool persisted_history_ = false;
+  bool first_seen_[3] = {false, false, false};  ///< per IdentificationInput, after a restore
+  std::optional<double> lost_until_t_s_;
+  bool catching_up_ = false;
+  std::optional<double> first_received_steady_s_;
+  std::optional<double> live_edge_t_s_;
+  bool live_edge_fixed_ = false;
+  uint64_t catch_up_outputs_ = 0;
+  std::optional<double> catch_up_first_t_s_;
+  std::optional<double> catch_up_last_t_s_;
+  double catch_up_ended_steady_s_ = 0.0;
   bool restored_output_taken_ = false;
   std::optional<IdentificationOutput> last_output_;
   std::optional<double> last_checkpoint_t_s_;  ///< event time (s) of the last checkpoint written or failed
