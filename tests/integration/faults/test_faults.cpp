@@ -249,12 +249,12 @@ TEST_F(Faults, TwentyKillNineRestartsOfTheIdentificationAreEachHeardByDeadReckon
             << drp.max << " s)\n";
   EXPECT_EQ(heard_by_recorder, kCycles);
   EXPECT_EQ(heard_by_dr, kCycles);
-  // Generous bound (the promise is 2 s, measured as above; the median is about 0.3 s): a cut-off
-  // instance took 17-95 s. One restart in 20 was seen to take 11 s, with Fast DDS's "Inconsistent
-  // acknack ... persistent database" error: the restarted TRANSIENT writer's SQLite history was
-  // behind what the readers had acknowledged from the killed one (docs/DDS.md section 8).
-  EXPECT_LT(rec.max, 15.0);
-  EXPECT_LT(drp.max, 15.0);
+  // Generous bound: the promise is 2 s, measured over runs of this loop in BENCHMARKS.md section
+  // 11 (max 1.4 s), not asserted here on a shared machine; a cut-off instance took 17-95 s. The
+  // one 11 s restart seen before came from the SQLite persistence the scale-factor writer no
+  // longer has (docs/DDS.md section 8).
+  EXPECT_LT(rec.max, 10.0);
+  EXPECT_LT(drp.max, 10.0);
 
   gateway->signal(SIGINT);
   EXPECT_TRUE(gateway->wait_exit(seconds(30)));
@@ -376,9 +376,20 @@ TEST_F(Faults, FiveSecondStallsOfIdentificationDeadReckoningAndGatewayLoseNothin
   // 150 s of data at 3x: 50 s of wall time, the three stalls in the middle of it. At 3x a 5 s stall
   // is 15 s of data: within the 30 s histories, and the launcher's 30 s wait for inputs lets every
   // consumer wait for a stalled producer instead of going on without it.
+  // For the figures of longer stalls (BENCHMARKS.md section 11) the same run takes, from the
+  // environment: ODONAV_FAULTS_STALL_S (5), ODONAV_FAULTS_STALL_COMPONENTS (comma-separated, the
+  // gateway last; default identification, dead reckoning, gateway), ODONAV_FAULTS_SPEED (3) and
+  // ODONAV_FAULTS_DURATION_S (150).
+  auto env_or = [](const char* name, const std::string& fallback) {
+    const char* v = std::getenv(name);
+    return std::string(v && *v ? v : fallback.c_str());
+  };
+  const int stall_s = std::stoi(env_or("ODONAV_FAULTS_STALL_S", "5"));
+  const std::string speed = env_or("ODONAV_FAULTS_SPEED", "3");
+  const std::string duration = env_or("ODONAV_FAULTS_DURATION_S", "150");
   ChildProcess launcher("/bin/bash",
-                        {script, "--build-dir", ODONAV_BINARY_DIR, "--source", "sim:ring", "--duration-s", "150",
-                         "--seed", "4", "--speed", "3", "--domain", std::to_string(kDomain), "--profile",
+                        {script, "--build-dir", ODONAV_BINARY_DIR, "--source", "sim:ring", "--duration-s", duration,
+                         "--seed", "4", "--speed", speed, "--domain", std::to_string(kDomain), "--profile",
                          profile_file(), "--out", out},
                         out + ".launch.log", out + ".launch.log");
   ASSERT_TRUE(launcher.started());
@@ -397,22 +408,40 @@ TEST_F(Faults, FiveSecondStallsOfIdentificationDeadReckoningAndGatewayLoseNothin
     std::string component;
     double cont_s = 0;
   };
-  std::vector<Stall> stalls{{"odonav-identification"}, {"odonav-dead-reckoning"}, {"odonav-gateway"}};
+  std::vector<Stall> stalls;
+  {
+    std::stringstream list(
+        env_or("ODONAV_FAULTS_STALL_COMPONENTS", "odonav-identification,odonav-dead-reckoning,odonav-gateway"));
+    for (std::string c; std::getline(list, c, ',');) stalls.push_back({c});
+  }
+  ASSERT_FALSE(stalls.empty());
   for (auto& s : stalls) {
     const pid_t pid = read_pid(logs + "/" + s.component + ".pid");
     ASSERT_GT(pid, 0) << s.component;
-    std::cerr << "SIGSTOP " << s.component << " (pid " << pid << ") for 5 s\n";
+    std::cerr << "SIGSTOP " << s.component << " (pid " << pid << ") for " << stall_s << " s\n";
     ASSERT_EQ(::kill(pid, SIGSTOP), 0) << s.component;
-    std::this_thread::sleep_for(seconds(5));
+    std::this_thread::sleep_for(seconds(stall_s));
     ASSERT_EQ(::kill(pid, SIGCONT), 0) << s.component;
     s.cont_s = steady_s();
     std::this_thread::sleep_for(seconds(4));
   }
+  // The flow after the last stall (the gateway's): how long until dead reckoning, at the end of the
+  // chain, produced again (printed, not asserted: wall clock).
+  {
+    const auto items = dr.items();
+    for (const auto& i : items)
+      if (i.received_s > stalls.back().cont_s) {
+        std::cerr << "first DR output " << i.received_s - stalls.back().cont_s << " s after the SIGCONT of "
+                  << stalls.back().component << "\n";
+        break;
+      }
+  }
   // After the gateway's stall, dead reckoning (at the end of the chain) produced again.
   const auto dr_items = dr.items();
   const std::size_t after_gateway = static_cast<std::size_t>(
-      std::count_if(dr_items.begin(), dr_items.end(), [&](const auto& i) { return i.received_s > stalls[2].cont_s; }));
-  std::cerr << "DR outputs received in the 4 s after the gateway's SIGCONT: " << after_gateway << "\n";
+      std::count_if(dr_items.begin(), dr_items.end(), [&](const auto& i) { return i.received_s > stalls.back().cont_s; }));
+  std::cerr << "DR outputs received in the 4 s after the SIGCONT of " << stalls.back().component << ": "
+            << after_gateway << "\n";
   // 4 s at 3x real time is 1 200 outputs at 100 Hz: most of them, if the flow resumed at once.
   EXPECT_GT(after_gateway, 600u);
 
@@ -424,7 +453,8 @@ TEST_F(Faults, FiveSecondStallsOfIdentificationDeadReckoningAndGatewayLoseNothin
   std::cerr << "peak RSS (kB, VmHWM before the end):";
   for (const auto& [c, kb] : rss) std::cerr << " " << c << " " << kb;
   std::cerr << "\n";
-  ASSERT_TRUE(launcher.wait_exit(seconds(240))) << read_text(out + ".launch.log");
+  ASSERT_TRUE(launcher.wait_exit(seconds(240 + static_cast<int>(std::stod(duration) / std::stod(speed)))))
+      << read_text(out + ".launch.log");
   ASSERT_EQ(launcher.exit_code(), 0) << read_text(out + ".launch.log");
 
   const std::string offline_dir = out + "/offline-check";
