@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "odonav/dead_reckoning/anchored_position.hpp"
+#include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
 #include "odonav/stream_buffers.hpp"
 
@@ -63,9 +64,13 @@ TEST(AnchoredPosition, AFixAppliesFromItsEpochPlusTheHoldOffOnly) {
   EXPECT_DOUBLE_EQ(p.covariance_enu_m2(0, 0), 1.0);
   EXPECT_DOUBLE_EQ(p.covariance_enu_m2(2, 2), 2.25);
   EXPECT_EQ(p.covariance_enu_m2(0, 1), 0.0);
-  // The next step adds the process noise of its 0.1 m.
+  // The next step adds the process noise of its 0.1 m northwards: the offset's random walk and,
+  // east, the prior heading uncertainty (0.5 deg) acting on the 0.1 m.
   const AnchoredPosition next = filter.step(dr_at(1.21));
-  EXPECT_NEAR(next.covariance_enu_m2(0, 0), 1.0 + 0.1 * std::pow(0.2 / 100.0, 2) * 400.0, 1e-12);
+  EXPECT_NEAR(next.covariance_enu_m2(0, 0),
+              1.0 + 0.1 * std::pow(0.08 / 100.0, 2) * 400.0 + std::pow(0.1 * 0.5 * kDegToRad, 2), 1e-12);
+  // North: the prior scale uncertainty (1 %) acting on it.
+  EXPECT_NEAR(next.covariance_enu_m2(1, 1), 1.0 + 0.1 * std::pow(0.08 / 100.0, 2) * 400.0 + std::pow(0.1 * 0.01, 2), 1e-12);
   EXPECT_EQ(filter.counters().fixes_applied, 1u);
 }
 
@@ -74,7 +79,7 @@ TEST(AnchoredPosition, ArrivalOrderChangesNothing) {
   // only when its hold-off is due (the latest a node may have it).
   std::vector<AnchorFix> fixes;
   AnchoredPositionParams white;
-  white.fix_correlation_time_s = 0.0;  // independent fixes: the offset converges on their mean
+  white.fix_correlated_fraction = 0.0;  // independent fixes: the offset converges on their mean
   for (int i = 0; i <= 100; ++i) fixes.push_back(fix_at(0.1 * i, Eigen::Vector3d(i % 2 ? 1.0 : -1.0, 0.5, 0.0)));
   AnchoredPositionFilter early(white), late(white);
   for (const AnchorFix& f : fixes) early.add_fix(f);
@@ -157,4 +162,66 @@ TEST(AnchoredPosition, AGateThatStaysShutRestartsOnTheFixesAndCountsIt) {
   EXPECT_EQ(filter.counters().gate_restarts, 1u);
   EXPECT_NEAR(p.enu_m.x(), 60.0, 1e-9);
   EXPECT_EQ(p.status, AnchorStatus::kAnchored);
+}
+
+namespace {
+// The truth of a DR whose increments are 2 % short and turned 1 deg clockwise: the vehicle drives
+// north-north-east at 10.2 m/s while the DR believes due north at 10 m/s.
+constexpr double kScaleError = 0.02, kHeadingError_rad = 1.0 * kDegToRad;
+Eigen::Vector3d truth_of(const Eigen::Vector3d& dr_enu_m) {
+  const double c = std::cos(kHeadingError_rad), s = std::sin(kHeadingError_rad);
+  return (1.0 + kScaleError) * Eigen::Vector3d(c * dr_enu_m.x() - s * dr_enu_m.y(), s * dr_enu_m.x() + c * dr_enu_m.y(), 0.0);
+}
+}  // namespace
+
+TEST(AnchoredPosition, LearnsTheScaleAndHeadingErrorsOfTheDrAndBridgesAGapWithThem) {
+  // Precise white fixes (5 cm) at 1 Hz for 120 s (1.2 km), then 60 s (600 m) without GNSS: the pure
+  // DR misses 2 % and 1 deg of it, 12 m along and 10.5 m across the track.
+  AnchoredPositionParams p;
+  p.fix_correlated_fraction = 0.0;
+  AnchoredPositionFilter filter(p);
+  for (int i = 0; i <= 120; ++i) {
+    AnchorFix f = fix_at(i, Eigen::Vector3d::Zero(), 0.05);
+    f.fix_enu_m = truth_of(f.dr_enu_m);
+    filter.add_fix(f);
+  }
+  AnchoredPosition pos;
+  for (int j = 1; j <= 18000; ++j) pos = filter.step(dr_at(0.01 * j));
+  // The states are linear in the increment: s = (1 + 2 %) cos(1 deg) - 1, psi = (1 + 2 %) sin(1 deg).
+  EXPECT_NEAR(pos.scale_error, (1.0 + kScaleError) * std::cos(kHeadingError_rad) - 1.0, 1e-4);
+  EXPECT_NEAR(pos.heading_error_rad, (1.0 + kScaleError) * std::sin(kHeadingError_rad), 1e-4);
+  EXPECT_EQ(pos.status, AnchorStatus::kDeadReckoning);
+  const double error_m = (pos.enu_m - truth_of(dr_at(180.0).enu_m)).head<2>().norm();
+  const double pure_dr_error_m = (dr_at(180.0).enu_m - truth_of(dr_at(180.0).enu_m)).head<2>().norm();
+  EXPECT_GT(pure_dr_error_m, 45.0);  // 2 % and 1 deg of 1.8 km: 36 m along, 32 m across
+  EXPECT_LT(error_m, 0.3);           // 0.02 % of the 600 m gap, not 2 %
+  // And the reported sigma covers it without claiming centimetres after 600 m of DR.
+  EXPECT_GT(pos.horizontal_sigma_m(), error_m);
+  EXPECT_LT(pos.horizontal_sigma_m(), 3.0);
+}
+
+TEST(AnchoredPosition, AFixStampedLateByTheReceiverLatencyIsComparedWithTheDrWhenItMeasured) {
+  // The receiver stamps each fix 0.1 s after it measured: at 10 m/s the fix lags the DR by 1 m.
+  // With the latency declared, the filter sees no offset; without it, 1 m of false offset.
+  const double latency_s = 0.1;
+  AnchoredPositionParams with;
+  with.gnss_latency_s = latency_s;
+  with.fix_correlated_fraction = 0.0;
+  AnchoredPositionParams without = with;
+  without.gnss_latency_s = 0.0;
+  AnchoredPositionFilter a(with), b(without);
+  for (int i = 1; i <= 30; ++i) {
+    AnchorFix f = fix_at(i, Eigen::Vector3d::Zero(), 0.1);
+    f.fix_enu_m = dr_at(i - latency_s).enu_m;  // where the antenna was when it measured
+    a.add_fix(f);
+    b.add_fix(f);
+  }
+  AnchoredPosition pa, pb;
+  for (int j = 1; j <= 3100; ++j) {
+    pa = a.step(dr_at(0.01 * j));
+    pb = b.step(dr_at(0.01 * j));
+  }
+  EXPECT_LT((pa.enu_m - dr_at(31.0).enu_m).norm(), 1e-6);
+  EXPECT_EQ(a.counters().fixes_latency_unbracketed, 0u);  // the DR steps at epoch - latency were kept
+  EXPECT_GT((pb.enu_m - dr_at(31.0).enu_m).norm(), 0.9);
 }

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/frames.hpp"
 #include "odonav/stream_buffers.hpp"
 
 namespace odonav {
@@ -24,11 +25,19 @@ AnchoredPositionFilter::AnchoredPositionFilter(const AnchoredPositionParams& p) 
     if (!ok) throw std::invalid_argument(std::string("AnchoredPositionParams: ") + what);
   };
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  require(std::isfinite(p.hold_off_s) && p.hold_off_s >= 0.0, "hold_off_s must be finite and >= 0");
+  auto non_negative = [](double v) { return std::isfinite(v) && v >= 0.0; };
+  require(non_negative(p.hold_off_s), "hold_off_s must be finite and >= 0");
   require(positive(p.drift_percent_distance), "drift_percent_distance must be finite and > 0");
   require(positive(p.correlation_distance_m), "correlation_distance_m must be finite and > 0");
-  require(std::isfinite(p.fix_correlation_time_s) && p.fix_correlation_time_s >= 0.0,
-          "fix_correlation_time_s must be finite and >= 0");
+  require(positive(p.scale_sigma_percent), "scale_sigma_percent must be finite and > 0");
+  require(non_negative(p.scale_random_walk_percent_per_sqrt_km),
+          "scale_random_walk_percent_per_sqrt_km must be finite and >= 0");
+  require(positive(p.heading_sigma_deg), "heading_sigma_deg must be finite and > 0");
+  require(non_negative(p.heading_random_walk_deg_per_sqrt_s), "heading_random_walk_deg_per_sqrt_s must be finite and >= 0");
+  require(positive(p.fix_correlation_time_s), "fix_correlation_time_s must be finite and > 0");
+  require(std::isfinite(p.fix_correlated_fraction) && p.fix_correlated_fraction >= 0.0 && p.fix_correlated_fraction < 1.0,
+          "fix_correlated_fraction must be in [0, 1)");
+  require(std::isfinite(p.gnss_latency_s) && std::abs(p.gnss_latency_s) < 10.0, "gnss_latency_s must be within +-10 s");
   require(positive(p.default_fix_sigma_m), "default_fix_sigma_m must be finite and > 0");
   require(positive(p.min_fix_sigma_m), "min_fix_sigma_m must be finite and > 0");
   require(positive(p.vertical_sigma_factor), "vertical_sigma_factor must be finite and > 0");
@@ -36,16 +45,15 @@ AnchoredPositionFilter::AnchoredPositionFilter(const AnchoredPositionParams& p) 
   require(p.gate_restart_after >= 1, "gate_restart_after must be >= 1");
   require(positive(p.anchored_max_age_s), "anchored_max_age_s must be finite and > 0");
   const double rate = p.drift_percent_distance / 100.0;
-  q_m2_per_m_ = rate * rate * p.correlation_distance_m;
+  q_offset_m2_per_m_ = rate * rate * p.correlation_distance_m;
+  const double scale_rw = p.scale_random_walk_percent_per_sqrt_km / 100.0;
+  q_scale_per_m_ = scale_rw * scale_rw / 1000.0;
+  const double heading_rw = p.heading_random_walk_deg_per_sqrt_s * kDegToRad;
+  q_heading_rad2_per_s_ = heading_rw * heading_rw;
 }
 
 double AnchoredPositionFilter::applies_from_s(double epoch_s) const {
-  // 1 us early for a hold-off > 0: GNSS epochs and odometer samples often share a grid (10 and
-  // 100 Hz), so epoch + hold-off is an odometer instant up to the last bit, and a stamp that crossed
-  // DDS (integer nanoseconds) may come back a few ulps off; 1 us is far above that and far below any
-  // sensor period, so odonav-offline and the node put the sample on the same side. The estimates'
-  // hold-off rule has the same guard.
-  return params_.hold_off_s > 0.0 ? epoch_s + params_.hold_off_s - kAnchorApplicationGuard_s : epoch_s;
+  return estimate_applies_from_s(epoch_s, params_.hold_off_s);
 }
 
 void AnchoredPositionFilter::add_fix(const AnchorFix& fix) {
@@ -60,32 +68,97 @@ void AnchoredPositionFilter::add_fix(const AnchorFix& fix) {
   queued_.push_back(fix);
 }
 
-void AnchoredPositionFilter::apply(const AnchorFix& fix) {
+void AnchoredPositionFilter::start(const Eigen::Vector3d& z, double sigma_h_m) {
+  // No prior on the offset: after the fix z = o + b + w it is z, with the fix's variance, and
+  // anti-correlated with b (o = z - b - w).
+  const double c = params_.fix_correlated_fraction;
+  const Eigen::Vector3d var(sigma_h_m * sigma_h_m, sigma_h_m * sigma_h_m,
+                            std::pow(params_.vertical_sigma_factor * sigma_h_m, 2));
+  x_.setZero();
+  x_.head<3>() = z;
+  p_.setZero();
+  const double scale_sigma = params_.scale_sigma_percent / 100.0, heading_sigma = params_.heading_sigma_deg * kDegToRad;
+  for (int i = 0; i < 3; ++i) {
+    p_(i, i) = var[i];
+    p_(5 + i, 5 + i) = c * var[i];
+    p_(i, 5 + i) = p_(5 + i, i) = -c * var[i];
+  }
+  p_(3, 3) = scale_sigma * scale_sigma;
+  p_(4, 4) = heading_sigma * heading_sigma;
+  initialised_ = true;
+}
+
+void AnchoredPositionFilter::propagate(const Eigen::Vector3d& d, double dd_m, double dt_s) {
+  Matrix f = Matrix::Identity();
+  f(0, 3) = d.x();
+  f(0, 4) = -d.y();
+  f(1, 3) = d.y();
+  f(1, 4) = d.x();
+  f(2, 3) = d.z();
+  const double phi = std::exp(-dt_s / params_.fix_correlation_time_s);
+  for (int i = 5; i < 8; ++i) f(i, i) = phi;
+  x_ = f * x_;
+  p_ = f * p_ * f.transpose();
+  const double q_o = q_offset_m2_per_m_ * dd_m;
+  for (int i = 0; i < 3; ++i) p_(i, i) += q_o;
+  p_(3, 3) += q_scale_per_m_ * dd_m;
+  p_(4, 4) += q_heading_rad2_per_s_ * dt_s;
+  // Gauss-Markov drive: keeps b's variance at its stationary value.
+  const double var_b = correlated_sigma_h_m_ * correlated_sigma_h_m_ * (1.0 - phi * phi);
+  p_(5, 5) += var_b;
+  p_(6, 6) += var_b;
+  p_(7, 7) += var_b * params_.vertical_sigma_factor * params_.vertical_sigma_factor;
+}
+
+Eigen::Vector3d AnchoredPositionFilter::dr_at(double t_s, const Eigen::Vector3d& fallback) {
+  if (past_.empty()) return fallback;
+  if (t_s < past_.front().t_s || t_s > past_.back().t_s) {
+    ++counters_.fixes_latency_unbracketed;
+    return t_s < past_.front().t_s ? past_.front().enu_m : past_.back().enu_m;
+  }
+  std::size_t hi = 0;
+  while (past_[hi].t_s < t_s) ++hi;
+  if (past_[hi].t_s == t_s || hi == 0) return past_[hi].enu_m;
+  const Past& a = past_[hi - 1];
+  const Past& b = past_[hi];
+  return a.enu_m + (t_s - a.t_s) / (b.t_s - a.t_s) * (b.enu_m - a.enu_m);
+}
+
+void AnchoredPositionFilter::apply(const AnchorFix& fix, const AnchorDrStep& now) {
   const double sigma_h = std::max(
       params_.min_fix_sigma_m,
       std::isfinite(fix.sigma_m) && fix.sigma_m > 0.0 ? fix.sigma_m : params_.default_fix_sigma_m);
   const double sigma_v = params_.vertical_sigma_factor * sigma_h;
-  double correlation = 1.0;
-  if (previous_fix_t_s_) correlation = std::max(1.0, params_.fix_correlation_time_s / (fix.t_s - *previous_fix_t_s_));
-  previous_fix_t_s_ = fix.t_s;
-  const Eigen::Vector3d r = correlation * Eigen::Vector3d(sigma_h * sigma_h, sigma_h * sigma_h, sigma_v * sigma_v);
-  const Eigen::Vector3d z = fix.fix_enu_m - fix.dr_enu_m;  // the DR error at the fix epoch
+  // The DR where the fix measured: at its epoch minus the receiver latency. The DR's own position
+  // at the epoch, shifted by what the DR moved over the latency (steps kept for that).
+  Eigen::Vector3d dr_meas = fix.dr_enu_m;
+  if (params_.gnss_latency_s != 0.0)
+    dr_meas = fix.dr_enu_m - (dr_at(fix.t_s, fix.dr_enu_m) - dr_at(fix.t_s - params_.gnss_latency_s, fix.dr_enu_m));
+  const Eigen::Vector3d z = fix.fix_enu_m - dr_meas;  // the DR error when the fix measured
   const bool restart = initialised_ && consecutive_gated_ >= params_.gate_restart_after;
+  correlated_sigma_h_m_ = std::sqrt(params_.fix_correlated_fraction) * sigma_h;
   if (!initialised_ || restart) {
-    // No prior (or none worth keeping): the fix sets the offset (the DR starts on a fix, so it is
-    // 0 at the first one).
-    offset_m_ = z;
-    variance_m2_ = r / correlation;  // one fix alone: its own variance
-    initialised_ = true;
+    // No prior worth keeping: the fix sets the offset (0 at the first, on which the DR starts).
+    start(z, sigma_h);
     consecutive_gated_ = 0;
     if (restart) ++counters_.gate_restarts;
   } else {
-    const Eigen::Vector3d innovation = z - offset_m_;
-    const Eigen::Vector3d s = variance_m2_ + r;
+    const double c = params_.fix_correlated_fraction;
+    const Eigen::Vector3d r = (1.0 - c) * Eigen::Vector3d(sigma_h * sigma_h, sigma_h * sigma_h, sigma_v * sigma_v);
+    // o(measured) = o(now) - (s, psi) acting on the DR increment since then.
+    const Eigen::Vector3d d = now.enu_m - dr_meas;
+    Eigen::Matrix<double, 3, kN> h = Eigen::Matrix<double, 3, kN>::Zero();
+    h.block<3, 3>(0, 0).setIdentity();
+    h.block<3, 3>(0, 5).setIdentity();
+    h(0, 3) = -d.x();
+    h(0, 4) = d.y();
+    h(1, 3) = -d.y();
+    h(1, 4) = -d.x();
+    h(2, 3) = -d.z();
+    const Eigen::Vector3d innovation = z - h * x_;
+    const Eigen::Matrix3d s = h * p_ * h.transpose() + Eigen::Matrix3d(r.asDiagonal());
     const double innovation_h_m = innovation.head<2>().norm();
-    // The gate on the innovation's own spread: one fix errs by sigma whatever its correlation with
-    // the others (the inflation above only weighs how much it teaches).
-    const double gate_m = params_.gate_sigma * std::sqrt(variance_m2_.x() + variance_m2_.y() + 2.0 * sigma_h * sigma_h);
+    const double gate_m = params_.gate_sigma * std::sqrt(s(0, 0) + s(1, 1));
     if (innovation_h_m > gate_m) {
       ++counters_.fixes_rejected_gate;
       ++consecutive_gated_;
@@ -94,11 +167,11 @@ void AnchoredPositionFilter::apply(const AnchorFix& fix) {
       return;
     }
     consecutive_gated_ = 0;
-    for (int i = 0; i < 3; ++i) {
-      const double gain = variance_m2_[i] / s[i];
-      offset_m_[i] += gain * innovation[i];
-      variance_m2_[i] *= 1.0 - gain;
-    }
+    const Eigen::Matrix<double, kN, 3> k = p_ * h.transpose() * s.inverse();
+    x_ += k * innovation;
+    // Joseph form: stays symmetric and positive over thousands of updates.
+    const Matrix ikh = Matrix::Identity() - k * h;
+    p_ = ikh * p_ * ikh.transpose() + k * Eigen::Matrix3d(r.asDiagonal()) * k.transpose();
   }
   ++counters_.fixes_applied;
   last_fix_t_s_ = fix.t_s;
@@ -112,14 +185,18 @@ AnchoredPosition AnchoredPositionFilter::step(const AnchorDrStep& s) {
     m << "anchor_step: at t=" << s.t_s << " s, the DR position or distance is not finite";
     throw StreamInputError(m.str());
   }
+  // Propagation over the DR increment of the step (the odometer's distance, not time, drives the
+  // offset's and the scale's noise: a vehicle standing still does not drift).
+  if (initialised_) propagate(s.enu_m - last_enu_m_, std::abs(s.distance_m - last_distance_m_), s.t_s - *last_step_t_s_);
   last_step_t_s_ = s.t_s;
-  ++counters_.steps;
-  // Process noise of the distance driven since the last step (the odometer, not time: a vehicle
-  // standing still does not drift).
-  if (initialised_) variance_m2_.array() += q_m2_per_m_ * std::abs(s.distance_m - last_distance_m_);
+  last_enu_m_ = s.enu_m;
   last_distance_m_ = s.distance_m;
+  ++counters_.steps;
+  past_.push_back(Past{s.t_s, s.enu_m});
+  const double keep_s = params_.hold_off_s + std::abs(params_.gnss_latency_s) + 1.0;
+  while (past_.size() > 2 && past_[1].t_s < s.t_s - keep_s) past_.pop_front();
   while (!queued_.empty() && applies_from_s(queued_.front().t_s) <= s.t_s) {
-    apply(queued_.front());
+    apply(queued_.front(), s);
     queued_.pop_front();
   }
 
@@ -130,9 +207,12 @@ AnchoredPosition AnchoredPositionFilter::step(const AnchorDrStep& s) {
     out.enu_m = s.enu_m;
     return out;
   }
-  out.enu_m = s.enu_m + offset_m_;
-  out.position = move_geodetic(s.position, offset_m_);
-  out.covariance_enu_m2 = variance_m2_.asDiagonal();
+  const Eigen::Vector3d offset = x_.head<3>();
+  out.enu_m = s.enu_m + offset;
+  out.position = move_geodetic(s.position, offset);
+  out.covariance_enu_m2 = p_.block<3, 3>(0, 0);
+  out.scale_error = x_[3];
+  out.heading_error_rad = x_[4];
   out.last_fix_t_s = last_fix_t_s_;
   out.distance_since_fix_m = std::max(0.0, s.distance_m - last_fix_distance_m_);
   out.status = s.t_s - last_fix_t_s_ <= params_.anchored_max_age_s ? AnchorStatus::kAnchored

@@ -5,28 +5,43 @@
 // The pure dead reckoning (DeadReckoner) starts at the first fix and never looks at GNSS again: its
 // error grows with the distance driven (K and misalignment errors) and after a long drive it is
 // metres off although GNSS was valid all along. The anchored position is the DR track plus an
-// offset x (local ENU of the DR origin, m) that a small Kalman filter keeps on the GNSS fixes:
+// offset o (local ENU of the DR origin, m) that a small linear Kalman filter keeps on the fixes.
+// Its state (8):
 //
-//   anchored(t) = DR(t) + x
-//   process:     x is a random walk in distance: per axis, var += q dd with
-//                q = (drift_percent_distance / 100)^2 * correlation_distance_m  [m^2/m],
-//                dd = odometer distance of the step (so standing still adds nothing)
-//   measurement: z = fix(g) - DR(g), the DR error seen at the fix epoch g (reference point, after the
-//                lever arm), noise per horizontal axis c sigma_fix^2 (GNSS pos_std_m), vertical
-//                c (vertical_sigma_factor * sigma_fix)^2, c = max(1, fix_correlation_time_s / time
-//                since the previous fix): GNSS errors are correlated over tens of seconds
-//   gate:        a fix whose horizontal innovation exceeds gate_sigma x its predicted sigma is
-//                rejected and counted (a multipath jump must not pull the position away)
+//   o = (o_e, o_n, o_u)  offset, anchored(t) = DR(t) + o                           [m]
+//   s                    residual scale error of the DR increments (K error)        [-]
+//   psi                  residual heading error of the DR increments (misalignment,
+//                        INS heading), counter-clockwise seen from above           [rad]
+//   b = (b_e, b_n, b_u)  the correlated part of the GNSS position error            [m]
 //
-// Because z is the DR error at the fix's own epoch, applying it a little later is exact up to the
-// DR error growth over that delay (millimetres over 0.2 s). Through a GNSS outage x stays at the
-// last corrected value: the position continues as DR from the last good fix, and the covariance
-// grows with the distance driven.
+//   process, per DR step with increment d = DR(t) - DR(t - dt):
+//     o_e += s d_e - psi d_n,  o_n += s d_n + psi d_e,  o_u += s d_u  (the DR's own errors, so that
+//       with s and psi known the DR increments are right even when K is off by 0.3 %)
+//     o  random walk in distance, per axis q_o |dd| (what the two states do not model)
+//     s  random walk in distance (K changes, surface), psi random walk in time (gyro drift)
+//     b  first-order Gauss-Markov, correlation time fix_correlation_time_s, stationary sigma
+//        sqrt(fix_correlated_fraction) x the fix sigma
+//   measurement: z = fix(g) - DR(g - latency) = o(g) + b + white noise, the DR error seen at the
+//     fix epoch; o(g) = o(t) - (s, psi) acting on DR(t) - DR(g), so a fix applied at a later step t
+//     is exact (no approximation for the hold-off or the latency)
+//   gate: a fix whose horizontal innovation exceeds gate_sigma x its predicted sigma is rejected
+//     and counted (a multipath jump must not pull the position away)
 //
-// Event time: a fix of epoch g is applied to the first DR step stamped at or after g + hold_off_s,
-// whatever the order in which fixes and steps reached the program, so the output of step t never
-// waits for a later GNSS and a replay at any speed gives the same numbers. Contract: every fix of
-// epoch <= t - hold_off_s has been added before step(t).
+// Why the bias state: GNSS errors are correlated over tens of seconds, so n fixes within that time
+// are not n independent measurements; modelling the correlation keeps the covariance the size of
+// the real error at any GNSS rate. Why s and psi: to average the fixes over several correlation
+// times the DR increments must stay right over kilometres, and the identified K at 1 Hz GNSS is off
+// by 0.2-0.45 % for minutes; the fixes observe both while the vehicle moves.
+//
+// Through a GNSS outage the state is propagated by the DR increments alone: the position continues
+// as DR from the last corrected state (corrected for the estimated scale and heading errors), and
+// the covariance grows with the distance driven.
+//
+// Event time: a fix of epoch g is applied to the first DR step stamped at or after
+// estimate_applies_from_s(g, hold_off_s) (the DR's --estimate-hold-off-s), whatever the order in
+// which fixes and steps reached the program, so the output of step t never waits for a later GNSS
+// and a replay at any speed gives the same numbers. Contract: every fix of epoch <= t - hold_off_s
+// has been added before step(t).
 #include <cmath>
 #include <cstdint>
 #include <deque>
@@ -35,37 +50,45 @@
 
 #include <Eigen/Dense>
 
+#include "odonav/consumer_rules.hpp"
 #include "odonav/geodesy.hpp"
 
 namespace odonav {
 
 struct DeadReckoningOutput;
 
-/// Delay between a GNSS epoch and the first odometer sample its fix is applied to (s): covers the
-/// normal arrival delay of a fix after its epoch so that the position never waits for it.
-inline constexpr double kDefaultAnchorHoldOff_s = 0.2;
-/// A fix applies from epoch + hold-off - this (s) when the hold-off is > 0 (see applies_from_s).
-inline constexpr double kAnchorApplicationGuard_s = 1e-6;
 
 struct AnchoredPositionParams {
-  /// A fix of epoch g applies from odometer time g + hold_off_s on (s, >= 0; 1 us earlier when > 0,
-  /// see AnchoredPositionFilter::applies_from_s).
-  double hold_off_s = kDefaultAnchorHoldOff_s;
-  /// One-sigma DR error growth per axis, % of distance: an identified K to ~0.1 % and a calibrated
-  /// heading misalignment to ~0.05 deg (0.09 % cross-track) give about 0.13 %D; 0.2 leaves margin for
-  /// the INS heading error. With correlation_distance_m it sets the process noise q.
-  double drift_percent_distance = 0.2;
-  /// Distance over which that error grows before it decorrelates (m, > 0): K changes (track wear,
-  /// surface) are re-identified within a few hundred metres. q = (p/100)^2 L makes the one-sigma of
-  /// a random walk reach p %D at L.
+  /// A fix of epoch g applies from odometer time estimate_applies_from_s(g, hold_off_s) on (s,
+  /// >= 0): the DR's --estimate-hold-off-s, which the DR itself waits for before it reports the fix.
+  double hold_off_s = kDefaultEstimateHoldOff_s;
+  /// One-sigma of the offset's own random walk per axis, % of distance, reached at
+  /// correlation_distance_m: what the scale and heading states do not model (slip in turns, a
+  /// 2-D DR on slopes). q_o = (p/100)^2 L [m^2/m].
+  double drift_percent_distance = 0.08;
+  /// Distance over which that error grows before it decorrelates (m, > 0).
   double correlation_distance_m = 400.0;
-  /// Correlation time of the GNSS position error (s, >= 0): multipath and atmosphere make
-  /// consecutive fixes err alike for tens of seconds, so n fixes within it are not n independent
-  /// measurements. Each fix's variance is multiplied by max(1, this / time since the previous fix),
-  /// which gives the same information per second at any GNSS rate and keeps the covariance from
-  /// shrinking as if the errors were white. 0 = white fixes.
+  /// Prior one-sigma of the scale error of the DR increments at the first fix (%, > 0): the nominal
+  /// K before identification can be off by a few per cent.
+  double scale_sigma_percent = 1.0;
+  /// Random walk of the scale error (% per sqrt(km), >= 0): K steps (tyre pressure, surface) that the
+  /// identification follows with a lag.
+  double scale_random_walk_percent_per_sqrt_km = 0.05;
+  /// Prior one-sigma of the heading error of the DR increments (deg, > 0): the calibrated
+  /// misalignment and the INS heading.
+  double heading_sigma_deg = 0.5;
+  /// Random walk of the heading error (deg per sqrt(s), >= 0): gyro drift, misalignment updates.
+  double heading_random_walk_deg_per_sqrt_s = 0.0005;
+  /// Correlation time of the GNSS position error (s, > 0): multipath and atmosphere make
+  /// consecutive fixes err alike for tens of seconds. The correlated part is a Gauss-Markov state.
   double fix_correlation_time_s = 60.0;
-  /// Horizontal one-sigma of a fix without pos_std_m (m, > 0).
+  /// Share of a fix's variance that is correlated (in [0, 1)): the rest is white. A single-frequency
+  /// receiver's is mostly correlated (the simulator's: 1.4 m of 1.5 m, 0.87).
+  double fix_correlated_fraction = 0.87;
+  /// The GNSS latency (s): a fix stamped g measured the antenna at g - this (a receiver's delay).
+  /// The node takes the identification's estimate when that is published (ScaleFactor).
+  double gnss_latency_s = 0.0;
+  /// Per-axis horizontal one-sigma of a fix without pos_std_m (m, > 0).
   double default_fix_sigma_m = 2.0;
   /// Smallest fix sigma used (m, > 0): an RTK receiver claiming 1 mm must not freeze the filter.
   double min_fix_sigma_m = 0.02;
@@ -110,11 +133,15 @@ struct AnchoredPosition {
   double t_s = 0.0;
   Geodetic position;                                 ///< WGS-84 (rad, rad, m).
   Eigen::Vector3d enu_m = Eigen::Vector3d::Zero();   ///< local ENU of the DR origin (m).
-  /// Position covariance in ENU (m^2), diagonal; NaN while kNotStarted.
+  /// Position covariance in ENU (m^2); NaN while kNotStarted.
   Eigen::Matrix3d covariance_enu_m2 = Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
   AnchorStatus status = AnchorStatus::kNotStarted;
   double last_fix_t_s = std::numeric_limits<double>::quiet_NaN();  ///< epoch of the last applied fix.
   double distance_since_fix_m = std::numeric_limits<double>::quiet_NaN();  ///< DR distance since it (m).
+  /// Estimated residual scale error of the DR increments (-) and heading error (rad, counter-clockwise
+  /// from above); NaN while kNotStarted.
+  double scale_error = std::numeric_limits<double>::quiet_NaN();
+  double heading_error_rad = std::numeric_limits<double>::quiet_NaN();
   /// Horizontal one-sigma, sqrt(var_e + var_n) (m); NaN while kNotStarted.
   double horizontal_sigma_m() const { return std::sqrt(covariance_enu_m2(0, 0) + covariance_enu_m2(1, 1)); }
 };
@@ -127,6 +154,9 @@ struct AnchoredPositionCounters {
   uint64_t gate_restarts = 0;        ///< restarts on a fix after gate_restart_after gated ones.
   double last_rejected_innovation_m = std::numeric_limits<double>::quiet_NaN();
   double last_rejected_gate_m = std::numeric_limits<double>::quiet_NaN();
+  /// Fixes whose measurement time (epoch - latency) lay outside the recent DR steps kept: the DR
+  /// at it was extrapolated from the nearest one.
+  uint64_t fixes_latency_unbracketed = 0;
 };
 
 class AnchoredPositionFilter {
@@ -143,27 +173,40 @@ class AnchoredPositionFilter {
   AnchoredPosition step(const DeadReckoningOutput& dr);
 
   const AnchoredPositionCounters& counters() const { return counters_; }
-  /// Odometer time from which a fix of epoch epoch_s applies: epoch + hold_off_s - 1 us (hold-off
-  /// > 0), else the epoch itself.
+  /// Odometer time from which a fix of epoch epoch_s applies: estimate_applies_from_s(epoch_s,
+  /// hold_off_s).
   double applies_from_s(double epoch_s) const;
   const AnchoredPositionParams& params() const { return params_; }
 
  private:
-  void apply(const AnchorFix& fix);
+  static constexpr int kN = 8;  ///< o_e, o_n, o_u, s, psi, b_e, b_n, b_u
+  using Vector = Eigen::Matrix<double, kN, 1>;
+  using Matrix = Eigen::Matrix<double, kN, kN>;
+  struct Past {
+    double t_s;
+    Eigen::Vector3d enu_m;
+  };
+  void apply(const AnchorFix& fix, const AnchorDrStep& now);
+  void start(const Eigen::Vector3d& z, double sigma_h_m);
+  void propagate(const Eigen::Vector3d& d_m, double dd_m, double dt_s);
+  /// The DR position at t_s from the steps kept (interpolated; the nearest end, counted, outside).
+  Eigen::Vector3d dr_at(double t_s, const Eigen::Vector3d& fallback);
 
   AnchoredPositionParams params_;
-  double q_m2_per_m_ = 0.0;
+  double q_offset_m2_per_m_ = 0.0, q_scale_per_m_ = 0.0, q_heading_rad2_per_s_ = 0.0;
   std::deque<AnchorFix> queued_;
+  std::deque<Past> past_;
   std::optional<double> last_added_t_s_;
   std::optional<double> last_step_t_s_;
+  Eigen::Vector3d last_enu_m_ = Eigen::Vector3d::Zero();
   bool initialised_ = false;
-  Eigen::Vector3d offset_m_ = Eigen::Vector3d::Zero();
-  Eigen::Vector3d variance_m2_ = Eigen::Vector3d::Zero();
+  Vector x_ = Vector::Zero();
+  Matrix p_ = Matrix::Zero();
+  double correlated_sigma_h_m_ = 0.0;  ///< stationary sigma of b per horizontal axis, from the last fix
   double last_distance_m_ = 0.0;
   double last_fix_t_s_ = std::numeric_limits<double>::quiet_NaN();
   double last_fix_distance_m_ = 0.0;
-  std::optional<double> previous_fix_t_s_;
-  int consecutive_gated_ = 0;  ///< epoch of the previous fix taken (applied or gated)
+  int consecutive_gated_ = 0;
   AnchoredPositionCounters counters_;
 };
 
