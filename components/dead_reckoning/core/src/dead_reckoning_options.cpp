@@ -1,5 +1,7 @@
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 
+#include <algorithm>
+
 #include "odonav/hold_off_option.hpp"
 #include "odonav/lever_arm_option.hpp"
 
@@ -9,6 +11,31 @@ void add_dead_reckoning_options(Options& o) {
   o.add_double("nominal-k", 0.0, "K before identification converges (m/pulse); 0 = meta.json's, else 0.0125", 0.0, 10.0);
   add_estimate_hold_off_option(o);
   o.add_choice("dr-mode", "3d", {"3d", "2d"}, "3d: full attitude and height; 2d: heading only, height held");
+  // The GNSS-anchored navigation position (anchored_position.hpp); its hold-off is
+  // --estimate-hold-off-s, the DR's.
+  const AnchoredPositionParams a;
+  o.add_double("anchor-drift-percent", a.drift_percent_distance,
+               "navigation position: one-sigma random walk of the offset per axis, % of distance at 400 m (what the "
+               "scale and heading states do not model); without INS at least 1",
+               1e-6, 100.0);
+  o.add_double("anchor-scale-sigma-percent", a.scale_sigma_percent,
+               "navigation position: prior one-sigma of the DR increments' scale (K) error, %", 1e-6, 100.0);
+  o.add_double("anchor-scale-walk-percent-per-sqrt-km", a.scale_random_walk_percent_per_sqrt_km,
+               "navigation position: random walk of that scale error, % per sqrt(km)", 0.0, 100.0);
+  o.add_double("anchor-heading-sigma-deg", a.heading_sigma_deg,
+               "navigation position: prior one-sigma of the DR increments' heading error, deg", 1e-6, 90.0);
+  o.add_double("anchor-heading-walk-deg-per-sqrt-s", a.heading_random_walk_deg_per_sqrt_s,
+               "navigation position: random walk of that heading error, deg per sqrt(s)", 0.0, 10.0);
+  o.add_double("anchor-gnss-correlation-s", a.fix_correlation_time_s,
+               "navigation position: correlation time of the GNSS position error (Gauss-Markov), s", 1e-3, 1e5);
+  o.add_double("anchor-gnss-correlated-fraction", a.fix_correlated_fraction,
+               "navigation position: share of a fix's variance (pos_std_m^2) that is correlated, the rest white",
+               0.0, 0.999);
+  o.add_double("anchor-gnss-latency-s", a.gnss_latency_s,
+               "navigation position: a fix stamped g measured at g - this (receiver latency), s", -9.9, 9.9);
+  o.add_double("anchor-gate-sigma", a.gate_sigma,
+               "navigation position: a fix whose innovation exceeds this many predicted sigmas is rejected", 1e-3,
+               1e6);
 }
 
 DeadReckonerParams dead_reckoning_params_from(const Options& o) {
@@ -25,6 +52,16 @@ DeadReckoningFacts dead_reckoning_facts_from(const Options& o) {
   f.nominal_k_option_m_per_pulse = p.nominal_k_m_per_pulse;
   f.lever_arm_body_m = lever_arm_from(o);
   f.estimate_hold_off_s = estimate_hold_off_from(o);
+  AnchoredPositionParams& a = f.anchored;
+  a.drift_percent_distance = o.get_double("anchor-drift-percent");
+  a.scale_sigma_percent = o.get_double("anchor-scale-sigma-percent");
+  a.scale_random_walk_percent_per_sqrt_km = o.get_double("anchor-scale-walk-percent-per-sqrt-km");
+  a.heading_sigma_deg = o.get_double("anchor-heading-sigma-deg");
+  a.heading_random_walk_deg_per_sqrt_s = o.get_double("anchor-heading-walk-deg-per-sqrt-s");
+  a.fix_correlation_time_s = o.get_double("anchor-gnss-correlation-s");
+  a.fix_correlated_fraction = o.get_double("anchor-gnss-correlated-fraction");
+  a.gnss_latency_s = o.get_double("anchor-gnss-latency-s");
+  a.gate_sigma = o.get_double("anchor-gate-sigma");
   return f;
 }
 
@@ -41,8 +78,10 @@ DeadReckonerParams dead_reckoner_params(const DeadReckoningFacts& f) {
 }
 
 AnchoredPositionParams anchored_position_params(const DeadReckoningFacts& facts) {
-  AnchoredPositionParams p;
-  if (!facts.use_ins) p.drift_percent_distance = 1.0;
+  AnchoredPositionParams p = facts.anchored;
+  // One hold-off: a fix applies when the DR's estimates of its epoch do (the DR reports it then).
+  p.hold_off_s = facts.estimate_hold_off_s;
+  if (!facts.use_ins) p.drift_percent_distance = std::max(p.drift_percent_distance, kDegradedAnchorDriftPercent);
   return p;
 }
 

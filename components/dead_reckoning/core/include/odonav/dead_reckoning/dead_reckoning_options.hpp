@@ -14,7 +14,12 @@ namespace odonav {
 /// Nominal K (m/pulse) when neither --nominal-k nor the dataset's meta.json gives one.
 inline constexpr double kDefaultNominalK_m_per_pulse = 0.0125;
 
-/// Declares --nominal-k (m/pulse; 0 = from the dataset's meta.json or 0.0125) and --dr-mode 3d|2d.
+/// Offset random walk (%D) of the navigation position at least, without INS: the DR heading is then
+/// the GNSS course held through stops and turns.
+inline constexpr double kDegradedAnchorDriftPercent = 1.0;
+
+/// Declares --nominal-k (m/pulse; 0 = from the dataset's meta.json or 0.0125), --dr-mode 3d|2d and
+/// the navigation position's --anchor-* flags.
 /// The lever arm is --lever-arm (lever_arm_option.hpp), declared once by the program.
 void add_dead_reckoning_options(Options& options);
 /// Reads them; nominal_k_m_per_pulse is 0 when --nominal-k was 0 (the caller fills it in).
@@ -34,6 +39,9 @@ struct DeadReckoningFacts {
   std::optional<double> dataset_nominal_k_m_per_pulse;
   /// --estimate-hold-off-s (s): hold_off_option.hpp.
   double estimate_hold_off_s = 0.2;
+  /// The navigation position's --anchor-* flags (hold_off_s is set from estimate_hold_off_s by
+  /// anchored_position_params).
+  AnchoredPositionParams anchored;
 };
 
 /// --dr-mode, --nominal-k and --lever-arm (throws ConfigError naming --lever-arm when it is not
@@ -48,8 +56,8 @@ DeadReckoningFacts dead_reckoning_facts_from(const Options& options);
 DeadReckonerParams dead_reckoner_params(const DeadReckoningFacts& facts);
 
 /// The one AnchoredPositionParams of the navigation position (odonav-offline and
-/// odonav-dead-reckoning): the defaults of anchored_position.hpp, except without INS (degraded
-/// mode), where the DR heading is the GNSS course held through stops and turns: 1 %D drift.
+/// odonav-dead-reckoning): facts.anchored (the --anchor-* flags), the hold-off the DR's
+/// (--estimate-hold-off-s), and without INS (degraded mode) at least kDegradedAnchorDriftPercent.
 AnchoredPositionParams anchored_position_params(const DeadReckoningFacts& facts);
 
 }  // namespace odonav
