@@ -64,13 +64,21 @@ TEST(AnchoredPosition, AFixAppliesFromItsEpochPlusTheHoldOffOnly) {
   EXPECT_DOUBLE_EQ(p.covariance_enu_m2(0, 0), 1.0);
   EXPECT_DOUBLE_EQ(p.covariance_enu_m2(2, 2), 2.25);
   EXPECT_EQ(p.covariance_enu_m2(0, 1), 0.0);
-  // The next step adds the process noise of its 0.1 m northwards: the offset's random walk and,
-  // east, the prior heading uncertainty (0.5 deg) acting on the 0.1 m.
+  // The next step adds the process noise of its 0.1 m: the offset's random walk (the scale and
+  // heading errors start at 0 +- 0 by default: the identified K and misalignment taken as right).
   const AnchoredPosition next = filter.step(dr_at(1.21));
-  EXPECT_NEAR(next.covariance_enu_m2(0, 0),
-              1.0 + 0.1 * std::pow(0.08 / 100.0, 2) * 400.0 + std::pow(0.1 * 0.5 * kDegToRad, 2), 1e-12);
-  // North: the prior scale uncertainty (1 %) acting on it.
-  EXPECT_NEAR(next.covariance_enu_m2(1, 1), 1.0 + 0.1 * std::pow(0.08 / 100.0, 2) * 400.0 + std::pow(0.1 * 0.01, 2), 1e-12);
+  EXPECT_NEAR(next.covariance_enu_m2(0, 0), 1.0 + 0.1 * std::pow(0.15 / 100.0, 2) * 400.0, 1e-12);
+  EXPECT_NEAR(next.covariance_enu_m2(1, 1), 1.0 + 0.1 * std::pow(0.15 / 100.0, 2) * 400.0, 1e-12);
+  // With a prior on them, the 0.1 m northwards adds the scale's 1 % north and the heading's 0.5 deg east.
+  AnchoredPositionParams uncertain;
+  uncertain.scale_sigma_percent = 1.0;
+  uncertain.heading_sigma_deg = 0.5;
+  AnchoredPositionFilter u(uncertain);
+  u.add_fix(fix_at(1.0, Eigen::Vector3d(3.0, -2.0, 0.5)));
+  u.step(dr_at(1.2));
+  const AnchoredPosition un = u.step(dr_at(1.21));
+  EXPECT_NEAR(un.covariance_enu_m2(0, 0), next.covariance_enu_m2(0, 0) + std::pow(0.1 * 0.5 * kDegToRad, 2), 1e-12);
+  EXPECT_NEAR(un.covariance_enu_m2(1, 1), next.covariance_enu_m2(1, 1) + std::pow(0.1 * 0.01, 2), 1e-12);
   EXPECT_EQ(filter.counters().fixes_applied, 1u);
 }
 
@@ -179,6 +187,8 @@ TEST(AnchoredPosition, LearnsTheScaleAndHeadingErrorsOfTheDrAndBridgesAGapWithTh
   // DR misses 2 % and 1 deg of it, 12 m along and 10.5 m across the track.
   AnchoredPositionParams p;
   p.fix_correlated_fraction = 0.0;
+  p.scale_sigma_percent = 3.0;  // a DR on a nominal K, heading not calibrated
+  p.heading_sigma_deg = 2.0;
   AnchoredPositionFilter filter(p);
   for (int i = 0; i <= 120; ++i) {
     AnchorFix f = fix_at(i, Eigen::Vector3d::Zero(), 0.05);

@@ -146,9 +146,9 @@ void expect_honest_sigma(const Figures& f) {
 
 }  // namespace
 
-// 10 Hz, seeds 1-5: 0.47-0.74 x the fixes' RMS (the filter averages the correlated GNSS error over
-// several minutes, the DR increments kept right by the scale and heading states), the outage within
-// the goal (its end error at most 0.62 m above its start over 741 m, goal 0.74 m).
+// 10 Hz, seeds 1-5: 0.48-0.72 x the fixes' RMS (the filter averages the correlated GNSS error, a
+// state, over minutes), the outage within the goal (its end error at most 0.27 m above its start
+// over 741 m, goal 0.74 m).
 TEST(NavigationPosition, TerrainBeatsGnssWhileValidAndBridgesTheOutageFromTheLastFix) {
   for (uint64_t seed = 1; seed <= 5; ++seed) {
     SCOPED_TRACE("seed " + std::to_string(seed));
@@ -163,11 +163,10 @@ TEST(NavigationPosition, TerrainBeatsGnssWhileValidAndBridgesTheOutageFromTheLas
   }
 }
 
-// At 1 Hz the chain's own DR is poorer (pure DR RMS 1.7 m on seed 1, 4.2 m on seed 2) and there
-// are a tenth of the fixes. Seed 1: 0.61 x the fixes' RMS and the outage goal met (0.64 -> 0.25 m).
-// Seed 2: 0.98 x the fixes' RMS, but the outage goal is not met: the DR itself drifts 3.8 m
-// (0.5 %) over the outage, more than the scale and heading learnt before it explain, and the
-// end error (4.8 m) is within 1 m of the pure DR's growth from the start error.
+// At 1 Hz the chain's own DR is poorer (pure DR RMS 2.2 m on seed 1, 5.2 m on seed 2) and there
+// are a tenth of the fixes. Seed 1: 0.55 x the fixes' RMS and the outage goal met (0.84 -> 0.80 m).
+// Seed 2: 0.71 x the fixes' RMS, but the outage goal is not met: the DR itself drifts 5.4 m
+// (0.7 %) over the outage, and the end error (5.3 m) is that growth from the start error.
 TEST(NavigationPosition, AtOneHertzGnssItBeatsTheFixesAndBridgesTheOutage) {
   for (uint64_t seed = 1; seed <= 2; ++seed) {
     SCOPED_TRACE("seed " + std::to_string(seed));
@@ -186,7 +185,7 @@ TEST(NavigationPosition, AtOneHertzGnssItBeatsTheFixesAndBridgesTheOutage) {
   }
 }
 
-// 5 and 20 Hz (seed 1): 0.75 and 0.49 x the fixes' RMS, the outage goal met. The filter's
+// 5 and 20 Hz (seed 1): 0.67 and 0.53 x the fixes' RMS, the outage goal met. The filter's
 // information per second does not depend on the rate: the correlated GNSS error is a state.
 TEST(NavigationPosition, AtFiveAndTwentyHertzGnssItBeatsTheFixesAndBridgesTheOutage) {
   for (double rate_hz : {5.0, 20.0}) {
@@ -200,14 +199,20 @@ TEST(NavigationPosition, AtFiveAndTwentyHertzGnssItBeatsTheFixesAndBridgesTheOut
 }
 
 // Fixes stamped 0.1 s after they measured (odonav-sim --gnss-latency-s 0.1), 10 Hz, seed 1: compared
-// with the DR at stamp - latency (--anchor-gnss-latency-s 0.1) the RMS is 0.92 m, against 1.03 m when
-// the filter takes the stamp as the measurement time (at 15 m/s, 0.1 s is 1.5 m along the track).
+// with the DR at stamp - latency (--anchor-gnss-latency-s 0.1), the navigation position is what it
+// is without a latency (RMS 0.92 against 0.90 m): the declared latency removes its effect. Not
+// asserted: that ignoring it is worse. On this chain it is not (0.79 m): the RMS against truth is
+// lowest with the latency declared about 0.1 s short (also without any simulated latency: 0.77 m
+// declaring -0.1 s), i.e. the DR track itself lags its stamps by about that much (to be found in
+// the DR, not in this filter).
 TEST(NavigationPosition, AFixStampedLateIsComparedWithTheDrWhenItMeasured) {
   const Figures compensated = figures(1, 10.0, 0.1, 0.1);
   const Figures ignored = figures(1, 10.0, 0.1, 0.0);
+  const Figures none = figures(1, 10.0, 0.0, 0.0);
   print("10 Hz, latency 0.1 s compensated", 1, compensated);
   print("10 Hz, latency 0.1 s ignored", 1, ignored);
-  EXPECT_LT(compensated.nav_rms_valid_m, ignored.nav_rms_valid_m - 0.05);
+  print("10 Hz, no latency", 1, none);
+  EXPECT_NEAR(compensated.nav_rms_valid_m, none.nav_rms_valid_m, 0.05);
   EXPECT_LT(compensated.nav_rms_valid_m, 0.6 * compensated.gnss_rms_m);
   EXPECT_LE(compensated.outage_end_error_m,
             compensated.outage_start_error_m + 0.001 * compensated.outage_distance_m);
@@ -215,7 +220,7 @@ TEST(NavigationPosition, AFixStampedLateIsComparedWithTheDrWhenItMeasured) {
 
 // GNSS absent for over three minutes (290-490 s, 2.3 km between the simulator's K steps), 10 Hz,
 // seed 1: the status says dead reckoning from 2.5 s after the last fix, the sigma stays above its
-// value at the outage's start and covers the error (1.2-1.7 m against a sigma of 1.5-2.2 m), and
+// value at the outage's start and covers the error (1.5 m against 2.5 m at the end), and
 // when GNSS returns the position moves by no more than the first fix says. Not covered: a K step
 // inside the outage (the +3 % at 250 s within a 200-500 s outage gives 13.8 m after 725 m with a
 // sigma of 1.9 m): no GNSS, no identification, and the filter's scale walk is for slow changes.

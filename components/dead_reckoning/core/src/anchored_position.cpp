@@ -29,10 +29,10 @@ AnchoredPositionFilter::AnchoredPositionFilter(const AnchoredPositionParams& p) 
   require(non_negative(p.hold_off_s), "hold_off_s must be finite and >= 0");
   require(positive(p.drift_percent_distance), "drift_percent_distance must be finite and > 0");
   require(positive(p.correlation_distance_m), "correlation_distance_m must be finite and > 0");
-  require(positive(p.scale_sigma_percent), "scale_sigma_percent must be finite and > 0");
+  require(non_negative(p.scale_sigma_percent), "scale_sigma_percent must be finite and >= 0");
   require(non_negative(p.scale_random_walk_percent_per_sqrt_km),
           "scale_random_walk_percent_per_sqrt_km must be finite and >= 0");
-  require(positive(p.heading_sigma_deg), "heading_sigma_deg must be finite and > 0");
+  require(non_negative(p.heading_sigma_deg), "heading_sigma_deg must be finite and >= 0");
   require(non_negative(p.heading_random_walk_deg_per_sqrt_s), "heading_random_walk_deg_per_sqrt_s must be finite and >= 0");
   require(positive(p.fix_correlation_time_s), "fix_correlation_time_s must be finite and > 0");
   require(std::isfinite(p.fix_correlated_fraction) && p.fix_correlated_fraction >= 0.0 && p.fix_correlated_fraction < 1.0,

@@ -19,11 +19,13 @@ void add_dead_reckoning_options(Options& o) {
                "scale and heading states do not model); without INS at least 1",
                1e-6, 100.0);
   o.add_double("anchor-scale-sigma-percent", a.scale_sigma_percent,
-               "navigation position: prior one-sigma of the DR increments' scale (K) error, %", 1e-6, 100.0);
+               "navigation position: prior one-sigma of the DR increments' scale (K) error, % (0: K taken as right)",
+               0.0, 100.0);
   o.add_double("anchor-scale-walk-percent-per-sqrt-km", a.scale_random_walk_percent_per_sqrt_km,
                "navigation position: random walk of that scale error, % per sqrt(km)", 0.0, 100.0);
   o.add_double("anchor-heading-sigma-deg", a.heading_sigma_deg,
-               "navigation position: prior one-sigma of the DR increments' heading error, deg", 1e-6, 90.0);
+               "navigation position: prior one-sigma of the DR increments' heading error, deg (0: taken as right)",
+               0.0, 90.0);
   o.add_double("anchor-heading-walk-deg-per-sqrt-s", a.heading_random_walk_deg_per_sqrt_s,
                "navigation position: random walk of that heading error, deg per sqrt(s)", 0.0, 10.0);
   o.add_double("anchor-gnss-correlation-s", a.fix_correlation_time_s,

@@ -30,8 +30,10 @@
 // Why the bias state: GNSS errors are correlated over tens of seconds, so n fixes within that time
 // are not n independent measurements; modelling the correlation keeps the covariance the size of
 // the real error at any GNSS rate. Why s and psi: to average the fixes over several correlation
-// times the DR increments must stay right over kilometres, and the identified K at 1 Hz GNSS is off
-// by 0.2-0.45 % for minutes; the fixes observe both while the vehicle moves.
+// times the DR increments must stay right over kilometres; the fixes observe both while the
+// vehicle moves. By default they start at 0 +- 0 and only follow slow changes (free to learn, they
+// chased the turn slip and K re-identifications on sim:terrain and cost accuracy); a DR on a
+// nominal K gives them a prior.
 //
 // Through a GNSS outage the state is propagated by the DR increments alone: the position continues
 // as DR from the last corrected state (corrected for the estimated scale and heading errors), and
@@ -65,20 +67,22 @@ struct AnchoredPositionParams {
   /// One-sigma of the offset's own random walk per axis, % of distance, reached at
   /// correlation_distance_m: what the scale and heading states do not model (slip in turns, a
   /// 2-D DR on slopes). q_o = (p/100)^2 L [m^2/m].
-  double drift_percent_distance = 0.08;
+  double drift_percent_distance = 0.15;
   /// Distance over which that error grows before it decorrelates (m, > 0).
   double correlation_distance_m = 400.0;
-  /// Prior one-sigma of the scale error of the DR increments at the first fix (%, > 0): the nominal
-  /// K before identification can be off by a few per cent.
-  double scale_sigma_percent = 1.0;
-  /// Random walk of the scale error (% per sqrt(km), >= 0): K steps (tyre pressure, surface) that the
-  /// identification follows with a lag.
-  double scale_random_walk_percent_per_sqrt_km = 0.05;
-  /// Prior one-sigma of the heading error of the DR increments (deg, > 0): the calibrated
-  /// misalignment and the INS heading.
-  double heading_sigma_deg = 0.5;
+  /// Prior one-sigma of the scale error of the DR increments at the first fix (%, >= 0). 0 by
+  /// default: the identified K is taken as right and the state only follows slow residual errors
+  /// (measured on sim:terrain, a prior of 0.3-1 % lets the state chase the turn slip and the K
+  /// re-identifications and costs 0.05-0.5 m RMS; BENCHMARKS.md 4d). Give the K's uncertainty
+  /// when the DR runs on a nominal K.
+  double scale_sigma_percent = 0.0;
+  /// Random walk of the scale error (% per sqrt(km), >= 0).
+  double scale_random_walk_percent_per_sqrt_km = 0.02;
+  /// Prior one-sigma of the heading error of the DR increments (deg, >= 0); 0 by default as the
+  /// scale's: the calibrated misalignment is taken as right.
+  double heading_sigma_deg = 0.0;
   /// Random walk of the heading error (deg per sqrt(s), >= 0): gyro drift, misalignment updates.
-  double heading_random_walk_deg_per_sqrt_s = 0.0005;
+  double heading_random_walk_deg_per_sqrt_s = 0.0002;
   /// Correlation time of the GNSS position error (s, > 0): multipath and atmosphere make
   /// consecutive fixes err alike for tens of seconds. The correlated part is a Gauss-Markov state.
   double fix_correlation_time_s = 60.0;
