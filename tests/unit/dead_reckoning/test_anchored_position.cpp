@@ -209,29 +209,3 @@ TEST(AnchoredPosition, LearnsTheScaleAndHeadingErrorsOfTheDrAndBridgesAGapWithTh
   EXPECT_GT(pos.horizontal_sigma_m(), error_m);
   EXPECT_LT(pos.horizontal_sigma_m(), 3.0);
 }
-
-TEST(AnchoredPosition, AFixStampedLateByTheReceiverLatencyIsComparedWithTheDrWhenItMeasured) {
-  // The receiver stamps each fix 0.1 s after it measured: at 10 m/s the fix lags the DR by 1 m.
-  // With the latency declared, the filter sees no offset; without it, 1 m of false offset.
-  const double latency_s = 0.1;
-  AnchoredPositionParams with;
-  with.gnss_latency_s = latency_s;
-  with.fix_correlated_fraction = 0.0;
-  AnchoredPositionParams without = with;
-  without.gnss_latency_s = 0.0;
-  AnchoredPositionFilter a(with), b(without);
-  for (int i = 1; i <= 30; ++i) {
-    AnchorFix f = fix_at(i, Eigen::Vector3d::Zero(), 0.1);
-    f.fix_enu_m = dr_at(i - latency_s).enu_m;  // where the antenna was when it measured
-    a.add_fix(f);
-    b.add_fix(f);
-  }
-  AnchoredPosition pa, pb;
-  for (int j = 1; j <= 3100; ++j) {
-    pa = a.step(dr_at(0.01 * j));
-    pb = b.step(dr_at(0.01 * j));
-  }
-  EXPECT_LT((pa.enu_m - dr_at(31.0).enu_m).norm(), 1e-6);
-  EXPECT_EQ(a.counters().fixes_latency_unbracketed, 0u);  // the DR steps at epoch - latency were kept
-  EXPECT_GT((pb.enu_m - dr_at(31.0).enu_m).norm(), 0.9);
-}

@@ -37,7 +37,6 @@ AnchoredPositionFilter::AnchoredPositionFilter(const AnchoredPositionParams& p) 
   require(positive(p.fix_correlation_time_s), "fix_correlation_time_s must be finite and > 0");
   require(std::isfinite(p.fix_correlated_fraction) && p.fix_correlated_fraction >= 0.0 && p.fix_correlated_fraction < 1.0,
           "fix_correlated_fraction must be in [0, 1)");
-  require(std::isfinite(p.gnss_latency_s) && std::abs(p.gnss_latency_s) < 10.0, "gnss_latency_s must be within +-10 s");
   require(positive(p.default_fix_sigma_m), "default_fix_sigma_m must be finite and > 0");
   require(positive(p.min_fix_sigma_m), "min_fix_sigma_m must be finite and > 0");
   require(positive(p.vertical_sigma_factor), "vertical_sigma_factor must be finite and > 0");
@@ -110,30 +109,13 @@ void AnchoredPositionFilter::propagate(const Eigen::Vector3d& d, double dd_m, do
   p_(7, 7) += var_b * params_.vertical_sigma_factor * params_.vertical_sigma_factor;
 }
 
-Eigen::Vector3d AnchoredPositionFilter::dr_at(double t_s, const Eigen::Vector3d& fallback) {
-  if (past_.empty()) return fallback;
-  if (t_s < past_.front().t_s || t_s > past_.back().t_s) {
-    ++counters_.fixes_latency_unbracketed;
-    return t_s < past_.front().t_s ? past_.front().enu_m : past_.back().enu_m;
-  }
-  std::size_t hi = 0;
-  while (past_[hi].t_s < t_s) ++hi;
-  if (past_[hi].t_s == t_s || hi == 0) return past_[hi].enu_m;
-  const Past& a = past_[hi - 1];
-  const Past& b = past_[hi];
-  return a.enu_m + (t_s - a.t_s) / (b.t_s - a.t_s) * (b.enu_m - a.enu_m);
-}
-
 void AnchoredPositionFilter::apply(const AnchorFix& fix, const AnchorDrStep& now) {
   const double sigma_h = std::max(
       params_.min_fix_sigma_m,
       std::isfinite(fix.sigma_m) && fix.sigma_m > 0.0 ? fix.sigma_m : params_.default_fix_sigma_m);
   const double sigma_v = params_.vertical_sigma_factor * sigma_h;
-  // The DR where the fix measured: at its epoch minus the receiver latency. The DR's own position
-  // at the epoch, shifted by what the DR moved over the latency (steps kept for that).
-  Eigen::Vector3d dr_meas = fix.dr_enu_m;
-  if (params_.gnss_latency_s != 0.0)
-    dr_meas = fix.dr_enu_m - (dr_at(fix.t_s, fix.dr_enu_m) - dr_at(fix.t_s - params_.gnss_latency_s, fix.dr_enu_m));
+  // The DR where the fix measured (at its epoch minus the GNSS latency: the DeadReckoner's).
+  const Eigen::Vector3d& dr_meas = fix.dr_enu_m;
   const Eigen::Vector3d z = fix.fix_enu_m - dr_meas;  // the DR error when the fix measured
   const bool restart = initialised_ && consecutive_gated_ >= params_.gate_restart_after;
   correlated_sigma_h_m_ = std::sqrt(params_.fix_correlated_fraction) * sigma_h;
@@ -192,9 +174,6 @@ AnchoredPosition AnchoredPositionFilter::step(const AnchorDrStep& s) {
   last_enu_m_ = s.enu_m;
   last_distance_m_ = s.distance_m;
   ++counters_.steps;
-  past_.push_back(Past{s.t_s, s.enu_m});
-  const double keep_s = params_.hold_off_s + std::abs(params_.gnss_latency_s) + 1.0;
-  while (past_.size() > 2 && past_[1].t_s < s.t_s - keep_s) past_.pop_front();
   while (!queued_.empty() && applies_from_s(queued_.front().t_s) <= s.t_s) {
     apply(queued_.front(), s);
     queued_.pop_front();

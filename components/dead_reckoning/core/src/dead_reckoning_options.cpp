@@ -33,8 +33,6 @@ void add_dead_reckoning_options(Options& o) {
   o.add_double("anchor-gnss-correlated-fraction", a.fix_correlated_fraction,
                "navigation position: share of a fix's variance (pos_std_m^2) that is correlated, the rest white",
                0.0, 0.999);
-  o.add_double("anchor-gnss-latency-s", a.gnss_latency_s,
-               "navigation position: a fix stamped g measured at g - this (receiver latency), s", -9.9, 9.9);
   o.add_double("anchor-gate-sigma", a.gate_sigma,
                "navigation position: a fix whose innovation exceeds this many predicted sigmas is rejected", 1e-3,
                1e6);
@@ -62,7 +60,6 @@ DeadReckoningFacts dead_reckoning_facts_from(const Options& o) {
   a.heading_random_walk_deg_per_sqrt_s = o.get_double("anchor-heading-walk-deg-per-sqrt-s");
   a.fix_correlation_time_s = o.get_double("anchor-gnss-correlation-s");
   a.fix_correlated_fraction = o.get_double("anchor-gnss-correlated-fraction");
-  a.gnss_latency_s = o.get_double("anchor-gnss-latency-s");
   a.gate_sigma = o.get_double("anchor-gate-sigma");
   return f;
 }

@@ -21,9 +21,10 @@
 //     s  random walk in distance (K changes, surface), psi random walk in time (gyro drift)
 //     b  first-order Gauss-Markov, correlation time fix_correlation_time_s, stationary sigma
 //        sqrt(fix_correlated_fraction) x the fix sigma
-//   measurement: z = fix(g) - DR(g - latency) = o(g) + b + white noise, the DR error seen at the
-//     fix epoch; o(g) = o(t) - (s, psi) acting on DR(t) - DR(g), so a fix applied at a later step t
-//     is exact (no approximation for the hold-off or the latency)
+//   measurement: z = fix(g) - DR(g - latency) = o(g) + b + white noise, the DR error when the fix
+//     measured (AnchorFix::dr_enu_m: the DeadReckoner takes the GNSS latency in force into account);
+//     o(g) = o(t) - (s, psi) acting on DR(t) - DR(g - latency), so a fix applied at a later step t
+//     is exact (no approximation for the hold-off)
 //   gate: a fix whose horizontal innovation exceeds gate_sigma x its predicted sigma is rejected
 //     and counted (a multipath jump must not pull the position away)
 //
@@ -89,9 +90,6 @@ struct AnchoredPositionParams {
   /// Share of a fix's variance that is correlated (in [0, 1)): the rest is white. A single-frequency
   /// receiver's is mostly correlated (the simulator's: 1.4 m of 1.5 m, 0.87).
   double fix_correlated_fraction = 0.87;
-  /// The GNSS latency (s): a fix stamped g measured the antenna at g - this (a receiver's delay).
-  /// The node takes the identification's estimate when that is published (ScaleFactor).
-  double gnss_latency_s = 0.0;
   /// Per-axis horizontal one-sigma of a fix without pos_std_m (m, > 0).
   double default_fix_sigma_m = 2.0;
   /// Smallest fix sigma used (m, > 0): an RTK receiver claiming 1 mm must not freeze the filter.
@@ -158,9 +156,6 @@ struct AnchoredPositionCounters {
   uint64_t gate_restarts = 0;        ///< restarts on a fix after gate_restart_after gated ones.
   double last_rejected_innovation_m = std::numeric_limits<double>::quiet_NaN();
   double last_rejected_gate_m = std::numeric_limits<double>::quiet_NaN();
-  /// Fixes whose measurement time (epoch - latency) lay outside the recent DR steps kept: the DR
-  /// at it was extrapolated from the nearest one.
-  uint64_t fixes_latency_unbracketed = 0;
 };
 
 class AnchoredPositionFilter {
@@ -186,20 +181,13 @@ class AnchoredPositionFilter {
   static constexpr int kN = 8;  ///< o_e, o_n, o_u, s, psi, b_e, b_n, b_u
   using Vector = Eigen::Matrix<double, kN, 1>;
   using Matrix = Eigen::Matrix<double, kN, kN>;
-  struct Past {
-    double t_s;
-    Eigen::Vector3d enu_m;
-  };
   void apply(const AnchorFix& fix, const AnchorDrStep& now);
   void start(const Eigen::Vector3d& z, double sigma_h_m);
   void propagate(const Eigen::Vector3d& d_m, double dd_m, double dt_s);
-  /// The DR position at t_s from the steps kept (interpolated; the nearest end, counted, outside).
-  Eigen::Vector3d dr_at(double t_s, const Eigen::Vector3d& fallback);
 
   AnchoredPositionParams params_;
   double q_offset_m2_per_m_ = 0.0, q_scale_per_m_ = 0.0, q_heading_rad2_per_s_ = 0.0;
   std::deque<AnchorFix> queued_;
-  std::deque<Past> past_;
   std::optional<double> last_added_t_s_;
   std::optional<double> last_step_t_s_;
   Eigen::Vector3d last_enu_m_ = Eigen::Vector3d::Zero();
