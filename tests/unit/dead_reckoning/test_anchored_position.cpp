@@ -3,10 +3,16 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <sstream>
+#include <string>
 #include <stdexcept>
 #include <vector>
 
+#include "odonav/config.hpp"
+#include "odonav/consumer_rules.hpp"
 #include "odonav/dead_reckoning/anchored_position.hpp"
+#include "odonav/dead_reckoning/dead_reckoning_options.hpp"
+#include "odonav/lever_arm_option.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
 #include "odonav/stream_buffers.hpp"
@@ -208,4 +214,46 @@ TEST(AnchoredPosition, LearnsTheScaleAndHeadingErrorsOfTheDrAndBridgesAGapWithTh
   // And the reported sigma covers it without claiming centimetres after 600 m of DR.
   EXPECT_GT(pos.horizontal_sigma_m(), error_m);
   EXPECT_LT(pos.horizontal_sigma_m(), 3.0);
+}
+
+// The navigation position's parameters come from the DR's options, through the one function both
+// odonav-offline and odonav-dead-reckoning call: its hold-off is the DR's --estimate-hold-off-s.
+TEST(AnchoredPosition, ParametersComeFromTheDrOptionsAndTheHoldOffIsTheDrs) {
+  Options o("odonav-test", "anchored position options");
+  add_dead_reckoning_options(o);
+  add_lever_arm_option(o);
+  std::ostringstream help;
+  ASSERT_EQ(o.parse({"--estimate-hold-off-s", "0.35", "--anchor-drift-percent", "0.3", "--anchor-scale-sigma-percent",
+                     "2", "--anchor-scale-walk-percent-per-sqrt-km", "0.1", "--anchor-heading-sigma-deg", "1.5",
+                     "--anchor-heading-walk-deg-per-sqrt-s", "0.001", "--anchor-gnss-correlation-s", "30",
+                     "--anchor-gnss-correlated-fraction", "0.5", "--anchor-gate-sigma", "8"},
+                    help),
+            ParseResult::kRun);
+  DeadReckoningFacts facts = dead_reckoning_facts_from(o);
+  AnchoredPositionParams p = anchored_position_params(facts);
+  EXPECT_EQ(p.hold_off_s, 0.35);
+  EXPECT_EQ(p.drift_percent_distance, 0.3);
+  EXPECT_EQ(p.scale_sigma_percent, 2.0);
+  EXPECT_EQ(p.scale_random_walk_percent_per_sqrt_km, 0.1);
+  EXPECT_EQ(p.heading_sigma_deg, 1.5);
+  EXPECT_EQ(p.heading_random_walk_deg_per_sqrt_s, 0.001);
+  EXPECT_EQ(p.fix_correlation_time_s, 30.0);
+  EXPECT_EQ(p.fix_correlated_fraction, 0.5);
+  EXPECT_EQ(p.gate_sigma, 8.0);
+  AnchoredPositionFilter filter(p);
+  EXPECT_EQ(filter.applies_from_s(10.0), estimate_applies_from_s(10.0, 0.35));
+  // Without INS the offset walk is at least the degraded mode's.
+  facts.use_ins = false;
+  EXPECT_EQ(anchored_position_params(facts).drift_percent_distance, kDegradedAnchorDriftPercent);
+
+  Options none("odonav-test", "defaults");
+  add_dead_reckoning_options(none);
+  add_lever_arm_option(none);
+  ASSERT_EQ(none.parse(std::vector<std::string>{}, help), ParseResult::kRun);
+  const AnchoredPositionParams d = anchored_position_params(dead_reckoning_facts_from(none));
+  const AnchoredPositionParams defaults;
+  EXPECT_EQ(d.hold_off_s, kDefaultEstimateHoldOff_s);
+  EXPECT_EQ(d.drift_percent_distance, defaults.drift_percent_distance);
+  EXPECT_EQ(d.fix_correlated_fraction, defaults.fix_correlated_fraction);
+  EXPECT_EQ(d.scale_sigma_percent, 0.0);
 }
