@@ -118,6 +118,7 @@ void FleetState::on_dead_reckoning(const DeadReckoningView& d, double now_s) {
   Vehicle& v = vehicle(d.vehicle_id);
   v.dead_reckoning = std::make_pair(d, Timed{now_s, false});
   count(v, Stream::kDeadReckoning, now_s);
+  v.dead_reckoning_gaps.offer(d.stamp_s);
 }
 
 void FleetState::on_navigation(const NavigationPositionView& n, double now_s) {
@@ -192,6 +193,9 @@ FleetSnapshot FleetState::snapshot(double now_s, const std::vector<std::string>&
     fill(v.dead_reckoning, vs.dead_reckoning, Stream::kDeadReckoning);
     fill(v.navigation, vs.navigation, Stream::kDeadReckoning);
     fill(v.gnss, vs.gnss, Stream::kGnssFix);
+    vs.dead_reckoning_missed = v.dead_reckoning_gaps.missed();
+    vs.dead_reckoning_gaps = v.dead_reckoning_gaps.gaps();
+    vs.dead_reckoning_last_gap = v.dead_reckoning_gaps.last_gap();
     for (int s = 0; s < kStreamCount; ++s) {
       const auto& q = v.arrivals[s];
       const auto n = std::count_if(q.begin(), q.end(), [&](double t) { return t >= now_s - config_.rate_window_s; });
@@ -309,6 +313,17 @@ nlohmann::json snapshot_json(const FleetSnapshot& snap) {
     nlohmann::json rates = nlohmann::json::object();
     for (int s = 0; s < kStreamCount; ++s) rates[stream_name(static_cast<Stream>(s))] = v.rate_hz[s];
     jv["rates_hz"] = rates;
+    nlohmann::json dr_gaps = {{"missed", v.dead_reckoning_missed}, {"gaps", v.dead_reckoning_gaps}};
+    if (v.dead_reckoning_last_gap) {
+      dr_gaps["last"] = describe_gap(*v.dead_reckoning_last_gap, "dead-reckoning");
+      dr_gaps["last_first_missing_t_s"] = v.dead_reckoning_last_gap->first_missing_t_s;
+      dr_gaps["last_last_missing_t_s"] = v.dead_reckoning_last_gap->last_missing_t_s;
+    } else {
+      dr_gaps["last"] = nullptr;
+      dr_gaps["last_first_missing_t_s"] = nullptr;
+      dr_gaps["last_last_missing_t_s"] = nullptr;
+    }
+    jv["gaps"] = {{"dead_reckoning", dr_gaps}};
     vehicles.push_back(std::move(jv));
   }
   return {{"vehicles", vehicles}};
@@ -376,6 +391,11 @@ std::vector<Line> vehicle_block(const VehicleSnapshot& v) {
     // Which identification instance the K comes from (a hot standby publishes under its own name).
     if (v.scale_factor && !v.scale_factor->view.source.empty()) d << " from " << v.scale_factor->view.source;
     d << (v.dead_reckoning->stale ? " STALE" : "");
+    // What never reached the ground (a fault on the vehicle or the link), from the stamps.
+    if (v.dead_reckoning_missed > 0)
+      d << " missed " << v.dead_reckoning_missed << " in " << v.dead_reckoning_gaps << " gap(s), last "
+        << format("t=%.2f", v.dead_reckoning_last_gap->first_missing_t_s)
+        << format("-%.2f s", v.dead_reckoning_last_gap->last_missing_t_s);
   } else {
     d << " DR -";
   }

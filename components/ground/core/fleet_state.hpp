@@ -18,6 +18,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "odonav/gap_detector.hpp"
+
 namespace odonav::ground {
 
 /// The vehicle topics the monitor follows, in the order of idl/README.md.
@@ -140,6 +142,14 @@ struct VehicleSnapshot {
   std::optional<ItemSnapshot<GnssView>> gnss;
   double rate_hz[kStreamCount] = {0, 0, 0, 0, 0, 0, 0};  ///< arrivals per second over the rate window
   bool stale = false;  ///< some producer of this vehicle is stale
+  /// Holes in the dead-reckoning outputs this ground station received, from their stamps (event
+  /// time; odonav/gap_detector.hpp, period learned, 100 Hz): outputs missed in all gaps, the number
+  /// of gaps, and the last one. They are what did not reach the ground: a fault on the vehicle
+  /// (stalled or restarted dead reckoning) or losses on the best-effort link. The K stream is not
+  /// checked: in a GNSS outage it repeats its last stamp and then resumes, with no outputs missing.
+  std::uint64_t dead_reckoning_missed = 0;
+  std::uint64_t dead_reckoning_gaps = 0;
+  std::optional<OutputGap> dead_reckoning_last_gap;
 };
 
 struct FleetSnapshot {
@@ -181,6 +191,7 @@ class FleetState {
     std::optional<std::pair<NavigationPositionView, Timed>> navigation;
     std::optional<std::pair<GnssView, Timed>> gnss;
     std::deque<double> arrivals[kStreamCount];
+    GapDetector dead_reckoning_gaps;  ///< period learned from the stamps
   };
   Vehicle& vehicle(const std::string& id);
   void count(Vehicle& v, Stream s, double now_s);
@@ -196,7 +207,9 @@ class FleetState {
 /// {...}}], "scale_factor" (with "source": the instance K comes from), "misalignment" (degrees
 /// added), "dead_reckoning", "navigation" ("status" not_started | anchored | dead_reckoning,
 /// "horizontal_sigma_m", "distance_since_fix_m"), "gnss": objects or null, "rates_hz": {stream: Hz}}]}. Unknown
-/// sigmas/errors (-1) are null.
+/// sigmas/errors (-1) are null. "gaps": {"dead_reckoning": {"missed", "gaps", "last": "missed 522
+/// dead-reckoning outputs t=40.010-45.220 s" or null, "last_first_missing_t_s", "last_last_missing_t_s"
+/// (null without a gap)}}.
 nlohmann::json snapshot_json(const FleetSnapshot& snapshot);
 
 /// The dashboard text: at most `height` lines of at most `width` characters (>= 40 x 8), one block

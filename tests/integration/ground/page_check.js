@@ -28,7 +28,7 @@ async function rows(page) {
       for (const s of tr.querySelectorAll("span.comp")) comps[s.dataset.component] = s.dataset.level;
       r[tr.dataset.vehicle] = { stale: tr.dataset.stale === "true", k: cell("k"), sigma: cell("sigma"),
                                 source: cell("source"), estimator: cell("estimator"), mis: cell("mis"), dr_k: cell("dr-k"), dr_error: cell("dr-error"),
-                                gnss: cell("gnss"), components: comps };
+                                gnss: cell("gnss"), gaps: cell("gaps"), components: comps };
     }
     return r;
   });

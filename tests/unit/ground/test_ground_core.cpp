@@ -335,6 +335,54 @@ TEST(FleetState, JsonAndDashboardOfManyVehiclesFitEightyByTwentyFour) {
   EXPECT_NE(text.find("dist 1234 m K identified from identification/standby"), std::string::npos) << text;
 }
 
+TEST(FleetState, GapsInTheDeadReckoningOutputsArePerVehicleInTheJsonAndOnTheDashboard) {
+  FleetState fleet;
+  DeadReckoningView d;
+  d.k_source = 1;
+  // v1: 100 Hz from t = 40.00 s, then nothing from 45.23 to 50.00 s (a stalled dead reckoning:
+  // 477 outputs t=45.230-49.990 s never arrived), then on again; repeats are not gaps.
+  d.vehicle_id = "v1";
+  for (int i = 0; i <= 522; ++i) {
+    d.stamp_s = 40.0 + 0.01 * i;
+    fleet.on_dead_reckoning(d, 1.0);
+  }
+  fleet.on_dead_reckoning(d, 1.0);  // a repeat of t = 45.22 s
+  for (int i = 0; i <= 100; ++i) {
+    d.stamp_s = 50.0 + 0.01 * i;
+    fleet.on_dead_reckoning(d, 2.0);
+  }
+  // v2: continuous.
+  d.vehicle_id = "v2";
+  for (int i = 0; i <= 300; ++i) {
+    d.stamp_s = 10.0 + 0.01 * i;
+    fleet.on_dead_reckoning(d, 2.0);
+  }
+  const FleetSnapshot snap = fleet.snapshot(2.0);
+  ASSERT_EQ(snap.vehicles.size(), 2u);
+  const VehicleSnapshot& v1 = snap.vehicles[0];
+  EXPECT_EQ(v1.dead_reckoning_missed, 477u);
+  EXPECT_EQ(v1.dead_reckoning_gaps, 1u);
+  ASSERT_TRUE(v1.dead_reckoning_last_gap);
+  EXPECT_NEAR(v1.dead_reckoning_last_gap->first_missing_t_s, 45.23, 1e-9);
+  EXPECT_NEAR(v1.dead_reckoning_last_gap->last_missing_t_s, 49.99, 1e-9);
+  EXPECT_EQ(snap.vehicles[1].dead_reckoning_missed, 0u);
+  EXPECT_FALSE(snap.vehicles[1].dead_reckoning_last_gap);
+
+  const nlohmann::json j = snapshot_json(snap);
+  const auto& g1 = j["vehicles"][0]["gaps"]["dead_reckoning"];
+  EXPECT_EQ(g1["missed"], 477);
+  EXPECT_EQ(g1["gaps"], 1);
+  EXPECT_EQ(g1["last"], "missed 477 dead-reckoning outputs t=45.230-49.990 s");
+  EXPECT_NEAR(g1["last_first_missing_t_s"].get<double>(), 45.23, 1e-9);
+  const auto& g2 = j["vehicles"][1]["gaps"]["dead_reckoning"];
+  EXPECT_EQ(g2["missed"], 0);
+  EXPECT_TRUE(g2["last"].is_null());
+
+  const std::string text = render_dashboard(snap, 120, 40, false, "gaps");
+  EXPECT_NE(text.find("missed 477 in 1 gap(s), last t=45.23-49.99 s"), std::string::npos) << text;
+  EXPECT_EQ(text.find("missed 0"), std::string::npos) << text;
+}
+
 TEST(Recording, TopicSelectionAndQosMetadata) {
   const auto chosen = select_topics("gnss/fix, /odonav/health,rt/odonav/odometer,gnss/fix");
   ASSERT_EQ(chosen.size(), 3u);
