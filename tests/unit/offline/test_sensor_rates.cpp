@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 #include "core/simulator.hpp"
@@ -141,5 +142,7 @@ TEST(SensorRates, SmartLocDriveKWithin03PercentOfTheReferenceRatio) {
   ASSERT_GT(converged_k.size(), 50u);
   std::nth_element(converged_k.begin(), converged_k.begin() + converged_k.size() / 2, converged_k.end());
   const double median = converged_k[converged_k.size() / 2];
+  std::printf("smartLoc: median K %.7f m/pulse, reference %.7f m/pulse, ratio - 1 = %+.3f %%\n", median, k_reference,
+              100.0 * (median / k_reference - 1.0));
   EXPECT_NEAR(median / k_reference, 1.0, 0.003) << "median " << median << " reference " << k_reference;
 }
