@@ -303,6 +303,10 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("samples_accepted", static_cast<double>(b.accepted));
   c.emplace_back("rejected_innovation", static_cast<double>(b.innovation));
   c.emplace_back("rejected_cross_track", static_cast<double>(b.cross_track));
+  // The GNSS latency in force and its online one-sigma (0 when fixed, -1 while there is none).
+  const GnssLatencyEstimate& latency = core_.latency();
+  c.emplace_back("gnss_latency_s", latency.applied_s);
+  c.emplace_back("gnss_latency_sigma_s", latency.sigma_s >= 0.0 ? latency.sigma_s : -1.0);
   c.emplace_back("rejected_min_speed", static_cast<double>(b.min_speed));
   c.emplace_back("rejected_invalid_fix", static_cast<double>(b.invalid_fix));
   c.emplace_back("rejected_yaw_rate", static_cast<double>(b.yaw_rate));

@@ -92,6 +92,8 @@ class IdentificationCore {
   /// Names of the side-by-side estimators (empty unless run_all_estimators).
   std::vector<std::string> estimator_names() const;
   const SampleBuilderCounters& builder_counters() const { return builder_.counters(); }
+  /// The GNSS latency in force and its online estimate (sample_builder.hpp).
+  const GnssLatencyEstimate& latency() const { return builder_.latency(); }
   /// The main estimator (e.g. for save_state/restore_state).
   ScaleFactorEstimator& main_estimator() { return *main_; }
   const ScaleFactorEstimator& main_estimator() const { return *main_; }
