@@ -162,18 +162,27 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
       with_reader_profile(topics::kOdometer, sensor_profile), odometer_,
       [this](const auto& m, double t_s) {
         lifecycle_.note_odometer_received(t_s, dds::steady_now_s());
-        if (!lifecycle_.skip_sample(IdentificationInput::kOdometer, t_s))
-          core_.add_odometer(dds::odometer_sample_from(m));
+        const bool skip = lifecycle_.skip_sample(IdentificationInput::kOdometer, t_s);
+        flush_pending_gnss();
+        if (!skip) core_.add_odometer(dds::odometer_sample_from(m));
       },
       [this](const odonav::msg::Odometer& m) { declare_gnss_published(gnss_, m); });
   gnss_reader_ = subscribe<odonav::msg::GnssFix>(
       with_reader_profile(topics::kGnssFix, sensor_profile), gnss_, [this](const auto& m, double t_s) {
+    // After a restore, GNSS waits until the first odometer (and INS) sample of the handed-over
+    // history is known: epochs older than those histories cannot be processed and are lost.
+    if (lifecycle_.restored_t_s() && !sensor_history_start_known()) {
+      pending_gnss_.emplace_back(t_s, dds::gnss_sample_from(m));
+      return;
+    }
     if (!lifecycle_.skip_sample(IdentificationInput::kGnss, t_s)) core_.add_gnss(dds::gnss_sample_from(m));
   });
   if (ins_) {
     ins_reader_ = subscribe<odonav::msg::InsAttitude>(
         with_reader_profile(topics::kInsAttitude, sensor_profile), *ins_, [this](const auto& m, double t_s) {
-      if (lifecycle_.skip_sample(IdentificationInput::kIns, t_s)) return;
+      const bool skip = lifecycle_.skip_sample(IdentificationInput::kIns, t_s);
+      flush_pending_gnss();
+      if (skip) return;
       if (!m.valid()) {
         ++ins_->dropped_invalid;
         return;
@@ -186,6 +195,20 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
 }
 
 IdentificationNode::~IdentificationNode() { close_inputs(); }
+
+bool IdentificationNode::sensor_history_start_known() const {
+  return lifecycle_.first_sample_seen(IdentificationInput::kOdometer) &&
+         (!ins_ || lifecycle_.first_sample_seen(IdentificationInput::kIns));
+}
+
+void IdentificationNode::flush_pending_gnss() {
+  if (pending_gnss_.empty() || !sensor_history_start_known()) return;
+  // Before any GNSS sample reaches the core: the watermark needs odometer (and INS) data, so no
+  // epoch was processed yet and these go in before the first one.
+  for (const auto& [t_s, g] : pending_gnss_)
+    if (!lifecycle_.skip_sample(IdentificationInput::kGnss, t_s)) core_.add_gnss(g);
+  pending_gnss_.clear();
+}
 
 void IdentificationNode::close_inputs() {
   odometer_reader_.reset();
@@ -331,6 +354,7 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
       if (lifecycle_.catch_up_first_t_s()) c.emplace_back("catch_up_first_t_s", *lifecycle_.catch_up_first_t_s());
       if (lifecycle_.catch_up_last_t_s()) c.emplace_back("catch_up_last_t_s", *lifecycle_.catch_up_last_t_s());
       c.emplace_back("catch_up_lost_s", lifecycle_.catch_up_lost_s());
+      c.emplace_back("catch_up_lost_epochs", static_cast<double>(lifecycle_.catch_up_lost_epochs()));
     }
   }
   const auto& last = lifecycle_.last_output();

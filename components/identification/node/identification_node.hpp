@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "odonav/config.hpp"
@@ -91,6 +92,10 @@ class IdentificationNode : public dds::EventTimeNode {
   /// Writes one ScaleFactor (EstimatePublisher: counted, a refusal logged, kept for the heartbeat).
   void write_scale_factor(const IdentificationOutput& output, double now_s);
   void on_misalignment(const odonav::msg::Misalignment& m, double t_s);
+  /// After a restore: the first odometer (and INS, when used) sample of the handed-over history seen.
+  bool sensor_history_start_known() const;
+  /// Feeds the GNSS samples held until then (those older than the sensor histories are lost).
+  void flush_pending_gnss();
   dds::CommandAck on_command(const odonav::msg::Command& command);
 
   IdentificationParams params_;
@@ -99,6 +104,7 @@ class IdentificationNode : public dds::EventTimeNode {
   IdentificationLifecycle lifecycle_;
   uint64_t misalignments_applied_ = 0;
   std::optional<double> held_misalignment_t_s_;  // stamp of the last misalignment applied
+  std::vector<std::pair<double, GnssSample>> pending_gnss_;  // after a restore, event time (s) + sample
   dds::NodeInput& odometer_;
   dds::NodeInput& gnss_;
   dds::NodeInput* ins_ = nullptr;

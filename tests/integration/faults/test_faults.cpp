@@ -496,6 +496,8 @@ TEST_F(Faults, FiveSecondStallsOfIdentificationDeadReckoningAndGatewayLoseNothin
 
 // ---- 3. kill -9 + restart: the downtime is caught up ----------------------------------------------
 
+const char* health_level_name_of(const msg::Health& h) { return h.level() == 0 ? "OK" : h.level() == 1 ? "WARN" : "ERROR"; }
+
 double health_counter(const msg::Health& h, const std::string& name) {
   for (const auto& c : h.counters())
     if (c.name() == name) return c.value();
@@ -564,18 +566,22 @@ TEST_F(Faults, KillNineAndRestartOfTheIdentificationCatchesUpEveryRowEqualToOffl
   // test then fails on the rows it lost).
   const char* restart_env = std::getenv("ODONAV_FAULTS_RESTART");
   const std::string restarted = restart_env && *restart_env ? restart_env : "odonav-identification";
+  // ODONAV_FAULTS_DOWN_S (2): how long it stays down (wall clock); beyond 10 s at 3x real time the
+  // downtime exceeds the producers' 30 s history, and the test then fails on the rows lost.
+  const char* down_env = std::getenv("ODONAV_FAULTS_DOWN_S");
+  const int down_s = down_env && *down_env ? std::stoi(down_env) : 2;
   const double last_before_kill_s = stamp_s(k.items().back().sample);
   if (restarted == "odonav-calibration") {
     calibration->signal(SIGKILL);
     ASSERT_TRUE(calibration->wait_exit(seconds(5)));
-    std::this_thread::sleep_for(seconds(2));
+    std::this_thread::sleep_for(seconds(down_s));
     calibration = start_logged("odonav-calibration", common_args(kDomain, {"--max-wait-s", "30", "--lever-arm", arm}),
                                dir + "/calibration-2.log");
     ASSERT_TRUE(calibration->started());
   } else {
     identification->signal(SIGKILL);
     ASSERT_TRUE(identification->wait_exit(seconds(5)));
-    std::this_thread::sleep_for(seconds(2));
+    std::this_thread::sleep_for(seconds(down_s));
     identification = start_logged("odonav-identification", id_args, dir + "/id-2.log");
     ASSERT_TRUE(identification->started());
   }
@@ -605,6 +611,7 @@ TEST_F(Faults, KillNineAndRestartOfTheIdentificationCatchesUpEveryRowEqualToOffl
     if (h.sample.component() == "odonav-identification" && !std::isnan(health_counter(h.sample, "catch_up_outputs")))
       last = &h.sample;
   ASSERT_NE(last, nullptr) << "no health of the restarted identification with catch-up counters";
+  std::cerr << "its last health: " << health_level_name_of(*last) << " \"" << last->reason() << "\"\n";
   std::cerr << "restarted identification: " << health_counter(*last, "catch_up_outputs")
             << " estimates caught up, t=" << health_counter(*last, "catch_up_first_t_s") << "-"
             << health_counter(*last, "catch_up_last_t_s") << " s, lost " << health_counter(*last, "catch_up_lost_s")

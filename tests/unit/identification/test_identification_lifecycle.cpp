@@ -287,6 +287,13 @@ TEST_F(IdentificationLifecycleTest, AHistoryStartingAfterTheCheckpointIsALossNam
   EXPECT_FALSE(l.skip_sample(IdentificationInput::kGnss, 30.1));
   EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, 42.5));
   EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, 30.5)) << "only the first sample tells";
+  EXPECT_TRUE(l.first_sample_seen(IdentificationInput::kOdometer));
+  EXPECT_FALSE(l.first_sample_seen(IdentificationInput::kIns));
+  // GNSS epochs of the lost span are skipped (no data to process them with), later ones are fed.
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kGnss, 30.2));
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kGnss, 42.4));
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kGnss, 42.5));
+  EXPECT_EQ(l.catch_up_lost_epochs(), 2u);
   ASSERT_TRUE(l.lost_until_t_s());
   EXPECT_EQ(*l.lost_until_t_s(), 42.5);
   EXPECT_NEAR(l.catch_up_lost_s(), 12.4, 1e-12);

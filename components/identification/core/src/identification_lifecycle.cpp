@@ -133,6 +133,11 @@ bool IdentificationLifecycle::skip_sample(IdentificationInput input, double t_s)
                     t_s, t_s - *restored_t_s_, *restored_t_s_, *restored_t_s_, t_s);
     }
   }
+  // An epoch before the first odometer / INS sample handed over has no data to be processed with.
+  if (input == IdentificationInput::kGnss && lost_until_t_s_ && t_s >= *restored_t_s_ && t_s < *lost_until_t_s_) {
+    ++lost_epochs_;
+    return true;
+  }
   const double margin_s = input == IdentificationInput::kGnss ? 0.0 : kSensorMarginBeforeCheckpoint_s;
   if (t_s >= *restored_t_s_ - margin_s) return false;
   ++skipped_before_checkpoint_;

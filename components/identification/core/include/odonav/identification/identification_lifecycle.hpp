@@ -137,8 +137,15 @@ class IdentificationLifecycle {
   /// After a restore the first sample of each input (the oldest of the producer's history, which is
   /// handed over oldest first) tells whether the history reached back to the checkpoint: when it
   /// starts after it, the data in between is lost (logged once, in the health as WARN, and in
-  /// catch_up_lost_s()).
+  /// catch_up_lost_s()). GNSS epochs inside the lost span are skipped too (counted in
+  /// catch_up_lost_epochs()): without odometer and INS data they cannot be processed, and no
+  /// estimate is published for them. The node holds GNSS back until the first odometer and INS
+  /// samples are known (first_sample_seen), so that the span is known before any epoch.
   bool skip_sample(IdentificationInput input, double t_s);
+  /// After a restore: whether a sample of `input` was offered to skip_sample yet.
+  bool first_sample_seen(IdentificationInput input) const { return first_seen_[static_cast<int>(input)]; }
+  /// GNSS epochs skipped because they fell in the lost span.
+  uint64_t catch_up_lost_epochs() const { return lost_epochs_; }
 
   /// The outputs of the core to publish, in order: after a restore those at or before the
   /// checkpoint time are dropped (the previous run and take_restored_output published them), and
@@ -219,6 +226,7 @@ class IdentificationLifecycle {
   bool checkpoint_moved_aside_ = false;
   bool first_seen_[3] = {false, false, false};  ///< per IdentificationInput, after a restore
   std::optional<double> lost_until_t_s_;
+  uint64_t lost_epochs_ = 0;
   bool catching_up_ = false;
   std::optional<double> first_received_steady_s_;
   std::optional<double> live_edge_t_s_;
