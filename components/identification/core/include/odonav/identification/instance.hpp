@@ -1,7 +1,8 @@
 #pragma once
 // Which identification instance this is (hot standby, README "Hot standby") and the names derived
-// from it that must stay the same across restarts: the checkpoint file, the Fast DDS SQLite file
-// and the persistence GUID of the scale-factor writer. Middleware-free: plain strings.
+// from it that must stay the same across restarts: the checkpoint file, and the names an earlier
+// version gave its Fast DDS persistence (SQLite file, persistence GUID; the scale-factor writer has
+// no persistence any more, docs/DDS.md section 5). Middleware-free: plain strings.
 #include <string>
 
 namespace odonav {
@@ -25,7 +26,7 @@ std::string instance_file_part(const std::string& instance);
 std::string instance_checkpoint_path(const std::string& state_dir, const std::string& vehicle_id,
                                      const std::string& instance);
 
-/// The SQLite file of the scale-factor writer's TRANSIENT durability:
+/// The SQLite file an earlier version's TRANSIENT scale-factor writer kept (not used by the node):
 /// `<state_dir>/<vehicle>-<instance_file_part>.db`. Same checks as instance_checkpoint_path.
 std::string persistence_db_path(const std::string& state_dir, const std::string& vehicle_id,
                                 const std::string& instance);
