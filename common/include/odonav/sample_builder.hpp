@@ -189,6 +189,11 @@ struct SampleBuilderParams {
   /// latency_k_stable_rel (default 0.003) of the current one.
   double latency_k_stable_s = 20.0;
   double latency_k_stable_rel = 0.003;
+  /// The precise estimate uses only the samples taken while K held within this (default 0.0015):
+  /// a sample taken while K^ still moves carries its lag times the speed profile, which biased the
+  /// estimate by +2.5 ms at 0.003 (+1.1 to +2.3 ms at 0.0015, measured); the looser rule above still
+  /// finds a latency that is clearly off while the uncompensated latency keeps K moving.
+  double latency_k_stable_fine_rel = 0.0015;
 };
 
 /// The max interval in force for an observed GNSS period (s; NaN: not yet observed):
@@ -367,9 +372,9 @@ class SampleBuilder {
   /// GNSS velocity moved from the antenna to the INS reference point (ENU, m/s).
   Eigen::Vector3d reference_point_velocity(const GnssSample& g, const Attitude& att) const;
   void count(EpochStatus status);
-  /// Whether every K estimate stamped in [t_s - latency_k_stable_s, t_s) is within
+  /// Whether every K estimate stamped in [t_s - latency_k_stable_s, t_s) is within rel of
   /// latency_k_stable_rel of k_m_per_pulse (and there is one).
-  bool k_recently_stable(double t_s, double k_m_per_pulse) const;
+  bool k_recently_stable(double t_s, double k_m_per_pulse, double rel) const;
   /// latency_k_stable_s plus half the observed GNSS period.
   double k_stable_window_s() const;
   /// Pulse rate (pulses/s) at sensor time t_s (pulse_rate_half_window_s); nullopt without counts.
@@ -389,15 +394,19 @@ class SampleBuilder {
     double k_m_per_pulse;
     double applied_s;      ///< latency in force when the sample was made.
     double needs_until_s;  ///< sensor time up to which the odometer must be final to add it.
+    bool fine;             ///< K held within latency_k_stable_fine_rel: also for the fine sums.
   };
   /// Queues an accepted sample between the epochs stamped t0_s and t1_s for the latency sums.
-  void defer_latency_sample(double t0_s, double t1_s, double y_m, double k_m_per_pulse);
+  void defer_latency_sample(double t0_s, double t1_s, double y_m, double k_m_per_pulse, bool fine);
   /// Adds a deferred sample to the sums (update_latency), unless the sums restarted away from the
   /// latency it was made at.
   void fold_latency_sample(const PendingLatencySample& sample);
   /// Adds an accepted sample between the epochs stamped t0_s and t1_s to the latency candidates and
   /// updates latency_ (estimation only; the applied value changes for the following epochs).
-  void update_latency(double t0_s, double t1_s, double y_m, double k_m_per_pulse);
+  void update_latency(double t0_s, double t1_s, double y_m, double k_m_per_pulse, bool fine);
+  /// The parabola fit of one set of sums (samples of them): fills estimate_s, sigma_s, samples,
+  /// reason of out and returns whether there is an estimate.
+  bool fit_latency(const std::vector<double>& sse_m2, uint64_t samples, GnssLatencyEstimate& out) const;
 
   SampleBuilderParams params_;
   OdometerBuffer odometer_;
@@ -418,6 +427,8 @@ class SampleBuilder {
   GnssLatencyEstimate latency_;
   std::vector<double> latency_candidates_s_;
   std::vector<double> latency_sse_m2_;  ///< per candidate: sum of squared residuals against K^.
+  std::vector<double> latency_sse_fine_m2_;  ///< the same over the samples of the fine rule.
+  uint64_t latency_samples_fine_ = 0;
   std::deque<PendingLatencySample> latency_pending_;  ///< accepted, not yet in the sums (in order).
   uint64_t latency_samples_ = 0;
   double latency_sums_applied_s_ = 0.0;  ///< the applied latency the sums were collected at.

@@ -148,6 +148,7 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
     const int n = static_cast<int>(std::floor((p.latency_search_max_s - p.latency_search_min_s) / p.latency_search_step_s + 1e-9)) + 1;
     for (int i = 0; i < n; ++i) latency_candidates_s_.push_back(p.latency_search_min_s + i * p.latency_search_step_s);
     latency_sse_m2_.assign(latency_candidates_s_.size(), 0.0);
+    latency_sse_fine_m2_.assign(latency_candidates_s_.size(), 0.0);
     latency_.reason = "no accepted sample yet";
   } else {
     latency_.reason = "estimation disabled";
@@ -187,20 +188,77 @@ double SampleBuilder::earliest_sensor_offset_s() const {
 }
 
 
-void SampleBuilder::defer_latency_sample(double t0_s, double t1_s, double y_m, double k_m_per_pulse) {
+void SampleBuilder::defer_latency_sample(double t0_s, double t1_s, double y_m, double k_m_per_pulse, bool fine) {
   if (latency_candidates_s_.empty()) return;
   // The smallest candidate looks furthest ahead: its pulse rate at t1 - candidate ends h later.
   const double needs_until_s = t1_s - latency_candidates_s_.front() + params_.pulse_rate_half_window_s;
-  latency_pending_.push_back(PendingLatencySample{t0_s, t1_s, y_m, k_m_per_pulse, latency_.applied_s, needs_until_s});
+  latency_pending_.push_back(
+      PendingLatencySample{t0_s, t1_s, y_m, k_m_per_pulse, latency_.applied_s, needs_until_s, fine});
 }
 
 void SampleBuilder::fold_latency_sample(const PendingLatencySample& s) {
   // Gated and projected at a latency the sums were restarted away from: it would pull them back.
   if (std::abs(s.applied_s - latency_sums_applied_s_) > params_.latency_restart_s) return;
-  update_latency(s.t0_s, s.t1_s, s.y_m, s.k_m_per_pulse);
+  update_latency(s.t0_s, s.t1_s, s.y_m, s.k_m_per_pulse, s.fine);
 }
 
-void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m, double k_m_per_pulse) {
+bool SampleBuilder::fit_latency(const std::vector<double>& sse_m2, uint64_t samples, GnssLatencyEstimate& out) const {
+  const std::size_t best =
+      static_cast<std::size_t>(std::min_element(sse_m2.begin(), sse_m2.end()) - sse_m2.begin());
+  std::ostringstream why;
+  // Below the minimum the sums are nearly flat and their smallest value jumps from candidate to
+  // candidate with the last bits of the data: no estimate yet.
+  if (samples < static_cast<uint64_t>(std::max(3, params_.latency_min_samples))) {
+    why << "too few samples (" << samples << " of " << params_.latency_min_samples << ")";
+    out.reason = why.str();
+    out.sigma_s = -1.0;
+    return false;
+  }
+  if (best == 0 || best + 1 == sse_m2.size()) {
+    why << "the residuals are smallest at the bound " << latency_candidates_s_[best]
+        << " s of the search range [" << latency_candidates_s_.front() << ", " << latency_candidates_s_.back() << "] s";
+    out.reason = why.str();
+    out.sigma_s = -1.0;
+    return false;
+  }
+  // A least-squares parabola through the candidates within latency_fit_half_width_s of the
+  // smallest sum: the sums wiggle from candidate to candidate (pulse quantisation differs with the
+  // shift), so the three nearest points alone would follow the wiggles, not the minimum.
+  const double half = params_.latency_fit_half_width_s;
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  int points = 0;
+  for (std::size_t i = 0; i < sse_m2.size(); ++i) {
+    const double x = latency_candidates_s_[i] - latency_candidates_s_[best];
+    if (std::abs(x) > half + 1e-12) continue;
+    const Eigen::Vector3d basis(1.0, x, x * x);
+    normal += basis * basis.transpose();
+    rhs += basis * sse_m2[i];
+    ++points;
+  }
+  const Eigen::Vector3d c = points >= 5 ? Eigen::Vector3d(normal.ldlt().solve(rhs)) : Eigen::Vector3d::Zero();
+  const double curvature = c[2];  // J ~ J_min + curvature (tau - tau^)^2
+  if (points < 5 || !(curvature > 0.0)) {
+    out.reason = "the residuals do not depend on the latency (no acceleration yet)";
+    out.sigma_s = -1.0;
+    return false;
+  }
+  const double vertex = -c[1] / (2.0 * curvature);
+  if (std::abs(vertex) > half) {
+    out.reason = "the fitted minimum lies outside the fitted range";
+    out.sigma_s = -1.0;
+    return false;
+  }
+  const double j_min = std::max(0.0, c[0] - curvature * vertex * vertex);
+  const double sigma_y2 = j_min / static_cast<double>(samples - 2);
+  out.estimate_s = latency_candidates_s_[best] + vertex;
+  out.sigma_s = std::sqrt(sigma_y2 / curvature);
+  out.samples = samples;
+  out.reason.clear();
+  return true;
+}
+
+void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m, double k_m_per_pulse, bool fine) {
   if (latency_candidates_s_.empty()) return;
   // Every candidate on the same samples: skip a sample for which one candidate has no count.
   // The candidates compare like with like: y is the trapezoid of the two GNSS speeds, so the pulses
@@ -218,76 +276,42 @@ void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m, double 
   for (std::size_t i = 0; i < phi.size(); ++i) {
     const double r = y_m - k_m_per_pulse * phi[i];
     latency_sse_m2_[i] += r * r;
+    if (fine) latency_sse_fine_m2_[i] += r * r;
   }
   ++latency_samples_;
-  latency_.samples = latency_samples_;
-  const std::size_t best = static_cast<std::size_t>(
-      std::min_element(latency_sse_m2_.begin(), latency_sse_m2_.end()) - latency_sse_m2_.begin());
-  std::ostringstream why;
-  // Below the minimum the sums are nearly flat and their smallest value jumps from candidate to
-  // candidate with the last bits of the data: no estimate yet.
-  if (latency_samples_ < static_cast<uint64_t>(std::max(3, params_.latency_min_samples))) {
-    why << "too few samples (" << latency_samples_ << " of " << params_.latency_min_samples << ")";
-    latency_.reason = why.str();
-    latency_.sigma_s = -1.0;
-    return;
-  }
-  if (best == 0 || best + 1 == latency_sse_m2_.size()) {
-    why << "the residuals are smallest at the bound " << latency_candidates_s_[best]
-        << " s of the search range [" << latency_candidates_s_.front() << ", " << latency_candidates_s_.back() << "] s";
-    latency_.reason = why.str();
-    latency_.sigma_s = -1.0;
-    return;
-  }
-  // A least-squares parabola through the candidates within latency_fit_half_width_s of the
-  // smallest sum: the sums wiggle from candidate to candidate (pulse quantisation differs with the
-  // shift), so the three nearest points alone would follow the wiggles, not the minimum.
-  const double half = params_.latency_fit_half_width_s;
-  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
-  int points = 0;
-  for (std::size_t i = 0; i < latency_sse_m2_.size(); ++i) {
-    const double x = latency_candidates_s_[i] - latency_candidates_s_[best];
-    if (std::abs(x) > half + 1e-12) continue;
-    const Eigen::Vector3d basis(1.0, x, x * x);
-    normal += basis * basis.transpose();
-    rhs += basis * latency_sse_m2_[i];
-    ++points;
-  }
-  const Eigen::Vector3d c = points >= 5 ? Eigen::Vector3d(normal.ldlt().solve(rhs)) : Eigen::Vector3d::Zero();
-  const double curvature = c[2];  // J ~ J_min + curvature (tau - tau^)^2
-  if (points < 5 || !(curvature > 0.0)) {
-    latency_.reason = "the residuals do not depend on the latency (no acceleration yet)";
-    latency_.sigma_s = -1.0;
-    return;
-  }
-  const double vertex = -c[1] / (2.0 * curvature);
-  if (std::abs(vertex) > half) {
-    latency_.reason = "the fitted minimum lies outside the fitted range";
-    latency_.sigma_s = -1.0;
-    return;
-  }
-  const double j_min = std::max(0.0, c[0] - curvature * vertex * vertex);
-  const double sigma_y2 = j_min / static_cast<double>(latency_samples_ - 2);
-  latency_.estimate_s = latency_candidates_s_[best] + vertex;
-  latency_.sigma_s = std::sqrt(sigma_y2 / curvature);
-  latency_.reason.clear();
-  if (latency_samples_ < static_cast<uint64_t>(params_.latency_min_samples)) return;
+  if (fine) ++latency_samples_fine_;
+  // Two sets of sums: all samples taken while K held within latency_k_stable_rel (they find a
+  // latency that is clearly off, also while the uncompensated latency keeps K moving), and those
+  // taken while K held within latency_k_stable_fine_rel (less of the lagging estimate in them: the
+  // precise value, once there are enough).
+  GnssLatencyEstimate coarse = latency_;
+  coarse.samples = latency_samples_;
+  const bool have_coarse = fit_latency(latency_sse_m2_, latency_samples_, coarse);
+  GnssLatencyEstimate fine_estimate = latency_;
+  fine_estimate.samples = latency_samples_fine_;
+  const bool have_fine = fit_latency(latency_sse_fine_m2_, latency_samples_fine_, fine_estimate);
+  const double applied_s = latency_.applied_s;
+  latency_ = have_fine ? fine_estimate : coarse;
+  latency_.applied_s = applied_s;
+  if (!have_coarse && !have_fine) return;
   // Apply a precise estimate, or one that says the value in force is clearly wrong (a latency of
   // 100 ms spoils every sample long before the estimate is within a few ms).
   // Each change of the applied value moves K a little (0.1 % per 10 ms at 1 m/s^2 and 10 m/s), so a
   // change must be significant, not the estimate's own wandering.
-  const bool precise = latency_.sigma_s <= params_.latency_apply_sigma_s &&
-                       std::abs(latency_.estimate_s - latency_.applied_s) > latency_.sigma_s;
-  const bool clearly_off = latency_.sigma_s <= params_.latency_apply_coarse_sigma_s &&
-                           std::abs(latency_.estimate_s - latency_.applied_s) > 5.0 * latency_.sigma_s;
+  const bool precise = have_fine && fine_estimate.sigma_s <= params_.latency_apply_sigma_s &&
+                       std::abs(fine_estimate.estimate_s - applied_s) > fine_estimate.sigma_s;
+  const GnssLatencyEstimate& off = have_fine ? fine_estimate : coarse;
+  const bool clearly_off = off.sigma_s <= params_.latency_apply_coarse_sigma_s &&
+                           std::abs(off.estimate_s - applied_s) > 5.0 * off.sigma_s;
   if (!precise && !clearly_off) return;
-  latency_.applied_s = latency_.estimate_s;
+  latency_.applied_s = precise ? fine_estimate.estimate_s : off.estimate_s;
   if (std::abs(latency_.applied_s - latency_sums_applied_s_) > params_.latency_restart_s) {
     // The samples summed so far were gated and projected at a latency far from the new one (the
     // innovation gate kept those that fitted it, which pulls the minimum towards it): start again.
     std::fill(latency_sse_m2_.begin(), latency_sse_m2_.end(), 0.0);
+    std::fill(latency_sse_fine_m2_.begin(), latency_sse_fine_m2_.end(), 0.0);
     latency_samples_ = 0;
+    latency_samples_fine_ = 0;
     latency_sums_applied_s_ = latency_.applied_s;
     ++latency_restarts_;
   }
@@ -339,13 +363,13 @@ double SampleBuilder::k_stable_window_s() const {
   return params_.latency_k_stable_s + 0.5 * period;
 }
 
-bool SampleBuilder::k_recently_stable(double t_s, double k_m_per_pulse) const {
+bool SampleBuilder::k_recently_stable(double t_s, double k_m_per_pulse, double rel) const {
   bool any = false;
   for (const auto& [t, k] : recent_k_) {
     if (!(t < t_s)) break;
     if (t < t_s - k_stable_window_s()) continue;
     any = true;
-    if (std::abs(k - k_m_per_pulse) > params_.latency_k_stable_rel * k_m_per_pulse) return false;
+    if (std::abs(k - k_m_per_pulse) > rel * k_m_per_pulse) return false;
   }
   return any;
 }
@@ -603,8 +627,10 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
     // And only while K holds still: after a step of K the estimate lags for seconds, and its error
     // times whatever the vehicle's speed did meanwhile pulls the latency by many milliseconds.
     const std::optional<KEstimate> k = k_estimates_.before(g.t_s);
-    if (k && k->sigma_m_per_pulse <= params_.latency_max_k_rel_sigma * k->k_m_per_pulse && k_recently_stable(g.t_s, k->k_m_per_pulse))
-      defer_latency_sample(*latency_start_t_s, g.t_s, r.sample->y_m, k->k_m_per_pulse);
+    if (k && k->sigma_m_per_pulse <= params_.latency_max_k_rel_sigma * k->k_m_per_pulse &&
+        k_recently_stable(g.t_s, k->k_m_per_pulse, params_.latency_k_stable_rel))
+      defer_latency_sample(*latency_start_t_s, g.t_s, r.sample->y_m, k->k_m_per_pulse,
+                           k_recently_stable(g.t_s, k->k_m_per_pulse, params_.latency_k_stable_fine_rel));
   }
   if (velocity_good) {
     chain_start_ = in.epoch;
