@@ -92,11 +92,12 @@ TEST(FirstMetre, TerrainSeed1DeadReckoningMeetsTheFinalGoal) {
   const FirstMetres f = evaluate(d, run_offline(d, user_params(d)));
   SCOPED_TRACE(describe(f));
   RecordProperty("figures", describe(f));
-  // Measured 0.0518 %D (0.082 %D when only converged estimates were applied): the goal is
+  // Measured 0.0505 %D (0.082 %D when only converged estimates were applied): the goal is
   // 0.05 %D. It was 0.0485 %D while two GNSS velocity glitches (162.7 s, 416.2 s) still entered K;
-  // the cross-track gate now rejects them, and the final error of this one seed moved by 0.003 %D
-  // (the 10-seed median stays 0.039 %D, BENCHMARKS.md 4e). Bound: the measured value + 5 %.
-  EXPECT_LE(f.final_percent, 0.055);
+  // the cross-track gate rejects them (0.0518 %D), the latency's finer sums then gave 0.0505 %D: the
+  // final error of this one seed moves by thousandths with any change of K (the 10-seed median is
+  // 0.038-0.039 %D, BENCHMARKS.md 4e). Bound: the measured value + 5 %.
+  EXPECT_LE(f.final_percent, 0.053);
   // The K (1.5 % off the nominal) is taken after 11 m of odometer distance instead of 59 m.
   EXPECT_LE(f.distance_on_nominal_k_m, 20.0);
   // Max after 500 m: 0.30 %D, of which the start offset (1.7 m of GNSS noise at the first fix) is
