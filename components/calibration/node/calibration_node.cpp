@@ -71,13 +71,18 @@ CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const Misalignm
     core_.add_gnss(dds::gnss_sample_from(m));
   });
   if (ins_) {
-    ins_reader_ = subscribe<odonav::msg::InsAttitude>(topics::kInsAttitude, *ins_, [this](const auto& m, double) {
-      if (!m.valid()) {
-        ++ins_->dropped_invalid;  // the stream advanced, but the attitude is not usable
-        return;
-      }
-      core_.add_ins(dds::ins_sample_from(m));
-    });
+    // The INS messages declare which GNSS epochs are out: through a GNSS outage the calibration
+    // goes on with the INS instead of waiting (and then refusing the first fix after it as late).
+    ins_reader_ = subscribe<odonav::msg::InsAttitude>(
+        topics::kInsAttitude, *ins_,
+        [this](const auto& m, double) {
+          if (!m.valid()) {
+            ++ins_->dropped_invalid;  // the stream advanced, but the attitude is not usable
+            return;
+          }
+          core_.add_ins(dds::ins_sample_from(m));
+        },
+        [this](const odonav::msg::InsAttitude& m) { declare_gnss_published(gnss_, m); });
   }
 }
 

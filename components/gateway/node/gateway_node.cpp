@@ -128,26 +128,29 @@ bool GatewayNode::wait_for_readers() {
 
 void GatewayNode::publish(const SensorEvent& e) {
   switch (e.stream) {
-    case SensorEvent::Stream::kOdometer: {
-      // The file order is known: every GNSS before the next one to publish is out. Declared up to
-      // the odometer's own time at most (all a consumer of this sample needs). Both as the stamps
-      // reach the consumers (whole nanoseconds): a GNSS stamp a few ulps after the odometer's may
-      // arrive equal to it, and must not be declared published before it is.
-      const auto wire = [](double s) { return dds::to_seconds(dds::make_header(s, "").stamp()); };
-      const double t = wire(dataset_.odometer[e.index].t_s);
-      const double through =
-          gnss_published_ < dataset_.gnss.size()
-              ? std::min(t, std::nextafter(wire(dataset_.gnss[gnss_published_].t_s), -INFINITY))
-              : t;
-      publisher_.odometer(dataset_.odometer[e.index], through);
+    case SensorEvent::Stream::kOdometer:
+      publisher_.odometer(dataset_.odometer[e.index], gnss_declared_through_s(dataset_.odometer[e.index].t_s));
       break;
-    }
-    case SensorEvent::Stream::kIns: publisher_.ins(dataset_.ins[e.index]); break;
+    case SensorEvent::Stream::kIns:
+      publisher_.ins(dataset_.ins[e.index], gnss_declared_through_s(dataset_.ins[e.index].t_s));
+      break;
     case SensorEvent::Stream::kGnss:
       publisher_.gnss(dataset_.gnss[e.index]);
       gnss_published_ = e.index + 1;
       break;
   }
+}
+
+double GatewayNode::gnss_declared_through_s(double sample_t_s) const {
+  // The file order is known: every GNSS before the next one to publish is out. Declared up to the
+  // sample's own time at most (all a consumer of this sample needs). Both as the stamps reach the
+  // consumers (whole nanoseconds): a GNSS stamp a few ulps after the sample's may arrive equal to
+  // it, and must not be declared published before it is.
+  const auto wire = [](double s) { return dds::to_seconds(dds::make_header(s, "").stamp()); };
+  const double t = wire(sample_t_s);
+  return gnss_published_ < dataset_.gnss.size()
+             ? std::min(t, std::nextafter(wire(dataset_.gnss[gnss_published_].t_s), -INFINITY))
+             : t;
 }
 
 bool GatewayNode::sleep_until(double due_wall_s) {

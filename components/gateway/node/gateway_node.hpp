@@ -61,6 +61,9 @@ class GatewayNode {
  private:
   bool wait_for_readers();
   void publish(const SensorEvent& e);
+  /// The GNSS completeness declared with a sensor sample stamped sample_t_s (s): every GNSS of the
+  /// file stamped at or before the result has been published.
+  double gnss_declared_through_s(double sample_t_s) const;
   void health(odonav::msg::HealthState state, const std::string& reason, bool force);
   enum class Outcome { kEndOfData, kInterrupted, kFailed };
   /// Publishes the events in order, paced by settings_.speed from wall_start_s (steady clock, s;

@@ -25,7 +25,8 @@ odonav::msg::Odometer odometer_message(const OdometerSample& s, const std::strin
   return m;
 }
 
-odonav::msg::InsAttitude ins_message(const InsSample& s, const std::string& vehicle_id) {
+odonav::msg::InsAttitude ins_message(const InsSample& s, const std::string& vehicle_id,
+                                     double gnss_complete_through_s, std::optional<double> gnss_last_stamp_s) {
   odonav::msg::InsAttitude m;
   m.header(dds::make_header(s.t_s, "body"));
   m.vehicle_id(vehicle_id);
@@ -39,6 +40,9 @@ odonav::msg::InsAttitude ins_message(const InsSample& s, const std::string& vehi
     m.velocity_up_mps(s.vel_enu_mps->z());
   }
   m.valid(true);
+  m.gnss_complete_known(true);
+  m.gnss_complete_through_s(gnss_complete_through_s);
+  m.gnss_last_stamp_s(gnss_last_stamp_s.value_or(-1.0));
   return m;
 }
 
@@ -81,7 +85,12 @@ void SensorPublisher::odometer(const OdometerSample& s, double gnss_complete_thr
 
 void SensorPublisher::ins(const InsSample& s) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  count(ins_.write(ins_message(s, vehicle())), 1, s.t_s);
+  count(ins_.write(ins_message(s, vehicle(), last_gnss_t_s_.value_or(-1.0), last_gnss_t_s_)), 1, s.t_s);
+}
+
+void SensorPublisher::ins(const InsSample& s, double gnss_complete_through_s) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  count(ins_.write(ins_message(s, vehicle(), gnss_complete_through_s, last_gnss_t_s_)), 1, s.t_s);
 }
 
 void SensorPublisher::gnss(const GnssSample& s) {

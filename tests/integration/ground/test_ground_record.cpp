@@ -101,6 +101,9 @@ class KnownPublisher {
       m.velocity_up_mps(0.125);
       m.velocity_valid(i % 2 == 0);
       m.valid(true);
+      m.gnss_complete_known(i > 0);
+      m.gnss_complete_through_s(i > 0 ? t - 0.05 : 0.0);
+      m.gnss_last_stamp_s(i > 0 ? t - 0.05 : -1.0);
       EXPECT_TRUE(ins_.write(m));
       expected["/odonav/ins/attitude"].push_back({{"header", header_json(t, "body")},
                                                   {"vehicle_id", veh},
@@ -111,7 +114,10 @@ class KnownPublisher {
                                                   {"velocity_north_mps", -2.25},
                                                   {"velocity_up_mps", 0.125},
                                                   {"velocity_valid", i % 2 == 0},
-                                                  {"valid", true}});
+                                                  {"valid", true},
+                                                  {"gnss_complete_known", m.gnss_complete_known()},
+                                                  {"gnss_complete_through_s", m.gnss_complete_through_s()},
+                                                  {"gnss_last_stamp_s", m.gnss_last_stamp_s()}});
     }
     {
       msg::GnssFix m;

@@ -60,6 +60,9 @@ inline Fields fields(const odonav::msg::InsAttitude& m) {
   f.emplace_back("velocity_up_mps", text(m.velocity_up_mps()));
   f.emplace_back("velocity_valid", text(m.velocity_valid()));
   f.emplace_back("valid", text(m.valid()));
+  f.emplace_back("gnss_complete_known", text(m.gnss_complete_known()));
+  f.emplace_back("gnss_complete_through_s", text(m.gnss_complete_through_s()));
+  f.emplace_back("gnss_last_stamp_s", text(m.gnss_last_stamp_s()));
   return f;
 }
 
@@ -233,6 +236,9 @@ inline odonav::msg::InsAttitude make_ins_attitude() {
   m.velocity_up_mps(d.next());
   m.velocity_valid(true);
   m.valid(true);
+  m.gnss_complete_known(true);
+  m.gnss_complete_through_s(d.next());
+  m.gnss_last_stamp_s(d.next());
   return m;
 }
 

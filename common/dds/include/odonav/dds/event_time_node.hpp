@@ -75,9 +75,11 @@ class EventTimeNode {
         });
   }
 
-  /// The GNSS completeness an Odometer message declares (idl Odometer), given to the aligner for the
-  /// `gnss` input, so that a consumer knows which GNSS epochs exist up to the odometer's time.
-  void declare_gnss_published(const NodeInput& gnss, const odonav::msg::Odometer& m) {
+  /// The GNSS completeness an Odometer or InsAttitude message declares (idl Odometer), given to the
+  /// aligner for the `gnss` input, so that a consumer knows which GNSS epochs exist up to the
+  /// sample's time.
+  template <class SensorMsg>
+  void declare_gnss_published(const NodeInput& gnss, const SensorMsg& m) {
     if (!m.gnss_complete_known()) return;
     const double last = m.gnss_last_stamp_s();
     aligner_.declare_published(gnss.id, m.gnss_complete_through_s(),
