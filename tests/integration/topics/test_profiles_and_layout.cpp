@@ -478,7 +478,7 @@ TEST(MsgTwins, TheCheckCatchesSwappedMissingAndMistypedFields) {
   ASSERT_EQ(twin[3].name, "pitch_rad");
   ASSERT_EQ(twin[4].name, "roll_rad");
   ASSERT_EQ(twin[5].name, "velocity_east_mps");
-  ASSERT_EQ(twin.back().name, "valid");
+  ASSERT_EQ(twin.back().name, "gnss_last_stamp_s");
 
   // Two float64 fields swapped: every byte read, values land in the wrong fields.
   std::vector<MsgField> swapped = twin;
@@ -488,12 +488,12 @@ TEST(MsgTwins, TheCheckCatchesSwappedMissingAndMistypedFields) {
   EXPECT_EQ(d_swapped.bytes_read, d_swapped.bytes_total);
   EXPECT_NE(d_swapped.fields, odonav::test::fields(sample));
 
-  // The last field (a 1-byte bool) forgotten: one byte left unread.
+  // The last field (a float64) forgotten: its eight bytes left unread.
   std::vector<MsgField> missing = twin;
   missing.pop_back();
   g_mutated_msg["odonav/InsAttitude"] = missing;
   const Decoded d_missing = serialize_and_decode(topics::kInsAttitude, sample);
-  EXPECT_EQ(d_missing.bytes_read + 1, d_missing.bytes_total);
+  EXPECT_EQ(d_missing.bytes_read + 8, d_missing.bytes_total);
 
   // A float64 declared uint32: its value and the alignment of what follows go wrong.
   std::vector<MsgField> mistyped = twin;
