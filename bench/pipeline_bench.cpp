@@ -65,6 +65,7 @@
 #include "odonav/msg/GnssFix.h"
 #include "odonav/msg/InsAttitude.h"
 #include "odonav/msg/Misalignment.h"
+#include "odonav/msg/NavigationPosition.h"
 #include "odonav/msg/Odometer.h"
 #include "odonav/msg/ScaleFactor.h"
 #include "odonav/topics.hpp"
@@ -247,6 +248,7 @@ struct RunResult {
   Percentiles end_to_end, after_last_input, hop;
   Percentiles end_to_end_steady, after_last_input_steady;  // outputs after the warm-up only
   Percentiles calibration_after_gnss, identification_after_gnss;  // estimate received - its GNSS received
+  Percentiles navigation_end_to_end_steady;  // anchored position received - its odometer sample received
   std::vector<ComponentFigures> components;
   std::size_t dr_outputs = 0;
   uint64_t samples_accepted = 0;
@@ -368,13 +370,14 @@ using odonav::msg::ScaleFactor;
 // This process's readers of the pipeline's topics, with the receive times taken first thing in each
 // callback (Fast DDS listener threads), and the ping writer / pong reader of the raw-hop measurement.
 struct Probes {
-  Arrivals odometer, ins, gnss, scale_factor, misalignment, dead_reckoning, pong_rtt;
+  Arrivals odometer, ins, gnss, scale_factor, misalignment, dead_reckoning, navigation, pong_rtt;
   odonav::dds::Reader<Odometer> odometer_reader;
   odonav::dds::Reader<InsAttitude> ins_reader;
   odonav::dds::Reader<GnssFix> gnss_reader;
   odonav::dds::Reader<ScaleFactor> sf_reader;
   odonav::dds::Reader<Misalignment> mis_reader;
   odonav::dds::Reader<DeadReckoning> dr_reader;
+  odonav::dds::Reader<odonav::msg::NavigationPosition> nav_reader;
   odonav::dds::Writer<Odometer> ping_writer;
   odonav::dds::Reader<Odometer> pong_reader;
 
@@ -393,6 +396,8 @@ struct Probes {
                    [this](const Misalignment& m) { misalignment.add(stamp_ns(m.header()), steady_ns()); }),
         dr_reader(p, odonav::topics::kDeadReckoning.name, odonav::topics::kDeadReckoning.reader_profile,
                   [this](const DeadReckoning& m) { dead_reckoning.add(stamp_ns(m.header()), steady_ns()); }),
+        nav_reader(p, odonav::topics::kNavigationPosition.name, odonav::topics::kNavigationPosition.reader_profile,
+                   [this](const odonav::msg::NavigationPosition& m) { navigation.add(stamp_ns(m.header()), steady_ns()); }),
         ping_writer(p, kPingTopic, odonav::topics::kSensorWriterProfile),
         pong_reader(p, kPongTopic, odonav::topics::kSensorReaderProfile, [this](const Odometer& m) {
           const int64_t now = steady_ns();
@@ -402,6 +407,7 @@ struct Probes {
   // The components and the echo are up when their outputs matched these readers.
   bool all_matched() const {
     return sf_reader.matched_writers() >= 1 && mis_reader.matched_writers() >= 1 && dr_reader.matched_writers() >= 1 &&
+           nav_reader.matched_writers() >= 1 &&
            pong_reader.matched_writers() >= 1 && ping_writer.matched_readers() >= 1;
   }
 };
@@ -678,6 +684,18 @@ class PipelineRun {
       }
       return percentiles_ms(v);
     };
+    // The anchored position (rt/odonav/navigation_position) after its odometer sample, steady state.
+    {
+      std::vector<int64_t> v;
+      const int64_t from = a.odo.empty() ? 0 : a.odo.front().stamp_ns + static_cast<int64_t>(setup_.warmup_s * 1e9);
+      for (const auto& n : by_stamp(probes_->navigation.rows())) {
+        if (n.stamp_ns < from) continue;
+        const auto it = std::lower_bound(a.odo.begin(), a.odo.end(), n.stamp_ns,
+                                         [](const auto& r, int64_t x) { return r.stamp_ns < x; });
+        if (it != a.odo.end() && it->stamp_ns == n.stamp_ns) v.push_back(n.recv_ns - it->recv_ns);
+      }
+      result_.navigation_end_to_end_steady = percentiles_ms(v);
+    }
     result_.calibration_after_gnss = after_gnss(a.mis);
     result_.identification_after_gnss = after_gnss(a.sf);
     std::vector<int64_t> hop;
@@ -739,6 +757,8 @@ void print_run(std::ostream& out, const RunResult& r, const DatasetInfo& data, d
   out << "  of which after the last input the output needed was received: " << format_ms(r.after_last_input) << "\n";
   out << "steady state (outputs after the first " << std::setprecision(0) << warmup_s << " s of data): end-to-end "
       << format_ms(r.end_to_end_steady) << "\n  after the last input: " << format_ms(r.after_last_input_steady) << "\n";
+  out << "anchored position (navigation_position) after its odometer sample, steady state: "
+      << format_ms(r.navigation_end_to_end_steady) << "\n";
   out << "misalignment (calibration) after its GNSS epoch arrived: " << format_ms(r.calibration_after_gnss) << "\n";
   out << "scale factor (identification) after its GNSS epoch arrived: " << format_ms(r.identification_after_gnss)
       << "\n";
