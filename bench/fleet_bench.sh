@@ -6,7 +6,7 @@
 # stime over the measuring window, from /proc) and memory (VmHWM), the delay from a DDS sample to its
 # WebSocket frame at the client (p50/p99), and how long after fleet-000's identification falls
 # silent its DiagnosticArray shows STALE.
-# Usage: bench/fleet_bench.sh [N ...]   (default: 10 50 200). Run under /work/isolated or any host
+# Usage: bench/fleet_bench.sh [N ...]   (default: 10 50 200). Run under scripts/isolated or any host
 # where domain 189 is free; loopback only.
 # Environment: ODONAV_BUILD_DIR (odonav-ground; default build), ODONAV_BENCH_BUILD_DIR
 # (odonav-bench-fleet-publisher; default build-bench), ODONAV_WEB_NPM (node_modules with
