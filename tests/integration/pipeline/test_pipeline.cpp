@@ -90,6 +90,23 @@ std::string fresh_dir(const std::string& name) {
   return dir;
 }
 
+/// A simulated ring drive (seed 3) of duration_s with every GNSS row in [gap_start_s, gap_end_s)
+/// removed (the receiver gone, not just without a fix), written to dir/data. Returns dir/data, or ""
+/// when the simulator failed (its log: dir/sim.log).
+std::string ring_without_gnss(const std::string& dir, int duration_s, double gap_start_s, double gap_end_s) {
+  const std::string full = dir + "/full";
+  if (run(kBin + "/odonav-sim ring --duration-s " + std::to_string(duration_s) + " --seed 3 --out " + full + " >" +
+          dir + "/sim.log 2>&1") != 0)
+    return "";
+  Dataset d = read_dataset(full, BadRowPolicy::kFail);
+  d.gnss.erase(std::remove_if(d.gnss.begin(), d.gnss.end(),
+                              [&](const GnssSample& g) { return g.t_s >= gap_start_s && g.t_s < gap_end_s; }),
+               d.gnss.end());
+  const std::string data = dir + "/data";
+  write_dataset(data, d);
+  return data;
+}
+
 class Pipeline : public ::testing::Test {
  protected:
   void SetUp() override { shm_clean(); }
@@ -463,21 +480,15 @@ TEST_F(Pipeline, FiveHertzGnssEqualsTheOfflineTool) { expect_rate_equals_offline
 TEST_F(Pipeline, TwentyHertzGnssEqualsTheOfflineTool) { expect_rate_equals_offline("20", "166", 480); }
 
 // GNSS absent for 135 s, replayed at 10x real time with a 5 s maximum wait: dead reckoning keeps
-// publishing at the odometer rate on the estimates held from before the outage. The odometer
-// messages declare that no GNSS was published, so neither consumer waits for it: one that did would
+// publishing at the odometer rate on the estimates held from before the outage. The odometer and
+// INS messages declare that no GNSS was published, so no consumer waits for it: one that did would
 // declare GNSS absent after 5 s of wall time (13.5 s of the outage pass in wall time) and say so in
 // its health ("no gnss for N s"). The files still equal odonav-offline's.
 TEST_F(Pipeline, GnssAbsentForMinutesDeadReckoningKeepsPublishingOnHeldEstimatesWithoutWaiting) {
   const std::string dir = fresh_dir("gnss-absent-minutes");
-  const std::string full = dir + "/full";
-  ASSERT_EQ(run(kBin + "/odonav-sim ring --duration-s 200 --seed 3 --out " + full + " >" + dir + "/sim.log 2>&1"), 0);
-  Dataset d = read_dataset(full, BadRowPolicy::kFail);
   const double gap_start_s = 50.0, gap_end_s = 185.0;
-  d.gnss.erase(std::remove_if(d.gnss.begin(), d.gnss.end(),
-                              [&](const GnssSample& g) { return g.t_s >= gap_start_s && g.t_s < gap_end_s; }),
-               d.gnss.end());
-  const std::string data = dir + "/data";
-  write_dataset(data, d);
+  const std::string data = ring_without_gnss(dir, 200, gap_start_s, gap_end_s);
+  ASSERT_FALSE(data.empty()) << "odonav-sim failed: " << dir << "/sim.log";
   const std::string out = dir + "/out";
   launch_ok({"--source", "replay:" + data, "--speed", "10", "--max-wait-s", "5", "--domain", "167", "--out", out}, out,
             300);
@@ -552,15 +563,9 @@ TEST_F(Pipeline, GnssRemovedMidRunIdentificationHoldsKAndDeadReckoningContinues)
   // A 150 s ring drive whose GNSS stops for 30 s (no rows at all from t = 90 s to 120 s: the receiver
   // is gone, not just without a fix), replayed through the whole pipeline.
   const std::string dir = fresh_dir("gnss-removed");
-  const std::string full = dir + "/full";
-  ASSERT_EQ(run(kBin + "/odonav-sim ring --duration-s 150 --seed 3 --out " + full + " >" + dir + "/sim.log 2>&1"), 0);
-  Dataset d = read_dataset(full, BadRowPolicy::kFail);
   const double gap_start_s = 90.0, gap_end_s = 120.0;
-  d.gnss.erase(std::remove_if(d.gnss.begin(), d.gnss.end(),
-                              [&](const GnssSample& g) { return g.t_s >= gap_start_s && g.t_s < gap_end_s; }),
-               d.gnss.end());
-  const std::string data = dir + "/data";
-  write_dataset(data, d);
+  const std::string data = ring_without_gnss(dir, 150, gap_start_s, gap_end_s);
+  ASSERT_FALSE(data.empty()) << "odonav-sim failed: " << dir << "/sim.log";
   const std::string out = dir + "/out";
   launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "55", "--out", out}, out, 300);
   const results::OutputRows rows = results::read_output_rows(out);
