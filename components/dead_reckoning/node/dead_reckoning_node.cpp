@@ -167,6 +167,7 @@ void DeadReckoningNode::close_inputs() {
 }
 
 void DeadReckoningNode::on_misalignment(const odonav::msg::Misalignment& m, double t_s) {
+  core_.add_estimate_received(HeldEstimate::kMisalignment, t_s);  // applicable or not, as odonav-offline
   if (!misalignment_applicable(m.converged(), m.samples_used(), m.heading_rad(), m.pitch_rad(), m.heading_std_rad(),
                                m.pitch_std_rad())) return;  // consumer_rules.hpp, as odonav-offline
   const Misalignment mis{m.heading_rad(), m.pitch_rad()};
@@ -178,6 +179,7 @@ void DeadReckoningNode::on_misalignment(const odonav::msg::Misalignment& m, doub
 }
 
 void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s) {
+  core_.add_estimate_received(HeldEstimate::kScaleFactor, t_s);  // applicable or not, as odonav-offline
   // The latency of every ScaleFactor, as odonav-offline adds it: the error against GNSS and the
   // anchor fixes compare each fix with the DR at its stamp minus the latency.
   if (std::isfinite(m.gnss_latency_s()) && std::abs(m.gnss_latency_s()) < 10.0)
@@ -258,6 +260,12 @@ dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
   f.misalignments_applied = misalignments_applied_;
   f.held_misalignment_t_s = held_misalignment_t_s_;
   f.misalignment_silent_s = aligner_.status(misalignment_.id, now_s).silent_for_s;
+  held_k_outputs_.observe(core_.counters().outputs_on_held_k, now_s);
+  held_misalignment_outputs_.observe(core_.counters().outputs_on_held_misalignment, now_s);
+  f.held_k_span = core_.last_held_span(HeldEstimate::kScaleFactor);
+  f.held_k_changed_at_s = held_k_outputs_.changed_at_s();
+  f.held_misalignment_span = core_.last_held_span(HeldEstimate::kMisalignment);
+  f.held_misalignment_changed_at_s = held_misalignment_outputs_.changed_at_s();
   const DeadReckoningHealth h = dead_reckoning_health(f);
   return {to_message_state(h.state), to_message_level(h.level), h.reason};
 }
@@ -275,6 +283,17 @@ void DeadReckoningNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("k_ignored", static_cast<double>(s.k_ignored));
   c.emplace_back("k_source_changes", static_cast<double>(s.k_source_changes));
   c.emplace_back("misalignments_applied", static_cast<double>(misalignments_applied_));
+  c.emplace_back("outputs_on_held_k", static_cast<double>(k.outputs_on_held_k));
+  c.emplace_back("outputs_on_held_misalignment", static_cast<double>(k.outputs_on_held_misalignment));
+  // The last span of each (event time, s): what the recorder and a monitor can name.
+  for (const HeldEstimate e : {HeldEstimate::kScaleFactor, HeldEstimate::kMisalignment}) {
+    const std::optional<HeldSpan>& span = core_.last_held_span(e);
+    if (!span) continue;
+    const std::string name = e == HeldEstimate::kScaleFactor ? "held_k" : "held_misalignment";
+    c.emplace_back(name + "_first_t_s", span->first_t_s);
+    c.emplace_back(name + "_last_t_s", span->last_t_s);
+    c.emplace_back(name + "_epoch_t_s", span->estimate_epoch_s);
+  }
   const AnchoredPositionCounters& a = anchor_.counters();
   c.emplace_back("anchor_fixes_applied", static_cast<double>(a.fixes_applied));
   c.emplace_back("anchor_fixes_rejected_gate", static_cast<double>(a.fixes_rejected_gate));

@@ -73,6 +73,7 @@ class DeadReckoningNode : public dds::EventTimeNode {
   /// The K policy: commanded-K latch, identified K applicability, K source (scale_factor_selection.hpp).
   ScaleFactorSelection k_selection_;
   CountChangeTime pulse_jumps_;  ///< when the pulse-jump total last changed (health WARN window)
+  CountChangeTime held_k_outputs_, held_misalignment_outputs_;  ///< when the last held output was made
   uint64_t misalignments_applied_ = 0;
   std::optional<double> held_misalignment_t_s_;  // stamp of the last misalignment applied
   dds::BurstThrottle throttle_;

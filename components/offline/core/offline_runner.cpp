@@ -49,7 +49,10 @@ std::vector<DeadReckoningOutput> run_dead_reckoning(const Dataset& d, const Dead
   for (const InsSample& i : d.ins) dr.add_ins(i);
   for (const GnssSample& g : d.gnss) dr.add_gnss(g);
   add_applicable_misalignments(dr, misalignment, params.estimate_hold_off_s);
+  // Every estimate is here: no output is on a held one (the node decides alike as they arrive).
+  for (const MisalignmentOutput& m : misalignment) dr.add_estimate_received(HeldEstimate::kMisalignment, m.t_s);
   if (identification) {
+    for (const IdentificationOutput& k : *identification) dr.add_estimate_received(HeldEstimate::kScaleFactor, k.t_s);
     // Every ScaleFactor carries the GNSS latency in force: the DR node adds each one alike.
     for (const IdentificationOutput& k : *identification)
       dr.add_gnss_latency(estimate_applies_from_s(k.t_s, params.estimate_hold_off_s), k.latency.applied_s);

@@ -6,7 +6,9 @@
 #include <random>
 
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/consumer_rules.hpp"
 #include "odonav/dead_reckoning/drift_evaluator.hpp"
+#include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "synthetic_drive.hpp"
 
 using namespace odonav;
@@ -525,4 +527,114 @@ TEST(DeadReckoner, ErrorAgainstGnssComparesEachFixWithTheDrAtItsStampMinusTheLat
   // A latency beyond +-10 s is not one.
   DeadReckoner dr(exact_k());
   EXPECT_THROW(dr.add_gnss_latency(1.0, 12.0), StreamInputError);
+}
+
+// Held estimates. A 30 s straight drive with GNSS at 10 Hz and the odometer at 50 Hz; the
+// identification publishes K from epoch 2.0 s on (K = kK (1 + 1e-4 i) at epoch i x 0.1 s) but its
+// epochs 10.1-15.0 s never arrive (killed, restarted), and the calibration's epochs 20.1-22.0 s
+// never arrive. With the hold-off 0.2 s the estimate of epoch g applies from g + 0.2 - 1 us, so
+// the outputs t = 10.30-15.28 s (250 at 50 Hz) ran on the K of epoch 10.0 s and t = 20.30-22.28 s
+// (100) on the misalignment of epoch 20.0 s; the outputs before 2.2 s (no K received yet: nominal)
+// are not held. The report changes no number: the same run without it is bit-identical.
+TEST(DeadReckoner, OutputsOnAnEstimateHeldThroughAnEstimatorSilenceAreCountedAsOneSpan) {
+  SensorConfig c;
+  c.duration_s = 30.0;
+  c.k_m_per_pulse = kK;
+  c.misalignment = Misalignment{deg_to_rad(0.8), deg_to_rad(-0.5)};
+  const SyntheticData d = simulate(straight(deg_to_rad(30.0), 0.0, 8.0, 0.0), c);
+  const auto k_lost = [](long i) { return i >= 101 && i <= 150; };
+  const auto mis_lost = [](long i) { return i >= 201 && i <= 220; };
+  const double hold_off_s = exact_k().estimate_hold_off_s;
+  const auto run = [&](bool report, DeadReckoner& dr) {
+    std::vector<DeadReckoningOutput> out;
+    std::size_t io = 0, ii = 0, ig = 0;
+    // As the node: inputs arrive in event time, processed every 0.1 s.
+    for (long w = 1; w <= 301; ++w) {
+      const double w_s = 0.1 * static_cast<double>(w);
+      for (; io < d.odometer.size() && d.odometer[io].t_s <= w_s; ++io) dr.add_odometer(d.odometer[io]);
+      for (; ii < d.ins.size() && d.ins[ii].t_s <= w_s; ++ii) dr.add_ins(d.ins[ii]);
+      for (; ig < d.gnss.size() && d.gnss[ig].t_s <= w_s; ++ig) {
+        const double g = d.gnss[ig].t_s;
+        const long i = std::lround(g / 0.1);
+        dr.add_gnss(d.gnss[ig]);
+        if (i >= 20 && !k_lost(i)) {
+          dr.add_scale_factor(estimate_applies_from_s(g, hold_off_s), kK * (1.0 + 1e-4 * static_cast<double>(i)),
+                              ScaleFactorSource::kIdentified);
+          if (report) dr.add_estimate_received(HeldEstimate::kScaleFactor, g);
+        }
+        if (!mis_lost(i)) {
+          dr.add_misalignment(estimate_applies_from_s(g, hold_off_s), c.misalignment);
+          if (report) dr.add_estimate_received(HeldEstimate::kMisalignment, g);
+        }
+      }
+      for (const auto& o : dr.process_until(w_s)) out.push_back(o);
+    }
+    for (const auto& o : dr.finish()) out.push_back(o);
+    return out;
+  };
+  DeadReckoner dr(exact_k());
+  const auto out = run(true, dr);
+  DeadReckoner silent(exact_k());
+  const auto plain = run(false, silent);
+  ASSERT_EQ(out.size(), plain.size());
+  ASSERT_EQ(out.size(), 1500u);
+  std::vector<double> k_held_t, mis_held_t;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    EXPECT_EQ(out[i].enu_m, plain[i].enu_m) << i;
+    EXPECT_EQ(out[i].k_m_per_pulse, plain[i].k_m_per_pulse) << i;
+    EXPECT_FALSE(plain[i].k_held || plain[i].misalignment_held) << i;  // no estimate reported: nothing held
+    if (out[i].k_held) k_held_t.push_back(out[i].t_s);
+    if (out[i].misalignment_held) mis_held_t.push_back(out[i].t_s);
+    // A held K is the one of epoch 10.0 s (the last received before the silence).
+    if (out[i].k_held) {
+      EXPECT_DOUBLE_EQ(out[i].k_m_per_pulse, kK * (1.0 + 1e-4 * 100.0)) << out[i].t_s;
+    }
+  }
+  ASSERT_EQ(k_held_t.size(), 250u);
+  EXPECT_NEAR(k_held_t.front(), 10.30, 1e-9);
+  EXPECT_NEAR(k_held_t.back(), 15.28, 1e-9);
+  ASSERT_EQ(mis_held_t.size(), 100u);
+  EXPECT_NEAR(mis_held_t.front(), 20.30, 1e-9);
+  EXPECT_NEAR(mis_held_t.back(), 22.28, 1e-9);
+  EXPECT_EQ(dr.counters().outputs_on_held_k, 250u);
+  EXPECT_EQ(dr.counters().outputs_on_held_misalignment, 100u);
+  EXPECT_EQ(silent.counters().outputs_on_held_k, 0u);
+
+  const auto k_span = dr.last_held_span(HeldEstimate::kScaleFactor);
+  ASSERT_TRUE(k_span.has_value());
+  EXPECT_FALSE(k_span->open);
+  EXPECT_EQ(k_span->outputs, 250u);
+  EXPECT_NEAR(k_span->first_t_s, 10.30, 1e-9);
+  EXPECT_NEAR(k_span->last_t_s, 15.28, 1e-9);
+  EXPECT_NEAR(k_span->estimate_epoch_s, 10.0, 1e-9);
+  EXPECT_EQ(held_span_text(HeldEstimate::kScaleFactor, *k_span),
+            "outputs t=10.3-15.3 s used the K of t=10.0 s held: identification silent");
+  const auto mis_span = dr.last_held_span(HeldEstimate::kMisalignment);
+  ASSERT_TRUE(mis_span.has_value());
+  EXPECT_EQ(held_span_text(HeldEstimate::kMisalignment, *mis_span),
+            "outputs t=20.3-22.3 s used the misalignment of t=20.0 s held: calibration silent");
+
+  // Health: WARN with the span while it goes on and for the notice duration after the last held
+  // output (wall clock), then no more.
+  DeadReckoningHealthFacts f;
+  f.started = true;
+  f.scale_factor_heard = true;
+  f.k_applied = 1;
+  f.misalignment_heard = true;
+  f.misalignments_applied = 1;
+  f.held_k_span = k_span;
+  f.held_k_changed_at_s = 100.0;
+  f.now_s = 100.0 + kDeadReckoningNoticeDuration_s - 1.0;
+  DeadReckoningHealth h = dead_reckoning_health(f);
+  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kWarn);
+  EXPECT_EQ(h.reason, "outputs t=10.3-15.3 s used the K of t=10.0 s held: identification silent");
+  f.now_s = 100.0 + kDeadReckoningNoticeDuration_s + 1.0;
+  h = dead_reckoning_health(f);
+  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kOk);
+  EXPECT_EQ(h.reason, "");
+  HeldSpan open = *k_span;
+  open.open = true;
+  f.held_k_span = open;
+  h = dead_reckoning_health(f);  // an open span is told whatever the time
+  EXPECT_EQ(h.reason, "outputs since t=10.3 s use the K of t=10.0 s held: identification silent");
 }

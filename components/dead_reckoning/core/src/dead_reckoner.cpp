@@ -18,6 +18,10 @@ const char* to_string(ScaleFactorSource source) {
   return "unknown";
 }
 
+const char* to_string(HeldEstimate estimate) {
+  return estimate == HeldEstimate::kScaleFactor ? "K" : "misalignment";
+}
+
 namespace {
 // The pulse-jump gate from the DR's own nominal K and maximum speed. Invalid values keep the gate's
 // defaults here so that the constructor body, not the buffer, names the bad parameter.
@@ -82,6 +86,7 @@ void DeadReckoner::add_gnss(const GnssSample& sample) {
   last_gnss_t_s_ = sample.t_s;
   gnss_.push_back(sample);
   gnss_gap_s_.push_back(last_gnss_gap_s_);
+  epochs_to_apply_s_.push_back(sample.t_s);
   error_epochs_.emplace_back(sample, last_gnss_gap_s_);
 }
 
@@ -107,6 +112,39 @@ void DeadReckoner::add_gnss_latency(double t_s, double latency_s) {
   const bool changed = !last_gnss_latency_ ? latency_s != 0.0 : latency_s != last_gnss_latency_->second;
   last_gnss_latency_ = std::make_pair(t_s, latency_s);
   if (changed) gnss_latency_.add(t_s, latency_s);
+}
+
+void DeadReckoner::add_estimate_received(HeldEstimate estimate, double epoch_s) {
+  if (std::isfinite(epoch_s)) held_[static_cast<int>(estimate)].receive(epoch_s);
+}
+
+void DeadReckoner::HeldTracker::receive(double epoch_s) {
+  // In order as a rule (one producer, event time); a repeat (heartbeat) or an epoch already
+  // applicable changes nothing.
+  if (last_applicable_s && epoch_s <= *last_applicable_s) return;
+  const auto at = std::lower_bound(received_s.begin(), received_s.end(), epoch_s);
+  if (at == received_s.end() || *at != epoch_s) received_s.insert(at, epoch_s);
+}
+
+bool DeadReckoner::HeldTracker::decide(double t_s, const std::optional<double>& epoch_s, bool exempt) {
+  // A stamp that crossed DDS may be a few ulps off the GNSS row's: the guard of the hold-off rule.
+  if (epoch_s) {
+    while (!received_s.empty() && received_s.front() <= *epoch_s + kEstimateApplicationGuard_s) {
+      last_applicable_s = received_s.front();
+      received_s.pop_front();
+    }
+  }
+  const bool held = !exempt && epoch_s && last_applicable_s &&
+                    *last_applicable_s < *epoch_s - kEstimateApplicationGuard_s;
+  if (!held) {
+    if (span) span->open = false;
+    return false;
+  }
+  if (!span || !span->open) span = HeldSpan{t_s, t_s, 0, *last_applicable_s, true};
+  span->last_t_s = t_s;
+  span->estimate_epoch_s = *last_applicable_s;
+  ++span->outputs;
+  return true;
 }
 
 void DeadReckoner::add_misalignment(double t_s, const Misalignment& m) {
@@ -336,6 +374,17 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
   o.k_m_per_pulse = k.k_m_per_pulse;
   o.k_source = k.source;
   const Misalignment mis = misalignment_.at_or_before(t_j).value_or(Misalignment{});
+  // Held estimates: against the latest GNSS epoch whose estimates apply at t_j.
+  while (!epochs_to_apply_s_.empty() &&
+         estimate_applies_from_s(epochs_to_apply_s_.front(), params_.estimate_hold_off_s) <= t_j) {
+    latest_applicable_epoch_s_ = epochs_to_apply_s_.front();
+    epochs_to_apply_s_.pop_front();
+  }
+  o.k_held = held_[static_cast<int>(HeldEstimate::kScaleFactor)].decide(t_j, latest_applicable_epoch_s_,
+                                                                        k.source == ScaleFactorSource::kCommanded);
+  o.misalignment_held = held_[static_cast<int>(HeldEstimate::kMisalignment)].decide(t_j, latest_applicable_epoch_s_, false);
+  if (o.k_held) ++counters_.outputs_on_held_k;
+  if (o.misalignment_held) ++counters_.outputs_on_held_misalignment;
   const double ds = k.k_m_per_pulse * pulses * direction;
 
   Eigen::Vector3d ds_n = Eigen::Vector3d::Zero();

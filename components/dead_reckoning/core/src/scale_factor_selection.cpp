@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 #include <spdlog/spdlog.h>
@@ -64,6 +65,18 @@ ScaleFactorCommandResult ScaleFactorSelection::release_commanded_k() {
   return {true, "following the identified K again (from its next estimate)", std::nullopt};
 }
 
+std::string held_span_text(HeldEstimate estimate, const HeldSpan& span) {
+  const char* producer = estimate == HeldEstimate::kScaleFactor ? "identification" : "calibration";
+  char buf[192];
+  if (span.open)
+    std::snprintf(buf, sizeof buf, "outputs since t=%.1f s use the %s of t=%.1f s held: %s silent", span.first_t_s,
+                  to_string(estimate), span.estimate_epoch_s, producer);
+  else
+    std::snprintf(buf, sizeof buf, "outputs t=%.1f-%.1f s used the %s of t=%.1f s held: %s silent", span.first_t_s,
+                  span.last_t_s, to_string(estimate), span.estimate_epoch_s, producer);
+  return buf;
+}
+
 DeadReckoningHealth dead_reckoning_health(const DeadReckoningHealthFacts& f) {
   using State = DeadReckoningHealthState;
   using Level = DeadReckoningHealthLevel;
@@ -93,6 +106,15 @@ DeadReckoningHealth dead_reckoning_health(const DeadReckoningHealthFacts& f) {
     s.level = Level::kWarn;
     add("rejected " + std::to_string(f.pulse_jumps_rejected) + " odometer samples: pulse jump (counter glitch)");
   }
+  // Outputs computed on a held estimate (event time, decided by the core): while it goes on, and a
+  // while after, so a monitor polling at 1 Hz sees which outputs they were.
+  auto held = [&](HeldEstimate e, const std::optional<HeldSpan>& span, double changed_at_s) {
+    if (!span || !(span->open || f.now_s < changed_at_s + kDeadReckoningNoticeDuration_s)) return;
+    s.level = Level::kWarn;
+    add(held_span_text(e, *span));
+  };
+  held(HeldEstimate::kScaleFactor, f.held_k_span, f.held_k_changed_at_s);
+  held(HeldEstimate::kMisalignment, f.held_misalignment_span, f.held_misalignment_changed_at_s);
   // Absent after some were applied: the DR keeps applying the last one (it is not reset).
   if (f.misalignment_absent && f.misalignments_applied > 0 && f.held_misalignment_t_s)
     add(held_misalignment_text(*f.held_misalignment_t_s, f.misalignment_silent_s));

@@ -44,6 +44,14 @@
 // mode, which steers by the GNSS course) the GNSS around t_j itself is needed: the output waits for
 // it. One output per odometer sample after the start, emitted once its attitude and inputs are
 // complete up to the watermark.
+//
+// Held estimates: an output at t_j used a held K (misalignment) when the latest GNSS epoch g the
+// core knows with estimate_applies_from_s(g, hold-off) <= t_j has no estimate received yet
+// (add_estimate_received; the estimators publish one per GNSS epoch) while an older epoch has: the estimator fell silent (stalled, restarting,
+// dead) and the output went on with what was in force. Decided from the inputs added, in event time,
+// so it never changes a number; counted, and reported as spans of consecutive outputs (HeldSpan).
+// Never held: before any estimate of the kind was received (nothing to hold: nominal K, zero
+// misalignment), a commanded K, and epochs the core does not know (GNSS itself silent).
 #include <cstdint>
 #include <deque>
 #include <limits>
@@ -134,6 +142,23 @@ struct DeadReckoningOutput {
   std::vector<AnchorFix> gnss_fixes;
   /// The GNSS epoch (s) the error refers to; NaN when no error is carried.
   double error_t_s = std::numeric_limits<double>::quiet_NaN();
+  /// The K (misalignment) in force was held: the estimate of the latest GNSS epoch applicable here
+  /// had not been received (see "Held estimates" above). Says nothing about the numbers above.
+  bool k_held = false;
+  bool misalignment_held = false;
+};
+
+/// The estimates whose arrival the dead reckoner tracks (add_estimate_received).
+enum class HeldEstimate { kScaleFactor, kMisalignment };
+const char* to_string(HeldEstimate estimate);
+
+/// Consecutive outputs computed on a held estimate (event time, s).
+struct HeldSpan {
+  double first_t_s = 0.0;   ///< the first output on the held estimate
+  double last_t_s = 0.0;    ///< the last one so far
+  uint64_t outputs = 0;     ///< outputs in the span
+  double estimate_epoch_s = 0.0;  ///< GNSS epoch of the latest estimate received (the one held)
+  bool open = false;        ///< the last output so far was held: the span goes on
 };
 
 struct DeadReckonerCounters {
@@ -149,6 +174,8 @@ struct DeadReckonerCounters {
   uint64_t anchor_fixes = 0;           ///< valid GNSS epochs reported in gnss_fixes.
   uint64_t anchor_fixes_no_attitude = 0;  ///< valid epochs left out: no attitude for the lever arm.
   uint64_t gnss_latency_stale = 0;     ///< add_gnss_latency calls not later than the previous one.
+  uint64_t outputs_on_held_k = 0;            ///< outputs whose K was held (DeadReckoningOutput::k_held)
+  uint64_t outputs_on_held_misalignment = 0; ///< outputs whose misalignment was held
 };
 
 /// The GNSS gap in force for an observed GNSS period (s; NaN: fewer than two rows seen):
@@ -179,6 +206,9 @@ class DeadReckoner {
   /// later than the last one added is ignored and counted (gnss_latency_stale); an unchanged value
   /// is not stored again.
   void add_gnss_latency(double t_s, double latency_s);
+  /// An estimate of GNSS epoch epoch_s (its stamp, s; not its application time) was received,
+  /// applicable or not: the estimator is keeping up to there. Only for the held-estimate report.
+  void add_estimate_received(HeldEstimate estimate, double epoch_s);
 
   /// Emits, in time order, the output of every odometer sample stamped <= watermark_s whose inputs
   /// are final. Contract: every input stamped <= watermark_s has been added.
@@ -190,6 +220,10 @@ class DeadReckoner {
   /// The DR origin (reference point at the start), once started.
   std::optional<Geodetic> origin() const;
   const DeadReckonerCounters& counters() const { return counters_; }
+  /// The last span of outputs on a held estimate of that kind, if any.
+  const std::optional<HeldSpan>& last_held_span(HeldEstimate estimate) const {
+    return held_[static_cast<int>(estimate)].span;
+  }
 
  private:
   struct KInForce {
@@ -256,6 +290,19 @@ class DeadReckoner {
   std::optional<Attitude> last_attitude_;
   std::optional<AnchorFix> start_fix_;  ///< reported with the first output
   DeadReckonerCounters counters_;
+  /// GNSS epochs not yet applicable at the last output (for the held-estimate decision).
+  std::deque<double> epochs_to_apply_s_;
+  std::optional<double> latest_applicable_epoch_s_;  ///< latest GNSS epoch applicable at the last output
+  struct HeldTracker {
+    std::deque<double> received_s;         ///< epochs received (sorted) not yet applicable
+    std::optional<double> last_applicable_s;  ///< latest received epoch applicable at the last output
+    std::optional<HeldSpan> span;
+    void receive(double epoch_s);
+    /// Whether an output at t_s, with epoch_s the latest GNSS epoch applicable, is on a held
+    /// estimate (exempt: never); updates the span.
+    bool decide(double t_s, const std::optional<double>& epoch_s, bool exempt);
+  };
+  HeldTracker held_[2];
 };
 
 }  // namespace odonav

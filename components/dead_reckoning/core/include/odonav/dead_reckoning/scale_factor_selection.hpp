@@ -139,7 +139,18 @@ struct DeadReckoningHealthFacts {
   uint64_t misalignments_applied = 0;   ///< misalignments given to the DR
   std::optional<double> held_misalignment_t_s;  ///< stamp of the last one given (event time, s)
   double misalignment_silent_s = 0.0;   ///< wall time since the calibration was last heard (s)
+  /// DeadReckoner::last_held_span: the last outputs on a held K / misalignment, and when (wall
+  /// clock, s) a held output was last made (the notice lasts kDeadReckoningNoticeDuration_s after).
+  std::optional<HeldSpan> held_k_span;
+  double held_k_changed_at_s = -std::numeric_limits<double>::infinity();
+  std::optional<HeldSpan> held_misalignment_span;
+  double held_misalignment_changed_at_s = -std::numeric_limits<double>::infinity();
 };
+
+/// "outputs t=52.5-54.6 s used the K of t=52.4 s held: identification silent" (span closed), or
+/// "outputs since t=52.5 s use the K of t=52.4 s held: identification silent" (open); the
+/// misalignment's names the calibration.
+std::string held_span_text(HeldEstimate estimate, const HeldSpan& span);
 
 struct DeadReckoningHealth {
   DeadReckoningHealthState state = DeadReckoningHealthState::kRunning;
@@ -150,7 +161,8 @@ struct DeadReckoningHealth {
 /// The dead-reckoning node's own health (components/dead_reckoning/README.md, Health): starting
 /// until the start fix; the K in use (commanded, or why nominal / last identified); the K source
 /// change note and the pulse-jump WARN, each for kDeadReckoningNoticeDuration_s after the event;
-/// why the misalignment is zero. Pure: the same facts give the same answer.
+/// why the misalignment is zero; the last span of outputs on a held K / misalignment (WARN) while
+/// it goes on and for kDeadReckoningNoticeDuration_s after. Pure: the same facts give the same answer.
 DeadReckoningHealth dead_reckoning_health(const DeadReckoningHealthFacts& facts);
 
 }  // namespace odonav
