@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace odonav {
 
@@ -42,5 +43,12 @@ class GapDetector {
 
 /// "missed 522 dead-reckoning outputs t=40.010-45.220 s" (what: "dead-reckoning").
 std::string describe_gap(const OutputGap& gap, const std::string& what);
+
+/// The epochs (s) of a reference stream without a row of a stream that has one row per reference
+/// epoch (the estimators publish one Misalignment and one ScaleFactor per GNSS epoch), as runs of
+/// consecutive reference epochs: first and last epoch missing, and how many. A row matches an
+/// epoch within 1 us (a stamp that crossed DDS is integer nanoseconds). Both in any order; repeats
+/// count once; rows at no epoch are ignored. Runs in time order.
+std::vector<OutputGap> missing_epochs(std::vector<double> epochs_s, std::vector<double> rows_s);
 
 }  // namespace odonav

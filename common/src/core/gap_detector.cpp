@@ -1,5 +1,6 @@
 #include "odonav/gap_detector.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -47,6 +48,29 @@ std::string describe_gap(const OutputGap& gap, const std::string& what) {
   std::snprintf(buf, sizeof buf, "missed %llu %s outputs t=%.3f-%.3f s", static_cast<unsigned long long>(gap.missed),
                 what.c_str(), gap.first_missing_t_s, gap.last_missing_t_s);
   return buf;
+}
+
+std::vector<OutputGap> missing_epochs(std::vector<double> epochs_s, std::vector<double> rows_s) {
+  constexpr double kMatch_s = 1e-6;
+  std::sort(epochs_s.begin(), epochs_s.end());
+  epochs_s.erase(std::unique(epochs_s.begin(), epochs_s.end()), epochs_s.end());
+  std::sort(rows_s.begin(), rows_s.end());
+  std::vector<OutputGap> runs;
+  std::optional<OutputGap> run;
+  for (const double e : epochs_s) {
+    if (!std::isfinite(e)) continue;
+    const auto it = std::lower_bound(rows_s.begin(), rows_s.end(), e - kMatch_s);
+    if (it != rows_s.end() && *it <= e + kMatch_s) {
+      if (run) runs.push_back(*run);
+      run.reset();
+      continue;
+    }
+    if (!run) run = OutputGap{e, e, 0};
+    run->last_missing_t_s = e;
+    ++run->missed;
+  }
+  if (run) runs.push_back(*run);
+  return runs;
 }
 
 }  // namespace odonav

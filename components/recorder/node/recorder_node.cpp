@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <set>
 #include <stdexcept>
 
 #include "odonav/calibration/misalignment_calibrator.hpp"
@@ -140,6 +141,33 @@ results::NavigationPositionRow navigation_position_row(const odonav::msg::Naviga
   return r;
 }
 
+std::vector<GapRow> recording_gaps(const std::vector<double>& gnss_epochs_s, const std::vector<double>& misalignment_s,
+                                   const std::vector<double>& scale_factor_s,
+                                   const std::vector<OutputGap>& dead_reckoning_gaps,
+                                   const std::vector<OutputGap>& navigation_gaps) {
+  std::vector<GapRow> rows;
+  auto add = [&rows](const char* topic, const std::vector<OutputGap>& gaps, const std::string& reason) {
+    for (const OutputGap& g : gaps) rows.push_back({topic, g.first_missing_t_s, g.last_missing_t_s, g.missed, reason});
+  };
+  add(topics::kMisalignment.name, missing_epochs(gnss_epochs_s, misalignment_s),
+      "no misalignment for these GNSS epochs: the calibration did not publish them or they were lost");
+  add(topics::kScaleFactor.name, missing_epochs(gnss_epochs_s, scale_factor_s),
+      "no scale factor for these GNSS epochs: the identification did not publish them or they were lost");
+  add(topics::kDeadReckoning.name, dead_reckoning_gaps,
+      "no dead-reckoning outputs between the rows around: the producer or the link lost them");
+  add(topics::kNavigationPosition.name, navigation_gaps,
+      "no navigation positions between the rows around: the producer or the link lost them");
+  return rows;
+}
+
+GapsCsv::GapsCsv(const std::string& path)
+    : csv_(path, {"topic", "first_missing_t_s", "last_missing_t_s", "count", "reason"}) {}
+
+void GapsCsv::write(const GapRow& r) {
+  csv_.field(r.topic).field(r.first_missing_t_s).field(r.last_missing_t_s).field(r.count).field(r.reason);
+  csv_.end_row();
+}
+
 void add_recorder_options(Options& o) {
   o.add_string("out", "", "folder for misalignment.csv, scale_factor.csv, dead_reckoning.csv, navigation_position.csv "
                "(created if missing); required");
@@ -176,7 +204,8 @@ RecorderNode::RecorderNode(dds::ComponentRuntime& runtime, const RecorderSetting
       misalignment_csv_(out_.file("misalignment.csv")),
       scale_factor_csv_(out_.file("scale_factor.csv")),
       dead_reckoning_csv_(out_.file("dead_reckoning.csv")),
-      navigation_position_csv_(out_.file("navigation_position.csv")) {
+      navigation_position_csv_(out_.file("navigation_position.csv")),
+      gaps_csv_(out_.file("gaps.csv")) {
   const std::string vehicle = runtime.settings().vehicle_id;
   auto& p = runtime.participant();
   // Callbacks copy and queue; conversion and file I/O happen on the worker thread.
@@ -200,6 +229,11 @@ RecorderNode::RecorderNode(dds::ComponentRuntime& runtime, const RecorderSetting
       [this, vehicle](const odonav::msg::NavigationPosition& m) {
         if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_navigation_position(m); });
       });
+  // The GNSS epochs: each should have one misalignment and one scale-factor row (gaps.csv).
+  gnss_reader_ = std::make_unique<dds::Reader<odonav::msg::GnssFix>>(
+      p, topics::kGnssFix.name, topics::kGnssFix.reader_profile, [this, vehicle](const odonav::msg::GnssFix& m) {
+        if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_gnss(m); });
+      });
   health_reader_ = std::make_unique<dds::Reader<odonav::msg::Health>>(
       p, topics::kHealth.name, topics::kHealth.reader_profile, [this, vehicle](const odonav::msg::Health& h) {
         if (h.vehicle_id() == vehicle) runtime_.post([this, h] { on_health(h); });
@@ -214,6 +248,7 @@ void RecorderNode::close_readers() {
   dead_reckoning_reader_.reset();
   navigation_reader_.reset();
   health_reader_.reset();
+  gnss_reader_.reset();
 }
 
 namespace {
@@ -236,6 +271,7 @@ void RecorderNode::on_misalignment(const odonav::msg::Misalignment& m) {
   const results::MisalignmentRow r = misalignment_row(m);
   if (!is_new(last_misalignment_t_s_, r.t_s, repeated_[0], backwards_[0], "misalignment")) return;
   misalignment_csv_.write(r);
+  misalignment_s_.push_back(r.t_s);
   ++rows_[0];
 }
 
@@ -260,6 +296,7 @@ void RecorderNode::write_scale_factor(const odonav::msg::ScaleFactor& m) {
   const results::ScaleFactorRow r = scale_factor_row(m);
   if (!is_new(last_scale_factor_t_s_, r.t_s, repeated_[1], backwards_[1], "scale factor")) return;
   scale_factor_csv_.write(r);
+  scale_factor_s_.push_back(r.t_s);
   ++rows_[1];
   last_k_ = m;
 }
@@ -270,6 +307,7 @@ void RecorderNode::on_dead_reckoning(const odonav::msg::DeadReckoning& m) {
   dead_reckoning_csv_.write(r);
   ++rows_[2];
   if (const auto gap = dr_gaps_.offer(r.t_s)) {
+    dr_gap_list_.push_back(*gap);
     last_gap_wall_s_ = dds::steady_now_s();
     spdlog::warn("{} (no such rows were received: the producer or the link lost them)",
                  describe_gap(*gap, "dead-reckoning"));
@@ -287,6 +325,38 @@ void RecorderNode::on_navigation_position(const odonav::msg::NavigationPosition&
   if (!is_new(last_navigation_t_s_, r.t_s, navigation_repeated_, navigation_backwards_, "navigation position")) return;
   navigation_position_csv_.write(r);
   ++navigation_rows_;
+  if (const auto gap = navigation_gaps_.offer(r.t_s)) {
+    navigation_gap_list_.push_back(*gap);
+    spdlog::warn("{} (no such rows were received: the producer or the link lost them)",
+                 describe_gap(*gap, "navigation-position"));
+  }
+}
+
+void RecorderNode::on_gnss(const odonav::msg::GnssFix& m) {
+  try {
+    gnss_epochs_s_.push_back(dds::to_seconds(m.header().stamp()));
+  } catch (const std::invalid_argument& e) {
+    spdlog::warn("gnss fix: {}: not counted as an epoch", e.what());
+  }
+}
+
+std::string RecorderNode::write_gaps() {
+  const std::vector<GapRow> gaps =
+      recording_gaps(gnss_epochs_s_, misalignment_s_, scale_factor_s_, dr_gap_list_, navigation_gap_list_);
+  for (const GapRow& g : gaps) gaps_csv_.write(g);
+  gaps_csv_.close();
+  const std::size_t epochs = std::set<double>(gnss_epochs_s_.begin(), gnss_epochs_s_.end()).size();
+  if (gaps.empty())
+    return "gaps.csv: nothing missing (" + std::to_string(epochs) + " GNSS epochs, each with its estimates)";
+  std::map<std::string, std::uint64_t> missing;
+  for (const GapRow& g : gaps) missing[g.topic] += g.count;
+  std::string what;
+  for (const auto& [topic, n] : missing) what += (what.empty() ? "" : ", ") + topic + " " + std::to_string(n);
+  for (const GapRow& g : gaps)
+    spdlog::warn("missing {} t={:.3f}-{:.3f} s ({}): {}", g.topic, g.first_missing_t_s, g.last_missing_t_s, g.count,
+                 g.reason);
+  return "gaps.csv: " + std::to_string(gaps.size()) + " spans missing: " + what + " (of " + std::to_string(epochs) +
+         " GNSS epochs for the estimates, outputs for the others)";
 }
 
 void RecorderNode::progress(double t_s, double distance_m) {
@@ -349,6 +419,7 @@ int RecorderNode::run() {
   scale_factor_csv_.close();
   dead_reckoning_csv_.close();
   navigation_position_csv_.close();
+  const std::string gaps = write_gaps();
   // Which vehicle these rows are of: odonav-evaluate and odonav-report check it against the dataset.
   RunProvenance provenance;
   provenance.tool = "odonav-recorder";
@@ -356,9 +427,9 @@ int RecorderNode::run() {
   write_file_atomically(out_.file(kProvenanceFile), provenance_json(provenance));
   if (last_dead_reckoning_t_s_) progress(*last_dead_reckoning_t_s_, last_distance_m_);
   spdlog::info("wrote {} misalignment, {} scale-factor, {} dead-reckoning, {} navigation-position rows into {} "
-               "(repeats skipped: {}, {}, {}, {})",
+               "(repeats skipped: {}, {}, {}, {}); {}",
                rows_[0], rows_[1], rows_[2], navigation_rows_, settings_.out_dir, repeated_[0],
-               repeated_[1] + k_arbiter_.counters().repeated, repeated_[2], navigation_repeated_);
+               repeated_[1] + k_arbiter_.counters().repeated, repeated_[2], navigation_repeated_, gaps);
   if (dr_gaps_.gaps() > 0)
     spdlog::warn("dead_reckoning.csv has {} gaps, {} outputs missing in all; the last: {}", dr_gaps_.gaps(),
                  dr_gaps_.missed(), describe_gap(*dr_gaps_.last_gap(), "dead-reckoning"));

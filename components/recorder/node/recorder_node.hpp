@@ -1,8 +1,8 @@
 #pragma once
 // odonav-recorder's DDS node: subscribes to one vehicle's misalignment, scale factor and dead
-// reckoning (and health, for the log) and writes misalignment.csv, scale_factor.csv and
-// dead_reckoning.csv, the same files and columns as odonav-offline (odonav/results/output_files.hpp),
-// so a user can run either and compare them directly.
+// reckoning (and health, for the log; GNSS, for the epochs) and writes misalignment.csv,
+// scale_factor.csv, dead_reckoning.csv and navigation_position.csv, the same files and columns as odonav-offline (odonav/results/output_files.hpp),
+// so a user can run either and compare them directly, and gaps.csv: what the recording lacks.
 //
 // Threads: reader callbacks only copy the message into the runtime's queue; the worker thread
 // (ComponentRuntime::run) converts and writes, so the readers keep up with a replay at full speed.
@@ -13,10 +13,12 @@
 #include <optional>
 #include <string>
 
+#include "odonav/csv_writer.hpp"
 #include "odonav/dds/component.hpp"
 #include "odonav/gap_detector.hpp"
 #include "odonav/topics.hpp"
 #include "odonav/msg/DeadReckoning.h"
+#include "odonav/msg/GnssFix.h"
 #include "odonav/msg/NavigationPosition.h"
 #include "odonav/msg/Health.h"
 #include "odonav/msg/Misalignment.h"
@@ -46,6 +48,35 @@ results::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m
 /// NavigationPosition: position as dead_reckoning_row; -1 (unknown) covariance, last fix stamp and
 /// distance -> NaN (written empty, as odonav-offline writes them); status by name.
 results::NavigationPositionRow navigation_position_row(const odonav::msg::NavigationPosition& m);
+
+/// One row of gaps.csv: what the recording lacks on one topic, over one span (event time, s).
+struct GapRow {
+  std::string topic;            ///< the DDS topic name
+  double first_missing_t_s = 0.0;
+  double last_missing_t_s = 0.0;
+  std::uint64_t count = 0;      ///< GNSS epochs (estimates) or outputs (dead reckoning, navigation) missing
+  std::string reason;           ///< no ',' (a CSV field)
+};
+
+/// What the recording lacks: the misalignment and scale-factor rows missing against the GNSS
+/// epochs received (missing_epochs: one estimate per epoch), then the holes in the dead-reckoning and
+/// navigation-position rows (GapDetector), each topic's spans in time order.
+std::vector<GapRow> recording_gaps(const std::vector<double>& gnss_epochs_s, const std::vector<double>& misalignment_s,
+                                   const std::vector<double>& scale_factor_s,
+                                   const std::vector<OutputGap>& dead_reckoning_gaps,
+                                   const std::vector<OutputGap>& navigation_gaps);
+
+/// gaps.csv (topic, first_missing_t_s, last_missing_t_s, count, reason): written through CsvWriter
+/// (safe_output.hpp rules); a lossless recording has the header only.
+class GapsCsv {
+ public:
+  explicit GapsCsv(const std::string& path);
+  void write(const GapRow& row);
+  void close() { csv_.close(); }
+
+ private:
+  CsvWriter csv_;
+};
 
 /// Estimates are read with topics::kMisalignmentRecorderReaderProfile and
 /// kScaleFactorRecorderReaderProfile (KEEP_LAST 1000 per vehicle: a replay at maximum speed loses
@@ -87,6 +118,9 @@ class RecorderNode {
   void on_dead_reckoning(const odonav::msg::DeadReckoning& m);
   void on_navigation_position(const odonav::msg::NavigationPosition& m);
   void on_health(const odonav::msg::Health& h);
+  void on_gnss(const odonav::msg::GnssFix& m);
+  /// Writes gaps.csv; returns its summary for the final log line.
+  std::string write_gaps();
   void tick();
   void progress(double t_s, double distance_m);
   void close_readers();
@@ -98,6 +132,7 @@ class RecorderNode {
   results::ScaleFactorCsv scale_factor_csv_;
   results::DeadReckoningCsv dead_reckoning_csv_;
   results::NavigationPositionCsv navigation_position_csv_;
+  GapsCsv gaps_csv_;
   // Worker thread only:
   std::optional<double> last_misalignment_t_s_, last_scale_factor_t_s_, last_dead_reckoning_t_s_;
   std::optional<double> last_navigation_t_s_;
@@ -108,6 +143,10 @@ class RecorderNode {
   std::optional<odonav::msg::ScaleFactor> last_k_;
   SourceArbiter<odonav::msg::ScaleFactor> k_arbiter_;
   GapDetector dr_gaps_{settings_.dead_reckoning_period_s};  // holes in the dead-reckoning rows
+  GapDetector navigation_gaps_{settings_.dead_reckoning_period_s};  // and in the navigation positions
+  std::vector<OutputGap> dr_gap_list_, navigation_gap_list_;
+  // Stamps for gaps.csv (s): the GNSS epochs received and the estimate rows written.
+  std::vector<double> gnss_epochs_s_, misalignment_s_, scale_factor_s_;
   double last_gap_wall_s_ = 0.0;                            // steady clock, when the last was found
   static constexpr double kGapReasonHold_s = 30.0;
   std::optional<double> next_progress_t_s_;
@@ -120,6 +159,7 @@ class RecorderNode {
   std::unique_ptr<dds::Reader<odonav::msg::DeadReckoning>> dead_reckoning_reader_;
   std::unique_ptr<dds::Reader<odonav::msg::NavigationPosition>> navigation_reader_;
   std::unique_ptr<dds::Reader<odonav::msg::Health>> health_reader_;
+  std::unique_ptr<dds::Reader<odonav::msg::GnssFix>> gnss_reader_;
 };
 
 }  // namespace odonav::recorder

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <stdexcept>
+#include <vector>
 
 #include "odonav/gap_detector.hpp"
 
@@ -50,4 +51,31 @@ TEST(GapDetector, TheLearnedPeriodIsTheSmallestInterval) {
   EXPECT_THROW(GapDetector(-1.0), std::invalid_argument);
 }
 
+// Estimate rows against GNSS epochs: 10 Hz epochs 0.0-30.0 s; the identification's rows of
+// 10.1-15.0 s (50) never came, nor those after 28.0 s (20), and its first row is the epoch 0.1 s.
+// Row stamps a few ns off the epochs (DDS integer nanoseconds) still match; a repeated row and a row
+// at no epoch change nothing.
+TEST(MissingEpochs, RunsOfGnssEpochsWithoutAnEstimateRow) {
+  std::vector<double> epochs, rows;
+  for (int i = 0; i <= 300; ++i) epochs.push_back(i * 0.1);
+  for (int i = 1; i <= 280; ++i)
+    if (i < 101 || i > 150) rows.push_back(i * 0.1 + (i % 2 ? 3e-9 : -3e-9));
+  rows.push_back(5.0);    // a repeat (heartbeat)
+  rows.push_back(12.05);  // at no epoch
+  epochs.push_back(20.0);  // an epoch seen twice
+  const auto runs = odonav::missing_epochs(epochs, rows);
+  ASSERT_EQ(runs.size(), 3u);
+  EXPECT_NEAR(runs[0].first_missing_t_s, 0.0, 1e-12);
+  EXPECT_EQ(runs[0].missed, 1u);
+  EXPECT_NEAR(runs[1].first_missing_t_s, 10.1, 1e-9);
+  EXPECT_NEAR(runs[1].last_missing_t_s, 15.0, 1e-9);
+  EXPECT_EQ(runs[1].missed, 50u);
+  EXPECT_NEAR(runs[2].first_missing_t_s, 28.1, 1e-9);
+  EXPECT_NEAR(runs[2].last_missing_t_s, 30.0, 1e-9);
+  EXPECT_EQ(runs[2].missed, 20u);
+  // Every epoch with its row: nothing missing.
+  EXPECT_TRUE(odonav::missing_epochs(epochs, epochs).empty());
+}
+
 }  // namespace
+

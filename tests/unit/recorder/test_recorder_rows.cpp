@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -169,4 +170,46 @@ TEST(RecorderRows, NavigationPositionUnknownsAreEmptyAndStatusIsNamedAsOfflineWr
   EXPECT_EQ(r.var_north_m2, 1.25);
   EXPECT_EQ(r.last_fix_t_s, 98.5);
   EXPECT_EQ(r.distance_since_fix_m, 17.5);
+}
+
+// gaps.csv: 10 Hz GNSS epochs 0.0-20.0 s; the calibration's rows are all there, the
+// identification's of 5.1-8.0 s (30 epochs) are not; dead reckoning lost 100 outputs at 100 Hz
+// (12.01-13.00 s). Rows per topic in the order the file promises, and the file as written.
+TEST(RecorderGaps, EstimateRowsMissingAgainstGnssAndOutputHolesAreNamed) {
+  std::vector<double> epochs, k;
+  for (int i = 0; i <= 200; ++i) {
+    epochs.push_back(i * 0.1);
+    if (i <= 50 || i > 80) k.push_back(i * 0.1);
+  }
+  GapDetector dr(0.01);
+  std::vector<OutputGap> dr_gaps;
+  for (int i = 0; i <= 2000; ++i)
+    if (i <= 1200 || i > 1300)
+      if (const auto g = dr.offer(i * 0.01)) dr_gaps.push_back(*g);
+  const auto rows = recorder::recording_gaps(epochs, epochs, k, dr_gaps, {});
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].topic, "rt/odonav/scale_factor");
+  EXPECT_NEAR(rows[0].first_missing_t_s, 5.1, 1e-9);
+  EXPECT_NEAR(rows[0].last_missing_t_s, 8.0, 1e-9);
+  EXPECT_EQ(rows[0].count, 30u);
+  EXPECT_EQ(rows[1].topic, "rt/odonav/dead_reckoning");
+  EXPECT_NEAR(rows[1].first_missing_t_s, 12.01, 1e-9);
+  EXPECT_NEAR(rows[1].last_missing_t_s, 13.00, 1e-9);
+  EXPECT_EQ(rows[1].count, 100u);
+
+  char dir_template[] = "/tmp/odonav-recorder-gaps-XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string path = std::string(dir_template) + "/gaps.csv";
+  {
+    recorder::GapsCsv csv(path);
+    for (const auto& r : rows) csv.write(r);
+    csv.close();
+  }
+  const std::string text = read_file(path);
+  EXPECT_EQ(text.substr(0, text.find('\n')), "topic,first_missing_t_s,last_missing_t_s,count,reason");
+  EXPECT_NE(text.find("\nrt/odonav/scale_factor,5.1"), std::string::npos) << text;
+  EXPECT_NE(text.find(",8,30,no scale factor for these GNSS epochs"), std::string::npos) << text;
+  EXPECT_NE(text.find("\nrt/odonav/dead_reckoning,12.01,13,100,no dead-reckoning outputs"), std::string::npos) << text;
+  // Lossless: the header only.
+  EXPECT_TRUE(recorder::recording_gaps(epochs, epochs, epochs, {}, {}).empty());
 }
