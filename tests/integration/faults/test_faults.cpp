@@ -9,12 +9,18 @@
 //      again (rows counted, not timed).
 //   3. kill -9 + restart of the identification 2 s later (domain 195): it resumes from its
 //      checkpoint, processes the producers' history of its downtime and publishes those estimates
-//      late (catch-up, in its health); every recorded row is present and equal to odonav-offline's.
+//      late (catch-up, in its health); every recorded row is present and equal to odonav-offline's,
+//      and the recorder's gaps.csv is empty.
+//   4. the identification killed for good (domain 162): the recorder's gaps.csv names the GNSS epochs
+//      left without a K (against the dataset), and dead reckoning's health the outputs on the K held.
+// The restart loop (1) also runs on the vehicle profile, in a network namespace of its own (root).
 // ODONAV_FAULTS_PROFILE=<participant profile file> runs both against other profiles (with the qos.xml
-// beside it), e.g. the shared-memory ones of an earlier version, for the before/after figures.
+// beside it), e.g. the shared-memory ones of an earlier version, for the before/after figures;
+// ODONAV_FAULTS_PROFILE_NAME names the participant profile in it (default loopback.xml's).
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -33,7 +39,9 @@
 #include <vector>
 
 #include "child_process.hpp"
+#include "multihost/virtual_network.hpp"
 #include "core/simulator.hpp"
+#include "odonav/dataset.hpp"
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/participant.hpp"
 #include "odonav/dds/time.hpp"
@@ -56,6 +64,11 @@ constexpr const char* kVehicle = "fault-vehicle";
 std::string profile_file() {
   if (const char* p = std::getenv("ODONAV_FAULTS_PROFILE"); p && *p) return p;
   return std::string(ODONAV_SOURCE_DIR) + "/deploy/profiles/loopback.xml";
+}
+/// The participant profile's name in profile_file(): ODONAV_FAULTS_PROFILE_NAME, else loopback.xml's.
+std::string profile_name() {
+  if (const char* p = std::getenv("ODONAV_FAULTS_PROFILE_NAME"); p && *p) return p;
+  return topics::kLoopbackParticipantProfile;
 }
 
 double steady_s() {
@@ -101,14 +114,16 @@ class TimedCollector {
 odonav::dds::ParticipantOptions participant_options(int domain) {
   odonav::dds::ParticipantOptions p;
   p.profiles_file = profile_file();
+  p.participant_profile = profile_name();
   p.domain_id = domain;
   p.participant_name = "odonav-faults-test";
   return p;
 }
 
 std::vector<std::string> common_args(int domain, std::vector<std::string> extra) {
-  std::vector<std::string> a{"--domain", std::to_string(domain), "--profile", profile_file(), "--vehicle-id", kVehicle,
-                             "--log-level", "warn"};
+  std::vector<std::string> a{"--domain",     std::to_string(domain), "--profile",    profile_file(),
+                             "--profile-name", profile_name(),      "--vehicle-id", kVehicle,
+                             "--log-level",  "warn"};
   a.insert(a.end(), extra.begin(), extra.end());
   return a;
 }
@@ -131,6 +146,13 @@ Percentiles percentiles(std::vector<double> v) {
   p.max = v.back();
   return p;
 }
+
+/// One row of the recorder's gaps.csv.
+struct GapsCsvRow {
+  std::string topic, reason;
+  double first_s = 0, last_s = 0;
+  unsigned long long count = 0;
+};
 
 class Faults : public ::testing::Test {
  protected:
@@ -267,6 +289,42 @@ TEST_F(Faults, TwentyKillNineRestartsOfTheIdentificationAreEachHeardByDeadReckon
   dead_reckoning->signal(SIGINT);
   EXPECT_TRUE(dead_reckoning->wait_exit(seconds(30)));
   EXPECT_EQ(dead_reckoning->exit_code(), 0);
+}
+
+// The same loop on the vehicle profile (deploy/profiles/vehicle.xml: UDPv4 whitelisted to one
+// interface, multicast discovery on 239.255.0.1), as components of one ECU run it. The loop above
+// runs again, as a child of this test, inside a network namespace of its own whose one interface
+// (10.0.0.11, a veth to an empty bridge, multicast routed to it: the multi-host test's
+// VirtualNetwork) carries the multicast, so nothing leaves the machine. Every restart heard within
+// the loop's bounds; the figures (median / max time to be heard) are printed for BENCHMARKS.md
+// section 11. Needs root (ip netns), as the multi-host test.
+TEST_F(Faults, TwentyKillNineRestartsOnTheVehicleProfileAreEachHeard) {
+  if (std::getenv("ODONAV_FAULTS_PROFILE")) GTEST_SKIP() << "already given a profile (the loop's own run)";
+  ASSERT_EQ(::geteuid(), 0u) << "this test creates a network namespace (ip netns): run it as root (CI does)";
+  multihost::remove_stale_namespaces();
+  const fs::path dir = fresh_dir("test-faults", "vehicle-profile");
+  const std::string address = "10.0.0.11";
+  multihost::VirtualNetwork net(dir / "net", {{"ecu1", address}});
+  const fs::path profile = multihost::instantiate_profile(
+      std::string(ODONAV_SOURCE_DIR) + "/deploy/profiles/vehicle.xml", dir / "profiles", address);
+
+  const std::string self = fs::read_symlink("/proc/self/exe").string();
+  const auto argv = net.exec_argv(
+      "ecu1", dir / "loop.out", dir / "loop.err",
+      {"/usr/bin/env", "ODONAV_FAULTS_PROFILE=" + profile.string(), "ODONAV_FAULTS_PROFILE_NAME=vehicle", self,
+       "--gtest_filter=Faults.TwentyKillNineRestartsOfTheIdentificationAreEachHeardByDeadReckoningAndARecorder"});
+  ChildProcess loop(argv[0], std::vector<std::string>(argv.begin() + 1, argv.end()));
+  ASSERT_TRUE(loop.started());
+  const bool ended = loop.wait_exit(seconds(330));
+  const std::string out = read_text(dir / "loop.out"), err = read_text(dir / "loop.err");
+  // The loop's figures line, for BENCHMARKS.md section 11.
+  std::istringstream lines(err);
+  for (std::string l; std::getline(lines, l);)
+    if (l.rfind("restart loop (", 0) == 0 || l.find("first new K at the recorder") != std::string::npos)
+      std::cerr << "vehicle profile: " << l << "\n";
+  ASSERT_TRUE(ended) << "the loop did not end within 330 s\n" << out << err;
+  EXPECT_EQ(loop.exit_code(), 0) << out << err;
+  EXPECT_NE(out.find("[  PASSED  ] 1 test"), std::string::npos) << out << err;
 }
 
 // ---- 2. stalls ----------------------------------------------------------------------------------
@@ -626,6 +684,147 @@ TEST_F(Faults, KillNineAndRestartOfTheIdentificationCatchesUpEveryRowEqualToOffl
             0)
       << read_text(dir + "/offline.log");
   expect_rows_equal_offline(out, offline_dir);
+  // Nothing lost, and the recording says so: gaps.csv is there with its header only.
+  EXPECT_EQ(read_text(out + "/gaps.csv"), "topic,first_missing_t_s,last_missing_t_s,count,reason\n");
+}
+
+// ---- 4. a loss named: the identification killed for good ----------------------------------------
+
+/// gaps.csv rows (the header checked).
+std::vector<GapsCsvRow> read_gaps(const std::string& path) {
+  std::istringstream in(read_text(path));
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "topic,first_missing_t_s,last_missing_t_s,count,reason") << path;
+  std::vector<GapsCsvRow> rows;
+  while (std::getline(in, line)) {
+    std::istringstream f(line);
+    GapsCsvRow g;
+    std::string first, last, count;
+    std::getline(f, g.topic, ',');
+    std::getline(f, first, ',');
+    std::getline(f, last, ',');
+    std::getline(f, count, ',');
+    std::getline(f, g.reason);
+    g.first_s = std::stod(first);
+    g.last_s = std::stod(last);
+    g.count = std::stoull(count);
+    rows.push_back(g);
+  }
+  return rows;
+}
+
+TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHealth) {
+  // 60 s of the ring at 3x real time; the identification is killed (SIGKILL) once its K passes
+  // t = 25 s and never comes back. Dead reckoning (--max-wait-s 2) goes on on the last K: every
+  // output from the first GNSS epoch without a K (+ the 0.2 s hold-off) on is on a held K, and its
+  // health says which (counters and reason). The recording names the loss in gaps.csv: the GNSS
+  // epochs after the last scale-factor row, to the end, counted against the dataset's gnss.csv
+  // (the same simulation), and nothing else.
+  constexpr int kDomain = 162;
+  constexpr const char* kSeed = "7";
+  constexpr const char* kDuration = "60";
+  const std::string dir = fresh_dir("test-faults", "killed-for-good").string();
+  const std::string out = dir + "/out";
+  const std::string arm = lever_arm("ring");
+  ASSERT_EQ(run(binary("odonav-sim") + " ring --out " + dir + "/dataset --seed " + kSeed + " --duration-s " + kDuration +
+                " >" + dir + "/sim.log 2>&1"),
+            0)
+      << read_text(dir + "/sim.log");
+
+  odonav::dds::Participant participant(participant_options(kDomain));
+  TimedCollector<msg::ScaleFactor> k(participant, topics::kScaleFactor, topics::kScaleFactorRecorderReaderProfile);
+  TimedCollector<msg::Health> health(participant, topics::kHealth, topics::kHealthReaderProfile);
+  const std::vector<std::string> node = common_args(kDomain, {"--max-wait-s", "2", "--lever-arm", arm});
+  auto recorder = start_logged("odonav-recorder", common_args(kDomain, {"--out", out, "--log-level", "info"}),
+                               dir + "/recorder.log");
+  auto dead_reckoning = start_logged("odonav-dead-reckoning", node, dir + "/dr.log");
+  auto calibration = start_logged("odonav-calibration", node, dir + "/calibration.log");
+  auto identification = start_logged("odonav-identification", node, dir + "/id.log");
+  ASSERT_TRUE(recorder->started() && dead_reckoning->started() && calibration->started() &&
+              identification->started());
+  const auto t0 = std::chrono::steady_clock::now();
+  while (read_text(dir + "/recorder.log").find("every producer matched") == std::string::npos &&
+         std::chrono::steady_clock::now() - t0 < seconds(60))
+    std::this_thread::sleep_for(milliseconds(100));
+  auto gateway = start_logged("odonav-gateway",
+                              common_args(kDomain, {"--source", "sim:ring", "--seed", kSeed, "--duration-s", kDuration,
+                                                    "--speed", "3", "--wait-for-readers", "3",
+                                                    "--wait-for-readers-timeout-s", "60", "--tolerate-lost-readers"}),
+                              dir + "/gateway.log");
+  ASSERT_TRUE(gateway->started());
+  ASSERT_TRUE(k.wait_until([](const auto& v) { return !v.empty() && stamp_s(v.back().sample) >= 25.0; }, seconds(90)))
+      << read_text(dir + "/id.log") << read_text(dir + "/gateway.log");
+  identification->signal(SIGKILL);
+  ASSERT_TRUE(identification->wait_exit(seconds(5)));
+
+  ASSERT_TRUE(gateway->wait_exit(seconds(120))) << read_text(dir + "/gateway.log");
+  for (auto* c : {&calibration, &dead_reckoning, &recorder}) {
+    (*c)->signal(SIGINT);
+    EXPECT_TRUE((*c)->wait_exit(seconds(60)));
+    EXPECT_EQ((*c)->exit_code(), 0);
+  }
+
+  const results::OutputRows rows = results::read_output_rows(out);
+  ASSERT_FALSE(rows.scale_factor.empty());
+  ASSERT_FALSE(rows.dead_reckoning.empty());
+  const double last_k_s = rows.scale_factor.back().t_s;
+  const Dataset data = read_dataset(dir + "/dataset", BadRowPolicy::kFail);
+  std::vector<double> lost;
+  for (const auto& g : data.gnss)
+    if (g.t_s > last_k_s + 1e-6) lost.push_back(g.t_s);
+  ASSERT_GT(lost.size(), 100u) << "killed at t=" << last_k_s << " s of " << kDuration << " s";
+  std::cerr << "last K row t=" << last_k_s << " s; GNSS epochs after it: " << lost.size() << " (t=" << lost.front()
+            << "-" << lost.back() << " s)\n";
+
+  const auto gaps = read_gaps(out + "/gaps.csv");
+  for (const auto& g : gaps)
+    std::cerr << "gaps.csv: " << g.topic << " t=" << g.first_s << "-" << g.last_s << " s, " << g.count << ": "
+              << g.reason << "\n";
+  ASSERT_EQ(gaps.size(), 1u) << read_text(out + "/gaps.csv");
+  EXPECT_EQ(gaps[0].topic, topics::kScaleFactor.name);
+  EXPECT_NEAR(gaps[0].first_s, lost.front(), 1e-6);
+  EXPECT_NEAR(gaps[0].last_s, lost.back(), 1e-6);
+  EXPECT_EQ(gaps[0].count, lost.size());
+  EXPECT_NE(read_text(dir + "/recorder.log").find("gaps.csv: 1 spans missing: rt/odonav/scale_factor " +
+                                                  std::to_string(lost.size())),
+            std::string::npos)
+      << read_text(dir + "/recorder.log");
+
+  // Dead reckoning: its last health with the held-K counters names the span and the K held.
+  const msg::Health* last = nullptr;
+  const auto hs = health.items();
+  for (const auto& h : hs)
+    if (h.sample.component() == "odonav-dead-reckoning" && !std::isnan(health_counter(h.sample, "held_k_first_t_s")))
+      last = &h.sample;
+  ASSERT_NE(last, nullptr) << "no dead-reckoning health with a held K";
+  const double first_s = health_counter(*last, "held_k_first_t_s"), last_s = health_counter(*last, "held_k_last_t_s");
+  std::cerr << "dead reckoning: " << health_counter(*last, "outputs_on_held_k") << " outputs on the K of t="
+            << health_counter(*last, "held_k_epoch_t_s") << " s held, t=" << first_s << "-" << last_s << " s; \""
+            << last->reason() << "\"\n";
+  EXPECT_NEAR(health_counter(*last, "held_k_epoch_t_s"), last_k_s, 1e-6);
+  // The first output at or after the first epoch without K + the hold-off (0.2 s - 1 us).
+  const double applies_s = lost.front() + 0.2 - 1e-6;
+  const auto first_held = std::lower_bound(rows.dead_reckoning.begin(), rows.dead_reckoning.end(), applies_s,
+                                           [](const auto& r, double t) { return r.t_s < t; });
+  ASSERT_NE(first_held, rows.dead_reckoning.end());
+  EXPECT_NEAR(first_s, first_held->t_s, 1e-6);
+  // Every output of the span counted, none twice.
+  const auto in_span = std::count_if(rows.dead_reckoning.begin(), rows.dead_reckoning.end(),
+                                     [&](const auto& r) { return r.t_s >= first_s - 1e-6 && r.t_s <= last_s + 1e-6; });
+  EXPECT_EQ(health_counter(*last, "outputs_on_held_k"), static_cast<double>(in_span));
+  // While it ran (before "stopping"), its health reason named the K held.
+  char held_text[96];
+  std::snprintf(held_text, sizeof held_text, "use the K of t=%.1f s held: identification silent", last_k_s);
+  std::string reasons;
+  bool told = false;
+  for (const auto& h : hs)
+    if (h.sample.component() == "odonav-dead-reckoning" && h.sample.reason().find(held_text) != std::string::npos) {
+      told = true;
+      reasons = h.sample.reason();
+    }
+  EXPECT_TRUE(told) << "no dead-reckoning health saying '" << held_text << "'";
+  std::cerr << "its health while it went on: \"" << reasons << "\"\n";
 }
 
 }  // namespace

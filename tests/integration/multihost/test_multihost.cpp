@@ -57,6 +57,7 @@ namespace {
 using namespace std::chrono_literals;
 using odonav::multihost::Host;
 using odonav::multihost::VirtualNetwork;
+using odonav::multihost::instantiate_profile;
 using odonav::test::ChildProcess;
 using odonav::test::read_text;
 namespace fs = std::filesystem;
@@ -86,24 +87,6 @@ nlohmann::json last_json_line(const fs::path& path) {
 }
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
-/// A participant profile instantiated for one host: ECU_ADDRESS replaced by the host's address,
-/// written with qos.xml beside it (the DDS layer reads the QoS profiles from the profile's folder).
-fs::path instantiate_profile(const fs::path& template_file, const fs::path& dir, const std::string& address) {
-  fs::create_directories(dir);
-  std::string text = read_text(template_file);
-  const std::string placeholder = "ECU_ADDRESS";
-  std::size_t replaced = 0;
-  for (std::size_t at = text.find(placeholder); at != std::string::npos; at = text.find(placeholder, at)) {
-    text.replace(at, placeholder.size(), address);
-    ++replaced;
-  }
-  if (replaced == 0) throw std::runtime_error(template_file.string() + ": no ECU_ADDRESS to replace");
-  const fs::path out = dir / template_file.filename();
-  std::ofstream(out) << text;
-  fs::copy_file(kSource / "deploy/profiles/qos.xml", dir / "qos.xml", fs::copy_options::overwrite_existing);
-  return out;
-}
 
 /// The live monitor's JSON lines (one snapshot per refresh), each stamped with the test's clock
 /// when it was read (polled every 100 ms, so the stamp is at most ~0.1 s late).

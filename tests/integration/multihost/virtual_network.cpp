@@ -192,6 +192,25 @@ std::vector<std::string> VirtualNetwork::exec_argv(const std::string& name, cons
   return argv;
 }
 
+fs::path instantiate_profile(const fs::path& template_file, const fs::path& dir, const std::string& address) {
+  fs::create_directories(dir);
+  std::ifstream in(template_file);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  const std::string placeholder = "ECU_ADDRESS";
+  std::size_t replaced = 0;
+  for (std::size_t at = text.find(placeholder); at != std::string::npos; at = text.find(placeholder, at)) {
+    text.replace(at, placeholder.size(), address);
+    ++replaced;
+  }
+  if (replaced == 0) throw std::runtime_error(template_file.string() + ": no ECU_ADDRESS to replace");
+  const fs::path out = dir / template_file.filename();
+  std::ofstream(out) << text;
+  fs::copy_file(template_file.parent_path() / "qos.xml", dir / "qos.xml", fs::copy_options::overwrite_existing);
+  return out;
+}
+
 void VirtualNetwork::set_link(const std::string& name, bool up) {
   run_checked("ip -n " + prefix_ + "sw link set p-" + host(name).name + (up ? " up" : " down"));
 }

@@ -74,6 +74,13 @@ class VirtualNetwork {
   bool cleaned_ = false;
 };
 
+/// A participant profile instantiated for one host: every ECU_ADDRESS of template_file replaced by
+/// `address`, written into dir with the qos.xml beside the template copied beside it (the DDS layer
+/// reads the QoS profiles from the profile's folder). Returns the profile's path. Throws
+/// std::runtime_error when the template has no ECU_ADDRESS.
+std::filesystem::path instantiate_profile(const std::filesystem::path& template_file, const std::filesystem::path& dir,
+                                          const std::string& address);
+
 /// Deletes namespaces named odn-<pid>-* whose test process <pid> no longer exists (a run that was
 /// SIGKILLed, e.g. by a CTest timeout, cannot clean up after itself).
 void remove_stale_namespaces();
