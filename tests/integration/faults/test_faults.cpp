@@ -562,6 +562,32 @@ double health_counter(const msg::Health& h, const std::string& name) {
   return std::nan("");
 }
 
+/// The ring drive the gateway replays (same seed and duration), as a dataset in dir/dataset.
+void simulate_ring(const std::string& dir, const char* seed, const char* duration_s) {
+  ASSERT_EQ(run(binary("odonav-sim") + " ring --out " + dir + "/dataset --seed " + seed + " --duration-s " +
+                duration_s + " >" + dir + "/sim.log 2>&1"),
+            0)
+      << read_text(dir + "/sim.log");
+}
+
+/// Waits (at most 60 s) until the recorder logging into recorder_log matched every producer.
+void wait_for_producers(const std::string& recorder_log) {
+  const auto t0 = std::chrono::steady_clock::now();
+  while (read_text(recorder_log).find("every producer matched") == std::string::npos &&
+         std::chrono::steady_clock::now() - t0 < seconds(60))
+    std::this_thread::sleep_for(milliseconds(100));
+}
+
+/// The gateway replaying the simulated ring at 3x real time, once 3 readers matched.
+std::unique_ptr<ChildProcess> start_ring_gateway(int domain, const char* seed, const char* duration_s,
+                                                 const std::string& dir) {
+  return start_logged("odonav-gateway",
+                      common_args(domain, {"--source", "sim:ring", "--seed", seed, "--duration-s", duration_s,
+                                           "--speed", "3", "--wait-for-readers", "3", "--wait-for-readers-timeout-s",
+                                           "60", "--tolerate-lost-readers"}),
+                      dir + "/gateway.log");
+}
+
 TEST_F(Faults, KillNineAndRestartOfTheIdentificationCatchesUpEveryRowEqualToOffline) {
   // 120 s of the ring at 3x real time (40 s of wall time); the identification is killed once its
   // K passes t = 52.5 s, between two checkpoints (every 5 s of event time), and restarted 2 s later
@@ -578,10 +604,7 @@ TEST_F(Faults, KillNineAndRestartOfTheIdentificationCatchesUpEveryRowEqualToOffl
   const std::string arm = lever_arm("ring");
   char nominal[64];
   std::snprintf(nominal, sizeof nominal, "%.17g", sim::scenario_config("ring").k_nominal_m_per_pulse);
-  ASSERT_EQ(run(binary("odonav-sim") + " ring --out " + dir + "/dataset --seed " + kSeed + " --duration-s " + kDuration +
-                " >" + dir + "/sim.log 2>&1"),
-            0)
-      << read_text(dir + "/sim.log");
+  ASSERT_NO_FATAL_FAILURE(simulate_ring(dir, kSeed, kDuration));
 
   odonav::dds::Participant participant(participant_options(kDomain));
   TimedCollector<msg::ScaleFactor> k(participant, topics::kScaleFactor, topics::kScaleFactorRecorderReaderProfile);
@@ -604,17 +627,10 @@ TEST_F(Faults, KillNineAndRestartOfTheIdentificationCatchesUpEveryRowEqualToOffl
   auto identification = start_logged("odonav-identification", id_args, dir + "/id-1.log");
   ASSERT_TRUE(recorder->started() && dead_reckoning->started() && calibration->started() &&
               identification->started());
-  const auto t0 = std::chrono::steady_clock::now();
-  while (read_text(dir + "/recorder.log").find("every producer matched") == std::string::npos &&
-         std::chrono::steady_clock::now() - t0 < seconds(60))
-    std::this_thread::sleep_for(milliseconds(100));
+  wait_for_producers(dir + "/recorder.log");
   ASSERT_TRUE(calibration->running() && identification->running() && dead_reckoning->running())
       << read_text(dir + "/calibration.log") << read_text(dir + "/id-1.log") << read_text(dir + "/dr.log");
-  auto gateway = start_logged("odonav-gateway",
-                              common_args(kDomain, {"--source", "sim:ring", "--seed", kSeed, "--duration-s", kDuration,
-                                                    "--speed", "3", "--wait-for-readers", "3",
-                                                    "--wait-for-readers-timeout-s", "60", "--tolerate-lost-readers"}),
-                              dir + "/gateway.log");
+  auto gateway = start_ring_gateway(kDomain, kSeed, kDuration, dir);
   ASSERT_TRUE(gateway->started());
 
   ASSERT_TRUE(k.wait_until([](const auto& v) { return !v.empty() && stamp_s(v.back().sample) >= 52.5; }, seconds(90)))
@@ -727,10 +743,7 @@ TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHe
   const std::string dir = fresh_dir("test-faults", "killed-for-good").string();
   const std::string out = dir + "/out";
   const std::string arm = lever_arm("ring");
-  ASSERT_EQ(run(binary("odonav-sim") + " ring --out " + dir + "/dataset --seed " + kSeed + " --duration-s " + kDuration +
-                " >" + dir + "/sim.log 2>&1"),
-            0)
-      << read_text(dir + "/sim.log");
+  ASSERT_NO_FATAL_FAILURE(simulate_ring(dir, kSeed, kDuration));
 
   odonav::dds::Participant participant(participant_options(kDomain));
   TimedCollector<msg::ScaleFactor> k(participant, topics::kScaleFactor, topics::kScaleFactorRecorderReaderProfile);
@@ -743,15 +756,8 @@ TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHe
   auto identification = start_logged("odonav-identification", node, dir + "/id.log");
   ASSERT_TRUE(recorder->started() && dead_reckoning->started() && calibration->started() &&
               identification->started());
-  const auto t0 = std::chrono::steady_clock::now();
-  while (read_text(dir + "/recorder.log").find("every producer matched") == std::string::npos &&
-         std::chrono::steady_clock::now() - t0 < seconds(60))
-    std::this_thread::sleep_for(milliseconds(100));
-  auto gateway = start_logged("odonav-gateway",
-                              common_args(kDomain, {"--source", "sim:ring", "--seed", kSeed, "--duration-s", kDuration,
-                                                    "--speed", "3", "--wait-for-readers", "3",
-                                                    "--wait-for-readers-timeout-s", "60", "--tolerate-lost-readers"}),
-                              dir + "/gateway.log");
+  wait_for_producers(dir + "/recorder.log");
+  auto gateway = start_ring_gateway(kDomain, kSeed, kDuration, dir);
   ASSERT_TRUE(gateway->started());
   ASSERT_TRUE(k.wait_until([](const auto& v) { return !v.empty() && stamp_s(v.back().sample) >= 25.0; }, seconds(90)))
       << read_text(dir + "/id.log") << read_text(dir + "/gateway.log");
