@@ -578,12 +578,13 @@ void wait_for_producers(const std::string& recorder_log) {
     std::this_thread::sleep_for(milliseconds(100));
 }
 
-/// The gateway replaying the simulated ring at 3x real time, once 3 readers matched.
+/// The gateway replaying the simulated ring at 3x real time, once 4 GNSS readers matched: the
+/// calibration, the identification, dead reckoning and the recorder.
 std::unique_ptr<ChildProcess> start_ring_gateway(int domain, const char* seed, const char* duration_s,
                                                  const std::string& dir) {
   return start_logged("odonav-gateway",
                       common_args(domain, {"--source", "sim:ring", "--seed", seed, "--duration-s", duration_s,
-                                           "--speed", "3", "--wait-for-readers", "3", "--wait-for-readers-timeout-s",
+                                           "--speed", "3", "--wait-for-readers", "4", "--wait-for-readers-timeout-s",
                                            "60", "--tolerate-lost-readers"}),
                       dir + "/gateway.log");
 }
