@@ -38,10 +38,7 @@ void add_identification_node_options(Options& o) {
   o.add_bool("use-ins", true,
              "the vehicle has an INS; false = degraded mode (forward speed = |GNSS velocity|), as "
              "odonav-offline does for a dataset without ins.csv");
-  o.add_string("state-dir", "",
-               "folder of the checkpoint identification-<vehicle>.ckpt (restored at start, written every "
-               "--checkpoint-every-s of event time and at shutdown); empty = no checkpoint");
-  o.add_double("checkpoint-every-s", 5.0, "checkpoint period in event time of the processed epochs (s)", 0.1, 1e6);
+  add_checkpoint_options(o, "identification-<vehicle>.ckpt");
   o.add_string("instance", kDefaultIdentificationInstance,
                "name of this instance, published as ScaleFactor.source and naming its state files "
                "(e.g. identification/standby for a hot standby; letters, digits, . _ - /)");
@@ -66,13 +63,7 @@ InstanceSettings instance_settings_from(const Options& o) {
   return s;
 }
 
-CheckpointSettings checkpoint_settings_from(const Options& o) {
-  CheckpointSettings c;
-  c.state_dir = o.get_string("state-dir");
-  c.every_s = o.get_double("checkpoint-every-s");
-  c.config_hash = config_hash_of(o.values_as_text());
-  return c;
-}
+CheckpointSettings checkpoint_settings_from(const Options& o) { return checkpoint_settings_from_options(o); }
 
 IdentificationParams identification_node_params_from(const Options& o) {
   IdentificationVehicleFacts facts;
@@ -119,12 +110,6 @@ dds::WriterSettings scale_factor_writer_settings(const InstanceSettings& instanc
   return w;
 }
 
-/// The topic with another reader profile (the same topic, type and writer profile).
-topics::TopicSpec with_reader_profile(topics::TopicSpec spec, const char* reader_profile) {
-  spec.reader_profile = reader_profile;
-  return spec;
-}
-
 }  // namespace
 
 IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const IdentificationParams& params,
@@ -159,7 +144,7 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
                  *lifecycle_.restored_t_s());
 
   odometer_reader_ = subscribe<odonav::msg::Odometer>(
-      with_reader_profile(topics::kOdometer, sensor_profile), odometer_,
+      topics::with_reader_profile(topics::kOdometer, sensor_profile), odometer_,
       [this](const auto& m, double t_s) {
         lifecycle_.note_odometer_received(t_s, dds::steady_now_s());
         const bool skip = lifecycle_.skip_sample(IdentificationInput::kOdometer, t_s);
@@ -168,7 +153,7 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
       },
       [this](const odonav::msg::Odometer& m) { declare_gnss_published(gnss_, m); });
   gnss_reader_ = subscribe<odonav::msg::GnssFix>(
-      with_reader_profile(topics::kGnssFix, sensor_profile), gnss_, [this](const auto& m, double t_s) {
+      topics::with_reader_profile(topics::kGnssFix, sensor_profile), gnss_, [this](const auto& m, double t_s) {
     // After a restore, GNSS waits until the first odometer (and INS) sample of the handed-over
     // history is known: epochs older than those histories cannot be processed and are lost.
     if (lifecycle_.restored_t_s() && !sensor_history_start_known()) {
@@ -179,7 +164,7 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
   });
   if (ins_) {
     ins_reader_ = subscribe<odonav::msg::InsAttitude>(
-        with_reader_profile(topics::kInsAttitude, sensor_profile), *ins_, [this](const auto& m, double t_s) {
+        topics::with_reader_profile(topics::kInsAttitude, sensor_profile), *ins_, [this](const auto& m, double t_s) {
       const bool skip = lifecycle_.skip_sample(IdentificationInput::kIns, t_s);
       flush_pending_gnss();
       if (skip) return;
@@ -339,24 +324,7 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("heartbeats", static_cast<double>(scale_factor_->heartbeats()));
   c.emplace_back("k_commands", static_cast<double>(k_commands_));
   c.emplace_back("ownership_strength", static_cast<double>(instance_.ownership_strength));
-  if (lifecycle_.checkpointing()) {
-    const auto& restored_t_s = lifecycle_.restored_t_s();
-    c.emplace_back("checkpoint_restored", restored_t_s ? 1.0 : 0.0);
-    if (restored_t_s) c.emplace_back("checkpoint_restored_t_s", *restored_t_s);
-    c.emplace_back("checkpoint_moved_aside", lifecycle_.checkpoint_moved_aside() ? 1.0 : 0.0);
-    c.emplace_back("checkpoints_written", static_cast<double>(lifecycle_.checkpoints_written()));
-    c.emplace_back("checkpoint_errors", static_cast<double>(lifecycle_.checkpoint_errors()));
-    c.emplace_back("skipped_before_checkpoint", static_cast<double>(lifecycle_.skipped_before_checkpoint()));
-    if (restored_t_s) {
-      // The catch-up of the downtime's data: estimates published late, and event time lost.
-      c.emplace_back("catch_up_outputs", static_cast<double>(lifecycle_.catch_up_outputs()));
-      c.emplace_back("catching_up", lifecycle_.catching_up() ? 1.0 : 0.0);
-      if (lifecycle_.catch_up_first_t_s()) c.emplace_back("catch_up_first_t_s", *lifecycle_.catch_up_first_t_s());
-      if (lifecycle_.catch_up_last_t_s()) c.emplace_back("catch_up_last_t_s", *lifecycle_.catch_up_last_t_s());
-      c.emplace_back("catch_up_lost_s", lifecycle_.catch_up_lost_s());
-      c.emplace_back("catch_up_lost_epochs", static_cast<double>(lifecycle_.catch_up_lost_epochs()));
-    }
-  }
+  for (auto& counter : lifecycle_.restart_counters()) c.push_back(std::move(counter));
   const auto& last = lifecycle_.last_output();
   if (last && last->main.valid) {
     c.emplace_back("k_m_per_pulse", last->main.k_m_per_pulse);

@@ -16,6 +16,12 @@ struct TopicSpec {
   const char* reader_profile;  ///< data_reader profile in qos.xml for the vehicle's consumers.
 };
 
+/// The same topic (name, type, writer profile) read with another reader profile.
+constexpr TopicSpec with_reader_profile(TopicSpec spec, const char* reader_profile) {
+  spec.reader_profile = reader_profile;
+  return spec;
+}
+
 // QoS profile names (deploy/profiles/qos.xml). See idl/README.md for what each one means. Every
 // profile is SHARED ownership (the default), as ROS 2 readers and other vendors' default-QoS readers
 // are: every topic is readable by them. Redundant estimate producers (hot standby) are told apart by
@@ -24,8 +30,8 @@ struct TopicSpec {
 inline constexpr const char* kSensorWriterProfile = "odonav_sensor_writer";
 inline constexpr const char* kSensorReaderProfile = "odonav_sensor_reader";
 /// odonav_sensor_reader with TRANSIENT_LOCAL durability: the sensor writers (TRANSIENT_LOCAL, 30 s
-/// of history) hand such a reader their history when it matches. A restarted identification reads
-/// with it to process the data of its downtime from its checkpoint on.
+/// of history) hand such a reader their history when it matches. A restarted identification or
+/// calibration reads with it to process the data of its downtime from its checkpoint on.
 inline constexpr const char* kSensorReplayReaderProfile = "odonav_sensor_replay_reader";
 /// The gateway's sensor writers when replaying as fast as possible: odonav_sensor_writer with a
 /// 5 ms heartbeat, so each acknowledgment wait of its flow control takes milliseconds.

@@ -18,20 +18,14 @@
 // so a kill -9 at any instant leaves either the previous checkpoint or the new one, never a mix.
 #include <cstdint>
 #include <optional>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "odonav/checkpoint_file.hpp"
 #include "odonav/safe_output.hpp"
 #include "odonav/scale_factor_estimator.hpp"
 
 namespace odonav {
-
-/// A checkpoint text that cannot be used; what() says why (truncated, checksum, version, field...).
-class CheckpointError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 struct IdentificationCheckpoint {
   std::string vehicle_id;             ///< the vehicle whose data made the state (no line breaks).
@@ -43,14 +37,8 @@ struct IdentificationCheckpoint {
   std::string estimator_state;        ///< ScaleFactorEstimator::save_state() text.
 };
 
-/// Options that do not change the estimate (transport, logging, where state lives, how often it is
-/// saved): left out of the configuration hash so that changing them keeps the checkpoint valid.
-/// vehicle-id is left out too because it is checked on its own (a clearer reason).
-const std::vector<std::string>& checkpoint_neutral_options();
-
-/// Hash (16 lower-case hex digits, FNV-1a 64) of Options::values_as_text() lines ("name=value"),
-/// skipping the options of checkpoint_neutral_options(). Order-sensitive: pass the sorted lines.
-std::string config_hash_of(const std::vector<std::string>& values_as_text);
+// checkpoint_neutral_options() and config_hash_of() (the configuration hash) are shared with the
+// calibration: odonav/checkpoint_file.hpp.
 
 /// `<state_dir>/identification-<vehicle_id>.ckpt`. Throws std::invalid_argument when vehicle_id is
 /// empty or holds anything but letters, digits, '.', '_' and '-' (it becomes a file name).
@@ -63,19 +51,9 @@ std::string serialize_checkpoint(const IdentificationCheckpoint& checkpoint);
 /// truncated, checksum mismatch, unknown version, missing or malformed field.
 IdentificationCheckpoint parse_checkpoint(const std::string& text);
 
-// Checkpoints are written with write_file_atomically (odonav/safe_output.hpp): temporary name,
-// fsync, rename over the previous checkpoint, fsync of the directory.
-
-/// Renames `path` to `<path>.bad-<unix_time_s>` (with `-2`, `-3`... if that exists). Never deletes.
-/// Returns the new name. Throws std::runtime_error when the rename fails.
-std::string move_checkpoint_aside(const std::string& path, int64_t unix_time_s);
-
-/// What load_identification_checkpoint did.
-enum class CheckpointLoadStatus {
-  kNone,        ///< no file: fresh start.
-  kRestored,    ///< the estimator was restored from it.
-  kMovedAside,  ///< unusable (reason): moved aside to moved_to, fresh start from nominal.
-};
+// Checkpoints are written with write_file_atomically (odonav/safe_output.hpp); an unusable one is
+// moved aside with move_checkpoint_aside (odonav/checkpoint_file.hpp, with CheckpointError and
+// CheckpointLoadStatus).
 
 struct CheckpointLoadResult {
   CheckpointLoadStatus status = CheckpointLoadStatus::kNone;

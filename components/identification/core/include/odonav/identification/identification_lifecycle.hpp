@@ -22,33 +22,18 @@
 #include "odonav/identification/checkpoint.hpp"
 #include "odonav/identification/identification_core.hpp"
 #include "odonav/identification/instance.hpp"
+#include "odonav/restart_policy.hpp"
 
 namespace odonav {
 
-/// Where and how often the identification checkpoints its estimator (checkpoint.hpp).
-struct CheckpointSettings {
-  /// Folder of `identification-<vehicle>.ckpt`; empty = no checkpoint (nothing read or written).
-  std::string state_dir;
-  /// A checkpoint is written once the event time of the processed epochs has advanced by this much
-  /// (s, > 0) since the last one, and at shutdown. Event time, not wall time: a replay writes the
-  /// same checkpoints whatever its speed.
-  double every_s = 5.0;
-  /// config_hash_of(Options::values_as_text()): a checkpoint of another configuration is refused.
-  std::string config_hash;
-};
+// CheckpointSettings (state directory, period, configuration hash), kRestoreNoteDuration_s and
+// kCatchUpSettle_s: odonav/restart_policy.hpp, the restart policy the calibration shares; this
+// lifecycle adds what is the identification's (its inputs and margins, its checkpoint file and
+// texts, the restored counters, set_k).
 
 /// The inputs whose samples may predate a restored checkpoint (IdentificationLifecycle::skip_sample).
 enum class IdentificationInput { kOdometer, kGnss, kIns };
 
-/// How long (steady clock) the health reason tells about the restore: long enough for an operator
-/// or a monitor to see it, short enough not to hide later reasons.
-inline constexpr double kRestoreNoteDuration_s = 30.0;
-/// After a restore, the producers hand over their history at once, then the live data follows. The
-/// live edge at the restart is taken as the newest odometer stamp received within this long (steady
-/// clock, s) after the first one; the outputs up to it are catch-up (published late). It only
-/// labels outputs (health, counters), it never changes a number: at real time it may count up to
-/// this much of live data as catch-up.
-inline constexpr double kCatchUpSettle_s = 1.0;
 /// Odometer and INS samples this much older than the checkpoint are still fed: the epochs right
 /// after it interpolate the pulse count and attitude between samples on both sides (max_bracket_s).
 inline constexpr double kSensorMarginBeforeCheckpoint_s = 1.0;
@@ -63,8 +48,9 @@ struct IdentificationHealth {
 };
 
 /// Everything identification_health() decides on. The node supplies the input facts; the
-/// lifecycle the rest (IdentificationLifecycle::health_facts).
-struct IdentificationHealthFacts {
+/// lifecycle the rest (IdentificationLifecycle::health_facts), the restart notes included
+/// (RestartHealthNotes: restore note, checkpoint errors, catch-up note).
+struct IdentificationHealthFacts : RestartHealthNotes {
   /// The last published output (nothing before the first epoch or restore).
   std::optional<IdentificationOutput> last_output;
   /// The optional misalignment input: absent (silent past the node's maximum wait) / ever heard.
@@ -76,20 +62,8 @@ struct IdentificationHealthFacts {
   /// calibration is silent; and how long that is (wall clock, s).
   std::optional<double> held_misalignment_t_s;
   double misalignment_silent_s = 0.0;
-  /// What the restore did, shown until restore_note_until_s (steady, s); "" = nothing to say.
-  std::string restore_note;
-  /// The checkpoint was unusable: WARN while the note shows.
-  bool restore_warn = false;
-  double restore_note_until_s = 0.0;
   /// Now, steady clock (s).
   double now_s = 0.0;
-  /// Checkpoint writes that failed since start: any makes the health WARN (if it is not already).
-  uint64_t checkpoint_errors = 0;
-  /// The catch-up after a restore (IdentificationLifecycle::catch_up_note): "" = nothing to say;
-  /// shown while active or until catch_up_note_until_s (steady, s); WARN when data was lost.
-  std::string catch_up_note;
-  bool catch_up_warn = false;
-  double catch_up_note_until_s = 0.0;
 };
 
 /// The health decision. Precedence of the reason parts: restore note; checkpoint errors first when
@@ -143,9 +117,11 @@ class IdentificationLifecycle {
   /// samples are known (first_sample_seen), so that the span is known before any epoch.
   bool skip_sample(IdentificationInput input, double t_s);
   /// After a restore: whether a sample of `input` was offered to skip_sample yet.
-  bool first_sample_seen(IdentificationInput input) const { return first_seen_[static_cast<int>(input)]; }
+  bool first_sample_seen(IdentificationInput input) const {
+    return restart_.first_sample_seen(static_cast<std::size_t>(input));
+  }
   /// GNSS epochs skipped because they fell in the lost span.
-  uint64_t catch_up_lost_epochs() const { return lost_epochs_; }
+  uint64_t catch_up_lost_epochs() const { return restart_.lost_epochs(); }
 
   /// The outputs of the core to publish, in order: after a restore those at or before the
   /// checkpoint time are dropped (the previous run and take_restored_output published them), and
@@ -186,62 +162,41 @@ class IdentificationLifecycle {
   /// node's input facts left at their defaults for the node to fill in.
   IdentificationHealthFacts health_facts(double steady_now_s) const;
 
-  bool checkpointing() const { return !checkpoint_file_.empty(); }
-  const std::string& checkpoint_file() const { return checkpoint_file_; }
+  bool checkpointing() const { return restart_.checkpointing(); }
+  const std::string& checkpoint_file() const { return restart_.checkpoint_file(); }
   /// Event time (s) of the restored checkpoint's last epoch; nothing without a restore.
-  const std::optional<double>& restored_t_s() const { return restored_t_s_; }
-  bool checkpoint_moved_aside() const { return checkpoint_moved_aside_; }
+  const std::optional<double>& restored_t_s() const { return restart_.restored_t_s(); }
+  bool checkpoint_moved_aside() const { return restart_.checkpoint_moved_aside(); }
   const std::optional<IdentificationOutput>& last_output() const { return last_output_; }
-  const std::optional<double>& last_processed_t_s() const { return last_processed_t_s_; }
-  uint64_t checkpoints_written() const { return checkpoints_written_; }
-  uint64_t checkpoint_errors() const { return checkpoint_errors_; }
-  uint64_t skipped_before_checkpoint() const { return skipped_before_checkpoint_; }
+  const std::optional<double>& last_processed_t_s() const { return restart_.last_processed_t_s(); }
+  uint64_t checkpoints_written() const { return restart_.checkpoints_written(); }
+  uint64_t checkpoint_errors() const { return restart_.checkpoint_errors(); }
+  uint64_t skipped_before_checkpoint() const { return restart_.skipped_before_checkpoint(); }
   uint64_t restored_accepted() const { return restored_accepted_; }
   uint64_t restored_rejected() const { return restored_rejected_; }
   /// Catch-up after a restore: outputs published late (from the producers' history), the first
   /// and last of their stamps (event time, s), and whether it is still going on.
-  uint64_t catch_up_outputs() const { return catch_up_outputs_; }
-  const std::optional<double>& catch_up_first_t_s() const { return catch_up_first_t_s_; }
-  const std::optional<double>& catch_up_last_t_s() const { return catch_up_last_t_s_; }
-  bool catching_up() const { return catching_up_; }
+  uint64_t catch_up_outputs() const { return restart_.catch_up_outputs(); }
+  const std::optional<double>& catch_up_first_t_s() const { return restart_.catch_up_first_t_s(); }
+  const std::optional<double>& catch_up_last_t_s() const { return restart_.catch_up_last_t_s(); }
+  bool catching_up() const { return restart_.catching_up(); }
   /// Event time (s) lost after the checkpoint because the producers' history did not reach back to
   /// it (0 when nothing was lost): the span [restored_t_s, lost_until_t_s].
-  double catch_up_lost_s() const { return lost_until_t_s_ ? *lost_until_t_s_ - *restored_t_s_ : 0.0; }
-  const std::optional<double>& lost_until_t_s() const { return lost_until_t_s_; }
+  double catch_up_lost_s() const { return restart_.catch_up_lost_s(); }
+  const std::optional<double>& lost_until_t_s() const { return restart_.lost_until_t_s(); }
+  /// The restart counters for the health (RestartPolicy::counters).
+  std::vector<std::pair<std::string, double>> restart_counters() const { return restart_.counters(); }
 
  private:
   void restore(ScaleFactorEstimator& estimator, int64_t unix_time_s, double steady_now_s);
-  void write_checkpoint(const ScaleFactorEstimator& estimator, double t_s);
 
-  CheckpointSettings settings_;
   std::string vehicle_id_;
   std::string instance_;
-  std::string checkpoint_file_;
-  std::optional<double> restored_t_s_;
+  RestartPolicy restart_;
   uint64_t restored_accepted_ = 0;
   uint64_t restored_rejected_ = 0;
-  std::string restore_note_;
-  bool restore_warn_ = false;
-  double restore_note_until_s_ = 0.0;  ///< steady (s)
-  bool checkpoint_moved_aside_ = false;
-  bool first_seen_[3] = {false, false, false};  ///< per IdentificationInput, after a restore
-  std::optional<double> lost_until_t_s_;
-  uint64_t lost_epochs_ = 0;
-  bool catching_up_ = false;
-  std::optional<double> first_received_steady_s_;
-  std::optional<double> live_edge_t_s_;
-  bool live_edge_fixed_ = false;
-  uint64_t catch_up_outputs_ = 0;
-  std::optional<double> catch_up_first_t_s_;
-  std::optional<double> catch_up_last_t_s_;
-  double catch_up_ended_steady_s_ = 0.0;
   bool restored_output_taken_ = false;
   std::optional<IdentificationOutput> last_output_;
-  std::optional<double> last_checkpoint_t_s_;  ///< event time (s) of the last checkpoint written or failed
-  std::optional<double> last_processed_t_s_;   ///< event time (s) of the last published epoch
-  uint64_t checkpoints_written_ = 0;
-  uint64_t checkpoint_errors_ = 0;
-  uint64_t skipped_before_checkpoint_ = 0;
 };
 
 }  // namespace odonav

@@ -1,0 +1,188 @@
+#include "odonav/checkpoint_file.hpp"
+
+#include <cstdio>
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace odonav {
+
+uint64_t checkpoint_fnv1a64(const std::string& text, uint64_t h) {
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
+std::string checkpoint_hex16(uint64_t v) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+
+std::string checkpoint_hex_double(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%a", v);
+  return buf;
+}
+
+double checkpoint_parse_double(const std::string& text, const std::string& field) {
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
+    throw CheckpointError("field '" + field + "' is not a number: '" + text + "'");
+  return v;
+}
+
+std::string seal_checkpoint(const std::string& body) {
+  return body + "checksum " + checkpoint_hex16(checkpoint_fnv1a64(body)) + "\n";
+}
+
+std::string unseal_checkpoint(const std::string& text) {
+  if (text.empty()) throw CheckpointError("empty file");
+  const std::size_t at = text.rfind("checksum ");
+  if (at == std::string::npos || (at != 0 && text[at - 1] != '\n'))
+    throw CheckpointError("truncated: no checksum line (or not a checkpoint file)");
+  const std::string stored = text.substr(at + 9);
+  if (stored.size() != 17 || stored.back() != '\n') throw CheckpointError("truncated or malformed checksum line");
+  std::string body = text.substr(0, at);
+  if (stored.substr(0, 16) != checkpoint_hex16(checkpoint_fnv1a64(body)))
+    throw CheckpointError("checksum mismatch: the file is corrupt");
+  return body;
+}
+
+std::string CheckpointReader::next_line(const std::string& key) {
+  const std::size_t end = text_.find('\n', pos_);
+  if (end == std::string::npos) throw CheckpointError("truncated before field '" + key + "'");
+  std::string line = text_.substr(pos_, end - pos_);
+  pos_ = end + 1;
+  return line;
+}
+
+std::string CheckpointReader::field(const std::string& key) {
+  const std::string line = next_line(key);
+  if (line.compare(0, key.size() + 1, key + " ") != 0)
+    throw CheckpointError("expected field '" + key + "', found '" + line.substr(0, 40) + "'");
+  return line.substr(key.size() + 1);
+}
+
+uint64_t CheckpointReader::unsigned_field(const std::string& key) {
+  const std::string v = field(key);
+  uint64_t out = 0;
+  const auto r = std::from_chars(v.data(), v.data() + v.size(), out);
+  if (v.empty() || r.ec != std::errc() || r.ptr != v.data() + v.size())
+    throw CheckpointError("field '" + key + "' is not an unsigned integer: '" + v + "'");
+  return out;
+}
+
+double CheckpointReader::double_field(const std::string& key) {
+  const std::string v = field(key);
+  double out = 0.0;
+  const auto r = std::from_chars(v.data(), v.data() + v.size(), out);
+  if (v.empty() || r.ec != std::errc() || r.ptr != v.data() + v.size() || !std::isfinite(out))
+    throw CheckpointError("field '" + key + "' is not a finite number: '" + v + "'");
+  return out;
+}
+
+std::string CheckpointReader::block(std::size_t n, const std::string& what) {
+  if (text_.size() - pos_ < n + 1) throw CheckpointError("truncated inside the " + what);
+  std::string out = text_.substr(pos_, n);
+  pos_ += n;
+  if (text_[pos_] != '\n') throw CheckpointError("the " + what + " is longer than announced");
+  ++pos_;
+  return out;
+}
+
+void check_checkpoint_version(CheckpointReader& reader, const std::string& magic, int version) {
+  const std::string v = reader.field(magic);
+  if (v != std::to_string(version))
+    throw CheckpointError("unknown checkpoint version '" + v + "' (this build reads " + std::to_string(version) + ")");
+}
+
+const std::vector<std::string>& checkpoint_neutral_options() {
+  static const std::vector<std::string> names{
+      "checkpoint-every-s", "config",   "domain",        "log-level", "max-wait-s", "profile",
+      "profile-name",       "security-dir", "security-identity", "state-dir", "vehicle-id",
+      // Hot standby and command checks: they do not change the estimate, and a standby may take
+      // over a primary's checkpoint.
+      "instance",           "ownership-strength", "nominal-k"};
+  return names;
+}
+
+std::string config_hash_of(const std::vector<std::string>& values_as_text) {
+  const auto& neutral = checkpoint_neutral_options();
+  uint64_t h = checkpoint_fnv1a64("");
+  for (const std::string& line : values_as_text) {
+    const std::string name = line.substr(0, line.find('='));
+    if (std::find(neutral.begin(), neutral.end(), name) != neutral.end()) continue;
+    h = checkpoint_fnv1a64(line + "\n", h);
+  }
+  return checkpoint_hex16(h);
+}
+
+void check_checkpoint_vehicle_id(const std::string& vehicle_id) {
+  if (vehicle_id.empty()) throw std::invalid_argument("checkpoint: the vehicle id is empty");
+  for (char c : vehicle_id) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+                    c == '_' || c == '-';
+    if (!ok)
+      throw std::invalid_argument("checkpoint: vehicle id '" + vehicle_id +
+                                  "' cannot be part of a file name (letters, digits, '.', '_', '-' only)");
+  }
+}
+
+void check_checkpoint_identity(const std::string& file_vehicle, const std::string& file_hash,
+                               const std::string& vehicle_id, const std::string& config_hash) {
+  if (file_vehicle != vehicle_id)
+    throw CheckpointError("made for vehicle '" + file_vehicle + "', this is '" + vehicle_id + "'");
+  if (file_hash != config_hash)
+    throw CheckpointError("made with another configuration (hash " + file_hash + ", now " + config_hash + ")");
+}
+
+std::string move_checkpoint_aside(const std::string& path, int64_t unix_time_s) {
+  const std::string base = path + ".bad-" + std::to_string(unix_time_s);
+  std::string target = base;
+  for (int i = 2; std::filesystem::exists(target); ++i) target = base + "-" + std::to_string(i);
+  if (::rename(path.c_str(), target.c_str()) != 0)
+    throw std::runtime_error("checkpoint: cannot move aside to '" + target + "' '" + path + "': " +
+                             std::strerror(errno));
+  return target;
+}
+
+CheckpointFileLoad load_checkpoint_file(const std::string& path, int64_t unix_time_s,
+                                        const std::function<void(const std::string& text)>& restore) {
+  CheckpointFileLoad result;
+  result.path = path;
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return result;  // fresh start
+  try {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw CheckpointError("cannot be opened for reading");
+    std::ostringstream s;
+    s << in.rdbuf();
+    if (in.bad()) throw CheckpointError("read error");
+    restore(s.str());
+    result.status = CheckpointLoadStatus::kRestored;
+    return result;
+  } catch (const std::exception& e) {
+    result.reason = e.what();
+  }
+  result.status = CheckpointLoadStatus::kMovedAside;
+  try {
+    result.moved_to = move_checkpoint_aside(path, unix_time_s);
+  } catch (const std::exception& e) {
+    result.reason += "; " + std::string(e.what());
+  }
+  return result;
+}
+
+}  // namespace odonav
