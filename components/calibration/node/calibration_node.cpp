@@ -1,8 +1,11 @@
 #include "calibration_node.hpp"
 
 #include <cmath>
+#include <ctime>
 #include <limits>
 #include <stdexcept>
+
+#include <spdlog/spdlog.h>
 
 #include "odonav/calibration/calibration_options.hpp"
 #include "odonav/dds/time.hpp"
@@ -36,6 +39,7 @@ void add_calibration_node_options(Options& o) {
   o.add_bool("use-ins", true,
              "the vehicle has an INS; false = degraded mode (nothing can be calibrated), as odonav-offline "
              "does for a dataset without ins.csv");
+  add_checkpoint_options(o, "calibration-<vehicle>.ckpt");
 }
 
 MisalignmentCalibratorParams calibration_node_params_from(const Options& o) {
@@ -58,24 +62,51 @@ odonav::msg::Misalignment misalignment_message(const MisalignmentOutput& out, co
   return m;
 }
 
-CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const MisalignmentCalibratorParams& params)
+CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const MisalignmentCalibratorParams& params,
+                                 const CheckpointSettings& checkpoint)
     : EventTimeNode(runtime),
       params_(params),
       core_(make_calibrator(params)),
+      lifecycle_(checkpoint, runtime.settings().vehicle_id, core_.restore_margin_s()),
       gnss_(add_input("gnss", true)),
       misalignment_(runtime.participant(), topics::kMisalignment.name, topics::kMisalignment.writer_profile) {
   if (params_.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
+  // Before any reader exists: no sample can reach the core before the restored state.
+  lifecycle_.start(core_, static_cast<int64_t>(std::time(nullptr)), dds::steady_now_s());
+  if (const auto restored = lifecycle_.take_restored_output()) {
+    misalignment_.publish(misalignment_message(*restored, runtime_.settings().vehicle_id), dds::steady_now_s());
+    last_output_ = restored;
+    count_outputs(1);
+  }
+  // Resumed from a checkpoint: the sensor readers ask the producers for their history (30 s), so the
+  // data of the downtime is processed from the checkpoint on (what predates it is skipped). A fresh
+  // start reads like every other consumer: from the moment it matched.
+  const char* sensor_profile =
+      lifecycle_.restored_t_s() ? topics::kSensorReplayReaderProfile : topics::kSensorReaderProfile;
+  if (lifecycle_.restored_t_s())
+    spdlog::info("sensor readers: TRANSIENT_LOCAL, processing the producers' history from t={:.3f} s on",
+                 *lifecycle_.restored_t_s());
 
-  gnss_reader_ = subscribe<odonav::msg::GnssFix>(topics::kGnssFix, gnss_, [this](const auto& m, double) {
-    core_.add_gnss(dds::gnss_sample_from(m));
-  });
+  gnss_reader_ = subscribe<odonav::msg::GnssFix>(
+      topics::with_reader_profile(topics::kGnssFix, sensor_profile), gnss_, [this](const auto& m, double t_s) {
+        if (!ins_) lifecycle_.note_live_sample(t_s, dds::steady_now_s());
+        if (!gnss_may_pass()) {
+          pending_gnss_.emplace_back(t_s, dds::gnss_sample_from(m));
+          return;
+        }
+        if (!lifecycle_.skip_sample(CalibrationInput::kGnss, t_s)) core_.add_gnss(dds::gnss_sample_from(m));
+      });
   if (ins_) {
     // The INS messages declare which GNSS epochs are out: through a GNSS outage the calibration
     // goes on with the INS instead of waiting (and then refusing the first fix after it as late).
     ins_reader_ = subscribe<odonav::msg::InsAttitude>(
-        topics::kInsAttitude, *ins_,
-        [this](const auto& m, double) {
+        topics::with_reader_profile(topics::kInsAttitude, sensor_profile), *ins_,
+        [this](const auto& m, double t_s) {
+          lifecycle_.note_live_sample(t_s, dds::steady_now_s());
+          const bool skip = lifecycle_.skip_sample(CalibrationInput::kIns, t_s);
+          flush_pending_gnss();
+          if (skip) return;
           if (!m.valid()) {
             ++ins_->dropped_invalid;  // the stream advanced, but the attitude is not usable
             return;
@@ -84,6 +115,19 @@ CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const Misalignm
         },
         [this](const odonav::msg::InsAttitude& m) { declare_gnss_published(gnss_, m); });
   }
+}
+
+bool CalibrationNode::gnss_may_pass() const {
+  return !lifecycle_.restored_t_s() || !ins_ || lifecycle_.first_sample_seen(CalibrationInput::kIns);
+}
+
+void CalibrationNode::flush_pending_gnss() {
+  if (pending_gnss_.empty() || !gnss_may_pass()) return;
+  // Before any INS sample reaches the core: the watermark needs INS data, so no epoch was processed
+  // yet and these go in before the first one.
+  for (const auto& [t_s, g] : pending_gnss_)
+    if (!lifecycle_.skip_sample(CalibrationInput::kGnss, t_s)) core_.add_gnss(g);
+  pending_gnss_.clear();
 }
 
 CalibrationNode::~CalibrationNode() { close_inputs(); }
@@ -95,16 +139,21 @@ void CalibrationNode::close_inputs() {
 
 void CalibrationNode::publish(const std::vector<MisalignmentOutput>& outputs) {
   const double now = dds::steady_now_s();
-  for (const MisalignmentOutput& o : outputs) {
+  const std::vector<MisalignmentOutput> to_publish = lifecycle_.outputs_to_publish(outputs, now);
+  for (const MisalignmentOutput& o : to_publish) {
     misalignment_.publish(misalignment_message(o, runtime_.settings().vehicle_id), now);
     last_output_ = o;
   }
-  count_outputs(outputs.size());
+  count_outputs(to_publish.size());
+  lifecycle_.checkpoint_if_due(core_);
 }
 
 void CalibrationNode::process_until(double watermark_s) { publish(core_.process_until(watermark_s)); }
 
-void CalibrationNode::finish() { publish(core_.finish()); }
+void CalibrationNode::finish() {
+  publish(core_.finish());
+  lifecycle_.checkpoint_at_finish(core_);
+}
 
 std::vector<dds::detail::WriterBase*> CalibrationNode::output_writers() { return {&misalignment_.writer()}; }
 
@@ -128,18 +177,27 @@ dds::CommandAck CalibrationNode::on_command(const odonav::msg::Command& c) {
   return {c.command_id(), COMMAND_RESULT_REJECTED, "unknown command kind"};
 }
 
-dds::EventTimeNode::Status CalibrationNode::node_status(double /*now_s*/) {
+dds::EventTimeNode::Status CalibrationNode::node_status(double now_s) {
   using namespace odonav::msg;
-  if (!params_.use_ins) return {HEALTH_STATE_DEGRADED, HEALTH_LEVEL_WARN, "no INS: the misalignment cannot be calibrated"};
-  if (!last_output_) return {HEALTH_STATE_STARTING, HEALTH_LEVEL_OK, "waiting for the first GNSS epoch to process"};
-  const MisalignmentOutput cur = core_.current();
-  switch (cur.state) {
-    case CalibrationState::kConverged: return {HEALTH_STATE_RUNNING, HEALTH_LEVEL_OK, ""};
-    case CalibrationState::kFrozen: return {HEALTH_STATE_RUNNING, HEALTH_LEVEL_OK, "frozen by command"};
-    case CalibrationState::kWaiting:
-    case CalibrationState::kCalibrating: return {HEALTH_STATE_RUNNING, HEALTH_LEVEL_OK, "not converged yet: " + cur.reason};
+  Status s{HEALTH_STATE_RUNNING, HEALTH_LEVEL_OK, ""};
+  if (!params_.use_ins) {
+    s = {HEALTH_STATE_DEGRADED, HEALTH_LEVEL_WARN, "no INS: the misalignment cannot be calibrated"};
+  } else if (!last_output_) {
+    s = {HEALTH_STATE_STARTING, HEALTH_LEVEL_OK, "waiting for the first GNSS epoch to process"};
+  } else {
+    const MisalignmentOutput cur = core_.current();
+    switch (cur.state) {
+      case CalibrationState::kConverged: break;
+      case CalibrationState::kFrozen: s.reason = "frozen by command"; break;
+      case CalibrationState::kWaiting:
+      case CalibrationState::kCalibrating: s.reason = "not converged yet: " + cur.reason; break;
+    }
   }
-  return {HEALTH_STATE_RUNNING, HEALTH_LEVEL_OK, cur.reason};
+  // After a restart: what the restore did, the catch-up of the downtime, failed checkpoint writes.
+  bool warn = s.level != HEALTH_LEVEL_OK;
+  apply_restart_notes(lifecycle_.restart().health_notes(), now_s, s.reason, warn);
+  if (warn && s.level == HEALTH_LEVEL_OK) s.level = HEALTH_LEVEL_WARN;
+  return s;
 }
 
 void CalibrationNode::append_counters(dds::HealthCounters& c) {
@@ -152,6 +210,7 @@ void CalibrationNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("epochs_invalid_fix", static_cast<double>(k.invalid_fix));
   c.emplace_back("epochs_no_attitude", static_cast<double>(k.no_attitude));
   c.emplace_back("heartbeats", static_cast<double>(misalignment_.heartbeats()));
+  for (auto& counter : lifecycle_.restart().counters()) c.push_back(std::move(counter));
   if (last_output_) {
     c.emplace_back("heading_deg", rad_to_deg(last_output_->misalignment.heading_rad));
     c.emplace_back("pitch_deg", rad_to_deg(last_output_->misalignment.pitch_rad));

@@ -4,8 +4,10 @@
 // The core is MisalignmentCalibrator, fed exactly as odonav-offline feeds it, so both publish the
 // same numbers for the same data.
 #include <memory>
+#include <utility>
 #include <vector>
 
+#include "odonav/calibration/calibration_checkpoint.hpp"
 #include "odonav/calibration/misalignment_calibrator.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dds/event_time_node.hpp"
@@ -13,7 +15,8 @@
 
 namespace odonav::nodes {
 
-/// The calibrator's options (add_calibration_options), --lever-arm and --use-ins.
+/// The calibrator's options (add_calibration_options), --lever-arm, --use-ins, --state-dir and
+/// --checkpoint-every-s.
 void add_calibration_node_options(Options& options);
 /// Reads them. Throws ConfigError naming the option when a value or combination is invalid.
 MisalignmentCalibratorParams calibration_node_params_from(const Options& options);
@@ -26,7 +29,15 @@ class CalibrationNode : public dds::EventTimeNode {
  public:
   /// Creates the core (params checked: ConfigError naming the parameter), the Misalignment writer
   /// and the GNSS / INS readers of runtime's participant.
-  CalibrationNode(dds::ComponentRuntime& runtime, const MisalignmentCalibratorParams& params);
+  /// With a state directory: restores the checkpoint before any input is read (or moves an unusable
+  /// one aside and starts from nothing) and publishes the restored misalignment at once, stamped with
+  /// the checkpoint's epoch. After a restore the sensor readers are TRANSIENT_LOCAL
+  /// (odonav_sensor_replay_reader): the producers hand over their history (30 s), the data of the
+  /// downtime is processed from the checkpoint on and its misalignments published late (catch-up,
+  /// counted and named in the health). ConfigError when the state directory cannot be created or the
+  /// vehicle id cannot name a file.
+  CalibrationNode(dds::ComponentRuntime& runtime, const MisalignmentCalibratorParams& params,
+                  const CheckpointSettings& checkpoint = {});
   ~CalibrationNode() override;
 
  private:
@@ -39,10 +50,16 @@ class CalibrationNode : public dds::EventTimeNode {
   void on_tick(double now_s) override { misalignment_.heartbeat_if_due(now_s); }
 
   void publish(const std::vector<MisalignmentOutput>& outputs);
+  /// After a restore, GNSS waits until the first INS sample of the handed-over history is known
+  /// (epochs older than it cannot be processed: lost); then the held ones are fed.
+  bool gnss_may_pass() const;
+  void flush_pending_gnss();
   dds::CommandAck on_command(const odonav::msg::Command& command);
 
   MisalignmentCalibratorParams params_;
   MisalignmentCalibrator core_;
+  CalibrationLifecycle lifecycle_;
+  std::vector<std::pair<double, GnssSample>> pending_gnss_;  // after a restore, event time (s) + sample
   std::optional<MisalignmentOutput> last_output_;
   dds::NodeInput& gnss_;
   dds::NodeInput* ins_ = nullptr;

@@ -1,7 +1,10 @@
 #include "odonav/calibration/misalignment_calibrator.hpp"
 
+#include <charconv>
 #include <cmath>
 #include <stdexcept>
+
+#include "odonav/checkpoint_file.hpp"
 
 namespace odonav {
 
@@ -249,6 +252,95 @@ MisalignmentOutput MisalignmentCalibrator::process_epoch(const GnssSample& g) {
   pitch_.sum_y2 += v_b.z() * v_b.z();
   ++samples_used_;
   return finish_epoch(CalibrationEpochStatus::kUsed, counters_.used);
+}
+
+namespace {
+constexpr const char* kStateMagic = "odonav-misalignment-calibrator-state";
+constexpr int kStateVersion = 1;
+}  // namespace
+
+std::string MisalignmentCalibrator::save_state() const {
+  auto hex = [](double v) { return checkpoint_hex_double(v); };
+  auto sums = [&](const Regression& r) { return hex(r.sum_phi2) + " " + hex(r.sum_phi_y) + " " + hex(r.sum_y2); };
+  const MisalignmentCounters& c = counters_;
+  std::string s = std::string(kStateMagic) + " " + std::to_string(kStateVersion) + "\n";
+  s += "heading " + sums(heading_) + "\n";
+  s += "pitch " + sums(pitch_) + "\n";
+  s += "samples_used " + std::to_string(samples_used_) + "\n";
+  s += "last_used_forward " +
+       (last_used_forward_ ? hex(last_used_forward_->first) + " " + hex(last_used_forward_->second) : "none") + "\n";
+  s += "consecutive_innovation_rejections " + std::to_string(consecutive_innovation_rejections_) + "\n";
+  s += std::string("frozen ") + (frozen_ ? "1" : "0") + "\n";
+  s += "last_t_s " + hex(last_t_s_) + "\n";
+  s += "counters";
+  for (uint64_t v : {c.epochs, c.used, c.no_ins, c.invalid_fix, c.no_attitude, c.reversing, c.low_speed, c.turning,
+                     c.frozen, c.outlier, c.innovation_suspended})
+    s += " " + std::to_string(v);
+  return s + "\n";
+}
+
+void MisalignmentCalibrator::restore_state(const std::string& text) {
+  CheckpointReader r(text);
+  check_checkpoint_version(r, kStateMagic, kStateVersion);
+  auto numbers = [](const std::string& line, const std::string& key, std::size_t n) {
+    std::vector<std::string> tokens;
+    std::size_t at = 0;
+    while (at <= line.size()) {
+      const std::size_t end = std::min(line.find(' ', at), line.size());
+      tokens.push_back(line.substr(at, end - at));
+      at = end + 1;
+    }
+    if (tokens.size() != n)
+      throw CheckpointError("field '" + key + "' has " + std::to_string(tokens.size()) + " values, not " +
+                            std::to_string(n));
+    return tokens;
+  };
+  auto finite = [](const std::string& token, const std::string& key) {
+    const double v = checkpoint_parse_double(token, key);
+    if (!std::isfinite(v)) throw CheckpointError("field '" + key + "' is not finite");
+    return v;
+  };
+  auto regression = [&](const std::string& key) {
+    const auto t = numbers(r.field(key), key, 3);
+    Regression g{finite(t[0], key), finite(t[1], key), finite(t[2], key)};
+    if (g.sum_phi2 < 0.0 || g.sum_y2 < 0.0) throw CheckpointError("field '" + key + "' has a negative sum of squares");
+    return g;
+  };
+  const Regression heading = regression("heading");
+  const Regression pitch = regression("pitch");
+  const uint64_t samples_used = r.unsigned_field("samples_used");
+  std::optional<std::pair<double, double>> last_used_forward;
+  if (const std::string v = r.field("last_used_forward"); v != "none") {
+    const auto t = numbers(v, "last_used_forward", 2);
+    last_used_forward = std::make_pair(finite(t[0], "last_used_forward"), finite(t[1], "last_used_forward"));
+  }
+  const uint64_t rejections = r.unsigned_field("consecutive_innovation_rejections");
+  if (rejections > static_cast<uint64_t>(params_.innovation_max_consecutive_rejections))
+    throw CheckpointError("field 'consecutive_innovation_rejections' is above the configured limit");
+  const uint64_t frozen = r.unsigned_field("frozen");
+  if (frozen > 1) throw CheckpointError("field 'frozen' is not 0 or 1");
+  const double last_t_s = finite(r.field("last_t_s"), "last_t_s");
+  const auto t = numbers(r.field("counters"), "counters", 11);
+  uint64_t v[11];
+  for (std::size_t i = 0; i < 11; ++i) {
+    const auto res = std::from_chars(t[i].data(), t[i].data() + t[i].size(), v[i]);
+    if (t[i].empty() || res.ec != std::errc() || res.ptr != t[i].data() + t[i].size())
+      throw CheckpointError("field 'counters' holds '" + t[i] + "', not an unsigned integer");
+  }
+  if (!r.at_end()) throw CheckpointError("unexpected text after the calibrator state");
+  if (samples_used > v[1]) throw CheckpointError("samples_used exceeds the used-epoch counter");
+
+  // Everything parsed: only now the calibrator changes.
+  heading_ = heading;
+  pitch_ = pitch;
+  samples_used_ = samples_used;
+  last_used_forward_ = last_used_forward;
+  consecutive_innovation_rejections_ = static_cast<int>(rejections);
+  frozen_ = frozen == 1;
+  last_t_s_ = last_t_s;
+  counters_ = MisalignmentCounters{v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10]};
+  // The epochs up to the restored one were processed: one stamped at or before it is refused.
+  if (counters_.epochs > 0) last_gnss_t_s_ = last_t_s_;
 }
 
 }  // namespace odonav

@@ -166,6 +166,21 @@ class MisalignmentCalibrator {
   MisalignmentOutput current() const;
   const MisalignmentCounters& counters() const { return counters_; }
 
+  /// The state a restarted calibration needs to continue exactly (calibration_checkpoint.hpp), as
+  /// versioned text with exact (hex) numbers: both regressions' sums, the used-epoch count, the
+  /// gates' state (speed-jump reference, consecutive innovation rejections), frozen, the last
+  /// epoch's time and the counters. Not the buffered samples: after a restore the INS from
+  /// restore_margin_s() before the last epoch and the GNSS after it are fed again.
+  std::string save_state() const;
+  /// Restores save_state()'s text into this calibrator, which must have been made with the same
+  /// parameters (the checkpoint's configuration hash says so) and fed nothing yet. Throws
+  /// std::runtime_error naming the field when the text is not a state of this version; the
+  /// calibrator is unchanged then.
+  void restore_state(const std::string& text);
+  /// How long before a restored epoch (s) the INS must be fed again for the next epochs' attitude
+  /// and yaw-rate windows: the window (2h) plus the longest bracket interpolated across.
+  double restore_margin_s() const { return 2.0 * params_.yaw_rate_half_window_s + params_.max_bracket_s; }
+
  private:
   struct Regression {
     double sum_phi2 = 0.0, sum_phi_y = 0.0, sum_y2 = 0.0;

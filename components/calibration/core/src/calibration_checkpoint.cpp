@@ -1,0 +1,142 @@
+#include "odonav/calibration/calibration_checkpoint.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+#include "odonav/frames.hpp"
+
+namespace odonav {
+
+namespace {
+constexpr const char* kMagic = "odonav-calibration-checkpoint";
+constexpr int kVersion = 1;
+
+bool empty_or_line_break(const std::string& s) { return s.empty() || s.find_first_of("\r\n") != std::string::npos; }
+}  // namespace
+
+std::string calibration_checkpoint_path(const std::string& state_dir, const std::string& vehicle_id) {
+  check_checkpoint_vehicle_id(vehicle_id);
+  return (std::filesystem::path(state_dir) / ("calibration-" + vehicle_id + ".ckpt")).string();
+}
+
+std::string serialize_calibration_checkpoint(const CalibrationCheckpoint& c) {
+  if (empty_or_line_break(c.vehicle_id)) throw std::invalid_argument("checkpoint: vehicle id is empty or holds a line break");
+  if (empty_or_line_break(c.config_hash))
+    throw std::invalid_argument("checkpoint: config hash is empty or holds a line break");
+  if (!std::isfinite(c.last_sample_t_s)) throw std::invalid_argument("checkpoint: last_sample_t_s is not finite");
+  char t[40];
+  std::snprintf(t, sizeof t, "%.17g", c.last_sample_t_s);
+  std::ostringstream s;
+  s << kMagic << ' ' << kVersion << '\n'
+    << "vehicle " << c.vehicle_id << '\n'
+    << "config_hash " << c.config_hash << '\n'
+    << "last_sample_t_s " << t << '\n'
+    << "state_chars " << c.calibrator_state.size() << '\n'
+    << c.calibrator_state << '\n';
+  return seal_checkpoint(s.str());
+}
+
+CalibrationCheckpoint parse_calibration_checkpoint(const std::string& text) {
+  const std::string body = unseal_checkpoint(text);
+  CheckpointReader r(body);
+  check_checkpoint_version(r, kMagic, kVersion);
+  CalibrationCheckpoint c;
+  c.vehicle_id = r.field("vehicle");
+  c.config_hash = r.field("config_hash");
+  c.last_sample_t_s = r.double_field("last_sample_t_s");
+  const uint64_t n = r.unsigned_field("state_chars");
+  c.calibrator_state = r.block(static_cast<std::size_t>(n), "calibrator state");
+  if (!r.at_end()) throw CheckpointError("unexpected text after the calibrator state");
+  if (c.vehicle_id.empty() || c.config_hash.empty()) throw CheckpointError("empty vehicle or config hash");
+  return c;
+}
+
+CalibrationCheckpointLoad load_calibration_checkpoint(const std::string& path, const std::string& vehicle_id,
+                                                      const std::string& config_hash,
+                                                      MisalignmentCalibrator& calibrator, int64_t unix_time_s) {
+  CalibrationCheckpointLoad result;
+  std::optional<double> t_s;
+  static_cast<CheckpointFileLoad&>(result) = load_checkpoint_file(path, unix_time_s, [&](const std::string& text) {
+    const CalibrationCheckpoint c = parse_calibration_checkpoint(text);
+    check_checkpoint_identity(c.vehicle_id, c.config_hash, vehicle_id, config_hash);
+    try {
+      calibrator.restore_state(c.calibrator_state);  // unchanged when it throws
+    } catch (const std::exception& e) {
+      throw CheckpointError(std::string("calibrator state refused: ") + e.what());
+    }
+    t_s = c.last_sample_t_s;
+  });
+  if (result.status == CheckpointLoadStatus::kRestored) result.restored_t_s = t_s;
+  return result;
+}
+
+CalibrationLifecycle::CalibrationLifecycle(CheckpointSettings settings, std::string vehicle_id, double ins_margin_s)
+    : vehicle_id_(std::move(vehicle_id)),
+      // Indexed by CalibrationInput. The GNSS epoch at the checkpoint was processed: skipped, not
+      // fed again (it would enter the regressions twice).
+      restart_(std::move(settings), {{"GNSS", 0.0, true, true}, {"INS", ins_margin_s, false, false}}) {}
+
+void CalibrationLifecycle::start(MisalignmentCalibrator& calibrator, int64_t unix_time_s, double steady_now_s) {
+  if (restart_.settings().state_dir.empty()) return;
+  const std::string& file = restart_.open_state_dir(
+      [&](const std::string& dir) { return calibration_checkpoint_path(dir, vehicle_id_); });
+  const CalibrationCheckpointLoad r =
+      load_calibration_checkpoint(file, vehicle_id_, restart_.settings().config_hash, calibrator, unix_time_s);
+  switch (r.status) {
+    case CheckpointLoadStatus::kNone:
+      restart_.note_fresh_start("no checkpoint " + file + ": starting from nothing", steady_now_s);
+      return;
+    case CheckpointLoadStatus::kMovedAside:
+      restart_.note_moved_aside("checkpoint " + file + " was corrupt (" + r.reason + "): moved aside" +
+                                    (r.moved_to.empty() ? std::string(" FAILED") : " to " + r.moved_to) +
+                                    "; starting from nothing",
+                                "checkpoint " + file + " was corrupt: moved aside; starting from nothing",
+                                steady_now_s);
+      return;
+    case CheckpointLoadStatus::kRestored:
+      break;
+  }
+  restored_output_ = calibrator.current();
+  const MisalignmentOutput& o = *restored_output_;
+  char line[200];
+  std::snprintf(line, sizeof line,
+                "restored misalignment heading %.6f deg, pitch %.6f deg (%llu epochs used, %s) from checkpoint "
+                "(t=%.3f s)",
+                rad_to_deg(o.misalignment.heading_rad), rad_to_deg(o.misalignment.pitch_rad),
+                static_cast<unsigned long long>(o.samples_used), to_string(o.state), *r.restored_t_s);
+  restart_.note_restored(line, *r.restored_t_s, steady_now_s);
+}
+
+std::optional<MisalignmentOutput> CalibrationLifecycle::take_restored_output() { return std::exchange(restored_output_, std::nullopt); }
+
+bool CalibrationLifecycle::skip_sample(CalibrationInput input, double t_s) {
+  return restart_.skip_sample(static_cast<std::size_t>(input), t_s);
+}
+
+std::vector<MisalignmentOutput> CalibrationLifecycle::outputs_to_publish(std::vector<MisalignmentOutput> outputs,
+                                                                          double steady_now_s) {
+  std::vector<MisalignmentOutput> kept;
+  kept.reserve(outputs.size());
+  for (MisalignmentOutput& o : outputs)
+    if (restart_.keep_output(o.t_s, steady_now_s)) kept.push_back(std::move(o));
+  return kept;
+}
+
+std::string CalibrationLifecycle::text_of(const MisalignmentCalibrator& calibrator, double t_s) const {
+  return serialize_calibration_checkpoint(
+      CalibrationCheckpoint{vehicle_id_, restart_.settings().config_hash, t_s, calibrator.save_state()});
+}
+
+void CalibrationLifecycle::checkpoint_if_due(const MisalignmentCalibrator& calibrator) {
+  restart_.checkpoint_if_due([&](double t_s) { return text_of(calibrator, t_s); });
+}
+
+void CalibrationLifecycle::checkpoint_at_finish(const MisalignmentCalibrator& calibrator) {
+  restart_.checkpoint_at_finish([&](double t_s) { return text_of(calibrator, t_s); });
+}
+
+}  // namespace odonav
