@@ -89,13 +89,16 @@ CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const Misalignm
                  *lifecycle_.restored_t_s());
 
   gnss_reader_ = subscribe<odonav::msg::GnssFix>(
-      topics::with_reader_profile(topics::kGnssFix, sensor_profile), gnss_, [this](const auto& m, double t_s) {
-        if (!ins_) lifecycle_.note_live_sample(t_s, dds::steady_now_s());
+      topics::with_reader_profile(topics::kGnssFix, sensor_profile), gnss_,
+      [this](const auto& m, double t_s) {
         if (!gnss_may_pass()) {
           pending_gnss_.emplace_back(t_s, dds::gnss_sample_from(m));
           return;
         }
         if (!lifecycle_.skip_sample(CalibrationInput::kGnss, t_s)) core_.add_gnss(dds::gnss_sample_from(m));
+      },
+      [this](const odonav::msg::GnssFix& m) {
+        if (!ins_) note_live_sample(m.header().stamp());
       });
   if (ins_) {
     // The INS messages declare which GNSS epochs are out: through a GNSS outage the calibration
@@ -103,7 +106,6 @@ CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const Misalignm
     ins_reader_ = subscribe<odonav::msg::InsAttitude>(
         topics::with_reader_profile(topics::kInsAttitude, sensor_profile), *ins_,
         [this](const auto& m, double t_s) {
-          lifecycle_.note_live_sample(t_s, dds::steady_now_s());
           const bool skip = lifecycle_.skip_sample(CalibrationInput::kIns, t_s);
           flush_pending_gnss();
           if (skip) return;
@@ -113,7 +115,20 @@ CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const Misalignm
           }
           core_.add_ins(dds::ins_sample_from(m));
         },
-        [this](const odonav::msg::InsAttitude& m) { declare_gnss_published(gnss_, m); });
+        [this](const odonav::msg::InsAttitude& m) {
+          declare_gnss_published(gnss_, m);
+          note_live_sample(m.header().stamp());
+        });
+  }
+}
+
+void CalibrationNode::note_live_sample(const builtin_interfaces::msg::Time& stamp) {
+  // On arrival, before the aligner holds the sample back for the other input: the live edge is
+  // the newest stamp handed over in the first second, not the newest processed.
+  try {
+    lifecycle_.note_live_sample(dds::to_seconds(stamp), dds::steady_now_s());
+  } catch (const std::invalid_argument&) {
+    // A bad stamp is counted and told by admit_sample right after this.
   }
 }
 

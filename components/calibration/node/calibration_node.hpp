@@ -53,6 +53,8 @@ class CalibrationNode : public dds::EventTimeNode {
   /// After a restore, GNSS waits until the first INS sample of the handed-over history is known
   /// (epochs older than it cannot be processed: lost); then the held ones are fed.
   bool gnss_may_pass() const;
+  /// After a restore: the live edge, from the INS stamps as they arrive (GNSS without INS).
+  void note_live_sample(const builtin_interfaces::msg::Time& stamp);
   void flush_pending_gnss();
   dds::CommandAck on_command(const odonav::msg::Command& command);
 

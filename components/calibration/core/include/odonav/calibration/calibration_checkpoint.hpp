@@ -79,7 +79,8 @@ class CalibrationLifecycle {
   /// The calibrator's outputs to publish: after a restore none at or before the checkpoint; the
   /// outputs up to the live edge are counted as catch-up (RestartPolicy::keep_output).
   std::vector<MisalignmentOutput> outputs_to_publish(std::vector<MisalignmentOutput> outputs, double steady_now_s);
-  /// Each INS sample received (GNSS without INS): the live edge after a restore.
+  /// Each INS sample as it arrives (GNSS without INS), before any alignment: the live edge after a
+  /// restore (RestartPolicy::note_live_sample).
   void note_live_sample(double t_s, double steady_now_s) { restart_.note_live_sample(t_s, steady_now_s); }
   /// The checkpoint of the calibrator after its last processed epoch, when due / at shutdown
   /// (failures logged and counted, never thrown).
