@@ -269,6 +269,19 @@ bool is_new(std::optional<double>& last, double t_s, std::uint64_t& repeated, st
 
 void RecorderNode::on_misalignment(const odonav::msg::Misalignment& m) {
   const results::MisalignmentRow r = misalignment_row(m);
+  // A calibration restarted from its checkpoint publishes again the epochs after it, which the
+  // killed process had published already (the same values): each epoch is recorded once, as the
+  // scale factor's arbiter does for a restarted identification.
+  if (last_misalignment_t_s_ && r.t_s < *last_misalignment_t_s_) {
+    ++repeated_[0];
+    if (!misalignment_replay_logged_) {
+      misalignment_replay_logged_ = true;
+      spdlog::info("misalignment: t={} s is before the last recorded {} s: a restarted calibration's catch-up, "
+                   "recorded once (counted in the repeats)",
+                   r.t_s, *last_misalignment_t_s_);
+    }
+    return;
+  }
   if (!is_new(last_misalignment_t_s_, r.t_s, repeated_[0], backwards_[0], "misalignment")) return;
   misalignment_csv_.write(r);
   misalignment_s_.push_back(r.t_s);
