@@ -63,6 +63,23 @@ class CheckpointReader {
 /// Checks the magic line "<magic> <version>" (CheckpointError "unknown checkpoint version ...").
 void check_checkpoint_version(CheckpointReader& reader, const std::string& magic, int version);
 
+/// The head of every component checkpoint: "<magic> <version>\nvehicle <vehicle_id>\nconfig_hash
+/// <config_hash>\n". Throws std::invalid_argument when the vehicle or hash is empty or holds a line
+/// break.
+std::string checkpoint_head(const std::string& magic, int version, const std::string& vehicle_id,
+                            const std::string& config_hash);
+struct CheckpointHead {
+  std::string vehicle_id;
+  std::string config_hash;
+};
+/// Reads checkpoint_head's lines (CheckpointError: version, missing or empty field).
+CheckpointHead read_checkpoint_head(CheckpointReader& reader, const std::string& magic, int version);
+/// "<key> <%.17g of t_s: exact round trip>\n". Throws std::invalid_argument when t_s is not finite.
+std::string checkpoint_time_line(const std::string& key, double t_s);
+/// A component's state as a counted block: "state_chars <n>\n<state>\n" (read back with
+/// unsigned_field("state_chars") and block()).
+std::string checkpoint_state_block(const std::string& state);
+
 /// Options that do not change any estimate (transport, logging, where state lives, how often it is
 /// saved, hot standby): left out of the configuration hash so that changing them keeps a checkpoint
 /// valid. vehicle-id is left out too because it is checked on its own (a clearer reason).

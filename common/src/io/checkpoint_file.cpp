@@ -108,6 +108,34 @@ void check_checkpoint_version(CheckpointReader& reader, const std::string& magic
     throw CheckpointError("unknown checkpoint version '" + v + "' (this build reads " + std::to_string(version) + ")");
 }
 
+std::string checkpoint_head(const std::string& magic, int version, const std::string& vehicle_id,
+                            const std::string& config_hash) {
+  auto bad = [](const std::string& v) { return v.empty() || v.find_first_of("\r\n") != std::string::npos; };
+  if (bad(vehicle_id)) throw std::invalid_argument("checkpoint: vehicle id is empty or holds a line break");
+  if (bad(config_hash)) throw std::invalid_argument("checkpoint: config hash is empty or holds a line break");
+  return magic + " " + std::to_string(version) + "\nvehicle " + vehicle_id + "\nconfig_hash " + config_hash + "\n";
+}
+
+CheckpointHead read_checkpoint_head(CheckpointReader& reader, const std::string& magic, int version) {
+  check_checkpoint_version(reader, magic, version);
+  CheckpointHead h;
+  h.vehicle_id = reader.field("vehicle");
+  h.config_hash = reader.field("config_hash");
+  if (h.vehicle_id.empty() || h.config_hash.empty()) throw CheckpointError("empty vehicle or config hash");
+  return h;
+}
+
+std::string checkpoint_time_line(const std::string& key, double t_s) {
+  if (!std::isfinite(t_s)) throw std::invalid_argument("checkpoint: " + key + " is not finite");
+  char t[40];
+  std::snprintf(t, sizeof t, "%.17g", t_s);
+  return key + " " + t + "\n";
+}
+
+std::string checkpoint_state_block(const std::string& state) {
+  return "state_chars " + std::to_string(state.size()) + "\n" + state + "\n";
+}
+
 const std::vector<std::string>& checkpoint_neutral_options() {
   static const std::vector<std::string> names{
       "checkpoint-every-s", "config",   "domain",        "log-level", "max-wait-s", "profile",

@@ -14,8 +14,6 @@ namespace odonav {
 namespace {
 constexpr const char* kMagic = "odonav-calibration-checkpoint";
 constexpr int kVersion = 1;
-
-bool empty_or_line_break(const std::string& s) { return s.empty() || s.find_first_of("\r\n") != std::string::npos; }
 }  // namespace
 
 std::string calibration_checkpoint_path(const std::string& state_dir, const std::string& vehicle_id) {
@@ -24,34 +22,22 @@ std::string calibration_checkpoint_path(const std::string& state_dir, const std:
 }
 
 std::string serialize_calibration_checkpoint(const CalibrationCheckpoint& c) {
-  if (empty_or_line_break(c.vehicle_id)) throw std::invalid_argument("checkpoint: vehicle id is empty or holds a line break");
-  if (empty_or_line_break(c.config_hash))
-    throw std::invalid_argument("checkpoint: config hash is empty or holds a line break");
-  if (!std::isfinite(c.last_sample_t_s)) throw std::invalid_argument("checkpoint: last_sample_t_s is not finite");
-  char t[40];
-  std::snprintf(t, sizeof t, "%.17g", c.last_sample_t_s);
-  std::ostringstream s;
-  s << kMagic << ' ' << kVersion << '\n'
-    << "vehicle " << c.vehicle_id << '\n'
-    << "config_hash " << c.config_hash << '\n'
-    << "last_sample_t_s " << t << '\n'
-    << "state_chars " << c.calibrator_state.size() << '\n'
-    << c.calibrator_state << '\n';
-  return seal_checkpoint(s.str());
+  return seal_checkpoint(checkpoint_head(kMagic, kVersion, c.vehicle_id, c.config_hash) +
+                         checkpoint_time_line("last_sample_t_s", c.last_sample_t_s) +
+                         checkpoint_state_block(c.calibrator_state));
 }
 
 CalibrationCheckpoint parse_calibration_checkpoint(const std::string& text) {
   const std::string body = unseal_checkpoint(text);
   CheckpointReader r(body);
-  check_checkpoint_version(r, kMagic, kVersion);
+  const CheckpointHead head = read_checkpoint_head(r, kMagic, kVersion);
   CalibrationCheckpoint c;
-  c.vehicle_id = r.field("vehicle");
-  c.config_hash = r.field("config_hash");
+  c.vehicle_id = head.vehicle_id;
+  c.config_hash = head.config_hash;
   c.last_sample_t_s = r.double_field("last_sample_t_s");
   const uint64_t n = r.unsigned_field("state_chars");
   c.calibrator_state = r.block(static_cast<std::size_t>(n), "calibrator state");
   if (!r.at_end()) throw CheckpointError("unexpected text after the calibrator state");
-  if (c.vehicle_id.empty() || c.config_hash.empty()) throw CheckpointError("empty vehicle or config hash");
   return c;
 }
 

@@ -22,35 +22,24 @@ std::string checkpoint_path(const std::string& state_dir, const std::string& veh
 }
 
 std::string serialize_checkpoint(const IdentificationCheckpoint& c) {
-  if (c.vehicle_id.empty() || has_line_break(c.vehicle_id))
-    throw std::invalid_argument("checkpoint: vehicle id is empty or holds a line break");
   if (c.estimator_name.empty() || has_line_break(c.estimator_name))
     throw std::invalid_argument("checkpoint: estimator name is empty or holds a line break");
-  if (c.config_hash.empty() || has_line_break(c.config_hash))
-    throw std::invalid_argument("checkpoint: config hash is empty or holds a line break");
-  if (!std::isfinite(c.last_sample_t_s)) throw std::invalid_argument("checkpoint: last_sample_t_s is not finite");
-  char t[40];
-  std::snprintf(t, sizeof t, "%.17g", c.last_sample_t_s);
   std::ostringstream s;
-  s << kMagic << ' ' << kVersion << '\n'
-    << "vehicle " << c.vehicle_id << '\n'
-    << "config_hash " << c.config_hash << '\n'
-    << "estimator " << c.estimator_name << '\n'
-    << "last_sample_t_s " << t << '\n'
-    << "samples_accepted " << c.samples_accepted << '\n'
+  s << checkpoint_head(kMagic, kVersion, c.vehicle_id, c.config_hash) << "estimator " << c.estimator_name << '\n'
+    << checkpoint_time_line("last_sample_t_s", c.last_sample_t_s) << "samples_accepted " << c.samples_accepted
+    << '\n'
     << "samples_rejected " << c.samples_rejected << '\n'
-    << "state_chars " << c.estimator_state.size() << '\n'
-    << c.estimator_state << '\n';
+    << checkpoint_state_block(c.estimator_state);
   return seal_checkpoint(s.str());
 }
 
 IdentificationCheckpoint parse_checkpoint(const std::string& text) {
   const std::string body = unseal_checkpoint(text);
   CheckpointReader r(body);
-  check_checkpoint_version(r, kMagic, kVersion);
+  const CheckpointHead head = read_checkpoint_head(r, kMagic, kVersion);
   IdentificationCheckpoint c;
-  c.vehicle_id = r.field("vehicle");
-  c.config_hash = r.field("config_hash");
+  c.vehicle_id = head.vehicle_id;
+  c.config_hash = head.config_hash;
   c.estimator_name = r.field("estimator");
   c.last_sample_t_s = r.double_field("last_sample_t_s");
   c.samples_accepted = r.unsigned_field("samples_accepted");
@@ -58,8 +47,7 @@ IdentificationCheckpoint parse_checkpoint(const std::string& text) {
   const uint64_t n = r.unsigned_field("state_chars");
   c.estimator_state = r.block(static_cast<std::size_t>(n), "estimator state");
   if (r.position() != body.size()) throw CheckpointError("unexpected text after the estimator state");
-  if (c.vehicle_id.empty() || c.estimator_name.empty() || c.config_hash.empty())
-    throw CheckpointError("empty vehicle, estimator or config hash");
+  if (c.estimator_name.empty()) throw CheckpointError("empty estimator");
   return c;
 }
 
