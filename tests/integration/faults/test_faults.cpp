@@ -696,17 +696,15 @@ void kill_nine_and_restart_catches_up(int domain, const std::string& restarted, 
             << health_counter(*last, "catch_up_last_t_s") << " s, lost " << health_counter(*last, "catch_up_lost_s")
             << " s, restored checkpoint t=" << health_counter(*last, "checkpoint_restored_t_s") << " s\n";
   EXPECT_EQ(health_counter(*last, "catch_up_lost_s"), 0.0);
-  if (restarted == "odonav-identification") {
-    EXPECT_GT(health_counter(*last, "catch_up_outputs"), 10.0) << "the downtime (6 s of data) was published late";
-    EXPECT_LT(health_counter(*last, "checkpoint_restored_t_s"), last_before_kill_s);
-  } else {
-    // Which outputs count as catch-up is a label decided on the steady clock (printed above, not
-    // asserted); what is asserted: it resumed from a checkpoint older than what it had published,
-    // and every row after it is there and equal to offline's (below).
-    std::cerr << "last misalignment before the kill: t=" << last_misalignment_before_kill_s << " s\n";
-    EXPECT_GT(health_counter(*last, "checkpoint_restored_t_s"), 0.0);
-    EXPECT_LT(health_counter(*last, "checkpoint_restored_t_s"), last_misalignment_before_kill_s);
-  }
+  // Which outputs count as catch-up is a label decided on the steady clock (printed above, not
+  // asserted: on a loaded machine the history takes longer than the settling second to arrive and
+  // the count reads 0-130 for the same run); what is asserted: it resumed from a checkpoint older
+  // than what it had published, and every row after it is there and equal to offline's (below).
+  const double last_published_before_kill_s =
+      restarted == "odonav-identification" ? last_before_kill_s : last_misalignment_before_kill_s;
+  std::cerr << "last output of " << restarted << " before the kill: t=" << last_published_before_kill_s << " s\n";
+  EXPECT_GT(health_counter(*last, "checkpoint_restored_t_s"), 0.0);
+  EXPECT_LT(health_counter(*last, "checkpoint_restored_t_s"), last_published_before_kill_s);
   expect_rows_equal_offline(out, offline_dir);
   // Nothing lost, and the recording says so: gaps.csv is there with its header only.
   EXPECT_EQ(read_text(out + "/gaps.csv"), "topic,first_missing_t_s,last_missing_t_s,count,reason\n");
