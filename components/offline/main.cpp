@@ -148,7 +148,8 @@ nlohmann::json offline_summary(const odonav::Dataset& dataset, const std::string
                       {"gap", result.builder_counters.gap},
                       {"innovation", result.builder_counters.innovation},
                       {"cross_track", result.builder_counters.cross_track},
-                      {"reversing", result.builder_counters.reversing}};
+                      {"reversing", result.builder_counters.reversing},
+                      {"reversing_accepted", result.builder_counters.reversing_accepted}};
   summary["bad_rows_skipped"] = report.total_bad();
   return summary;
 }

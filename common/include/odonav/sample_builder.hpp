@@ -74,6 +74,15 @@ struct SampleBuilderParams {
   double max_interval_floor_s = 0.5;
   /// Intervals between GNSS rows the period P is the median of (>= 1). Default 15.
   int gnss_period_window = 15;
+  /// Intervals driven backwards (every odometer sample describing the interval says direction -1)
+  /// make samples too: the same K measures the distance backwards, as the dead reckoning lays it
+  /// out. phi is the pulses counted and y the distance from the backwards speed (with INS the
+  /// forward speed is negative at both ends: an epoch with a negative forward speed is accepted
+  /// while the odometer reports reversing at it; without INS |v| is the speed anyway). An interval
+  /// in which the direction changes is rejected (kReversing) whatever this says: the vehicle stops
+  /// in it. false: every interval with a reversing sample is rejected and counted (kReversing).
+  /// Default true (measured on slow_robot: docs/ALGORITHM.md §2).
+  bool reversing_samples = true;
   /// Yaw-rate gate: reject intervals whose |heading change| / dt exceeds max_yaw_rate_rad_s (track
   /// skid in turns). Heading from the INS, or from the GNSS course without INS. Default on, 3 deg/s:
   /// a skid-steered track slips in any turn, by tenths of a percent already at 5-10 deg/s, which an
@@ -223,11 +232,13 @@ enum class EpochStatus {
   kLowFixQuality,  ///< fix rank below min_fix_rank.
   kNoOdometer,     ///< no odometer count can be interpolated at the epoch.
   kNoAttitude,     ///< use_ins and no INS attitude can be interpolated at the epoch.
-  kNegativeSpeed,  ///< forward speed < 0 (reversing seen by GNSS / INS).
+  kNegativeSpeed,  ///< forward speed < 0 (reversing seen by GNSS / INS) while the odometer reports
+                   ///< forward, or reversing_samples is off.
   kSpeedJump,      ///< forward speed jumped beyond the acceleration bound.
   kGap,            ///< interval to the previous good epoch longer than max_interval_s.
   kMinSpeed,       ///< speed below min_speed_mps at one end of the interval.
-  kReversing,      ///< an odometer sample of the interval reports direction -1.
+  kReversing,      ///< the odometer's direction changes within the interval, or (reversing_samples
+                   ///< off) a sample of it reports -1.
   kYawRate,        ///< |yaw rate| over the interval above max_yaw_rate_rad_s.
   kNoPulses,       ///< no pulse counted over the interval (phi <= 0).
   kInnovation,     ///< innovation test against the K estimate failed.
@@ -270,6 +281,8 @@ struct SampleBuilderCounters {
   uint64_t cross_track = 0;
   /// Samples accepted while the innovation test was suspended (not a rejection: also in accepted).
   uint64_t innovation_suspended = 0;
+  /// Samples of intervals driven backwards (reversing_samples; also in accepted).
+  uint64_t reversing_accepted = 0;
   /// Odometer samples (not GNSS epochs) rejected by the pulse-jump gate, and counter steps re-based
   /// on (stream_buffers.hpp, OdometerBuffer).
   uint64_t odometer_jumps_rejected = 0;

@@ -75,6 +75,13 @@ struct OdometerJumpGate {
   double max_increment_pulses(double dt_s) const { return max_speed_mps / k_m_per_pulse * dt_s + margin_pulses; }
 };
 
+/// The direction an odometer reports over an interval (OdometerBuffer::direction_over).
+enum class OdometerDirection {
+  kForward,    ///< no sample says reversing (direction +1 or 0, unknown).
+  kReversing,  ///< every sample says reversing (-1).
+  kMixed,      ///< the direction changes within the interval.
+};
+
 /// What OdometerBuffer::add did with a sample.
 enum class OdometerAddResult {
   kAccepted,      ///< buffered.
@@ -182,15 +189,28 @@ class OdometerBuffer {
     return static_cast<double>(a.count) + f * static_cast<double>(b.count - a.count);
   }
 
-  /// True when a sample describing the interval [t0_s, t1_s] (stamped after t0_s, up to and including
-  /// the first sample at or after t1_s) reports reversing (direction -1).
-  bool any_reversing(double t0_s, double t1_s) const {
+  /// The direction the samples describing the interval [t0_s, t1_s] (stamped after t0_s, up to and
+  /// including the first sample at or after t1_s) report: kReversing when every one says -1,
+  /// kMixed when some do and some do not (0, unknown, counts as forward), else kForward.
+  OdometerDirection direction_over(double t0_s, double t1_s) const {
+    bool forward = false, reversing = false;
     for (const Entry& e : entries_) {
       if (e.t_s <= t0_s) continue;
-      if (e.direction < 0) return true;
+      (e.direction < 0 ? reversing : forward) = true;
       if (e.t_s >= t1_s) break;
     }
-    return false;
+    if (!reversing) return OdometerDirection::kForward;
+    return forward ? OdometerDirection::kMixed : OdometerDirection::kReversing;
+  }
+  /// True when a sample describing the interval [t0_s, t1_s] reports reversing (direction -1).
+  bool any_reversing(double t0_s, double t1_s) const {
+    return direction_over(t0_s, t1_s) != OdometerDirection::kForward;
+  }
+  /// The direction of the sample describing the instant t_s (the first stamped at or after it).
+  OdometerDirection direction_at(double t_s) const {
+    for (const Entry& e : entries_)
+      if (e.t_s >= t_s) return e.direction < 0 ? OdometerDirection::kReversing : OdometerDirection::kForward;
+    return OdometerDirection::kForward;
   }
 
   /// Drops samples no longer needed for times >= t_s (keeps the last sample at or before t_s).

@@ -469,7 +469,9 @@ std::optional<EpochStatus> SampleBuilder::check_epoch_velocity(const GnssSample&
   const Eigen::Vector3d vel_enu_mps = reference_point_velocity(g, att);
   const double v = forward_speed(vel_enu_mps, att, in.misalignment);
   in.forward_speed_mps = v;
-  if (v < 0.0) return EpochStatus::kNegativeSpeed;
+  // Backwards is a good velocity while the odometer says so (reversing samples).
+  if (v < 0.0 && !(params_.reversing_samples && odometer_.direction_at(t_sensor) == OdometerDirection::kReversing))
+    return EpochStatus::kNegativeSpeed;
   if (params_.use_ins && params_.cross_track_gate_enabled) {
     const Eigen::Vector3d v_odo = odometer_to_body(in.misalignment).transpose() * (enu_to_body(att) * vel_enu_mps);
     const double sigma_v = g.vel_std_mps && *g.vel_std_mps > 0.0 ? *g.vel_std_mps : params_.gnss_velocity_sigma_mps;
@@ -497,9 +499,13 @@ EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs
   if (params_.use_ins)
     if (const std::optional<Attitude> a = attitude_.attitude_at(start_sensor_t, watermark_s_)) s.attitude = *a;
   const double dt = g.t_s - s.t_s;
-  const double v = in.forward_speed_mps;
+  const OdometerDirection direction = odometer_.direction_over(start_sensor_t, sensor_time(g.t_s));
+  const bool backwards = direction == OdometerDirection::kReversing && params_.reversing_samples;
+  // Speeds along the direction of travel: with INS the forward speed is negative backwards.
+  const double sign = backwards && params_.use_ins ? -1.0 : 1.0;
+  const double v = sign * in.forward_speed_mps;
   // Both ends with the same (latest) misalignment, so the sample is one consistent projection.
-  const double v_start = forward_speed(s.vel_enu_mps, s.attitude, in.misalignment);
+  const double v_start = sign * forward_speed(s.vel_enu_mps, s.attitude, in.misalignment);
   double yaw_rate = 0.0;
   if (params_.use_ins) {
     yaw_rate = wrap_pi(in.epoch.attitude.heading_rad - s.attitude.heading_rad) / dt;
@@ -526,7 +532,7 @@ EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs
   const double phi = in.epoch.count_pulses - s.count_pulses;
   if (dt > max_interval_in_force_s()) return EpochStatus::kGap;
   if (v_start < params_.min_speed_mps || v < params_.min_speed_mps) return EpochStatus::kMinSpeed;
-  if (odometer_.any_reversing(start_sensor_t, sensor_time(g.t_s))) return EpochStatus::kReversing;
+  if (direction != OdometerDirection::kForward && !backwards) return EpochStatus::kReversing;
   if (params_.yaw_rate_gate_enabled && std::abs(yaw_rate) > params_.max_yaw_rate_rad_s) return EpochStatus::kYawRate;
   if (!(phi > 0.0)) return EpochStatus::kNoPulses;
   if (phi < params_.min_pulses) return EpochStatus::kMinSpeed;
@@ -619,6 +625,9 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
     }
   }
   count(r.status);
+  if (r.status == EpochStatus::kAccepted && params_.reversing_samples &&
+      odometer_.direction_over(sensor_time(chain_start_->t_s), sensor_time(g.t_s)) == OdometerDirection::kReversing)
+    ++counters_.reversing_accepted;
   // The latency candidates learn from samples that passed against a K estimate (a suspended test
   // means the estimate is stale, and without one there is nothing to compare with).
   if (latency_start_t_s) {

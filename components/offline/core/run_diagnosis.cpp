@@ -41,7 +41,7 @@ std::string dominant_gate(const Dataset& d, const OfflineParams& p, const Sample
                          num(b.speed_jump_margin_mps) + " m/s"},
       {c.no_odometer, "with no odometer sample around the epoch (no time overlap?)"},
       {c.no_attitude, "with no INS attitude around the epoch"},
-      {c.reversing, "while reversing"},
+      {c.reversing, b.reversing_samples ? "in which the odometer's direction changes" : "while reversing"},
       {c.negative_speed, "with a negative forward speed (GNSS velocity negated or INS heading off by 180 deg?)"},
       {c.no_pulses, "with no odometer pulses over the interval (constant counter?)"},
       {c.innovation, "by the innovation gate"},

@@ -166,6 +166,47 @@ TEST(SampleBuilder, ReversingFlagAndNegativeSpeedAreGated) {
   EXPECT_EQ(e[81].status, EpochStatus::kChainStart);
 }
 
+TEST(SampleBuilder, DrivingBackwardsGivesTheSameSamplesAsForwards) {
+  // The same drive backwards: the body points the other way than it moves (GNSS velocity negated,
+  // the INS attitude unchanged, so the forward speed is negative) and the odometer says -1 on every
+  // sample. The pulses and the distance are those of the forward drive, so the samples must be too.
+  const SyntheticData forwards = simulate(accel_drive(), accel_config());
+  SyntheticData backwards = forwards;
+  for (auto& o : backwards.odometer) o.direction = -1;
+  for (auto& g : backwards.gnss) g.vel_enu_mps = -g.vel_enu_mps;
+  SampleBuilderCounters c;
+  const auto f = samples_of(run_all(forwards, {}, true));
+  const auto b = samples_of(run_all(backwards, {}, true, &c));
+  ASSERT_EQ(f.size(), 200u);  // epochs 0.1 .. 20 s
+  ASSERT_EQ(b.size(), f.size());
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    EXPECT_EQ(b[i].t_s, f[i].t_s);
+    EXPECT_EQ(b[i].phi_pulses, f[i].phi_pulses);
+    EXPECT_NEAR(b[i].y_m, f[i].y_m, 1e-12) << i;
+    EXPECT_NEAR(b[i].y_m / b[i].phi_pulses, kK, 0.02 * kK) << i;
+  }
+  EXPECT_EQ(c.reversing_accepted, f.size());
+  EXPECT_EQ(c.negative_speed, 0u);
+  // Without INS the speed is |v| anyway: the same samples again.
+  SampleBuilderParams no_ins;
+  no_ins.use_ins = false;
+  const auto f2 = samples_of(run_all(forwards, no_ins));
+  const auto b2 = samples_of(run_all(backwards, no_ins));
+  ASSERT_EQ(b2.size(), f2.size());
+  for (std::size_t i = 0; i < f2.size(); ++i) EXPECT_NEAR(b2[i].y_m, f2[i].y_m, 1e-12) << i;
+  // With reversing samples off, nothing backwards makes a sample: every epoch's forward speed is
+  // negative.
+  SampleBuilderParams off;
+  off.reversing_samples = false;
+  const auto e = run_all(backwards, off, false, &c);
+  EXPECT_EQ(c.accepted, 0u);
+  EXPECT_EQ(c.negative_speed, e.size());
+  off.use_ins = false;
+  run_all(backwards, off, false, &c);
+  EXPECT_EQ(c.accepted, 0u);
+  EXPECT_EQ(c.reversing, e.size() - 1);
+}
+
 TEST(SampleBuilder, GnssOutageBreaksTheChain) {
   SyntheticData d = simulate(accel_drive(), accel_config());
   d.gnss.erase(d.gnss.begin() + 100, d.gnss.begin() + 110);  // 1 s without GNSS

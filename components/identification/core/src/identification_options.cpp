@@ -35,6 +35,8 @@ void add_identification_options(Options& o) {
                "max(0.5 s, 2.5 P)", 0.0, 100.0);
   o.add_double("min-pulses", d.builder.min_pulses, "gate: minimum pulses counted over a sample (quantisation)", 0.0,
                1e9);
+  o.add_bool("reversing-samples", d.builder.reversing_samples,
+             "intervals driven backwards (odometer direction -1 throughout) make samples of K too");
   o.add_string("gnss-latency-s", "auto",
                "GNSS latency (s) the fixes are stamped late by (receiver delay or clock offset): 'auto' "
                "estimates it online, 'off' assumes 0, a number fixes it");
@@ -74,6 +76,7 @@ IdentificationParams identification_params_from(const Options& o) {
   p.builder.gnss_velocity_sigma_mps = o.get_double("gnss-velocity-sigma");
   p.builder.max_interval_s = o.get_double("max-interval-s");
   p.builder.min_pulses = o.get_double("min-pulses");
+  p.builder.reversing_samples = o.get_bool("reversing-samples");
   bool estimate_latency = true;
   p.builder.gnss_latency_fixed_s = parse_gnss_latency_option(o.get_string("gnss-latency-s"), estimate_latency);
   p.builder.latency_estimation_enabled = estimate_latency;
