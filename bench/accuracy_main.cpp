@@ -32,6 +32,7 @@
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 #include "odonav/identification/identification_options.hpp"
 #include "odonav/logging.hpp"
+#include "first_metres.hpp"
 #include "offline_runner.hpp"
 #include "summary.hpp"
 
@@ -159,7 +160,22 @@ struct ScenarioFigures {
   std::vector<double> rms_by_seed;            ///< vff_lm_rls RMS K error per seed (%), for the worst seed
   std::size_t steps = 0;
   bool has_outage = false;
+  /// The online DR from its first metre (first_metres.hpp): start offset and max %D after 500 m,
+  /// as it is, without the start offset, and with an origin from the standstill fixes or from every
+  /// fix of the first 500 m.
+  Figure start_offset_m, max_after_500m, drift_max_after_500m, standstill_offset_m, standstill_max_after_500m,
+      first_500m_offset_m, first_500m_max_after_500m;
 };
+
+void collect(const odonav::offline::FirstMetres& m, ScenarioFigures& f) {
+  f.start_offset_m.add(m.start_offset_m);
+  f.max_after_500m.add(m.max_after_500m_percent);
+  f.drift_max_after_500m.add(m.drift_max_after_500m_percent);
+  f.standstill_offset_m.add(m.standstill_origin_offset_m);
+  f.standstill_max_after_500m.add(m.standstill_origin_max_after_500m_percent);
+  f.first_500m_offset_m.add(m.first_500m_origin_offset_m);
+  f.first_500m_max_after_500m.add(m.first_500m_origin_max_after_500m_percent);
+}
 
 void collect(const json& s, ScenarioFigures& f) {
   const json& sf = s["scale_factor"];
@@ -219,6 +235,14 @@ void print_scenario(const std::string& scenario, const ScenarioFigures& f, std::
     if (f.has_outage) out << " " << describe(d->outage_m, 2) << " | " << describe(d->outage_percent, 3) << " |";
     out << "\n";
   }
+  out << "\nOnline DR, its origin against the truth (m) and its max %D after 500 m:\n\n"
+      << "| DR origin | origin error (m) | max %D after 500 m |\n|---|---|---|\n"
+      << "| first fix (the DR's) | " << describe(f.start_offset_m, 2) << " | " << describe(f.max_after_500m, 3) << " |\n"
+      << "| the truth (start offset removed) | 0 | " << describe(f.drift_max_after_500m, 3) << " |\n"
+      << "| mean of the standstill fixes | " << describe(f.standstill_offset_m, 2) << " | "
+      << describe(f.standstill_max_after_500m, 3) << " |\n"
+      << "| mean of the fixes of the first 500 m | " << describe(f.first_500m_offset_m, 2) << " | "
+      << describe(f.first_500m_max_after_500m, 3) << " |\n";
 }
 
 // ---- sensitivity of VFF-LM-RLS (identification only: the DR does not depend on these settings
@@ -372,6 +396,7 @@ int main(int argc, char** argv) {
         const odonav::offline::OfflineResult r = odonav::offline::run_offline(d, p);
         const json s = summary_of(d, odonav::offline::to_output_rows(r, p.identification.estimator_name), scenario);
         collect(s, figures[scenario]);
+        collect(odonav::offline::evaluate_first_metres(d, r.dr_online), figures[scenario]);
       }
       std::cerr << "seed " << seed << " done ("
                 << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s)\n";

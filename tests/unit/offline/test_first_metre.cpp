@@ -3,16 +3,13 @@
 // the default parameters, against the simulator's truth (sim:terrain, fixed seeds).
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cmath>
-#include <map>
-#include <sstream>
 
 #include "core/simulator.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
-#include "odonav/geodesy.hpp"
 #include "odonav/identification/identification_options.hpp"
+#include "first_metres.hpp"
 #include "offline_runner.hpp"
 #include "offline_test_params.hpp"
 #include "summary.hpp"
@@ -31,59 +28,7 @@ Dataset terrain(uint64_t seed, double k_true_m_per_pulse = 0.0) {
   return sim::simulate(cfg);
 }
 
-struct FirstMetres {
-  double final_percent = NAN;            ///< |DR - truth| / distance at the end (%D)
-  double max_after_500m_percent = NAN;   ///< max over the drive after 500 m (%D)
-  /// The same two with the start offset taken out (the DR starts at its first GNSS fix, whose
-  /// error is the GNSS noise, not dead reckoning's; the GNSS-anchored position deals with it).
-  double drift_final_percent = NAN;
-  double drift_max_after_500m_percent = NAN;
-  double distance_on_nominal_k_m = NAN;  ///< odometer distance before the first identified K
-  double start_offset_m = NAN;
-};
-
-FirstMetres evaluate(const Dataset& d, const OfflineResult& r) {
-  std::map<long long, const TruthSample*> truth;  // by t in ms (the DR outputs are odometer stamps)
-  for (const TruthSample& t : d.truth) truth[std::llround(t.t_s * 1000.0)] = &t;
-  FirstMetres f;
-  f.max_after_500m_percent = 0.0;
-  f.drift_max_after_500m_percent = 0.0;
-  std::optional<LocalEnuFrame> frame;
-  std::optional<Eigen::Vector3d> start_offset;
-  double last_percent = NAN, last_drift = NAN;
-  for (const DeadReckoningOutput& o : r.dr_online) {
-    if (std::isnan(f.distance_on_nominal_k_m) && o.k_source == ScaleFactorSource::kIdentified)
-      f.distance_on_nominal_k_m = o.distance_m;
-    const auto it = truth.find(std::llround(o.t_s * 1000.0));
-    if (it == truth.end()) continue;
-    if (!frame) frame.emplace(it->second->position);
-    Eigen::Vector3d e = frame->to_enu(o.position) - frame->to_enu(it->second->position);
-    e.z() = 0.0;
-    if (!start_offset) {
-      start_offset = e;
-      f.start_offset_m = e.norm();
-    }
-    if (o.distance_m < 1.0) continue;
-    last_percent = 100.0 * e.norm() / o.distance_m;
-    last_drift = 100.0 * (e - *start_offset).norm() / o.distance_m;
-    if (o.distance_m > 500.0) {
-      f.max_after_500m_percent = std::max(f.max_after_500m_percent, last_percent);
-      f.drift_max_after_500m_percent = std::max(f.drift_max_after_500m_percent, last_drift);
-    }
-  }
-  f.final_percent = last_percent;
-  f.drift_final_percent = last_drift;
-  return f;
-}
-
-std::string describe(const FirstMetres& f) {
-  std::ostringstream m;
-  m << "final " << f.final_percent << " %D, max after 500 m " << f.max_after_500m_percent
-    << " %D; start offset removed: final " << f.drift_final_percent << " %D, max after 500 m "
-    << f.drift_max_after_500m_percent << " %D; start offset " << f.start_offset_m << " m; on nominal K for "
-    << f.distance_on_nominal_k_m << " m";
-  return m.str();
-}
+FirstMetres evaluate(const Dataset& d, const OfflineResult& r) { return evaluate_first_metres(d, r.dr_online); }
 
 }  // namespace
 
@@ -101,9 +46,30 @@ TEST(FirstMetre, TerrainSeed1DeadReckoningMeetsTheFinalGoal) {
   // The K (1.5 % off the nominal) is taken after 11 m of odometer distance instead of 59 m.
   EXPECT_LE(f.distance_on_nominal_k_m, 20.0);
   // Max after 500 m: 0.30 %D, of which the start offset (1.7 m of GNSS noise at the first fix) is
-  // most; without it 0.075 %D (before: 0.34 %D). The 0.1 %D goal is met for the drift only.
+  // most; without it 0.074 %D (before: 0.34 %D). The 0.1 %D goal is met for the drift only:
+  // an origin from the mean of the 5 s of standstill fixes would give 0.257 %D (1.50 m off), one
+  // from every fix of the first 500 m 0.346 %D (1.96 m off); see AnRtkStartMeetsTheMaxAfter500mGoal.
   EXPECT_LE(f.drift_max_after_500m_percent, 0.1);
   EXPECT_LE(f.max_after_500m_percent, 0.35);
+}
+
+TEST(FirstMetre, AnRtkStartMeetsTheMaxAfter500mGoal) {
+  // The max %D after 500 m is mostly the start fix's error: the simulator's GNSS error is 1.4 m per
+  // axis of Gauss-Markov noise correlated over 60 s, which no origin built from the fixes of the
+  // first minute averages away (BENCHMARKS.md 4f). What does meet the goal is a start fix of
+  // centimetres: the same drive with RTK-grade positions (the slow robot's 1 cm + 1 cm), the DR
+  // unchanged.
+  sim::SimulationConfig cfg = sim::scenario_config("terrain");
+  cfg.seed = 1;
+  cfg.gnss_pos_gm_std_m = 0.01;
+  cfg.gnss_pos_white_std_m = 0.01;
+  const Dataset d = sim::simulate(cfg);
+  const FirstMetres f = evaluate(d, run_offline(d, user_params(d)));
+  SCOPED_TRACE(describe(f));
+  RecordProperty("figures", describe(f));
+  EXPECT_LE(f.start_offset_m, 0.1);
+  EXPECT_LE(f.max_after_500m_percent, 0.1);
+  EXPECT_LE(f.final_percent, 0.05);
 }
 
 TEST(FirstMetre, NominalKHundredPercentWrongCostsOnlyTheFirstMetres) {
