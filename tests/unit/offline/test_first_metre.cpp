@@ -21,22 +21,32 @@ using nlohmann::json;
 
 namespace {
 
-Dataset terrain(uint64_t seed, double k_true_m_per_pulse = 0.0) {
+sim::SimulationConfig terrain_config(uint64_t seed) {
   sim::SimulationConfig cfg = sim::scenario_config("terrain");
   cfg.seed = seed;
+  return cfg;
+}
+
+Dataset terrain(uint64_t seed, double k_true_m_per_pulse = 0.0) {
+  sim::SimulationConfig cfg = terrain_config(seed);
   if (k_true_m_per_pulse > 0.0) cfg.k_true_m_per_pulse = k_true_m_per_pulse;
   return sim::simulate(cfg);
 }
 
-FirstMetres evaluate(const Dataset& d, const OfflineResult& r) { return evaluate_first_metres(d, r.dr_online); }
+// odonav-offline's chain with the default parameters on d, evaluated against d's truth; the figures
+// go to the test's XML report.
+FirstMetres measure(const Dataset& d) {
+  const FirstMetres f = evaluate_first_metres(d, run_offline(d, user_params(d)).dr_online);
+  ::testing::Test::RecordProperty("figures", describe(f));
+  return f;
+}
 
 }  // namespace
 
 TEST(FirstMetre, TerrainSeed1DeadReckoningMeetsTheFinalGoal) {
   const Dataset d = terrain(1);
-  const FirstMetres f = evaluate(d, run_offline(d, user_params(d)));
+  const FirstMetres f = measure(d);
   SCOPED_TRACE(describe(f));
-  RecordProperty("figures", describe(f));
   // Measured 0.0505 %D (0.082 %D when only converged estimates were applied): the goal is
   // 0.05 %D. It was 0.0485 %D while two GNSS velocity glitches (162.7 s, 416.2 s) still entered K;
   // the cross-track gate rejects them (0.0518 %D), the latency's finer sums then gave 0.0505 %D: the
@@ -59,14 +69,12 @@ TEST(FirstMetre, AnRtkStartMeetsTheMaxAfter500mGoal) {
   // first minute averages away (BENCHMARKS.md 4f). What does meet the goal is a start fix of
   // centimetres: the same drive with RTK-grade positions (the slow robot's 1 cm + 1 cm), the DR
   // unchanged.
-  sim::SimulationConfig cfg = sim::scenario_config("terrain");
-  cfg.seed = 1;
+  sim::SimulationConfig cfg = terrain_config(1);
   cfg.gnss_pos_gm_std_m = 0.01;
   cfg.gnss_pos_white_std_m = 0.01;
   const Dataset d = sim::simulate(cfg);
-  const FirstMetres f = evaluate(d, run_offline(d, user_params(d)));
+  const FirstMetres f = measure(d);
   SCOPED_TRACE(describe(f));
-  RecordProperty("figures", describe(f));
   EXPECT_LE(f.start_offset_m, 0.1);
   EXPECT_LE(f.max_after_500m_percent, 0.1);
   EXPECT_LE(f.final_percent, 0.05);
@@ -74,9 +82,8 @@ TEST(FirstMetre, AnRtkStartMeetsTheMaxAfter500mGoal) {
 
 TEST(FirstMetre, NominalKHundredPercentWrongCostsOnlyTheFirstMetres) {
   const Dataset d = terrain(1, 0.025);  // true K twice the nominal 0.0125
-  const FirstMetres f = evaluate(d, run_offline(d, user_params(d)));
+  const FirstMetres f = measure(d);
   SCOPED_TRACE(describe(f));
-  RecordProperty("figures", describe(f));
   // Measured 0.049 %D (0.86 %D when the DR waited 14 s for a converged K): goal 0.1 %D.
   EXPECT_LE(f.final_percent, 0.1);
   // Identified K from about 5 m of odometer distance on (before: 75 m).
@@ -89,9 +96,8 @@ TEST(FirstMetre, ARightNominalIsNotReplacedByAnEarlyNoisyK) {
   // helps: measured 0.038 %D final, 0.078 % drift max after 500 m (converged-only rules: 0.078 %D,
   // 0.25 %).
   const Dataset d = terrain(2, 0.0125);
-  const FirstMetres f = evaluate(d, run_offline(d, user_params(d)));
+  const FirstMetres f = measure(d);
   SCOPED_TRACE(describe(f));
-  RecordProperty("figures", describe(f));
   EXPECT_LE(f.final_percent, 0.05);
   EXPECT_LE(f.drift_max_after_500m_percent, 0.1);
   EXPECT_GE(f.distance_on_nominal_k_m, 40.0);
