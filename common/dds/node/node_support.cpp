@@ -43,14 +43,15 @@ void NodeInput::note_problem(const std::string& why, double now_s) {
 void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, const NodeInput& in,
                                   double now_s) {
   const EventTimeAligner::StreamStatus st = aligner.status(in.id, now_s);
-  const double rejected = static_cast<double>(st.backwards + st.invalid + in.refused + in.dropped_invalid +
-                                              (in.estimate ? 0 : st.repeated));
+  const double rejected = static_cast<double>(st.backwards - in.republished + st.invalid + in.refused +
+                                              in.dropped_invalid + (in.estimate ? 0 : st.repeated));
   c.emplace_back(in.name + "_in", static_cast<double>(st.accepted));
   c.emplace_back(in.name + "_late", static_cast<double>(st.late));
   c.emplace_back(in.name + "_rejected", rejected);
   c.emplace_back(in.name + "_absent_events", static_cast<double>(st.absent_events));
   c.emplace_back(in.name + "_silent_s", std::round(st.silent_for_s * 10.0) / 10.0);
   if (in.estimate) c.emplace_back(in.name + "_skipped_epochs", static_cast<double>(st.skipped_pacing_epochs));
+  if (in.estimate) c.emplace_back(in.name + "_republished", static_cast<double>(in.republished));
   if (in.estimate || st.hold_off_s > 0.0) c.emplace_back(in.name + "_hold_off_waits", static_cast<double>(st.hold_off_waits));
 }
 

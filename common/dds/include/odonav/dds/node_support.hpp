@@ -57,6 +57,11 @@ struct NodeInput {
   std::string name;                        ///< stream name in counters and reasons ("gnss", ...).
   EventTimeAligner::StreamId id = 0;       ///< its stream in the node's aligner.
   bool estimate = false;                   ///< an estimate topic: repeated stamps are heartbeats.
+  /// Estimate input only: samples stamped before the last one taken. A producer restarted from its
+  /// checkpoint republishes the epochs between the checkpoint and its last output before the
+  /// restart, with the same values (it resumes exactly): they were applied already and are dropped
+  /// as repeats, counted here, not as problems.
+  uint64_t republished = 0;
   uint64_t refused = 0;                    ///< refused by the core or with a bad stamp.
   uint64_t dropped_invalid = 0;            ///< dropped by the node before the aligner (e.g. INS not valid).
   std::string last_problem;                ///< why the last sample was not fed, in words.
@@ -98,6 +103,14 @@ SampleAdmission admit_sample(EventTimeAligner& aligner, NodeInput& in, const bui
       why << "time did not increase (t=" << t_s << " s, as the previous sample)";
       break;
     case SampleAdmission::kBackwards:
+      if (in.estimate) {
+        ++in.republished;
+        if (in.republished == 1 || in.republished % 1000 == 0)
+          spdlog::info("{}: estimate of t={:.3f} s is older than the last one taken: republished by a producer "
+                       "resuming from its checkpoint, already applied ({} so far)",
+                       in.name, t_s, in.republished);
+        return a;
+      }
       why << "time went backwards (t=" << t_s << " s)";
       break;
     case SampleAdmission::kLate:
