@@ -166,7 +166,7 @@ TEST(SecureStartUnderFlood, EveryProducerMatchedAndNoLegitimateLeaseLost) {
   const Clock::time_point t_gateway = Clock::now();
   if (recorder_matched_s >= 0) {
     start("odonav-gateway", with({"--source", "sim:straight", "--duration-s", std::to_string(kDriveDuration_s),
-                                  "--speed", "1", "--wait-for-readers", "3", "--wait-for-readers-timeout-s", "120"}));
+                                  "--speed", "1", "--wait-for-readers", "4", "--wait-for-readers-timeout-s", "120"}));
     while (Clock::now() < t_gateway + 150s && gateway_matched_s < 0) {
       if (read_text(log_of("odonav-gateway")).find("readers matched:") != std::string::npos)
         gateway_matched_s = seconds_since(t_gateway);
@@ -215,7 +215,7 @@ TEST(SecureStartUnderFlood, EveryProducerMatchedAndNoLegitimateLeaseLost) {
   ASSERT_TRUE(std::regex_search(gateway_log, matched,
                                 std::regex("readers matched: odometer (\\d+), INS (\\d+), GNSS (\\d+)")))
       << gateway_log;
-  EXPECT_EQ(matched.str(0), "readers matched: odometer 2, INS 3, GNSS 3");
+  EXPECT_EQ(matched.str(0), "readers matched: odometer 2, INS 3, GNSS 4");
   std::smatch published;
   ASSERT_TRUE(std::regex_search(gateway_log, published, std::regex("published (\\d+) odometer"))) << gateway_log;
   // The first odometer sample starts the integration (odonav-offline writes N - 1 rows too).
