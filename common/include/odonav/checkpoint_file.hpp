@@ -32,6 +32,9 @@ std::string checkpoint_hex_double(double v);
 /// Parses checkpoint_hex_double's text (or any strtod number). Throws CheckpointError naming `field`
 /// when it is empty, malformed or out of range.
 double checkpoint_parse_double(const std::string& text, const std::string& field);
+/// Exactly n space-separated finite numbers (checkpoint_parse_double each). Throws CheckpointError
+/// naming `field` when the count differs or a value is malformed or not finite.
+std::vector<double> checkpoint_parse_finite_doubles(const std::string& text, const std::string& field, std::size_t n);
 
 /// body + "checksum <FNV-1a 64 of body>\n".
 std::string seal_checkpoint(const std::string& body);
@@ -49,9 +52,12 @@ class CheckpointReader {
   uint64_t unsigned_field(const std::string& key);
   /// A finite decimal number (std::from_chars; written with %.17g it round-trips exactly).
   double double_field(const std::string& key);
+  /// The next line "<key> v1 ... vn": exactly n finite numbers (checkpoint_parse_finite_doubles).
+  std::vector<double> finite_doubles(const std::string& key, std::size_t n);
+  /// The next line "<key> u1 ... un": exactly n unsigned integers.
+  std::vector<uint64_t> unsigned_list(const std::string& key, std::size_t n);
   /// Exactly n characters, then a line break.
   std::string block(std::size_t n, const std::string& what);
-  std::size_t position() const { return pos_; }
   bool at_end() const { return pos_ == text_.size(); }
 
  private:
@@ -77,8 +83,10 @@ CheckpointHead read_checkpoint_head(CheckpointReader& reader, const std::string&
 /// "<key> <%.17g of t_s: exact round trip>\n". Throws std::invalid_argument when t_s is not finite.
 std::string checkpoint_time_line(const std::string& key, double t_s);
 /// A component's state as a counted block: "state_chars <n>\n<state>\n" (read back with
-/// unsigned_field("state_chars") and block()).
+/// read_checkpoint_state_block).
 std::string checkpoint_state_block(const std::string& state);
+/// Reads checkpoint_state_block's lines; `what` names the state in errors ("truncated inside the ...").
+std::string read_checkpoint_state_block(CheckpointReader& reader, const std::string& what);
 
 /// Options that do not change any estimate (transport, logging, where state lives, how often it is
 /// saved, hot standby): left out of the configuration hash so that changing them keeps a checkpoint

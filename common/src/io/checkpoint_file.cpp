@@ -43,6 +43,33 @@ double checkpoint_parse_double(const std::string& text, const std::string& field
   return v;
 }
 
+namespace {
+/// The space-separated tokens of text; exactly n of them (CheckpointError naming field).
+std::vector<std::string> checkpoint_tokens(const std::string& text, const std::string& field, std::size_t n) {
+  std::vector<std::string> tokens;
+  std::size_t at = 0;
+  while (at <= text.size()) {
+    const std::size_t end = std::min(text.find(' ', at), text.size());
+    tokens.push_back(text.substr(at, end - at));
+    at = end + 1;
+  }
+  if (tokens.size() != n)
+    throw CheckpointError("field '" + field + "' has " + std::to_string(tokens.size()) + " values, not " +
+                          std::to_string(n));
+  return tokens;
+}
+}  // namespace
+
+std::vector<double> checkpoint_parse_finite_doubles(const std::string& text, const std::string& field, std::size_t n) {
+  std::vector<double> out;
+  for (const std::string& token : checkpoint_tokens(text, field, n)) {
+    const double v = checkpoint_parse_double(token, field);
+    if (!std::isfinite(v)) throw CheckpointError("field '" + field + "' is not finite");
+    out.push_back(v);
+  }
+  return out;
+}
+
 std::string seal_checkpoint(const std::string& body) {
   return body + "checksum " + checkpoint_hex16(checkpoint_fnv1a64(body)) + "\n";
 }
@@ -93,6 +120,22 @@ double CheckpointReader::double_field(const std::string& key) {
   return out;
 }
 
+std::vector<double> CheckpointReader::finite_doubles(const std::string& key, std::size_t n) {
+  return checkpoint_parse_finite_doubles(field(key), key, n);
+}
+
+std::vector<uint64_t> CheckpointReader::unsigned_list(const std::string& key, std::size_t n) {
+  std::vector<uint64_t> out;
+  for (const std::string& token : checkpoint_tokens(field(key), key, n)) {
+    uint64_t v = 0;
+    const auto r = std::from_chars(token.data(), token.data() + token.size(), v);
+    if (token.empty() || r.ec != std::errc() || r.ptr != token.data() + token.size())
+      throw CheckpointError("field '" + key + "' holds '" + token + "', not an unsigned integer");
+    out.push_back(v);
+  }
+  return out;
+}
+
 std::string CheckpointReader::block(std::size_t n, const std::string& what) {
   if (text_.size() - pos_ < n + 1) throw CheckpointError("truncated inside the " + what);
   std::string out = text_.substr(pos_, n);
@@ -134,6 +177,11 @@ std::string checkpoint_time_line(const std::string& key, double t_s) {
 
 std::string checkpoint_state_block(const std::string& state) {
   return "state_chars " + std::to_string(state.size()) + "\n" + state + "\n";
+}
+
+std::string read_checkpoint_state_block(CheckpointReader& reader, const std::string& what) {
+  const uint64_t n = reader.unsigned_field("state_chars");
+  return reader.block(static_cast<std::size_t>(n), what);
 }
 
 const std::vector<std::string>& checkpoint_neutral_options() {

@@ -35,8 +35,7 @@ CalibrationCheckpoint parse_calibration_checkpoint(const std::string& text) {
   c.vehicle_id = head.vehicle_id;
   c.config_hash = head.config_hash;
   c.last_sample_t_s = r.double_field("last_sample_t_s");
-  const uint64_t n = r.unsigned_field("state_chars");
-  c.calibrator_state = r.block(static_cast<std::size_t>(n), "calibrator state");
+  c.calibrator_state = read_checkpoint_state_block(r, "calibrator state");
   if (!r.at_end()) throw CheckpointError("unexpected text after the calibrator state");
   return c;
 }

@@ -1,6 +1,5 @@
 #include "odonav/calibration/misalignment_calibrator.hpp"
 
-#include <charconv>
 #include <cmath>
 #include <stdexcept>
 
@@ -282,27 +281,9 @@ std::string MisalignmentCalibrator::save_state() const {
 void MisalignmentCalibrator::restore_state(const std::string& text) {
   CheckpointReader r(text);
   check_checkpoint_version(r, kStateMagic, kStateVersion);
-  auto numbers = [](const std::string& line, const std::string& key, std::size_t n) {
-    std::vector<std::string> tokens;
-    std::size_t at = 0;
-    while (at <= line.size()) {
-      const std::size_t end = std::min(line.find(' ', at), line.size());
-      tokens.push_back(line.substr(at, end - at));
-      at = end + 1;
-    }
-    if (tokens.size() != n)
-      throw CheckpointError("field '" + key + "' has " + std::to_string(tokens.size()) + " values, not " +
-                            std::to_string(n));
-    return tokens;
-  };
-  auto finite = [](const std::string& token, const std::string& key) {
-    const double v = checkpoint_parse_double(token, key);
-    if (!std::isfinite(v)) throw CheckpointError("field '" + key + "' is not finite");
-    return v;
-  };
   auto regression = [&](const std::string& key) {
-    const auto t = numbers(r.field(key), key, 3);
-    Regression g{finite(t[0], key), finite(t[1], key), finite(t[2], key)};
+    const std::vector<double> t = r.finite_doubles(key, 3);
+    Regression g{t[0], t[1], t[2]};
     if (g.sum_phi2 < 0.0 || g.sum_y2 < 0.0) throw CheckpointError("field '" + key + "' has a negative sum of squares");
     return g;
   };
@@ -310,23 +291,17 @@ void MisalignmentCalibrator::restore_state(const std::string& text) {
   const Regression pitch = regression("pitch");
   const uint64_t samples_used = r.unsigned_field("samples_used");
   std::optional<std::pair<double, double>> last_used_forward;
-  if (const std::string v = r.field("last_used_forward"); v != "none") {
-    const auto t = numbers(v, "last_used_forward", 2);
-    last_used_forward = std::make_pair(finite(t[0], "last_used_forward"), finite(t[1], "last_used_forward"));
+  if (const std::string f = r.field("last_used_forward"); f != "none") {
+    const std::vector<double> t = checkpoint_parse_finite_doubles(f, "last_used_forward", 2);
+    last_used_forward = std::make_pair(t[0], t[1]);
   }
   const uint64_t rejections = r.unsigned_field("consecutive_innovation_rejections");
   if (rejections > static_cast<uint64_t>(params_.innovation_max_consecutive_rejections))
     throw CheckpointError("field 'consecutive_innovation_rejections' is above the configured limit");
   const uint64_t frozen = r.unsigned_field("frozen");
   if (frozen > 1) throw CheckpointError("field 'frozen' is not 0 or 1");
-  const double last_t_s = finite(r.field("last_t_s"), "last_t_s");
-  const auto t = numbers(r.field("counters"), "counters", 11);
-  uint64_t v[11];
-  for (std::size_t i = 0; i < 11; ++i) {
-    const auto res = std::from_chars(t[i].data(), t[i].data() + t[i].size(), v[i]);
-    if (t[i].empty() || res.ec != std::errc() || res.ptr != t[i].data() + t[i].size())
-      throw CheckpointError("field 'counters' holds '" + t[i] + "', not an unsigned integer");
-  }
+  const double last_t_s = r.finite_doubles("last_t_s", 1)[0];
+  const std::vector<uint64_t> v = r.unsigned_list("counters", 11);
   if (!r.at_end()) throw CheckpointError("unexpected text after the calibrator state");
   if (samples_used > v[1]) throw CheckpointError("samples_used exceeds the used-epoch counter");
 

@@ -44,9 +44,8 @@ IdentificationCheckpoint parse_checkpoint(const std::string& text) {
   c.last_sample_t_s = r.double_field("last_sample_t_s");
   c.samples_accepted = r.unsigned_field("samples_accepted");
   c.samples_rejected = r.unsigned_field("samples_rejected");
-  const uint64_t n = r.unsigned_field("state_chars");
-  c.estimator_state = r.block(static_cast<std::size_t>(n), "estimator state");
-  if (r.position() != body.size()) throw CheckpointError("unexpected text after the estimator state");
+  c.estimator_state = read_checkpoint_state_block(r, "estimator state");
+  if (!r.at_end()) throw CheckpointError("unexpected text after the estimator state");
   if (c.estimator_name.empty()) throw CheckpointError("empty estimator");
   return c;
 }
