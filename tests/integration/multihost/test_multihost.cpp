@@ -602,7 +602,7 @@ TEST_F(MultiHost, SecurePipelineAcrossHostsKeepsIntrudersOut) {
   rig.start("odonav-gateway", "ecu1", "odonav-gateway", [&] {
     auto a = common("ecu1");
     a.insert(a.end(), {"--source", "sim:terrain", "--seed", std::to_string(kSeed), "--duration-s",
-                       std::to_string(kDuration_s), "--speed", "1", "--wait-for-readers", "3"});
+                       std::to_string(kDuration_s), "--speed", "1", "--wait-for-readers", "4"});
     return a;
   }());
   // The intruders on the ground host, for the whole drive, their fake stamps following the data's
