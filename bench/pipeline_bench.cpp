@@ -41,6 +41,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <optional>
@@ -129,6 +130,24 @@ double proc_cpu_s(pid_t pid) {
     if (i == 15) stime = std::stoull(f);
   }
   return static_cast<double>(utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+// Context switches (voluntary + involuntary) of all threads of a running process, from
+// /proc/<pid>/task/*/status (/proc/<pid>/status counts the main thread only); -1 if unreadable.
+long long proc_context_switches(pid_t pid) {
+  const std::filesystem::path tasks = "/proc/" + std::to_string(pid) + "/task";
+  std::error_code ec;
+  long long total = 0;
+  bool any = false;
+  for (const auto& task : std::filesystem::directory_iterator(tasks, ec)) {
+    std::ifstream in(task.path() / "status");
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("voluntary_ctxt_switches:", 0) == 0 || line.rfind("nonvoluntary_ctxt_switches:", 0) == 0) {
+        total += std::atoll(line.c_str() + line.find(':') + 1);
+        any = true;
+      }
+  }
+  return any ? total : -1;
 }
 
 std::string load_average() {
@@ -235,6 +254,7 @@ struct ComponentFigures {
   std::string name;
   double cpu_percent = 0.0;  // over the data period, % of one core
   double rss_mb = 0.0;       // peak RSS, MB (1e6 bytes)
+  double switches_per_s = 0.0;  // context switches of all its threads over the data period, per second
   int exit_code = -1;
 };
 
@@ -565,6 +585,8 @@ class PipelineRun {
         120.0 + (speed_factor_ > 0.0 ? 1.5 * data_.duration_s / speed_factor_ : data_.duration_s);
     const int64_t start = steady_ns();
     cpu_at_start_.assign(components_.size() + 1, 0.0);
+    switches_at_start_.assign(components_.size() + 1, 0);
+    switches_at_end_.assign(components_.size() + 1, 0);
     hwm_kb_.assign(components_.size() + 1, 0);
     while (gateway_->running()) {
       sample_hwm();
@@ -572,6 +594,14 @@ class PipelineRun {
         data_start_ = steady_ns();
         for (std::size_t i = 0; i < components_.size(); ++i) cpu_at_start_[i] = proc_cpu_s(components_[i]->pid());
         cpu_at_start_.back() = proc_cpu_s(gateway_->pid());
+        for (std::size_t i = 0; i < components_.size(); ++i)
+          switches_at_start_[i] = proc_context_switches(components_[i]->pid());
+        switches_at_start_.back() = proc_context_switches(gateway_->pid());
+      }
+      // The gateway's last count before it exits (its threads' counts go with the process).
+      if (data_start_ >= 0) {
+        const long long n = proc_context_switches(gateway_->pid());
+        if (n >= 0) switches_at_end_.back() = n;
       }
       for (auto& c : components_)
         if (!c->running()) {
@@ -591,7 +621,10 @@ class PipelineRun {
              (data_start_ < 0 ? " before any data arrived" : "");
     result_.data_wall_s = static_cast<double>(data_end - data_start_) * 1e-9;
     cpu_at_end_.resize(components_.size());
-    for (std::size_t i = 0; i < components_.size(); ++i) cpu_at_end_[i] = proc_cpu_s(components_[i]->pid());
+    for (std::size_t i = 0; i < components_.size(); ++i) {
+      cpu_at_end_[i] = proc_cpu_s(components_[i]->pid());
+      switches_at_end_[i] = proc_context_switches(components_[i]->pid());
+    }
     sample_hwm();
     return std::nullopt;
   }
@@ -616,18 +649,27 @@ class PipelineRun {
     return std::nullopt;
   }
 
+  // Context switches per second of component i (the gateway last) over the data period; NaN if unread.
+  double switches_per_s(std::size_t i, double data_s) const {
+    if (switches_at_start_[i] < 0 || switches_at_end_[i] < switches_at_start_[i])
+      return std::numeric_limits<double>::quiet_NaN();
+    return static_cast<double>(switches_at_end_[i] - switches_at_start_[i]) / data_s;
+  }
+
   // CPU % over the data period and peak RSS of each component.
   void component_figures() {
     const double data_s = result_.data_wall_s;
     for (std::size_t i = 0; i < components_.size(); ++i) {
       const auto& c = *components_[i];
       result_.components.push_back(ComponentFigures{c.name(), 100.0 * (cpu_at_end_[i] - cpu_at_start_[i]) / data_s,
-                                                    static_cast<double>(hwm_kb_[i]) * 1024e-6, c.exit_code()});
+                                                    static_cast<double>(hwm_kb_[i]) * 1024e-6,
+                                                    switches_per_s(i, data_s), c.exit_code()});
     }
     // The gateway's CPU: its whole life (reaped) minus what it used before the first sample.
     result_.components.push_back(ComponentFigures{"odonav-gateway",
                                                   100.0 * (gateway_->cpu_s() - cpu_at_start_.back()) / data_s,
-                                                  static_cast<double>(hwm_kb_.back()) * 1024e-6, gateway_->exit_code()});
+                                                  static_cast<double>(hwm_kb_.back()) * 1024e-6,
+                                                  switches_per_s(components_.size(), data_s), gateway_->exit_code()});
     result_.samples_published = data_.odometer + data_.ins + data_.gnss;
   }
 
@@ -734,6 +776,7 @@ class PipelineRun {
   std::size_t odo_before_ = 0;
   int64_t data_start_ = -1;
   std::vector<double> cpu_at_start_, cpu_at_end_;  // components, then the gateway (start only)
+  std::vector<long long> switches_at_start_, switches_at_end_;  // components, then the gateway
   std::vector<long> hwm_kb_;                       // components, then the gateway
 };
 
@@ -767,15 +810,18 @@ void print_run(std::ostream& out, const RunResult& r, const DatasetInfo& data, d
     out << std::setprecision(1) << "ratios (steady state): end-to-end p99 / (" << kCriticalPathHops
         << " hops x raw hop p99) = " << r.end_to_end_steady.p99 / (kCriticalPathHops * r.hop.p99)
         << "; after-last-input p99 / raw hop p99 = " << r.after_last_input_steady.p99 / r.hop.p99 << "\n";
-  out << "| component | CPU % of one core (data period) | peak RSS (MB) | exit |\n|---|---|---|---|\n";
-  double total_cpu = 0.0, total_no_gateway = 0.0;
+  out << "| component | CPU % of one core (data period) | peak RSS (MB) | context switches / s | exit |\n"
+         "|---|---|---|---|---|\n";
+  double total_cpu = 0.0, total_no_gateway = 0.0, total_switches = 0.0;
   for (const auto& c : r.components) {
     out << "| " << c.name << " | " << std::setprecision(2) << c.cpu_percent << " | " << std::setprecision(1) << c.rss_mb
-        << " | " << c.exit_code << " |\n";
+        << " | " << std::setprecision(0) << c.switches_per_s << " | " << c.exit_code << " |\n";
     total_cpu += c.cpu_percent;
+    total_switches += c.switches_per_s;
     if (c.name != "odonav-gateway") total_no_gateway += c.cpu_percent;
   }
-  out << "| all four | " << std::setprecision(2) << total_cpu << " | | |\n";
+  out << "| all four | " << std::setprecision(2) << total_cpu << " | | " << std::setprecision(0) << total_switches
+      << " | |\n";
   out << "(the three consumers alone: " << total_no_gateway << " %)\n";
   out << "DR outputs " << r.dr_outputs << " / " << data.reference.dr_outputs << " (odonav-offline); samples_accepted "
       << r.samples_accepted << " / " << data.reference.samples_accepted << ": "
