@@ -108,11 +108,17 @@ class RestartPolicy {
   void note_moved_aside(const std::string& line, const std::string& note, double steady_now_s);
   /// Restored the state of the output at checkpoint_t_s (event time, s): that is the last processed
   /// output and the last checkpoint; outputs until the live edge are catch-up.
-  void note_restored(const std::string& line, double checkpoint_t_s, double steady_now_s);
+  /// fed_until_t_s (per input, as indexed in skip_sample; optional): for a component whose state
+  /// also holds inputs not processed yet (buffered ahead of the last output), the stamp of the last
+  /// sample of each input the restored state had taken in: that input's samples stamped at or before
+  /// it are skipped instead of the margin rule, and its history is complete when it starts there.
+  void note_restored(const std::string& line, double checkpoint_t_s, double steady_now_s,
+                     std::vector<std::optional<double>> fed_until_t_s = {});
 
   /// True (and counted in skipped_before_checkpoint, or in lost_epochs) when a sample of input
   /// `input` stamped t_s (event time, s) must not reach the core: processed before the restart
-  /// (older than the checkpoint by more than the input's margin, or at it when skip_at_checkpoint),
+  /// (older than the checkpoint by more than the input's margin, or at it when skip_at_checkpoint;
+  /// at or before the input's fed_until_t_s when note_restored had one),
   /// or an output-making sample inside the lost span. Always false without a restore.
   /// The first sample of each input after a restore (the oldest of the producer's history, which is
   /// handed over oldest first) tells whether the history reached back to the checkpoint: when it
@@ -175,6 +181,7 @@ class RestartPolicy {
   CheckpointSettings settings_;
   std::vector<RestartInput> inputs_;
   std::vector<bool> first_seen_;
+  std::vector<std::optional<double>> fed_until_t_s_;  ///< per input (note_restored)
   std::string checkpoint_file_;
   std::optional<double> restored_t_s_;
   std::string restore_note_;
