@@ -24,6 +24,7 @@
 namespace odonav {
 
 class Options;
+struct CheckpointFileLoad;
 
 /// Where and how often a component checkpoints its state.
 struct CheckpointSettings {
@@ -106,6 +107,11 @@ class RestartPolicy {
   /// moved aside), `note` goes to the health for kRestoreNoteDuration_s from steady_now_s.
   void note_fresh_start(const std::string& line, double steady_now_s);
   void note_moved_aside(const std::string& line, const std::string& note, double steady_now_s);
+  /// note_fresh_start / note_moved_aside for a load that did not restore, with the usual lines
+  /// ("no checkpoint <file>: <fresh_start>"; "checkpoint <file> was corrupt (<why>): moved aside to
+  /// <new name>; <fresh_start>", the health note without the reason and new name). Returns true when
+  /// the load restored (then call note_restored with the component's own line).
+  bool note_load(const CheckpointFileLoad& load, const std::string& fresh_start, double steady_now_s);
   /// Restored the state of the output at checkpoint_t_s (event time, s): that is the last processed
   /// output and the last checkpoint; outputs until the live edge are catch-up.
   /// fed_until_t_s (per input, as indexed in skip_sample; optional): for a component whose state

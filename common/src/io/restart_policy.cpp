@@ -71,6 +71,22 @@ void RestartPolicy::note_moved_aside(const std::string& line, const std::string&
   restore_note_until_s_ = steady_now_s + kRestoreNoteDuration_s;
 }
 
+bool RestartPolicy::note_load(const CheckpointFileLoad& r, const std::string& fresh_start, double steady_now_s) {
+  switch (r.status) {
+    case CheckpointLoadStatus::kNone:
+      note_fresh_start("no checkpoint " + r.path + ": " + fresh_start, steady_now_s);
+      return false;
+    case CheckpointLoadStatus::kMovedAside:
+      note_moved_aside("checkpoint " + r.path + " was corrupt (" + r.reason + "): moved aside" +
+                           (r.moved_to.empty() ? std::string(" FAILED") : " to " + r.moved_to) + "; " + fresh_start,
+                       "checkpoint " + r.path + " was corrupt: moved aside; " + fresh_start, steady_now_s);
+      return false;
+    case CheckpointLoadStatus::kRestored:
+      break;
+  }
+  return true;
+}
+
 void RestartPolicy::note_restored(const std::string& line, double checkpoint_t_s, double steady_now_s,
                                   std::vector<std::optional<double>> fed_until_t_s) {
   spdlog::info("{}", line);

@@ -71,20 +71,7 @@ void CalibrationLifecycle::start(MisalignmentCalibrator& calibrator, int64_t uni
       [&](const std::string& dir) { return calibration_checkpoint_path(dir, vehicle_id_); });
   const CalibrationCheckpointLoad r =
       load_calibration_checkpoint(file, vehicle_id_, restart_.settings().config_hash, calibrator, unix_time_s);
-  switch (r.status) {
-    case CheckpointLoadStatus::kNone:
-      restart_.note_fresh_start("no checkpoint " + file + ": starting from nothing", steady_now_s);
-      return;
-    case CheckpointLoadStatus::kMovedAside:
-      restart_.note_moved_aside("checkpoint " + file + " was corrupt (" + r.reason + "): moved aside" +
-                                    (r.moved_to.empty() ? std::string(" FAILED") : " to " + r.moved_to) +
-                                    "; starting from nothing",
-                                "checkpoint " + file + " was corrupt: moved aside; starting from nothing",
-                                steady_now_s);
-      return;
-    case CheckpointLoadStatus::kRestored:
-      break;
-  }
+  if (!restart_.note_load(r, "starting from nothing", steady_now_s)) return;
   restored_output_ = calibrator.current();
   const MisalignmentOutput& o = *restored_output_;
   char line[200];

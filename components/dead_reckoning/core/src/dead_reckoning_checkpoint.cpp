@@ -129,20 +129,10 @@ void DeadReckoningLifecycle::start(const DeadReckoningStateRefs& state, int64_t 
       [&](const std::string& dir) { return dead_reckoning_checkpoint_path(dir, vehicle_id_); });
   const DeadReckoningCheckpointLoad r =
       load_dead_reckoning_checkpoint(file, vehicle_id_, restart_.settings().config_hash, state, unix_time_s);
-  switch (r.status) {
-    case CheckpointLoadStatus::kNone:
-      restart_.note_fresh_start("no checkpoint " + file + ": starting at the first GNSS fix", steady_now_s);
-      return;
-    case CheckpointLoadStatus::kMovedAside:
-      restart_.note_moved_aside("checkpoint " + file + " was corrupt (" + r.reason + "): moved aside" +
-                                    (r.moved_to.empty() ? std::string(" FAILED") : " to " + r.moved_to) +
-                                    "; starting at the next GNSS fix",
-                                "checkpoint " + file + " was corrupt: moved aside; starting at the next GNSS fix",
-                                steady_now_s);
-      return;
-    case CheckpointLoadStatus::kRestored:
-      break;
-  }
+  if (!restart_.note_load(r, r.status == CheckpointLoadStatus::kNone ? "starting at the first GNSS fix"
+                                                                      : "starting at the next GNSS fix",
+                          steady_now_s))
+    return;
   const DeadReckoningCheckpoint& c = *r.checkpoint;
   fed_until_s_ = c.fed_until_s;
   char line[300];
