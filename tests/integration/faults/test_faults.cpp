@@ -754,10 +754,11 @@ void kill_nine_and_restart_catches_up(int domain, const std::vector<Kill>& kills
     EXPECT_EQ(health_counter(*last, "catch_up_lost_s"), 0.0) << restarted;
     // Which outputs count as catch-up is a label decided on the steady clock (printed above, not
     // asserted: on a loaded machine the history takes longer than the settling second to arrive);
-    // what is asserted: it resumed from a checkpoint older than what it had published, and every
-    // row after it is there and equal to offline's (below).
+    // what is asserted: it resumed from a checkpoint not newer than what it had published (older
+    // as a rule: the kills fall between two checkpoints of the estimators; dead reckoning's follow
+    // its output batches), and every row after it is there and equal to offline's (below).
     EXPECT_GT(health_counter(*last, "checkpoint_restored_t_s"), 0.0) << restarted;
-    EXPECT_LT(health_counter(*last, "checkpoint_restored_t_s"), last_published_before_kill_s[restarted]) << restarted;
+    EXPECT_LE(health_counter(*last, "checkpoint_restored_t_s"), last_published_before_kill_s[restarted]) << restarted;
   }
   expect_rows_equal_offline(out, offline_dir, true);
   // Nothing lost, and the recording says so: gaps.csv is there with its header only.
@@ -770,14 +771,14 @@ bool before_figure_instead(int domain) {
   const char* restart_env = std::getenv("ODONAV_FAULTS_RESTART");
   if (!restart_env || !*restart_env) return false;
   const std::string c = restart_env;
-  const double at_t_s = c == "odonav-identification" ? 30.0 : c == "odonav-calibration" ? 52.5 : 75.0;
+  const double at_t_s = c == "odonav-identification" ? 32.5 : c == "odonav-calibration" ? 52.5 : 75.0;
   kill_nine_and_restart_catches_up(domain, {{c, at_t_s}}, false);
   return true;
 }
 
 TEST_F(Faults, KillNineAndRestartOfTheIdentificationAndDeadReckoningCatchesUpEveryRowEqualToOffline) {
   if (before_figure_instead(195)) return;
-  kill_nine_and_restart_catches_up(195, {{"odonav-identification", 30.0}, {"odonav-dead-reckoning", 75.0}}, true);
+  kill_nine_and_restart_catches_up(195, {{"odonav-identification", 32.5}, {"odonav-dead-reckoning", 75.0}}, true);
 }
 
 TEST_F(Faults, KillNineAndRestartOfTheCalibrationAndDeadReckoningCatchesUpEveryRowEqualToOffline) {
