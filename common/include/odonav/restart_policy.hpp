@@ -140,6 +140,15 @@ class RestartPolicy {
   /// counted as catch-up; the first one past it ends the catch-up (steady_now_s dates that end, for
   /// the health note only).
   bool keep_output(double t_s, double steady_now_s);
+  /// keep_output for each of a batch of outputs (anything with a t_s member, s), in order.
+  template <class Output>
+  std::vector<Output> keep_outputs(std::vector<Output> outputs, double steady_now_s) {
+    std::vector<Output> kept;
+    kept.reserve(outputs.size());
+    for (Output& o : outputs)
+      if (keep_output(o.t_s, steady_now_s)) kept.push_back(std::move(o));
+    return kept;
+  }
   /// Each sample of the live-edge input received (event time t_s, steady clock steady_now_s): after a
   /// restore, sets the live edge (kCatchUpSettle_s). Nothing otherwise.
   void note_live_sample(double t_s, double steady_now_s);

@@ -91,11 +91,7 @@ bool CalibrationLifecycle::skip_sample(CalibrationInput input, double t_s) {
 
 std::vector<MisalignmentOutput> CalibrationLifecycle::outputs_to_publish(std::vector<MisalignmentOutput> outputs,
                                                                           double steady_now_s) {
-  std::vector<MisalignmentOutput> kept;
-  kept.reserve(outputs.size());
-  for (MisalignmentOutput& o : outputs)
-    if (restart_.keep_output(o.t_s, steady_now_s)) kept.push_back(std::move(o));
-  return kept;
+  return restart_.keep_outputs(std::move(outputs), steady_now_s);
 }
 
 std::string CalibrationLifecycle::text_of(const MisalignmentCalibrator& calibrator, double t_s) const {

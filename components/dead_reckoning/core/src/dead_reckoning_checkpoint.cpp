@@ -159,11 +159,7 @@ bool DeadReckoningLifecycle::take_sample(DeadReckoningInput input, double t_s) {
 
 std::vector<DeadReckoningOutput> DeadReckoningLifecycle::outputs_to_publish(std::vector<DeadReckoningOutput> outputs,
                                                                            double steady_now_s) {
-  std::vector<DeadReckoningOutput> kept;
-  kept.reserve(outputs.size());
-  for (DeadReckoningOutput& o : outputs)
-    if (restart_.keep_output(o.t_s, steady_now_s)) kept.push_back(std::move(o));
-  return kept;
+  return restart_.keep_outputs(std::move(outputs), steady_now_s);
 }
 
 std::string DeadReckoningLifecycle::text_of(const DeadReckoningStateRefs& state, double t_s) const {
