@@ -12,7 +12,8 @@ int main(int argc, char** argv) {
       [](odonav::Options& o) { odonav::nodes::add_dead_reckoning_node_options(o); },
       [](const odonav::Options& o, odonav::dds::ComponentRuntime& runtime) {
         odonav::nodes::DeadReckoningNode node(runtime, odonav::nodes::dead_reckoning_node_params_from(o),
-                                              odonav::nodes::anchored_position_node_params_from(o));
+                                              odonav::nodes::anchored_position_node_params_from(o),
+                                              odonav::checkpoint_settings_from_options(o));
         return node.run();
       });
 }

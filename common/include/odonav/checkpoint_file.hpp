@@ -56,6 +56,9 @@ class CheckpointReader {
   std::vector<double> finite_doubles(const std::string& key, std::size_t n);
   /// The next line "<key> u1 ... un": exactly n unsigned integers.
   std::vector<uint64_t> unsigned_list(const std::string& key, std::size_t n);
+  /// The next line "<key> <n> v1 ... vn" (checkpoint_value_list): n numbers, any value (NaN and
+  /// infinities too), n a multiple of `stride` (records of stride values) and at most max_n.
+  std::vector<double> value_list(const std::string& key, std::size_t stride = 1, std::size_t max_n = 10000000);
   /// Exactly n characters, then a line break.
   std::string block(std::size_t n, const std::string& what);
   bool at_end() const { return pos_ == text_.size(); }
@@ -82,6 +85,10 @@ struct CheckpointHead {
 CheckpointHead read_checkpoint_head(CheckpointReader& reader, const std::string& magic, int version);
 /// "<key> <%.17g of t_s: exact round trip>\n". Throws std::invalid_argument when t_s is not finite.
 std::string checkpoint_time_line(const std::string& key, double t_s);
+/// "<key> <n> v1 ... vn\n": a list of any length of doubles, each as checkpoint_hex_double (exact,
+/// NaN and infinities kept), read back with CheckpointReader::value_list. For the variable parts of
+/// a state (buffers, queues, optional values as lists of 0 or 1 record).
+std::string checkpoint_value_list(const std::string& key, const std::vector<double>& values);
 /// A component's state as a counted block: "state_chars <n>\n<state>\n" (read back with
 /// read_checkpoint_state_block).
 std::string checkpoint_state_block(const std::string& state);

@@ -24,6 +24,7 @@
 namespace odonav {
 
 class Options;
+struct CheckpointFileLoad;
 
 /// Where and how often a component checkpoints its state.
 struct CheckpointSettings {
@@ -106,13 +107,24 @@ class RestartPolicy {
   /// moved aside), `note` goes to the health for kRestoreNoteDuration_s from steady_now_s.
   void note_fresh_start(const std::string& line, double steady_now_s);
   void note_moved_aside(const std::string& line, const std::string& note, double steady_now_s);
+  /// note_fresh_start / note_moved_aside for a load that did not restore, with the usual lines
+  /// ("no checkpoint <file>: <fresh_start>"; "checkpoint <file> was corrupt (<why>): moved aside to
+  /// <new name>; <fresh_start>", the health note without the reason and new name). Returns true when
+  /// the load restored (then call note_restored with the component's own line).
+  bool note_load(const CheckpointFileLoad& load, const std::string& fresh_start, double steady_now_s);
   /// Restored the state of the output at checkpoint_t_s (event time, s): that is the last processed
   /// output and the last checkpoint; outputs until the live edge are catch-up.
-  void note_restored(const std::string& line, double checkpoint_t_s, double steady_now_s);
+  /// fed_until_t_s (per input, as indexed in skip_sample; optional): for a component whose state
+  /// also holds inputs not processed yet (buffered ahead of the last output), the stamp of the last
+  /// sample of each input the restored state had taken in: that input's samples stamped at or before
+  /// it are skipped instead of the margin rule, and its history is complete when it starts there.
+  void note_restored(const std::string& line, double checkpoint_t_s, double steady_now_s,
+                     std::vector<std::optional<double>> fed_until_t_s = {});
 
   /// True (and counted in skipped_before_checkpoint, or in lost_epochs) when a sample of input
   /// `input` stamped t_s (event time, s) must not reach the core: processed before the restart
-  /// (older than the checkpoint by more than the input's margin, or at it when skip_at_checkpoint),
+  /// (older than the checkpoint by more than the input's margin, or at it when skip_at_checkpoint;
+  /// at or before the input's fed_until_t_s when note_restored had one),
   /// or an output-making sample inside the lost span. Always false without a restore.
   /// The first sample of each input after a restore (the oldest of the producer's history, which is
   /// handed over oldest first) tells whether the history reached back to the checkpoint: when it
@@ -128,6 +140,15 @@ class RestartPolicy {
   /// counted as catch-up; the first one past it ends the catch-up (steady_now_s dates that end, for
   /// the health note only).
   bool keep_output(double t_s, double steady_now_s);
+  /// keep_output for each of a batch of outputs (anything with a t_s member, s), in order.
+  template <class Output>
+  std::vector<Output> keep_outputs(std::vector<Output> outputs, double steady_now_s) {
+    std::vector<Output> kept;
+    kept.reserve(outputs.size());
+    for (Output& o : outputs)
+      if (keep_output(o.t_s, steady_now_s)) kept.push_back(std::move(o));
+    return kept;
+  }
   /// Each sample of the live-edge input received (event time t_s, steady clock steady_now_s): after a
   /// restore, sets the live edge (kCatchUpSettle_s). Nothing otherwise.
   void note_live_sample(double t_s, double steady_now_s);
@@ -175,6 +196,7 @@ class RestartPolicy {
   CheckpointSettings settings_;
   std::vector<RestartInput> inputs_;
   std::vector<bool> first_seen_;
+  std::vector<std::optional<double>> fed_until_t_s_;  ///< per input (note_restored)
   std::string checkpoint_file_;
   std::optional<double> restored_t_s_;
   std::string restore_note_;

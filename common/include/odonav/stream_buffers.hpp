@@ -16,6 +16,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "odonav/sensor_samples.hpp"
 #include "odonav/frames.hpp"
@@ -222,6 +223,30 @@ class OdometerBuffer {
   std::optional<double> last_time_s() const { return last_t_s_; }
   double max_bracket_s() const { return max_bracket_s_; }
 
+  /// Everything the buffer holds besides its parameters, for a component checkpoint: restoring it
+  /// into a buffer made with the same parameters continues exactly as the saved one would.
+  struct State {
+    std::deque<Entry> entries;
+    std::optional<Entry> last_accepted;
+    std::optional<Entry> rejected;
+    double last_rate_pulses_per_s = 0.0;
+    uint64_t jumps_rejected = 0;
+    uint64_t rebases = 0;
+    std::optional<double> last_t_s;
+  };
+  State state() const {
+    return {entries_, last_accepted_, rejected_, last_rate_pulses_per_s_, jumps_rejected_, rebases_, last_t_s_};
+  }
+  void restore_state(State s) {
+    entries_ = std::move(s.entries);
+    last_accepted_ = s.last_accepted;
+    rejected_ = s.rejected;
+    last_rate_pulses_per_s_ = s.last_rate_pulses_per_s;
+    jumps_rejected_ = s.jumps_rejected;
+    rebases_ = s.rebases;
+    last_t_s_ = s.last_t_s;
+  }
+
  private:
   BracketState bracket(double t_s, double watermark_s, std::size_t& lo, std::size_t& hi) const {
     if (entries_.empty() || t_s < entries_.front().t_s) {
@@ -298,11 +323,22 @@ class AttitudeBuffer {
   std::size_t size() const { return entries_.size(); }
   std::optional<double> last_time_s() const { return last_t_s_; }
 
- private:
   struct Entry {
     double t_s;
     Attitude attitude;
   };
+  /// Everything the buffer holds besides its parameters (see OdometerBuffer::State).
+  struct State {
+    std::deque<Entry> entries;
+    std::optional<double> last_t_s;
+  };
+  State state() const { return {entries_, last_t_s_}; }
+  void restore_state(State s) {
+    entries_ = std::move(s.entries);
+    last_t_s_ = s.last_t_s;
+  }
+
+ private:
   BracketState bracket(double t_s, double watermark_s, std::size_t& lo, std::size_t& hi) const {
     if (entries_.empty() || t_s < entries_.front().t_s) {
       if (entries_.empty() && watermark_s < t_s + max_bracket_s_) return BracketState::kPending;
@@ -366,6 +402,17 @@ class StepHistory {
     while (entries_.size() >= 2 && entries_[1].first < t_s) entries_.pop_front();
   }
   std::size_t size() const { return entries_.size(); }
+
+  /// Everything the history holds besides its name (see OdometerBuffer::State).
+  struct State {
+    std::deque<std::pair<double, Value>> entries;
+    std::optional<double> last_t_s;
+  };
+  State state() const { return {entries_, last_t_s_}; }
+  void restore_state(State s) {
+    entries_ = std::move(s.entries);
+    last_t_s_ = s.last_t_s;
+  }
 
  private:
   std::string name_;

@@ -124,6 +124,27 @@ std::vector<double> CheckpointReader::finite_doubles(const std::string& key, std
   return checkpoint_parse_finite_doubles(field(key), key, n);
 }
 
+std::vector<double> CheckpointReader::value_list(const std::string& key, std::size_t stride, std::size_t max_n) {
+  const std::string text = field(key);
+  const std::size_t space = text.find(' ');
+  const std::string count = text.substr(0, space);
+  std::size_t n = 0;
+  const auto r = std::from_chars(count.data(), count.data() + count.size(), n);
+  if (count.empty() || r.ec != std::errc() || r.ptr != count.data() + count.size() || n > max_n ||
+      (stride > 0 && n % stride != 0))
+    throw CheckpointError("field '" + key + "' has a bad value count '" + count + "'");
+  std::vector<double> out;
+  if (n == 0) {
+    if (space != std::string::npos) throw CheckpointError("field '" + key + "' holds values after a count of 0");
+    return out;
+  }
+  if (space == std::string::npos) throw CheckpointError("field '" + key + "' has no values");
+  out.reserve(n);
+  for (const std::string& token : checkpoint_tokens(text.substr(space + 1), key, n))
+    out.push_back(checkpoint_parse_double(token, key));
+  return out;
+}
+
 std::vector<uint64_t> CheckpointReader::unsigned_list(const std::string& key, std::size_t n) {
   std::vector<uint64_t> out;
   for (const std::string& token : checkpoint_tokens(field(key), key, n)) {
@@ -173,6 +194,12 @@ std::string checkpoint_time_line(const std::string& key, double t_s) {
   char t[40];
   std::snprintf(t, sizeof t, "%.17g", t_s);
   return key + " " + t + "\n";
+}
+
+std::string checkpoint_value_list(const std::string& key, const std::vector<double>& values) {
+  std::string s = key + " " + std::to_string(values.size());
+  for (double v : values) s += " " + checkpoint_hex_double(v);
+  return s + "\n";
 }
 
 std::string checkpoint_state_block(const std::string& state) {

@@ -1,5 +1,6 @@
 #include "odonav/restart_policy.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
@@ -70,8 +71,27 @@ void RestartPolicy::note_moved_aside(const std::string& line, const std::string&
   restore_note_until_s_ = steady_now_s + kRestoreNoteDuration_s;
 }
 
-void RestartPolicy::note_restored(const std::string& line, double checkpoint_t_s, double steady_now_s) {
+bool RestartPolicy::note_load(const CheckpointFileLoad& r, const std::string& fresh_start, double steady_now_s) {
+  switch (r.status) {
+    case CheckpointLoadStatus::kNone:
+      note_fresh_start("no checkpoint " + r.path + ": " + fresh_start, steady_now_s);
+      return false;
+    case CheckpointLoadStatus::kMovedAside:
+      note_moved_aside("checkpoint " + r.path + " was corrupt (" + r.reason + "): moved aside" +
+                           (r.moved_to.empty() ? std::string(" FAILED") : " to " + r.moved_to) + "; " + fresh_start,
+                       "checkpoint " + r.path + " was corrupt: moved aside; " + fresh_start, steady_now_s);
+      return false;
+    case CheckpointLoadStatus::kRestored:
+      break;
+  }
+  return true;
+}
+
+void RestartPolicy::note_restored(const std::string& line, double checkpoint_t_s, double steady_now_s,
+                                  std::vector<std::optional<double>> fed_until_t_s) {
   spdlog::info("{}", line);
+  fed_until_t_s_ = std::move(fed_until_t_s);
+  fed_until_t_s_.resize(inputs_.size());
   restore_note_ = line;
   restore_note_until_s_ = steady_now_s + kRestoreNoteDuration_s;
   restored_t_s_ = checkpoint_t_s;
@@ -86,12 +106,14 @@ void RestartPolicy::note_restored(const std::string& line, double checkpoint_t_s
 bool RestartPolicy::skip_sample(std::size_t input, double t_s) {
   if (!restored_t_s_) return false;
   const RestartInput& in = inputs_.at(input);
+  const std::optional<double>& fed_until = fed_until_t_s_.at(input);
   if (!first_seen_[input]) {
     first_seen_[input] = true;
-    // The first outputs after the checkpoint need samples at or before it: a history that starts
-    // later lost what lies in between.
+    // The first outputs after the checkpoint need samples at or before it (or at or before the
+    // last one the restored state holds): a history that starts later lost what lies in between.
     constexpr double kStampSlack_s = 1e-6;
-    if (t_s > *restored_t_s_ + kStampSlack_s && (!lost_until_t_s_ || t_s > *lost_until_t_s_)) {
+    const double complete_from_s = fed_until ? std::max(*fed_until, *restored_t_s_) : *restored_t_s_;
+    if (t_s > complete_from_s + kStampSlack_s && (!lost_until_t_s_ || t_s > *lost_until_t_s_)) {
       lost_until_t_s_ = t_s;
       spdlog::error("catch-up: the first {} sample after the restart is t={:.3f} s, {:.3f} s after the checkpoint "
                     "(t={:.3f} s): the producers' history (30 s) did not reach back to it; the estimates of "
@@ -105,8 +127,12 @@ bool RestartPolicy::skip_sample(std::size_t input, double t_s) {
     ++lost_epochs_;
     return true;
   }
-  const double from_s = *restored_t_s_ - in.margin_before_checkpoint_s;
-  if (in.skip_at_checkpoint ? t_s > from_s : t_s >= from_s) return false;
+  if (fed_until) {
+    if (t_s > *fed_until) return false;
+  } else {
+    const double from_s = *restored_t_s_ - in.margin_before_checkpoint_s;
+    if (in.skip_at_checkpoint ? t_s > from_s : t_s >= from_s) return false;
+  }
   ++skipped_before_checkpoint_;
   return true;
 }

@@ -1,7 +1,10 @@
 #include "dead_reckoning_node.hpp"
 
 #include <cmath>
+#include <ctime>
 #include <stdexcept>
+
+#include <spdlog/spdlog.h>
 
 #include "odonav/lever_arm_option.hpp"
 #include "odonav/consumer_rules.hpp"
@@ -51,6 +54,7 @@ void add_dead_reckoning_node_options(Options& o) {
   o.add_bool("use-ins", true,
              "the vehicle has an INS; false = degraded mode (GNSS course, horizontal only), as odonav-offline "
              "does for a dataset without ins.csv");
+  add_checkpoint_options(o, "dead-reckoning-<vehicle>.ckpt");
 }
 
 DeadReckonerParams dead_reckoning_node_params_from(const Options& o) {
@@ -118,12 +122,13 @@ odonav::msg::NavigationPosition navigation_position_message(const AnchoredPositi
 }
 
 DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadReckonerParams& params,
-                                     const AnchoredPositionParams& anchored)
+                                     const AnchoredPositionParams& anchored, const CheckpointSettings& checkpoint)
     : EventTimeNode(runtime),
       params_(params),
       core_(make_core(params)),
       anchor_(anchored),
-      k_selection_(params.nominal_k_m_per_pulse),
+      consumer_(params.nominal_k_m_per_pulse),
+      lifecycle_(checkpoint, runtime.settings().vehicle_id),
       odometer_(add_input("odometer", true)),
       // GNSS is a reference (error, start) applied with the hold-off, as the estimates of its epochs.
       gnss_(add_input("gnss", true, nullptr, params.estimate_hold_off_s)),
@@ -134,15 +139,34 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
                          topics::kNavigationPosition.writer_profile) {
   if (params_.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
+  // Before any reader exists: no sample can reach the cores before the restored state.
+  lifecycle_.start(state(), static_cast<int64_t>(std::time(nullptr)), dds::steady_now_s());
+  // Resumed from a checkpoint: the sensor readers ask the producers for their history (30 s), so the
+  // downtime is processed (what the checkpoint holds is skipped). The estimate readers are
+  // TRANSIENT_LOCAL with the same depth already. A fresh start reads from the moment it matched.
+  const char* sensor_profile =
+      lifecycle_.restored_t_s() ? topics::kSensorReplayReaderProfile : topics::kSensorReaderProfile;
+  if (lifecycle_.restored_t_s())
+    spdlog::info("sensor readers: TRANSIENT_LOCAL, processing the producers' history from t={:.3f} s on",
+                 *lifecycle_.restored_t_s());
 
   odometer_reader_ = subscribe<odonav::msg::Odometer>(
-      topics::kOdometer, odometer_, [this](const auto& m, double) { core_.add_odometer(dds::odometer_sample_from(m)); },
-      [this](const odonav::msg::Odometer& m) { declare_gnss_published(gnss_, m); });
-  gnss_reader_ = subscribe<odonav::msg::GnssFix>(topics::kGnssFix, gnss_, [this](const auto& m, double) {
-    core_.add_gnss(dds::gnss_sample_from(m));
-  });
+      topics::with_reader_profile(topics::kOdometer, sensor_profile), odometer_,
+      [this](const auto& m, double t_s) {
+        if (lifecycle_.take_sample(DeadReckoningInput::kOdometer, t_s)) core_.add_odometer(dds::odometer_sample_from(m));
+      },
+      [this](const odonav::msg::Odometer& m) {
+        declare_gnss_published(gnss_, m);
+        note_live_sample(m.header().stamp());
+      });
+  gnss_reader_ = subscribe<odonav::msg::GnssFix>(
+      topics::with_reader_profile(topics::kGnssFix, sensor_profile), gnss_, [this](const auto& m, double t_s) {
+        if (lifecycle_.take_sample(DeadReckoningInput::kGnss, t_s)) core_.add_gnss(dds::gnss_sample_from(m));
+      });
   if (ins_) {
-    ins_reader_ = subscribe<odonav::msg::InsAttitude>(topics::kInsAttitude, *ins_, [this](const auto& m, double) {
+    ins_reader_ = subscribe<odonav::msg::InsAttitude>(
+        topics::with_reader_profile(topics::kInsAttitude, sensor_profile), *ins_, [this](const auto& m, double t_s) {
+      if (!lifecycle_.take_sample(DeadReckoningInput::kIns, t_s)) return;
       if (!m.valid()) {
         ++ins_->dropped_invalid;
         return;
@@ -151,9 +175,23 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
     });
   }
   misalignment_reader_ = subscribe<odonav::msg::Misalignment>(
-      topics::kMisalignment, misalignment_, [this](const auto& m, double t_s) { on_misalignment(m, t_s); });
+      topics::kMisalignment, misalignment_, [this](const auto& m, double t_s) {
+        if (lifecycle_.take_sample(DeadReckoningInput::kMisalignment, t_s)) on_misalignment(m, t_s);
+      });
   scale_factor_reader_ = subscribe_arbitrated<odonav::msg::ScaleFactor>(
-      topics::kScaleFactor, scale_factor_, k_arbiter_, [this](const auto& m, double t_s) { on_scale_factor(m, t_s); });
+      topics::kScaleFactor, scale_factor_, k_arbiter_, [this](const auto& m, double t_s) {
+        if (lifecycle_.take_sample(DeadReckoningInput::kScaleFactor, t_s)) on_scale_factor(m, t_s);
+      });
+}
+
+void DeadReckoningNode::note_live_sample(const builtin_interfaces::msg::Time& stamp) {
+  // On arrival, before the aligner holds the sample back for the other inputs: the live edge is the
+  // newest odometer stamp handed over in the first second, not the newest processed.
+  try {
+    lifecycle_.note_live_sample(dds::to_seconds(stamp), dds::steady_now_s());
+  } catch (const std::invalid_argument&) {
+    // A bad stamp is counted and told by admit_sample right after this.
+  }
 }
 
 DeadReckoningNode::~DeadReckoningNode() { close_inputs(); }
@@ -173,9 +211,9 @@ void DeadReckoningNode::on_misalignment(const odonav::msg::Misalignment& m, doub
   const Misalignment mis{m.heading_rad(), m.pitch_rad()};
   const double from_s = estimate_applies_from_s(t_s, params_.estimate_hold_off_s);  // as odonav-offline
   core_.add_misalignment(from_s, mis);  // throws StreamInputError on non-finite angles: counted
-  applied_misalignment_.add(from_s, mis);
-  ++misalignments_applied_;
-  held_misalignment_t_s_ = t_s;
+  consumer_.applied_misalignment.add(from_s, mis);
+  ++consumer_.misalignments_applied;
+  consumer_.held_misalignment_t_s = t_s;
 }
 
 void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s) {
@@ -190,11 +228,13 @@ void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, doubl
     core_.add_scale_factor(update->t_s, update->k_m_per_pulse, update->source);
 }
 
-void DeadReckoningNode::publish(const std::vector<DeadReckoningOutput>& outputs) {
+void DeadReckoningNode::publish(std::vector<DeadReckoningOutput> all) {
+  if (all.empty()) return;
+  const std::vector<DeadReckoningOutput> outputs = lifecycle_.outputs_to_publish(std::move(all), dds::steady_now_s());
   if (outputs.empty()) return;
   const Geodetic origin = core_.origin().value_or(Geodetic{});
   for (const DeadReckoningOutput& o : outputs) {
-    const Misalignment mis = applied_misalignment_.at_or_before(o.t_s).value_or(Misalignment{});
+    const Misalignment mis = consumer_.applied_misalignment.at_or_before(o.t_s).value_or(Misalignment{});
     if (!writer_.write(dead_reckoning_message(o, origin, mis, runtime_.settings().vehicle_id)))
       spdlog::warn("{}: write refused by the middleware", writer_.topic_name());
     if (!navigation_writer_.write(navigation_position_message(anchor_.step(o), runtime_.settings().vehicle_id)))
@@ -202,15 +242,20 @@ void DeadReckoningNode::publish(const std::vector<DeadReckoningOutput>& outputs)
     // A burst (catching up after a wait, the drain) larger than the KEEP_LAST history would
     // overwrite samples not yet delivered: let the transport drain.
     throttle_.after_write();
-    applied_misalignment_.drop_before(o.t_s);
+    consumer_.applied_misalignment.drop_before(o.t_s);
   }
   last_output_ = outputs.back();
   count_outputs(outputs.size());
+  // After the anchored position has taken these outputs: the state is the one after the last.
+  lifecycle_.checkpoint_if_due(state());
 }
 
 void DeadReckoningNode::process_until(double watermark_s) { publish(core_.process_until(watermark_s)); }
 
-void DeadReckoningNode::finish() { publish(core_.finish()); }
+void DeadReckoningNode::finish() {
+  publish(core_.finish());
+  lifecycle_.checkpoint_at_finish(state());
+}
 
 std::vector<dds::detail::WriterBase*> DeadReckoningNode::output_writers() { return {&writer_, &navigation_writer_}; }
 
@@ -257,8 +302,8 @@ dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
   f.pulse_jumps_changed_at_s = pulse_jumps_.changed_at_s();
   f.misalignment_absent = input_absent(misalignment_, now_s);
   f.misalignment_heard = input_heard(misalignment_, now_s);
-  f.misalignments_applied = misalignments_applied_;
-  f.held_misalignment_t_s = held_misalignment_t_s_;
+  f.misalignments_applied = consumer_.misalignments_applied;
+  f.held_misalignment_t_s = consumer_.held_misalignment_t_s;
   f.misalignment_silent_s = aligner_.status(misalignment_.id, now_s).silent_for_s;
   held_k_outputs_.observe(core_.counters().outputs_on_held_k, now_s);
   held_misalignment_outputs_.observe(core_.counters().outputs_on_held_misalignment, now_s);
@@ -267,7 +312,12 @@ dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
   f.held_misalignment_span = core_.last_held_span(HeldEstimate::kMisalignment);
   f.held_misalignment_changed_at_s = held_misalignment_outputs_.changed_at_s();
   const DeadReckoningHealth h = dead_reckoning_health(f);
-  return {to_message_state(h.state), to_message_level(h.level), h.reason};
+  // After a restart: what the restore did, the catch-up of the downtime, failed checkpoint writes.
+  std::string reason = h.reason;
+  bool warn = h.level == DeadReckoningHealthLevel::kWarn;
+  apply_restart_notes(lifecycle_.restart().health_notes(), now_s, reason, warn);
+  return {to_message_state(h.state),
+          to_message_level(warn ? DeadReckoningHealthLevel::kWarn : DeadReckoningHealthLevel::kOk), reason};
 }
 
 void DeadReckoningNode::append_counters(dds::HealthCounters& c) {
@@ -282,7 +332,7 @@ void DeadReckoningNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("k_applied", static_cast<double>(s.k_applied));
   c.emplace_back("k_ignored", static_cast<double>(s.k_ignored));
   c.emplace_back("k_source_changes", static_cast<double>(s.k_source_changes));
-  c.emplace_back("misalignments_applied", static_cast<double>(misalignments_applied_));
+  c.emplace_back("misalignments_applied", static_cast<double>(consumer_.misalignments_applied));
   c.emplace_back("outputs_on_held_k", static_cast<double>(k.outputs_on_held_k));
   c.emplace_back("outputs_on_held_misalignment", static_cast<double>(k.outputs_on_held_misalignment));
   // The last span of each (event time, s): what the recorder and a monitor can name.
@@ -299,6 +349,7 @@ void DeadReckoningNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("anchor_fixes_rejected_gate", static_cast<double>(a.fixes_rejected_gate));
   c.emplace_back("anchor_gate_restarts", static_cast<double>(a.gate_restarts));
   c.emplace_back("anchor_fixes_no_attitude", static_cast<double>(k.anchor_fixes_no_attitude));
+  for (auto& counter : lifecycle_.restart().counters()) c.push_back(std::move(counter));
   if (last_output_) {
     c.emplace_back("distance_m", last_output_->distance_m);
     c.emplace_back("k_m_per_pulse", last_output_->k_m_per_pulse);

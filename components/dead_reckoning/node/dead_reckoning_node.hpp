@@ -11,6 +11,7 @@
 #include "odonav/config.hpp"
 #include "odonav/dds/event_time_node.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/dead_reckoning/dead_reckoning_checkpoint.hpp"
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/Misalignment.h"
@@ -22,7 +23,8 @@
 
 namespace odonav::nodes {
 
-/// --nominal-k, --dr-mode (add_dead_reckoning_options), --lever-arm and --use-ins.
+/// --nominal-k, --dr-mode (add_dead_reckoning_options), --lever-arm, --use-ins, --state-dir and
+/// --checkpoint-every-s.
 void add_dead_reckoning_node_options(Options& options);
 /// Reads them through dead_reckoner_params() (dead_reckoning_options.hpp), as odonav-offline does;
 /// --nominal-k 0 means kDefaultNominalK_m_per_pulse (0.0125 m/pulse). Throws ConfigError naming the
@@ -47,8 +49,14 @@ odonav::msg::NavigationPosition navigation_position_message(const AnchoredPositi
 class DeadReckoningNode : public dds::EventTimeNode {
  public:
   /// Creates the core (ConfigError naming a bad parameter), the DeadReckoning writer and the readers.
+  /// With a state directory: restores the checkpoint before any input is read (or moves an unusable
+  /// one aside and starts at the next fix). After a restore the sensor readers are TRANSIENT_LOCAL
+  /// (odonav_sensor_replay_reader): the producers hand over their history (30 s), the samples the
+  /// checkpoint holds are skipped, the downtime is processed and its outputs published late
+  /// (catch-up, counted and named in the health). ConfigError when the state directory cannot be
+  /// created or the vehicle id cannot name a file.
   DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadReckonerParams& params,
-                    const AnchoredPositionParams& anchored = {});
+                    const AnchoredPositionParams& anchored = {}, const CheckpointSettings& checkpoint = {});
   ~DeadReckoningNode() override;
 
  private:
@@ -59,7 +67,9 @@ class DeadReckoningNode : public dds::EventTimeNode {
   Status node_status(double now_s) override;
   void append_counters(dds::HealthCounters& counters) override;
 
-  void publish(const std::vector<DeadReckoningOutput>& outputs);
+  void publish(std::vector<DeadReckoningOutput> outputs);
+  DeadReckoningStateRefs state() { return {core_, anchor_, consumer_}; }
+  void note_live_sample(const builtin_interfaces::msg::Time& stamp);
   void on_misalignment(const odonav::msg::Misalignment& m, double t_s);
   void on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s);
   dds::CommandAck on_command(const odonav::msg::Command& command);
@@ -68,14 +78,13 @@ class DeadReckoningNode : public dds::EventTimeNode {
   DeadReckoner core_;
   /// The GNSS-anchored position, fed every DR output as odonav-offline feeds it.
   AnchoredPositionFilter anchor_;
-  /// The misalignments given to the core, to report the one applied in each output.
-  StepHistory<Misalignment> applied_misalignment_{"misalignment"};
-  /// The K policy: commanded-K latch, identified K applicability, K source (scale_factor_selection.hpp).
-  ScaleFactorSelection k_selection_;
+  /// The K policy (commanded-K latch, identified K applicability, K source: scale_factor_selection.hpp),
+  /// the misalignments given to the core (to report the one applied in each output), their count.
+  DeadReckoningConsumerState consumer_;
+  ScaleFactorSelection& k_selection_ = consumer_.k_selection;
+  DeadReckoningLifecycle lifecycle_;
   CountChangeTime pulse_jumps_;  ///< when the pulse-jump total last changed (health WARN window)
   CountChangeTime held_k_outputs_, held_misalignment_outputs_;  ///< when the last held output was made
-  uint64_t misalignments_applied_ = 0;
-  std::optional<double> held_misalignment_t_s_;  // stamp of the last misalignment applied
   dds::BurstThrottle throttle_;
   std::optional<DeadReckoningOutput> last_output_;
   dds::NodeInput& odometer_;

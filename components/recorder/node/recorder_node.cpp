@@ -265,23 +265,30 @@ bool is_new(std::optional<double>& last, double t_s, std::uint64_t& repeated, st
   last = t_s;
   return true;
 }
+
+/// A producer restarted from its checkpoint (calibration, dead reckoning) publishes again the
+/// outputs after it, which the killed process had published already (the same values): each stamp
+/// is recorded once, as the scale factor's arbiter does for a restarted identification. Returns
+/// whether t_s is such a repeat (counted; told once).
+bool replayed_after_restart(const std::optional<double>& last, double t_s, std::uint64_t& repeated, bool& logged,
+                            const char* what, const char* producer) {
+  if (!last || !(t_s < *last)) return false;
+  ++repeated;
+  if (!logged) {
+    logged = true;
+    spdlog::info("{}: t={} s is before the last recorded {} s: a restarted {}'s catch-up, recorded once (counted in "
+                 "the repeats)",
+                 what, t_s, *last, producer);
+  }
+  return true;
+}
 }  // namespace
 
 void RecorderNode::on_misalignment(const odonav::msg::Misalignment& m) {
   const results::MisalignmentRow r = misalignment_row(m);
-  // A calibration restarted from its checkpoint publishes again the epochs after it, which the
-  // killed process had published already (the same values): each epoch is recorded once, as the
-  // scale factor's arbiter does for a restarted identification.
-  if (last_misalignment_t_s_ && r.t_s < *last_misalignment_t_s_) {
-    ++repeated_[0];
-    if (!misalignment_replay_logged_) {
-      misalignment_replay_logged_ = true;
-      spdlog::info("misalignment: t={} s is before the last recorded {} s: a restarted calibration's catch-up, "
-                   "recorded once (counted in the repeats)",
-                   r.t_s, *last_misalignment_t_s_);
-    }
+  if (replayed_after_restart(last_misalignment_t_s_, r.t_s, repeated_[0], replay_logged_[0], "misalignment",
+                             "calibration"))
     return;
-  }
   if (!is_new(last_misalignment_t_s_, r.t_s, repeated_[0], backwards_[0], "misalignment")) return;
   misalignment_csv_.write(r);
   misalignment_s_.push_back(r.t_s);
@@ -316,6 +323,9 @@ void RecorderNode::write_scale_factor(const odonav::msg::ScaleFactor& m) {
 
 void RecorderNode::on_dead_reckoning(const odonav::msg::DeadReckoning& m) {
   const results::DeadReckoningRow r = dead_reckoning_row(m);
+  if (replayed_after_restart(last_dead_reckoning_t_s_, r.t_s, repeated_[2], replay_logged_[1], "dead reckoning",
+                             "dead reckoning"))
+    return;
   if (!is_new(last_dead_reckoning_t_s_, r.t_s, repeated_[2], backwards_[2], "dead reckoning")) return;
   dead_reckoning_csv_.write(r);
   ++rows_[2];
@@ -335,6 +345,9 @@ void RecorderNode::on_dead_reckoning(const odonav::msg::DeadReckoning& m) {
 
 void RecorderNode::on_navigation_position(const odonav::msg::NavigationPosition& m) {
   const results::NavigationPositionRow r = navigation_position_row(m);
+  if (replayed_after_restart(last_navigation_t_s_, r.t_s, navigation_repeated_, replay_logged_[2],
+                             "navigation position", "dead reckoning"))
+    return;
   if (!is_new(last_navigation_t_s_, r.t_s, navigation_repeated_, navigation_backwards_, "navigation position")) return;
   navigation_position_csv_.write(r);
   ++navigation_rows_;

@@ -139,7 +139,8 @@ class RecorderNode {
   std::uint64_t navigation_rows_ = 0, navigation_repeated_ = 0, navigation_backwards_ = 0;
   std::uint64_t rows_[3] = {0, 0, 0};      // misalignment, scale factor, dead reckoning
   std::uint64_t repeated_[3] = {0, 0, 0};  // heartbeats and repeats (same stamp): not written
-  bool misalignment_replay_logged_ = false;  // a restarted calibration's catch-up was told once
+  // A restarted producer's catch-up was told once: misalignment, dead reckoning, navigation position.
+  bool replay_logged_[3] = {false, false, false};
   std::uint64_t backwards_[3] = {0, 0, 0};
   std::optional<odonav::msg::ScaleFactor> last_k_;
   SourceArbiter<odonav::msg::ScaleFactor> k_arbiter_;

@@ -125,6 +125,11 @@ TEST_F(DeployInstall, UnitsCarryTheDeploymentRules) {
                              "--profile ${ODONAV_PROFILE}", "--domain ${ODONAV_DOMAIN}", "PartOf=odonav.target"})
     EXPECT_NE(identification.find(needle), std::string::npos) << needle;
   EXPECT_EQ(identification.find("DynamicUser=yes"), std::string::npos);
+  // Dead reckoning resumes its track from its checkpoint after a restart.
+  const std::string dead_reckoning = read(root_ / "etc/systemd/system/odonav-dead-reckoning.service");
+  for (const char* needle : {"StateDirectory=odonav/dead-reckoning", "--state-dir ${ODONAV_STATE_DIR}",
+                             "Environment=ODONAV_STATE_DIR=/var/lib/odonav/dead-reckoning"})
+    EXPECT_NE(dead_reckoning.find(needle), std::string::npos) << needle;
 }
 
 TEST_F(DeployInstall, UninstallRemovesWhatInstallPut) {

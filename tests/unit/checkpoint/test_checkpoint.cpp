@@ -4,7 +4,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <limits>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -274,3 +277,25 @@ TEST_F(Checkpoint, ConfigHashIgnoresTransportAndLoggingButNotTheEstimator) {
 }
 
 }  // namespace
+
+TEST(CheckpointValueList, KeepsEveryDoubleExactlyAndNamesABadCount) {
+  const std::vector<double> v{0.1, -0.0, std::nan(""), -std::numeric_limits<double>::infinity(), 5e-324, 1e308};
+  const std::string text = odonav::checkpoint_value_list("k", v) + odonav::checkpoint_value_list("empty", {});
+  odonav::CheckpointReader r(text);
+  const std::vector<double> back = r.value_list("k", 2);
+  ASSERT_EQ(back.size(), v.size());
+  for (std::size_t i = 0; i < v.size(); ++i)
+    EXPECT_TRUE(std::memcmp(&back[i], &v[i], sizeof(double)) == 0 || (std::isnan(back[i]) && std::isnan(v[i]))) << i;
+  EXPECT_TRUE(r.value_list("empty").empty());
+  EXPECT_TRUE(r.at_end());
+  odonav::CheckpointReader odd(text);
+  try {
+    odd.value_list("k", 4);  // 6 values are not records of 4
+    FAIL() << "accepted";
+  } catch (const odonav::CheckpointError& e) {
+    EXPECT_EQ(std::string(e.what()), "field 'k' has a bad value count '6'");
+  }
+  const std::string short_text = "k 3 0x1p+0 0x1p+1\n";
+  odonav::CheckpointReader short_list(short_text);
+  EXPECT_THROW(short_list.value_list("k"), odonav::CheckpointError);
+}

@@ -71,20 +71,7 @@ void CalibrationLifecycle::start(MisalignmentCalibrator& calibrator, int64_t uni
       [&](const std::string& dir) { return calibration_checkpoint_path(dir, vehicle_id_); });
   const CalibrationCheckpointLoad r =
       load_calibration_checkpoint(file, vehicle_id_, restart_.settings().config_hash, calibrator, unix_time_s);
-  switch (r.status) {
-    case CheckpointLoadStatus::kNone:
-      restart_.note_fresh_start("no checkpoint " + file + ": starting from nothing", steady_now_s);
-      return;
-    case CheckpointLoadStatus::kMovedAside:
-      restart_.note_moved_aside("checkpoint " + file + " was corrupt (" + r.reason + "): moved aside" +
-                                    (r.moved_to.empty() ? std::string(" FAILED") : " to " + r.moved_to) +
-                                    "; starting from nothing",
-                                "checkpoint " + file + " was corrupt: moved aside; starting from nothing",
-                                steady_now_s);
-      return;
-    case CheckpointLoadStatus::kRestored:
-      break;
-  }
+  if (!restart_.note_load(r, "starting from nothing", steady_now_s)) return;
   restored_output_ = calibrator.current();
   const MisalignmentOutput& o = *restored_output_;
   char line[200];
@@ -104,11 +91,7 @@ bool CalibrationLifecycle::skip_sample(CalibrationInput input, double t_s) {
 
 std::vector<MisalignmentOutput> CalibrationLifecycle::outputs_to_publish(std::vector<MisalignmentOutput> outputs,
                                                                           double steady_now_s) {
-  std::vector<MisalignmentOutput> kept;
-  kept.reserve(outputs.size());
-  for (MisalignmentOutput& o : outputs)
-    if (restart_.keep_output(o.t_s, steady_now_s)) kept.push_back(std::move(o));
-  return kept;
+  return restart_.keep_outputs(std::move(outputs), steady_now_s);
 }
 
 std::string CalibrationLifecycle::text_of(const MisalignmentCalibrator& calibrator, double t_s) const {

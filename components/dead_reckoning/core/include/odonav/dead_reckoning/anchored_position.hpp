@@ -50,6 +50,7 @@
 #include <deque>
 #include <limits>
 #include <optional>
+#include <string>
 
 #include <Eigen/Dense>
 
@@ -170,6 +171,13 @@ class AnchoredPositionFilter {
   AnchoredPosition step(const AnchorDrStep& step);
   /// The same for a DeadReckoner output, whose gnss_fixes are added first.
   AnchoredPosition step(const DeadReckoningOutput& dr);
+
+  /// The complete state as text (versioned, every double exact): queued fixes, the filter's state
+  /// and covariance, the last step, the gate and the counters (DeadReckoner::save_state's rule).
+  std::string save_state() const;
+  /// Restores save_state()'s text into a filter made with the same parameters. Throws
+  /// CheckpointError naming the field; the filter is unchanged then.
+  void restore_state(const std::string& text);
 
   const AnchoredPositionCounters& counters() const { return counters_; }
   /// Odometer time from which a fix of epoch epoch_s applies: estimate_applies_from_s(epoch_s,

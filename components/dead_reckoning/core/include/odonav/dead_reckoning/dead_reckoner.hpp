@@ -216,6 +216,18 @@ class DeadReckoner {
   /// End of data: processes everything left.
   std::vector<DeadReckoningOutput> finish();
 
+  /// The complete state as text (versioned; every double exact, checkpoint_value_list): the
+  /// integration (origin, position, count, distance, held heading), the buffered inputs not yet
+  /// processed or still needed (odometer, attitude, GNSS, K, misalignment, latency), the epochs
+  /// whose error is not evaluated yet and the outputs it needs, the last error, the held-estimate
+  /// tracking and the counters. A DeadReckoner restored from it and fed the inputs that follow
+  /// those already added gives the same outputs, bit for bit, as this one.
+  std::string save_state() const;
+  /// Restores save_state()'s text into this dead reckoner, which must have been made with the same
+  /// parameters (a checkpoint's configuration hash says so). Throws CheckpointError naming the field
+  /// when the text is not a state of this version; the dead reckoner is unchanged then.
+  void restore_state(const std::string& text);
+
   bool started() const { return frame_.has_value(); }
   /// The DR origin (reference point at the start), once started.
   std::optional<Geodetic> origin() const;

@@ -89,6 +89,21 @@ class ScaleFactorSelection {
   double k_source_changed_at_s() const { return k_source_changed_at_s_; }
   const ScaleFactorSelectionCounters& counters() const { return counters_; }
 
+  /// What a checkpoint keeps (the source-change note is about the wall clock: not kept).
+  struct State {
+    bool commanded = false;
+    std::optional<double> last_k_stamp_s;
+    std::string k_source;
+    ScaleFactorSelectionCounters counters;
+  };
+  State state() const { return {commanded_, last_k_stamp_s_, k_source_, counters_}; }
+  void restore_state(const State& s) {
+    commanded_ = s.commanded;
+    last_k_stamp_s_ = s.last_k_stamp_s;
+    k_source_ = s.k_source;
+    counters_ = s.counters;
+  }
+
  private:
   void track_source(const std::string& source, double t_s, double now_s);
 
