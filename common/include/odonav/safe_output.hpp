@@ -70,6 +70,9 @@ class AtomicFile {
   /// Appends bytes; throws OutputError naming the path on a failed write.
   void write(const char* data, std::size_t size);
   void write(const std::string& text) { write(text.data(), text.size()); }
+  /// Hands what was written to the kernel (a killed process then leaves it in the temporary);
+  /// `sync` also forces it to the disk (fsync). OutputError naming the path on failure.
+  void flush(bool sync);
   /// Flushes, closes and renames to the real name; throws OutputError naming the path on failure
   /// (the temporary is then removed). Once committed, further writes are a logic error.
   void commit();

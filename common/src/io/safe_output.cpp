@@ -137,6 +137,12 @@ void AtomicFile::write(const char* data, std::size_t size) {
   if (size > 0 && std::fwrite(data, 1, size, file_) != size) fail("cannot write");
 }
 
+void AtomicFile::flush(bool sync) {
+  if (committed_ || file_ == nullptr) throw std::logic_error("AtomicFile::flush after commit: '" + path_ + "'");
+  if (std::fflush(file_) != 0) fail("cannot write");
+  if (sync && ::fsync(::fileno(file_)) != 0) fail("cannot sync");
+}
+
 void AtomicFile::commit() {
   if (committed_ || file_ == nullptr) throw std::logic_error("AtomicFile::commit twice: '" + path_ + "'");
   if (std::fflush(file_) != 0) fail("cannot write");
