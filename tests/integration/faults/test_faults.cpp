@@ -850,6 +850,10 @@ TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHe
       << read_text(dir + "/offline.log");
   results::OutputRows ref = results::read_output_rows(offline_dir);
   results::OutputRows got = rows;
+  std::cerr << "recording: " << got.misalignment.size() << " misalignment, " << got.scale_factor.size() << " K, "
+            << got.dead_reckoning.size() << " DR, " << got.navigation_position.size()
+            << " navigation rows; odonav-offline: " << ref.misalignment.size() << ", " << ref.scale_factor.size()
+            << ", " << ref.dead_reckoning.size() << ", " << ref.navigation_position.size() << "\n";
   ref.scale_factor.erase(std::remove_if(ref.scale_factor.begin(), ref.scale_factor.end(),
                                         [&](const auto& r) { return r.t_s > last_k_s + 1e-6; }),
                          ref.scale_factor.end());
