@@ -209,13 +209,21 @@ constexpr const char* kDeadReckoningFile = "dead_reckoning.csv";
 constexpr const char* kNavigationPositionFile = "navigation_position.csv";
 constexpr const char* kGapsFile = "gaps.csv";
 
-/// Whether an odonav-recorder runs with this pid (a reused pid of another program does not count).
+/// Whether an odonav-recorder runs with this pid (a reused pid of another program, or a killed
+/// recorder not yet reaped by its parent, does not count).
 bool recorder_alive(long pid) {
-  std::ifstream comm("/proc/" + std::to_string(pid) + "/comm");
+  const std::string proc = "/proc/" + std::to_string(pid);
+  std::ifstream comm(proc + "/comm");
   if (!comm) return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM;
   std::string name;
   std::getline(comm, name);
-  return name.rfind("odonav-recorder", 0) == 0;
+  if (name.rfind("odonav-recorder", 0) != 0) return false;
+  // /proc/<pid>/stat: "pid (comm) state ...": Z = a zombie, X = dead.
+  std::ifstream stat(proc + "/stat");
+  std::string text;
+  std::getline(stat, text);
+  const std::size_t paren = text.rfind(')');
+  return paren == std::string::npos || paren + 2 >= text.size() || (text[paren + 2] != 'Z' && text[paren + 2] != 'X');
 }
 
 /// Decides what of an unfinished recording in `out` to adopt (recording_resume.hpp); a new
