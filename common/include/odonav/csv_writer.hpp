@@ -49,6 +49,9 @@ class CsvWriter {
   /// Writes every ended row to the temporary file, so that a killed process leaves them there;
   /// `sync` also forces them to the disk (fsync), against a power cut. OutputError on failure.
   void flush(bool sync = false);
+  /// A file writer destroyed without close(), or failing, leaves its temporary with the rows
+  /// written so far (AtomicFile::keep_on_failure) instead of removing it.
+  void keep_on_failure();
   /// Flushes, closes and renames the complete file to `path`; throws OutputError naming the path on
   /// an I/O error (then `path` keeps its previous content). Does nothing for an in-memory writer.
   void close();

@@ -77,6 +77,11 @@ class AtomicFile {
   /// (the temporary is then removed). Once committed, further writes are a logic error.
   void commit();
 
+  /// From now on a failed write or a destruction without commit() leaves the temporary (with what
+  /// was written) instead of removing it: for a recording whose rows must survive an error, picked
+  /// up at the next start (odonav-recorder resumes it). The real name is still never touched.
+  void keep_on_failure() { keep_on_failure_ = true; }
+
   const std::string& path() const { return path_; }
   bool committed() const { return committed_; }
 
@@ -86,6 +91,7 @@ class AtomicFile {
   std::string temporary_;
   std::FILE* file_ = nullptr;
   bool committed_ = false;
+  bool keep_on_failure_ = false;
 };
 
 /// Writes `text` to `path` through AtomicFile.

@@ -99,6 +99,10 @@ void CsvWriter::append_rows(const std::string& text, std::size_t rows) {
   if (!in_memory_ && buffer_.size() > (1u << 16)) flush_buffer();
 }
 
+void CsvWriter::keep_on_failure() {
+  if (file_) file_->keep_on_failure();
+}
+
 void CsvWriter::flush(bool sync) {
   if (!file_) return;
   flush_buffer();

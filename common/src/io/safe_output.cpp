@@ -121,14 +121,14 @@ AtomicFile::AtomicFile(const std::string& path, const std::vector<std::string>& 
 
 AtomicFile::~AtomicFile() {
   if (file_ != nullptr) std::fclose(file_);
-  if (!committed_) ::unlink(temporary_.c_str());
+  if (!committed_ && !keep_on_failure_) ::unlink(temporary_.c_str());
 }
 
 void AtomicFile::fail(const std::string& what) {
   const int error = errno;
   if (file_ != nullptr) std::fclose(file_);
   file_ = nullptr;
-  ::unlink(temporary_.c_str());
+  if (!keep_on_failure_) ::unlink(temporary_.c_str());
   throw OutputError(system_message(what, path_, error));
 }
 

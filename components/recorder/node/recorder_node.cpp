@@ -251,6 +251,11 @@ RecorderNode::RecorderNode(dds::ComponentRuntime& runtime, const RecorderSetting
       dead_reckoning_csv_(out_.file(kDeadReckoningFile)),
       navigation_position_csv_(out_.file(kNavigationPositionFile)),
       gaps_csv_(out_.file(kGapsFile)) {
+  // An error (an exception, a failed write) leaves the rows in the temporaries, as a kill does:
+  // the next start resumes them; the real names are never touched before a clean close.
+  for (CsvWriter* csv : {&misalignment_csv_.csv(), &scale_factor_csv_.csv(), &dead_reckoning_csv_.csv(),
+                         &navigation_position_csv_.csv()})
+    csv->keep_on_failure();
   if (resume_.resumed()) adopt_resumed_rows();
   const std::string vehicle = runtime.settings().vehicle_id;
   auto& p = runtime.participant();
