@@ -13,6 +13,8 @@
 //      equal to odonav-offline's, and the recorder's gaps.csv is empty.
 //   4. the identification killed for good (domain 162): the recorder's gaps.csv names the GNSS epochs
 //      left without a K (against the dataset), and dead reckoning's health the outputs on the K held.
+//      In the same run the recorder is killed (-9) and restarted: it resumes its recording, and every
+//      other row is there and equal to odonav-offline's.
 // The restart loop (1) also runs on the vehicle profile, in a network namespace of its own (root).
 // ODONAV_FAULTS_PROFILE=<participant profile file> runs both against other profiles (with the qos.xml
 // beside it), e.g. the shared-memory ones of an earlier version, for the before/after figures;
