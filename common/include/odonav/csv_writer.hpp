@@ -43,6 +43,15 @@ class CsvWriter {
   CsvWriter& empty();
   /// Ends the row; throws std::logic_error when the row has the wrong number of fields.
   void end_row();
+  /// Appends `rows` complete rows already in this file's format (`text`: each ends with '\n', none
+  /// is the header), e.g. the rows of an unfinished recording carried over into a new file.
+  void append_rows(const std::string& text, std::size_t rows);
+  /// Writes every ended row to the temporary file, so that a killed process leaves them there;
+  /// `sync` also forces them to the disk (fsync), against a power cut. OutputError on failure.
+  void flush(bool sync = false);
+  /// A file writer destroyed without close(), or failing, leaves its temporary with the rows
+  /// written so far (AtomicFile::keep_on_failure) instead of removing it.
+  void keep_on_failure();
   /// Flushes, closes and renames the complete file to `path`; throws OutputError naming the path on
   /// an I/O error (then `path` keeps its previous content). Does nothing for an in-memory writer.
   void close();

@@ -70,9 +70,17 @@ class AtomicFile {
   /// Appends bytes; throws OutputError naming the path on a failed write.
   void write(const char* data, std::size_t size);
   void write(const std::string& text) { write(text.data(), text.size()); }
+  /// Hands what was written to the kernel (a killed process then leaves it in the temporary);
+  /// `sync` also forces it to the disk (fsync). OutputError naming the path on failure.
+  void flush(bool sync);
   /// Flushes, closes and renames to the real name; throws OutputError naming the path on failure
   /// (the temporary is then removed). Once committed, further writes are a logic error.
   void commit();
+
+  /// From now on a failed write or a destruction without commit() leaves the temporary (with what
+  /// was written) instead of removing it: for a recording whose rows must survive an error, picked
+  /// up at the next start (odonav-recorder resumes it). The real name is still never touched.
+  void keep_on_failure() { keep_on_failure_ = true; }
 
   const std::string& path() const { return path_; }
   bool committed() const { return committed_; }
@@ -83,6 +91,7 @@ class AtomicFile {
   std::string temporary_;
   std::FILE* file_ = nullptr;
   bool committed_ = false;
+  bool keep_on_failure_ = false;
 };
 
 /// Writes `text` to `path` through AtomicFile.

@@ -91,6 +91,24 @@ void CsvWriter::end_row() {
   if (!in_memory_ && buffer_.size() > (1u << 16)) flush_buffer();
 }
 
+void CsvWriter::append_rows(const std::string& text, std::size_t rows) {
+  if (fields_in_row_ != 0) throw std::logic_error(path_ + ": append_rows inside a row");
+  if (!text.empty() && text.back() != '\n') throw std::logic_error(path_ + ": append_rows of an incomplete row");
+  buffer_ += text;
+  rows_ += rows;
+  if (!in_memory_ && buffer_.size() > (1u << 16)) flush_buffer();
+}
+
+void CsvWriter::keep_on_failure() {
+  if (file_) file_->keep_on_failure();
+}
+
+void CsvWriter::flush(bool sync) {
+  if (!file_) return;
+  flush_buffer();
+  file_->flush(sync);
+}
+
 void CsvWriter::flush_buffer() {
   if (!file_ || buffer_.empty()) return;
   file_->write(buffer_);  // throws OutputError naming the path

@@ -121,20 +121,26 @@ AtomicFile::AtomicFile(const std::string& path, const std::vector<std::string>& 
 
 AtomicFile::~AtomicFile() {
   if (file_ != nullptr) std::fclose(file_);
-  if (!committed_) ::unlink(temporary_.c_str());
+  if (!committed_ && !keep_on_failure_) ::unlink(temporary_.c_str());
 }
 
 void AtomicFile::fail(const std::string& what) {
   const int error = errno;
   if (file_ != nullptr) std::fclose(file_);
   file_ = nullptr;
-  ::unlink(temporary_.c_str());
+  if (!keep_on_failure_) ::unlink(temporary_.c_str());
   throw OutputError(system_message(what, path_, error));
 }
 
 void AtomicFile::write(const char* data, std::size_t size) {
   if (committed_ || file_ == nullptr) throw std::logic_error("AtomicFile::write after commit: '" + path_ + "'");
   if (size > 0 && std::fwrite(data, 1, size, file_) != size) fail("cannot write");
+}
+
+void AtomicFile::flush(bool sync) {
+  if (committed_ || file_ == nullptr) throw std::logic_error("AtomicFile::flush after commit: '" + path_ + "'");
+  if (std::fflush(file_) != 0) fail("cannot write");
+  if (sync && ::fsync(::fileno(file_)) != 0) fail("cannot sync");
 }
 
 void AtomicFile::commit() {

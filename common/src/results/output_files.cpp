@@ -18,16 +18,40 @@ std::optional<double> finite_or_empty(double v) {
   return std::isfinite(v) ? std::optional<double>(v) : std::nullopt;
 }
 
-std::vector<std::string> scale_factor_header() {
-  std::vector<std::string> h{"t"};
-  for (const std::string& c : scale_factor_estimator_columns()) h.push_back(c);
-  for (const char* c : {"lambda_vff_lm_rls", "estimator", "k_m_per_pulse", "sigma_m_per_pulse", "forgetting_factor",
-                        "window_fill", "converged", "samples_accepted", "samples_rejected", "epoch_status",
-                        "gnss_latency_s", "gnss_latency_sigma_s"})
-    h.push_back(c);
-  return h;
-}
 }  // namespace
+
+const std::vector<std::string>& misalignment_columns() {
+  static const std::vector<std::string> columns{"t",        "heading_deg", "pitch_deg", "heading_std_deg", "pitch_std_deg",
+                                                "converged", "state",      "samples_used"};
+  return columns;
+}
+
+const std::vector<std::string>& scale_factor_columns() {
+  static const std::vector<std::string> columns = [] {
+    std::vector<std::string> h{"t"};
+    for (const std::string& c : scale_factor_estimator_columns()) h.push_back(c);
+    for (const char* c : {"lambda_vff_lm_rls", "estimator", "k_m_per_pulse", "sigma_m_per_pulse", "forgetting_factor",
+                          "window_fill", "converged", "samples_accepted", "samples_rejected", "epoch_status",
+                          "gnss_latency_s", "gnss_latency_sigma_s"})
+      h.push_back(c);
+    return h;
+  }();
+  return columns;
+}
+
+const std::vector<std::string>& dead_reckoning_columns() {
+  static const std::vector<std::string> columns{"t",      "lat_deg", "lon_deg", "height_m",    "distance_m",
+                                                "k_m_per_pulse", "k_source", "east_m", "north_m",
+                                                "up_m",   "heading_deg", "horizontal_error_m", "error_percent", "error_t"};
+  return columns;
+}
+
+const std::vector<std::string>& navigation_position_columns() {
+  static const std::vector<std::string> columns{"t",           "lat_deg",     "lon_deg",      "height_m",  "east_m",
+                                                "north_m",     "up_m",        "var_east_m2",  "var_north_m2",
+                                                "var_up_m2",   "status",      "last_fix_t",   "distance_since_fix_m"};
+  return columns;
+}
 
 const std::vector<std::string>& scale_factor_estimator_columns() {
   static const std::vector<std::string> columns{"k_rls", "k_ff_rls", "k_lm_rls", "k_vff_lm_rls", "k_coarse", "k_kf_rw"};
@@ -35,8 +59,7 @@ const std::vector<std::string>& scale_factor_estimator_columns() {
 }
 
 MisalignmentCsv::MisalignmentCsv(const std::string& path)
-    : csv_(path, {"t", "heading_deg", "pitch_deg", "heading_std_deg", "pitch_std_deg", "converged", "state",
-                  "samples_used"}) {}
+    : csv_(path, misalignment_columns()) {}
 
 void MisalignmentCsv::write(const MisalignmentRow& r) {
   csv_.field(r.t_s)
@@ -50,7 +73,7 @@ void MisalignmentCsv::write(const MisalignmentRow& r) {
   csv_.end_row();
 }
 
-ScaleFactorCsv::ScaleFactorCsv(const std::string& path) : csv_(path, scale_factor_header()) {}
+ScaleFactorCsv::ScaleFactorCsv(const std::string& path) : csv_(path, scale_factor_columns()) {}
 
 void ScaleFactorCsv::write(const ScaleFactorRow& r) {
   csv_.field(r.t_s);
@@ -77,8 +100,7 @@ void ScaleFactorCsv::write(const ScaleFactorRow& r) {
 }
 
 DeadReckoningCsv::DeadReckoningCsv(const std::string& path)
-    : csv_(path, {"t", "lat_deg", "lon_deg", "height_m", "distance_m", "k_m_per_pulse", "k_source", "east_m",
-                  "north_m", "up_m", "heading_deg", "horizontal_error_m", "error_percent", "error_t"}) {}
+    : csv_(path, dead_reckoning_columns()) {}
 
 void DeadReckoningCsv::write(const DeadReckoningRow& r) {
   csv_.field(r.t_s)
@@ -99,8 +121,7 @@ void DeadReckoningCsv::write(const DeadReckoningRow& r) {
 }
 
 NavigationPositionCsv::NavigationPositionCsv(const std::string& path)
-    : csv_(path, {"t", "lat_deg", "lon_deg", "height_m", "east_m", "north_m", "up_m", "var_east_m2", "var_north_m2",
-                  "var_up_m2", "status", "last_fix_t", "distance_since_fix_m"}) {}
+    : csv_(path, navigation_position_columns()) {}
 
 void NavigationPositionCsv::write(const NavigationPositionRow& r) {
   csv_.field(r.t_s)

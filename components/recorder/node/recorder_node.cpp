@@ -2,7 +2,14 @@
 
 #include <spdlog/spdlog.h>
 
+#include <signal.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <set>
 #include <stdexcept>
@@ -195,17 +202,61 @@ OutputPolicy output_policy(const RecorderSettings& s) {
   p.force = s.force;
   return p;
 }
+
+constexpr const char* kMisalignmentFile = "misalignment.csv";
+constexpr const char* kScaleFactorFile = "scale_factor.csv";
+constexpr const char* kDeadReckoningFile = "dead_reckoning.csv";
+constexpr const char* kNavigationPositionFile = "navigation_position.csv";
+constexpr const char* kGapsFile = "gaps.csv";
+
+/// Whether an odonav-recorder runs with this pid (a reused pid of another program, or a killed
+/// recorder not yet reaped by its parent, does not count).
+bool recorder_alive(long pid) {
+  const std::string proc = "/proc/" + std::to_string(pid);
+  std::ifstream comm(proc + "/comm");
+  if (!comm) return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM;
+  std::string name;
+  std::getline(comm, name);
+  if (name.rfind("odonav-recorder", 0) != 0) return false;
+  // /proc/<pid>/stat: "pid (comm) state ...": Z = a zombie, X = dead.
+  std::ifstream stat(proc + "/stat");
+  std::string text;
+  std::getline(stat, text);
+  const std::size_t paren = text.rfind(')');
+  return paren == std::string::npos || paren + 2 >= text.size() || (text[paren + 2] != 'Z' && text[paren + 2] != 'X');
+}
+
+/// Decides what of an unfinished recording in `out` to adopt (recording_resume.hpp); a new
+/// recording writes its marker now, before any of its files exists.
+ResumePlan begin_recording(const OutputDirectory& out, const std::string& vehicle) {
+  const std::vector<RecordingFile> files{{kMisalignmentFile, results::misalignment_columns()},
+                                         {kScaleFactorFile, results::scale_factor_columns()},
+                                         {kDeadReckoningFile, results::dead_reckoning_columns()},
+                                         {kNavigationPositionFile, results::navigation_position_columns()}};
+  ResumePlan plan = plan_resume(out.path(), vehicle, files, {kGapsFile}, ::getpid(), recorder_alive);
+  for (const std::string& f : plan.ignored)
+    spdlog::warn("{}: a temporary file of another run, not of a recording to resume: left as it is", f);
+  if (!plan.resumed()) write_file_atomically(out.file(kRecordingMarker), marker_text({::getpid(), vehicle}));
+  return plan;
+}
 }  // namespace
 
 RecorderNode::RecorderNode(dds::ComponentRuntime& runtime, const RecorderSettings& settings)
     : runtime_(runtime),
       settings_(settings),
       out_(settings.out_dir, output_policy(settings)),
-      misalignment_csv_(out_.file("misalignment.csv")),
-      scale_factor_csv_(out_.file("scale_factor.csv")),
-      dead_reckoning_csv_(out_.file("dead_reckoning.csv")),
-      navigation_position_csv_(out_.file("navigation_position.csv")),
-      gaps_csv_(out_.file("gaps.csv")) {
+      resume_(begin_recording(out_, runtime.settings().vehicle_id)),
+      misalignment_csv_(out_.file(kMisalignmentFile)),
+      scale_factor_csv_(out_.file(kScaleFactorFile)),
+      dead_reckoning_csv_(out_.file(kDeadReckoningFile)),
+      navigation_position_csv_(out_.file(kNavigationPositionFile)),
+      gaps_csv_(out_.file(kGapsFile)) {
+  // An error (an exception, a failed write) leaves the rows in the temporaries, as a kill does:
+  // the next start resumes them; the real names are never touched before a clean close.
+  for (CsvWriter* csv : {&misalignment_csv_.csv(), &scale_factor_csv_.csv(), &dead_reckoning_csv_.csv(),
+                         &navigation_position_csv_.csv()})
+    csv->keep_on_failure();
+  if (resume_.resumed()) adopt_resumed_rows();
   const std::string vehicle = runtime.settings().vehicle_id;
   auto& p = runtime.participant();
   // Callbacks copy and queue; conversion and file I/O happen on the worker thread.
@@ -219,19 +270,24 @@ RecorderNode::RecorderNode(dds::ComponentRuntime& runtime, const RecorderSetting
       [this, vehicle](const odonav::msg::ScaleFactor& m) {
         if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_scale_factor(m); });
       });
+  // Dead reckoning, navigation and GNSS with the transient-local readers: a restarted recorder gets
+  // the producers' history (30 s of outputs, the GNSS epochs for gaps.csv) for its downtime.
   dead_reckoning_reader_ = std::make_unique<dds::Reader<odonav::msg::DeadReckoning>>(
-      p, topics::kDeadReckoning.name, topics::kDeadReckoning.reader_profile,
+      p, topics::kDeadReckoning.name, topics::kDeadReckoningRecorderReaderProfile,
       [this, vehicle](const odonav::msg::DeadReckoning& m) {
         if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_dead_reckoning(m); });
       });
   navigation_reader_ = std::make_unique<dds::Reader<odonav::msg::NavigationPosition>>(
-      p, topics::kNavigationPosition.name, topics::kNavigationPosition.reader_profile,
+      p, topics::kNavigationPosition.name, topics::kDeadReckoningRecorderReaderProfile,
       [this, vehicle](const odonav::msg::NavigationPosition& m) {
         if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_navigation_position(m); });
       });
-  // The GNSS epochs: each should have one misalignment and one scale-factor row (gaps.csv).
+  // The GNSS epochs: each should have one misalignment and one scale-factor row (gaps.csv). A
+  // resumed recording also takes the gateway's history (the epochs of its downtime); a new one
+  // counts from its start, as before.
   gnss_reader_ = std::make_unique<dds::Reader<odonav::msg::GnssFix>>(
-      p, topics::kGnssFix.name, topics::kGnssFix.reader_profile, [this, vehicle](const odonav::msg::GnssFix& m) {
+      p, topics::kGnssFix.name, resume_.resumed() ? topics::kSensorReplayReaderProfile : topics::kGnssFix.reader_profile,
+      [this, vehicle](const odonav::msg::GnssFix& m) {
         if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_gnss(m); });
       });
   health_reader_ = std::make_unique<dds::Reader<odonav::msg::Health>>(
@@ -251,45 +307,98 @@ void RecorderNode::close_readers() {
   gnss_reader_.reset();
 }
 
-namespace {
-/// Heartbeats republish the last estimate with its stamp: record each stamp once. Returns whether
-/// the sample is new; counts repeats and (never expected from one ordered writer) backward stamps.
-bool is_new(std::optional<double>& last, double t_s, std::uint64_t& repeated, std::uint64_t& backwards,
-            const char* what) {
-  if (last && t_s == *last) {
-    ++repeated;
-    return false;
+void RecorderNode::adopt_resumed_rows() {
+  spdlog::info("resuming the unfinished recording of odonav-recorder pid {} in {} (it did not finish: killed or "
+               "crashed)",
+               resume_.previous->pid, settings_.out_dir);
+  std::string adopted;
+  for (const AdoptedFile& f : resume_.files) {
+    if (!f.rows.t_s.empty()) resumed_from_s_ = std::min(resumed_from_s_.value_or(f.rows.t_s.front()), f.rows.t_s.front());
+    CsvWriter& csv = f.name == kMisalignmentFile   ? misalignment_csv_.csv()
+                     : f.name == kScaleFactorFile  ? scale_factor_csv_.csv()
+                     : f.name == kDeadReckoningFile ? dead_reckoning_csv_.csv()
+                                                    : navigation_position_csv_.csv();
+    csv.append_rows(f.rows.text, f.rows.rows());
+    adopted_rows_ += f.rows.rows();
+    adopted_torn_lines_ += f.rows.torn_lines;
+    const std::string last = f.rows.last_t_s() ? fmt::format("{:.3f} s", *f.rows.last_t_s()) : "-";
+    spdlog::info("adopted {} rows of {} from {}, last t={}{}", f.rows.rows(), f.name, f.from, last,
+                 f.rows.torn_lines ? "; its torn last line (cut by the kill) dropped" : "");
+    adopted += (adopted.empty() ? "" : ", ") + f.name + " " + std::to_string(f.rows.rows()) + " rows to t=" + last;
+    // Each file goes on after its last row: what the producers hand again is a repeat, and the
+    // gap counts see the adopted rows.
+    RowStamps& stamps = f.name == kMisalignmentFile    ? misalignment_stamps_
+                        : f.name == kScaleFactorFile   ? scale_factor_stamps_
+                        : f.name == kDeadReckoningFile ? dead_reckoning_stamps_
+                                                       : navigation_stamps_;
+    for (const double t : f.rows.t_s) stamps.admit(t);
+    if (f.name == kMisalignmentFile) misalignment_s_.insert(misalignment_s_.end(), f.rows.t_s.begin(), f.rows.t_s.end());
+    if (f.name == kScaleFactorFile) scale_factor_s_.insert(scale_factor_s_.end(), f.rows.t_s.begin(), f.rows.t_s.end());
+    if (f.name == kDeadReckoningFile)
+      for (const double t : f.rows.t_s) note_dead_reckoning_gap(t);
+    if (f.name == kNavigationPositionFile)
+      for (const double t : f.rows.t_s) note_navigation_gap(t);
   }
-  if (last && t_s < *last && ++backwards <= 10)
-    spdlog::warn("{}: t={} s is before the previous {} s (recorded anyway)", what, t_s, *last);
-  last = t_s;
-  return true;
+  // The orphans go only once their rows are on disk under this process's names and the marker
+  // names this process: a kill at any point leaves every row where the next start adopts it.
+  for (CsvWriter* csv : {&misalignment_csv_.csv(), &scale_factor_csv_.csv(), &dead_reckoning_csv_.csv(),
+                         &navigation_position_csv_.csv()})
+    csv->flush(true);
+  write_file_atomically(out_.file(kRecordingMarker), marker_text({::getpid(), runtime_.settings().vehicle_id}));
+  for (const std::string& f : resume_.remove) {
+    std::error_code ec;
+    if (!std::filesystem::remove(f, ec) && ec)
+      spdlog::warn("{}: not removed ({}); its rows are in this recording", f, ec.message());
+  }
+  resumed_text_ = "resumed the recording of pid " + std::to_string(resume_.previous->pid) + ": " + adopted;
+  if (adopted_torn_lines_ > 0) resumed_text_ += "; " + std::to_string(adopted_torn_lines_) + " torn lines dropped";
+  resumed_wall_s_ = dds::steady_now_s();
 }
 
-/// A producer restarted from its checkpoint (calibration, dead reckoning) publishes again the
-/// outputs after it, which the killed process had published already (the same values): each stamp
-/// is recorded once, as the scale factor's arbiter does for a restarted identification. Returns
-/// whether t_s is such a repeat (counted; told once).
-bool replayed_after_restart(const std::optional<double>& last, double t_s, std::uint64_t& repeated, bool& logged,
-                            const char* what, const char* producer) {
-  if (!last || !(t_s < *last)) return false;
-  ++repeated;
-  if (!logged) {
-    logged = true;
-    spdlog::info("{}: t={} s is before the last recorded {} s: a restarted {}'s catch-up, recorded once (counted in "
-                 "the repeats)",
-                 what, t_s, *last, producer);
-  }
-  return true;
+void RecorderNode::flush_files() {
+  if (!unflushed_) return;
+  misalignment_csv_.csv().flush();
+  scale_factor_csv_.csv().flush();
+  dead_reckoning_csv_.csv().flush();
+  navigation_position_csv_.csv().flush();
+  unflushed_ = false;
 }
-}  // namespace
+
+void RecorderNode::note_dead_reckoning_gap(double t_s) {
+  if (const auto gap = dr_gaps_.offer(t_s)) {
+    dr_gap_list_.push_back(*gap);
+    last_gap_wall_s_ = dds::steady_now_s();
+    spdlog::warn("{} (no such rows were received: the producer or the link lost them, or the recorder was down "
+                 "longer than their history)",
+                 describe_gap(*gap, "dead-reckoning"));
+  }
+}
+
+void RecorderNode::note_navigation_gap(double t_s) {
+  if (const auto gap = navigation_gaps_.offer(t_s)) {
+    navigation_gap_list_.push_back(*gap);
+    spdlog::warn("{} (no such rows were received: the producer or the link lost them, or the recorder was down "
+                 "longer than their history)",
+                 describe_gap(*gap, "navigation-position"));
+  }
+}
 
 void RecorderNode::on_misalignment(const odonav::msg::Misalignment& m) {
   const results::MisalignmentRow r = misalignment_row(m);
-  if (replayed_after_restart(last_misalignment_t_s_, r.t_s, repeated_[0], replay_logged_[0], "misalignment",
-                             "calibration"))
+  // A calibration restarted from its checkpoint publishes again the epochs after it, which the
+  // killed process had published already (the same values): each epoch is recorded once, as the
+  // scale factor's arbiter does for a restarted identification.
+  const std::optional<double> last = misalignment_stamps_.last_t_s;
+  if (!misalignment_stamps_.admit(r.t_s)) {
+    if (r.t_s < *last && !misalignment_replay_logged_) {
+      misalignment_replay_logged_ = true;
+      spdlog::info("misalignment: t={} s is before the last recorded {} s: a restarted calibration's catch-up "
+                   "or the history handed to a restarted recorder, recorded once (counted in the repeats)",
+                   r.t_s, *last);
+    }
     return;
-  if (!is_new(last_misalignment_t_s_, r.t_s, repeated_[0], backwards_[0], "misalignment")) return;
+  }
+  unflushed_ = true;
   misalignment_csv_.write(r);
   misalignment_s_.push_back(r.t_s);
   ++rows_[0];
@@ -314,7 +423,8 @@ void RecorderNode::on_scale_factor(const odonav::msg::ScaleFactor& m) {
 
 void RecorderNode::write_scale_factor(const odonav::msg::ScaleFactor& m) {
   const results::ScaleFactorRow r = scale_factor_row(m);
-  if (!is_new(last_scale_factor_t_s_, r.t_s, repeated_[1], backwards_[1], "scale factor")) return;
+  if (!scale_factor_stamps_.admit(r.t_s)) return;
+  unflushed_ = true;
   scale_factor_csv_.write(r);
   scale_factor_s_.push_back(r.t_s);
   ++rows_[1];
@@ -323,18 +433,11 @@ void RecorderNode::write_scale_factor(const odonav::msg::ScaleFactor& m) {
 
 void RecorderNode::on_dead_reckoning(const odonav::msg::DeadReckoning& m) {
   const results::DeadReckoningRow r = dead_reckoning_row(m);
-  if (replayed_after_restart(last_dead_reckoning_t_s_, r.t_s, repeated_[2], replay_logged_[1], "dead reckoning",
-                             "dead reckoning"))
-    return;
-  if (!is_new(last_dead_reckoning_t_s_, r.t_s, repeated_[2], backwards_[2], "dead reckoning")) return;
+  if (!dead_reckoning_stamps_.admit(r.t_s)) return;
+  unflushed_ = true;
   dead_reckoning_csv_.write(r);
   ++rows_[2];
-  if (const auto gap = dr_gaps_.offer(r.t_s)) {
-    dr_gap_list_.push_back(*gap);
-    last_gap_wall_s_ = dds::steady_now_s();
-    spdlog::warn("{} (no such rows were received: the producer or the link lost them)",
-                 describe_gap(*gap, "dead-reckoning"));
-  }
+  note_dead_reckoning_gap(r.t_s);
   last_distance_m_ = r.distance_m;
   if (!next_progress_t_s_) next_progress_t_s_ = r.t_s + settings_.progress_every_s;
   if (r.t_s >= *next_progress_t_s_) {
@@ -345,22 +448,19 @@ void RecorderNode::on_dead_reckoning(const odonav::msg::DeadReckoning& m) {
 
 void RecorderNode::on_navigation_position(const odonav::msg::NavigationPosition& m) {
   const results::NavigationPositionRow r = navigation_position_row(m);
-  if (replayed_after_restart(last_navigation_t_s_, r.t_s, navigation_repeated_, replay_logged_[2],
-                             "navigation position", "dead reckoning"))
-    return;
-  if (!is_new(last_navigation_t_s_, r.t_s, navigation_repeated_, navigation_backwards_, "navigation position")) return;
+  if (!navigation_stamps_.admit(r.t_s)) return;
+  unflushed_ = true;
   navigation_position_csv_.write(r);
   ++navigation_rows_;
-  if (const auto gap = navigation_gaps_.offer(r.t_s)) {
-    navigation_gap_list_.push_back(*gap);
-    spdlog::warn("{} (no such rows were received: the producer or the link lost them)",
-                 describe_gap(*gap, "navigation-position"));
-  }
+  note_navigation_gap(r.t_s);
 }
 
 void RecorderNode::on_gnss(const odonav::msg::GnssFix& m) {
   try {
-    gnss_epochs_s_.push_back(dds::to_seconds(m.header().stamp()));
+    const double t_s = dds::to_seconds(m.header().stamp());
+    // History older than the resumed recording's first row: before that recording started.
+    if (resumed_from_s_ && t_s < *resumed_from_s_) return;
+    gnss_epochs_s_.push_back(t_s);
   } catch (const std::invalid_argument& e) {
     spdlog::warn("gnss fix: {}: not counted as an epoch", e.what());
   }
@@ -405,6 +505,9 @@ void RecorderNode::on_health(const odonav::msg::Health& h) {
 }
 
 void RecorderNode::tick() {
+  // After each batch of samples: a killed recorder leaves on disk all it wrote but the last batch,
+  // which the producers' history (30 s) gives back to the restarted one.
+  flush_files();
   if (!producers_matched_logged_ && misalignment_reader_->matched_writers() > 0 &&
       scale_factor_reader_->matched_writers() > 0 && dead_reckoning_reader_->matched_writers() > 0) {
     producers_matched_logged_ = true;
@@ -419,11 +522,14 @@ void RecorderNode::tick() {
                         {"scale_factor_other_source", static_cast<double>(k_arbiter_.counters().superseded)},
                         {"scale_factor_filled", static_cast<double>(k_arbiter_.counters().filled)},
                         {"dead_reckoning_missed", static_cast<double>(dr_gaps_.missed())},
-                        {"dead_reckoning_gaps", static_cast<double>(dr_gaps_.gaps())}};
+                        {"dead_reckoning_gaps", static_cast<double>(dr_gaps_.gaps())},
+                        {"resumed_rows", static_cast<double>(adopted_rows_)},
+                        {"resumed_torn_lines", static_cast<double>(adopted_torn_lines_)}};
   // A hole in the dead-reckoning rows stays in the reason for a while after it is found (the
   // counters keep it for good), so a monitor polling at 1 Hz sees it.
   std::string reason = producers_matched_logged_ ? "" : "waiting for producers";
   auto level = odonav::msg::HEALTH_LEVEL_OK;
+  if (!resumed_text_.empty() && dds::steady_now_s() - resumed_wall_s_ < kGapReasonHold_s) reason = resumed_text_;
   if (dr_gaps_.last_gap() && dds::steady_now_s() - last_gap_wall_s_ < kGapReasonHold_s) {
     level = odonav::msg::HEALTH_LEVEL_WARN;
     reason = describe_gap(*dr_gaps_.last_gap(), "dead-reckoning");
@@ -451,11 +557,16 @@ int RecorderNode::run() {
   provenance.tool = "odonav-recorder";
   provenance.dds_vehicle_id = runtime_.settings().vehicle_id;
   write_file_atomically(out_.file(kProvenanceFile), provenance_json(provenance));
-  if (last_dead_reckoning_t_s_) progress(*last_dead_reckoning_t_s_, last_distance_m_);
+  if (rows_[2] > 0) progress(*dead_reckoning_stamps_.last_t_s, last_distance_m_);
   spdlog::info("wrote {} misalignment, {} scale-factor, {} dead-reckoning, {} navigation-position rows into {} "
-               "(repeats skipped: {}, {}, {}, {}); {}",
-               rows_[0], rows_[1], rows_[2], navigation_rows_, settings_.out_dir, repeated_[0],
-               repeated_[1] + k_arbiter_.counters().repeated, repeated_[2], navigation_repeated_, gaps);
+               "(repeats skipped: {}, {}, {}, {}{}); {}",
+               rows_[0], rows_[1], rows_[2], navigation_rows_, settings_.out_dir, misalignment_stamps_.repeats,
+               scale_factor_stamps_.repeats + k_arbiter_.counters().repeated, dead_reckoning_stamps_.repeats,
+               navigation_stamps_.repeats,
+               resume_.resumed() ? "; after " + std::to_string(adopted_rows_) + " rows adopted from the unfinished "
+                                   "recording of pid " + std::to_string(resume_.previous->pid)
+                                 : "",
+               gaps);
   if (dr_gaps_.gaps() > 0)
     spdlog::warn("dead_reckoning.csv has {} gaps, {} outputs missing in all; the last: {}", dr_gaps_.gaps(),
                  dr_gaps_.missed(), describe_gap(*dr_gaps_.last_gap(), "dead-reckoning"));
@@ -463,6 +574,11 @@ int RecorderNode::run() {
     spdlog::info("scale factor sources: {} switches, {} rows of a source not followed skipped (epochs written by "
                  "another), {} epochs filled from another source",
                  k_arbiter_.counters().switches, k_arbiter_.counters().superseded, k_arbiter_.counters().filled);
+  // Last: the recording is finished (the next recorder into this folder starts a new one).
+  std::error_code ec;
+  std::filesystem::remove(out_.file(kRecordingMarker), ec);
+  if (ec) spdlog::warn("{}: not removed ({}): the next recorder into this folder would resume this recording",
+                       out_.file(kRecordingMarker), ec.message());
   runtime_.publish_health(odonav::msg::HEALTH_STATE_STOPPING, odonav::msg::HEALTH_LEVEL_OK, "stopped: files closed",
                           {}, true);
   dds::wait_for_acknowledgments_logged(runtime_.health().writer(), std::chrono::seconds(1));

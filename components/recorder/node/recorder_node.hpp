@@ -13,6 +13,7 @@
 #include <optional>
 #include <string>
 
+#include "core/recording_resume.hpp"
 #include "odonav/csv_writer.hpp"
 #include "odonav/dds/component.hpp"
 #include "odonav/gap_detector.hpp"
@@ -112,6 +113,14 @@ class RecorderNode {
   int run();
 
  private:
+  /// Writes the adopted rows into the new files, syncs them, takes the marker over, removes the
+  /// orphans, and starts each file's repeat check and gap count after its last adopted row.
+  void adopt_resumed_rows();
+  /// Every row written so far to the files' temporaries (a killed recorder leaves them on disk).
+  void flush_files();
+  /// Offers a row's stamp to the gap count (a hole is logged and goes to gaps.csv).
+  void note_dead_reckoning_gap(double t_s);
+  void note_navigation_gap(double t_s);
   void on_misalignment(const odonav::msg::Misalignment& m);
   void on_scale_factor(const odonav::msg::ScaleFactor& m);
   void write_scale_factor(const odonav::msg::ScaleFactor& m);
@@ -128,20 +137,24 @@ class RecorderNode {
   dds::ComponentRuntime& runtime_;
   RecorderSettings settings_;
   OutputDirectory out_;  // checked (and created) before any file is opened
+  ResumePlan resume_;    // decided (and the marker written) before any file is opened
   results::MisalignmentCsv misalignment_csv_;
   results::ScaleFactorCsv scale_factor_csv_;
   results::DeadReckoningCsv dead_reckoning_csv_;
   results::NavigationPositionCsv navigation_position_csv_;
   GapsCsv gaps_csv_;
   // Worker thread only:
-  std::optional<double> last_misalignment_t_s_, last_scale_factor_t_s_, last_dead_reckoning_t_s_;
-  std::optional<double> last_navigation_t_s_;
-  std::uint64_t navigation_rows_ = 0, navigation_repeated_ = 0, navigation_backwards_ = 0;
-  std::uint64_t rows_[3] = {0, 0, 0};      // misalignment, scale factor, dead reckoning
-  std::uint64_t repeated_[3] = {0, 0, 0};  // heartbeats and repeats (same stamp): not written
-  // A restarted producer's catch-up was told once: misalignment, dead reckoning, navigation position.
-  bool replay_logged_[3] = {false, false, false};
-  std::uint64_t backwards_[3] = {0, 0, 0};
+  // Per file, a row at or before the last one written is a repeat (heartbeats, a restarted
+  // producer's catch-up, the producers' history handed again to a restarted recorder).
+  RowStamps misalignment_stamps_, scale_factor_stamps_, dead_reckoning_stamps_, navigation_stamps_;
+  std::uint64_t navigation_rows_ = 0;
+  std::uint64_t rows_[3] = {0, 0, 0};      // misalignment, scale factor, dead reckoning (this process)
+  bool misalignment_replay_logged_ = false;  // a restarted calibration's catch-up was told once
+  std::uint64_t adopted_rows_ = 0, adopted_torn_lines_ = 0;  // of the unfinished recording resumed
+  std::string resumed_text_;                                 // what was adopted, for health
+  double resumed_wall_s_ = 0.0;                              // steady clock, when it was adopted
+  std::optional<double> resumed_from_s_;                     // its first row (s), any file
+  bool unflushed_ = false;                                   // rows written since the last flush
   std::optional<odonav::msg::ScaleFactor> last_k_;
   SourceArbiter<odonav::msg::ScaleFactor> k_arbiter_;
   GapDetector dr_gaps_{settings_.dead_reckoning_period_s};  // holes in the dead-reckoning rows

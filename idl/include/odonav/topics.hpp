@@ -54,6 +54,9 @@ inline constexpr const char* kGroundEstimateReaderProfile = "odonav_ground_estim
 /// Recorders (odonav-recorder, odonav-ground record): every estimate, KEEP_LAST 1000 per vehicle.
 inline constexpr const char* kMisalignmentRecorderReaderProfile = "odonav_misalignment_recorder_reader";
 inline constexpr const char* kScaleFactorRecorderReaderProfile = "odonav_scale_factor_recorder_reader";
+/// odonav-recorder's dead-reckoning and navigation-position readers: odonav_dead_reckoning_reader
+/// with TRANSIENT_LOCAL durability, so a restarted recorder gets the writers' 30 s of history.
+inline constexpr const char* kDeadReckoningRecorderReaderProfile = "odonav_dead_reckoning_recorder_reader";
 /// The participant profile of deploy/profiles/loopback.xml (tests, demo: all traffic on lo).
 inline constexpr const char* kLoopbackParticipantProfile = "loopback_only";
 

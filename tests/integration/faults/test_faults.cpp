@@ -15,6 +15,8 @@
 //      present and equal to odonav-offline's, and the recorder's gaps.csv is empty.
 //   4. the identification killed for good (domain 162): the recorder's gaps.csv names the GNSS epochs
 //      left without a K (against the dataset), and dead reckoning's health the outputs on the K held.
+//      In the same run the recorder is killed (-9) and restarted: it resumes its recording, and every
+//      other row is there and equal to odonav-offline's.
 // The restart loop (1) also runs on the vehicle profile, in a network namespace of its own (root).
 // ODONAV_FAULTS_PROFILE=<participant profile file> runs both against other profiles (with the qos.xml
 // beside it), e.g. the shared-memory ones of an earlier version, for the before/after figures;
@@ -384,12 +386,10 @@ std::string missing_rows(const std::vector<Row>& got, const std::vector<Row>& re
   return out.str();
 }
 
-/// The recorder's rows in `out` against odonav-offline's in `offline_dir`: every row present (the
-/// missing ones printed as runs) and equal row by row (the pipeline test's 1e-9).
+/// The recorder's rows against odonav-offline's: every row present (the missing ones printed as
+/// runs) and equal row by row (the pipeline test's 1e-9).
 /// navigation: the navigation_position rows too (present, and equal to offline's).
-void expect_rows_equal_offline(const std::string& out, const std::string& offline_dir, bool navigation = false) {
-  const results::OutputRows pipe = results::read_output_rows(out);
-  const results::OutputRows ref = results::read_output_rows(offline_dir);
+void expect_rows_equal(const results::OutputRows& pipe, const results::OutputRows& ref, bool navigation = false) {
   std::size_t lost_mis = 0, lost_k = 0, lost_dr = 0;
   const std::string gaps_mis = missing_rows(pipe.misalignment, ref.misalignment, lost_mis);
   const std::string gaps_k = missing_rows(pipe.scale_factor, ref.scale_factor, lost_k);
@@ -480,6 +480,11 @@ void expect_rows_equal_offline(const std::string& out, const std::string& offlin
     ASSERT_NEAR(a.north_m, b.north_m, kTol) << "navigation position row " << i;
     ASSERT_EQ(a.status, b.status) << "navigation position row " << i;
   }
+}
+
+/// The recorder's rows in `out` against odonav-offline's in `offline_dir` (expect_rows_equal).
+void expect_rows_equal_offline(const std::string& out, const std::string& offline_dir, bool navigation = false) {
+  expect_rows_equal(results::read_output_rows(out), results::read_output_rows(offline_dir), navigation);
 }
 
 TEST_F(Faults, FiveSecondStallsOfIdentificationDeadReckoningAndGatewayLoseNothing) {
@@ -814,7 +819,9 @@ std::vector<GapsCsvRow> read_gaps(const std::string& path) {
 
 TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHealth) {
   // 60 s of the ring at 3x real time; the identification is killed (SIGKILL) once its K passes
-  // t = 25 s and never comes back. Dead reckoning (--max-wait-s 2) goes on on the last K: every
+  // t = 25 s and never comes back. The recorder is killed too (SIGKILL) at t = 40 s and restarted
+  // 2 s later (6 s of data) with the same command: it resumes its recording, and the producers'
+  // history gives it the rows of its downtime, so the recording still lacks only the K. Dead reckoning (--max-wait-s 2) goes on on the last K: every
   // output from the first GNSS epoch without a K (+ the 0.2 s hold-off) on is on a held K, and its
   // health says which (counters and reason). The recording names the loss in gaps.csv: the GNSS
   // epochs after the last scale-factor row, to the end, counted against the dataset's gnss.csv
@@ -830,9 +837,10 @@ TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHe
   odonav::dds::Participant participant(participant_options(kDomain));
   TimedCollector<msg::ScaleFactor> k(participant, topics::kScaleFactor, topics::kScaleFactorRecorderReaderProfile);
   TimedCollector<msg::Health> health(participant, topics::kHealth, topics::kHealthReaderProfile);
+  TimedCollector<msg::Misalignment> misalignment(participant, topics::kMisalignment, topics::kEstimateReaderProfile);
   const std::vector<std::string> node = common_args(kDomain, {"--max-wait-s", "2", "--lever-arm", arm});
-  auto recorder = start_logged("odonav-recorder", common_args(kDomain, {"--out", out, "--log-level", "info"}),
-                               dir + "/recorder.log");
+  const std::vector<std::string> recorder_args = common_args(kDomain, {"--out", out, "--log-level", "info"});
+  auto recorder = start_logged("odonav-recorder", recorder_args, dir + "/recorder.log");
   auto dead_reckoning = start_logged("odonav-dead-reckoning", node, dir + "/dr.log");
   auto calibration = start_logged("odonav-calibration", node, dir + "/calibration.log");
   auto identification = start_logged("odonav-identification", node, dir + "/id.log");
@@ -845,6 +853,15 @@ TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHe
       << read_text(dir + "/id.log") << read_text(dir + "/gateway.log");
   identification->signal(SIGKILL);
   ASSERT_TRUE(identification->wait_exit(seconds(5)));
+  ASSERT_TRUE(misalignment.wait_until([](const auto& v) { return !v.empty() && stamp_s(v.back().sample) >= 40.0; },
+                                      seconds(90)))
+      << read_text(dir + "/calibration.log");
+  recorder->signal(SIGKILL);
+  ASSERT_TRUE(recorder->wait_exit(seconds(5)));
+  const double recorder_killed_s = stamp_s(misalignment.items().back().sample);
+  std::this_thread::sleep_for(seconds(2));
+  recorder = start_logged("odonav-recorder", recorder_args, dir + "/recorder-2.log");
+  ASSERT_TRUE(recorder->started());
 
   ASSERT_TRUE(gateway->wait_exit(seconds(120))) << read_text(dir + "/gateway.log");
   for (auto* c : {&calibration, &dead_reckoning, &recorder}) {
@@ -874,10 +891,72 @@ TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHe
   EXPECT_NEAR(gaps[0].first_s, lost.front(), 1e-6);
   EXPECT_NEAR(gaps[0].last_s, lost.back(), 1e-6);
   EXPECT_EQ(gaps[0].count, lost.size());
-  EXPECT_NE(read_text(dir + "/recorder.log").find("gaps.csv: 1 spans missing: rt/odonav/scale_factor " +
-                                                  std::to_string(lost.size())),
+  const std::string restarted_log = read_text(dir + "/recorder-2.log");
+  EXPECT_NE(restarted_log.find("gaps.csv: 1 spans missing: rt/odonav/scale_factor " + std::to_string(lost.size())),
             std::string::npos)
-      << read_text(dir + "/recorder.log");
+      << restarted_log;
+
+  // The restarted recorder adopted the killed one's rows (its log says which), removed its
+  // temporaries, and every row but the K after the identification's death is there and equal to
+  // odonav-offline's: misalignment, K, dead reckoning and navigation position up to the first
+  // output on the held K (offline goes on identifying K, so the positions differ from there on),
+  // and present after it.
+  std::cerr << "recorder killed at t=" << recorder_killed_s << " s and restarted 2 s later\n";
+  for (const char* file : {"misalignment.csv", "scale_factor.csv", "dead_reckoning.csv", "navigation_position.csv"})
+    EXPECT_NE(restarted_log.find(std::string("rows of ") + file + " from " + out + "/" + file + ".tmp-"),
+              std::string::npos)
+        << file << " not adopted:\n" << restarted_log;
+  for (const auto& entry : fs::directory_iterator(out))
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos) << entry.path() << " left over";
+  EXPECT_FALSE(fs::exists(out + "/.odonav-recording")) << "the finished recording still has its marker";
+  const std::string offline_dir = dir + "/offline";
+  ASSERT_EQ(run(binary("odonav-offline") + " " + dir + "/dataset --out " + offline_dir + " >" + dir +
+                "/offline.log 2>&1"),
+            0)
+      << read_text(dir + "/offline.log");
+  results::OutputRows ref = results::read_output_rows(offline_dir);
+  results::OutputRows got = rows;
+  std::cerr << "recording: " << got.misalignment.size() << " misalignment, " << got.scale_factor.size() << " K, "
+            << got.dead_reckoning.size() << " DR, " << got.navigation_position.size()
+            << " navigation rows; odonav-offline: " << ref.misalignment.size() << ", " << ref.scale_factor.size()
+            << ", " << ref.dead_reckoning.size() << ", " << ref.navigation_position.size() << "\n";
+  ref.scale_factor.erase(std::remove_if(ref.scale_factor.begin(), ref.scale_factor.end(),
+                                        [&](const auto& r) { return r.t_s > last_k_s + 1e-6; }),
+                         ref.scale_factor.end());
+  const double held_from_s = lost.front() + 0.2 - 1e-6;  // the first output on the held K
+  std::size_t dr_after = 0, nav_after = 0;
+  std::set<double> got_dr_after, got_nav_after;
+  for (const auto& r : got.dead_reckoning)
+    if (r.t_s >= held_from_s) got_dr_after.insert(r.t_s);
+  for (const auto& r : got.navigation_position)
+    if (r.t_s >= held_from_s) got_nav_after.insert(r.t_s);
+  for (const auto& r : ref.dead_reckoning)
+    if (r.t_s >= held_from_s) dr_after += got_dr_after.count(r.t_s) == 0 ? 1 : 0;
+  for (const auto& r : ref.navigation_position)
+    if (r.t_s >= held_from_s) nav_after += got_nav_after.count(r.t_s) == 0 ? 1 : 0;
+  EXPECT_EQ(dr_after, 0u) << "dead-reckoning rows missing after the K held";
+  EXPECT_EQ(nav_after, 0u) << "navigation-position rows missing after the K held";
+  EXPECT_EQ(got_dr_after.size(), got.dead_reckoning.size() - std::count_if(got.dead_reckoning.begin(),
+                                                                          got.dead_reckoning.end(),
+                                                                          [&](const auto& r) {
+                                                                            return r.t_s < held_from_s;
+                                                                          }))
+      << "dead-reckoning rows not in time order or repeated";
+  auto before_held = [&](auto& v) {
+    v.erase(std::remove_if(v.begin(), v.end(), [&](const auto& r) { return r.t_s >= held_from_s; }), v.end());
+  };
+  before_held(ref.dead_reckoning);
+  before_held(got.dead_reckoning);
+  before_held(ref.navigation_position);
+  before_held(got.navigation_position);
+  ASSERT_NO_FATAL_FAILURE(expect_rows_equal(got, ref));
+  ASSERT_EQ(got.navigation_position.size(), ref.navigation_position.size());
+  for (std::size_t i = 0; i < ref.navigation_position.size(); ++i) {
+    ASSERT_NEAR(got.navigation_position[i].t_s, ref.navigation_position[i].t_s, 1e-9) << "navigation row " << i;
+    ASSERT_NEAR(got.navigation_position[i].lat_rad, ref.navigation_position[i].lat_rad, 1e-9) << "navigation row " << i;
+    ASSERT_NEAR(got.navigation_position[i].lon_rad, ref.navigation_position[i].lon_rad, 1e-9) << "navigation row " << i;
+    ASSERT_EQ(got.navigation_position[i].status, ref.navigation_position[i].status) << "navigation row " << i;
+  }
 
   // Dead reckoning: its last health with the held-K counters names the span and the K held.
   const msg::Health* last = nullptr;

@@ -65,8 +65,13 @@ const std::map<std::string, ExpectedQos>& expected_qos() {
        {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1000, kNoDeadline}},
       {topics::kScaleFactorRecorderReaderProfile,
        {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1000, kNoDeadline}},
-      {topics::kDeadReckoningWriterProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 3000, kNoDeadline}},
+      // Dead-reckoning writers keep 30 s for a restarted recorder (its reader asks for them); the
+      // other readers are VOLATILE.
+      {topics::kDeadReckoningWriterProfile,
+       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 3000, kNoDeadline}},
       {topics::kDeadReckoningReaderProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 3000, kNoDeadline}},
+      {topics::kDeadReckoningRecorderReaderProfile,
+       {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 3000, kNoDeadline}},
       {topics::kHealthWriterProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 3.0}},
       {topics::kHealthReaderProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 3.0}},
       {topics::kCommandWriterProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 10, kNoDeadline}},
@@ -132,6 +137,13 @@ TEST(QosProfiles, EveryProfileHasTheDocumentedQosAndTopicsMatchTheirReaders) {
       ASSERT_EQ(subscriber.get_datareader_qos_from_profile(topics::kSensorReplayReaderProfile, extra.back()),
                 ReturnCode_t::RETCODE_OK);
       expect_qos(topics::kSensorReplayReaderProfile, extra.back());
+    }
+    // The dead-reckoning topics' other reader: odonav-recorder's, which asks for the history.
+    if (std::string(spec.writer_profile) == topics::kDeadReckoningWriterProfile) {
+      extra.emplace_back();
+      ASSERT_EQ(subscriber.get_datareader_qos_from_profile(topics::kDeadReckoningRecorderReaderProfile, extra.back()),
+                ReturnCode_t::RETCODE_OK);
+      expect_qos(topics::kDeadReckoningRecorderReaderProfile, extra.back());
     }
     for (const DataReaderQos& q : extra) readers.push_back(&q);
     // DDS request/offer rules, so every reader of the topic matches its writer.

@@ -184,6 +184,42 @@ TEST(AtomicFile, AFailedWriteIsAnErrorNamingThePathAndTheOldFileSurvives) {
   EXPECT_FALSE(g.committed());
 }
 
+TEST(AtomicFile, KeptOnFailureAnAbandonedOrFailedFileLeavesItsTemporaryAndTheOldFile) {
+  Scratch s;
+  put(s / "rows.csv", "old\n");
+  const std::string temporary = (s / "rows.csv") + ".tmp-" + std::to_string(::getpid());
+  {
+    AtomicFile f(s / "rows.csv");
+    f.keep_on_failure();
+    f.write("t\n1\n");
+  }  // abandoned: an exception in the run
+  EXPECT_EQ(read(s / "rows.csv"), "old\n");
+  EXPECT_EQ(read(temporary), "t\n1\n");
+  // A failed write (the file-size limit, as a full disk): what reached the file stays.
+  struct rlimit old_limit {};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old_limit), 0);
+  const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+  struct rlimit small = old_limit;
+  small.rlim_cur = 4096;
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  std::string why;
+  {
+    AtomicFile f(s / "rows.csv");
+    f.keep_on_failure();
+    why = refusal([&] {
+      f.write(std::string(100, 'r'));
+      f.flush(false);
+      f.write(std::string(8192, 'x'));
+      f.commit();
+    });
+  }
+  ::setrlimit(RLIMIT_FSIZE, &old_limit);
+  std::signal(SIGXFSZ, old_handler);
+  EXPECT_NE(why.find("rows.csv"), std::string::npos) << why;
+  EXPECT_EQ(read(s / "rows.csv"), "old\n");
+  EXPECT_EQ(read(temporary).substr(0, 100), std::string(100, 'r'));
+}
+
 TEST(AtomicFile, RefusesToWriteThroughALinkPlantedAtTheRealName) {
   Scratch s;
   put(s / "victim", "precious");

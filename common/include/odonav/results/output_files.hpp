@@ -35,6 +35,11 @@ namespace odonav::results {
 
 /// The estimator columns of scale_factor.csv, in order.
 const std::vector<std::string>& scale_factor_estimator_columns();
+/// Each file's header (its columns, in order), as its writer writes it.
+const std::vector<std::string>& misalignment_columns();
+const std::vector<std::string>& scale_factor_columns();
+const std::vector<std::string>& dead_reckoning_columns();
+const std::vector<std::string>& navigation_position_columns();
 
 /// One misalignment.csv row (angles in radians here, degrees in the file).
 struct MisalignmentRow {
@@ -99,6 +104,7 @@ class MisalignmentCsv {
   explicit MisalignmentCsv(const std::string& path);
   void write(const MisalignmentRow& row);
   void close() { csv_.close(); }
+  CsvWriter& csv() { return csv_; }  ///< rows adopted as text, flushes (odonav-recorder)
  private:
   CsvWriter csv_;
 };
@@ -108,6 +114,7 @@ class ScaleFactorCsv {
   explicit ScaleFactorCsv(const std::string& path);
   void write(const ScaleFactorRow& row);
   void close() { csv_.close(); }
+  CsvWriter& csv() { return csv_; }  ///< rows adopted as text, flushes (odonav-recorder)
  private:
   CsvWriter csv_;
 };
@@ -117,6 +124,7 @@ class DeadReckoningCsv {
   explicit DeadReckoningCsv(const std::string& path);
   void write(const DeadReckoningRow& row);
   void close() { csv_.close(); }
+  CsvWriter& csv() { return csv_; }  ///< rows adopted as text, flushes (odonav-recorder)
  private:
   CsvWriter csv_;
 };
@@ -126,6 +134,7 @@ class NavigationPositionCsv {
   explicit NavigationPositionCsv(const std::string& path);
   void write(const NavigationPositionRow& row);
   void close() { csv_.close(); }
+  CsvWriter& csv() { return csv_; }  ///< rows adopted as text, flushes (odonav-recorder)
  private:
   CsvWriter csv_;
 };
