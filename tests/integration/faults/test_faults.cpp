@@ -6,7 +6,8 @@
 //   2. stalls: SIGSTOP 5 s of the identification, of dead reckoning and of the gateway in one
 //      deploy/launch run (3x real time, so the consumers wait for each other): every output row is
 //      present afterwards and equal to odonav-offline's, and after the gateway's stall the data flows
-//      again (rows counted, not timed).
+//      again (rows counted, not timed). Then dead reckoning is killed (-9): the launcher starts it
+//      again, it resumes from its checkpoint, and the rows are still all there and equal.
 //   3. kill -9 + restart, 2 s later, of two components at different times of one drive: the
 //      identification (t=30 s) and dead reckoning (t=75 s) on domain 195, the calibration (t=52.5 s)
 //      and dead reckoning (t=95 s) on domain 196: each resumes from its checkpoint, processes the
@@ -572,9 +573,25 @@ TEST_F(Faults, FiveSecondStallsOfIdentificationDeadReckoningAndGatewayLoseNothin
   std::cerr << "peak RSS (kB, VmHWM before the end):";
   for (const auto& [c, kb] : rss) std::cerr << " " << c << " " << kb;
   std::cerr << "\n";
+
+  // The launcher supervises like the systemd units: dead reckoning killed now is started again
+  // (its checkpoint in out/state) and resumes; the gateway's lost reader is that dead instance's.
+  const pid_t dr_pid = read_pid(logs + "/odonav-dead-reckoning.pid");
+  ASSERT_GT(dr_pid, 0);
+  ASSERT_EQ(::kill(dr_pid, SIGKILL), 0);
+  std::cerr << "SIGKILL odonav-dead-reckoning (pid " << dr_pid << ")\n";
+
   ASSERT_TRUE(launcher.wait_exit(seconds(240 + static_cast<int>(std::stod(duration) / std::stod(speed)))))
       << read_text(out + ".launch.log");
   ASSERT_EQ(launcher.exit_code(), 0) << read_text(out + ".launch.log");
+  const std::string launch_log = read_text(out + ".launch.log");
+  EXPECT_NE(launch_log.find("odonav-dead-reckoning died while waiting for odonav-gateway (killed by signal 9); "
+                            "started again (restart 1 of at most 5)"),
+            std::string::npos)
+      << launch_log;
+  EXPECT_NE(launch_log.find("1 restart(s) during the run"), std::string::npos) << launch_log;
+  EXPECT_NE(read_text(logs + "/odonav-dead-reckoning.log").find("restored"), std::string::npos)
+      << read_text(logs + "/odonav-dead-reckoning.log");
 
   const std::string offline_dir = out + "/offline-check";
   ASSERT_EQ(run(binary("odonav-offline") + " " + out + "/dataset --out " + offline_dir + " >" + out +
