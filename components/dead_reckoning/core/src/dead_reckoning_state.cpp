@@ -7,6 +7,7 @@
 #include "odonav/checkpoint_file.hpp"
 #include "odonav/dead_reckoning/anchored_position.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/stream_state_text.hpp"
 
 namespace odonav {
 
@@ -16,30 +17,13 @@ constexpr int kStateVersion = 1;
 
 using Values = std::vector<double>;
 
-Values optional_values(const std::optional<double>& v) { return v ? Values{*v} : Values{}; }
+Values optional_values(const std::optional<double>& v) { return optional_state_values(v); }
 std::optional<double> optional_of(const Values& v) {
   return v.empty() ? std::nullopt : std::optional<double>(v[0]);
 }
+constexpr std::size_t kGnssValues = kGnssStateValues;
 void append(Values& out, std::initializer_list<double> v) { out.insert(out.end(), v.begin(), v.end()); }
 
-// GNSS sample: t, lat, lon, h, ve, vn, vu, has pos_std, pos_std, has vel_std, vel_std, fix.
-constexpr std::size_t kGnssValues = 12;
-void append_gnss(Values& out, const GnssSample& g) {
-  append(out, {g.t_s, g.position.lat_rad, g.position.lon_rad, g.position.height_m, g.vel_enu_mps.x(),
-               g.vel_enu_mps.y(), g.vel_enu_mps.z(), g.pos_std_m ? 1.0 : 0.0, g.pos_std_m.value_or(0.0),
-               g.vel_std_mps ? 1.0 : 0.0, g.vel_std_mps.value_or(0.0), static_cast<double>(g.fix)});
-}
-GnssSample gnss_of(const double* v) {
-  GnssSample g;
-  g.t_s = v[0];
-  g.position = Geodetic{v[1], v[2], v[3]};
-  g.vel_enu_mps = Eigen::Vector3d(v[4], v[5], v[6]);
-  if (v[7] != 0.0) g.pos_std_m = v[8];
-  if (v[9] != 0.0) g.vel_std_mps = v[10];
-  g.fix = static_cast<int>(v[11]);
-  if (static_cast<double>(g.fix) != v[11]) throw CheckpointError("a GNSS sample's fix quality is not an integer");
-  return g;
-}
 // Anchor fix: t, fix ENU (3), DR ENU (3), distance, sigma.
 constexpr std::size_t kFixValues = 9;
 void append_fix(Values& out, const AnchorFix& f) {
@@ -65,39 +49,18 @@ std::string DeadReckoner::save_state() const {
   std::string s = std::string(kStateMagic) + " " + std::to_string(kStateVersion) + "\n";
   auto line = [&](const char* key, const Values& v) { s += checkpoint_value_list(key, v); };
 
-  const OdometerBuffer::State od = odometer_.state();
-  Values v;
-  auto odo_entry = [](Values& out, const OdometerBuffer::Entry& e) {
-    append(out, {e.t_s, static_cast<double>(e.count), static_cast<double>(e.raw_pulses), static_cast<double>(e.direction)});
-  };
-  for (const auto& e : od.entries) odo_entry(v, e);
-  line("odometer_entries", v);
-  v.clear();
-  if (od.last_accepted) odo_entry(v, *od.last_accepted);
-  line("odometer_last_accepted", v);
-  v.clear();
-  if (od.rejected) odo_entry(v, *od.rejected);
-  line("odometer_rejected", v);
-  line("odometer_gate", {od.last_rate_pulses_per_s, static_cast<double>(od.jumps_rejected), static_cast<double>(od.rebases)});
-  line("odometer_last_t_s", optional_values(od.last_t_s));
+  s += odometer_buffer_state_lines(odometer_.state());
   line("odometer_pending_t_s", Values(pending_odometer_t_s_.begin(), pending_odometer_t_s_.end()));
-
-  const AttitudeBuffer::State at = attitude_.state();
-  v.clear();
-  for (const auto& e : at.entries) append(v, {e.t_s, e.attitude.heading_rad, e.attitude.pitch_rad, e.attitude.roll_rad});
-  line("attitude_entries", v);
-  line("attitude_last_t_s", optional_values(at.last_t_s));
-
-  v.clear();
-  for (const GnssSample& g : gnss_) append_gnss(v, g);
-  line("gnss", v);
+  s += attitude_buffer_state_lines(attitude_.state());
+  s += gnss_samples_state_line("gnss", gnss_);
+  Values v;
   line("gnss_gap_s", Values(gnss_gap_s_.begin(), gnss_gap_s_.end()));
   line("gnss_intervals_s", Values(gnss_intervals_s_.begin(), gnss_intervals_s_.end()));
   line("gnss_last_gap_s", {last_gnss_gap_s_});
   line("gnss_last_t_s", optional_values(last_gnss_t_s_));
   v.clear();
   for (const auto& [g, gap] : error_epochs_) {
-    append_gnss(v, g);
+    append_gnss_state_values(v, g);
     v.push_back(gap);
   }
   line("error_epochs", v);
@@ -119,11 +82,7 @@ std::string DeadReckoner::save_state() const {
   for (const auto& [t, e] : k.entries) append(v, {t, e.k_m_per_pulse, static_cast<double>(static_cast<int>(e.source))});
   line("k_history", v);
   line("k_history_last_t_s", optional_values(k.last_t_s));
-  const auto m = misalignment_.state();
-  v.clear();
-  for (const auto& [t, e] : m.entries) append(v, {t, e.heading_rad, e.pitch_rad});
-  line("misalignment_history", v);
-  line("misalignment_history_last_t_s", optional_values(m.last_t_s));
+  s += misalignment_history_state_lines("misalignment_history", misalignment_.state());
   const auto l = gnss_latency_.state();
   v.clear();
   for (const auto& [t, e] : l.entries) append(v, {t, e});
@@ -184,42 +143,11 @@ void DeadReckoner::restore_state(const std::string& text) {
   };
   constexpr std::size_t kMany = 10000000;
 
-  auto odo_entry = [](const double* v) {
-    OdometerBuffer::Entry e;
-    e.t_s = v[0];
-    e.count = static_cast<int64_t>(v[1]);
-    e.raw_pulses = static_cast<uint32_t>(v[2]);
-    e.direction = static_cast<int>(v[3]);
-    if (static_cast<double>(e.count) != v[1] || static_cast<double>(e.raw_pulses) != v[2] || e.direction < -1 ||
-        e.direction > 1)
-      throw CheckpointError("an odometer entry has a bad count, pulses or direction");
-    return e;
-  };
-  OdometerBuffer::State od;
-  Values v = records("odometer_entries", 4, kMany);
-  for (std::size_t i = 0; i < v.size(); i += 4) od.entries.push_back(odo_entry(&v[i]));
-  v = records("odometer_last_accepted", 4, 1);
-  if (!v.empty()) od.last_accepted = odo_entry(v.data());
-  v = records("odometer_rejected", 4, 1);
-  if (!v.empty()) od.rejected = odo_entry(v.data());
-  v = r.value_list("odometer_gate", 3, 3);
-  if (v.size() != 3) throw CheckpointError("field 'odometer_gate' does not hold 3 values");
-  od.last_rate_pulses_per_s = v[0];
-  od.jumps_rejected = static_cast<uint64_t>(v[1]);
-  od.rebases = static_cast<uint64_t>(v[2]);
-  od.last_t_s = opt("odometer_last_t_s");
-  d.odometer_.restore_state(std::move(od));
-  v = r.value_list("odometer_pending_t_s");
+  d.odometer_.restore_state(read_odometer_buffer_state(r));
+  Values v = r.value_list("odometer_pending_t_s");
   d.pending_odometer_t_s_.assign(v.begin(), v.end());
-
-  AttitudeBuffer::State at;
-  v = records("attitude_entries", 4, kMany);
-  for (std::size_t i = 0; i < v.size(); i += 4) at.entries.push_back({v[i], Attitude{v[i + 1], v[i + 2], v[i + 3]}});
-  at.last_t_s = opt("attitude_last_t_s");
-  d.attitude_.restore_state(std::move(at));
-
-  v = records("gnss", kGnssValues, kMany);
-  for (std::size_t i = 0; i < v.size(); i += kGnssValues) d.gnss_.push_back(gnss_of(&v[i]));
+  d.attitude_.restore_state(read_attitude_buffer_state(r));
+  d.gnss_ = read_gnss_samples_state(r, "gnss");
   v = r.value_list("gnss_gap_s");
   d.gnss_gap_s_.assign(v.begin(), v.end());
   if (d.gnss_gap_s_.size() != d.gnss_.size()) throw CheckpointError("field 'gnss_gap_s' does not match 'gnss'");
@@ -233,7 +161,7 @@ void DeadReckoner::restore_state(const std::string& text) {
   d.last_gnss_t_s_ = opt("gnss_last_t_s");
   v = records("error_epochs", kGnssValues + 1, kMany);
   for (std::size_t i = 0; i < v.size(); i += kGnssValues + 1)
-    d.error_epochs_.emplace_back(gnss_of(&v[i]), v[i + kGnssValues]);
+    d.error_epochs_.emplace_back(gnss_from_state_values(&v[i]), v[i + kGnssValues]);
   v = records("past_outputs", 9, kMany);
   for (std::size_t i = 0; i < v.size(); i += 9)
     d.past_.push_back(Past{v[i], Eigen::Vector3d(v[i + 1], v[i + 2], v[i + 3]), v[i + 4],
@@ -249,11 +177,7 @@ void DeadReckoner::restore_state(const std::string& text) {
     k.entries.emplace_back(v[i], KInForce{finite_or_throw(v[i + 1], "k_history"), source_of(v[i + 2])});
   k.last_t_s = opt("k_history_last_t_s");
   d.k_history_.restore_state(std::move(k));
-  decltype(misalignment_)::State m;
-  v = records("misalignment_history", 3, kMany);
-  for (std::size_t i = 0; i < v.size(); i += 3) m.entries.emplace_back(v[i], Misalignment{v[i + 1], v[i + 2]});
-  m.last_t_s = opt("misalignment_history_last_t_s");
-  d.misalignment_.restore_state(std::move(m));
+  d.misalignment_.restore_state(read_misalignment_history_state(r, "misalignment_history"));
   decltype(gnss_latency_)::State l;
   v = records("gnss_latency_history", 2, kMany);
   for (std::size_t i = 0; i < v.size(); i += 2) l.entries.emplace_back(v[i], v[i + 1]);
