@@ -343,6 +343,16 @@ class SampleBuilder {
   /// The GNSS latency in force and its online estimate.
   const GnssLatencyEstimate& latency() const { return latency_; }
 
+  /// Everything the builder holds besides its parameters, as text (every double exact): the
+  /// buffered inputs not processed yet, the sample chain, the gates' references, the observed GNSS
+  /// period, the latency estimate with its sums, the counters. A builder made with the same
+  /// parameters and given restore_state(save_state()) continues exactly as this one would (a
+  /// component checkpoint; the inputs it had taken in must then not be added again).
+  std::string save_state() const;
+  /// Throws CheckpointError (checkpoint_file.hpp) naming the field when the text is not a state of
+  /// a builder with these parameters; the builder is unchanged then.
+  void restore_state(const std::string& text);
+
  private:
   struct GoodEpoch {
     double t_s;

@@ -125,7 +125,7 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
   if (params_.builder.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
   // Before any reader exists: no sample can reach the core before the restored state.
-  lifecycle_.start(core_.main_estimator(), static_cast<int64_t>(std::time(nullptr)), dds::steady_now_s());
+  lifecycle_.start(core_, static_cast<int64_t>(std::time(nullptr)), dds::steady_now_s());
   scale_factor_ = std::make_unique<dds::EstimatePublisher<odonav::msg::ScaleFactor>>(
       runtime.participant(), topics::kScaleFactor.name, topics::kScaleFactor.writer_profile,
       instance_.heartbeat_period_s,
@@ -203,6 +203,8 @@ void IdentificationNode::close_inputs() {
 }
 
 void IdentificationNode::on_misalignment(const odonav::msg::Misalignment& m, double t_s) {
+  // After a restore the calibration's history comes again: what the restored core holds is skipped.
+  if (lifecycle_.skip_sample(IdentificationInput::kMisalignment, t_s)) return;
   // Same rule as odonav-offline (consumer_rules.hpp).
   if (!misalignment_applicable(m.converged(), m.samples_used(), m.heading_rad(), m.pitch_rad(), m.heading_std_rad(),
                                m.pitch_std_rad())) return;
@@ -212,8 +214,7 @@ void IdentificationNode::on_misalignment(const odonav::msg::Misalignment& m, dou
   // of epoch g.
   core_.add_misalignment(estimate_applies_from_s(t_s, params_.estimate_hold_off_s),
                          Misalignment{m.heading_rad(), m.pitch_rad()});
-  ++misalignments_applied_;
-  held_misalignment_t_s_ = t_s;
+  lifecycle_.note_misalignment_applied(t_s);
 }
 
 void IdentificationNode::publish(const std::vector<IdentificationOutput>& outputs) {
@@ -222,7 +223,7 @@ void IdentificationNode::publish(const std::vector<IdentificationOutput>& output
       lifecycle_.outputs_to_publish(outputs, now);
   for (const IdentificationOutput& o : to_publish) write_scale_factor(o, now);
   count_outputs(to_publish.size());
-  lifecycle_.checkpoint_if_due(core_.main_estimator());
+  lifecycle_.checkpoint_if_due(core_);
 }
 
 void IdentificationNode::write_scale_factor(const IdentificationOutput& o, double now_s) {
@@ -244,7 +245,7 @@ void IdentificationNode::process_until(double watermark_s) { publish(core_.proce
 
 void IdentificationNode::finish() {
   publish(core_.finish());
-  lifecycle_.checkpoint_at_finish(core_.main_estimator());
+  lifecycle_.checkpoint_at_finish(core_);
 }
 
 std::vector<dds::detail::WriterBase*> IdentificationNode::output_writers() { return {&scale_factor_->writer()}; }
@@ -289,8 +290,6 @@ dds::EventTimeNode::Status IdentificationNode::node_status(double now_s) {
   IdentificationHealthFacts facts = lifecycle_.health_facts(now_s);
   facts.misalignment_absent = input_absent(misalignment_, now_s);
   facts.misalignment_heard = input_heard(misalignment_, now_s);
-  facts.misalignments_applied = misalignments_applied_;
-  facts.held_misalignment_t_s = held_misalignment_t_s_;
   facts.misalignment_silent_s = aligner_.status(misalignment_.id, now_s).silent_for_s;
   const IdentificationHealth h = identification_health(facts);
   using namespace odonav::msg;
@@ -321,7 +320,7 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("rejected_yaw_rate", static_cast<double>(b.yaw_rate));
   c.emplace_back("odometer_jumps_rejected", static_cast<double>(b.odometer_jumps_rejected));
   c.emplace_back("odometer_rebases", static_cast<double>(b.odometer_rebases));
-  c.emplace_back("misalignments_applied", static_cast<double>(misalignments_applied_));
+  c.emplace_back("misalignments_applied", static_cast<double>(lifecycle_.misalignments_applied()));
   c.emplace_back("heartbeats", static_cast<double>(scale_factor_->heartbeats()));
   c.emplace_back("k_commands", static_cast<double>(k_commands_));
   c.emplace_back("ownership_strength", static_cast<double>(instance_.ownership_strength));

@@ -102,8 +102,6 @@ class IdentificationNode : public dds::EventTimeNode {
   InstanceSettings instance_;
   IdentificationCore core_;
   IdentificationLifecycle lifecycle_;
-  uint64_t misalignments_applied_ = 0;
-  std::optional<double> held_misalignment_t_s_;  // stamp of the last misalignment applied
   std::vector<std::pair<double, GnssSample>> pending_gnss_;  // after a restore, event time (s) + sample
   dds::NodeInput& odometer_;
   dds::NodeInput& gnss_;

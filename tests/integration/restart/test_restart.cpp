@@ -168,7 +168,7 @@ TEST_F(IdentificationRestart, CorruptCheckpointsAreMovedAsideAndTheNodeStartsFro
 
   // 2. The good checkpoint that run wrote at shutdown, truncated in its middle (a torn write).
   const std::string good = read_text(ckpt);
-  ASSERT_NE(good.find("odonav-identification-checkpoint 1"), std::string::npos);
+  ASSERT_NE(good.find("odonav-identification-checkpoint 2"), std::string::npos);
   shm_clean();
   const std::string truncated = good.substr(0, good.size() / 2);
   run_over(103, truncated, dir + "/truncated.log", health, k);

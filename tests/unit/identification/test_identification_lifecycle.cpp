@@ -18,6 +18,7 @@
 #include "odonav/estimators.hpp"
 #include "odonav/identification/checkpoint.hpp"
 #include "odonav/identification/identification_lifecycle.hpp"
+#include "synthetic_drive.hpp"
 
 namespace {
 
@@ -32,30 +33,30 @@ constexpr int64_t kUnixTime_s = 1700000000;
 using State = IdentificationHealth::State;
 using Level = IdentificationHealth::Level;
 
-/// A vff_lm_rls estimator fed n samples of a 10 Hz GNSS at 8-12 m/s (y = K phi + 3 mm noise).
-std::unique_ptr<ScaleFactorEstimator> fed_estimator(std::size_t n) {
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> speed(8.0, 12.0);
-  std::normal_distribution<double> noise(0.0, 0.003);
-  for (std::size_t i = 0; i < n; ++i) {
-    ScaleFactorSample s;
-    s.dt_s = 0.1;
-    s.t_s = 0.1 * static_cast<double>(i + 1);
-    s.phi_pulses = std::round(speed(rng) * s.dt_s / kTrueK);
-    s.y_m = kTrueK * s.phi_pulses + noise(rng);
-    e->update(s);
-  }
-  return e;
+/// An identification core (vff_lm_rls) fed a straight 10 m/s drive of n GNSS epochs at 10 Hz
+/// (velocity noise 2 cm/s), everything processed.
+std::unique_ptr<IdentificationCore> fed_core(std::size_t n) {
+  auto core = std::make_unique<IdentificationCore>(IdentificationParams{});
+  synthetic::SensorConfig c;
+  c.duration_s = 0.1 * static_cast<double>(n);
+  c.velocity_noise_mps = 0.02;
+  c.seed = 7;
+  const synthetic::SyntheticData d = synthetic::simulate(synthetic::straight(0.5, 0.0, 10.0, 0.0), c);
+  for (const auto& s : d.odometer) core->add_odometer(s);
+  for (const auto& s : d.ins) core->add_ins(s);
+  for (const auto& s : d.gnss) core->add_gnss(s);
+  core->finish();
+  return core;
 }
+std::unique_ptr<IdentificationCore> fresh_core() { return std::make_unique<IdentificationCore>(IdentificationParams{}); }
 
-/// An output at t_s (s) with these counters and, when given, e's estimate.
+/// An output at t_s (s) with these counters and, when given, the core's estimate.
 IdentificationOutput output_at(double t_s, uint64_t accepted, uint64_t rejected,
-                               const ScaleFactorEstimator* e = nullptr) {
+                               const IdentificationCore* core = nullptr) {
   IdentificationOutput o;
   o.t_s = t_s;
   o.epoch_status = EpochStatus::kAccepted;
-  if (e) o.main = e->estimate();
+  if (core) o.main = core->main_estimator().estimate();
   o.samples_accepted = accepted;
   o.samples_rejected = rejected;
   return o;
@@ -85,12 +86,16 @@ class IdentificationLifecycleTest : public ::testing::Test {
     return CheckpointSettings{dir_.string(), every_s, hash};
   }
 
-  /// A previous run: 300 samples, its last published output at t = 30.1 s (300 accepted, 17
-  /// rejected), checkpointed. Returns the estimator it checkpointed.
-  std::unique_ptr<ScaleFactorEstimator> previous_run(const std::string& hash = kHash) {
-    auto e = fed_estimator(300);
+  /// A previous run: 300 epochs, its last published output at t = 30.1 s (300 accepted, 17
+  /// rejected), having taken in odometer up to 30.3 s, GNSS up to 30.1 s, INS up to 30.25 s and a
+  /// misalignment of 29.9 s; checkpointed. Returns the core it checkpointed.
+  std::unique_ptr<IdentificationCore> previous_run(const std::string& hash = kHash) {
+    auto e = fed_core(300);
     IdentificationLifecycle run(settings(hash), kVehicle);
     run.start(*e, kUnixTime_s, 0.0);
+    for (const auto& [input, t] : {std::pair{IdentificationInput::kOdometer, 30.3}, {IdentificationInput::kGnss, 30.1},
+                                   {IdentificationInput::kIns, 30.25}, {IdentificationInput::kMisalignment, 29.9}})
+      EXPECT_FALSE(run.skip_sample(input, t));
     run.outputs_to_publish({output_at(30.1, 300, 17, e.get())});
     run.checkpoint_if_due(*e);
     EXPECT_EQ(run.checkpoints_written(), 1u);
@@ -110,7 +115,7 @@ class IdentificationLifecycleTest : public ::testing::Test {
 // ---- restore ----
 
 TEST_F(IdentificationLifecycleTest, WithoutStateDirectoryNothingIsReadSkippedOrWritten) {
-  auto e = fed_estimator(50);
+  auto e = fed_core(50);
   IdentificationLifecycle l(CheckpointSettings{}, kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   EXPECT_FALSE(l.checkpointing());
@@ -125,7 +130,7 @@ TEST_F(IdentificationLifecycleTest, WithoutStateDirectoryNothingIsReadSkippedOrW
 }
 
 TEST_F(IdentificationLifecycleTest, NoCheckpointIsAFreshStartWithNothingSkipped) {
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   EXPECT_TRUE(fs::is_directory(dir_)) << "the state directory is created";
@@ -144,28 +149,27 @@ TEST_F(IdentificationLifecycleTest, NoCheckpointIsAFreshStartWithNothingSkipped)
 
 TEST_F(IdentificationLifecycleTest, RestoredCheckpointCarriesStateTimeAndCountersOver) {
   const auto before = previous_run();
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 1000.0);
   ASSERT_TRUE(l.restored_t_s());
   EXPECT_EQ(*l.restored_t_s(), 30.1);
-  EXPECT_EQ(l.restored_accepted(), 300u);
-  EXPECT_EQ(l.restored_rejected(), 17u);
-  EXPECT_EQ(e->estimate().k_m_per_pulse, before->estimate().k_m_per_pulse) << "bit-identical K";
-  EXPECT_EQ(e->save_state(), before->save_state());
+  EXPECT_EQ(e->main_estimator().estimate().k_m_per_pulse, before->main_estimator().estimate().k_m_per_pulse) << "bit-identical K";
+  EXPECT_EQ(e->save_state(), before->save_state()) << "the whole core: builder, estimator, counters";
+  EXPECT_EQ(e->builder_counters().epochs, before->builder_counters().epochs);
 
   const auto restored = l.take_restored_output();
   ASSERT_TRUE(restored) << "the restored K is published at once";
   EXPECT_EQ(restored->t_s, 30.1);
   EXPECT_EQ(restored->samples_accepted, 300u) << "the restored counters, not added twice";
   EXPECT_EQ(restored->samples_rejected, 17u);
-  EXPECT_EQ(restored->main.k_m_per_pulse, before->estimate().k_m_per_pulse);
+  EXPECT_EQ(restored->main.k_m_per_pulse, before->main_estimator().estimate().k_m_per_pulse);
   EXPECT_FALSE(l.take_restored_output()) << "published once";
 
   // The note: the describe() line, OK level, for 30 s of steady time.
   char expected[160];
   std::snprintf(expected, sizeof expected, "restored K=%.9g m/pulse from checkpoint (t=30.100 s)",
-                before->estimate().k_m_per_pulse);
+                before->main_estimator().estimate().k_m_per_pulse);
   IdentificationHealthFacts f = l.health_facts(1029.9);
   f.misalignment_heard = true;
   f.misalignments_applied = 3;
@@ -181,13 +185,13 @@ TEST_F(IdentificationLifecycleTest, RestoredCheckpointCarriesStateTimeAndCounter
 TEST_F(IdentificationLifecycleTest, CorruptCheckpointIsMovedAsideWithAWarnNote) {
   fs::create_directories(dir_);
   write_text(ckpt_, "odonav-identification-checkpoint 1\nvehicle vehicle-07\ngarbage");
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 500.0);
   EXPECT_TRUE(l.checkpoint_moved_aside());
   EXPECT_FALSE(l.restored_t_s());
   EXPECT_FALSE(l.take_restored_output());
-  EXPECT_FALSE(e->estimate().valid) << "starts from nominal";
+  EXPECT_FALSE(e->main_estimator().estimate().valid) << "starts from nominal";
   EXPECT_FALSE(fs::exists(ckpt_));
   EXPECT_EQ(read_text(ckpt_.string() + ".bad-1700000000"),
             "odonav-identification-checkpoint 1\nvehicle vehicle-07\ngarbage")
@@ -209,16 +213,16 @@ TEST_F(IdentificationLifecycleTest, CorruptCheckpointIsMovedAsideWithAWarnNote) 
 
 TEST_F(IdentificationLifecycleTest, CheckpointOfAnotherConfigurationIsMovedAsideAndNotRestored) {
   previous_run("fedcba9876543210");
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(kHash), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   EXPECT_TRUE(l.checkpoint_moved_aside());
   EXPECT_FALSE(l.restored_t_s());
-  EXPECT_FALSE(e->estimate().valid) << "the other configuration's state must not be loaded";
+  EXPECT_FALSE(e->main_estimator().estimate().valid) << "the other configuration's state must not be loaded";
   EXPECT_EQ(files_starting_with("identification-vehicle-07.ckpt.bad-").size(), 1u);
   EXPECT_TRUE(l.health_facts(0.0).restore_warn);
   // The next checkpoint goes under the normal name again, with this configuration's hash.
-  auto fed = fed_estimator(20);
+  auto fed = fed_core(20);
   l.outputs_to_publish({output_at(2.0, 20, 0, fed.get())});
   l.checkpoint_if_due(*fed);
   EXPECT_EQ(parse_checkpoint(read_text(ckpt_)).config_hash, kHash);
@@ -230,7 +234,7 @@ TEST_F(IdentificationLifecycleTest, AnOldPersistenceDatabaseIsLeftAloneAndTheRes
   // A state directory of an earlier version (its writer kept a SQLite history there).
   previous_run();
   write_text(db_, "SQLite format 3");
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   EXPECT_EQ(read_text(db_), "SQLite format 3") << "not read, not moved, never deleted";
@@ -241,7 +245,7 @@ TEST_F(IdentificationLifecycleTest, AnOldPersistenceDatabaseIsLeftAloneAndTheRes
 
 TEST_F(IdentificationLifecycleTest, OutputsUpToTheLiveEdgeAfterARestoreAreCatchUpUntilTheFirstLiveOne) {
   previous_run();  // checkpoint at t = 30.1 s
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 100.0);
   EXPECT_TRUE(l.catching_up());
@@ -280,13 +284,13 @@ TEST_F(IdentificationLifecycleTest, OutputsUpToTheLiveEdgeAfterARestoreAreCatchU
 
 TEST_F(IdentificationLifecycleTest, AHistoryStartingAfterTheCheckpointIsALossNamedInTheHealth) {
   previous_run();  // checkpoint at t = 30.1 s
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 100.0);
   // Down for longer than the odometer's 30 s history: its first sample is t = 42.5 s.
-  EXPECT_FALSE(l.skip_sample(IdentificationInput::kGnss, 30.1));
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kGnss, 30.1)) << "taken in before the restart";
   EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, 42.5));
-  EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, 30.5)) << "only the first sample tells";
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, 42.6)) << "only the first sample tells";
   EXPECT_TRUE(l.first_sample_seen(IdentificationInput::kOdometer));
   EXPECT_FALSE(l.first_sample_seen(IdentificationInput::kIns));
   // GNSS epochs of the lost span are skipped (no data to process them with), later ones are fed.
@@ -308,7 +312,7 @@ TEST_F(IdentificationLifecycleTest, AHistoryStartingAfterTheCheckpointIsALossNam
 }
 
 TEST_F(IdentificationLifecycleTest, AFreshStartHasNoCatchUp) {
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   EXPECT_FALSE(l.catching_up());
@@ -323,7 +327,7 @@ TEST_F(IdentificationLifecycleTest, AFreshStartHasNoCatchUp) {
 TEST_F(IdentificationLifecycleTest, UnusableStateDirectoryIsAConfigErrorNamingIt) {
   fs::create_directories(dir_.parent_path());
   write_text(dir_, "a file, not a folder");
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(), kVehicle);
   try {
     l.start(*e, kUnixTime_s, 0.0);
@@ -336,34 +340,43 @@ TEST_F(IdentificationLifecycleTest, UnusableStateDirectoryIsAConfigErrorNamingIt
 
 // ---- after a restore: skipped samples, published outputs ----
 
-TEST_F(IdentificationLifecycleTest, SamplesBeforeTheCheckpointAreSkippedWithTheirMargins) {
-  previous_run();  // checkpoint at t = 30.1 s
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+TEST_F(IdentificationLifecycleTest, SamplesTakenInBeforeTheCheckpointAreSkippedPerInput) {
+  previous_run();  // checkpoint at t = 30.1 s; odometer to 30.3, GNSS to 30.1, INS to 30.25, misalignment 29.9
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
-  // GNSS: every epoch before the checkpoint; the one AT it is fed again (it re-starts the chain).
+  // Each input up to the last stamp the restored core had taken in, whatever the checkpoint time:
+  // the builder holds odometer and INS past its last epoch.
   EXPECT_TRUE(l.skip_sample(IdentificationInput::kGnss, 30.0));
-  EXPECT_FALSE(l.skip_sample(IdentificationInput::kGnss, 30.1));
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kGnss, 30.1)) << "the epoch of the checkpoint was processed";
   EXPECT_FALSE(l.skip_sample(IdentificationInput::kGnss, 30.2));
-  // Odometer and INS: fed from 1 s before it, for the interpolation of the first epochs.
-  EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, 29.2));
-  EXPECT_FALSE(l.skip_sample(IdentificationInput::kIns, 29.2));
-  EXPECT_TRUE(l.skip_sample(IdentificationInput::kOdometer, 29.0));
-  EXPECT_TRUE(l.skip_sample(IdentificationInput::kIns, 28.0));
-  EXPECT_EQ(l.skipped_before_checkpoint(), 3u);
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kOdometer, 30.3));
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kOdometer, 30.32));
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kIns, 30.25));
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kIns, 30.26));
+  EXPECT_TRUE(l.skip_sample(IdentificationInput::kMisalignment, 29.9));
+  EXPECT_FALSE(l.skip_sample(IdentificationInput::kMisalignment, 30.0));
+  EXPECT_EQ(l.skipped_before_checkpoint(), 5u);
+  // What is taken in now is the next checkpoint's.
+  l.outputs_to_publish({output_at(30.2, 301, 17, e.get())});
+  const IdentificationCheckpoint c = l.make_checkpoint(*e, 30.2);
+  EXPECT_EQ(*c.fed_until_s[0], 30.32);
+  EXPECT_EQ(*c.fed_until_s[1], 30.2);
+  EXPECT_EQ(*c.fed_until_s[2], 30.26);
+  EXPECT_EQ(*c.fed_until_s[3], 30.0);
 }
 
-TEST_F(IdentificationLifecycleTest, OutputsUpToTheCheckpointAreDroppedAndTheRestAddTheRestoredCounters) {
+TEST_F(IdentificationLifecycleTest, OutputsUpToTheCheckpointAreDroppedAndTheRestKeepTheCoreCounters) {
   previous_run();  // 300 accepted, 17 rejected at t = 30.1 s
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   const auto out =
-      l.outputs_to_publish({output_at(30.0, 0, 0), output_at(30.1, 0, 0), output_at(30.2, 1, 0),
-                            output_at(30.3, 2, 1)});
+      l.outputs_to_publish({output_at(30.0, 299, 17), output_at(30.1, 300, 17), output_at(30.2, 301, 17),
+                            output_at(30.3, 302, 18)});
   ASSERT_EQ(out.size(), 2u) << "30.0 and 30.1 were published by the previous run";
   EXPECT_EQ(out[0].t_s, 30.2);
-  EXPECT_EQ(out[0].samples_accepted, 301u);
+  EXPECT_EQ(out[0].samples_accepted, 301u) << "the restored core counts on: nothing is added";
   EXPECT_EQ(out[0].samples_rejected, 17u);
   EXPECT_EQ(out[1].t_s, 30.3);
   EXPECT_EQ(out[1].samples_accepted, 302u);
@@ -376,7 +389,7 @@ TEST_F(IdentificationLifecycleTest, OutputsUpToTheCheckpointAreDroppedAndTheRest
 // ---- checkpoints ----
 
 TEST_F(IdentificationLifecycleTest, CheckpointIsDueEveryPeriodOfProcessedEventTime) {
-  auto e = fed_estimator(100);
+  auto e = fed_core(100);
   IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   EXPECT_FALSE(l.checkpoint_due()) << "nothing processed yet";
@@ -402,27 +415,27 @@ TEST_F(IdentificationLifecycleTest, CheckpointIsDueEveryPeriodOfProcessedEventTi
   EXPECT_EQ(c.last_sample_t_s, 15.0);
   EXPECT_EQ(c.samples_accepted, 150u);
   EXPECT_EQ(c.samples_rejected, 3u);
-  EXPECT_EQ(c.estimator_state, e->save_state());
+  EXPECT_EQ(c.core_state, e->save_state());
 }
 
 TEST_F(IdentificationLifecycleTest, RestoredCheckpointCountsAsTheLastOne) {
   previous_run();  // at t = 30.1 s
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   EXPECT_FALSE(l.checkpoint_due()) << "the restored state is on disk already";
-  l.outputs_to_publish({output_at(35.0, 40, 1)});
+  l.outputs_to_publish({output_at(35.0, 340, 18)});
   EXPECT_FALSE(l.checkpoint_due());
-  l.outputs_to_publish({output_at(35.2, 41, 1)});
+  l.outputs_to_publish({output_at(35.2, 341, 18)});
   EXPECT_TRUE(l.checkpoint_due());
-  EXPECT_EQ(l.make_checkpoint(*e, 35.2).samples_accepted, 341u) << "the restored counters included";
+  EXPECT_EQ(l.make_checkpoint(*e, 35.2).samples_accepted, 341u);
 }
 
 TEST_F(IdentificationLifecycleTest, FailedCheckpointWriteIsCountedWarnedAndRetriedAtTheNextPeriod) {
-  auto e = fed_estimator(100);
+  auto e = fed_core(100);
   IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
-  ASSERT_TRUE(e->estimate().valid && e->estimate().converged);
+  ASSERT_TRUE(e->main_estimator().estimate().valid && e->main_estimator().estimate().converged);
   fs::remove_all(dir_);  // the state directory is gone: the write cannot create its temporary file
 
   l.outputs_to_publish({output_at(10.0, 100, 0, e.get())});
@@ -449,7 +462,7 @@ TEST_F(IdentificationLifecycleTest, FailedCheckpointWriteIsCountedWarnedAndRetri
 }
 
 TEST_F(IdentificationLifecycleTest, FinishCheckpointsTheLastProcessedEpochOnce) {
-  auto e = fed_estimator(100);
+  auto e = fed_core(100);
   IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   l.outputs_to_publish({output_at(10.0, 100, 0, e.get())});
@@ -475,11 +488,11 @@ TEST_F(IdentificationLifecycleTest, SetKStampIsTheLastProcessedEpochElseTheAlign
   EXPECT_EQ(fresh.set_k_stamp_s(60.0), 50.0) << "the output it replaces";
 
   previous_run();
-  auto e = make_scale_factor_estimator("vff_lm_rls", {});
+  auto e = fresh_core();
   IdentificationLifecycle restored(settings(), kVehicle);
   restored.start(*e, kUnixTime_s, 0.0);
   EXPECT_EQ(restored.set_k_stamp_s(-std::numeric_limits<double>::infinity()), 30.1) << "the restored epoch";
-  const IdentificationOutput o = restored.commanded_output(output_at(30.1, 0, 0));
+  const IdentificationOutput o = restored.commanded_output(output_at(30.1, 300, 17));
   EXPECT_EQ(o.samples_accepted, 300u);
   EXPECT_EQ(o.samples_rejected, 17u);
   EXPECT_EQ(restored.last_output()->samples_accepted, 300u);

@@ -58,6 +58,18 @@ inline Trajectory circle(double radius_m, double speed_mps, double heading0_rad)
 
 /// The body attitude (roll 0) whose odometer axis, turned by `mis`, points along the unit ENU vector u:
 /// body_to_enu(att) * odometer_axis_in_body(mis) == u exactly (solved in closed form).
+/// Speed 8 + 2 sin(2 pi t / 12) m/s on a straight line: accelerations of up to 1 m/s^2 that change
+/// all the time, the signal a GNSS latency is read from.
+inline Trajectory wavy_drive() {
+  Trajectory tr = straight(deg_to_rad(30.0), 0.0, 8.0, 0.0);
+  const double w = 2.0 * kPi / 12.0;
+  const Eigen::Vector3d u = tr.direction(0.0);
+  tr.speed_mps = [=](double t) { return 8.0 + 2.0 * std::sin(w * t); };
+  tr.distance_m = [=](double t) { return 8.0 * t + 2.0 / w * (1.0 - std::cos(w * t)); };
+  tr.enu_m = [=](double t) { return Eigen::Vector3d((8.0 * t + 2.0 / w * (1.0 - std::cos(w * t))) * u); };
+  return tr;
+}
+
 inline Attitude body_attitude_for_motion(const Eigen::Vector3d& u, const Misalignment& mis) {
   const Eigen::Vector3d m = odometer_axis_in_body(mis);
   // Up component with roll 0: m_x sin p + m_z cos p = r sin(p + phi) = u_z.

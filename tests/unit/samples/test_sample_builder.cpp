@@ -593,20 +593,6 @@ TEST(SampleBuilder, InnovationBoundFollowsTheNoiseModelPlusTheKChangeAllowance) 
 
 // ---- rates and scales from the data, GNSS latency ----------------------------------------------
 
-namespace {
-// Speed 8 + 2 sin(2 pi t / 12) m/s on a straight line: accelerations of up to 1 m/s^2 that change
-// all the time, the signal the latency is read from.
-Trajectory wavy_drive() {
-  Trajectory tr = straight(deg_to_rad(30.0), 0.0, 8.0, 0.0);
-  const double w = 2.0 * kPi / 12.0;
-  const Eigen::Vector3d u = tr.direction(0.0);
-  tr.speed_mps = [=](double t) { return 8.0 + 2.0 * std::sin(w * t); };
-  tr.distance_m = [=](double t) { return 8.0 * t + 2.0 / w * (1.0 - std::cos(w * t)); };
-  tr.enu_m = [=](double t) { return Eigen::Vector3d((8.0 * t + 2.0 / w * (1.0 - std::cos(w * t))) * u); };
-  return tr;
-}
-}  // namespace
-
 TEST(SampleBuilder, OneHertzGnssIsAcceptedBecauseTheGapGateFollowsTheObservedPeriod) {
   SensorConfig c = accel_config();
   c.gnss_period_s = 1.0;

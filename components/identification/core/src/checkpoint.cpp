@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 
 namespace odonav {
@@ -10,7 +11,8 @@ namespace odonav {
 namespace {
 
 constexpr const char* kMagic = "odonav-identification-checkpoint";
-constexpr int kVersion = 1;
+constexpr int kVersion = 2;
+constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
 
 bool has_line_break(const std::string& s) { return s.find_first_of("\r\n") != std::string::npos; }
 
@@ -24,12 +26,19 @@ std::string checkpoint_path(const std::string& state_dir, const std::string& veh
 std::string serialize_checkpoint(const IdentificationCheckpoint& c) {
   if (c.estimator_name.empty() || has_line_break(c.estimator_name))
     throw std::invalid_argument("checkpoint: estimator name is empty or holds a line break");
+  std::vector<double> fed;
+  for (const auto& f : c.fed_until_s) fed.push_back(f.value_or(kNone));
   std::ostringstream s;
   s << checkpoint_head(kMagic, kVersion, c.vehicle_id, c.config_hash) << "estimator " << c.estimator_name << '\n'
     << checkpoint_time_line("last_sample_t_s", c.last_sample_t_s) << "samples_accepted " << c.samples_accepted
     << '\n'
     << "samples_rejected " << c.samples_rejected << '\n'
-    << checkpoint_state_block(c.estimator_state);
+    << checkpoint_value_list("inputs_fed_until_s", fed) << "misalignments_applied " << c.misalignments_applied
+    << '\n'
+    << checkpoint_value_list("held_misalignment_t_s", c.held_misalignment_t_s
+                                                          ? std::vector<double>{*c.held_misalignment_t_s}
+                                                          : std::vector<double>{})
+    << checkpoint_state_block(c.core_state);
   return seal_checkpoint(s.str());
 }
 
@@ -44,25 +53,35 @@ IdentificationCheckpoint parse_checkpoint(const std::string& text) {
   c.last_sample_t_s = r.double_field("last_sample_t_s");
   c.samples_accepted = r.unsigned_field("samples_accepted");
   c.samples_rejected = r.unsigned_field("samples_rejected");
-  c.estimator_state = read_checkpoint_state_block(r, "estimator state");
-  if (!r.at_end()) throw CheckpointError("unexpected text after the estimator state");
+  const std::vector<double> fed = r.value_list("inputs_fed_until_s", kIdentificationInputs, kIdentificationInputs);
+  if (fed.size() != kIdentificationInputs)
+    throw CheckpointError("field 'inputs_fed_until_s' does not hold " + std::to_string(kIdentificationInputs) +
+                          " values");
+  for (std::size_t i = 0; i < kIdentificationInputs; ++i)
+    if (!std::isnan(fed[i])) c.fed_until_s[i] = fed[i];
+  c.misalignments_applied = r.unsigned_field("misalignments_applied");
+  const std::vector<double> held = r.value_list("held_misalignment_t_s", 1, 1);
+  if (!held.empty()) c.held_misalignment_t_s = held[0];
+  c.core_state = read_checkpoint_state_block(r, "identification state");
+  if (!r.at_end()) throw CheckpointError("unexpected text after the identification state");
   if (c.estimator_name.empty()) throw CheckpointError("empty estimator");
   return c;
 }
 
 CheckpointLoadResult load_identification_checkpoint(const std::string& path, const std::string& vehicle_id,
-                                                    const std::string& config_hash, ScaleFactorEstimator& estimator,
+                                                    const std::string& config_hash, IdentificationCore& core,
                                                     int64_t unix_time_s) {
   std::optional<IdentificationCheckpoint> restored;
   const CheckpointFileLoad load = load_checkpoint_file(path, unix_time_s, [&](const std::string& text) {
     IdentificationCheckpoint c = parse_checkpoint(text);
     check_checkpoint_identity(c.vehicle_id, c.config_hash, vehicle_id, config_hash);
-    if (c.estimator_name != estimator.name())
-      throw CheckpointError("made by estimator '" + c.estimator_name + "', this is '" + estimator.name() + "'");
+    if (c.estimator_name != core.main_estimator_name())
+      throw CheckpointError("made by estimator '" + c.estimator_name + "', this is '" + core.main_estimator_name() +
+                            "'");
     try {
-      estimator.restore_state(c.estimator_state);  // unchanged when it throws
+      core.restore_state(c.core_state);  // unchanged when it throws
     } catch (const std::exception& e) {
-      throw CheckpointError(std::string("estimator state refused: ") + e.what());
+      throw CheckpointError(std::string("identification state refused: ") + e.what());
     }
     restored = std::move(c);
   });

@@ -1,5 +1,6 @@
 #include "odonav/identification/identification_core.hpp"
 
+#include "odonav/checkpoint_file.hpp"
 #include "odonav/consumer_rules.hpp"
 
 #include <cmath>
@@ -125,6 +126,62 @@ std::vector<IdentificationOutput> IdentificationCore::finish() {
   std::vector<IdentificationOutput> outputs;
   builder_.finish([&](const SampleBuilderEpoch& e) { outputs.push_back(on_epoch(e)); });
   return outputs;
+}
+
+namespace {
+constexpr const char* kCoreStateMagic = "odonav-identification-core-state";
+constexpr int kCoreStateVersion = 1;
+}  // namespace
+
+std::string IdentificationCore::save_state() const {
+  std::string s = std::string(kCoreStateMagic) + " " + std::to_string(kCoreStateVersion) + "\n";
+  s += "counters " + std::to_string(accepted_) + " " + std::to_string(rejected_) + "\n";
+  s += std::string("frozen ") + (frozen_ ? "1" : "0") + "\n";
+  s += checkpoint_value_list("commanded_k_m_per_pulse",
+                             seed_k_m_per_pulse_ ? std::vector<double>{*seed_k_m_per_pulse_} : std::vector<double>{});
+  s += checkpoint_value_list("last_gate_t_s",
+                             last_gate_t_s_ ? std::vector<double>{*last_gate_t_s_} : std::vector<double>{});
+  s += checkpoint_state_block(builder_.save_state());
+  s += "estimator " + main_->name() + "\n";
+  s += checkpoint_state_block(main_->save_state());
+  s += "side_by_side " + std::to_string(all_.size()) + "\n";
+  for (const auto& e : all_) s += "estimator " + e->name() + "\n" + checkpoint_state_block(e->save_state());
+  return s;
+}
+
+void IdentificationCore::restore_state(const std::string& text) {
+  CheckpointReader r(text);
+  check_checkpoint_version(r, kCoreStateMagic, kCoreStateVersion);
+  IdentificationCore c(params_);  // restored into a copy: this one changes only when everything was read
+  const std::vector<uint64_t> counts = r.unsigned_list("counters", 2);
+  c.accepted_ = counts[0];
+  c.rejected_ = counts[1];
+  const std::string frozen = r.field("frozen");
+  if (frozen != "0" && frozen != "1") throw CheckpointError("field 'frozen' is not 0 or 1");
+  c.frozen_ = frozen == "1";
+  std::vector<double> v = r.value_list("commanded_k_m_per_pulse", 1, 1);
+  if (!v.empty()) c.seed_k_m_per_pulse_ = v[0];
+  v = r.value_list("last_gate_t_s", 1, 1);
+  if (!v.empty()) c.last_gate_t_s_ = v[0];
+  c.builder_.restore_state(read_checkpoint_state_block(r, "sample builder state"));
+  auto restore_estimator = [&](ScaleFactorEstimator& e) {
+    const std::string name = r.field("estimator");
+    if (name != e.name()) throw CheckpointError("made by estimator '" + name + "', this is '" + e.name() + "'");
+    const std::string state = read_checkpoint_state_block(r, "estimator state");
+    try {
+      e.restore_state(state);
+    } catch (const std::exception& ex) {
+      throw CheckpointError("estimator " + name + ": state refused: " + ex.what());
+    }
+  };
+  restore_estimator(*c.main_);
+  const uint64_t n = r.unsigned_field("side_by_side");
+  if (n != c.all_.size())
+    throw CheckpointError("field 'side_by_side' is " + std::to_string(n) + ", this core runs " +
+                          std::to_string(c.all_.size()) + " side-by-side estimators");
+  for (auto& e : c.all_) restore_estimator(*e);
+  if (!r.at_end()) throw CheckpointError("unexpected text after the identification core state");
+  *this = std::move(c);
 }
 
 }  // namespace odonav

@@ -41,13 +41,13 @@ IdentificationHealth identification_health(const IdentificationHealthFacts& f) {
 }
 
 namespace {
-// Indexed by IdentificationInput. The epoch AT the checkpoint is fed again: it re-starts the sample
-// chain exactly where the checkpoint left it; odometer and INS keep a margin for the interpolation
-// of the epochs right after it.
+// Indexed by IdentificationInput. Every input is skipped up to its last stamp in the checkpoint
+// (fed_until), so margins do not apply; GNSS makes the outputs.
 std::vector<RestartInput> identification_inputs() {
-  return {{"odometer", kSensorMarginBeforeCheckpoint_s, false, false},
-          {"GNSS", 0.0, false, true},
-          {"INS", kSensorMarginBeforeCheckpoint_s, false, false}};
+  return {{"odometer", 0.0, true, false},
+          {"GNSS", 0.0, true, true},
+          {"INS", 0.0, true, false},
+          {"misalignment", 0.0, true, false}};
 }
 }  // namespace
 
@@ -57,17 +57,17 @@ IdentificationLifecycle::IdentificationLifecycle(CheckpointSettings settings, st
       instance_(std::move(instance)),
       restart_(std::move(settings), identification_inputs()) {}
 
-void IdentificationLifecycle::start(ScaleFactorEstimator& estimator, int64_t unix_time_s, double steady_now_s) {
+void IdentificationLifecycle::start(IdentificationCore& core, int64_t unix_time_s, double steady_now_s) {
   if (restart_.settings().state_dir.empty()) return;
-  restore(estimator, unix_time_s, steady_now_s);
+  restore(core, unix_time_s, steady_now_s);
 }
 
-void IdentificationLifecycle::restore(ScaleFactorEstimator& estimator, int64_t unix_time_s, double steady_now_s) {
+void IdentificationLifecycle::restore(IdentificationCore& core, int64_t unix_time_s, double steady_now_s) {
   const std::string& file = restart_.open_state_dir(
       [&](const std::string& dir) { return instance_checkpoint_path(dir, vehicle_id_, instance_); });
   const CheckpointLoadResult r =
-      load_identification_checkpoint(file, vehicle_id_, restart_.settings().config_hash, estimator, unix_time_s);
-  const std::string line = describe(r, estimator);
+      load_identification_checkpoint(file, vehicle_id_, restart_.settings().config_hash, core, unix_time_s);
+  const std::string line = describe(r, core.main_estimator());
   switch (r.status) {
     case CheckpointLoadStatus::kNone:
       restart_.note_fresh_start(line, steady_now_s);
@@ -81,15 +81,18 @@ void IdentificationLifecycle::restore(ScaleFactorEstimator& estimator, int64_t u
       break;
   }
   const IdentificationCheckpoint& c = *r.checkpoint;
-  restart_.note_restored(line, c.last_sample_t_s, steady_now_s);
-  restored_accepted_ = c.samples_accepted;
-  restored_rejected_ = c.samples_rejected;
+  fed_until_s_ = c.fed_until_s;
+  misalignments_applied_ = c.misalignments_applied;
+  held_misalignment_t_s_ = c.held_misalignment_t_s;
+  restart_.note_restored(line, c.last_sample_t_s, steady_now_s,
+                         std::vector<std::optional<double>>(c.fed_until_s.begin(), c.fed_until_s.end()));
   IdentificationOutput o;
   o.t_s = c.last_sample_t_s;
   o.epoch_status = EpochStatus::kAccepted;
-  o.main = estimator.estimate();
+  o.main = core.main_estimator().estimate();
   o.samples_accepted = c.samples_accepted;
   o.samples_rejected = c.samples_rejected;
+  o.latency = core.latency();
   last_output_ = o;
 }
 
@@ -100,7 +103,15 @@ std::optional<IdentificationOutput> IdentificationLifecycle::take_restored_outpu
 }
 
 bool IdentificationLifecycle::skip_sample(IdentificationInput input, double t_s) {
-  return restart_.skip_sample(static_cast<std::size_t>(input), t_s);
+  const auto i = static_cast<std::size_t>(input);
+  if (restart_.skip_sample(i, t_s)) return true;
+  if (!fed_until_s_[i] || t_s > *fed_until_s_[i]) fed_until_s_[i] = t_s;
+  return false;
+}
+
+void IdentificationLifecycle::note_misalignment_applied(double t_s) {
+  ++misalignments_applied_;
+  held_misalignment_t_s_ = t_s;
 }
 
 std::vector<IdentificationOutput> IdentificationLifecycle::outputs_to_publish(
@@ -109,9 +120,6 @@ std::vector<IdentificationOutput> IdentificationLifecycle::outputs_to_publish(
   kept.reserve(outputs.size());
   for (IdentificationOutput& o : outputs) {
     if (!restart_.keep_output(o.t_s, steady_now_s)) continue;
-    // The counters go on across restarts.
-    o.samples_accepted += restored_accepted_;
-    o.samples_rejected += restored_rejected_;
     last_output_ = o;
     kept.push_back(std::move(o));
   }
@@ -123,8 +131,6 @@ void IdentificationLifecycle::note_odometer_received(double t_s, double steady_n
 }
 
 IdentificationOutput IdentificationLifecycle::commanded_output(IdentificationOutput o) {
-  o.samples_accepted += restored_accepted_;
-  o.samples_rejected += restored_rejected_;
   last_output_ = o;
   return o;
 }
@@ -136,31 +142,35 @@ double IdentificationLifecycle::set_k_stamp_s(double aligner_processed_s) const 
 
 bool IdentificationLifecycle::checkpoint_due() const { return restart_.checkpoint_due(); }
 
-IdentificationCheckpoint IdentificationLifecycle::make_checkpoint(const ScaleFactorEstimator& estimator,
-                                                                  double t_s) const {
+IdentificationCheckpoint IdentificationLifecycle::make_checkpoint(const IdentificationCore& core, double t_s) const {
   IdentificationCheckpoint c;
   c.vehicle_id = vehicle_id_;
   c.config_hash = restart_.settings().config_hash;
-  c.estimator_name = estimator.name();
+  c.estimator_name = core.main_estimator_name();
   c.last_sample_t_s = t_s;
   c.samples_accepted = last_output_ ? last_output_->samples_accepted : 0;
   c.samples_rejected = last_output_ ? last_output_->samples_rejected : 0;
-  c.estimator_state = estimator.save_state();
+  c.fed_until_s = fed_until_s_;
+  c.misalignments_applied = misalignments_applied_;
+  c.held_misalignment_t_s = held_misalignment_t_s_;
+  c.core_state = core.save_state();
   return c;
 }
 
-void IdentificationLifecycle::checkpoint_if_due(const ScaleFactorEstimator& estimator) {
-  restart_.checkpoint_if_due([&](double t_s) { return serialize_checkpoint(make_checkpoint(estimator, t_s)); });
+void IdentificationLifecycle::checkpoint_if_due(const IdentificationCore& core) {
+  restart_.checkpoint_if_due([&](double t_s) { return serialize_checkpoint(make_checkpoint(core, t_s)); });
 }
 
-void IdentificationLifecycle::checkpoint_at_finish(const ScaleFactorEstimator& estimator) {
-  restart_.checkpoint_at_finish([&](double t_s) { return serialize_checkpoint(make_checkpoint(estimator, t_s)); });
+void IdentificationLifecycle::checkpoint_at_finish(const IdentificationCore& core) {
+  restart_.checkpoint_at_finish([&](double t_s) { return serialize_checkpoint(make_checkpoint(core, t_s)); });
 }
 
 IdentificationHealthFacts IdentificationLifecycle::health_facts(double steady_now_s) const {
   IdentificationHealthFacts f;
   static_cast<RestartHealthNotes&>(f) = restart_.health_notes();
   f.last_output = last_output_;
+  f.misalignments_applied = misalignments_applied_;
+  f.held_misalignment_t_s = held_misalignment_t_s_;
   f.now_s = steady_now_s;
   return f;
 }

@@ -1,31 +1,48 @@
 #pragma once
-// Checkpoint of odonav-identification (DDS persistence keeps samples, not the estimator's state): what a
-// restarted identification needs to resume instead of re-converging from the nominal K.
-// Middleware-free; IdentificationLifecycle (identification_lifecycle.hpp) decides when to write.
+// Checkpoint of odonav-identification (DDS persistence keeps samples, not the estimator's state): the
+// complete state of the identification, so that a restarted one resumes exactly where it stopped
+// instead of re-converging from the nominal K. Middleware-free; IdentificationLifecycle
+// (identification_lifecycle.hpp) decides when to write.
+//
+// The state holds inputs taken in but not processed yet (the sample builder buffers odometer and INS
+// ahead of the GNSS epochs, and GNSS ahead of the sensors) and the slow state of the gates and the
+// GNSS latency estimate (its sums over the whole drive, the latency in force), which no history of
+// the producers could rebuild. So the checkpoint keeps, per input, the stamp of the last sample taken
+// in; after a restore each input's samples up to it are skipped.
 //
 // File `<state-dir>/identification-<vehicle>.ckpt`, versioned text:
-//   odonav-identification-checkpoint 1
+//   odonav-identification-checkpoint 2
 //   vehicle <vehicle id>
 //   config_hash <16 hex digits>         (config_hash_of: the options that change the estimate)
 //   estimator <name>
 //   last_sample_t_s <%.17g: exact round trip>     (event time of the last processed GNSS epoch, s)
 //   samples_accepted <n>
 //   samples_rejected <n>
+//   inputs_fed_until_s 4 <hex doubles>  (per IdentificationInput, the last stamp taken in; NaN none)
+//   misalignments_applied <n>
+//   held_misalignment_t_s <0|1> <t>     (stamp of the last misalignment applied)
 //   state_chars <n>
-//   <n characters: the estimator's save_state() text>
+//   <n characters: IdentificationCore::save_state() text>
 //   checksum <16 hex digits>            (FNV-1a 64 of every byte before this line)
+// Version 1 (the estimator's state only) is refused like a corrupt file: moved aside, fresh start.
 // Written atomically (temporary file in the same directory, fsync, rename, fsync of the directory),
 // so a kill -9 at any instant leaves either the previous checkpoint or the new one, never a mix.
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "odonav/checkpoint_file.hpp"
+#include "odonav/identification/identification_core.hpp"
 #include "odonav/safe_output.hpp"
 #include "odonav/scale_factor_estimator.hpp"
 
 namespace odonav {
+
+/// The inputs of the identification, as the restart policy indexes them.
+enum class IdentificationInput { kOdometer, kGnss, kIns, kMisalignment };
+inline constexpr std::size_t kIdentificationInputs = 4;
 
 struct IdentificationCheckpoint {
   std::string vehicle_id;             ///< the vehicle whose data made the state (no line breaks).
@@ -34,7 +51,11 @@ struct IdentificationCheckpoint {
   double last_sample_t_s = 0.0;       ///< event time of the last processed GNSS epoch (s, finite).
   uint64_t samples_accepted = 0;      ///< accepted regression samples up to last_sample_t_s.
   uint64_t samples_rejected = 0;      ///< gated-out epochs up to last_sample_t_s.
-  std::string estimator_state;        ///< ScaleFactorEstimator::save_state() text.
+  /// Per IdentificationInput, the stamp of the last sample taken in (event time, s).
+  std::array<std::optional<double>, kIdentificationInputs> fed_until_s;
+  uint64_t misalignments_applied = 0;            ///< converged misalignments given to the core.
+  std::optional<double> held_misalignment_t_s;   ///< stamp of the last one (s).
+  std::string core_state;             ///< IdentificationCore::save_state() text.
 };
 
 // checkpoint_neutral_options() and config_hash_of() (the configuration hash) are shared with the
@@ -63,13 +84,13 @@ struct CheckpointLoadResult {
   std::string moved_to;                            ///< its new name (kMovedAside; empty if the move failed).
 };
 
-/// Loads `path` and restores `estimator` from it when it is intact and made by this vehicle, this
-/// configuration hash and an estimator of the same name. Otherwise (truncated, garbage, checksum,
-/// wrong vehicle, other configuration, other estimator, a state the estimator refuses) the file is
-/// moved aside (move_checkpoint_aside with unix_time_s), `estimator` is left untouched and the reason
-/// is returned. Never throws for file contents; an unreadable file is treated like a corrupt one.
+/// Loads `path` and restores `core` from it when it is intact and made by this vehicle, this
+/// configuration hash and a main estimator of the same name. Otherwise (truncated, garbage, checksum,
+/// an older version, wrong vehicle, other configuration, other estimator, a state the core refuses)
+/// the file is moved aside (move_checkpoint_aside with unix_time_s), `core` is left untouched and the
+/// reason is returned. Never throws for file contents; an unreadable file is treated like a corrupt one.
 CheckpointLoadResult load_identification_checkpoint(const std::string& path, const std::string& vehicle_id,
-                                                    const std::string& config_hash, ScaleFactorEstimator& estimator,
+                                                    const std::string& config_hash, IdentificationCore& core,
                                                     int64_t unix_time_s);
 
 /// One-line description for logs and health: "restored K=0.0125123 m/pulse from checkpoint (t=61.2 s)"

@@ -94,9 +94,19 @@ class IdentificationCore {
   const SampleBuilderCounters& builder_counters() const { return builder_.counters(); }
   /// The GNSS latency in force and its online estimate (sample_builder.hpp).
   const GnssLatencyEstimate& latency() const { return builder_.latency(); }
-  /// The main estimator (e.g. for save_state/restore_state).
+  /// The main estimator.
   ScaleFactorEstimator& main_estimator() { return *main_; }
   const ScaleFactorEstimator& main_estimator() const { return *main_; }
+
+  /// The complete state as text (every double exact): the sample builder (inputs taken in and not
+  /// processed yet, the sample chain, the gates' references, the GNSS latency and its sums), every
+  /// estimator, the counters, frozen, the commanded K and the gate's last stamp. A core made with
+  /// the same parameters and given restore_state(save_state()) produces exactly the outputs this
+  /// one would, provided the inputs it had taken in are not added again (a component checkpoint).
+  std::string save_state() const;
+  /// Throws CheckpointError (checkpoint_file.hpp) naming the field when the text is not a state of
+  /// a core with these parameters; the core is unchanged then.
+  void restore_state(const std::string& text);
 
  private:
   IdentificationOutput on_epoch(const SampleBuilderEpoch& epoch);

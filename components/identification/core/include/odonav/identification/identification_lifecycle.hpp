@@ -14,6 +14,7 @@
 //  - the health decision, as a pure function over the facts the node supplies.
 // Time: "event time" is the data's time (sample stamps, s); "steady" is the node's wall clock
 // (s, monotonic), used only for how long the restore note stays in the health reason.
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -29,14 +30,7 @@ namespace odonav {
 // CheckpointSettings (state directory, period, configuration hash), kRestoreNoteDuration_s and
 // kCatchUpSettle_s: odonav/restart_policy.hpp, the restart policy the calibration shares; this
 // lifecycle adds what is the identification's (its inputs and margins, its checkpoint file and
-// texts, the restored counters, set_k).
-
-/// The inputs whose samples may predate a restored checkpoint (IdentificationLifecycle::skip_sample).
-enum class IdentificationInput { kOdometer, kGnss, kIns };
-
-/// Odometer and INS samples this much older than the checkpoint are still fed: the epochs right
-/// after it interpolate the pulse count and attitude between samples on both sides (max_bracket_s).
-inline constexpr double kSensorMarginBeforeCheckpoint_s = 1.0;
+// texts, what each input had taken in, the misalignments applied, set_k).
 
 /// The identification's health as the node reports it past the checks on its required inputs.
 struct IdentificationHealth {
@@ -93,10 +87,10 @@ class IdentificationLifecycle {
 
   /// At start, before any input reaches the core. With a state directory: creates the directory
   /// (ConfigError "--state-dir '<dir>': ..." when it cannot, or the vehicle or instance cannot name
-  /// a file), loads the checkpoint into `estimator` (restored, or none, or moved aside when corrupt,
-  /// of another vehicle, configuration or estimator: fresh start from nominal K) and logs what it
-  /// did. unix_time_s names a moved-aside file; steady_now_s starts the restore note's 30 s.
-  void start(ScaleFactorEstimator& estimator, int64_t unix_time_s, double steady_now_s);
+  /// a file), loads the checkpoint into `core` (restored, or none, or moved aside when corrupt, of an
+  /// older version, another vehicle, configuration or estimator: fresh start from nominal K) and logs
+  /// what it did. unix_time_s names a moved-aside file; steady_now_s starts the restore note's 30 s.
+  void start(IdentificationCore& core, int64_t unix_time_s, double steady_now_s);
 
   /// The restored output to publish at once (stamp = the checkpoint's time, restored counters), so
   /// that a consumer that lost it, or a late reader (the writer is TRANSIENT_LOCAL), has it before
@@ -104,10 +98,10 @@ class IdentificationLifecycle {
   std::optional<IdentificationOutput> take_restored_output();
 
   /// True (and counted in skipped_before_checkpoint) when a sample of `input` stamped t_s (event
-  /// time, s) was processed before the restart and must not reach the core again: GNSS strictly
-  /// before the checkpoint time (the epoch AT it is fed again: it re-starts the sample chain
-  /// exactly where the checkpoint left it), odometer and INS more than
-  /// kSensorMarginBeforeCheckpoint_s before it. Always false without a restore.
+  /// time, s) was taken in before the restart and must not reach the core again: stamped at or
+  /// before that input's last stamp in the checkpoint (the restored state holds it, processed or
+  /// buffered). Otherwise the sample is recorded as taken in (the next checkpoint's fed_until).
+  /// Always false without a restore but for that bookkeeping.
   /// After a restore the first sample of each input (the oldest of the producer's history, which is
   /// handed over oldest first) tells whether the history reached back to the checkpoint: when it
   /// starts after it, the data in between is lost (logged once, in the health as WARN, and in
@@ -124,9 +118,9 @@ class IdentificationLifecycle {
   uint64_t catch_up_lost_epochs() const { return restart_.lost_epochs(); }
 
   /// The outputs of the core to publish, in order: after a restore those at or before the
-  /// checkpoint time are dropped (the previous run and take_restored_output published them), and
-  /// the restored counters (accepted, rejected) are added to the rest, so the counts go on across
-  /// restarts. The last one becomes last_output() and last_processed_t_s().
+  /// checkpoint time are dropped (the previous run and take_restored_output published them). The
+  /// counters (accepted, rejected) go on across restarts: they are part of the restored core. The
+  /// last one becomes last_output() and last_processed_t_s().
   /// After a restore, the outputs up to the live edge (note_odometer_received) are counted as
   /// catch-up; the first one past it ends the catch-up. steady_now_s (monotonic wall clock, s) dates
   /// that end, for the health note only.
@@ -136,8 +130,8 @@ class IdentificationLifecycle {
   /// sets the live edge (kCatchUpSettle_s). Nothing otherwise.
   void note_odometer_received(double t_s, double steady_now_s);
 
-  /// The output of a commanded K (IdentificationCore::set_k), with the restored counters added;
-  /// becomes last_output(). The processed event time is unchanged: the command adds no epoch.
+  /// The output of a commanded K (IdentificationCore::set_k); becomes last_output(). The processed
+  /// event time is unchanged: the command adds no epoch.
   IdentificationOutput commanded_output(IdentificationOutput output);
   /// The event time (s) to stamp a commanded K with: the last processed epoch (the output it
   /// replaces), else aligner_processed_s (what the node's aligner has released), else 0 when that
@@ -148,18 +142,25 @@ class IdentificationLifecycle {
   /// A checkpoint is due: checkpointing on, an epoch processed, and none written yet or the last
   /// processed event time at least every_s past the last checkpoint (written or failed).
   bool checkpoint_due() const;
-  /// The checkpoint of `estimator` after the epoch at t_s: vehicle, configuration hash, estimator
-  /// name and state, the counters of last_output() (restored ones included).
-  IdentificationCheckpoint make_checkpoint(const ScaleFactorEstimator& estimator, double t_s) const;
+  /// A converged misalignment stamped t_s (its GNSS epoch, s) was given to the core: counted and
+  /// held for the health, and kept in the checkpoint.
+  void note_misalignment_applied(double t_s);
+  uint64_t misalignments_applied() const { return misalignments_applied_; }
+  const std::optional<double>& held_misalignment_t_s() const { return held_misalignment_t_s_; }
+
+  /// The checkpoint of `core` after the epoch at t_s: vehicle, configuration hash, estimator name,
+  /// the core's complete state, the counters of last_output(), what each input had taken in.
+  IdentificationCheckpoint make_checkpoint(const IdentificationCore& core, double t_s) const;
   /// Writes the checkpoint (atomically) when due. A failure is logged and counted, never thrown: a
   /// full disk must not stop the identification. It is retried at the next period, not at the next
   /// epoch, so a full disk is not hammered.
-  void checkpoint_if_due(const ScaleFactorEstimator& estimator);
+  void checkpoint_if_due(const IdentificationCore& core);
   /// At shutdown: writes the checkpoint of the last processed epoch unless it is already the last one.
-  void checkpoint_at_finish(const ScaleFactorEstimator& estimator);
+  void checkpoint_at_finish(const IdentificationCore& core);
 
-  /// The health facts this lifecycle knows (last output, restore note, checkpoint errors), with the
-  /// node's input facts left at their defaults for the node to fill in.
+  /// The health facts this lifecycle knows (last output, restore note, checkpoint errors, the
+  /// misalignments applied), with the node's input facts left at their defaults for the node to
+  /// fill in.
   IdentificationHealthFacts health_facts(double steady_now_s) const;
 
   bool checkpointing() const { return restart_.checkpointing(); }
@@ -172,8 +173,6 @@ class IdentificationLifecycle {
   uint64_t checkpoints_written() const { return restart_.checkpoints_written(); }
   uint64_t checkpoint_errors() const { return restart_.checkpoint_errors(); }
   uint64_t skipped_before_checkpoint() const { return restart_.skipped_before_checkpoint(); }
-  uint64_t restored_accepted() const { return restored_accepted_; }
-  uint64_t restored_rejected() const { return restored_rejected_; }
   /// Catch-up after a restore: outputs published late (from the producers' history), the first
   /// and last of their stamps (event time, s), and whether it is still going on.
   uint64_t catch_up_outputs() const { return restart_.catch_up_outputs(); }
@@ -188,13 +187,14 @@ class IdentificationLifecycle {
   std::vector<std::pair<std::string, double>> restart_counters() const { return restart_.counters(); }
 
  private:
-  void restore(ScaleFactorEstimator& estimator, int64_t unix_time_s, double steady_now_s);
+  void restore(IdentificationCore& core, int64_t unix_time_s, double steady_now_s);
 
   std::string vehicle_id_;
   std::string instance_;
   RestartPolicy restart_;
-  uint64_t restored_accepted_ = 0;
-  uint64_t restored_rejected_ = 0;
+  std::array<std::optional<double>, kIdentificationInputs> fed_until_s_;
+  uint64_t misalignments_applied_ = 0;
+  std::optional<double> held_misalignment_t_s_;
   bool restored_output_taken_ = false;
   std::optional<IdentificationOutput> last_output_;
 };
