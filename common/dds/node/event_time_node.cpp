@@ -3,10 +3,14 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+
 namespace odonav::dds {
 
-EventTimeNode::EventTimeNode(ComponentRuntime& runtime)
-    : runtime_(runtime), aligner_(runtime.settings().max_wait_s, steady_now_s()) {}
+EventTimeNode::EventTimeNode(ComponentRuntime& runtime, double in_flight_max_wait_s)
+    : runtime_(runtime),
+      aligner_(runtime.settings().max_wait_s, steady_now_s(),
+               in_flight_max_wait_s > 0.0 ? std::max(in_flight_max_wait_s, runtime.settings().max_wait_s) : 0.0) {}
 
 int EventTimeNode::run() {
   const double t0 = steady_now_s();

@@ -53,6 +53,8 @@ void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, c
   if (in.estimate) c.emplace_back(in.name + "_skipped_epochs", static_cast<double>(st.skipped_pacing_epochs));
   if (in.estimate) c.emplace_back(in.name + "_republished", static_cast<double>(in.republished));
   if (in.estimate || st.hold_off_s > 0.0) c.emplace_back(in.name + "_hold_off_waits", static_cast<double>(st.hold_off_waits));
+  if (aligner.in_flight_max_wait_s() > aligner.max_wait_s())
+    c.emplace_back(in.name + "_in_flight_waits", static_cast<double>(st.in_flight_waits));
 }
 
 std::optional<std::string> absent_reason(const EventTimeAligner& aligner,

@@ -39,6 +39,14 @@
 // stream has shown L, it is complete up to C although its next sample is not there yet: a consumer
 // then knows, at an odometer time t, every GNSS epoch <= t and waits only for their estimates.
 //
+// Samples in flight. A stream whose producer has declared samples published (declare_published)
+// that it has not shown yet is not silent for lack of data: they are on their way (a restarted
+// consumer's history hand-over, a loaded link). Such a stream is declared absent only after
+// in_flight_max_wait_s of silence (>= max_wait_s; a component that may wait for exact results, the
+// identification and the calibration, sets the producers' history length, kInFlightMaxWait_s),
+// and each time this longer wait held a stream that max_wait_s would have dropped is counted
+// (in_flight_waits). A component whose outputs must stay fresh (dead reckoning) keeps max_wait_s.
+//
 // Repeated stamps. A sample stamped exactly like the stream's previous one is a REPEAT: a producer's
 // heartbeat (an estimate republished so that its readers know it is alive) or a duplicate. It
 // refreshes the stream's liveness and is not fed.
@@ -56,6 +64,10 @@
 #include <vector>
 
 namespace odonav {
+
+/// The in-flight wait of the components that wait for exact results: the producers' history (30 s of
+/// sensor samples), beyond which the data would be lost anyway.
+inline constexpr double kInFlightMaxWait_s = 30.0;
 
 /// What on_sample decided for one sample.
 enum class SampleAdmission {
@@ -93,12 +105,17 @@ class EventTimeAligner {
     /// hold-off), one per episode.
     uint64_t hold_off_waits = 0;
     double hold_off_s = 0.0;           ///< its hold-off (s).
+    /// Samples declared published by its producer and not received yet (see "Samples in flight").
+    bool in_flight = false;
+    /// Times the in-flight wait kept it present past max_wait_s, one per episode.
+    uint64_t in_flight_waits = 0;
   };
 
   /// max_wait_s: how long (s, wall clock, finite, > 0) a stream may be silent while others are
   /// ahead before it is declared absent. start_s: the wall clock now (s, finite): silence of a stream
-  /// that never spoke counts from here. Throws std::invalid_argument naming the bad value.
-  EventTimeAligner(double max_wait_s, double start_s);
+  /// that never spoke counts from here. in_flight_max_wait_s: the same for a stream with samples in
+  /// flight (finite, >= max_wait_s; 0 = max_wait_s). Throws std::invalid_argument naming the bad value.
+  EventTimeAligner(double max_wait_s, double start_s, double in_flight_max_wait_s = 0.0);
 
   /// Declares an input stream (name: for status and messages, e.g. "gnss"). Before the first sample.
   /// hold_off_s: see "Hold-off" (finite, >= 0; else std::invalid_argument).
@@ -130,6 +147,7 @@ class EventTimeAligner {
   StreamStatus status(StreamId stream, double now_s) const;
   std::size_t stream_count() const { return streams_.size(); }
   double max_wait_s() const { return max_wait_s_; }
+  double in_flight_max_wait_s() const { return in_flight_max_wait_s_; }
 
  private:
   struct Stream {
@@ -146,6 +164,7 @@ class EventTimeAligner {
     /// ... and the declarations waiting for their last stamp: (complete through, last stamp).
     std::deque<std::pair<double, double>> pending_declarations;
     bool holding_back = false;            ///< hold-off streams: limited the last watermark.
+    bool in_flight_held = false;          ///< kept present by the in-flight wait (counted once).
     bool absent = false;
     StreamStatus counts;                  ///< counters only (name etc. filled by status()).
   };
@@ -158,6 +177,7 @@ class EventTimeAligner {
   void prune_pacing_stamps(Stream& pacing);
 
   double max_wait_s_;
+  double in_flight_max_wait_s_;
   double start_s_;
   double processed_s_;
   std::vector<Stream> streams_;

@@ -42,11 +42,20 @@ const char* to_string(SampleAdmission admission) {
   return "unknown";
 }
 
-EventTimeAligner::EventTimeAligner(double max_wait_s, double start_s)
-    : max_wait_s_(max_wait_s), start_s_(start_s), processed_s_(-kInf) {
+EventTimeAligner::EventTimeAligner(double max_wait_s, double start_s, double in_flight_max_wait_s)
+    : max_wait_s_(max_wait_s),
+      in_flight_max_wait_s_(in_flight_max_wait_s == 0.0 ? max_wait_s : in_flight_max_wait_s),
+      start_s_(start_s),
+      processed_s_(-kInf) {
   if (!std::isfinite(max_wait_s) || !(max_wait_s > 0.0)) {
     std::ostringstream m;
     m << "EventTimeAligner: max_wait_s must be finite and > 0, got " << max_wait_s;
+    throw std::invalid_argument(m.str());
+  }
+  if (!std::isfinite(in_flight_max_wait_s_) || in_flight_max_wait_s_ < max_wait_s) {
+    std::ostringstream m;
+    m << "EventTimeAligner: in_flight_max_wait_s must be finite and >= max_wait_s (" << max_wait_s << "), got "
+      << in_flight_max_wait_s;
     throw std::invalid_argument(m.str());
   }
   if (!std::isfinite(start_s)) throw std::invalid_argument("EventTimeAligner: start_s must be finite");
@@ -106,6 +115,7 @@ SampleAdmission EventTimeAligner::on_sample(StreamId id, double t_s, double now_
   Stream& s = stream_at(id);
   // Any sample, good or not, proves the producer alive.
   s.last_arrival_s = now_s;
+  s.in_flight_held = false;
   if (s.absent) {
     s.absent = false;
     s.behind_since_s.reset();
@@ -199,11 +209,19 @@ std::optional<double> EventTimeAligner::advance(double now_s) {
     }
     if (!s.behind_since_s) s.behind_since_s = now_s;
     const double silent_since = std::max(s.last_arrival_s.value_or(start_s_), *s.behind_since_s);
-    if (now_s - silent_since > max_wait_s_) {
-      s.absent = true;
-      s.behind_since_s.reset();
-      ++s.counts.absent_events;
+    const double silent_for = now_s - silent_since;
+    if (silent_for <= max_wait_s_) continue;
+    if (!s.pending_declarations.empty() && silent_for <= in_flight_max_wait_s_) {
+      // Its producer declared samples it has not shown: they are on their way.
+      if (!s.in_flight_held) {
+        s.in_flight_held = true;
+        ++s.counts.in_flight_waits;
+      }
+      continue;
     }
+    s.absent = true;
+    s.behind_since_s.reset();
+    ++s.counts.absent_events;
   }
   // Absence of a pacing stream can lift its followers' watermarks.
   for (std::size_t i = 0; i < streams_.size(); ++i) wm[i] = watermark_of(streams_[i], true);
@@ -245,6 +263,7 @@ EventTimeAligner::StreamStatus EventTimeAligner::status(StreamId id, double now_
   out.watermark_s = watermark_of(s);
   out.absent = s.absent;
   out.hold_off_s = s.hold_off_s;
+  out.in_flight = !s.pending_declarations.empty();
   out.silent_for_s = now_s - s.last_arrival_s.value_or(start_s_);
   return out;
 }

@@ -64,7 +64,10 @@ odonav::msg::Misalignment misalignment_message(const MisalignmentOutput& out, co
 
 CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const MisalignmentCalibratorParams& params,
                                  const CheckpointSettings& checkpoint)
-    : EventTimeNode(runtime),
+    // An exact estimate late rather than a different one: an input whose samples are declared
+    // published but still on their way (a restart's history hand-over) is waited for up to the
+    // producers' history length (EventTimeAligner, "Samples in flight").
+    : EventTimeNode(runtime, kInFlightMaxWait_s),
       params_(params),
       core_(make_calibrator(params)),
       lifecycle_(checkpoint, runtime.settings().vehicle_id, core_.restore_margin_s()),

@@ -114,7 +114,10 @@ dds::WriterSettings scale_factor_writer_settings(const InstanceSettings& instanc
 
 IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const IdentificationParams& params,
                                        const CheckpointSettings& checkpoint, const InstanceSettings& instance)
-    : EventTimeNode(runtime),
+    // An exact estimate late rather than a different one: an input whose samples are declared
+    // published but still on their way (a restart's history hand-over) is waited for up to the
+    // producers' history length (EventTimeAligner, "Samples in flight").
+    : EventTimeNode(runtime, kInFlightMaxWait_s),
       params_(params),
       instance_(instance),
       core_(make_core(params)),

@@ -212,6 +212,58 @@ TEST(EventTimeAligner, DeclaredCompletenessLetsAPacedStreamCatchUpWithoutTheNext
   EXPECT_DOUBLE_EQ(*a.advance(0.1), 1.2);
 }
 
+TEST(EventTimeAligner, AStreamWithDeclaredSamplesInFlightWaitsTheLongerInFlightWait) {
+  // A restarted identification: the odometer's history arrives at once and declares GNSS published
+  // up to t = 50 s, while GNSS's own history is slow to come.
+  EventTimeAligner a(2.0, 100.0, kInFlightMaxWait_s);
+  const auto odo = a.add_stream("odometer");
+  const auto gnss = a.add_stream("gnss");
+  a.on_sample(gnss, 20.0, 100.0);
+  for (int i = 0; i <= 300; ++i) a.on_sample(odo, 20.0 + 0.1 * i, 100.0);
+  a.declare_published(gnss, 50.0, 50.0);
+  EXPECT_TRUE(a.status(gnss, 100.0).in_flight);
+  a.advance(100.0);
+  // Past max wait: still present, one in-flight wait counted, the watermark held at GNSS.
+  EXPECT_FALSE(a.advance(103.0).has_value());
+  EXPECT_FALSE(a.advance(120.0).has_value());
+  auto st = a.status(gnss, 120.0);
+  EXPECT_FALSE(st.absent);
+  EXPECT_EQ(st.in_flight_waits, 1u);
+  EXPECT_EQ(a.processed_s(), 20.0);
+  // The history arrives 25 s later: nothing was late, everything is processed in order.
+  for (int i = 1; i <= 300; ++i) EXPECT_EQ(a.on_sample(gnss, 20.0 + 0.1 * i, 125.0), SampleAdmission::kAccepted);
+  EXPECT_FALSE(a.status(gnss, 125.0).in_flight);
+  EXPECT_DOUBLE_EQ(*a.advance(125.0), 50.0);
+  st = a.status(gnss, 125.0);
+  EXPECT_EQ(st.late, 0u);
+  EXPECT_EQ(st.absent_events, 0u);
+
+  // Samples declared and never coming (their producer died): absent after the in-flight wait.
+  a.on_sample(odo, 60.0, 130.0);
+  a.declare_published(gnss, 60.0, 55.0);
+  EXPECT_FALSE(a.advance(130.0).has_value());
+  EXPECT_FALSE(a.advance(159.9).has_value());
+  EXPECT_FALSE(a.status(gnss, 159.9).absent);
+  EXPECT_DOUBLE_EQ(*a.advance(160.1), 60.0);
+  st = a.status(gnss, 160.1);
+  EXPECT_TRUE(st.absent);
+  EXPECT_EQ(st.absent_events, 1u);
+  EXPECT_EQ(st.in_flight_waits, 2u);
+
+  // Without the longer wait (dead reckoning: fresh outputs first) the same stream is absent after
+  // max wait, in flight or not.
+  EventTimeAligner fresh(2.0, 100.0);
+  const auto fodo = fresh.add_stream("odometer");
+  const auto fgnss = fresh.add_stream("gnss");
+  fresh.on_sample(fgnss, 20.0, 100.0);
+  fresh.on_sample(fodo, 30.0, 100.0);
+  fresh.declare_published(fgnss, 30.0, 30.0);
+  fresh.advance(100.0);
+  EXPECT_DOUBLE_EQ(*fresh.advance(102.1), 30.0);
+  EXPECT_TRUE(fresh.status(fgnss, 102.1).absent);
+  EXPECT_EQ(fresh.status(fgnss, 102.1).in_flight_waits, 0u);
+}
+
 TEST(EventTimeAligner, PacedStreamDoesNotHoldBackWhileItsPacingStreamIsAbsent) {
   EventTimeAligner a(1.0, 0.0);
   const auto odo = a.add_stream("odometer");
@@ -299,6 +351,8 @@ TEST(EventTimeAligner, RejectsBadConfiguration) {
   EXPECT_THROW(EventTimeAligner(0.0, 0.0), std::invalid_argument);
   EXPECT_THROW(EventTimeAligner(std::nan(""), 0.0), std::invalid_argument);
   EXPECT_THROW(EventTimeAligner(1.0, kInf), std::invalid_argument);
+  EXPECT_THROW(EventTimeAligner(2.0, 0.0, 1.0), std::invalid_argument);  // in-flight wait below max wait
+  EXPECT_THROW(EventTimeAligner(2.0, 0.0, kInf), std::invalid_argument);
   EventTimeAligner a(1.0, 0.0);
   const auto gnss = a.add_stream("gnss");
   const auto k = a.add_paced_stream("k", gnss);

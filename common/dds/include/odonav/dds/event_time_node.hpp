@@ -27,7 +27,10 @@ namespace odonav::dds {
 
 class EventTimeNode {
  public:
-  explicit EventTimeNode(ComponentRuntime& runtime);
+  /// in_flight_max_wait_s: how long an input with samples declared published but not received yet
+  /// may stay silent (EventTimeAligner, "Samples in flight"); 0 = the max wait, for components whose
+  /// outputs must stay fresh.
+  explicit EventTimeNode(ComponentRuntime& runtime, double in_flight_max_wait_s = 0.0);
   virtual ~EventTimeNode() = default;
   EventTimeNode(const EventTimeNode&) = delete;
   EventTimeNode& operator=(const EventTimeNode&) = delete;

@@ -126,7 +126,8 @@ SampleAdmission admit_sample(EventTimeAligner& aligner, NodeInput& in, const bui
 }
 
 /// Appends "<name>_in", "<name>_late", "<name>_rejected", "<name>_absent_events",
-/// "<name>_silent_s" for one input.
+/// "<name>_silent_s" for one input (and "<name>_in_flight_waits" when the component waits longer for
+/// samples in flight).
 void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, const NodeInput& in,
                                   double now_s);
 
