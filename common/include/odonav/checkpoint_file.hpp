@@ -59,6 +59,8 @@ class CheckpointReader {
   /// The next line "<key> <n> v1 ... vn" (checkpoint_value_list): n numbers, any value (NaN and
   /// infinities too), n a multiple of `stride` (records of stride values) and at most max_n.
   std::vector<double> value_list(const std::string& key, std::size_t stride = 1, std::size_t max_n = 10000000);
+  /// value_list holding exactly n values (CheckpointError "field '<key>' does not hold <n> values").
+  std::vector<double> exact_values(const std::string& key, std::size_t n);
   /// Exactly n characters, then a line break.
   std::string block(std::size_t n, const std::string& what);
   bool at_end() const { return pos_ == text_.size(); }

@@ -124,6 +124,12 @@ std::vector<double> CheckpointReader::finite_doubles(const std::string& key, std
   return checkpoint_parse_finite_doubles(field(key), key, n);
 }
 
+std::vector<double> CheckpointReader::exact_values(const std::string& key, std::size_t n) {
+  std::vector<double> v = value_list(key, n, n);
+  if (v.size() != n) throw CheckpointError("field '" + key + "' does not hold " + std::to_string(n) + " values");
+  return v;
+}
+
 std::vector<double> CheckpointReader::value_list(const std::string& key, std::size_t stride, std::size_t max_n) {
   const std::string text = field(key);
   const std::size_t space = text.find(' ');

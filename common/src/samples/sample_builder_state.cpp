@@ -92,11 +92,7 @@ void SampleBuilder::restore_state(const std::string& text) {
   CheckpointReader r(text);
   check_checkpoint_version(r, kStateMagic, kStateVersion);
   SampleBuilder b(params_);  // parsed into a copy: this one changes only when everything was read
-  auto exactly = [&](const char* key, std::size_t n) {
-    const Values v = r.value_list(key, n, n);
-    if (v.size() != n) throw CheckpointError(std::string("field '") + key + "' does not hold " + std::to_string(n) + " values");
-    return v;
-  };
+  auto exactly = [&](const char* key, std::size_t n) { return r.exact_values(key, n); };
   auto count_of = [](double x, const char* key) {
     if (!(x >= 0.0) || x != std::floor(x) || x > 1e18)
       throw CheckpointError(std::string("field '") + key + "' holds a count that is not a whole number >= 0");

@@ -54,11 +54,7 @@ DeadReckoningCheckpoint parse_dead_reckoning_checkpoint(const std::string& text)
   c.vehicle_id = head.vehicle_id;
   c.config_hash = head.config_hash;
   c.last_output_t_s = r.double_field("last_output_t_s");
-  auto exactly = [&](const char* key, std::size_t n) {
-    const std::vector<double> v = r.value_list(key, n, n);
-    if (v.size() != n) throw CheckpointError(std::string("field '") + key + "' does not hold " + std::to_string(n) + " values");
-    return v;
-  };
+  auto exactly = [&](const char* key, std::size_t n) { return r.exact_values(key, n); };
   std::vector<double> v = exactly("inputs_fed_until_s", kDeadReckoningInputs);
   for (std::size_t i = 0; i < kDeadReckoningInputs; ++i) c.fed_until_s[i] = of_none(v[i]);
   v = exactly("k_selection", 5);

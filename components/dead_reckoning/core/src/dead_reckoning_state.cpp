@@ -253,11 +253,7 @@ void AnchoredPositionFilter::restore_state(const std::string& text) {
   CheckpointReader r(text);
   check_checkpoint_version(r, kAnchorMagic, kStateVersion);
   AnchoredPositionFilter a(params_);  // parsed into a copy: this one changes only when everything was read
-  auto exactly = [&](const char* key, std::size_t n) {
-    const Values v = r.value_list(key, n, n);
-    if (v.size() != n) throw CheckpointError(std::string("field '") + key + "' does not hold " + std::to_string(n) + " values");
-    return v;
-  };
+  auto exactly = [&](const char* key, std::size_t n) { return r.exact_values(key, n); };
   auto opt = [&](const char* key) {
     const Values v = r.value_list(key, 1, 1);
     return optional_of(v);
