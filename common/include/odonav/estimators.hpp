@@ -26,9 +26,11 @@
 //
 // Bad samples (non-finite values, phi <= 0) are rejected with std::invalid_argument naming the
 // estimator, the sample time and the field; the estimator state is then unchanged.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -82,6 +84,16 @@ struct ScaleFactorEstimatorParams {
   double vff_c_m2 = 0.0;
   /// kappa of the automatic C, > 0 (docs/ALGORITHM.md §3: 1..10).
   double vff_kappa = 4.0;
+  /// Change detector of vff_lm_rls: threshold of the two-sided CUSUM of the normalised a-priori
+  /// residuals (dimensionless), >= 0; 0 = off. When one side passes it (a sustained bias: a change
+  /// of K, not one outlier) the window is cut back to the samples since that side's run began, but
+  /// never below window_length reference intervals (sample_interval_s each: 10 s by default, all of
+  /// the window at 10 Hz). Why: the VFF law stops forgetting once the residuals look like noise,
+  /// while the window still holds the samples from before the change (docs/ALGORITHM.md §3). The
+  /// same detector and threshold as kf_rw's.
+  double vff_change_threshold = 12.0;
+  /// Change detector of vff_lm_rls: drift (allowance) subtracted per sample from the CUSUM, >= 0.
+  double vff_change_drift = 0.5;
   /// One-sigma GNSS velocity noise [m/s], >= 0 (automatic C, kf_rw measurement noise prior).
   double sigma_v_mps = 0.05;
   /// Sample interval T [s], > 0, for samples that do not carry their own (dt_s 0): every sample of
@@ -141,6 +153,42 @@ class ResidualScaleTracker {
   double alpha_;
   uint64_t count_ = 0;
   double variance_m2_ = 0.0;
+};
+
+/// Two-sided CUSUM of normalised residuals z (dimensionless, about N(0, 1) while the model holds):
+///   high = max(0, high + z - drift),  low = max(0, low - z - drift).
+/// A side over threshold is a sustained bias (a change), not one outlier: add() then reports the
+/// change, with the index of the first sample of the run that raised it (the sample after that
+/// side was last at 0: where the change began), and both sums restart. Used by kf_rw and vff_lm_rls.
+class CusumChangeDetector {
+ public:
+  /// threshold > 0, drift >= 0 (validated with the estimator parameters).
+  CusumChangeDetector(double threshold, double drift) : threshold_(threshold), drift_(drift) {}
+  /// Adds the normalised residual z of the sample with index `index` (0, 1, ... in order).
+  /// Returns the index of the first sample of the run on a detected change, nullopt otherwise.
+  std::optional<uint64_t> add(double z, uint64_t index);
+  /// The larger side over the threshold (>= 0; a change fires above 1).
+  double statistic() const { return threshold_ > 0.0 ? std::max(high_, low_) / threshold_ : 0.0; }
+  uint64_t changes_detected() const { return changes_; }
+  void reset() { *this = CusumChangeDetector(threshold_, drift_); }
+
+  /// For save/restore: the two sums, the first index of each side's run, the changes counted.
+  struct State {
+    double high = 0.0, low = 0.0;
+    uint64_t high_start = 0, low_start = 0, changes = 0;
+  };
+  State state() const { return {high_, low_, high_start_, low_start_, changes_}; }
+  /// Throws std::runtime_error when a sum is negative or not finite.
+  void set_state(const State& s);
+
+ private:
+  double threshold_;
+  double drift_;
+  double high_ = 0.0;
+  double low_ = 0.0;
+  uint64_t high_start_ = 0;
+  uint64_t low_start_ = 0;
+  uint64_t changes_ = 0;
 };
 
 /// Growing-memory RLS ("rls") and constant-forgetting RLS ("ff_rls").
@@ -207,6 +255,8 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
   /// The residual variance scale C [m^2] the VFF law would use with the estimate K [m/pulse] for a
   /// sample spanning interval_s [s] (0: params' sample_interval_s).
   double vff_c_m2(double k_m_per_pulse, double interval_s = 0.0) const;
+  /// vff_lm_rls: changes of K its detector found since reset (each cut the window back).
+  uint64_t changes_detected() const { return change_.changes_detected(); }
 
  protected:
   WindowRlsEstimator(const ScaleFactorEstimatorParams& params, bool variable_forgetting);
@@ -218,6 +268,10 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
     double log_weight = 0.0;  // Lambda when the sample entered (after its own lambda)
   };
   void resum();
+  // Drops the samples before index first_kept (samples_used_ counting), keeping at least
+  // window_length reference intervals at the newest sample's interval_s, and re-sums. Returns
+  // whether it dropped any.
+  bool cut_window(uint64_t first_kept, double interval_s);
   const Entry& entry(std::size_t age_index) const;  // 0 = oldest
 
   ScaleFactorEstimatorParams params_;
@@ -234,6 +288,7 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
   std::size_t since_resum_ = 0;
   uint64_t samples_used_ = 0;
   ResidualScaleTracker residual_scale_;
+  CusumChangeDetector change_;
 };
 
 /// LM-RLS: the last window_length samples with equal weights ("lm_rls").
@@ -243,7 +298,8 @@ class LmRlsEstimator : public WindowRlsEstimator {
 };
 
 /// VFF-LM-RLS, the paper's method ("vff_lm_rls"): the window weighted by the variable forgetting
-/// factor lambda = clamp(1 - eps^2 / (s L C), lambda_min, 1) once the window is full, 1 before.
+/// factor lambda = clamp(1 - eps^2 / (s L C), lambda_min, 1) once the window is full, 1 before;
+/// with odonav's change detector (vff_change_threshold) that cuts the window back after a change.
 class VffLmRlsEstimator : public WindowRlsEstimator {
  public:
   explicit VffLmRlsEstimator(const ScaleFactorEstimatorParams& params) : WindowRlsEstimator(params, true) {}
@@ -309,20 +365,18 @@ class KfRandomWalkEstimator : public ScaleFactorEstimator {
   void restore_state(const std::string& state) override;
 
   /// Changes detected since reset.
-  uint64_t changes_detected() const { return changes_detected_; }
+  uint64_t changes_detected() const { return change_.changes_detected(); }
   /// The larger CUSUM side over its threshold (dimensionless, >= 0; a change fires above 1).
-  double change_statistic() const;
+  double change_statistic() const { return change_.statistic(); }
 
  private:
   ScaleFactorEstimatorParams params_;
   bool initialised_ = false;
   double k_ = 0.0;
   double p_ = 0.0;
-  double cusum_high_ = 0.0;
-  double cusum_low_ = 0.0;
-  uint64_t changes_detected_ = 0;
   uint64_t samples_used_ = 0;
   ResidualScaleTracker residual_scale_;
+  CusumChangeDetector change_;
 };
 
 }  // namespace odonav

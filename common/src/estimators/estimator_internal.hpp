@@ -99,4 +99,14 @@ class StateReader {
   std::map<std::string, std::vector<std::vector<std::string>>> rows_;
 };
 
+/// The change detector's fields in a state text (cusum_high, cusum_low, their runs' first sample,
+/// changes_detected).
+void put_change_detector(StateWriter& out, const CusumChangeDetector& detector);
+/// Reads them back; throws std::runtime_error naming the field when one is missing or out of range.
+CusumChangeDetector::State get_change_detector(const StateReader& in);
+
+/// Until a few residuals are in, the online scale is too noisy to weight measurements with or to
+/// normalise the change detector's residuals by.
+constexpr uint64_t kMinResidualsForOnlineScale = 10;
+
 }  // namespace odonav::estimators_internal

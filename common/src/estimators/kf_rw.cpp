@@ -15,14 +15,11 @@ namespace odonav {
 using namespace estimators_internal;
 
 KfRandomWalkEstimator::KfRandomWalkEstimator(const ScaleFactorEstimatorParams& params)
-    : params_(params), residual_scale_(params.sigma_y_floor_m, params.sigma_y_ewma_alpha) {
+    : params_(params),
+      residual_scale_(params.sigma_y_floor_m, params.sigma_y_ewma_alpha),
+      change_(params.kf_change_threshold, params.kf_change_drift) {
   params_.validate();
 }
-
-namespace {
-// Until a few residuals are in, the online scale is too noisy to weight measurements with.
-constexpr uint64_t kMinResidualsForOnlineScale = 10;
-}  // namespace
 
 void KfRandomWalkEstimator::update(const ScaleFactorSample& sample) {
   if (!sample_is_valid(sample)) check_sample(name(), sample);  // throws, naming the field
@@ -56,15 +53,9 @@ void KfRandomWalkEstimator::update(const ScaleFactorSample& sample) {
   k_ += gain * innovation;
   p_ *= 1.0 - gain * phi;
   // Change detection on the normalised innovation.
-  const double z = innovation / std::sqrt(innovation_variance);
-  cusum_high_ = std::max(0.0, cusum_high_ + z - params_.kf_change_drift);
-  cusum_low_ = std::max(0.0, cusum_low_ - z - params_.kf_change_drift);
-  if (cusum_high_ > params_.kf_change_threshold || cusum_low_ > params_.kf_change_threshold) {
+  if (change_.add(innovation / std::sqrt(innovation_variance), samples_used_)) {
     const double sigma_change = params_.kf_change_rel_sigma * k_;
     p_ = std::max(p_, sigma_change * sigma_change);
-    cusum_high_ = 0.0;
-    cusum_low_ = 0.0;
-    ++changes_detected_;
   }
   ++samples_used_;
 }
@@ -82,17 +73,11 @@ ScaleFactorEstimate KfRandomWalkEstimator::estimate() const {
   return e;
 }
 
-double KfRandomWalkEstimator::change_statistic() const {
-  return std::max(cusum_high_, cusum_low_) / params_.kf_change_threshold;
-}
-
 void KfRandomWalkEstimator::reset() {
   initialised_ = false;
   k_ = 0.0;
   p_ = 0.0;
-  cusum_high_ = 0.0;
-  cusum_low_ = 0.0;
-  changes_detected_ = 0;
+  change_.reset();
   samples_used_ = 0;
   residual_scale_.reset();
 }
@@ -103,9 +88,7 @@ std::string KfRandomWalkEstimator::save_state() const {
   out.put_u64("initialised", initialised_ ? 1 : 0);
   out.put("k", k_);
   out.put("p", p_);
-  out.put("cusum_high", cusum_high_);
-  out.put("cusum_low", cusum_low_);
-  out.put_u64("changes_detected", changes_detected_);
+  put_change_detector(out, change_);
   out.put_u64("samples_used", samples_used_);
   out.put_u64("residual_count", residual_scale_.count());
   out.put("residual_variance", residual_scale_.variance_m2());
@@ -119,22 +102,17 @@ void KfRandomWalkEstimator::restore_state(const std::string& state) {
   const uint64_t initialised = in.get_u64("initialised");
   const double k = in.get("k");
   const double p = in.get("p");
-  const double cusum_high = in.get("cusum_high");
-  const double cusum_low = in.get("cusum_low");
-  const uint64_t changes = in.get_u64("changes_detected");
+  const CusumChangeDetector::State change = get_change_detector(in);
   const uint64_t samples_used = in.get_u64("samples_used");
   const uint64_t residual_count = in.get_u64("residual_count");
   const double residual_variance = in.get("residual_variance");
   if (initialised > 1) throw std::runtime_error(where + "initialised must be 0 or 1");
-  if (!std::isfinite(k) || !(p >= 0.0) || !std::isfinite(p) || !(cusum_high >= 0.0) || !(cusum_low >= 0.0) ||
-      !(residual_variance >= 0.0))
-    throw std::runtime_error(where + "K, variance or detector sums out of range");
+  if (!std::isfinite(k) || !(p >= 0.0) || !std::isfinite(p) || !(residual_variance >= 0.0))
+    throw std::runtime_error(where + "K or variance out of range");
   initialised_ = initialised == 1;
   k_ = k;
   p_ = p;
-  cusum_high_ = cusum_high;
-  cusum_low_ = cusum_low;
-  changes_detected_ = changes;
+  change_.set_state(change);
   samples_used_ = samples_used;
   residual_scale_.set_state(residual_count, residual_variance);
 }

@@ -50,6 +50,8 @@ void ScaleFactorEstimatorParams::validate() const {
   check_range("lambda_min", lambda_min, 0.0, true, 1.0, false, "in (0, 1]");
   check_range("vff_c_m2", vff_c_m2, 0.0, false, kInf, true, "finite and >= 0 (0 = automatic)");
   check_range("vff_kappa", vff_kappa, 0.0, true, kInf, true, "finite and > 0");
+  check_range("vff_change_threshold", vff_change_threshold, 0.0, false, kInf, true, "finite and >= 0 (0 = off)");
+  check_range("vff_change_drift", vff_change_drift, 0.0, false, kInf, true, "finite and >= 0");
   check_range("sigma_v_mps", sigma_v_mps, 0.0, false, kInf, true, "finite and >= 0");
   check_range("sample_interval_s", sample_interval_s, 0.0, true, kInf, true, "finite and > 0");
   check_range("coarse_min_length_m", coarse_min_length_m, 0.0, true, kInf, true, "finite and > 0");

@@ -1,6 +1,7 @@
 // The text format of save_state() / restore_state() (see estimator_internal.hpp).
 #include <cerrno>
 #include <cinttypes>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -45,6 +46,8 @@ std::vector<std::pair<std::string, double>> param_fields(const ScaleFactorEstima
           {"lambda_min", p.lambda_min},
           {"vff_c_m2", p.vff_c_m2},
           {"vff_kappa", p.vff_kappa},
+          {"vff_change_threshold", p.vff_change_threshold},
+          {"vff_change_drift", p.vff_change_drift},
           {"sigma_v_mps", p.sigma_v_mps},
           {"sample_interval_s", p.sample_interval_s},
           {"coarse_min_length_m", p.coarse_min_length_m},
@@ -173,6 +176,27 @@ std::vector<std::vector<double>> StateReader::rows(const std::string& key, std::
     out.push_back(std::move(row));
   }
   return out;
+}
+
+void put_change_detector(StateWriter& out, const CusumChangeDetector& detector) {
+  const CusumChangeDetector::State s = detector.state();
+  out.put("cusum_high", s.high);
+  out.put("cusum_low", s.low);
+  out.put_u64("cusum_high_start", s.high_start);
+  out.put_u64("cusum_low_start", s.low_start);
+  out.put_u64("changes_detected", s.changes);
+}
+
+CusumChangeDetector::State get_change_detector(const StateReader& in) {
+  CusumChangeDetector::State s;
+  s.high = in.get("cusum_high");
+  s.low = in.get("cusum_low");
+  s.high_start = in.get_u64("cusum_high_start");
+  s.low_start = in.get_u64("cusum_low_start");
+  s.changes = in.get_u64("changes_detected");
+  if (!(s.high >= 0.0) || !(s.low >= 0.0) || !std::isfinite(s.high) || !std::isfinite(s.low))
+    throw std::runtime_error("estimator state: change detector sums (cusum_high, cusum_low) out of range");
+  return s;
 }
 
 void StateReader::check_params(const ScaleFactorEstimatorParams& params) const {

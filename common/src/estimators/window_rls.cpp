@@ -4,6 +4,7 @@
 // lambdas applied since, not lambda^L. That is the weight it must be removed with.
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include "estimator_internal.hpp"
@@ -39,7 +40,8 @@ WindowRlsEstimator::WindowRlsEstimator(const ScaleFactorEstimatorParams& params,
       variable_forgetting_(variable_forgetting),
       capacity_(params.window_length),
       resum_interval_(params.resum_interval == 0 ? params.window_length : params.resum_interval),
-      residual_scale_(params.sigma_y_floor_m, params.sigma_y_ewma_alpha) {
+      residual_scale_(params.sigma_y_floor_m, params.sigma_y_ewma_alpha),
+      change_(params.vff_change_threshold, params.vff_change_drift) {
   params_.validate();
   buffer_.resize(capacity_);
 }
@@ -61,10 +63,16 @@ void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
   const double s_pp_total = s_pp_ + w0;
 
   double lambda = 1.0;
+  std::optional<uint64_t> change_began;
   if (held_ > 0 && s_pp_total > 0.0) {
     const double k_prev = (s_py_ + w0 * params_.k_prior_m_per_pulse) / s_pp_total;
     const double eps = y - k_prev * phi;       // a-priori error: follows the identification result
     const double s = 1.0 + phi * phi / s_pp_total;
+    // The detector normalises by the residual scale observed so far (not the model's): it then
+    // holds whatever the samples' real noise is, e.g. the trapezoid correction's at low rates.
+    if (variable_forgetting_ && params_.vff_change_threshold > 0.0 &&
+        residual_scale_.count() >= kMinResidualsForOnlineScale)
+      change_began = change_.add(eps / (std::sqrt(s) * residual_scale_.sigma_m()), samples_used_);
     residual_scale_.add(eps, s);
     // Ordinary RLS while the window fills (fewer than L held), the VFF law afterwards.
     if (variable_forgetting_ && held_ == capacity_) {
@@ -98,7 +106,24 @@ void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
   }
   last_lambda_ = lambda;
   ++samples_used_;
-  if (++since_resum_ >= resum_interval_) resum();
+  const bool cut = change_began && cut_window(*change_began, sample.dt_s);
+  if (!cut && ++since_resum_ >= resum_interval_) resum();
+}
+
+bool WindowRlsEstimator::cut_window(uint64_t first_kept, double interval_s) {
+  // Never shorter than L reference intervals (10 s): the memory the window has at 10 Hz, where a
+  // K step settles within it anyway. Below it, a run of residuals from an unmodelled effect that
+  // comes and goes (an uncompensated GNSS latency during an acceleration) would leave K resting
+  // on a few seconds of data (measured at 10 Hz with 100-200 ms latency: K RMS 0.13-1.2 %).
+  const double n = reference_intervals(params_, interval_s);
+  const auto floor_samples = static_cast<std::size_t>(std::ceil(static_cast<double>(capacity_) / n - 1e-9));
+  const std::size_t keep = std::max<std::size_t>(
+      floor_samples, static_cast<std::size_t>(std::min<uint64_t>(samples_used_ - first_kept, capacity_)));
+  if (keep >= held_) return false;
+  oldest_ = ring_index(oldest_, held_ - keep, capacity_);
+  held_ = keep;
+  resum();  // exact sums over what is left (and since_resum_ restarts)
+  return true;
 }
 
 void WindowRlsEstimator::resum() {
@@ -153,6 +178,7 @@ void WindowRlsEstimator::reset() {
   since_resum_ = 0;
   samples_used_ = 0;
   residual_scale_.reset();
+  change_.reset();
 }
 
 std::string WindowRlsEstimator::save_state() const {
@@ -166,6 +192,7 @@ std::string WindowRlsEstimator::save_state() const {
   out.put_u64("samples_used", samples_used_);
   out.put_u64("residual_count", residual_scale_.count());
   out.put("residual_variance", residual_scale_.variance_m2());
+  put_change_detector(out, change_);
   out.put_u64("held", held_);
   for (std::size_t i = 0; i < held_; ++i) out.put_row("row", {entry(i).phi, entry(i).y, entry(i).log_weight});
   return out.finish();
@@ -194,6 +221,7 @@ void WindowRlsEstimator::restore_state(const std::string& state) {
   const double last_lambda = in.get("last_lambda");
   const uint64_t samples_used = in.get_u64("samples_used");
   const uint64_t residual_count = in.get_u64("residual_count");
+  const CusumChangeDetector::State change = get_change_detector(in);
   // All read and checked: commit.
   s_pp_ = s_pp;
   s_py_ = s_py;
@@ -202,6 +230,7 @@ void WindowRlsEstimator::restore_state(const std::string& state) {
   since_resum_ = since_resum;
   samples_used_ = samples_used;
   residual_scale_.set_state(residual_count, residual_variance);
+  change_.set_state(change);
   oldest_ = 0;
   held_ = held;
   for (std::size_t i = 0; i < held; ++i) buffer_[i] = Entry{rows[i][0], rows[i][1], rows[i][2]};

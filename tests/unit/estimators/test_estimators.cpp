@@ -9,6 +9,9 @@
 #include <cstdint>
 #include <cmath>
 #include <cstdio>
+#include <functional>
+#include <memory>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -344,6 +347,139 @@ TEST(Tracking, VffForgetsPerSecondSoAStepSettlesInAboutTheSameTimeAtOneAndTenHer
     EXPECT_LE(at_10hz, 10.0);
     EXPECT_LE(at_1hz, 2.0 * at_10hz + 2.0) << "seed " << seed;
   }
+}
+
+TEST(ChangeDetector, ASustainedBiasFiresOnceAndNamesTheSampleWhereItsRunBegan) {
+  CusumChangeDetector detector(12.0, 0.5);
+  // One 10-sigma outlier: 10 - 0.5 stays below 12, no change; the drift empties the sum in 19 samples.
+  for (uint64_t i = 0; i < 50; ++i) EXPECT_FALSE(detector.add(i == 20 ? 10.0 : 0.0, i));
+  EXPECT_EQ(detector.statistic(), 0.0);
+  // From sample 50 on a bias of +2 sigma: the high side gains 1.5 per sample and passes 12 at the
+  // ninth (13.5); the change began at 50 (the sample after the side was last at 0).
+  std::optional<uint64_t> began;
+  uint64_t fired_at = 0;
+  for (uint64_t i = 50; i < 70 && !began; ++i) {
+    began = detector.add(2.0, i);
+    fired_at = i;
+  }
+  ASSERT_TRUE(began.has_value());
+  EXPECT_EQ(fired_at, 58u);
+  EXPECT_EQ(*began, 50u);
+  EXPECT_EQ(detector.statistic(), 0.0) << "both sums restart after a change";
+  EXPECT_EQ(detector.changes_detected(), 1u);
+  // The low side the same way, from sample 100.
+  for (uint64_t i = 70; i < 100; ++i) EXPECT_FALSE(detector.add(0.0, i));
+  began.reset();
+  for (uint64_t i = 100; i < 120 && !began; ++i) began = detector.add(-2.0, i);
+  ASSERT_TRUE(began.has_value());
+  EXPECT_EQ(*began, 100u);
+  EXPECT_EQ(detector.changes_detected(), 2u);
+}
+
+namespace {
+// A drive sampled every interval_s with a 3 % K step at 300 s, GNSS velocity noise 0.05 m/s (y
+// carries 0.05 T / sqrt(2)) and real pulse quantisation, through VFF-LM-RLS with `params`. Like the
+// simulator's terrain drive, the step comes on a slow stretch: 12 m/s until 290 s, 5 m/s after,
+// so the samples from before the step weigh (12/5)^2 times more in the sums than those after it.
+// Returns the relative K error after every sample; `changes` the changes its detector found, and
+// `check` (if set) is called after every update with the sample (for save/restore).
+using StepDriveCheck = std::function<void(std::size_t, const ScaleFactorSample&, VffLmRlsEstimator&)>;
+std::vector<double> vff_step_drive(double interval_s, const ScaleFactorEstimatorParams& params, unsigned seed,
+                                   uint64_t* changes = nullptr, const StepDriveCheck& check = {}) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.05 * interval_s / std::sqrt(2.0));
+  const double k0 = 0.01;
+  const auto n = static_cast<std::size_t>(std::lround(600.0 / interval_s));
+  const auto step_at = static_cast<std::size_t>(std::lround(300.0 / interval_s));
+  VffLmRlsEstimator estimator(params);
+  std::vector<double> errors;
+  double counter = 0.0, previous = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double k = i >= step_at ? k0 * 1.03 : k0;
+    const double speed_mps = interval_s * static_cast<double>(i) < 290.0 ? 12.0 : 5.0;
+    const double distance_m = speed_mps * interval_s;
+    counter += distance_m / k;
+    const double count = std::floor(counter);
+    const ScaleFactorSample sample =
+        make_sample(interval_s * static_cast<double>(i + 1), count - previous, distance_m + noise(rng), interval_s);
+    estimator.update(sample);
+    previous = count;
+    if (check) check(i, sample, estimator);
+    errors.push_back(estimator.estimate().k_m_per_pulse / k - 1.0);
+  }
+  if (changes) *changes = estimator.changes_detected();
+  return errors;
+}
+
+// RMS of errors[i] for the samples i whose time (interval_s (i + 1)) lies in [from_s, to_s).
+double rms_between(const std::vector<double>& errors, double interval_s, double from_s, double to_s) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < errors.size(); ++i) {
+    const double t = interval_s * static_cast<double>(i + 1);
+    if (t >= from_s && t < to_s) {
+      sum += errors[i] * errors[i];
+      ++n;
+    }
+  }
+  return std::sqrt(sum / static_cast<double>(n));
+}
+}  // namespace
+
+TEST(Tracking, VffChangeDetectorRemovesTheStepTailAtOneHertzAndLeavesTenHertzAlone) {
+  // At 1 Hz the VFF law stops forgetting once the residuals look like noise, while its window
+  // still holds the samples from before the step: K lags by tenths of a percent for tens of
+  // seconds. The detector cuts the window back to the samples since the change began.
+  ScaleFactorEstimatorParams with;  // defaults: threshold 12, drift 0.5
+  ScaleFactorEstimatorParams without;
+  without.vff_change_threshold = 0.0;
+  for (unsigned seed : {1u, 2u, 3u}) {
+    uint64_t changes = 0;
+    const std::vector<double> cut = vff_step_drive(1.0, with, seed, &changes);
+    const std::vector<double> law_only = vff_step_drive(1.0, without, seed);
+    // 10-40 s after the step: the tail; 100-300 s: steady state (no false alarm may cost noise there).
+    const double tail_cut = rms_between(cut, 1.0, 310.0, 340.0), tail_law = rms_between(law_only, 1.0, 310.0, 340.0);
+    const double steady_cut = rms_between(cut, 1.0, 100.0, 300.0);
+    const double steady_law = rms_between(law_only, 1.0, 100.0, 300.0);
+    std::printf("[ info ] seed %u at 1 Hz: tail RMS %.3f %% with the detector, %.3f %% without; steady %.3f / %.3f %%; "
+                "%llu change(s)\n",
+                seed, 100 * tail_cut, 100 * tail_law, 100 * steady_cut, 100 * steady_law,
+                static_cast<unsigned long long>(changes));
+    EXPECT_EQ(changes, 1u) << "seed " << seed << ": the step, and no false alarm in 600 s";
+    EXPECT_LT(tail_cut, 0.5 * tail_law) << "seed " << seed;
+    EXPECT_EQ(steady_cut, steady_law) << "seed " << seed << ": nothing changes before the step";
+  }
+  // At 10 Hz the window (L samples) is no longer than the detector's floor (L reference intervals):
+  // the detector may fire, but it never cuts, and the estimates are those of the law alone.
+  uint64_t changes_10hz = 0;
+  EXPECT_EQ(vff_step_drive(0.1, with, 1, &changes_10hz), vff_step_drive(0.1, without, 1));
+  EXPECT_GE(changes_10hz, 1u);
+}
+
+TEST(SaveRestore, VffRestoredWhileTheDetectorIsCountingContinuesBitIdentically) {
+  // Saved two samples after a 1 Hz step, while the CUSUM is part-way to its threshold: the restored
+  // estimator must fire at the same sample and cut the window at the same place.
+  ScaleFactorEstimatorParams params;
+  std::unique_ptr<VffLmRlsEstimator> restored;
+  std::size_t compared = 0;
+  vff_step_drive(1.0, params, 1, nullptr, [&](std::size_t i, const ScaleFactorSample& sample, VffLmRlsEstimator& e) {
+    if (i == 301) {
+      const std::string saved = e.save_state();
+      EXPECT_NE(saved.find("cusum_high_start "), std::string::npos);
+      EXPECT_GT(e.estimate().forgetting_factor, 0.0);
+      restored = std::make_unique<VffLmRlsEstimator>(params);
+      restored->restore_state(saved);
+      EXPECT_EQ(restored->save_state(), saved);
+    } else if (i > 301) {
+      restored->update(sample);
+      EXPECT_EQ(restored->estimate().k_m_per_pulse, e.estimate().k_m_per_pulse) << "sample " << i;
+      EXPECT_EQ(restored->changes_detected(), e.changes_detected()) << "sample " << i;
+      ++compared;
+    }
+  });
+  EXPECT_EQ(compared, 298u);
+  ASSERT_TRUE(restored);
+  EXPECT_EQ(restored->changes_detected(), 1u);
 }
 
 TEST(Tracking, KalmanRandomWalkIsQuieterThanTheWindowInSteadyStateAndDetectsTheStepOnce) {

@@ -20,6 +20,10 @@ void add_identification_options(Options& o) {
                0.5, 1.0);
   o.add_double("vff-kappa", d.estimator.vff_kappa, "VFF: C = kappa * sigma_y^2 when --vff-c is 0", 1e-3, 1e6);
   o.add_double("vff-c", d.estimator.vff_c_m2, "VFF: residual variance scale C (m^2); 0 = automatic", 0.0, 1e6);
+  o.add_double("vff-change-threshold", d.estimator.vff_change_threshold,
+               "VFF: CUSUM threshold (sigmas) of the change detector that cuts the window back after a change of "
+               "K; 0 = off",
+               0.0, 1e6);
   o.add_double("ff-lambda", d.estimator.forgetting_factor, "constant forgetting factor of ff_rls", 0.5, 1.0);
   o.add_double("converged-rel-sigma", d.estimator.converged_rel_sigma,
                "K is 'converged' when sigma_K / K is below this", 1e-6, 1.0);
@@ -68,6 +72,7 @@ IdentificationParams identification_params_from(const Options& o) {
   p.estimator.lambda_min = o.get_double("lambda-min");
   p.estimator.vff_kappa = o.get_double("vff-kappa");
   p.estimator.vff_c_m2 = o.get_double("vff-c");
+  p.estimator.vff_change_threshold = o.get_double("vff-change-threshold");
   p.estimator.forgetting_factor = o.get_double("ff-lambda");
   p.estimator.converged_rel_sigma = o.get_double("converged-rel-sigma");
   p.builder.min_speed_mps = o.get_double("min-speed");
