@@ -261,6 +261,14 @@ const char* to_string(EpochStatus status);
 double innovation_bound_m(const SampleBuilderParams& params, double sigma_v_mps, double k_m_per_pulse,
                           double sigma_k_m_per_pulse, double phi_pulses, double interval_s);
 
+/// Half window h [s] of the pulse rates of the trapezoid correction (SampleBuilderParams,
+/// trapezoid_correction_min_interval_s) for a sample of interval_s [s] with the estimate
+/// k_m_per_pulse and the GNSS velocity one-sigma sigma_v_mps: the shortest h, from
+/// pulse_rate_half_window_s up to a quarter of the interval, whose pulse quantisation in the rate,
+/// |K| sqrt(2/12) / (2h) m/s, is at most a quarter of sigma_v (docs/ALGORITHM.md §2).
+double trapezoid_rate_half_window_s(const SampleBuilderParams& params, double k_m_per_pulse, double sigma_v_mps,
+                                    double interval_s);
+
 /// Counts per gate (each GNSS epoch is counted once, under the first gate that rejected it).
 struct SampleBuilderCounters {
   uint64_t epochs = 0;
@@ -402,6 +410,8 @@ class SampleBuilder {
   double k_stable_window_s() const;
   /// Pulse rate (pulses/s) at sensor time t_s (pulse_rate_half_window_s); nullopt without counts.
   std::optional<double> pulse_rate_at(double t_s) const;
+  /// The same over [t - h, t + h] for the given half window h [s].
+  std::optional<double> pulse_rate_at(double t_s, double half_window_s) const;
   /// Updates the observed GNSS period with a new row at t_s.
   void observe_gnss_period(double t_s);
   /// Sensor time of a GNSS epoch stamped t_s: t_s - applied latency.

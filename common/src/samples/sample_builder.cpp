@@ -156,7 +156,10 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
 }
 
 std::optional<double> SampleBuilder::pulse_rate_at(double t_s) const {
-  const double h = params_.pulse_rate_half_window_s;
+  return pulse_rate_at(t_s, params_.pulse_rate_half_window_s);
+}
+
+std::optional<double> SampleBuilder::pulse_rate_at(double t_s, double h) const {
   const std::optional<double> before = odometer_.count_at(t_s - h, watermark_s_);
   const std::optional<double> after = odometer_.count_at(t_s + h, watermark_s_);
   if (!before || !after) return std::nullopt;
@@ -404,7 +407,10 @@ std::vector<SampleBuilderEpoch> SampleBuilder::process_until(double watermark_s,
     // starts here.
     // The deferred latency samples still need their own interval at every candidate.
     const double oldest = latency_pending_.empty() ? t : std::min(t, latency_pending_.front().t0_s);
-    const double earliest = oldest - std::max(0.0, earliest_sensor_offset_s()) - 2.0 * params_.pulse_rate_half_window_s;
+    // The trapezoid correction's rate windows reach back 2h before an interval's start, h at most a
+    // quarter of the longest interval (trapezoid_rate_half_window_s).
+    const double rate_h = std::max(params_.pulse_rate_half_window_s, 0.25 * max_interval_in_force_s());
+    const double earliest = oldest - std::max(0.0, earliest_sensor_offset_s()) - 2.0 * rate_h;
     odometer_.drop_before(earliest);
     // Keep the INS window [t - h, ...] for the next epoch's body rate (lever arm).
     attitude_.drop_before(compensates_lever_arm() ? earliest - params_.lever_arm_rate_half_window_s : earliest);
@@ -490,6 +496,18 @@ std::optional<EpochStatus> SampleBuilder::check_epoch_velocity(const GnssSample&
   return std::nullopt;
 }
 
+double trapezoid_rate_half_window_s(const SampleBuilderParams& p, double k_m_per_pulse, double sigma_v_mps,
+                                    double interval_s) {
+  // A count is off by a uniform fraction of a pulse (variance 1/12), so the rate over +-h carries
+  // sqrt(2/12) / (2h) pulses/s, |K| times that in m/s. Where that is a sizeable share of the GNSS
+  // velocity noise (terrain: 0.0125 m/pulse, 0.05 m/s: 0.05 m/s at h = 0.05 s, as much as the
+  // noise the correction sits on), widen h until it is a quarter of it; never beyond a quarter of
+  // the interval, so the correction still reads the interval's own shape.
+  const double wanted = std::abs(k_m_per_pulse) * std::sqrt(2.0 / 12.0) / (2.0 * 0.25 * sigma_v_mps);
+  const double widest = std::max(p.pulse_rate_half_window_s, 0.25 * interval_s);
+  return std::isfinite(wanted) ? std::clamp(wanted, p.pulse_rate_half_window_s, widest) : widest;
+}
+
 EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs& in, ScaleFactorSample& sample) const {
   GoodEpoch s = *chain_start_;
   // Both ends at the latency in force now: the start's count and attitude again at its sensor
@@ -547,15 +565,16 @@ EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs
     // The shape is read over the interval shifted back by h, where the pulse rates' windows
     // [t - 2h, t] end at the epochs: the sample needs no odometer after its epoch. The curvature
     // moves little in h (0.05 s against a 1 s interval).
-    const double h = params_.pulse_rate_half_window_s;
+    const std::optional<KEstimate> k = k_estimates_.before(g.t_s);
+    const double k_m = k ? k->k_m_per_pulse : params_.odometer_jump_gate.k_m_per_pulse;
+    const double sigma_v = g.vel_std_mps && *g.vel_std_mps > 0.0 ? *g.vel_std_mps : params_.gnss_velocity_sigma_mps;
+    const double h = trapezoid_rate_half_window_s(params_, k_m, sigma_v, dt);
     const double end_sensor_t = sensor_time(g.t_s);
     const std::optional<double> n0 = odometer_.count_at(start_sensor_t - h, watermark_s_);
     const std::optional<double> n1 = odometer_.count_at(end_sensor_t - h, watermark_s_);
-    const std::optional<double> r0 = pulse_rate_at(start_sensor_t - h);
-    const std::optional<double> r1 = pulse_rate_at(end_sensor_t - h);
+    const std::optional<double> r0 = pulse_rate_at(start_sensor_t - h, h);
+    const std::optional<double> r1 = pulse_rate_at(end_sensor_t - h, h);
     if (n0 && n1 && r0 && r1) {
-      const std::optional<KEstimate> k = k_estimates_.before(g.t_s);
-      const double k_m = k ? k->k_m_per_pulse : params_.odometer_jump_gate.k_m_per_pulse;
       sample.y_m += k_m * ((*n1 - *n0) - 0.5 * dt * (*r0 + *r1));
     }
   }

@@ -1,6 +1,7 @@
 // Sample builder (docs/ALGORITHM.md §2) on synthetic drives with exactly known K and trajectory.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <iterator>
 #include <map>
@@ -612,8 +613,9 @@ TEST(SampleBuilder, OneHertzGnssIsAcceptedBecauseTheGapGateFollowsTheObservedPer
   for (const auto& s : samples_of(epochs)) {
     EXPECT_NEAR(s.dt_s, 1.0, 1e-9);
     // Linear speed: the trapezoid is exact, so only quantisation is left: a pulse in phi and in the
-    // correction's shifted count, and the correction's two pulse rates (count differences over
-    // 2h = 0.1 s, each weighted T / 2: one pulse in each is T / 4h = 2.5 pulses at T = 1 s).
+    // correction's shifted count, and the correction's two pulse rates (count differences over 2h,
+    // each weighted T / 2: one pulse in each is T / 4h, h = 0.1 s here from K = 0.0125 m/pulse and
+    // the default sigma_v 0.1 m/s: 1.2 pulses at T = 1 s).
     EXPECT_LT(std::abs(s.y_m - kK * s.phi_pulses), 5.0 * kK) << s.t_s;
   }
   // At 10 Hz the derived gap is the 0.5 s floor; an explicit value still wins.
@@ -621,6 +623,25 @@ TEST(SampleBuilder, OneHertzGnssIsAcceptedBecauseTheGapGateFollowsTheObservedPer
   SampleBuilderParams fixed;
   fixed.max_interval_s = 0.7;
   EXPECT_DOUBLE_EQ(effective_max_interval_s(fixed, 1.0), 0.7);
+}
+
+TEST(SampleBuilder, TrapezoidRatesAreReadOverAWindowWhoseQuantisationIsAQuarterOfTheGnssNoise) {
+  // The rate over +-h carries |K| sqrt(2/12) / (2h) m/s of quantisation; h makes that sigma_v / 4.
+  const SampleBuilderParams p;  // pulse_rate_half_window_s 0.05 s
+  const double q = std::sqrt(2.0 / 12.0);
+  // terrain: 0.0127 m/pulse, 0.05 m/s at 1 Hz: h = 0.0127 q / (2 * 0.0125) = 0.207 s.
+  EXPECT_NEAR(trapezoid_rate_half_window_s(p, 0.0127, 0.05, 1.0), 0.0127 * q / 0.025, 1e-12);
+  EXPECT_NEAR(trapezoid_rate_half_window_s(p, 0.0127, 0.05, 1.0), 0.207, 0.001);
+  // The rule's own check: the quantisation over the chosen window is sigma_v / 4.
+  const double h = trapezoid_rate_half_window_s(p, 0.0127, 0.05, 1.0);
+  EXPECT_NEAR(0.0127 * q / (2.0 * h), 0.05 / 4.0, 1e-12);
+  // The slow robot's encoder (0.59 mm/pulse, RTK 0.02 m/s): already far below, the 0.05 s floor.
+  EXPECT_DOUBLE_EQ(trapezoid_rate_half_window_s(p, 0.000589, 0.02, 1.0), 0.05);
+  // A coarse encoder: never beyond a quarter of the interval (0.25 s at 1 Hz, 0.125 s at 2 Hz).
+  EXPECT_DOUBLE_EQ(trapezoid_rate_half_window_s(p, 0.05, 0.05, 1.0), 0.25);
+  EXPECT_DOUBLE_EQ(trapezoid_rate_half_window_s(p, 0.05, 0.05, 0.5), 0.125);
+  // No GNSS velocity sigma: the widest window.
+  EXPECT_DOUBLE_EQ(trapezoid_rate_half_window_s(p, 0.0127, 0.0, 1.0), 0.25);
 }
 
 TEST(SampleBuilder, TheMinimumPulsesGateRejectsSamplesWithTooFewPulses) {
