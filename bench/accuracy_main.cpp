@@ -223,6 +223,9 @@ void print_scenario(const std::string& scenario, const ScenarioFigures& f, std::
   if (!f.latency_error_ms.values.empty()) {
     out << "\nGNSS latency: final estimate minus simulated (ms) " << describe(f.latency_error_ms, 1) << ", sigma (ms) "
         << describe(f.latency_sigma_ms, 1) << "\n";
+    out << "GNSS latency error per seed (ms):";
+    for (double v : f.latency_error_ms.values) out << " " << std::fixed << std::setprecision(1) << v;
+    out << "\n";
   }
   out << "\nvff_lm_rls RMS K error per seed (%):";
   for (double v : f.rms_by_seed) out << " " << std::fixed << std::setprecision(3) << v;
