@@ -154,8 +154,10 @@ struct SampleBuilderParams {
   std::optional<double> gnss_latency_fixed_s;
   /// Online estimation: candidate latencies from latency_search_min_s to latency_search_max_s in
   /// steps of latency_search_step_s (defaults -0.2, 0.5, 0.01 s). For every candidate the squared
-  /// residuals of the accepted samples against the current K estimate are summed; the estimate is
-  /// the vertex of a parabola fitted around the smallest sum, its sigma from the curvature.
+  /// residuals of the accepted samples against that candidate's own least-squares K are summed
+  /// (one K per candidate and block of latency_block_s, so neither the K estimate nor a change of
+  /// the true K enters them); the estimate is the vertex of a parabola fitted around the smallest
+  /// sum, its sigma from the curvature.
   /// The sums are deferred: an accepted sample at t_k enters them before the first later epoch whose
   /// sensor time reaches t_k - latency_search_min_s + pulse_rate_half_window_s (its look-ahead), and
   /// a latency decided then applies from that epoch on (deterministic: it depends on stamps only).
@@ -191,18 +193,15 @@ struct SampleBuilderParams {
   /// ... but only when that sigma is at most latency_apply_coarse_sigma_s (default 0.007 s: at 1 Hz
   /// a sigma of 10 ms still let a wrong 60 ms through on 3 of 10 seeds).
   double latency_apply_coarse_sigma_s = 0.007;
-  /// Samples enter the latency sums only while the K estimate's one-sigma is at most this fraction
-  /// of K (default 0.005).
+  /// Samples enter the latency sums only once the innovation gate is armed: the K estimate's
+  /// one-sigma is at most this fraction of K (default 0.005). The sums do not use that K otherwise.
   double latency_max_k_rel_sigma = 0.005;
-  /// ... and only while every K estimate of the last latency_k_stable_s (default 20 s) is within
-  /// latency_k_stable_rel (default 0.003) of the current one.
-  double latency_k_stable_s = 20.0;
-  double latency_k_stable_rel = 0.003;
-  /// The precise estimate uses only the samples taken while K held within this (default 0.0015):
-  /// a sample taken while K^ still moves carries its lag times the speed profile, which biased the
-  /// estimate by +2.5 ms at 0.003 (+1.1 to +2.3 ms at 0.0015, measured); the looser rule above still
-  /// finds a latency that is clearly off while the uncompensated latency keeps K moving.
-  double latency_k_stable_fine_rel = 0.0015;
+  /// Length of the blocks the per-candidate K is fitted over (s, > 0; default 30 s by sample
+  /// stamp): long enough that a block holds several speed changes (the latency is read from the
+  /// part of the pulse-rate profile a scale cannot explain), short enough that the true K (steps,
+  /// wear, load) hardly moves within one. Against the running K estimate instead, the estimate lag
+  /// after a change of K times the speed profile biased the latency by +1 to +2.5 ms.
+  double latency_block_s = 30.0;
 };
 
 /// The max interval in force for an observed GNSS period (s; NaN: not yet observed):
@@ -219,6 +218,9 @@ struct GnssLatencyEstimate {
   double sigma_s = -1.0;
   /// Samples in the estimate.
   uint64_t samples = 0;
+  /// Blocks of samples left out of the estimate because one K could not describe them (their own
+  /// latency lay more than 5 of their sigmas from the others'; docs/ALGORITHM.md "GNSS latency").
+  uint64_t blocks_left_out = 0;
   bool fixed = false;
   /// Why there is no usable estimate (empty when there is): names the rule and the observed value.
   std::string reason;
@@ -403,11 +405,6 @@ class SampleBuilder {
   /// GNSS velocity moved from the antenna to the INS reference point (ENU, m/s).
   Eigen::Vector3d reference_point_velocity(const GnssSample& g, const Attitude& att) const;
   void count(EpochStatus status);
-  /// Whether every K estimate stamped in [t_s - latency_k_stable_s, t_s) is within rel of
-  /// latency_k_stable_rel of k_m_per_pulse (and there is one).
-  bool k_recently_stable(double t_s, double k_m_per_pulse, double rel) const;
-  /// latency_k_stable_s plus half the observed GNSS period.
-  double k_stable_window_s() const;
   /// Pulse rate (pulses/s) at sensor time t_s (pulse_rate_half_window_s); nullopt without counts.
   std::optional<double> pulse_rate_at(double t_s) const;
   /// The same over [t - h, t + h] for the given half window h [s].
@@ -424,22 +421,32 @@ class SampleBuilder {
     double t0_s;
     double t1_s;
     double y_m;
-    double k_m_per_pulse;
     double applied_s;      ///< latency in force when the sample was made.
     double needs_until_s;  ///< sensor time up to which the odometer must be final to add it.
-    bool fine;             ///< K held within latency_k_stable_fine_rel: also for the fine sums.
   };
   /// Queues an accepted sample between the epochs stamped t0_s and t1_s for the latency sums.
-  void defer_latency_sample(double t0_s, double t1_s, double y_m, double k_m_per_pulse, bool fine);
+  void defer_latency_sample(double t0_s, double t1_s, double y_m);
   /// Adds a deferred sample to the sums (update_latency), unless the sums restarted away from the
   /// latency it was made at.
   void fold_latency_sample(const PendingLatencySample& sample);
   /// Adds an accepted sample between the epochs stamped t0_s and t1_s to the latency candidates and
   /// updates latency_ (estimation only; the applied value changes for the following epochs).
-  void update_latency(double t0_s, double t1_s, double y_m, double k_m_per_pulse, bool fine);
-  /// The parabola fit of one set of sums (samples of them): fills estimate_s, sigma_s, samples,
-  /// reason of out and returns whether there is an estimate.
-  bool fit_latency(const std::vector<double>& sse_m2, uint64_t samples, GnssLatencyEstimate& out) const;
+  void update_latency(double t0_s, double t1_s, double y_m);
+  /// The parabola fit of the per-candidate sums of normalised squared residuals (samples of them,
+  /// fitted_k K values fitted to them): fills estimate_s, sigma_s, samples, reason of out and
+  /// returns whether there is an estimate.
+  bool fit_latency(const std::vector<double>& sums, uint64_t samples, uint64_t fitted_k,
+                   GnssLatencyEstimate& out, uint64_t min_samples) const;
+  /// The open block's residual sum per candidate (against the candidate's own K over the block),
+  /// scaled by the block's residual variance: (samples - 1) / its smallest sum. False when the
+  /// block has too few samples or no residual.
+  bool weighted_block_residuals(std::vector<double>& out) const;
+  /// Whether the open block (its weighted_block_residuals) agrees with the closed blocks' latency:
+  /// its own parabola's vertex within 5 of its sigmas of it (true while there is no closed estimate;
+  /// false when the block gives no vertex of its own).
+  bool block_consistent(const std::vector<double>& block) const;
+  /// Clears the latency sums (closed blocks and the open one).
+  void restart_latency_sums();
 
   SampleBuilderParams params_;
   OdometerBuffer odometer_;
@@ -459,14 +466,24 @@ class SampleBuilder {
   double gnss_period_s_ = std::numeric_limits<double>::quiet_NaN();
   GnssLatencyEstimate latency_;
   std::vector<double> latency_candidates_s_;
-  std::vector<double> latency_sse_m2_;  ///< per candidate: sum of squared residuals against K^.
-  std::vector<double> latency_sse_fine_m2_;  ///< the same over the samples of the fine rule.
-  uint64_t latency_samples_fine_ = 0;
+  /// Per candidate: the closed blocks' weighted_block_residuals, summed (dimensionless), and the
+  /// blocks and samples in them.
+  std::vector<double> latency_closed_chi2_;
+  uint64_t latency_closed_blocks_ = 0;
+  uint64_t latency_closed_samples_ = 0;
+  std::optional<double> latency_closed_fit_;  ///< the closed blocks' latency estimate (s), if any.
+  /// The open block (from latency_block_start_s_, the end stamp of its first sample): sum y^2 and,
+  /// per candidate, sum y phi and sum phi^2 (m^2, m pulses, pulses^2).
+  double latency_block_start_s_ = 0.0;
+  uint64_t latency_block_samples_ = 0;
+  double latency_block_yy_m2_ = 0.0;
+  std::vector<double> latency_block_yphi_;
+  std::vector<double> latency_block_phiphi_;
+  std::vector<double> latency_chi2_;  ///< closed blocks plus the open one, per candidate.
   std::deque<PendingLatencySample> latency_pending_;  ///< accepted, not yet in the sums (in order).
-  uint64_t latency_samples_ = 0;
+  uint64_t latency_samples_ = 0;  ///< samples in latency_chi2_.
   double latency_sums_applied_s_ = 0.0;  ///< the applied latency the sums were collected at.
   uint64_t latency_restarts_ = 0;
-  std::deque<std::pair<double, double>> recent_k_;  ///< (t_s, K) of the last latency_k_stable_s.
 };
 
 }  // namespace odonav

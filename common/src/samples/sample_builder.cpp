@@ -98,6 +98,15 @@ double effective_max_interval_s(const SampleBuilderParams& params, double gnss_p
 }
 
 namespace {
+// A latency block needs this many samples for a residual variance of its own (its weight).
+constexpr uint64_t kLatencyBlockMinSamples = 10;
+// A block whose own latency estimate lies more than this many of its sigmas from the closed blocks'
+// estimate is left out of the sums: one K does not describe it (the true K stepped inside it).
+// Measured on terrain, seed 1, with 15 s blocks: the block holding the -2 % step put its minimum
+// 90 ms off at a sigma of 8 ms (11 sigma) and pulled the estimate by +2.5 ms although it was
+// weighted down by its larger residuals; the blocks without a step lay within 2 sigma.
+constexpr double kLatencyBlockMaxSigmas = 5.0;
+
 void require(bool ok, const char* what) {
   if (!ok) throw std::invalid_argument(std::string("SampleBuilderParams: ") + what);
 }
@@ -140,6 +149,7 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
   require(p.yaw_rate_step_s > 0.0, "yaw_rate_step_s must be > 0");
   require(p.latency_fit_half_width_s >= 2.0 * p.latency_search_step_s, "latency_fit_half_width_s must be >= 2 steps");
   require(p.latency_min_samples >= 1, "latency_min_samples must be >= 1");
+  require(p.latency_block_s > 0.0, "latency_block_s must be > 0");
   if (p.gnss_latency_fixed_s) {
     latency_.fixed = true;
     latency_.applied_s = latency_.estimate_s = *p.gnss_latency_fixed_s;
@@ -147,8 +157,10 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
   } else if (p.latency_estimation_enabled) {
     const int n = static_cast<int>(std::floor((p.latency_search_max_s - p.latency_search_min_s) / p.latency_search_step_s + 1e-9)) + 1;
     for (int i = 0; i < n; ++i) latency_candidates_s_.push_back(p.latency_search_min_s + i * p.latency_search_step_s);
-    latency_sse_m2_.assign(latency_candidates_s_.size(), 0.0);
-    latency_sse_fine_m2_.assign(latency_candidates_s_.size(), 0.0);
+    latency_closed_chi2_.assign(latency_candidates_s_.size(), 0.0);
+    latency_block_yphi_.assign(latency_candidates_s_.size(), 0.0);
+    latency_block_phiphi_.assign(latency_candidates_s_.size(), 0.0);
+    latency_chi2_.assign(latency_candidates_s_.size(), 0.0);
     latency_.reason = "no accepted sample yet";
   } else {
     latency_.reason = "estimation disabled";
@@ -191,33 +203,34 @@ double SampleBuilder::earliest_sensor_offset_s() const {
 }
 
 
-void SampleBuilder::defer_latency_sample(double t0_s, double t1_s, double y_m, double k_m_per_pulse, bool fine) {
+void SampleBuilder::defer_latency_sample(double t0_s, double t1_s, double y_m) {
   if (latency_candidates_s_.empty()) return;
   // The smallest candidate looks furthest ahead: its pulse rate at t1 - candidate ends h later.
   const double needs_until_s = t1_s - latency_candidates_s_.front() + params_.pulse_rate_half_window_s;
   latency_pending_.push_back(
-      PendingLatencySample{t0_s, t1_s, y_m, k_m_per_pulse, latency_.applied_s, needs_until_s, fine});
+      PendingLatencySample{t0_s, t1_s, y_m, latency_.applied_s, needs_until_s});
 }
 
 void SampleBuilder::fold_latency_sample(const PendingLatencySample& s) {
   // Gated and projected at a latency the sums were restarted away from: it would pull them back.
   if (std::abs(s.applied_s - latency_sums_applied_s_) > params_.latency_restart_s) return;
-  update_latency(s.t0_s, s.t1_s, s.y_m, s.k_m_per_pulse, s.fine);
+  update_latency(s.t0_s, s.t1_s, s.y_m);
 }
 
-bool SampleBuilder::fit_latency(const std::vector<double>& sse_m2, uint64_t samples, GnssLatencyEstimate& out) const {
+bool SampleBuilder::fit_latency(const std::vector<double>& sums, uint64_t samples, uint64_t fitted_k,
+                                GnssLatencyEstimate& out, uint64_t min_samples) const {
   const std::size_t best =
-      static_cast<std::size_t>(std::min_element(sse_m2.begin(), sse_m2.end()) - sse_m2.begin());
+      static_cast<std::size_t>(std::min_element(sums.begin(), sums.end()) - sums.begin());
   std::ostringstream why;
   // Below the minimum the sums are nearly flat and their smallest value jumps from candidate to
   // candidate with the last bits of the data: no estimate yet.
-  if (samples < static_cast<uint64_t>(std::max(3, params_.latency_min_samples))) {
-    why << "too few samples (" << samples << " of " << params_.latency_min_samples << ")";
+  if (samples < std::max<uint64_t>(3, min_samples)) {
+    why << "too few samples (" << samples << " of " << min_samples << ")";
     out.reason = why.str();
     out.sigma_s = -1.0;
     return false;
   }
-  if (best == 0 || best + 1 == sse_m2.size()) {
+  if (best == 0 || best + 1 == sums.size()) {
     why << "the residuals are smallest at the bound " << latency_candidates_s_[best]
         << " s of the search range [" << latency_candidates_s_.front() << ", " << latency_candidates_s_.back() << "] s";
     out.reason = why.str();
@@ -231,12 +244,12 @@ bool SampleBuilder::fit_latency(const std::vector<double>& sse_m2, uint64_t samp
   Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
   Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
   int points = 0;
-  for (std::size_t i = 0; i < sse_m2.size(); ++i) {
+  for (std::size_t i = 0; i < sums.size(); ++i) {
     const double x = latency_candidates_s_[i] - latency_candidates_s_[best];
     if (std::abs(x) > half + 1e-12) continue;
     const Eigen::Vector3d basis(1.0, x, x * x);
     normal += basis * basis.transpose();
-    rhs += basis * sse_m2[i];
+    rhs += basis * sums[i];
     ++points;
   }
   const Eigen::Vector3d c = points >= 5 ? Eigen::Vector3d(normal.ldlt().solve(rhs)) : Eigen::Vector3d::Zero();
@@ -253,7 +266,9 @@ bool SampleBuilder::fit_latency(const std::vector<double>& sse_m2, uint64_t samp
     return false;
   }
   const double j_min = std::max(0.0, c[0] - curvature * vertex * vertex);
-  const double sigma_y2 = j_min / static_cast<double>(samples - 2);
+  // Degrees of freedom: one K per block and the latency itself.
+  const double dof = std::max(1.0, static_cast<double>(samples) - static_cast<double>(fitted_k) - 1.0);
+  const double sigma_y2 = j_min / dof;
   out.estimate_s = latency_candidates_s_[best] + vertex;
   out.sigma_s = std::sqrt(sigma_y2 / curvature);
   out.samples = samples;
@@ -261,60 +276,116 @@ bool SampleBuilder::fit_latency(const std::vector<double>& sse_m2, uint64_t samp
   return true;
 }
 
-void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m, double k_m_per_pulse, bool fine) {
+void SampleBuilder::restart_latency_sums() {
+  std::fill(latency_closed_chi2_.begin(), latency_closed_chi2_.end(), 0.0);
+  latency_closed_blocks_ = 0;
+  latency_closed_samples_ = 0;
+  latency_closed_fit_.reset();
+  latency_.blocks_left_out = 0;
+  std::fill(latency_block_yphi_.begin(), latency_block_yphi_.end(), 0.0);
+  std::fill(latency_block_phiphi_.begin(), latency_block_phiphi_.end(), 0.0);
+  latency_block_yy_m2_ = 0.0;
+  latency_block_samples_ = 0;
+  latency_samples_ = 0;
+}
+
+bool SampleBuilder::weighted_block_residuals(std::vector<double>& out) const {
+  // Too few samples for a residual variance of their own (the last block before a restart, the
+  // first seconds of a block).
+  if (latency_block_samples_ < kLatencyBlockMinSamples) return false;
+  double j_min = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const double yphi = latency_block_yphi_[i], phiphi = latency_block_phiphi_[i];
+    out[i] = phiphi > 0.0 ? std::max(0.0, latency_block_yy_m2_ - yphi * yphi / phiphi) : latency_block_yy_m2_;
+    j_min = std::min(j_min, out[i]);
+  }
+  if (!(j_min > 0.0)) return false;
+  // Scaled to (samples - 1) at the block's best candidate: a sum of squared normalised residuals.
+  const double w = static_cast<double>(latency_block_samples_ - 1) / j_min;
+  for (double& v : out) v *= w;
+  return true;
+}
+
+bool SampleBuilder::block_consistent(const std::vector<double>& block) const {
+  if (!latency_closed_fit_) return true;
+  // The block's own parabola (not its smallest candidate: the sums wiggle from candidate to
+  // candidate by more than the latency's own signal over one block).
+  GnssLatencyEstimate own;
+  if (!fit_latency(block, latency_block_samples_, 1, own, kLatencyBlockMinSamples)) return false;
+  return std::abs(own.estimate_s - *latency_closed_fit_) <= kLatencyBlockMaxSigmas * own.sigma_s;
+}
+
+void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {
   if (latency_candidates_s_.empty()) return;
   // Every candidate on the same samples: skip a sample for which one candidate has no count.
   // The candidates compare like with like: y is the trapezoid of the two GNSS speeds, so the pulses
   // are the trapezoid of the two pulse rates. Against the exact pulse count the trapezoid's own
   // error (T^3/12 times the speed's second derivative, which is large where an acceleration ends)
   // would correlate with the speed change and pull the estimate by milliseconds at 10 Hz.
-  std::vector<double> phi(latency_candidates_s_.size());
+  const std::size_t n = latency_candidates_s_.size();
+  std::vector<double> phi(n);
   const double dt = t1_s - t0_s;
-  for (std::size_t i = 0; i < latency_candidates_s_.size(); ++i) {
+  for (std::size_t i = 0; i < n; ++i) {
     const std::optional<double> r0 = pulse_rate_at(t0_s - latency_candidates_s_[i]);
     const std::optional<double> r1 = pulse_rate_at(t1_s - latency_candidates_s_[i]);
     if (!r0 || !r1) return;
     phi[i] = 0.5 * dt * (*r0 + *r1);
   }
-  for (std::size_t i = 0; i < phi.size(); ++i) {
-    const double r = y_m - k_m_per_pulse * phi[i];
-    latency_sse_m2_[i] += r * r;
-    if (fine) latency_sse_fine_m2_[i] += r * r;
+  // Each candidate fits its own K over a block: the residual sum of a block at candidate i is
+  // sum y^2 - (sum y phi_i)^2 / sum phi_i^2. The K estimate lags a change of K for seconds, and its
+  // error times the speed profile of those seconds pulled the latency; a K of the candidate's own
+  // samples has no lag. A block is weighted by its own residual variance, so a block that one K
+  // cannot describe (the true K stepped in it, a slipping stretch) counts little instead of a lot.
+  std::vector<double> block(n);
+  if (latency_block_samples_ > 0 && t1_s >= latency_block_start_s_ + params_.latency_block_s) {
+    if (weighted_block_residuals(block)) {
+      if (block_consistent(block)) {
+        for (std::size_t i = 0; i < n; ++i) latency_closed_chi2_[i] += block[i];
+        ++latency_closed_blocks_;
+        latency_closed_samples_ += latency_block_samples_;
+        GnssLatencyEstimate closed;
+        latency_closed_fit_.reset();
+        if (fit_latency(latency_closed_chi2_, latency_closed_samples_, latency_closed_blocks_, closed,
+                        kLatencyBlockMinSamples))
+          latency_closed_fit_ = closed.estimate_s;
+      } else {
+        ++latency_.blocks_left_out;
+      }
+    }
+    std::fill(latency_block_yphi_.begin(), latency_block_yphi_.end(), 0.0);
+    std::fill(latency_block_phiphi_.begin(), latency_block_phiphi_.end(), 0.0);
+    latency_block_yy_m2_ = 0.0;
+    latency_block_samples_ = 0;
   }
-  ++latency_samples_;
-  if (fine) ++latency_samples_fine_;
-  // Two sets of sums: all samples taken while K held within latency_k_stable_rel (they find a
-  // latency that is clearly off, also while the uncompensated latency keeps K moving), and those
-  // taken while K held within latency_k_stable_fine_rel (less of the lagging estimate in them: the
-  // precise value, once there are enough).
-  GnssLatencyEstimate coarse = latency_;
-  coarse.samples = latency_samples_;
-  const bool have_coarse = fit_latency(latency_sse_m2_, latency_samples_, coarse);
-  GnssLatencyEstimate fine_estimate = latency_;
-  fine_estimate.samples = latency_samples_fine_;
-  const bool have_fine = fit_latency(latency_sse_fine_m2_, latency_samples_fine_, fine_estimate);
+  if (latency_block_samples_ == 0) latency_block_start_s_ = t1_s;
+  latency_block_yy_m2_ += y_m * y_m;
+  for (std::size_t i = 0; i < n; ++i) {
+    latency_block_yphi_[i] += y_m * phi[i];
+    latency_block_phiphi_[i] += phi[i] * phi[i];
+  }
+  ++latency_block_samples_;
+  const bool open_block = weighted_block_residuals(block) && block_consistent(block);
+  for (std::size_t i = 0; i < n; ++i) latency_chi2_[i] = latency_closed_chi2_[i] + (open_block ? block[i] : 0.0);
+  latency_samples_ = latency_closed_samples_ + (open_block ? latency_block_samples_ : 0);
   const double applied_s = latency_.applied_s;
-  latency_ = have_fine ? fine_estimate : coarse;
+  latency_.samples = latency_samples_;
+  const bool have = fit_latency(latency_chi2_, latency_samples_, latency_closed_blocks_ + (open_block ? 1 : 0), latency_,
+                                static_cast<uint64_t>(params_.latency_min_samples));
   latency_.applied_s = applied_s;
-  if (!have_coarse && !have_fine) return;
+  if (!have) return;
   // Apply a precise estimate, or one that says the value in force is clearly wrong (a latency of
   // 100 ms spoils every sample long before the estimate is within a few ms).
   // Each change of the applied value moves K a little (0.1 % per 10 ms at 1 m/s^2 and 10 m/s), so a
   // change must be significant, not the estimate's own wandering.
-  const bool precise = have_fine && fine_estimate.sigma_s <= params_.latency_apply_sigma_s &&
-                       std::abs(fine_estimate.estimate_s - applied_s) > fine_estimate.sigma_s;
-  const GnssLatencyEstimate& off = have_fine ? fine_estimate : coarse;
-  const bool clearly_off = off.sigma_s <= params_.latency_apply_coarse_sigma_s &&
-                           std::abs(off.estimate_s - applied_s) > 5.0 * off.sigma_s;
+  const double change_s = std::abs(latency_.estimate_s - applied_s);
+  const bool precise = latency_.sigma_s <= params_.latency_apply_sigma_s && change_s > latency_.sigma_s;
+  const bool clearly_off = latency_.sigma_s <= params_.latency_apply_coarse_sigma_s && change_s > 5.0 * latency_.sigma_s;
   if (!precise && !clearly_off) return;
-  latency_.applied_s = precise ? fine_estimate.estimate_s : off.estimate_s;
+  latency_.applied_s = latency_.estimate_s;
   if (std::abs(latency_.applied_s - latency_sums_applied_s_) > params_.latency_restart_s) {
     // The samples summed so far were gated and projected at a latency far from the new one (the
     // innovation gate kept those that fitted it, which pulls the minimum towards it): start again.
-    std::fill(latency_sse_m2_.begin(), latency_sse_m2_.end(), 0.0);
-    std::fill(latency_sse_fine_m2_.begin(), latency_sse_fine_m2_.end(), 0.0);
-    latency_samples_ = 0;
-    latency_samples_fine_ = 0;
+    restart_latency_sums();
     latency_sums_applied_s_ = latency_.applied_s;
     ++latency_restarts_;
   }
@@ -355,26 +426,6 @@ void SampleBuilder::add_scale_factor_estimate(double t_s, double k, double sigma
     throw StreamInputError(s.str());
   }
   k_estimates_.add(t_s, KEstimate{k, sigma});
-  recent_k_.emplace_back(t_s, k);
-  while (!recent_k_.empty() && recent_k_.front().first < t_s - k_stable_window_s()) recent_k_.pop_front();
-}
-
-double SampleBuilder::k_stable_window_s() const {
-  // Half a GNSS period more, so the window's edge lies between two epochs: stamps that are a whole
-  // number of periods apart up to rounding (a DDS stamp has nanoseconds) are in or out alike.
-  const double period = std::isfinite(gnss_period_s_) ? gnss_period_s_ : 0.0;
-  return params_.latency_k_stable_s + 0.5 * period;
-}
-
-bool SampleBuilder::k_recently_stable(double t_s, double k_m_per_pulse, double rel) const {
-  bool any = false;
-  for (const auto& [t, k] : recent_k_) {
-    if (!(t < t_s)) break;
-    if (t < t_s - k_stable_window_s()) continue;
-    any = true;
-    if (std::abs(k - k_m_per_pulse) > rel * k_m_per_pulse) return false;
-  }
-  return any;
 }
 
 std::vector<SampleBuilderEpoch> SampleBuilder::process_until(double watermark_s, const EpochCallback& on_epoch) {
@@ -650,15 +701,11 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
   // The latency candidates learn from samples that passed against a K estimate (a suspended test
   // means the estimate is stale, and without one there is nothing to compare with).
   if (latency_start_t_s) {
-    // Only against an estimate of K that is already precise: the errors of a K still converging
-    // follow the speed, which correlates with the acceleration the latency is read from.
-    // And only while K holds still: after a step of K the estimate lags for seconds, and its error
-    // times whatever the vehicle's speed did meanwhile pulls the latency by many milliseconds.
+    // Only once the innovation gate tests against a precise K: before it, a velocity outlier that
+    // the other gates let through would enter the sums. The sums fit their own K (update_latency).
     const std::optional<KEstimate> k = k_estimates_.before(g.t_s);
-    if (k && k->sigma_m_per_pulse <= params_.latency_max_k_rel_sigma * k->k_m_per_pulse &&
-        k_recently_stable(g.t_s, k->k_m_per_pulse, params_.latency_k_stable_rel))
-      defer_latency_sample(*latency_start_t_s, g.t_s, r.sample->y_m, k->k_m_per_pulse,
-                           k_recently_stable(g.t_s, k->k_m_per_pulse, params_.latency_k_stable_fine_rel));
+    if (k && k->sigma_m_per_pulse <= params_.latency_max_k_rel_sigma * k->k_m_per_pulse)
+      defer_latency_sample(*latency_start_t_s, g.t_s, r.sample->y_m);
   }
   if (velocity_good) {
     chain_start_ = in.epoch;

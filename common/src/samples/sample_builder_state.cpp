@@ -12,7 +12,7 @@ namespace odonav {
 
 namespace {
 constexpr const char* kStateMagic = "odonav-sample-builder-state";
-constexpr int kStateVersion = 1;
+constexpr int kStateVersion = 2;  // 2: the latency sums per block (a K per candidate)
 constexpr std::size_t kMany = 10000000;
 using Values = std::vector<double>;
 
@@ -72,19 +72,18 @@ std::string SampleBuilder::save_state() const {
   line("gnss_period_s", {gnss_period_s_});
 
   line("latency", {latency_.applied_s, latency_.estimate_s, latency_.sigma_s, static_cast<double>(latency_.samples),
-                   latency_.fixed ? 1.0 : 0.0});
+                   latency_.fixed ? 1.0 : 0.0, static_cast<double>(latency_.blocks_left_out)});
   s += "latency_reason " + one_line(latency_.reason) + "\n";
-  line("latency_sse_m2", latency_sse_m2_);
-  line("latency_sse_fine_m2", latency_sse_fine_m2_);
-  line("latency_sums", {static_cast<double>(latency_samples_), static_cast<double>(latency_samples_fine_),
-                        latency_sums_applied_s_, static_cast<double>(latency_restarts_)});
+  line("latency_closed_chi2", latency_closed_chi2_);
+  line("latency_closed", {static_cast<double>(latency_closed_blocks_), static_cast<double>(latency_closed_samples_)});
+  line("latency_closed_fit_s", optional_state_values(latency_closed_fit_));
+  line("latency_block", {latency_block_start_s_, static_cast<double>(latency_block_samples_), latency_block_yy_m2_});
+  line("latency_block_yphi", latency_block_yphi_);
+  line("latency_block_phiphi", latency_block_phiphi_);
+  line("latency_sums", {static_cast<double>(latency_samples_), latency_sums_applied_s_, static_cast<double>(latency_restarts_)});
   v.clear();
-  for (const PendingLatencySample& p : latency_pending_)
-    append(v, {p.t0_s, p.t1_s, p.y_m, p.k_m_per_pulse, p.applied_s, p.needs_until_s, p.fine ? 1.0 : 0.0});
+  for (const PendingLatencySample& p : latency_pending_) append(v, {p.t0_s, p.t1_s, p.y_m, p.applied_s, p.needs_until_s});
   line("latency_pending", v);
-  v.clear();
-  for (const auto& [t, kk] : recent_k_) append(v, {t, kk});
-  line("recent_k", v);
   return s;
 }
 
@@ -131,34 +130,40 @@ void SampleBuilder::restore_state(const std::string& text) {
   b.last_period_row_t_s_ = read_optional_state_value(r, "last_period_row_t_s");
   b.gnss_period_s_ = exactly("gnss_period_s", 1)[0];
 
-  v = exactly("latency", 5);
+  v = exactly("latency", 6);
   b.latency_.applied_s = v[0];
   b.latency_.estimate_s = v[1];
   b.latency_.sigma_s = v[2];
   b.latency_.samples = count_of(v[3], "latency");
   b.latency_.fixed = v[4] != 0.0;
+  b.latency_.blocks_left_out = count_of(v[5], "latency");
   if (!std::isfinite(v[0])) throw CheckpointError("field 'latency' has an applied latency that is not finite");
   b.latency_.reason = r.field("latency_reason");
-  v = r.value_list("latency_sse_m2");
-  if (v.size() != latency_candidates_s_.size())
-    throw CheckpointError("field 'latency_sse_m2' does not hold one sum per latency candidate (" +
-                          std::to_string(latency_candidates_s_.size()) + ")");
-  b.latency_sse_m2_ = v;
-  v = r.value_list("latency_sse_fine_m2");
-  if (v.size() != latency_candidates_s_.size())
-    throw CheckpointError("field 'latency_sse_fine_m2' does not hold one sum per latency candidate (" +
-                          std::to_string(latency_candidates_s_.size()) + ")");
-  b.latency_sse_fine_m2_ = v;
-  v = exactly("latency_sums", 4);
+  auto per_candidate = [&](const char* key) {
+    Values x = r.value_list(key);
+    if (x.size() != latency_candidates_s_.size())
+      throw CheckpointError(std::string("field '") + key + "' does not hold one value per latency candidate (" +
+                            std::to_string(latency_candidates_s_.size()) + ")");
+    return x;
+  };
+  b.latency_closed_chi2_ = per_candidate("latency_closed_chi2");
+  v = exactly("latency_closed", 2);
+  b.latency_closed_blocks_ = count_of(v[0], "latency_closed");
+  b.latency_closed_samples_ = count_of(v[1], "latency_closed");
+  b.latency_closed_fit_ = read_optional_state_value(r, "latency_closed_fit_s");
+  v = exactly("latency_block", 3);
+  b.latency_block_start_s_ = v[0];
+  b.latency_block_samples_ = count_of(v[1], "latency_block");
+  b.latency_block_yy_m2_ = v[2];
+  b.latency_block_yphi_ = per_candidate("latency_block_yphi");
+  b.latency_block_phiphi_ = per_candidate("latency_block_phiphi");
+  v = exactly("latency_sums", 3);
   b.latency_samples_ = count_of(v[0], "latency_sums");
-  b.latency_samples_fine_ = count_of(v[1], "latency_sums");
-  b.latency_sums_applied_s_ = v[2];
-  b.latency_restarts_ = count_of(v[3], "latency_sums");
-  v = r.value_list("latency_pending", 7, 7 * kMany);
-  for (std::size_t i = 0; i < v.size(); i += 7)
-    b.latency_pending_.push_back(PendingLatencySample{v[i], v[i + 1], v[i + 2], v[i + 3], v[i + 4], v[i + 5], v[i + 6] != 0.0});
-  v = r.value_list("recent_k", 2, 2 * kMany);
-  for (std::size_t i = 0; i < v.size(); i += 2) b.recent_k_.emplace_back(v[i], v[i + 1]);
+  b.latency_sums_applied_s_ = v[1];
+  b.latency_restarts_ = count_of(v[2], "latency_sums");
+  v = r.value_list("latency_pending", 5, 5 * kMany);
+  for (std::size_t i = 0; i < v.size(); i += 5)
+    b.latency_pending_.push_back(PendingLatencySample{v[i], v[i + 1], v[i + 2], v[i + 3], v[i + 4]});
   if (!r.at_end()) throw CheckpointError("unexpected text after the sample builder state");
   *this = std::move(b);
 }

@@ -266,6 +266,7 @@ void expect_identical(const IdentificationOutput& a, const IdentificationOutput&
   EXPECT_TRUE(same_bits(a.latency.estimate_s, b.latency.estimate_s)) << where;
   EXPECT_TRUE(same_bits(a.latency.sigma_s, b.latency.sigma_s)) << where;
   EXPECT_EQ(a.latency.samples, b.latency.samples) << where;
+  EXPECT_EQ(a.latency.blocks_left_out, b.latency.blocks_left_out) << where;
 }
 }  // namespace
 

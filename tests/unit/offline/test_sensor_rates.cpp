@@ -80,14 +80,26 @@ TEST(SensorRates, GnssLatencySweepIsEstimatedWithin5msAndKStaysAccurate) {
     const OfflineResult r = run_offline(d, p);
     const json s = summarize(d, r, p);
     SCOPED_TRACE(s["scale_factor"].dump(1));
+    // Seed 1 is the worst of ten seeds: -3.0 / -3.0 / -3.1 ms at 50 / 100 / 200 ms (BENCHMARKS.md 4g).
     const GnssLatencyEstimate& l = r.identification.back().latency;
-    EXPECT_NEAR(l.applied_s, latency_s, 0.005) << latency_s;
+    EXPECT_NEAR(l.applied_s, latency_s, 0.004) << latency_s;
     EXPECT_GT(l.sigma_s, 0.0);
-    EXPECT_LT(l.sigma_s, 0.003);
-    EXPECT_NEAR(s["scale_factor"]["gnss_latency_error_s"].get<double>(), 0.0, 0.005);
-    // Without the estimate a 0.2 s latency gave 1.1 %; with it, within 40 % of the zero-latency
-    // figure (the first minute runs before the latency is known).
-    EXPECT_LE(vff_rms_percent(s), 1.4 * rms0) << latency_s;
+    EXPECT_LT(l.sigma_s, 0.002);
+    EXPECT_NEAR(s["scale_factor"]["gnss_latency_error_s"].get<double>(), 0.0, 0.004);
+    // Applied early: the first epoch with the latency in force within 10 ms (measured 29.4-29.9 s
+    // after the start; 87 s at 100 ms while the sums waited for a K that held still for 20 s).
+    double first_applied_s = -1.0;
+    for (const IdentificationOutput& o : r.identification)
+      if (std::abs(o.latency.applied_s - latency_s) < 0.01) {
+        first_applied_s = o.t_s - d.odometer.front().t_s;
+        break;
+      }
+    EXPECT_GT(first_applied_s, 0.0) << latency_s;
+    EXPECT_LT(first_applied_s, 40.0) << latency_s;
+    // Without the estimate a 0.2 s latency gave 1.1 %; with it, within 10 % of the zero-latency
+    // figure (measured 0.058 / 0.057 / 0.056 % against 0.055 %; 0.077 % at 100 ms before the
+    // sums had a K of their own).
+    EXPECT_LE(vff_rms_percent(s), 1.1 * rms0) << latency_s;
   }
 }
 
