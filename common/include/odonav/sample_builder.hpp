@@ -396,7 +396,10 @@ class SampleBuilder {
   std::optional<EpochStatus> check_epoch_velocity(const GnssSample& gnss, EpochInputs& inputs);
   /// Step 2, the interval from the chain start to this epoch (gap, speeds, reversing, yaw rate,
   /// pulses): kAccepted with `sample` filled, or the gate that rejected the interval.
-  EpochStatus check_interval(const GnssSample& gnss, const EpochInputs& inputs, ScaleFactorSample& sample) const;
+  /// speed_trapezoid_m: y before the trapezoid correction (the trapezoid of the two speeds, m), which
+  /// the latency search compares with the trapezoid of two pulse rates.
+  EpochStatus check_interval(const GnssSample& gnss, const EpochInputs& inputs, ScaleFactorSample& sample,
+                             double& speed_trapezoid_m) const;
   /// Step 3, the innovation test of an accepted sample against the latest K estimate stamped before
   /// it, with the consecutive-rejection rule (SampleBuilderParams).
   InnovationVerdict innovation_gate(const GnssSample& gnss, const ScaleFactorSample& sample);

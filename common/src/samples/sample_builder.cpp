@@ -559,7 +559,8 @@ double trapezoid_rate_half_window_s(const SampleBuilderParams& p, double k_m_per
   return std::isfinite(wanted) ? std::clamp(wanted, p.pulse_rate_half_window_s, widest) : widest;
 }
 
-EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs& in, ScaleFactorSample& sample) const {
+EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs& in, ScaleFactorSample& sample,
+                                          double& speed_trapezoid_m) const {
   GoodEpoch s = *chain_start_;
   // Both ends at the latency in force now: the start's count and attitude again at its sensor
   // time, so a latency applied since the start cannot make the two ends inconsistent.
@@ -609,6 +610,7 @@ EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs
   sample.phi_pulses = phi;
   sample.dt_s = dt;
   sample.y_m = 0.5 * (v_start + v) * dt;
+  speed_trapezoid_m = sample.y_m;
   if (dt >= params_.trapezoid_correction_min_interval_s) {
     // Long intervals: the trapezoid of the two speeds misses the speed's curvature in between
     // (T^3/12 v'', centimetres at 1 Hz where an acceleration ends). The odometer sees that shape:
@@ -672,11 +674,12 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
 
   bool velocity_good = true;
   std::optional<double> latency_start_t_s;
+  double speed_trapezoid_m = 0.0;
   if (!chain_start_) {
     r.status = EpochStatus::kChainStart;
   } else {
     ScaleFactorSample sample;
-    r.status = check_interval(g, in, sample);
+    r.status = check_interval(g, in, sample, speed_trapezoid_m);
     if (r.status == EpochStatus::kAccepted) {
       switch (innovation_gate(g, sample)) {
         case InnovationVerdict::kPassed:
@@ -703,9 +706,12 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
   if (latency_start_t_s) {
     // Only once the innovation gate tests against a precise K: before it, a velocity outlier that
     // the other gates let through would enter the sums. The sums fit their own K (update_latency).
+    // They take y without the trapezoid correction (1 Hz): the correction reads the pulse profile at
+    // the latency in force, so against the candidates' trapezoids of pulse rates it would put the
+    // speed's curvature, which follows the accelerations, into every candidate but the one in force.
     const std::optional<KEstimate> k = k_estimates_.before(g.t_s);
     if (k && k->sigma_m_per_pulse <= params_.latency_max_k_rel_sigma * k->k_m_per_pulse)
-      defer_latency_sample(*latency_start_t_s, g.t_s, r.sample->y_m);
+      defer_latency_sample(*latency_start_t_s, g.t_s, speed_trapezoid_m);
   }
   if (velocity_good) {
     chain_start_ = in.epoch;
