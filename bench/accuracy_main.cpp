@@ -227,6 +227,9 @@ void print_scenario(const std::string& scenario, const ScenarioFigures& f, std::
     for (double v : f.latency_error_ms.values) out << " " << std::fixed << std::setprecision(1) << v;
     out << "\n";
   }
+  out << "\nDR final %D per seed (online K):";
+  for (double v : f.online.final_percent.values) out << " " << std::fixed << std::setprecision(3) << v;
+  out << "\n";
   out << "\nvff_lm_rls RMS K error per seed (%):";
   for (double v : f.rms_by_seed) out << " " << std::fixed << std::setprecision(3) << v;
   out << "\n";
