@@ -130,7 +130,11 @@ class RestartPolicy {
   /// handed over oldest first) tells whether the history reached back to the checkpoint: when it
   /// starts after it, the data in between is lost (logged once as ERROR, WARN in the health, and in
   /// catch_up_lost_s()).
+  /// A sample not skipped is recorded as taken in (taken_until_t_s).
   bool skip_sample(std::size_t input, double t_s);
+  /// Per input (as indexed in skip_sample), the stamp of the last sample not skipped, or the
+  /// restored fed_until while none came since: what a checkpoint written now must name as taken in.
+  const std::vector<std::optional<double>>& taken_until_t_s() const { return taken_until_t_s_; }
   /// After a restore: whether a sample of `input` was offered to skip_sample yet.
   bool first_sample_seen(std::size_t input) const { return first_seen_.at(input); }
 
@@ -192,11 +196,14 @@ class RestartPolicy {
 
  private:
   void write(double t_s, const std::function<std::string(double t_s)>& text);
+  /// skip_sample's decision, without the bookkeeping of what was taken in.
+  bool skip_restored(std::size_t input, double t_s);
 
   CheckpointSettings settings_;
   std::vector<RestartInput> inputs_;
   std::vector<bool> first_seen_;
   std::vector<std::optional<double>> fed_until_t_s_;  ///< per input (note_restored)
+  std::vector<std::optional<double>> taken_until_t_s_;  ///< per input: last stamp not skipped
   std::string checkpoint_file_;
   std::optional<double> restored_t_s_;
   std::string restore_note_;

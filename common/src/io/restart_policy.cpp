@@ -45,7 +45,10 @@ void apply_restart_notes(const RestartHealthNotes& n, double now_s, std::string&
 }
 
 RestartPolicy::RestartPolicy(CheckpointSettings settings, std::vector<RestartInput> inputs)
-    : settings_(std::move(settings)), inputs_(std::move(inputs)), first_seen_(inputs_.size(), false) {}
+    : settings_(std::move(settings)),
+      inputs_(std::move(inputs)),
+      first_seen_(inputs_.size(), false),
+      taken_until_t_s_(inputs_.size()) {}
 
 const std::string& RestartPolicy::open_state_dir(
     const std::function<std::string(const std::string& state_dir)>& path_of) {
@@ -92,6 +95,7 @@ void RestartPolicy::note_restored(const std::string& line, double checkpoint_t_s
   spdlog::info("{}", line);
   fed_until_t_s_ = std::move(fed_until_t_s);
   fed_until_t_s_.resize(inputs_.size());
+  taken_until_t_s_ = fed_until_t_s_;
   restore_note_ = line;
   restore_note_until_s_ = steady_now_s + kRestoreNoteDuration_s;
   restored_t_s_ = checkpoint_t_s;
@@ -104,6 +108,13 @@ void RestartPolicy::note_restored(const std::string& line, double checkpoint_t_s
 }
 
 bool RestartPolicy::skip_sample(std::size_t input, double t_s) {
+  if (skip_restored(input, t_s)) return true;
+  std::optional<double>& taken = taken_until_t_s_.at(input);
+  if (!taken || t_s > *taken) taken = t_s;
+  return false;
+}
+
+bool RestartPolicy::skip_restored(std::size_t input, double t_s) {
   if (!restored_t_s_) return false;
   const RestartInput& in = inputs_.at(input);
   const std::optional<double>& fed_until = fed_until_t_s_.at(input);

@@ -1,5 +1,6 @@
 #include "odonav/dead_reckoning/dead_reckoning_checkpoint.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -130,7 +131,6 @@ void DeadReckoningLifecycle::start(const DeadReckoningStateRefs& state, int64_t 
                           steady_now_s))
     return;
   const DeadReckoningCheckpoint& c = *r.checkpoint;
-  fed_until_s_ = c.fed_until_s;
   char line[300];
   if (const std::optional<Geodetic> origin = state.core.origin()) {
     std::snprintf(line, sizeof line,
@@ -147,10 +147,7 @@ void DeadReckoningLifecycle::start(const DeadReckoningStateRefs& state, int64_t 
 }
 
 bool DeadReckoningLifecycle::take_sample(DeadReckoningInput input, double t_s) {
-  const auto i = static_cast<std::size_t>(input);
-  if (restart_.skip_sample(i, t_s)) return false;
-  if (!fed_until_s_[i] || t_s > *fed_until_s_[i]) fed_until_s_[i] = t_s;
-  return true;
+  return !restart_.skip_sample(static_cast<std::size_t>(input), t_s);
 }
 
 std::vector<DeadReckoningOutput> DeadReckoningLifecycle::outputs_to_publish(std::vector<DeadReckoningOutput> outputs,
@@ -163,7 +160,8 @@ std::string DeadReckoningLifecycle::text_of(const DeadReckoningStateRefs& state,
   c.vehicle_id = vehicle_id_;
   c.config_hash = restart_.settings().config_hash;
   c.last_output_t_s = t_s;
-  c.fed_until_s = fed_until_s_;
+  const auto& taken = restart_.taken_until_t_s();
+  std::copy(taken.begin(), taken.end(), c.fed_until_s.begin());
   c.k_selection = state.consumer.k_selection.state();
   c.applied_misalignment = state.consumer.applied_misalignment.state();
   c.misalignments_applied = state.consumer.misalignments_applied;

@@ -1,5 +1,6 @@
 #include "odonav/identification/identification_lifecycle.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -81,7 +82,6 @@ void IdentificationLifecycle::restore(IdentificationCore& core, int64_t unix_tim
       break;
   }
   const IdentificationCheckpoint& c = *r.checkpoint;
-  fed_until_s_ = c.fed_until_s;
   misalignments_applied_ = c.misalignments_applied;
   held_misalignment_t_s_ = c.held_misalignment_t_s;
   restart_.note_restored(line, c.last_sample_t_s, steady_now_s,
@@ -103,10 +103,7 @@ std::optional<IdentificationOutput> IdentificationLifecycle::take_restored_outpu
 }
 
 bool IdentificationLifecycle::skip_sample(IdentificationInput input, double t_s) {
-  const auto i = static_cast<std::size_t>(input);
-  if (restart_.skip_sample(i, t_s)) return true;
-  if (!fed_until_s_[i] || t_s > *fed_until_s_[i]) fed_until_s_[i] = t_s;
-  return false;
+  return restart_.skip_sample(static_cast<std::size_t>(input), t_s);
 }
 
 void IdentificationLifecycle::note_misalignment_applied(double t_s) {
@@ -150,7 +147,8 @@ IdentificationCheckpoint IdentificationLifecycle::make_checkpoint(const Identifi
   c.last_sample_t_s = t_s;
   c.samples_accepted = last_output_ ? last_output_->samples_accepted : 0;
   c.samples_rejected = last_output_ ? last_output_->samples_rejected : 0;
-  c.fed_until_s = fed_until_s_;
+  const auto& taken = restart_.taken_until_t_s();
+  std::copy(taken.begin(), taken.end(), c.fed_until_s.begin());
   c.misalignments_applied = misalignments_applied_;
   c.held_misalignment_t_s = held_misalignment_t_s_;
   c.core_state = core.save_state();

@@ -122,7 +122,6 @@ class DeadReckoningLifecycle {
 
   std::string vehicle_id_;
   RestartPolicy restart_;
-  std::array<std::optional<double>, kDeadReckoningInputs> fed_until_s_;
 };
 
 }  // namespace odonav

@@ -192,7 +192,6 @@ class IdentificationLifecycle {
   std::string vehicle_id_;
   std::string instance_;
   RestartPolicy restart_;
-  std::array<std::optional<double>, kIdentificationInputs> fed_until_s_;
   uint64_t misalignments_applied_ = 0;
   std::optional<double> held_misalignment_t_s_;
   bool restored_output_taken_ = false;
