@@ -10,7 +10,10 @@ namespace odonav::dds {
 EventTimeNode::EventTimeNode(ComponentRuntime& runtime, double in_flight_max_wait_s)
     : runtime_(runtime),
       aligner_(runtime.settings().max_wait_s, steady_now_s(),
-               in_flight_max_wait_s > 0.0 ? std::max(in_flight_max_wait_s, runtime.settings().max_wait_s) : 0.0) {}
+               in_flight_max_wait_s > 0.0 ? std::max(in_flight_max_wait_s, runtime.settings().max_wait_s) : 0.0) {
+  // A core step and KEEP_LAST writes never block: run them where the sample arrives.
+  runtime_.set_dispatch(ComponentRuntime::Dispatch::kListenerThread);
+}
 
 int EventTimeNode::run() {
   const double t0 = steady_now_s();

@@ -126,50 +126,15 @@ void ComponentRuntime::on_command(const odonav::msg::Command& command) {
   });
 }
 
-void ComponentRuntime::post(std::function<void()> task) {
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    queue_.push_back(std::move(task));
-  }
-  queue_changed_.notify_one();
-}
+void ComponentRuntime::post(std::function<void()> task) { tasks_.post(std::move(task)); }
 
-std::size_t ComponentRuntime::queue_depth() const {
-  std::lock_guard<std::mutex> lock(queue_mutex_);
-  return queue_.size();
-}
+std::size_t ComponentRuntime::queue_depth() const { return tasks_.queue_depth(); }
 
 void ComponentRuntime::run(const std::function<void()>& tick, std::chrono::milliseconds tick_period) {
-  auto next_tick = std::chrono::steady_clock::now();
-  while (!stop_.stop_requested()) {
-    std::deque<std::function<void()>> batch;
-    {
-      std::unique_lock<std::mutex> lock(queue_mutex_);
-      queue_changed_.wait_until(lock, next_tick, [&] { return !queue_.empty(); });
-      // Bounded batches keep ticks (watermarks, health) regular under a flood of samples.
-      for (int i = 0; i < 256 && !queue_.empty(); ++i) {
-        batch.push_back(std::move(queue_.front()));
-        queue_.pop_front();
-      }
-    }
-    for (auto& task : batch) task();
-    if (tick) tick();
-    next_tick = std::chrono::steady_clock::now() + tick_period;
-  }
+  tasks_.run([this] { return stop_.stop_requested(); }, tick, tick_period);
 }
 
-void ComponentRuntime::run_pending() {
-  while (true) {
-    std::function<void()> task;
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      if (queue_.empty()) return;
-      task = std::move(queue_.front());
-      queue_.pop_front();
-    }
-    task();
-  }
-}
+void ComponentRuntime::run_pending() { tasks_.run_pending(); }
 
 void ComponentRuntime::publish_health(odonav::msg::HealthState state, odonav::msg::HealthLevel level,
                                       const std::string& reason_in, const HealthCounters& counters_in, bool force) {

@@ -53,7 +53,7 @@
 //
 // Clock: every call takes now_s, a monotonic wall clock in seconds supplied by the caller (the
 // component's steady clock; a test's fake clock), so this class never reads a clock itself.
-// Not thread-safe: one worker thread owns it.
+// Not thread-safe: its owner calls it one task at a time.
 #include <cstddef>
 #include <cstdint>
 #include <deque>

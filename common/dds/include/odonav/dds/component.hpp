@@ -1,7 +1,7 @@
 #pragma once
 // What every odonav DDS component process shares, so all behave alike: the common flags, the participant and
-// health publisher, the operator command subscription, SIGINT/SIGTERM handling, and ONE worker
-// thread fed through a queue so the cores never run inside DDS listener threads.
+// health publisher, the operator command subscription, SIGINT/SIGTERM handling, and the one place
+// where a component's tasks (its readers' samples, commands) are executed, one at a time.
 //
 //   int main(int argc, char** argv) {
 //     return odonav::dds::run_component(argc, argv, "odonav-calibration", "...",
@@ -14,9 +14,7 @@
 // failure.
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -30,6 +28,7 @@
 #include "odonav/dds/health.hpp"
 #include "odonav/dds/participant.hpp"
 #include "odonav/msg/Command.h"
+#include "odonav/task_dispatcher.hpp"
 
 namespace odonav::dds {
 
@@ -78,13 +77,27 @@ class StopSignals {
   std::thread waiter_;
 };
 
-/// The participant, health publisher and command subscription of one component, and its worker
-/// queue. The component's own readers post their samples here (post()); run() executes them, in
-/// order, on the calling thread (the worker), and calls the tick function after each batch and at
-/// least every tick period, until a stop is requested.
+/// The participant, health publisher and command subscription of one component, and the execution of
+/// its tasks. The component's own readers post their samples here (post()); while run() runs, each
+/// task is executed, followed by the tick function, and the tick function also runs at least every
+/// tick period, until a stop is requested. Tasks and ticks never run concurrently (one mutex), so a
+/// node's state needs no locking of its own.
+///
+/// Where a task runs (Dispatch; odonav/task_dispatcher.hpp does it):
+/// - kWorkerThread: queued, and executed in order by the thread that called run(), in batches. The
+///   listener thread only copies the sample; a slow task (file I/O) never delays reception.
+/// - kListenerThread: executed at once by the thread that posts it (a Fast DDS listener thread),
+///   under the mutex; run()'s thread only ticks every tick period. This saves a thread wake-up and
+///   two context switches per sample (the largest per-sample cost at 100 Hz inputs, BENCHMARKS.md
+///   §6i), and an output leaves on the thread that received its last input. For nodes whose tasks
+///   are short and never block (the event-time nodes: a core step and non-blocking KEEP_LAST
+///   writes). Tasks posted before run() and after the stop are queued and run by run() and
+///   run_pending() as with the worker, so the drain is the same.
 class ComponentRuntime {
  public:
-  /// Executes one operator command addressed to this component (on the worker thread); returns the
+  enum class Dispatch { kWorkerThread, kListenerThread };
+
+  /// Executes one operator command addressed to this component (where tasks run, see Dispatch); returns the
   /// acknowledgement carried by the following Health messages.
   using CommandHandler = std::function<CommandAck(const odonav::msg::Command& command)>;
 
@@ -103,13 +116,21 @@ class ComponentRuntime {
   /// Handles the Command topic for this vehicle and component (set once, before run()).
   void set_command_handler(CommandHandler handler);
 
-  /// Queues a task for the worker thread. Thread-safe (reader callbacks call it).
+  /// Where tasks run (see the class comment); set before run(). Default kWorkerThread.
+  void set_dispatch(Dispatch dispatch) {
+    tasks_.set_mode(dispatch == Dispatch::kListenerThread ? TaskDispatcher::Mode::kOnPost
+                                                          : TaskDispatcher::Mode::kQueued);
+  }
+
+  /// Executes a task as the dispatch says: queued for run()'s thread, or at once on the calling
+  /// thread (kListenerThread, while run() runs). Thread-safe (reader callbacks call it).
   void post(std::function<void()> task);
-  /// Tasks waiting in the queue.
+  /// Tasks waiting in the queue (always 0 with kListenerThread while run() runs).
   std::size_t queue_depth() const;
 
-  /// Worker loop: runs posted tasks, and `tick` after each batch of tasks and at least every
-  /// tick_period, until a stop is requested. Returns then (queued tasks stay queued).
+  /// Runs posted tasks, and `tick` after each batch of tasks (each task with kListenerThread) and
+  /// at least every tick_period, until a stop is requested. Returns then (queued tasks stay queued;
+  /// tasks posted from then on are queued).
   void run(const std::function<void()>& tick, std::chrono::milliseconds tick_period = std::chrono::milliseconds(100));
   /// Runs every task queued now (after the readers are gone: the drain).
   void run_pending();
@@ -136,14 +157,12 @@ class ComponentRuntime {
   std::unique_ptr<Participant> participant_;
   std::unique_ptr<HealthPublisher> health_;
   CommandHandler command_handler_;
-  bool ack_pending_ = false;  // worker thread: a command was acknowledged, tell it at once
+  bool ack_pending_ = false;  // set and read in tasks and ticks: a command was acknowledged, tell it at once
   std::set<std::string> stalled_handshakes_warned_;  // GUIDs already logged as incomplete, while listed
   LogBudget stalled_handshake_log_{5, std::chrono::seconds(10)};
   std::unique_ptr<Reader<odonav::msg::Command>> commands_;
 
-  mutable std::mutex queue_mutex_;
-  std::condition_variable queue_changed_;
-  std::deque<std::function<void()>> queue_;
+  TaskDispatcher tasks_;
 };
 
 /// The main() of a component: declares the common options and the component's own (declare),

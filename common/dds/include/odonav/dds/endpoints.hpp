@@ -3,7 +3,8 @@
 // qos.xml. T is a generated message type listed in odonav/dds/types.hpp.
 //
 // Threads: Reader callbacks run on Fast DDS listener threads, never concurrently with each other
-// for one Reader; keep them short (copy the sample, signal your own thread).
+// for one Reader, with the reader's mutex held; keep them short and never block in them
+// (ComponentRuntime::post decides where the work runs).
 // Endpoints are neither copyable nor movable (the middleware holds pointers to their listeners):
 // hold them by value as members or in a std::unique_ptr.
 #include <fastdds/dds/publisher/DataWriter.hpp>

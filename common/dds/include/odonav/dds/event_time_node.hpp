@@ -2,10 +2,12 @@
 // The skeleton shared by the calibration, identification and dead-reckoning nodes (library
 // odonav_node_support: it needs odonav_samples' EventTimeAligner, which odonav_dds does not link).
 //
-// One worker thread (ComponentRuntime::run) owns the core and the aligner. Reader callbacks only
-// copy the sample into the runtime's queue. After each batch the worker asks the aligner for the
-// event-time watermark, calls the node's process_until (core + publication), sends heartbeats and
-// publishes Health (1 Hz on the wall clock, at once when state, level or reason change).
+// The core and the aligner run one task at a time under the runtime's mutex, on the listener thread
+// that received the sample (ComponentRuntime::Dispatch::kListenerThread: no thread wake-up per
+// sample). After each sample the aligner gives the event-time watermark, the node's process_until
+// runs (core + publication), heartbeats are sent and Health is published (1 Hz on the wall clock, at
+// once when state, level or reason change); run()'s thread does the same every 100 ms when no
+// sample comes (maximum waits, health).
 // On SIGINT/SIGTERM: readers closed (no more input), queued samples fed, the core finished and
 // every remaining output published, writers' acknowledgments awaited (bounded), Health "stopping".
 #include <chrono>
@@ -54,14 +56,14 @@ class EventTimeNode {
                        double hold_off_s = 0.0);
 
   /// A reader of one input topic for this node's vehicle: each sample of another vehicle is ignored;
-  /// each of ours is posted to the worker thread, admitted by the aligner on its stamp (late,
+  /// each of ours is posted to the runtime (executed at once), admitted by the aligner on its stamp (late,
   /// repeated and bad stamps are counted there) and, if admitted, handed to feed(msg, t_s) there.
   /// The reader lives as long as the returned pointer (reset it in close_inputs).
   template <class Msg, class Feed>
   std::unique_ptr<Reader<Msg>> subscribe(const odonav::topics::TopicSpec& topic, NodeInput& input, Feed feed) {
     return subscribe<Msg>(topic, input, feed, [](const Msg&) {});
   }
-  /// subscribe() with `before(msg)` called on the worker thread before the sample is admitted (e.g.
+  /// subscribe() with `before(msg)` called in the task before the sample is admitted (e.g.
   /// declare_gnss_published for the odometer, whose messages carry the GNSS completeness).
   template <class Msg, class Feed, class Before>
   std::unique_ptr<Reader<Msg>> subscribe(const odonav::topics::TopicSpec& topic, NodeInput& input, Feed feed,
@@ -90,7 +92,7 @@ class EventTimeNode {
   }
 
   /// subscribe() for an estimate topic whose producers may be redundant (a hot standby: Msg has
-  /// source() and source_priority()): on the worker thread each sample of this vehicle first goes
+  /// source() and source_priority()): in the task each sample of this vehicle first goes
   /// through `arbiter` (odonav/source_arbiter.hpp), and only what it hands on (one stream, the
   /// highest-priority live source, each stamp once, in order) is admitted and fed; repeats of the
   /// last stamp handed on reach the aligner as heartbeats. Each switch of source is logged with its

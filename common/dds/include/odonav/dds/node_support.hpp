@@ -52,7 +52,7 @@ InsSample ins_sample_from(const odonav::msg::InsAttitude& m);
 
 // ---- inputs ----
 
-/// One input stream of a node. Worker thread only.
+/// One input stream of a node. Not thread-safe: the node runs it one task at a time.
 struct NodeInput {
   std::string name;                        ///< stream name in counters and reasons ("gnss", ...).
   EventTimeAligner::StreamId id = 0;       ///< its stream in the node's aligner.

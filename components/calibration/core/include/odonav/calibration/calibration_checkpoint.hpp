@@ -54,7 +54,7 @@ CalibrationCheckpointLoad load_calibration_checkpoint(const std::string& path, c
 /// The inputs whose samples may predate a restored checkpoint (CalibrationLifecycle::skip_sample).
 enum class CalibrationInput { kGnss, kIns };
 
-/// One calibration run's restart policy. Worker thread only.
+/// One calibration run's restart policy. Not thread-safe: the node runs it one task at a time.
 class CalibrationLifecycle {
  public:
   /// settings.state_dir empty: checkpointing is off (start() does nothing, nothing is skipped, no

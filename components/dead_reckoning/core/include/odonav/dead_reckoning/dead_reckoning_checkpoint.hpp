@@ -93,7 +93,7 @@ DeadReckoningCheckpointLoad load_dead_reckoning_checkpoint(const std::string& pa
                                                            const std::string& config_hash,
                                                            const DeadReckoningStateRefs& state, int64_t unix_time_s);
 
-/// One dead-reckoning run's restart policy. Worker thread only.
+/// One dead-reckoning run's restart policy. Not thread-safe: the node runs it one task at a time.
 class DeadReckoningLifecycle {
  public:
   /// settings.state_dir empty: checkpointing off (nothing restored, skipped or written).

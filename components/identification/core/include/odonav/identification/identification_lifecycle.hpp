@@ -77,7 +77,7 @@ struct IdentificationHealthFacts : RestartHealthNotes {
 ///    its estimates are missing".
 IdentificationHealth identification_health(const IdentificationHealthFacts& facts);
 
-/// One identification run's restart policy. Worker thread only (not thread-safe).
+/// One identification run's restart policy. Not thread-safe: the node runs it one task at a time.
 class IdentificationLifecycle {
  public:
   /// settings.state_dir empty: checkpointing is off (start() does nothing, nothing is skipped,
