@@ -64,6 +64,9 @@ class GatewayNode {
   /// The GNSS completeness declared with a sensor sample stamped sample_t_s (s): every GNSS of the
   /// file stamped at or before the result has been published.
   double gnss_declared_through_s(double sample_t_s) const;
+  /// Publishes Health (force: at once). An unforced call is evaluated at most every
+  /// 50 ms of wall time: the paced loop calls it after each of its ~100 sleeps
+  /// per second, and each evaluation builds the counters and polls the peers' silences.
   void health(odonav::msg::HealthState state, const std::string& reason, bool force);
   enum class Outcome { kEndOfData, kInterrupted, kFailed };
   /// Publishes the events in order, paced by settings_.speed from wall_start_s (steady clock, s;
@@ -78,6 +81,7 @@ class GatewayNode {
   GatewaySettings settings_;
   Dataset dataset_;
   std::size_t gnss_published_ = 0;  // GNSS of dataset_ published so far (in file order)
+  double last_health_s_ = -1e300;   // steady clock (s) of the last health evaluation
   SensorPublisher publisher_;
 };
 
