@@ -352,6 +352,25 @@ class SampleBuilder {
   int innovation_rejections_before_suspension() const;
   /// The GNSS latency in force and its online estimate.
   const GnssLatencyEstimate& latency() const { return latency_; }
+  /// The K the latency search fits at its own latency estimate over the drive's first block of
+  /// samples, while that estimate clearly differs from the latency in force (docs/ALGORITHM.md
+  /// "GNSS latency", "The start of a drive"). Before any latency is decided, the samples of an
+  /// accelerating start are off by the unknown latency times their speed change, and the running
+  /// K estimate with them (-9 % to -2 % over the first 30 s of sim:terrain at 200 ms), while the
+  /// K of the best latency candidate is not. Given only while all of these hold:
+  ///   - the latency is estimated online and none was decided yet (none applied, the sums never
+  ///     restarted), and the search's first block is still open;
+  ///   - the GNSS intervals are short enough that the trapezoid correction is off
+  ///     (gnss period < trapezoid_correction_min_interval_s): the search compares the trapezoid
+  ///     of two speeds without it, so at 1-2 Hz its K lacks the speed's curvature the samples add;
+  ///   - the block's own latency estimate beats the value in force (beats_nominal: more than
+  ///     kProvisionalMinSigmas of its sigmas away).
+  struct StartLatencyK {
+    double k_m_per_pulse = 0.0;    ///< K at the block's latency estimate (m/pulse).
+    double latency_s = 0.0;        ///< the block's latency estimate (s) ...
+    double latency_sigma_s = 0.0;  ///< ... and its one-sigma (s).
+  };
+  std::optional<StartLatencyK> start_latency_k() const;
 
   /// Everything the builder holds besides its parameters, as text (every double exact): the
   /// buffered inputs not processed yet, the sample chain, the gates' references, the observed GNSS

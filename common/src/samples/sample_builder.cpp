@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "odonav/consumer_rules.hpp"
+
 namespace odonav {
 
 int fix_quality_rank(int fix) {
@@ -313,6 +315,27 @@ bool SampleBuilder::block_consistent(const std::vector<double>& block) const {
   GnssLatencyEstimate own;
   if (!fit_latency(block, latency_block_samples_, 1, own, kLatencyBlockMinSamples)) return false;
   return std::abs(own.estimate_s - *latency_closed_fit_) <= kLatencyBlockMaxSigmas * own.sigma_s;
+}
+
+std::optional<SampleBuilder::StartLatencyK> SampleBuilder::start_latency_k() const {
+  const std::size_t n = latency_candidates_s_.size();
+  if (n < 2 || latency_.applied_s != 0.0 || latency_restarts_ > 0 || latency_closed_blocks_ > 0 ||
+      latency_.blocks_left_out > 0)
+    return std::nullopt;
+  if (!(gnss_period_s_ < params_.trapezoid_correction_min_interval_s)) return std::nullopt;  // NaN: not yet observed
+  std::vector<double> block(n);
+  if (!weighted_block_residuals(block)) return std::nullopt;
+  GnssLatencyEstimate own;
+  if (!fit_latency(block, latency_block_samples_, 1, own, kLatencyBlockMinSamples)) return std::nullopt;
+  if (!beats_nominal(own.estimate_s, latency_.applied_s, own.sigma_s)) return std::nullopt;
+  // The block's K at its estimate, linear between the two candidates around it.
+  const double x = (own.estimate_s - latency_candidates_s_.front()) / params_.latency_search_step_s;
+  const std::size_t i = std::min(n - 2, static_cast<std::size_t>(std::max(0.0, std::floor(x))));
+  const double f = std::clamp(x - static_cast<double>(i), 0.0, 1.0);
+  if (!(latency_block_phiphi_[i] > 0.0) || !(latency_block_phiphi_[i + 1] > 0.0)) return std::nullopt;
+  const double k0 = latency_block_yphi_[i] / latency_block_phiphi_[i];
+  const double k1 = latency_block_yphi_[i + 1] / latency_block_phiphi_[i + 1];
+  return StartLatencyK{k0 + f * (k1 - k0), own.estimate_s, own.sigma_s};
 }
 
 void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {

@@ -113,6 +113,14 @@ IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoc
   out.samples_rejected = rejected_;
   out.frozen = frozen_;
   out.latency = epoch.latency;
+  // Only what is published changes: the estimators and the builder's innovation gate keep the
+  // estimator's own K (feed_gate above), and a commanded or frozen K is never replaced.
+  if (out.main.valid && !out.main.converged && !frozen_ && !seed_k_m_per_pulse_) {
+    if (const auto start = builder_.start_latency_k()) {
+      out.main.k_m_per_pulse = start->k_m_per_pulse;
+      out.k_from_start_latency = true;
+    }
+  }
   return out;
 }
 

@@ -45,6 +45,10 @@ struct IdentificationOutput {
   uint64_t samples_rejected = 0;           ///< gated-out epochs so far (not counting chain starts).
   bool frozen = false;                     ///< identification frozen by command: K held.
   GnssLatencyEstimate latency;             ///< the GNSS latency in force after this epoch.
+  /// main.k_m_per_pulse is the latency search's K of the drive's start (SampleBuilder::
+  /// start_latency_k), not the estimator's: before the estimator converges and before any latency
+  /// is decided, while the data show a latency clearly off the one in force.
+  bool k_from_start_latency = false;
 };
 
 class IdentificationCore {
