@@ -64,10 +64,6 @@ NodeInput& EventTimeNode::add_input(const std::string& name, bool required, cons
   return *owned_.back();
 }
 
-namespace {
-constexpr double kHealthTickPeriod_s = 0.05;
-}  // namespace
-
 void EventTimeNode::tick() {
   const double now = steady_now_s();
   if (const auto w = aligner_.advance(now)) {
@@ -79,10 +75,8 @@ void EventTimeNode::tick() {
     }
   }
   on_tick(now);
-  // The loop ticks after every batch of samples (hundreds per second once outputs leave with their
-  // odometer sample); health (counters of every input, the peers' silences) is evaluated at most
-  // every kHealthTickPeriod_s, still well inside any health period and the peers' silence bounds.
-  if (now - last_health_tick_s_ >= kHealthTickPeriod_s) {
+  // Ticks follow every sample (hundreds per second): health at most every kHealthEvaluationPeriod_s.
+  if (now - last_health_tick_s_ >= kHealthEvaluationPeriod_s) {
     last_health_tick_s_ = now;
     publish_health(now, false);
   }

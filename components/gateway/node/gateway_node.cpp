@@ -87,15 +87,9 @@ GatewayNode::GatewayNode(dds::ComponentRuntime& runtime, const GatewaySettings& 
       dataset_(std::move(dataset)),
       publisher_(runtime, sensor_writer_profile(runtime.participant(), settings)) {}
 
-namespace {
-/// Health is published once a second; evaluating it more often than every 50 ms (as the consumer
-/// nodes do) only costs CPU, while silences and state changes are still seen within 50 ms.
-constexpr double kHealthEvaluationPeriod_s = 0.05;
-}  // namespace
-
 void GatewayNode::health(odonav::msg::HealthState state, const std::string& reason, bool force) {
   const double now = dds::steady_now_s();
-  if (!force && now - last_health_s_ < kHealthEvaluationPeriod_s) return;
+  if (!force && now - last_health_s_ < dds::kHealthEvaluationPeriod_s) return;
   last_health_s_ = now;
   publisher_.publish_health(state, reason, replay_source_health(publisher_.matched_readers(), publisher_.ack_timeouts()),
                             force);

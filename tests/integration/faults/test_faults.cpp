@@ -721,6 +721,11 @@ void kill_nine_and_restart_catches_up(int domain, const std::vector<Kill>& kills
                              seconds(90)))
         << logs() << read_text(dir + "/gateway.log");
     const std::string& c = kill.component;
+    proc[c]->signal(SIGKILL);
+    ASSERT_TRUE(proc[c]->wait_exit(seconds(5)));
+    std::this_thread::sleep_for(seconds(down_s));
+    // What the killed process published, read once its last datagrams have arrived (it may have
+    // published, and checkpointed, a few more outputs between the wait above and the signal).
     if (c == "odonav-identification") {
       last_published_before_kill_s[c] = stamp_s(k.items().back().sample);
     } else if (c == "odonav-calibration") {
@@ -730,9 +735,6 @@ void kill_nine_and_restart_catches_up(int domain, const std::vector<Kill>& kills
       const auto d = dr.items();
       last_published_before_kill_s[c] = d.empty() ? 0.0 : stamp_s(d.back().sample);
     }
-    proc[c]->signal(SIGKILL);
-    ASSERT_TRUE(proc[c]->wait_exit(seconds(5)));
-    std::this_thread::sleep_for(seconds(down_s));
     ASSERT_TRUE(start(c));
     std::cerr << "killed " << c << " at K t=" << kill.at_t_s << " s (its last output t="
               << last_published_before_kill_s[c] << " s), restarted " << down_s << " s later\n";

@@ -12,6 +12,12 @@
 
 namespace odonav::dds {
 
+/// How often (wall clock, s) a component at most evaluates its Health between publications: the
+/// loops that could evaluate it after every sample (hundreds per second) evaluate the counters and
+/// the peers' silences at most this often, still well inside the 1 s health period and the peers'
+/// silence bounds; state changes are still seen within this period.
+constexpr double kHealthEvaluationPeriod_s = 0.05;
+
 /// Named figures of a component (samples accepted, bad rows, queue depth, ...), in order.
 using HealthCounters = std::vector<std::pair<std::string, double>>;
 
