@@ -40,6 +40,8 @@ class TaskDispatcher {
   void run_pending();
 
  private:
+  void enqueue(std::function<void()> task);
+
   Mode mode_ = Mode::kQueued;
   std::mutex execute_mutex_;            // held while a task or the tick runs
   bool execute_on_post_ = false;        // kOnPost, under execute_mutex_: run() is running

@@ -8,13 +8,21 @@ namespace odonav {
 
 void TaskDispatcher::post(std::function<void()> task) {
   if (mode_ == Mode::kOnPost) {
+    // Decide and queue under one lock: a task queued after run() drained the queue, or after it
+    // returned and before the drain, would otherwise wait until the drain at shutdown.
     std::lock_guard<std::mutex> execute(execute_mutex_);
     if (execute_on_post_) {
       task();
       if (after_task_) after_task_();
-      return;
+    } else {
+      enqueue(std::move(task));
     }
+    return;
   }
+  enqueue(std::move(task));
+}
+
+void TaskDispatcher::enqueue(std::function<void()> task) {
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     queue_.push_back(std::move(task));
