@@ -164,13 +164,14 @@ struct ScenarioFigures {
   /// as it is, without the start offset, and with an origin from the standstill fixes or from every
   /// fix of the first 500 m.
   Figure start_offset_m, max_after_500m, drift_max_after_500m, standstill_offset_m, standstill_max_after_500m,
-      first_500m_offset_m, first_500m_max_after_500m;
+      first_500m_offset_m, first_500m_max_after_500m, drift_final;
 };
 
 void collect(const odonav::offline::FirstMetres& m, ScenarioFigures& f) {
   f.start_offset_m.add(m.start_offset_m);
   f.max_after_500m.add(m.max_after_500m_percent);
   f.drift_max_after_500m.add(m.drift_max_after_500m_percent);
+  f.drift_final.add(m.drift_final_percent);
   f.standstill_offset_m.add(m.standstill_origin_offset_m);
   f.standstill_max_after_500m.add(m.standstill_origin_max_after_500m_percent);
   f.first_500m_offset_m.add(m.first_500m_origin_offset_m);
@@ -249,6 +250,7 @@ void print_scenario(const std::string& scenario, const ScenarioFigures& f, std::
       << describe(f.standstill_max_after_500m, 3) << " |\n"
       << "| mean of the fixes of the first 500 m | " << describe(f.first_500m_offset_m, 2) << " | "
       << describe(f.first_500m_max_after_500m, 3) << " |\n";
+  out << "\nOnline DR final %D with the start offset removed (its own drift): " << describe(f.drift_final, 3) << "\n";
 }
 
 // ---- sensitivity of VFF-LM-RLS (identification only: the DR does not depend on these settings

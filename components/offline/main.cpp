@@ -151,6 +151,12 @@ nlohmann::json offline_summary(const odonav::Dataset& dataset, const std::string
                       {"reversing", result.builder_counters.reversing},
                       {"reversing_accepted", result.builder_counters.reversing_accepted}};
   summary["bad_rows_skipped"] = report.total_bad();
+  if (!result.identification.empty() && summary.contains("scale_factor")) {
+    const odonav::TurnSlipEstimate& slip = result.identification.back().turn_slip;
+    summary["scale_factor"]["turn_slip_samples"] = slip.samples;
+    summary["scale_factor"]["turn_slip_outliers"] = slip.outliers;
+    summary["scale_factor"]["turn_slip_reason"] = slip.reason;  // why it is not applied; "" when it is
+  }
   return summary;
 }
 

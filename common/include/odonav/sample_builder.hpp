@@ -39,6 +39,7 @@
 #include "odonav/geodesy.hpp"
 #include "odonav/scale_factor_estimator.hpp"
 #include "odonav/stream_buffers.hpp"
+#include "odonav/turn_slip.hpp"
 
 namespace odonav {
 
@@ -311,6 +312,9 @@ struct SampleBuilderEpoch {
   std::optional<ScaleFactorSample> sample;
   /// The GNSS latency after this epoch.
   GnssLatencyEstimate latency;
+  /// With status kYawRate: the interval as a turn-slip sample (turn_slip.hpp), when it passed every
+  /// other interval gate, INS is used and a K estimate exists to compare with.
+  std::optional<TurnSlipSample> turn_sample;
 };
 
 class SampleBuilder {
@@ -417,8 +421,13 @@ class SampleBuilder {
   /// pulses): kAccepted with `sample` filled, or the gate that rejected the interval.
   /// speed_trapezoid_m: y before the trapezoid correction (the trapezoid of the two speeds, m), which
   /// the latency search compares with the trapezoid of two pulse rates.
+  /// turn: when the yaw-rate gate rejects an interval that passed every other interval gate (INS
+  /// and a K estimate present), filled with its turn-slip sample (turn_slip.hpp); may be null.
   EpochStatus check_interval(const GnssSample& gnss, const EpochInputs& inputs, ScaleFactorSample& sample,
-                             double& speed_trapezoid_m) const;
+                             double& speed_trapezoid_m, TurnSlipSample* turn) const;
+  /// X of a turn-slip sample over [start_sensor_t, end_sensor_t] (pulses rad/s; turn_slip.hpp);
+  /// nullopt when an INS attitude or odometer count inside it is missing.
+  std::optional<double> turn_pulses_radps(double start_sensor_t, double end_sensor_t, const GoodEpoch& start) const;
   /// Step 3, the innovation test of an accepted sample against the latest K estimate stamped before
   /// it, with the consecutive-rejection rule (SampleBuilderParams).
   InnovationVerdict innovation_gate(const GnssSample& gnss, const ScaleFactorSample& sample);

@@ -32,7 +32,8 @@ const std::vector<std::string>& scale_factor_columns() {
     for (const std::string& c : scale_factor_estimator_columns()) h.push_back(c);
     for (const char* c : {"lambda_vff_lm_rls", "estimator", "k_m_per_pulse", "sigma_m_per_pulse", "forgetting_factor",
                           "window_fill", "converged", "samples_accepted", "samples_rejected", "epoch_status",
-                          "gnss_latency_s", "gnss_latency_sigma_s"})
+                          "gnss_latency_s", "gnss_latency_sigma_s", "turn_slip_s_per_rad", "turn_slip_sigma_s_per_rad",
+                          "turn_slip_applies"})
       h.push_back(c);
     return h;
   }();
@@ -95,7 +96,10 @@ void ScaleFactorCsv::write(const ScaleFactorRow& r) {
       .field(r.samples_rejected)
       .field(r.epoch_status)
       .field(r.gnss_latency_s)
-      .field(r.gnss_latency_sigma_s);
+      .field(r.gnss_latency_sigma_s)
+      .field(r.turn_slip_s_per_rad)
+      .field(r.turn_slip_sigma_s_per_rad)
+      .field(r.turn_slip_applies);
   csv_.end_row();
 }
 
@@ -293,6 +297,10 @@ OutputRows read_output_rows(const std::string& dir) {
       r.epoch_status = t.text(i, "epoch_status");
       r.gnss_latency_s = t.number(i, "gnss_latency_s", 0.0);
       r.gnss_latency_sigma_s = t.has("gnss_latency_sigma_s") ? t.optional_number(i, "gnss_latency_sigma_s") : std::nullopt;
+      r.turn_slip_s_per_rad = t.number(i, "turn_slip_s_per_rad", 0.0);
+      r.turn_slip_sigma_s_per_rad =
+          t.has("turn_slip_sigma_s_per_rad") ? t.optional_number(i, "turn_slip_sigma_s_per_rad") : std::nullopt;
+      r.turn_slip_applies = t.number(i, "turn_slip_applies", 0.0) != 0.0;
       out.scale_factor.push_back(r);
     }
   }

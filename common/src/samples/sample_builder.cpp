@@ -583,7 +583,7 @@ double trapezoid_rate_half_window_s(const SampleBuilderParams& p, double k_m_per
 }
 
 EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs& in, ScaleFactorSample& sample,
-                                          double& speed_trapezoid_m) const {
+                                          double& speed_trapezoid_m, TurnSlipSample* turn) const {
   GoodEpoch s = *chain_start_;
   // Both ends at the latency in force now: the start's count and attitude again at its sensor
   // time, so a latency applied since the start cannot make the two ends inconsistent.
@@ -626,7 +626,11 @@ EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs
   if (dt > max_interval_in_force_s()) return EpochStatus::kGap;
   if (v_start < params_.min_speed_mps || v < params_.min_speed_mps) return EpochStatus::kMinSpeed;
   if (direction != OdometerDirection::kForward && !backwards) return EpochStatus::kReversing;
-  if (params_.yaw_rate_gate_enabled && std::abs(yaw_rate) > params_.max_yaw_rate_rad_s) return EpochStatus::kYawRate;
+  // A turn is kept out of K, but (with INS and a K estimate to compare with) measures the slip.
+  const bool turning = params_.yaw_rate_gate_enabled && std::abs(yaw_rate) > params_.max_yaw_rate_rad_s;
+  const std::optional<KEstimate> k_before = k_estimates_.before(g.t_s);
+  if (turning && !(turn != nullptr && params_.use_ins && k_before && phi >= params_.min_pulses))
+    return EpochStatus::kYawRate;
   if (!(phi > 0.0)) return EpochStatus::kNoPulses;
   if (phi < params_.min_pulses) return EpochStatus::kMinSpeed;
   sample.t_s = g.t_s;
@@ -656,7 +660,43 @@ EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs
   }
   sample.gnss_position_enu_m = frame_->to_enu(g.position);
   sample.straight = std::abs(yaw_rate) < params_.straight_yaw_rate_rad_s;
+  if (turning) {
+    const std::optional<double> x = turn_pulses_radps(start_sensor_t, sensor_time(g.t_s), s);
+    if (!x) return EpochStatus::kYawRate;
+    const double sigma_v = g.vel_std_mps && *g.vel_std_mps > 0.0 ? *g.vel_std_mps : params_.gnss_velocity_sigma_mps;
+    turn->t_s = g.t_s;
+    turn->dt_s = dt;
+    turn->phi_pulses = phi;
+    turn->y_m = sample.y_m;
+    turn->turn_pulses_radps = *x;
+    turn->k_m_per_pulse = k_before->k_m_per_pulse;
+    turn->sigma_y_m = std::sqrt(regression_noise_variance_m2(sigma_v, dt, k_before->k_m_per_pulse));
+    return EpochStatus::kYawRate;
+  }
   return EpochStatus::kAccepted;
+}
+
+std::optional<double> SampleBuilder::turn_pulses_radps(double start_sensor_t, double end_sensor_t,
+                                                       const GoodEpoch& start) const {
+  // Steps of yaw_rate_step_s, as the gate's rate: X = sum of each step's pulses times its rate
+  // beyond the threshold (turn_slip.hpp). No INS or count inside the interval: no sample.
+  const double dt = end_sensor_t - start_sensor_t;
+  const int steps = std::max(1, static_cast<int>(std::ceil(dt / params_.yaw_rate_step_s - 1e-6)));
+  const double step_s = dt / steps;
+  double heading0 = start.attitude.heading_rad;
+  double count0 = start.count_pulses;
+  double x = 0.0;
+  for (int i = 1; i <= steps; ++i) {
+    const double t = start_sensor_t + i * step_s;
+    const std::optional<Attitude> a = attitude_.attitude_at(t, watermark_s_);
+    const std::optional<double> n = odometer_.count_at(t, watermark_s_);
+    if (!a || !n) return std::nullopt;
+    const double rate = wrap_pi(a->heading_rad - heading0) / step_s;
+    x += (*n - count0) * std::max(0.0, std::abs(rate) - params_.max_yaw_rate_rad_s);
+    heading0 = a->heading_rad;
+    count0 = *n;
+  }
+  return x;
 }
 
 SampleBuilder::InnovationVerdict SampleBuilder::innovation_gate(const GnssSample& g, const ScaleFactorSample& sample) {
@@ -702,7 +742,10 @@ SampleBuilderEpoch SampleBuilder::process_epoch(const GnssSample& g) {
     r.status = EpochStatus::kChainStart;
   } else {
     ScaleFactorSample sample;
-    r.status = check_interval(g, in, sample, speed_trapezoid_m);
+    TurnSlipSample turn;
+    turn.dt_s = -1.0;  // filled (dt > 0) only for a turn that measures the slip
+    r.status = check_interval(g, in, sample, speed_trapezoid_m, &turn);
+    if (r.status == EpochStatus::kYawRate && turn.dt_s > 0.0) r.turn_sample = turn;
     if (r.status == EpochStatus::kAccepted) {
       switch (innovation_gate(g, sample)) {
         case InnovationVerdict::kPassed:

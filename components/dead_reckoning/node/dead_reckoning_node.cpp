@@ -222,6 +222,11 @@ void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, doubl
   // anchor fixes compare each fix with the DR at its stamp minus the latency.
   if (std::isfinite(m.gnss_latency_s()) && std::abs(m.gnss_latency_s()) < 10.0)
     core_.add_gnss_latency(estimate_applies_from_s(t_s, params_.estimate_hold_off_s), m.gnss_latency_s());
+  // The slip gain alike (a value out of range is refused with the stamp in the error, as bad input).
+  if (std::isfinite(m.turn_slip_threshold_radps()) && m.turn_slip_threshold_radps() >= 0.0)
+    core_.add_turn_slip(estimate_applies_from_s(t_s, params_.estimate_hold_off_s),
+                        turn_slip_gain_to_apply(m.turn_slip_applies(), m.turn_slip_s_per_rad()),
+                        m.turn_slip_threshold_radps());
   const IdentifiedScaleFactor k{estimate_applies_from_s(t_s, params_.estimate_hold_off_s), m.k_m_per_pulse(),
                                 m.converged(), m.source(), m.sigma_m_per_pulse(), m.samples_accepted()};
   if (const auto update = k_selection_.on_identified(k, dds::steady_now_s()))

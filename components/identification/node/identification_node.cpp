@@ -97,6 +97,10 @@ odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& out, c
   m.source_priority(source_priority);
   m.gnss_latency_s(out.latency.applied_s);
   m.gnss_latency_sigma_s(out.latency.sigma_s >= 0.0 ? out.latency.sigma_s : -1.0);
+  m.turn_slip_s_per_rad(out.turn_slip.g_s_per_rad);
+  m.turn_slip_sigma_s_per_rad(out.turn_slip.sigma_s_per_rad >= 0.0 ? out.turn_slip.sigma_s_per_rad : -1.0);
+  m.turn_slip_threshold_radps(out.turn_slip_threshold_radps);
+  m.turn_slip_applies(out.turn_slip.applies);
   return m;
 }
 
@@ -224,9 +228,30 @@ void IdentificationNode::publish(const std::vector<IdentificationOutput>& output
   const double now = dds::steady_now_s();
   const std::vector<IdentificationOutput> to_publish =
       lifecycle_.outputs_to_publish(outputs, now);
-  for (const IdentificationOutput& o : to_publish) write_scale_factor(o, now);
+  for (const IdentificationOutput& o : to_publish) {
+    write_scale_factor(o, now);
+    log_turn_slip_change(o);
+  }
   count_outputs(to_publish.size());
   lifecycle_.checkpoint_if_due(core_);
+}
+
+void IdentificationNode::log_turn_slip_change(const IdentificationOutput& o) {
+  if (turn_slip_applies_ && *turn_slip_applies_ == o.turn_slip.applies) return;
+  if (o.turn_slip.applies)
+    spdlog::info("turn slip applied from t={:.3f} s: g = {:.4f} +- {:.4f} s/rad beyond {:.3f} rad/s ({} turn samples)",
+                 o.t_s, o.turn_slip.g_s_per_rad, o.turn_slip.sigma_s_per_rad, o.turn_slip_threshold_radps,
+                 o.turn_slip.samples);
+  else if (turn_slip_applies_)
+    spdlog::warn("turn slip no longer applied at t={:.3f} s: {}", o.t_s, o.turn_slip.reason);
+  turn_slip_applies_ = o.turn_slip.applies;
+}
+
+void IdentificationNode::finish() {
+  publish(core_.finish());
+  lifecycle_.checkpoint_at_finish(core_);
+  if (const auto& last = lifecycle_.last_output(); last && !last->turn_slip.applies)
+    spdlog::info("turn slip not applied at the end (t={:.3f} s): {}", last->t_s, last->turn_slip.reason);
 }
 
 void IdentificationNode::write_scale_factor(const IdentificationOutput& o, double now_s) {
@@ -245,11 +270,6 @@ void IdentificationNode::on_tick(double now_s) {
 }
 
 void IdentificationNode::process_until(double watermark_s) { publish(core_.process_until(watermark_s)); }
-
-void IdentificationNode::finish() {
-  publish(core_.finish());
-  lifecycle_.checkpoint_at_finish(core_);
-}
 
 std::vector<dds::detail::WriterBase*> IdentificationNode::output_writers() { return {&scale_factor_->writer()}; }
 
@@ -332,6 +352,15 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
   if (last && last->main.valid) {
     c.emplace_back("k_m_per_pulse", last->main.k_m_per_pulse);
     c.emplace_back("sigma_k_m_per_pulse", last->main.sigma_m_per_pulse);
+  }
+  if (last) {
+    // 1 while the K published is the latency search's K of the drive's start, not the estimator's.
+    c.emplace_back("k_from_start_latency", last->k_from_start_latency ? 1.0 : 0.0);
+    c.emplace_back("turn_slip_s_per_rad", last->turn_slip.g_s_per_rad);
+    c.emplace_back("turn_slip_sigma_s_per_rad", last->turn_slip.sigma_s_per_rad);
+    c.emplace_back("turn_slip_samples", static_cast<double>(last->turn_slip.samples));
+    c.emplace_back("turn_slip_outliers", static_cast<double>(last->turn_slip.outliers));
+    c.emplace_back("turn_slip_applies", last->turn_slip.applies ? 1.0 : 0.0);
   }
 }
 

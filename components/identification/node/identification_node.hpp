@@ -91,6 +91,8 @@ class IdentificationNode : public dds::EventTimeNode {
   void publish(const std::vector<IdentificationOutput>& outputs);
   /// Writes one ScaleFactor (EstimatePublisher: counted, a refusal logged, kept for the heartbeat).
   void write_scale_factor(const IdentificationOutput& output, double now_s);
+  /// Logs when the turn slip starts (info) or stops (warn, with why) being applied.
+  void log_turn_slip_change(const IdentificationOutput& output);
   void on_misalignment(const odonav::msg::Misalignment& m, double t_s);
   /// After a restore: the first odometer (and INS, when used) sample of the handed-over history seen.
   bool sensor_history_start_known() const;
@@ -110,6 +112,7 @@ class IdentificationNode : public dds::EventTimeNode {
   /// Created after the checkpoint is restored (what the persistence database may serve depends on it).
   std::unique_ptr<dds::EstimatePublisher<odonav::msg::ScaleFactor>> scale_factor_;
   uint64_t k_commands_ = 0;
+  std::optional<bool> turn_slip_applies_;  ///< as last published (nothing before the first output)
   // Last members: destroyed first, so no callback reaches a half-destroyed node.
   std::unique_ptr<dds::Reader<odonav::msg::Odometer>> odometer_reader_;
   std::unique_ptr<dds::Reader<odonav::msg::GnssFix>> gnss_reader_;

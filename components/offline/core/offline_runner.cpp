@@ -57,6 +57,9 @@ std::vector<DeadReckoningOutput> run_dead_reckoning(const Dataset& d, const Dead
     for (const IdentificationOutput& k : *identification)
       dr.add_gnss_latency(estimate_applies_from_s(k.t_s, params.estimate_hold_off_s), k.latency.applied_s);
     for (const IdentificationOutput& k : *identification)
+      dr.add_turn_slip(estimate_applies_from_s(k.t_s, params.estimate_hold_off_s),
+                       turn_slip_gain_to_apply(k.turn_slip.applies, k.turn_slip.g_s_per_rad), k.turn_slip_threshold_radps);
+    for (const IdentificationOutput& k : *identification)
       if (scale_factor_applicable(k.main.valid, k.main.converged, k.main.k_m_per_pulse, k.main.sigma_m_per_pulse,
                                   k.samples_accepted, params.nominal_k_m_per_pulse))
         dr.add_scale_factor(estimate_applies_from_s(k.t_s, params.estimate_hold_off_s), k.main.k_m_per_pulse,
@@ -171,6 +174,9 @@ results::ScaleFactorRow to_row(const IdentificationOutput& k, const std::string&
   r.epoch_status = to_string(k.epoch_status);
   r.gnss_latency_s = k.latency.applied_s;
   if (k.latency.sigma_s >= 0.0) r.gnss_latency_sigma_s = k.latency.sigma_s;
+  r.turn_slip_s_per_rad = k.turn_slip.g_s_per_rad;
+  if (k.turn_slip.sigma_s_per_rad >= 0.0) r.turn_slip_sigma_s_per_rad = k.turn_slip.sigma_s_per_rad;
+  r.turn_slip_applies = k.turn_slip.applies;
   return r;
 }
 

@@ -322,6 +322,9 @@ json make_summary(const Dataset& d, const results::OutputRows& rows, const Summa
     sf["gnss_latency_sigma_s"] = last.gnss_latency_sigma_s ? number_or_null(*last.gnss_latency_sigma_s) : json();
     if (sim.is_object() && sim.contains("gnss_latency_s") && sim["gnss_latency_s"].is_number())
       sf["gnss_latency_error_s"] = number_or_null(last.gnss_latency_s - sim["gnss_latency_s"].get<double>());
+    sf["turn_slip_s_per_rad"] = number_or_null(last.turn_slip_s_per_rad);
+    sf["turn_slip_sigma_s_per_rad"] = last.turn_slip_sigma_s_per_rad ? number_or_null(*last.turn_slip_sigma_s_per_rad) : json();
+    sf["turn_slip_applies"] = last.turn_slip_applies;
   }
   if (!k_ref.empty()) {
     sf["true_k_final_m_per_pulse"] = k_ref.back().value;
@@ -392,6 +395,15 @@ void print_summary(const json& s, std::ostream& out) {
     out << "    GNSS latency  " << fmt(sf["gnss_latency_s"], 4, " s") << " +- " << fmt(sf.value("gnss_latency_sigma_s", json()), 4, " s");
     if (sf.contains("gnss_latency_error_s")) out << "  (error vs simulation " << fmt(sf["gnss_latency_error_s"], 4, " s") << ")";
     out << "\n";
+  }
+  if (sf.contains("turn_slip_s_per_rad")) {
+    out << "    turn slip     " << fmt(sf["turn_slip_s_per_rad"], 4, " s/rad") << " +- "
+        << fmt(sf.value("turn_slip_sigma_s_per_rad", json()), 4, " s/rad")
+        << (sf.value("turn_slip_applies", false) ? "  (applied by dead reckoning" : "  (not applied");
+    if (sf.contains("turn_slip_samples")) out << "; " << sf["turn_slip_samples"].get<uint64_t>() << " turn samples";
+    const std::string why = sf.value("turn_slip_reason", std::string());
+    if (!why.empty()) out << ": " << why;
+    out << ")\n";
   }
   const json& dr = s["dead_reckoning"];
   out << "  dead reckoning (vs " << dr["reference"].get<std::string>() << ")\n";

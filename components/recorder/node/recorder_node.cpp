@@ -104,6 +104,10 @@ results::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m) {
   r.gnss_latency_s = m.gnss_latency_s();
   if (std::isfinite(m.gnss_latency_sigma_s()) && m.gnss_latency_sigma_s() >= 0.0)
     r.gnss_latency_sigma_s = m.gnss_latency_sigma_s();
+  r.turn_slip_s_per_rad = m.turn_slip_s_per_rad();
+  if (std::isfinite(m.turn_slip_sigma_s_per_rad()) && m.turn_slip_sigma_s_per_rad() >= 0.0)
+    r.turn_slip_sigma_s_per_rad = m.turn_slip_sigma_s_per_rad();
+  r.turn_slip_applies = m.turn_slip_applies();
   return r;
 }
 

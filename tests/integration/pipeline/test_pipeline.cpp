@@ -353,6 +353,9 @@ void expect_pipeline_equals_offline(const std::string& data, const std::string& 
     expect_close(a.sigma_m_per_pulse, b.sigma_m_per_pulse, kTol, "sigma_m_per_pulse", i, true);
     expect_close(a.gnss_latency_s, b.gnss_latency_s, kTol, "gnss_latency_s", i);
     expect_close(a.gnss_latency_sigma_s, b.gnss_latency_sigma_s, kTol, "gnss_latency_sigma_s", i, false);
+    expect_close(a.turn_slip_s_per_rad, b.turn_slip_s_per_rad, kTol, "turn_slip_s_per_rad", i);
+    expect_close(a.turn_slip_sigma_s_per_rad, b.turn_slip_sigma_s_per_rad, kTol, "turn_slip_sigma_s_per_rad", i, false);
+    EXPECT_EQ(a.turn_slip_applies, b.turn_slip_applies) << i;
     EXPECT_EQ(a.samples_accepted, b.samples_accepted) << i;
     EXPECT_EQ(a.samples_rejected, b.samples_rejected) << i;
     if (::testing::Test::HasFailure()) FAIL() << "first difference at scale-factor row " << i;
@@ -438,6 +441,12 @@ TEST_F(Pipeline, TenHertzTerrainWithReceiverLatencyEqualsTheOfflineTool) {
   const std::string out = dir + "/out";
   launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "221", "--out", out}, out, 300);
   expect_pipeline_equals_offline(data, out);
+  // The 60 m turn gives the turn slip enough samples by the end: the dead reckoning compared above
+  // applied it for part of the drive.
+  const results::OutputRows rows = results::read_output_rows(out);
+  ASSERT_FALSE(rows.scale_factor.empty());
+  EXPECT_TRUE(rows.scale_factor.back().turn_slip_applies);
+  EXPECT_GT(rows.scale_factor.back().turn_slip_s_per_rad, 0.0);
 }
 
 // Hold-off 0: every estimate arrives after the odometer samples it applies to, so dead reckoning

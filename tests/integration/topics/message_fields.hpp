@@ -114,6 +114,10 @@ inline Fields fields(const odonav::msg::ScaleFactor& m) {
   f.emplace_back("source_priority", text(m.source_priority()));
   f.emplace_back("gnss_latency_s", text(m.gnss_latency_s()));
   f.emplace_back("gnss_latency_sigma_s", text(m.gnss_latency_sigma_s()));
+  f.emplace_back("turn_slip_s_per_rad", text(m.turn_slip_s_per_rad()));
+  f.emplace_back("turn_slip_sigma_s_per_rad", text(m.turn_slip_sigma_s_per_rad()));
+  f.emplace_back("turn_slip_threshold_radps", text(m.turn_slip_threshold_radps()));
+  f.emplace_back("turn_slip_applies", text(m.turn_slip_applies()));
   return f;
 }
 
@@ -293,6 +297,10 @@ inline odonav::msg::ScaleFactor make_scale_factor() {
   m.source_priority(4000000007u);
   m.gnss_latency_s(d.next());
   m.gnss_latency_sigma_s(d.next());
+  m.turn_slip_s_per_rad(d.next());
+  m.turn_slip_sigma_s_per_rad(d.next());
+  m.turn_slip_threshold_radps(d.next());
+  m.turn_slip_applies(true);
   return m;
 }
 

@@ -309,7 +309,7 @@ TEST_F(DeadReckoningCheckpointTest, StatesRoundTripExactly) {
   EXPECT_EQ(a.save_state(), anchor);
   EXPECT_TRUE(c.started());
   EXPECT_EQ(c.origin()->lat_rad, r.core.origin()->lat_rad);
-  EXPECT_NE(core.find("odonav-dead-reckoner-state 1\n"), std::string::npos);
+  EXPECT_NE(core.find("odonav-dead-reckoner-state 2\n"), std::string::npos);
   EXPECT_NE(anchor.find("odonav-anchored-position-state 1\n"), std::string::npos);
 }
 

@@ -71,6 +71,11 @@ struct ScaleFactorRow {
   /// GNSS latency in force [s] and the online estimate's one-sigma [s] (nullopt = unknown).
   double gnss_latency_s = 0.0;
   std::optional<double> gnss_latency_sigma_s;
+  /// Track slip in turns (turn_slip.hpp): the gain g [s/rad] (0 without an estimate), its
+  /// one-sigma [s/rad] (nullopt = none yet), whether dead reckoning applies it.
+  double turn_slip_s_per_rad = 0.0;
+  std::optional<double> turn_slip_sigma_s_per_rad;
+  bool turn_slip_applies = false;
 };
 
 /// One dead_reckoning.csv row (angles in radians here, degrees in the file).

@@ -114,6 +114,37 @@ void DeadReckoner::add_gnss_latency(double t_s, double latency_s) {
   if (changed) gnss_latency_.add(t_s, latency_s);
 }
 
+void DeadReckoner::add_turn_slip(double t_s, double g_s_per_rad, double threshold_radps) {
+  if (!std::isfinite(t_s) || !std::isfinite(g_s_per_rad) || g_s_per_rad < 0.0 || !std::isfinite(threshold_radps) ||
+      threshold_radps < 0.0) {
+    std::ostringstream m;
+    m << "turn_slip: at t=" << t_s << " s, g=" << g_s_per_rad << " s/rad and threshold=" << threshold_radps
+      << " rad/s must be finite and >= 0";
+    throw StreamInputError(m.str());
+  }
+  if (last_turn_slip_ && !(t_s > last_turn_slip_->first)) {
+    ++counters_.turn_slip_stale;
+    return;
+  }
+  const TurnSlipInForce value{g_s_per_rad, threshold_radps};
+  const bool changed = !last_turn_slip_ ? g_s_per_rad != 0.0
+                                        : g_s_per_rad != last_turn_slip_->second.g_s_per_rad ||
+                                              threshold_radps != last_turn_slip_->second.threshold_radps;
+  last_turn_slip_ = std::make_pair(t_s, value);
+  if (changed) turn_slip_.add(t_s, value);
+}
+
+double DeadReckoner::turn_slip_fraction_at(double t_s) const {
+  if (!params_.use_ins) return 0.0;
+  const std::optional<TurnSlipInForce> slip = turn_slip_.at_or_before(t_s);
+  if (!slip || slip->g_s_per_rad == 0.0) return 0.0;
+  const double w = params_.turn_slip_yaw_rate_window_s;
+  const std::optional<Attitude> a0 = attitude_.attitude_at(t_s - w, watermark_s_);
+  const std::optional<Attitude> a1 = attitude_.attitude_at(t_s, watermark_s_);
+  if (!a0 || !a1) return 0.0;  // no INS around: the distance as counted (as on a straight)
+  return turn_slip_fraction(slip->g_s_per_rad, slip->threshold_radps, wrap_pi(a1->heading_rad - a0->heading_rad) / w);
+}
+
 void DeadReckoner::add_estimate_received(HeldEstimate estimate, double epoch_s) {
   if (std::isfinite(epoch_s)) held_[static_cast<int>(estimate)].receive(epoch_s);
 }
@@ -307,7 +338,7 @@ std::vector<DeadReckoningOutput> DeadReckoner::process_until(double watermark_s)
         ++counters_.before_start;
         pending_odometer_t_s_.pop_front();
         odometer_.drop_before(t_j);
-        attitude_.drop_before(t_j);
+        attitude_.drop_before(t_j - params_.turn_slip_yaw_rate_window_s);
         continue;
       }
     }
@@ -320,7 +351,9 @@ std::vector<DeadReckoningOutput> DeadReckoner::process_until(double watermark_s)
     const double mid = 0.5 * (last_t_s_ + t_j);
     if (params_.use_ins) {
       if (attitude_.state_at(mid, watermark_s_) == BracketState::kPending) break;
-      if (params_.lever_arm_body_m && attitude_.state_at(t_j, watermark_s_) == BracketState::kPending) break;
+      // The lever arm and the turn slip's yaw rate read the attitude at t_j itself.
+      if ((params_.lever_arm_body_m || turn_slip_.size() > 0) && attitude_.state_at(t_j, watermark_s_) == BracketState::kPending)
+        break;
     }
     // Only the degraded mode steers by GNSS (course interpolated at mid-interval).
     if (!params_.use_ins && !gnss_final_at(t_j)) break;
@@ -334,11 +367,12 @@ std::vector<DeadReckoningOutput> DeadReckoner::process_until(double watermark_s)
     }
     out.push_back(step(*entry));
     pending_odometer_t_s_.pop_front();
-    // What later intervals (starting at t_j) can still need.
+    // What later intervals (starting at t_j) can still need: the attitude back to the slip's yaw-rate window.
     odometer_.drop_before(t_j);
-    attitude_.drop_before(t_j);
+    attitude_.drop_before(t_j - params_.turn_slip_yaw_rate_window_s);
     while (gnss_.size() >= 2 && gnss_[1].t_s <= t_j) pop_gnss_front();
     k_history_.drop_before(t_j);
+    turn_slip_.drop_before(t_j);
     misalignment_.drop_before(t_j);
   }
   return out;
@@ -385,7 +419,8 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
   o.misalignment_held = held_[static_cast<int>(HeldEstimate::kMisalignment)].decide(t_j, latest_applicable_epoch_s_, false);
   if (o.k_held) ++counters_.outputs_on_held_k;
   if (o.misalignment_held) ++counters_.outputs_on_held_misalignment;
-  const double ds = k.k_m_per_pulse * pulses * direction;
+  o.turn_slip_fraction = turn_slip_fraction_at(t_j);
+  const double ds = k.k_m_per_pulse * pulses * direction / (1.0 + o.turn_slip_fraction);
 
   Eigen::Vector3d ds_n = Eigen::Vector3d::Zero();
   bool have_heading = true;

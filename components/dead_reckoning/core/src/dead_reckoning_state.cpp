@@ -13,7 +13,7 @@ namespace odonav {
 
 namespace {
 constexpr const char* kStateMagic = "odonav-dead-reckoner-state";
-constexpr int kStateVersion = 1;
+constexpr int kStateVersion = 2;
 
 using Values = std::vector<double>;
 
@@ -91,6 +91,15 @@ std::string DeadReckoner::save_state() const {
   v.clear();
   if (last_gnss_latency_) append(v, {last_gnss_latency_->first, last_gnss_latency_->second});
   line("gnss_latency_last", v);
+  const auto ts = turn_slip_.state();
+  v.clear();
+  for (const auto& [t, e] : ts.entries) append(v, {t, e.g_s_per_rad, e.threshold_radps});
+  line("turn_slip_history", v);
+  line("turn_slip_history_last_t_s", optional_values(ts.last_t_s));
+  v.clear();
+  if (last_turn_slip_)
+    append(v, {last_turn_slip_->first, last_turn_slip_->second.g_s_per_rad, last_turn_slip_->second.threshold_radps});
+  line("turn_slip_last", v);
   line("watermark_s", {watermark_s_});
 
   v.clear();
@@ -109,7 +118,7 @@ std::string DeadReckoner::save_state() const {
   s += "counters";
   for (uint64_t x : {c.odometer_samples, c.outputs, c.before_start, c.unknown_direction, c.reversing, c.heading_held,
                      c.distance_lost, c.pulse_jumps_rejected, c.pulse_rebases, c.anchor_fixes, c.anchor_fixes_no_attitude,
-                     c.gnss_latency_stale, c.outputs_on_held_k, c.outputs_on_held_misalignment})
+                     c.gnss_latency_stale, c.outputs_on_held_k, c.outputs_on_held_misalignment, c.turn_slip_stale})
     s += " " + std::to_string(x);
   s += "\n";
   line("epochs_to_apply_s", Values(epochs_to_apply_s_.begin(), epochs_to_apply_s_.end()));
@@ -185,6 +194,15 @@ void DeadReckoner::restore_state(const std::string& text) {
   d.gnss_latency_.restore_state(std::move(l));
   v = records("gnss_latency_last", 2, 1);
   if (!v.empty()) d.last_gnss_latency_ = std::make_pair(v[0], v[1]);
+  decltype(turn_slip_)::State ts;
+  v = records("turn_slip_history", 3, kMany);
+  for (std::size_t i = 0; i < v.size(); i += 3)
+    ts.entries.emplace_back(v[i], TurnSlipInForce{finite_or_throw(v[i + 1], "turn_slip_history"),
+                                                  finite_or_throw(v[i + 2], "turn_slip_history")});
+  ts.last_t_s = opt("turn_slip_history_last_t_s");
+  d.turn_slip_.restore_state(std::move(ts));
+  v = records("turn_slip_last", 3, 1);
+  if (!v.empty()) d.last_turn_slip_ = std::make_pair(v[0], TurnSlipInForce{v[1], v[2]});
   v = r.value_list("watermark_s", 1, 1);
   if (v.size() != 1 || std::isnan(v[0])) throw CheckpointError("field 'watermark_s' does not hold 1 number");
   d.watermark_s_ = v[0];
@@ -206,8 +224,9 @@ void DeadReckoner::restore_state(const std::string& text) {
   if (!v.empty()) d.last_attitude_ = Attitude{v[0], v[1], v[2]};
   v = records("start_fix", kFixValues, 1);
   if (!v.empty()) d.start_fix_ = fix_of(v.data());
-  const std::vector<uint64_t> c = r.unsigned_list("counters", 14);
-  d.counters_ = DeadReckonerCounters{c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13]};
+  const std::vector<uint64_t> c = r.unsigned_list("counters", 15);
+  d.counters_ =
+      DeadReckonerCounters{c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13], c[14]};
   v = r.value_list("epochs_to_apply_s");
   d.epochs_to_apply_s_.assign(v.begin(), v.end());
   d.latest_applicable_epoch_s_ = opt("latest_applicable_epoch_s");
@@ -228,10 +247,11 @@ void DeadReckoner::restore_state(const std::string& text) {
 
 namespace {
 constexpr const char* kAnchorMagic = "odonav-anchored-position-state";
+constexpr int kAnchorStateVersion = 1;
 }  // namespace
 
 std::string AnchoredPositionFilter::save_state() const {
-  std::string s = std::string(kAnchorMagic) + " " + std::to_string(kStateVersion) + "\n";
+  std::string s = std::string(kAnchorMagic) + " " + std::to_string(kAnchorStateVersion) + "\n";
   Values v;
   for (const AnchorFix& f : queued_) append_fix(v, f);
   s += checkpoint_value_list("queued_fixes", v);
@@ -251,7 +271,7 @@ std::string AnchoredPositionFilter::save_state() const {
 
 void AnchoredPositionFilter::restore_state(const std::string& text) {
   CheckpointReader r(text);
-  check_checkpoint_version(r, kAnchorMagic, kStateVersion);
+  check_checkpoint_version(r, kAnchorMagic, kAnchorStateVersion);
   AnchoredPositionFilter a(params_);  // parsed into a copy: this one changes only when everything was read
   auto exactly = [&](const char* key, std::size_t n) { return r.exact_values(key, n); };
   auto opt = [&](const char* key) {

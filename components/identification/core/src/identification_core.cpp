@@ -13,7 +13,8 @@ namespace odonav {
 IdentificationCore::IdentificationCore(const IdentificationParams& params)
     : params_(params),
       builder_(params.builder),
-      main_(make_scale_factor_estimator(params.estimator_name, params.estimator)) {
+      main_(make_scale_factor_estimator(params.estimator_name, params.estimator)),
+      turn_slip_(params.turn_slip) {
   if (params_.run_all_estimators) {
     for (const std::string& name : odonav::estimator_names())
       all_.push_back(make_scale_factor_estimator(name, params_.estimator));
@@ -29,6 +30,7 @@ std::vector<std::string> IdentificationCore::estimator_names() const {
 void IdentificationCore::reset() {
   main_->reset();
   for (auto& e : all_) e->reset();
+  turn_slip_ = TurnSlipEstimator(params_.turn_slip);
   seed_k_m_per_pulse_.reset();
 }
 
@@ -93,6 +95,20 @@ void IdentificationCore::feed_gate(double t_s, const ScaleFactorEstimate& est) {
   last_gate_t_s_ = t_s;
 }
 
+TurnSlipEstimate IdentificationCore::turn_slip_estimate() const {
+  if (!params_.turn_slip_enabled) {
+    TurnSlipEstimate off;
+    off.reason = "turn slip estimation off (--turn-slip false)";
+    return off;
+  }
+  if (!params_.builder.use_ins) {
+    TurnSlipEstimate off;
+    off.reason = "no INS: turns are not measured";
+    return off;
+  }
+  return turn_slip_.estimate();
+}
+
 IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoch) {
   if (epoch.sample && !frozen_) {
     ++accepted_;
@@ -104,6 +120,7 @@ IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoc
   } else if (epoch.status != EpochStatus::kAccepted && epoch.status != EpochStatus::kChainStart) {
     ++rejected_;
   }
+  if (epoch.turn_sample && !frozen_ && params_.turn_slip_enabled) turn_slip_.update(*epoch.turn_sample);
   IdentificationOutput out;
   out.t_s = epoch.t_s;
   out.epoch_status = epoch.status;
@@ -113,6 +130,8 @@ IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoc
   out.samples_rejected = rejected_;
   out.frozen = frozen_;
   out.latency = epoch.latency;
+  out.turn_slip = turn_slip_estimate();
+  out.turn_slip_threshold_radps = turn_slip_threshold_radps();
   // Only what is published changes: the estimators and the builder's innovation gate keep the
   // estimator's own K (feed_gate above), and a commanded or frozen K is never replaced.
   if (out.main.valid && !out.main.converged && !frozen_ && !seed_k_m_per_pulse_) {
@@ -138,7 +157,7 @@ std::vector<IdentificationOutput> IdentificationCore::finish() {
 
 namespace {
 constexpr const char* kCoreStateMagic = "odonav-identification-core-state";
-constexpr int kCoreStateVersion = 1;
+constexpr int kCoreStateVersion = 2;
 }  // namespace
 
 std::string IdentificationCore::save_state() const {
@@ -152,6 +171,7 @@ std::string IdentificationCore::save_state() const {
   s += checkpoint_state_block(builder_.save_state());
   s += "estimator " + main_->name() + "\n";
   s += checkpoint_state_block(main_->save_state());
+  s += checkpoint_state_block(turn_slip_.save_state());
   s += "side_by_side " + std::to_string(all_.size()) + "\n";
   for (const auto& e : all_) s += "estimator " + e->name() + "\n" + checkpoint_state_block(e->save_state());
   return s;
@@ -183,6 +203,7 @@ void IdentificationCore::restore_state(const std::string& text) {
     }
   };
   restore_estimator(*c.main_);
+  c.turn_slip_.restore_state(read_checkpoint_state_block(r, "turn slip state"));
   const uint64_t n = r.unsigned_field("side_by_side");
   if (n != c.all_.size())
     throw CheckpointError("field 'side_by_side' is " + std::to_string(n) + ", this core runs " +

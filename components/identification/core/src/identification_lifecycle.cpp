@@ -93,6 +93,8 @@ void IdentificationLifecycle::restore(IdentificationCore& core, int64_t unix_tim
   o.samples_accepted = c.samples_accepted;
   o.samples_rejected = c.samples_rejected;
   o.latency = core.latency();
+  o.turn_slip = core.turn_slip_estimate();
+  o.turn_slip_threshold_radps = core.turn_slip_threshold_radps();
   last_output_ = o;
 }
 

@@ -39,6 +39,9 @@ void add_identification_options(Options& o) {
                "max(0.5 s, 2.5 P)", 0.0, 100.0);
   o.add_double("min-pulses", d.builder.min_pulses, "gate: minimum pulses counted over a sample (quantisation)", 0.0,
                1e9);
+  o.add_bool("turn-slip", d.turn_slip_enabled,
+             "estimate the track slip in turns (pulses per metre growing with the yaw rate beyond the yaw-rate gate) "
+             "and publish it for dead reckoning");
   o.add_bool("reversing-samples", d.builder.reversing_samples,
              "intervals driven backwards (odometer direction -1 throughout) make samples of K too");
   o.add_string("gnss-latency-s", "auto",
@@ -82,6 +85,7 @@ IdentificationParams identification_params_from(const Options& o) {
   p.builder.max_interval_s = o.get_double("max-interval-s");
   p.builder.min_pulses = o.get_double("min-pulses");
   p.builder.reversing_samples = o.get_bool("reversing-samples");
+  p.turn_slip_enabled = o.get_bool("turn-slip");
   bool estimate_latency = true;
   p.builder.gnss_latency_fixed_s = parse_gnss_latency_option(o.get_string("gnss-latency-s"), estimate_latency);
   p.builder.latency_estimation_enabled = estimate_latency;

@@ -65,6 +65,7 @@
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
 #include "odonav/stream_buffers.hpp"
+#include "odonav/turn_slip.hpp"
 
 namespace odonav {
 
@@ -122,6 +123,10 @@ struct DeadReckonerParams {
   /// odonav-offline add misalignment and K of epoch g as in force from g + d; the core itself
   /// evaluates the error against the GNSS fix of epoch g at the first odometer sample >= g + d.
   double estimate_hold_off_s = 0.2;
+  /// Track slip in turns (turn_slip.hpp, add_turn_slip): the yaw rate of an odometer interval is
+  /// the INS heading change over the window of this length (s, > 0) ending at its sample, the step
+  /// over which the identification measures the slip. Default 0.1 s.
+  double turn_slip_yaw_rate_window_s = 0.1;
 };
 
 /// One output per odometer sample after the start.
@@ -133,6 +138,9 @@ struct DeadReckoningOutput {
   double distance_m = 0.0;         ///< odometer distance travelled since the start, sum |dS| (m).
   double k_m_per_pulse = 0.0;      ///< K used for the interval ending here.
   ScaleFactorSource k_source = ScaleFactorSource::kNominal;
+  /// Track slip s removed from the interval ending here: its distance is K pulses / (1 + s)
+  /// (turn_slip.hpp; 0 on a straight, without INS or before any slip gain applies).
+  double turn_slip_fraction = 0.0;
   bool degraded = false;           ///< no INS: heading from the GNSS course.
   bool heading_held = false;       ///< the heading was not measured for this interval (held).
   bool gnss_reference = false;     ///< a GNSS reference existed at t_s.
@@ -176,6 +184,7 @@ struct DeadReckonerCounters {
   uint64_t gnss_latency_stale = 0;     ///< add_gnss_latency calls not later than the previous one.
   uint64_t outputs_on_held_k = 0;            ///< outputs whose K was held (DeadReckoningOutput::k_held)
   uint64_t outputs_on_held_misalignment = 0; ///< outputs whose misalignment was held
+  uint64_t turn_slip_stale = 0;        ///< add_turn_slip calls not later than the previous one.
 };
 
 /// The GNSS gap in force for an observed GNSS period (s; NaN: fewer than two rows seen):
@@ -206,6 +215,14 @@ class DeadReckoner {
   /// later than the last one added is ignored and counted (gnss_latency_stale); an unchanged value
   /// is not stored again.
   void add_gnss_latency(double t_s, double latency_s);
+  /// Track slip in turns in force from t_s on (none before the first): with INS, each interval's
+  /// distance is K pulses / (1 + turn_slip_fraction(g, threshold, yaw rate)), the yaw rate over
+  /// turn_slip_yaw_rate_window_s. g (s/rad, finite, >= 0; 0 = none) and the threshold (rad/s,
+  /// finite, >= 0) are the identification's (ScaleFactor). The node and odonav-offline add the
+  /// applied gain of every ScaleFactor at its application time, as the latency. A value not later
+  /// than the last one added is ignored and counted (turn_slip_stale); an unchanged one is not
+  /// stored again. Throws StreamInputError on a value out of range.
+  void add_turn_slip(double t_s, double g_s_per_rad, double threshold_radps);
   /// An estimate of GNSS epoch epoch_s (its stamp, s; not its application time) was received,
   /// applicable or not: the estimator is keeping up to there. Only for the held-estimate report.
   void add_estimate_received(HeldEstimate estimate, double epoch_s);
@@ -267,6 +284,8 @@ class DeadReckoner {
   Eigen::Vector3d lever_arm_enu(const Attitude& att) const;
   DeadReckoningOutput step(const OdometerBuffer::Entry& sample);
   std::optional<Attitude> lever_arm_attitude_at(double t_s) const;
+  /// The slip fraction of the odometer interval ending at t_s (add_turn_slip); 0 without INS.
+  double turn_slip_fraction_at(double t_s) const;
 
   DeadReckonerParams params_;
   OdometerBuffer odometer_;
@@ -286,6 +305,12 @@ class DeadReckoner {
   std::optional<double> start_t_s_;      ///< epoch of the start fix.
   StepHistory<KInForce> k_history_{"scale_factor"};
   StepHistory<Misalignment> misalignment_{"misalignment"};
+  struct TurnSlipInForce {
+    double g_s_per_rad;
+    double threshold_radps;
+  };
+  StepHistory<TurnSlipInForce> turn_slip_{"turn_slip"};
+  std::optional<std::pair<double, TurnSlipInForce>> last_turn_slip_;  ///< (t_s, value) last added
   StepHistory<double> gnss_latency_{"gnss_latency"};
   std::optional<std::pair<double, double>> last_gnss_latency_;  ///< (t_s, latency s) last added
   double watermark_s_ = -std::numeric_limits<double>::infinity();

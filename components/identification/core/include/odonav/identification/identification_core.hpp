@@ -31,6 +31,10 @@ struct IdentificationParams {
   /// estimate_applies_from_s(g, d), so K of epoch g uses the misalignment of the epochs <= g - d and
   /// never waits for calibration's output of its own epoch.
   double estimate_hold_off_s = 0.2;
+  /// Track slip in turns (turn_slip.hpp): estimated from the intervals the yaw-rate gate keeps out
+  /// of K and published for dead reckoning. turn_slip_enabled false: no estimate, g = 0 published.
+  bool turn_slip_enabled = true;
+  TurnSlipParams turn_slip;
 };
 
 /// One output per processed GNSS epoch (the estimate after that epoch).
@@ -49,6 +53,10 @@ struct IdentificationOutput {
   /// start_latency_k), not the estimator's: before the estimator converges and before any latency
   /// is decided, while the data show a latency clearly off the one in force.
   bool k_from_start_latency = false;
+  /// Track slip in turns after this epoch (turn_slip.hpp) and the yaw rate (rad/s) above which it
+  /// applies (the yaw-rate gate: below it any slip is inside K).
+  TurnSlipEstimate turn_slip;
+  double turn_slip_threshold_radps = 0.0;
 };
 
 class IdentificationCore {
@@ -96,6 +104,10 @@ class IdentificationCore {
   /// Names of the side-by-side estimators (empty unless run_all_estimators).
   std::vector<std::string> estimator_names() const;
   const SampleBuilderCounters& builder_counters() const { return builder_.counters(); }
+  /// The track slip in turns so far (turn_slip.hpp; "off" or "no INS" as its reason when not estimated)
+  /// and the yaw rate (rad/s) beyond which it applies (the yaw-rate gate).
+  TurnSlipEstimate turn_slip_estimate() const;
+  double turn_slip_threshold_radps() const { return params_.builder.max_yaw_rate_rad_s; }
   /// The GNSS latency in force and its online estimate (sample_builder.hpp).
   const GnssLatencyEstimate& latency() const { return builder_.latency(); }
   /// The main estimator.
@@ -123,6 +135,7 @@ class IdentificationCore {
   SampleBuilder builder_;
   std::unique_ptr<ScaleFactorEstimator> main_;
   std::vector<std::unique_ptr<ScaleFactorEstimator>> all_;
+  TurnSlipEstimator turn_slip_;
   uint64_t accepted_ = 0;
   uint64_t rejected_ = 0;
   bool frozen_ = false;
