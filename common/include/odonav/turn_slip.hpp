@@ -92,7 +92,7 @@ class TurnSlipEstimator {
 
  private:
   TurnSlipParams params_;
-  // Weighted sums (weight 1 / sigma_y^2) of h^2, h r and r^2, h = -K X (m s/rad... m rad/s), r = y - K phi (m).
+  // Weighted sums (weight 1 / sigma_y^2) of h^2, h r and r^2: h = -K X (m rad/s), r = y - K phi (m), so r = g h.
   double shh_ = 0.0;
   double shr_ = 0.0;
   double srr_ = 0.0;
