@@ -134,13 +134,15 @@ void DeadReckoner::add_turn_slip(double t_s, double g_s_per_rad, double threshol
   if (changed) turn_slip_.add(t_s, value);
 }
 
-double DeadReckoner::turn_slip_fraction_at(double t_s) const {
+double DeadReckoner::turn_slip_fraction_at(double t_s, double mid_s) const {
   if (!params_.use_ins) return 0.0;
   const std::optional<TurnSlipInForce> slip = turn_slip_.at_or_before(t_s);
   if (!slip || slip->g_s_per_rad == 0.0) return 0.0;
+  // The window ends at mid-interval, whose attitude the step needs anyway: the slip makes no output
+  // wait for more INS than before.
   const double w = params_.turn_slip_yaw_rate_window_s;
-  const std::optional<Attitude> a0 = attitude_.attitude_at(t_s - w, watermark_s_);
-  const std::optional<Attitude> a1 = attitude_.attitude_at(t_s, watermark_s_);
+  const std::optional<Attitude> a0 = attitude_.attitude_at(mid_s - w, watermark_s_);
+  const std::optional<Attitude> a1 = attitude_.attitude_at(mid_s, watermark_s_);
   if (!a0 || !a1) return 0.0;  // no INS around: the distance as counted (as on a straight)
   return turn_slip_fraction(slip->g_s_per_rad, slip->threshold_radps, wrap_pi(a1->heading_rad - a0->heading_rad) / w);
 }
@@ -351,9 +353,7 @@ std::vector<DeadReckoningOutput> DeadReckoner::process_until(double watermark_s)
     const double mid = 0.5 * (last_t_s_ + t_j);
     if (params_.use_ins) {
       if (attitude_.state_at(mid, watermark_s_) == BracketState::kPending) break;
-      // The lever arm and the turn slip's yaw rate read the attitude at t_j itself.
-      if ((params_.lever_arm_body_m || turn_slip_.size() > 0) && attitude_.state_at(t_j, watermark_s_) == BracketState::kPending)
-        break;
+      if (params_.lever_arm_body_m && attitude_.state_at(t_j, watermark_s_) == BracketState::kPending) break;
     }
     // Only the degraded mode steers by GNSS (course interpolated at mid-interval).
     if (!params_.use_ins && !gnss_final_at(t_j)) break;
@@ -367,7 +367,8 @@ std::vector<DeadReckoningOutput> DeadReckoner::process_until(double watermark_s)
     }
     out.push_back(step(*entry));
     pending_odometer_t_s_.pop_front();
-    // What later intervals (starting at t_j) can still need: the attitude back to the slip's yaw-rate window.
+    // What later intervals (starting at t_j) can still need: the attitude back to the slip's yaw-rate
+    // window before their mid-interval.
     odometer_.drop_before(t_j);
     attitude_.drop_before(t_j - params_.turn_slip_yaw_rate_window_s);
     while (gnss_.size() >= 2 && gnss_[1].t_s <= t_j) pop_gnss_front();
@@ -419,7 +420,7 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
   o.misalignment_held = held_[static_cast<int>(HeldEstimate::kMisalignment)].decide(t_j, latest_applicable_epoch_s_, false);
   if (o.k_held) ++counters_.outputs_on_held_k;
   if (o.misalignment_held) ++counters_.outputs_on_held_misalignment;
-  o.turn_slip_fraction = turn_slip_fraction_at(t_j);
+  o.turn_slip_fraction = turn_slip_fraction_at(t_j, mid);
   const double ds = k.k_m_per_pulse * pulses * direction / (1.0 + o.turn_slip_fraction);
 
   Eigen::Vector3d ds_n = Eigen::Vector3d::Zero();

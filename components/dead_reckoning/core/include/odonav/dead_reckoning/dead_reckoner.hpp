@@ -124,8 +124,8 @@ struct DeadReckonerParams {
   /// evaluates the error against the GNSS fix of epoch g at the first odometer sample >= g + d.
   double estimate_hold_off_s = 0.2;
   /// Track slip in turns (turn_slip.hpp, add_turn_slip): the yaw rate of an odometer interval is
-  /// the INS heading change over the window of this length (s, > 0) ending at its sample, the step
-  /// over which the identification measures the slip. Default 0.1 s.
+  /// the INS heading change over the window of this length (s, > 0) ending at its mid-interval, the
+  /// step over which the identification measures the slip. Default 0.1 s.
   double turn_slip_yaw_rate_window_s = 0.1;
 };
 
@@ -217,7 +217,7 @@ class DeadReckoner {
   void add_gnss_latency(double t_s, double latency_s);
   /// Track slip in turns in force from t_s on (none before the first): with INS, each interval's
   /// distance is K pulses / (1 + turn_slip_fraction(g, threshold, yaw rate)), the yaw rate over
-  /// turn_slip_yaw_rate_window_s. g (s/rad, finite, >= 0; 0 = none) and the threshold (rad/s,
+  /// turn_slip_yaw_rate_window_s ending at the interval's middle. g (s/rad, finite, >= 0; 0 = none) and the threshold (rad/s,
   /// finite, >= 0) are the identification's (ScaleFactor). The node and odonav-offline add the
   /// applied gain of every ScaleFactor at its application time, as the latency. A value not later
   /// than the last one added is ignored and counted (turn_slip_stale); an unchanged one is not
@@ -284,8 +284,9 @@ class DeadReckoner {
   Eigen::Vector3d lever_arm_enu(const Attitude& att) const;
   DeadReckoningOutput step(const OdometerBuffer::Entry& sample);
   std::optional<Attitude> lever_arm_attitude_at(double t_s) const;
-  /// The slip fraction of the odometer interval ending at t_s (add_turn_slip); 0 without INS.
-  double turn_slip_fraction_at(double t_s) const;
+  /// The slip fraction of the odometer interval ending at t_s with mid-interval mid_s (add_turn_slip):
+  /// the gain in force at t_s, the yaw rate over the window ending at mid_s; 0 without INS.
+  double turn_slip_fraction_at(double t_s, double mid_s) const;
 
   DeadReckonerParams params_;
   OdometerBuffer odometer_;
