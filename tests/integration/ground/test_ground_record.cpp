@@ -188,6 +188,10 @@ class KnownPublisher {
       m.source_priority(10);
       m.gnss_latency_s(0.001 * i);
       m.gnss_latency_sigma_s(i == 0 ? -1.0 : 0.0005);
+      m.turn_slip_s_per_rad(0.01 * i);
+      m.turn_slip_sigma_s_per_rad(i == 0 ? -1.0 : 0.002);
+      m.turn_slip_threshold_radps(0.0523598775598);
+      m.turn_slip_applies(i > 2);
       EXPECT_TRUE(scale_factor_.write(m));
       expected["/odonav/scale_factor"].push_back({{"header", header_json(t, "odometer")},
                                                   {"vehicle_id", veh},
@@ -203,7 +207,11 @@ class KnownPublisher {
                                                   {"source", m.source()},
                                                   {"source_priority", 10},
                                                   {"gnss_latency_s", m.gnss_latency_s()},
-                                                  {"gnss_latency_sigma_s", m.gnss_latency_sigma_s()}});
+                                                  {"gnss_latency_sigma_s", m.gnss_latency_sigma_s()},
+                                                  {"turn_slip_s_per_rad", m.turn_slip_s_per_rad()},
+                                                  {"turn_slip_sigma_s_per_rad", m.turn_slip_sigma_s_per_rad()},
+                                                  {"turn_slip_threshold_radps", m.turn_slip_threshold_radps()},
+                                                  {"turn_slip_applies", m.turn_slip_applies()}});
     }
     {
       msg::DeadReckoning m;
