@@ -12,7 +12,7 @@ EventTimeNode::EventTimeNode(ComponentRuntime& runtime, double in_flight_max_wai
       aligner_(runtime.settings().max_wait_s, steady_now_s(),
                in_flight_max_wait_s > 0.0 ? std::max(in_flight_max_wait_s, runtime.settings().max_wait_s) : 0.0) {
   // A core step and KEEP_LAST writes never block: run them where the sample arrives.
-  runtime_.set_dispatch(ComponentRuntime::Dispatch::kListenerThread);
+  runtime_.set_dispatch(TaskDispatcher::Mode::kOnPost);
 }
 
 int EventTimeNode::run() {

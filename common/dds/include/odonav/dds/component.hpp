@@ -83,10 +83,10 @@ class StopSignals {
 /// tick period, until a stop is requested. Tasks and ticks never run concurrently (one mutex), so a
 /// node's state needs no locking of its own.
 ///
-/// Where a task runs (Dispatch; odonav/task_dispatcher.hpp does it):
-/// - kWorkerThread: queued, and executed in order by the thread that called run(), in batches. The
+/// Where a task runs (TaskDispatcher::Mode, odonav/task_dispatcher.hpp, which does it):
+/// - kQueued (default): queued, and executed in order by the thread that called run(), in batches. The
 ///   listener thread only copies the sample; a slow task (file I/O) never delays reception.
-/// - kListenerThread: executed at once by the thread that posts it (a Fast DDS listener thread),
+/// - kOnPost: executed at once by the thread that posts it (a Fast DDS listener thread),
 ///   under the mutex; run()'s thread only ticks every tick period. This saves a thread wake-up and
 ///   two context switches per sample (the largest per-sample cost at 100 Hz inputs, BENCHMARKS.md
 ///   §6i), and an output leaves on the thread that received its last input. For nodes whose tasks
@@ -95,9 +95,7 @@ class StopSignals {
 ///   run_pending() as with the worker, so the drain is the same.
 class ComponentRuntime {
  public:
-  enum class Dispatch { kWorkerThread, kListenerThread };
-
-  /// Executes one operator command addressed to this component (where tasks run, see Dispatch); returns the
+  /// Executes one operator command addressed to this component (where tasks run, see the class comment); returns the
   /// acknowledgement carried by the following Health messages.
   using CommandHandler = std::function<CommandAck(const odonav::msg::Command& command)>;
 
@@ -116,19 +114,16 @@ class ComponentRuntime {
   /// Handles the Command topic for this vehicle and component (set once, before run()).
   void set_command_handler(CommandHandler handler);
 
-  /// Where tasks run (see the class comment); set before run(). Default kWorkerThread.
-  void set_dispatch(Dispatch dispatch) {
-    tasks_.set_mode(dispatch == Dispatch::kListenerThread ? TaskDispatcher::Mode::kOnPost
-                                                          : TaskDispatcher::Mode::kQueued);
-  }
+  /// Where tasks run (see the class comment); set before run(). Default kQueued.
+  void set_dispatch(TaskDispatcher::Mode mode) { tasks_.set_mode(mode); }
 
   /// Executes a task as the dispatch says: queued for run()'s thread, or at once on the calling
-  /// thread (kListenerThread, while run() runs). Thread-safe (reader callbacks call it).
+  /// thread (kOnPost, while run() runs). Thread-safe (reader callbacks call it).
   void post(std::function<void()> task);
-  /// Tasks waiting in the queue (always 0 with kListenerThread while run() runs).
+  /// Tasks waiting in the queue (always 0 with kOnPost while run() runs).
   std::size_t queue_depth() const;
 
-  /// Runs posted tasks, and `tick` after each batch of tasks (each task with kListenerThread) and
+  /// Runs posted tasks, and `tick` after each batch of tasks (each task with kOnPost) and
   /// at least every tick_period, until a stop is requested. Returns then (queued tasks stay queued;
   /// tasks posted from then on are queued).
   void run(const std::function<void()>& tick, std::chrono::milliseconds tick_period = std::chrono::milliseconds(100));

@@ -3,7 +3,7 @@
 // odonav_node_support: it needs odonav_samples' EventTimeAligner, which odonav_dds does not link).
 //
 // The core and the aligner run one task at a time under the runtime's mutex, on the listener thread
-// that received the sample (ComponentRuntime::Dispatch::kListenerThread: no thread wake-up per
+// that received the sample (TaskDispatcher::Mode::kOnPost: no thread wake-up per
 // sample). After each sample the aligner gives the event-time watermark, the node's process_until
 // runs (core + publication), heartbeats are sent and Health is published (1 Hz on the wall clock, at
 // once when state, level or reason change); run()'s thread does the same every 100 ms when no
