@@ -151,6 +151,8 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
   require(p.yaw_rate_step_s > 0.0, "yaw_rate_step_s must be > 0");
   require(p.latency_fit_half_width_s >= 2.0 * p.latency_search_step_s, "latency_fit_half_width_s must be >= 2 steps");
   require(p.latency_min_samples >= 1, "latency_min_samples must be >= 1");
+  require(std::isfinite(p.latency_min_sample_time_s) && p.latency_min_sample_time_s >= 0.0,
+          "latency_min_sample_time_s must be >= 0");
   require(p.latency_block_s > 0.0, "latency_block_s must be > 0");
   if (p.gnss_latency_fixed_s) {
     latency_.fixed = true;
@@ -393,7 +395,7 @@ void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {
   const double applied_s = latency_.applied_s;
   latency_.samples = latency_samples_;
   const bool have = fit_latency(latency_chi2_, latency_samples_, latency_closed_blocks_ + (open_block ? 1 : 0), latency_,
-                                static_cast<uint64_t>(params_.latency_min_samples));
+                                latency_min_samples_in_force());
   latency_.applied_s = applied_s;
   if (!have) return;
   // Apply a precise estimate, or one that says the value in force is clearly wrong (a latency of
@@ -568,6 +570,14 @@ std::optional<EpochStatus> SampleBuilder::check_epoch_velocity(const GnssSample&
   }
   in.epoch = GoodEpoch{g.t_s, vel_enu_mps, att, *count_now};
   return std::nullopt;
+}
+
+uint64_t SampleBuilder::latency_min_samples_in_force() const {
+  // The period is observed before any sample exists (it needs two GNSS rows; a sample needs two good
+  // epochs), so the count follows the receiver's rate from the first sample on.
+  const double period = std::isfinite(gnss_period_s_) && gnss_period_s_ > 0.0 ? gnss_period_s_ : 0.1;
+  const double by_time = std::ceil(params_.latency_min_sample_time_s / period - 1e-9);
+  return static_cast<uint64_t>(std::max<double>(params_.latency_min_samples, by_time));
 }
 
 double trapezoid_rate_half_window_s(const SampleBuilderParams& p, double k_m_per_pulse, double sigma_v_mps,
