@@ -35,7 +35,8 @@ using nlohmann::json;
 
 namespace {
 
-/// node_modules with the web tests' npm packages, installed the first time (under a lock).
+/// node_modules with the web tests' npm packages, installed the first time (under a lock). One
+/// retry, verbose: a registry that fails once (it did, silently, in a CI run) must not fail the tests.
 std::optional<fs::path> npm_web_modules() {
   if (std::system("command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1") != 0) {
     ADD_FAILURE() << "node and npm are needed (Debian 12: apt-get install nodejs npm)";
@@ -47,7 +48,8 @@ std::optional<fs::path> npm_web_modules() {
   const std::string cmd = "cd '" + dir.string() +
                           "' && flock .lock sh -c 'test -d node_modules/@foxglove/ws-protocol -a -d node_modules/ws "
                           "-a -d node_modules/puppeteer-core -a -d node_modules/@foxglove/rosmsg2-serialization || "
-                          "npm install --no-audit --no-fund --silent " + packages + "' >npm-install.log 2>&1";
+                          "npm install --no-audit --no-fund --silent " + packages +
+                          " || { sleep 5; npm install --no-audit --no-fund " + packages + "; }' >npm-install.log 2>&1";
   if (std::system(cmd.c_str()) != 0) {
     ADD_FAILURE() << "npm install of " << packages << " failed: " << read_text(dir / "npm-install.log");
     return std::nullopt;
