@@ -222,7 +222,8 @@ void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, doubl
   // anchor fixes compare each fix with the DR at its stamp minus the latency.
   if (std::isfinite(m.gnss_latency_s()) && std::abs(m.gnss_latency_s()) < 10.0)
     core_.add_gnss_latency(estimate_applies_from_s(t_s, params_.estimate_hold_off_s), m.gnss_latency_s());
-  // The slip gain alike (a value out of range is refused with the stamp in the error, as bad input).
+  // The slip gain alike. A gain not applied (or not a positive number) is 0; a message whose
+  // threshold is not a rate carries no slip and is skipped, as odonav-offline never sees one.
   if (std::isfinite(m.turn_slip_threshold_radps()) && m.turn_slip_threshold_radps() >= 0.0)
     core_.add_turn_slip(estimate_applies_from_s(t_s, params_.estimate_hold_off_s),
                         turn_slip_gain_to_apply(m.turn_slip_applies(), m.turn_slip_s_per_rad()),
