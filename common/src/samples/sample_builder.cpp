@@ -151,12 +151,15 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
   require(p.yaw_rate_step_s > 0.0, "yaw_rate_step_s must be > 0");
   require(p.latency_fit_half_width_s >= 2.0 * p.latency_search_step_s, "latency_fit_half_width_s must be >= 2 steps");
   require(p.latency_min_samples >= 1, "latency_min_samples must be >= 1");
+  require(p.latency_refine_sigma_fraction > 0.0 && p.latency_refine_sigma_fraction < 1.0,
+          "latency_refine_sigma_fraction must be in (0, 1)");
   require(std::isfinite(p.latency_min_sample_time_s) && p.latency_min_sample_time_s >= 0.0,
           "latency_min_sample_time_s must be >= 0");
   require(p.latency_block_s > 0.0, "latency_block_s must be > 0");
   if (p.gnss_latency_fixed_s) {
     latency_.fixed = true;
     latency_.applied_s = latency_.estimate_s = *p.gnss_latency_fixed_s;
+    latency_.applied_sigma_s = 0.0;
     latency_.sigma_s = 0.0;
   } else if (p.latency_estimation_enabled) {
     const int n = static_cast<int>(std::floor((p.latency_search_max_s - p.latency_search_min_s) / p.latency_search_step_s + 1e-9)) + 1;
@@ -393,10 +396,12 @@ void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {
   for (std::size_t i = 0; i < n; ++i) latency_chi2_[i] = latency_closed_chi2_[i] + (open_block ? block[i] : 0.0);
   latency_samples_ = latency_closed_samples_ + (open_block ? latency_block_samples_ : 0);
   const double applied_s = latency_.applied_s;
+  const double applied_sigma_s = latency_.applied_sigma_s;
   latency_.samples = latency_samples_;
   const bool have = fit_latency(latency_chi2_, latency_samples_, latency_closed_blocks_ + (open_block ? 1 : 0), latency_,
                                 latency_min_samples_in_force());
   latency_.applied_s = applied_s;
+  latency_.applied_sigma_s = applied_sigma_s;
   if (!have) return;
   // Apply a precise estimate, or one that says the value in force is clearly wrong (a latency of
   // 100 ms spoils every sample long before the estimate is within a few ms).
@@ -405,8 +410,14 @@ void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {
   const double change_s = std::abs(latency_.estimate_s - applied_s);
   const bool precise = latency_.sigma_s <= params_.latency_apply_sigma_s && change_s > latency_.sigma_s;
   const bool clearly_off = latency_.sigma_s <= params_.latency_apply_coarse_sigma_s && change_s > 5.0 * latency_.sigma_s;
-  if (!precise && !clearly_off) return;
+  // Or one that knows the latency clearly better than the value in force did when it was applied:
+  // at 1 Hz sigma ends near 5 ms and never meets the precise rule, so without this the first coarse
+  // estimate (sigma 10-12 ms, up to 34 ms off on terrain) would stay in force for the whole drive.
+  const bool refined = applied_sigma_s > 0.0 && latency_.sigma_s <= params_.latency_refine_sigma_fraction * applied_sigma_s &&
+                       change_s > latency_.sigma_s;
+  if (!precise && !clearly_off && !refined) return;
   latency_.applied_s = latency_.estimate_s;
+  latency_.applied_sigma_s = latency_.sigma_s;
   if (std::abs(latency_.applied_s - latency_sums_applied_s_) > params_.latency_restart_s) {
     // The samples summed so far were gated and projected at a latency far from the new one (the
     // innovation gate kept those that fitted it, which pulls the minimum towards it): start again.

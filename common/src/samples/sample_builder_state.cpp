@@ -12,7 +12,8 @@ namespace odonav {
 
 namespace {
 constexpr const char* kStateMagic = "odonav-sample-builder-state";
-constexpr int kStateVersion = 2;  // 2: the latency sums per block (a K per candidate)
+// 2: the latency sums per block (a K per candidate); 3: the sigma of the latency in force.
+constexpr int kStateVersion = 3;
 constexpr std::size_t kMany = 10000000;
 using Values = std::vector<double>;
 
@@ -72,7 +73,7 @@ std::string SampleBuilder::save_state() const {
   line("gnss_period_s", {gnss_period_s_});
 
   line("latency", {latency_.applied_s, latency_.estimate_s, latency_.sigma_s, static_cast<double>(latency_.samples),
-                   latency_.fixed ? 1.0 : 0.0, static_cast<double>(latency_.blocks_left_out)});
+                   latency_.fixed ? 1.0 : 0.0, static_cast<double>(latency_.blocks_left_out), latency_.applied_sigma_s});
   s += "latency_reason " + one_line(latency_.reason) + "\n";
   line("latency_closed_chi2", latency_closed_chi2_);
   line("latency_closed", {static_cast<double>(latency_closed_blocks_), static_cast<double>(latency_closed_samples_)});
@@ -130,14 +131,16 @@ void SampleBuilder::restore_state(const std::string& text) {
   b.last_period_row_t_s_ = read_optional_state_value(r, "last_period_row_t_s");
   b.gnss_period_s_ = exactly("gnss_period_s", 1)[0];
 
-  v = exactly("latency", 6);
+  v = exactly("latency", 7);
   b.latency_.applied_s = v[0];
   b.latency_.estimate_s = v[1];
   b.latency_.sigma_s = v[2];
   b.latency_.samples = count_of(v[3], "latency");
   b.latency_.fixed = v[4] != 0.0;
   b.latency_.blocks_left_out = count_of(v[5], "latency");
+  b.latency_.applied_sigma_s = v[6];
   if (!std::isfinite(v[0])) throw CheckpointError("field 'latency' has an applied latency that is not finite");
+  if (!std::isfinite(v[6])) throw CheckpointError("field 'latency' has a sigma of the applied latency that is not finite");
   b.latency_.reason = r.field("latency_reason");
   auto per_candidate = [&](const char* key) {
     Values x = r.value_list(key);
