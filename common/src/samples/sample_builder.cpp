@@ -327,7 +327,6 @@ std::optional<SampleBuilder::StartLatencyK> SampleBuilder::start_latency_k() con
   if (n < 2 || latency_.applied_s != 0.0 || latency_restarts_ > 0 || latency_closed_blocks_ > 0 ||
       latency_.blocks_left_out > 0)
     return std::nullopt;
-  if (!(gnss_period_s_ < params_.trapezoid_correction_min_interval_s)) return std::nullopt;  // NaN: not yet observed
   std::vector<double> block(n);
   if (!weighted_block_residuals(block)) return std::nullopt;
   GnssLatencyEstimate own;

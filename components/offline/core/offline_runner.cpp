@@ -1,6 +1,7 @@
 #include "offline_runner.hpp"
 
 #include "odonav/consumer_rules.hpp"
+#include "odonav/dead_reckoning/scale_factor_selection.hpp"
 
 namespace odonav::offline {
 namespace {
@@ -59,11 +60,18 @@ std::vector<DeadReckoningOutput> run_dead_reckoning(const Dataset& d, const Dead
     for (const IdentificationOutput& k : *identification)
       dr.add_turn_slip(estimate_applies_from_s(k.t_s, params.estimate_hold_off_s),
                        turn_slip_gain_to_apply(k.turn_slip.applies, k.turn_slip.g_s_per_rad), k.turn_slip_threshold_radps);
-    for (const IdentificationOutput& k : *identification)
-      if (scale_factor_applicable(k.main.valid, k.main.converged, k.main.k_m_per_pulse, k.main.sigma_m_per_pulse,
-                                  k.samples_accepted, params.nominal_k_m_per_pulse))
-        dr.add_scale_factor(estimate_applies_from_s(k.t_s, params.estimate_hold_off_s), k.main.k_m_per_pulse,
-                            ScaleFactorSource::kIdentified);
+    // The dead-reckoning node's own K policy, fed as the node feeds it (one identification here).
+    ScaleFactorSelection selection(params.nominal_k_m_per_pulse);
+    for (const IdentificationOutput& k : *identification) {
+      const IdentifiedScaleFactor s{estimate_applies_from_s(k.t_s, params.estimate_hold_off_s),
+                                    k.main.valid ? k.main.k_m_per_pulse : 0.0,
+                                    k.main.converged,
+                                    "identification",
+                                    k.main.sigma_m_per_pulse,
+                                    k.samples_accepted};
+      if (const auto update = selection.on_identified(s, 0.0))
+        dr.add_scale_factor(update->t_s, update->k_m_per_pulse, update->source);
+    }
   }
   std::vector<DeadReckoningOutput> out = dr.finish();
   if (counters) *counters = dr.counters();

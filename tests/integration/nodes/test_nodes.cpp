@@ -14,6 +14,7 @@
 #include "node/identification_node.hpp"
 #include "node_test_support.hpp"
 #include "odonav/consumer_rules.hpp"
+#include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "odonav/msg/Command.h"
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/Misalignment.h"
@@ -110,12 +111,15 @@ std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d, cons
     for (const auto& s : *k)
       dr.add_gnss_latency(estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
                           s.gnss_latency_s());
+  ScaleFactorSelection selection(DeadReckonerParams{}.nominal_k_m_per_pulse);
   if (k)
-    for (const auto& s : *k)
-      if (scale_factor_applicable(s.k_m_per_pulse() > 0.0, s.converged(), s.k_m_per_pulse(), s.sigma_m_per_pulse(),
-                                  s.samples_accepted(), DeadReckonerParams{}.nominal_k_m_per_pulse))
-        dr.add_scale_factor(estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
-                            s.k_m_per_pulse(), ScaleFactorSource::kIdentified);
+    for (const auto& s : *k) {
+      const IdentifiedScaleFactor in{
+          estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
+          s.k_m_per_pulse(), s.converged(), s.source(), s.sigma_m_per_pulse(), s.samples_accepted()};
+      if (const auto update = selection.on_identified(in, 0.0))
+        dr.add_scale_factor(update->t_s, update->k_m_per_pulse, update->source);
+    }
   return dr.finish();
 }
 

@@ -84,10 +84,60 @@ TEST(DeadReckoningScaleFactorSelection, AppliesAProvisionalKThatBeatsTheNominal)
   ASSERT_TRUE(u);
   EXPECT_DOUBLE_EQ(u->k_m_per_pulse, 0.025);
   EXPECT_EQ(u->source, ScaleFactorSource::kIdentified);
-  // Close to the nominal and not converged: the nominal (or the K already given) stays.
+  // Close to the nominal and not converged: the nominal stays, unless an estimate of the same
+  // identification is in force already, which the later one replaces.
+  ScaleFactorSelection fresh(kNominalK);
   k.t_s = 1.2;
   k.k_m_per_pulse = 0.0126;
-  EXPECT_FALSE(sel.on_identified(k, 0.0));
+  EXPECT_FALSE(fresh.on_identified(k, 0.0));
+  EXPECT_TRUE(sel.on_identified(k, 0.0));
+}
+
+TEST(ScaleFactorApplicable, ALaterEstimateOfTheStreamInForceNeedsNotBeatTheNominalAgain) {
+  // terrain seed 8, 1 Hz GNSS, 200 ms latency, 15.2 s: 0.012317 +- 0.000070 is 2.6 sigma from the
+  // nominal 0.0125, but the K in force is the same instance's 0.012250 of one epoch before.
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.012317, 7.0e-5, 9, kNominalK));
+  EXPECT_TRUE(scale_factor_applicable(true, false, 0.012317, 7.0e-5, 9, kNominalK, true));
+  // Still a valid value with kProvisionalMinSamples behind it.
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.012317, 7.0e-5, 4, kNominalK, true));
+  EXPECT_FALSE(scale_factor_applicable(false, false, 0.012317, 7.0e-5, 9, kNominalK, true));
+}
+
+TEST(DeadReckoningScaleFactorSelection, LaterEstimatesOfTheSourceInForceReplaceItWithoutBeatingTheNominal) {
+  // Before, the first provisional K (-3.5 %, 3.5 sigma from the nominal) stayed in force for 15 s
+  // while the same identification's estimates moved to -2.5 ... -0.3 %, each under 3 sigma from
+  // the nominal: the DR laid out 15 m of error in the first minute.
+  ScaleFactorSelection sel(kNominalK);
+  IdentifiedScaleFactor k = identified(14.2, 0.0122496, false, "id-a");
+  k.sigma_m_per_pulse = 7.23e-5;
+  k.samples_accepted = 8;
+  ASSERT_TRUE(sel.on_identified(k, 0.0));
+  EXPECT_EQ(sel.in_force_source(), "id-a");
+  k.t_s = 15.2;
+  k.k_m_per_pulse = 0.0123171;
+  k.sigma_m_per_pulse = 7.02e-5;
+  k.samples_accepted = 9;
+  const auto next = sel.on_identified(k, 0.0);
+  ASSERT_TRUE(next);
+  EXPECT_EQ(next->k_m_per_pulse, 0.0123171);
+  // Another instance's estimate is judged against the nominal until one of its own is in force.
+  IdentifiedScaleFactor other = k;
+  other.t_s = 16.2;
+  other.source = "id-b";
+  EXPECT_FALSE(sel.on_identified(other, 0.0));
+  // A checkpoint keeps which source is in force: a restored selection takes the next estimate too.
+  ScaleFactorSelection restored(kNominalK);
+  restored.restore_state(sel.state());
+  EXPECT_EQ(restored.in_force_source(), "id-a");
+  k.t_s = 17.2;
+  k.k_m_per_pulse = 0.0123619;
+  EXPECT_TRUE(restored.on_identified(k, 0.0));
+  // A commanded K ends it: after the release the identified K must beat the nominal again.
+  ASSERT_TRUE(restored.set_commanded_k(0.0127, 17.5).accepted);
+  restored.release_commanded_k();
+  EXPECT_EQ(restored.in_force_source(), "");
+  k.t_s = 18.2;
+  EXPECT_FALSE(restored.on_identified(k, 0.0));
 }
 
 // ---- consumer_rules.hpp: commanded_k_problem ----

@@ -792,17 +792,24 @@ TEST(SampleBuilder, BeforeAnyLatencyIsDecidedTheStartKIsTheOneOfTheBestLatencyCa
   EXPECT_LT(worst_latency_s, 0.025);
   EXPECT_GT(samples_k_rel, 0.005);
 
-  // At 1 Hz the search's K lacks the trapezoid correction the samples carry: never given.
+  // At 1 Hz too: the search compares the trapezoid of two speeds with the trapezoid of two pulse
+  // rates, like with like, so its K has no bias of its own.
   SensorConfig slow = c;
   slow.gnss_period_s = 1.0;
   SampleBuilder b1;
   feed(b1, simulate(wavy_drive(), slow));
   int given_1hz = 0;
+  double worst_k_rel_1hz = 0.0;
   b1.finish([&](const SampleBuilderEpoch& e) {
     b1.add_scale_factor_estimate(e.t_s, kK, 1e-6);
-    if (b1.start_latency_k()) ++given_1hz;
+    const auto start = b1.start_latency_k();
+    if (!start) return;
+    ++given_1hz;
+    worst_k_rel_1hz = std::max(worst_k_rel_1hz, std::abs(start->k_m_per_pulse / kK - 1.0));
   });
-  EXPECT_EQ(given_1hz, 0);
+  // Given on 12 epochs, within 0.19 % at every one of them.
+  EXPECT_GE(given_1hz, 5);
+  EXPECT_LT(worst_k_rel_1hz, 0.004);
 }
 
 TEST(SampleBuilder, AFixedGnssLatencyIsUsedAsGiven) {

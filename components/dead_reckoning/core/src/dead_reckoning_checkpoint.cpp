@@ -13,7 +13,7 @@ namespace odonav {
 
 namespace {
 constexpr const char* kMagic = "odonav-dead-reckoning-checkpoint";
-constexpr int kVersion = 1;
+constexpr int kVersion = 2;  // 2: k_in_force_source
 constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
 
 double or_none(const std::optional<double>& v) { return v.value_or(kNone); }
@@ -31,7 +31,7 @@ std::string serialize_dead_reckoning_checkpoint(const DeadReckoningCheckpoint& c
   const ScaleFactorSelection::State& k = c.k_selection;
   std::vector<double> applied;
   for (const auto& [t, m] : c.applied_misalignment.entries) applied.insert(applied.end(), {t, m.heading_rad, m.pitch_rad});
-  if (c.k_selection.k_source.find('\n') != std::string::npos)
+  if (k.k_source.find('\n') != std::string::npos || k.in_force_source.find('\n') != std::string::npos)
     throw std::invalid_argument("dead-reckoning checkpoint: the K source holds a line break");
   return seal_checkpoint(
       checkpoint_head(kMagic, kVersion, c.vehicle_id, c.config_hash) +
@@ -40,7 +40,7 @@ std::string serialize_dead_reckoning_checkpoint(const DeadReckoningCheckpoint& c
                                             static_cast<double>(k.counters.k_applied),
                                             static_cast<double>(k.counters.k_ignored),
                                             static_cast<double>(k.counters.k_source_changes)}) +
-      "k_source " + k.k_source + "\n" + checkpoint_value_list("applied_misalignment", applied) +
+      "k_source " + k.k_source + "\n" + "k_in_force_source " + k.in_force_source + "\n" + checkpoint_value_list("applied_misalignment", applied) +
       checkpoint_value_list("applied_misalignment_last_t_s", {or_none(c.applied_misalignment.last_t_s)}) +
       "misalignments_applied " + std::to_string(c.misalignments_applied) + "\n" +
       checkpoint_value_list("held_misalignment_t_s", {or_none(c.held_misalignment_t_s)}) +
@@ -65,6 +65,7 @@ DeadReckoningCheckpoint parse_dead_reckoning_checkpoint(const std::string& text)
   c.k_selection.counters = ScaleFactorSelectionCounters{static_cast<uint64_t>(v[2]), static_cast<uint64_t>(v[3]),
                                                         static_cast<uint64_t>(v[4])};
   c.k_selection.k_source = r.field("k_source");
+  c.k_selection.in_force_source = r.field("k_in_force_source");
   v = r.value_list("applied_misalignment", 3);
   for (std::size_t i = 0; i < v.size(); i += 3)
     c.applied_misalignment.entries.emplace_back(v[i], Misalignment{v[i + 1], v[i + 2]});

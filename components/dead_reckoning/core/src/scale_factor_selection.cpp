@@ -34,13 +34,14 @@ std::optional<ScaleFactorUpdate> ScaleFactorSelection::on_identified(const Ident
   track_source(k.source, k.t_s, now_s);
   const bool valid = std::isfinite(k.k_m_per_pulse) && k.k_m_per_pulse > 0.0;
   if (!scale_factor_applicable(valid, k.converged, k.k_m_per_pulse, k.sigma_m_per_pulse, k.samples_accepted,
-                               nominal_k_m_per_pulse_))
+                               nominal_k_m_per_pulse_, !in_force_source_.empty() && k.source == in_force_source_))
     return std::nullopt;  // as odonav-offline
   if (commanded_ || (last_k_stamp_s_ && k.t_s <= *last_k_stamp_s_)) {
     ++counters_.k_ignored;
     return std::nullopt;
   }
   last_k_stamp_s_ = k.t_s;
+  in_force_source_ = k.source;
   ++counters_.k_applied;
   return ScaleFactorUpdate{k.t_s, k.k_m_per_pulse, ScaleFactorSource::kIdentified};
 }
@@ -54,6 +55,7 @@ ScaleFactorCommandResult ScaleFactorSelection::set_commanded_k(double k, double 
   const double t_s = std::nextafter(base, std::numeric_limits<double>::infinity());
   last_k_stamp_s_ = t_s;
   commanded_ = true;
+  in_force_source_.clear();  // after the release an identified K must again beat the nominal first
   std::ostringstream m;
   m.precision(10);
   m << "K = " << k << " m/pulse commanded (identified K ignored until release_k)";

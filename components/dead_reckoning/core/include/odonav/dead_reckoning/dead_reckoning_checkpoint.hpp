@@ -12,13 +12,14 @@
 // after a restore each input's samples up to that stamp are skipped (RestartPolicy fed_until).
 //
 // File `<state-dir>/dead-reckoning-<vehicle>.ckpt`, versioned text (envelope: odonav/checkpoint_file.hpp):
-//   odonav-dead-reckoning-checkpoint 1
+//   odonav-dead-reckoning-checkpoint 2
 //   vehicle <vehicle id>
 //   config_hash <16 hex digits>
 //   last_output_t_s <%.17g>             (event time of the last published output, s)
 //   inputs_fed_until_s 5 <hex doubles>  (per DeadReckoningInput, the last stamp taken in; NaN none)
 //   k_selection <commanded 0/1> <last K stamp or NaN> <k_applied> <k_ignored> <k_source_changes>
 //   k_source <ScaleFactor.source followed, may be empty>
+//   k_in_force_source <ScaleFactor.source of the identified K in force, may be empty>
 //   applied_misalignment <n> <t heading pitch>...  (the misalignments given, for the messages)
 //   misalignments_applied <n>
 //   held_misalignment_t_s <0|1> <t>

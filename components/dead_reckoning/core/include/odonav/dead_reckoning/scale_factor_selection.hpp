@@ -8,7 +8,8 @@
 //              until release_commanded_k() (COMMAND_RELEASE_K), after which the next applicable
 //              identified K is used again;
 //   identified a ScaleFactor that consumer_rules.hpp says is applicable (valid, and converged or
-//              provisionally better than the nominal K),
+//              provisionally better than the nominal K, or of the same source as the identified K
+//              in force: a later estimate of the same instance replaces it),
 //              stamped after every K already given to the DR (event time, s);
 //   nominal    DeadReckonerParams::nominal_k_m_per_pulse until one of the above arrives.
 // Every K handed out is stamped strictly after the previous one, so DeadReckoner::add_scale_factor
@@ -83,6 +84,9 @@ class ScaleFactorSelection {
   std::optional<double> last_k_stamp_s() const { return last_k_stamp_s_; }
   /// ScaleFactor.source followed ("" before the first ScaleFactor).
   const std::string& k_source() const { return k_source_; }
+  /// ScaleFactor.source of the identified K in force ("" while the nominal or a commanded K is):
+  /// its later estimates replace it without having to beat the nominal K again.
+  const std::string& in_force_source() const { return in_force_source_; }
   /// "K source changed from 'a' to 'b' at t=T s" of the last change ("" none), and when it happened
   /// (wall clock, s; -inf none).
   const std::string& k_source_note() const { return k_source_note_; }
@@ -94,13 +98,15 @@ class ScaleFactorSelection {
     bool commanded = false;
     std::optional<double> last_k_stamp_s;
     std::string k_source;
+    std::string in_force_source;
     ScaleFactorSelectionCounters counters;
   };
-  State state() const { return {commanded_, last_k_stamp_s_, k_source_, counters_}; }
+  State state() const { return {commanded_, last_k_stamp_s_, k_source_, in_force_source_, counters_}; }
   void restore_state(const State& s) {
     commanded_ = s.commanded;
     last_k_stamp_s_ = s.last_k_stamp_s;
     k_source_ = s.k_source;
+    in_force_source_ = s.in_force_source;
     counters_ = s.counters;
   }
 
@@ -111,6 +117,7 @@ class ScaleFactorSelection {
   bool commanded_ = false;
   std::optional<double> last_k_stamp_s_;
   std::string k_source_;
+  std::string in_force_source_;
   std::string k_source_note_;
   double k_source_changed_at_s_ = -std::numeric_limits<double>::infinity();
   ScaleFactorSelectionCounters counters_;
