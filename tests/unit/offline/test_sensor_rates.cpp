@@ -145,6 +145,23 @@ TEST(SensorRates, AtOneHertzALatencyIsAppliedWithinTheFirstMinutesAndKKeepsItsZe
   EXPECT_NEAR(last.applied_s, 0.1, 0.02);
 }
 
+TEST(SensorRates, AtOneHertzWithA200msLatencyTheStartOfTheDriveKeepsTheDeadReckoningWithinTheGoal) {
+  // An unknown latency biases the estimator's K low while the vehicle accelerates off (-3.5 % at
+  // 14 s on seed 8). Two things keep that out of the DR: the latency search's start K is published
+  // at 1 Hz too, and each later estimate of the identification replaces the K in force even when
+  // it is within 3 sigma of the nominal. Seed 1: DR final 0.095 %D before both, 0.054 %D with them
+  // (ten seeds: median 0.099 -> 0.060 %D, BENCHMARKS.md 4m).
+  const Dataset d = scenario("terrain", 1.0, 0.2);
+  const OfflineParams p = user_params(d);
+  const OfflineResult r = run_offline(d, p);
+  int start_k_epochs = 0;
+  for (const IdentificationOutput& o : r.identification) start_k_epochs += o.k_from_start_latency ? 1 : 0;
+  EXPECT_GT(start_k_epochs, 0);
+  const FirstMetres f = evaluate_first_metres(d, r.dr_online);
+  SCOPED_TRACE(describe(f));
+  EXPECT_LE(f.final_percent, 0.07);
+}
+
 TEST(SensorRates, SlowReversingRobotWithoutInsGetsKWithin03Percent) {
   const Dataset d = scenario("slow_robot");
   ASSERT_FALSE(d.has_ins());
