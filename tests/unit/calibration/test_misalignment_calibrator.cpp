@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <initializer_list>
 #include <random>
+#include <vector>
 
 #include "odonav/calibration/misalignment_calibrator.hpp"
 #include "synthetic_drive.hpp"
@@ -241,6 +243,27 @@ SyntheticData with_bad_velocity(std::size_t i, const Eigen::Vector3d& bad) {
   d.gnss.at(i).vel_enu_mps = bad;
   return d;
 }
+
+/// Runs the clean noisy drive with error_enu_mps [m/s, ENU] added to the GNSS velocity of each of
+/// `epochs`, and expects exactly those epochs to be rejected as outliers and the final heading to be
+/// that of the clean drive (0.8 deg).
+std::vector<MisalignmentOutput> expect_only_outliers_at(std::initializer_list<std::size_t> epochs,
+                                                        const Eigen::Vector3d& error_enu_mps) {
+  SyntheticData d = simulate(drive(), noisy_config(3));
+  for (std::size_t i : epochs) d.gnss.at(i).vel_enu_mps += error_enu_mps;
+  MisalignmentCounters c;
+  const auto out = run_all(d, {}, &c);
+  EXPECT_EQ(c.outlier, epochs.size());
+  for (std::size_t i : epochs) EXPECT_EQ(out.at(i).epoch_status, CalibrationEpochStatus::kOutlier) << "epoch " << i;
+  EXPECT_NEAR(rad_to_deg(out.back().misalignment.heading_rad), 0.8, 0.03);
+  return out;
+}
+
+/// Unit vector to the left of the drive's direction of travel [ENU].
+Eigen::Vector3d left_of_drive() {
+  const auto u = drive().direction(0.0);
+  return Eigen::Vector3d(-u.y(), u.x(), 0.0);
+}
 }  // namespace
 
 TEST(MisalignmentCalibratorOutlierGate, OneRowOfAMillionMetresPerSecondIsRejectedAndChangesNothing) {
@@ -276,29 +299,16 @@ TEST(MisalignmentCalibratorOutlierGate, WithoutTheGateOneBadRowCorruptsTheEstima
 }
 
 TEST(MisalignmentCalibratorOutlierGate, ASpeedJumpOf20MetresPerSecondIsRejectedBeforeAnyEstimate) {
-  // Epoch 5: only 5 epochs used, so the innovation test is not active yet; the speed-jump test is.
-  const auto u = drive().direction(0.0);
-  SyntheticData d = simulate(drive(), noisy_config(3));
-  d.gnss.at(5).vel_enu_mps += 20.0 * u;
-  MisalignmentCounters c;
-  const auto out = run_all(d, {}, &c);
-  EXPECT_EQ(out[5].epoch_status, CalibrationEpochStatus::kOutlier);
-  EXPECT_EQ(c.outlier, 1u);
-  EXPECT_NEAR(rad_to_deg(out.back().misalignment.heading_rad), 0.8, 0.03);
+  // Epoch 3: fewer than innovation_min_samples epochs used, so the innovation test is not armed
+  // yet; the speed-jump test is.
+  ASSERT_GT(MisalignmentCalibratorParams{}.innovation_min_samples, 3u);
+  expect_only_outliers_at({3}, 20.0 * drive().direction(0.0));
 }
 
 TEST(MisalignmentCalibratorOutlierGate, AThreeMetrePerSecondSidewaysErrorIsCaughtByTheInnovation) {
   // 3 m/s to the left at 10 m/s forward is a 17 deg "misalignment" for one epoch; the speed is
   // unchanged (no speed jump), so only the innovation test can see it.
-  const auto u = drive().direction(0.0);
-  const Eigen::Vector3d left(-u.y(), u.x(), 0.0);
-  SyntheticData d = simulate(drive(), noisy_config(3));
-  for (std::size_t i : {200u, 350u, 500u}) d.gnss.at(i).vel_enu_mps += 3.0 * left;
-  MisalignmentCounters c;
-  const auto out = run_all(d, {}, &c);
-  EXPECT_EQ(c.outlier, 3u);
-  for (std::size_t i : {200u, 350u, 500u}) EXPECT_EQ(out[i].epoch_status, CalibrationEpochStatus::kOutlier);
-  EXPECT_NEAR(rad_to_deg(out.back().misalignment.heading_rad), 0.8, 0.03);
+  expect_only_outliers_at({200, 350, 500}, 3.0 * left_of_drive());
 }
 
 TEST(MisalignmentCalibratorOutlierGate, ASidewaysErrorAmongTheFirstTwentyEpochsIsCaughtToo) {
@@ -306,17 +316,9 @@ TEST(MisalignmentCalibratorOutlierGate, ASidewaysErrorAmongTheFirstTwentyEpochsI
   // minute, and one sideways error then (terrain seed 8 at 1 Hz, about 25 s in) moved the heading
   // from 0.83 to -0.98 deg; 800 s later it was still 0.03 deg off and not converged, and the DR
   // ended at 0.153 %D instead of 0.076 (BENCHMARKS.md 4n).
-  const auto u = drive().direction(0.0);
-  const Eigen::Vector3d left(-u.y(), u.x(), 0.0);
-  SyntheticData d = simulate(drive(), noisy_config(3));
-  d.gnss.at(12).vel_enu_mps += 3.0 * left;
-  MisalignmentCounters c;
-  const auto out = run_all(d, {}, &c);
-  EXPECT_EQ(out[12].epoch_status, CalibrationEpochStatus::kOutlier);
-  EXPECT_EQ(c.outlier, 1u);
-  // Right away, not only in the long run: 20 epochs on, the estimate is that of the clean epochs.
-  EXPECT_NEAR(rad_to_deg(out[20].misalignment.heading_rad), 0.8, 0.3);
-  EXPECT_NEAR(rad_to_deg(out.back().misalignment.heading_rad), 0.8, 0.03);
+  const auto out = expect_only_outliers_at({12}, 3.0 * left_of_drive());
+  // Right away, not only in the long run: at epoch 20 the estimate is that of the clean epochs.
+  EXPECT_NEAR(rad_to_deg(out.at(20).misalignment.heading_rad), 0.8, 0.3);
 }
 
 TEST(MisalignmentCalibratorOutlierGate, CleanNoisyDrivesLoseNoEpoch) {
