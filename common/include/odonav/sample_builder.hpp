@@ -378,9 +378,8 @@ class SampleBuilder {
   /// K of the best latency candidate is not. Given only while all of these hold:
   ///   - the latency is estimated online and none was decided yet (none applied, the sums never
   ///     restarted), and the search's first block is still open;
-  ///   - the GNSS intervals are short enough that the trapezoid correction is off
-  ///     (gnss period < trapezoid_correction_min_interval_s): the search compares the trapezoid
-  ///     of two speeds without it, so at 1-2 Hz its K lacks the speed's curvature the samples add;
+  ///   - at any GNSS rate: the search compares the trapezoid of two speeds with the trapezoid of
+  ///     two pulse rates, like with like, so its K has no bias of its own at 1-2 Hz either;
   ///   - the block's own latency estimate beats the value in force (beats_nominal: more than
   ///     kProvisionalMinSigmas of its sigmas away).
   struct StartLatencyK {
