@@ -118,9 +118,11 @@ std::string join(const std::vector<std::string>& parts, const std::string& separ
   return text;
 }
 
-std::string printable_excerpt(std::string_view text) {
+std::string printable_excerpt(std::string_view text) { return printable_excerpt(text, text.size()); }
+
+std::string printable_excerpt(std::string_view text, std::size_t full_size) {
   std::string out;
-  const std::size_t n = std::min(text.size(), kMaxQuotedChars);
+  const std::size_t n = std::min({text.size(), full_size, kMaxQuotedChars});
   out.reserve(n + 24);
   static const char* kHex = "0123456789abcdef";
   for (std::size_t i = 0; i < n; ++i) {
@@ -133,7 +135,7 @@ std::string printable_excerpt(std::string_view text) {
       out += kHex[c & 15];
     }
   }
-  if (text.size() > n) out += "... (" + std::to_string(text.size()) + " bytes)";
+  if (full_size > n) out += "... (" + std::to_string(full_size) + " bytes)";
   return out;
 }
 

@@ -50,6 +50,10 @@ inline constexpr std::size_t kMaxQuotedChars = 80;
 /// printable ASCII written as \xNN, so a NUL, an escape sequence or a 50 MB field cannot reach the
 /// terminal as it is.
 std::string printable_excerpt(std::string_view text);
+/// The same for a text of `full_size` bytes of which `head` holds the first ones (at least
+/// kMaxQuotedChars of them when full_size is larger): what a reader that does not keep a long line
+/// whole quotes of it.
+std::string printable_excerpt(std::string_view head, std::size_t full_size);
 
 /// Joins with ", ".
 std::string join(const std::vector<std::string>& parts, const std::string& separator = ", ");
