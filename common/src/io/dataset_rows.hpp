@@ -92,8 +92,11 @@ class RowReader {
   /// Counts so far (rows_read counts the good rows parsed) and the
   /// ignored columns. Complete once next() has returned nullopt.
   const FileReadReport& file_report() const { return file_report_; }
-  /// Bytes held for buffering (LineReader::buffered_bytes).
-  std::size_t buffered_bytes() const { return lines_.buffered_bytes(); }
+  /// Bytes held for buffering: the LineReader's and the field list of one row (at most one entry
+  /// per byte of a line).
+  std::size_t buffered_bytes() const {
+    return lines_.buffered_bytes() + fields_.capacity() * sizeof(std::string_view);
+  }
 
  private:
   bool read_good_row(Sample& sample);  // false at the end of the file
