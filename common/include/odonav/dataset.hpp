@@ -1,7 +1,7 @@
 #pragma once
 // The odonav dataset directory, format v1 (docs/DATASET.md): the directory in memory, reader,
-// writer. The row types (OdometerSample, GnssSample, InsSample, TruthSample) are the cores' sensor
-// samples, in odonav/sensor_samples.hpp.
+// writer (row by row: odonav/dataset_stream.hpp). The row types (OdometerSample, GnssSample,
+// InsSample, TruthSample) are the cores' sensor samples, in odonav/sensor_samples.hpp.
 //
 // Files hold degrees, metres, m/s; the types hold SI with radians. Time t_s is seconds on the
 // one time base shared by every file of the directory.
@@ -99,7 +99,10 @@ class DatasetError : public std::runtime_error {
 /// (direction 1, fix 1, no std, NaN in truth); INS ve/vn/vu come all or none (header and row);
 /// pitch must lie in [-90, 90] deg; a duplicate or empty header name is a file error. A row with
 /// more fields than the header is a BadRow with an empty column; with fewer, it names the first
-/// missing column. Bad rows are logged (spdlog warn, the first 10 per file, then a count).
+/// missing column. Bad rows are logged (spdlog warn, the first 10 per file, then a count). A t column
+/// that looks like nanoseconds, microseconds or milliseconds (docs/DATASET.md, "Time unit") is a
+/// DatasetError under either policy. To read a dataset row by row in bounded memory, with the same
+/// rules: DatasetStream (odonav/dataset_stream.hpp).
 Dataset read_dataset(const std::string& dir, BadRowPolicy policy, DatasetReadReport* report = nullptr);
 
 /// Writes a dataset directory (created if missing): odometer.csv, gnss.csv, ins.csv when present,

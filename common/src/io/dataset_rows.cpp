@@ -1,5 +1,6 @@
 // The one parser of the dataset CSV files (dataset_rows.hpp): buffered line reading, header
-// resolution, row parsing and validation, the bad-row policy, counts and logging. Every rule of docs/DATASET.md about a file's content lives here.
+// resolution, row parsing and validation, the bad-row policy, counts and logging, and the time-unit
+// check. Every rule of docs/DATASET.md about a file's content lives here.
 #include "dataset_rows.hpp"
 
 #include <fcntl.h>
@@ -292,7 +293,8 @@ TruthSample parse_truth_row(RowFields& row) {
   return s;
 }
 
-// What differs between the four files: columns, row parser, an extra header rule.
+// What differs between the four files: columns, row parser, an extra header rule, and what the
+// time-unit check assumes about the file's rate.
 template <typename Sample>
 struct FileRules;
 
@@ -301,25 +303,65 @@ struct FileRules<OdometerSample> {
   static const std::vector<ColumnSpec>& specs() { return odo::kSpecs; }
   static OdometerSample parse(RowFields& row) { return parse_odometer_row(row); }
   static void check_header(const std::string&, const ResolvedHeader&) {}
+  static constexpr bool kCheckStep = true;
+  static constexpr double kTypicalStep_s = 0.02;  // 10-100 Hz
 };
 template <>
 struct FileRules<GnssSample> {
   static const std::vector<ColumnSpec>& specs() { return gnss::kSpecs; }
   static GnssSample parse(RowFields& row) { return parse_gnss_row(row); }
   static void check_header(const std::string&, const ResolvedHeader&) {}
+  static constexpr bool kCheckStep = true;
+  static constexpr double kTypicalStep_s = 0.3;  // 1-20 Hz
 };
 template <>
 struct FileRules<InsSample> {
   static const std::vector<ColumnSpec>& specs() { return ins::kSpecs; }
   static InsSample parse(RowFields& row) { return parse_ins_row(row); }
   static void check_header(const std::string& path, const ResolvedHeader& header) { check_ins_header(path, header); }
+  static constexpr bool kCheckStep = true;
+  static constexpr double kTypicalStep_s = 0.01;  // 10-200 Hz
 };
 template <>
 struct FileRules<TruthSample> {
   static const std::vector<ColumnSpec>& specs() { return truth::kSpecs; }
   static TruthSample parse(RowFields& row) { return parse_truth_row(row); }
   static void check_header(const std::string&, const ResolvedHeader&) {}
+  // A reference may be sparse (surveyed points far apart): only the magnitude of t is checked.
+  static constexpr bool kCheckStep = false;
+  static constexpr double kTypicalStep_s = 0.1;  // not used: steps are not checked
 };
+
+// The time-unit check (docs/DATASET.md, "Time unit").
+// No time base odonav accepts (GNSS time of week, UNIX seconds, seconds since the start) reaches
+// 1e11 s (the year 5138 in UNIX time), while milliseconds, microseconds and nanoseconds since 1970
+// are above 1e11, 1e14 and 1e17 from 1973 on.
+constexpr double kMinEpochMilliseconds = 1e11;
+constexpr double kMinEpochMicroseconds = 1e14;
+constexpr double kMinEpochNanoseconds = 1e17;
+// No sensor stream of a drive is sampled less than once per 1000 s, while a 1 Hz stream stamped in
+// ms, us or ns steps by 1e3, 1e6 or 1e9.
+constexpr double kMinImplausibleStep_s = 1000.0;
+
+struct TimeUnit {
+  const char* name;
+  double seconds;
+};
+constexpr TimeUnit kSubsecondUnits[] = {{"milliseconds", 1e-3}, {"microseconds", 1e-6}, {"nanoseconds", 1e-9}};
+
+// The unit that turns `step` into the step closest (by ratio) to the file's typical step.
+const char* unit_for_step(double step, double typical_step_s) {
+  const TimeUnit* best = &kSubsecondUnits[0];
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (const TimeUnit& unit : kSubsecondUnits) {
+    const double distance = std::abs(std::log10(step * unit.seconds / typical_step_s));
+    if (distance < best_distance) {
+      best_distance = distance;
+      best = &unit;
+    }
+  }
+  return best->name;
+}
 
 }  // namespace
 
@@ -517,8 +559,10 @@ bool RowReader<Sample>::read_good_row(Sample& sample) {
     previous_t_ = sample.t_s;
     previous_t_line_ = line_no;
     ++file_report_.rows_read;
+    if (!unit_checked_) note_first_row(sample.t_s, line_no, row.text(0));
     return true;
   }
+  if (!unit_checked_) check_time_steps();
   if (!ended_) {
     ended_ = true;
     if (context_.log && file_report_.rows_bad > kMaxLoggedBadRowsPerFile) {
@@ -533,6 +577,41 @@ std::optional<Sample> RowReader<Sample>::next() {
   Sample sample{};
   if (read_good_row(sample)) return sample;
   return std::nullopt;
+}
+
+template <typename Sample>
+void RowReader<Sample>::note_first_row(double t_s, std::size_t line, std::string_view t_text) {
+  if (first_t_count_ == 0) {
+    first_row_line_ = line;
+    first_t_text_ = io_detail::printable_excerpt(t_text);
+    const double magnitude = std::abs(t_s);
+    if (magnitude >= kMinEpochMilliseconds) {
+      const char* unit = magnitude >= kMinEpochNanoseconds    ? "nanoseconds"
+                         : magnitude >= kMinEpochMicroseconds ? "microseconds"
+                                                              : "milliseconds";
+      throw DatasetError(path_ + ":" + std::to_string(line) + ": column 't': " + first_t_text_ + " looks like " +
+                         unit + " since 1970; odonav expects seconds (docs/DATASET.md)");
+    }
+  }
+  first_t_[first_t_count_++] = t_s;
+  if (first_t_count_ == kUnitCheckRows) check_time_steps();
+}
+
+template <typename Sample>
+void RowReader<Sample>::check_time_steps() {
+  unit_checked_ = true;
+  if (!FileRules<Sample>::kCheckStep || first_t_count_ < kUnitCheckRows) return;
+  std::array<double, kUnitCheckRows - 1> steps{};
+  const std::size_t n = first_t_count_ - 1;
+  for (std::size_t i = 0; i < n; ++i) steps[i] = first_t_[i + 1] - first_t_[i];
+  std::nth_element(steps.begin(), steps.begin() + n / 2, steps.begin() + n);
+  const double median_step = steps[n / 2];
+  if (median_step < kMinImplausibleStep_s) return;
+  throw DatasetError(path_ + ":" + std::to_string(first_row_line_) + ": column 't': " + first_t_text_ +
+                     " then steps of " + io_detail::format_number(median_step) + " (the median of the first " +
+                     std::to_string(first_t_count_) + " rows) look like " +
+                     unit_for_step(median_step, FileRules<Sample>::kTypicalStep_s) +
+                     "; odonav expects seconds (docs/DATASET.md)");
 }
 
 template class RowReader<OdometerSample>;

@@ -79,10 +79,17 @@ struct ResolvedHeader {
 /// to and including the header (throws DatasetError on a file error: not a regular file, too big, no
 /// header, a bad header). next() gives the next good row; a bad row throws DatasetError under kFail,
 /// or under kSkip is counted, logged (the first 10 per file, then a total when the file ends) and
-/// kept in detail in context.report (the first 100 of the report). Memory is the LineReader's.
+/// kept in detail in context.report (the first 100 of the report). The time column is checked for a
+/// unit other than seconds (docs/DATASET.md, "Time unit"): the first good row's magnitude, then the
+/// median step of the first kUnitCheckRows good rows (not judged in a shorter file); a unit
+/// that is not seconds is a DatasetError whatever the policy, thrown when the row that shows it is
+/// read. Memory is the LineReader's.
 template <typename Sample>
 class RowReader {
  public:
+  /// Good rows whose t steps the time-unit check looks at.
+  static constexpr std::size_t kUnitCheckRows = 8;
+
   RowReader(const std::string& path, const ReadContext& context);
 
   /// The next good row; nullopt at the end of the file.
@@ -101,6 +108,8 @@ class RowReader {
  private:
   bool read_good_row(Sample& sample);  // false at the end of the file
   void bad_row(std::size_t line, std::string column, std::string reason);
+  void note_first_row(double t_s, std::size_t line, std::string_view t_text);  // the time-unit check's input
+  void check_time_steps();
 
   std::string path_;
   ReadContext context_;
@@ -110,6 +119,12 @@ class RowReader {
   std::vector<std::string_view> fields_;  // reused for every row
   std::optional<double> previous_t_;
   std::size_t previous_t_line_ = 0;
+  // The time-unit check: t of the first good rows, until it has run.
+  std::array<double, kUnitCheckRows> first_t_{};
+  std::size_t first_t_count_ = 0;
+  std::size_t first_row_line_ = 0;
+  std::string first_t_text_;  // the first good row's t as written
+  bool unit_checked_ = false;
   bool ended_ = false;
 };
 
