@@ -14,8 +14,9 @@ inline std::string join_path(const std::string& dir, const char* file) {
   return (std::filesystem::path(dir) / file).string();
 }
 
-/// The whole content of a file, in one read. Throws DatasetError naming the path when it cannot be
-/// opened or read.
+/// The whole content of a file, in one read (meta.json; the CSV files are read line by line by
+/// dataset_rows.hpp's LineReader). Throws DatasetError naming the path when it cannot be opened or
+/// read.
 std::string read_whole_file(const std::string& path);
 
 /// Reads meta.json (every key optional; unknown keys kept in raw_json). Throws DatasetError naming

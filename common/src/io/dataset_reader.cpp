@@ -2,20 +2,15 @@
 // (dataset_rows.cpp: every validation rule of docs/DATASET.md, bad rows failed or skipped and
 // counted), plus the small shared pieces (policy parsing, BadRow messages, read_whole_file for
 // meta.json).
-#include <spdlog/spdlog.h>
-
 #include <cerrno>
-#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <functional>
-#include <sstream>
+#include <optional>
 
 #include "dataset_internal.hpp"
 #include "dataset_rows.hpp"
 #include "odonav/dataset.hpp"
-#include "text_util.hpp"
 
 namespace odonav {
 
@@ -59,7 +54,7 @@ std::string read_whole_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw DatasetError(path + ": cannot open: " + std::strerror(errno));
   // One read into a string sized from the file length: an ostringstream << rdbuf() grows its buffer
-  // step by step and then copies it once more into the result (a one-hour dataset is ~90 MB).
+  // step by step and then copies it once more into the result.
   std::string content;
   in.seekg(0, std::ios::end);
   const std::streamoff size = in.tellg();

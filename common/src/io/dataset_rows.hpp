@@ -56,9 +56,6 @@ class LineReader {
   bool at_end_ = false;
 };
 
-/// Which dataset file a RowReader reads (its columns and rules).
-enum class DatasetFile { kOdometer, kGnss, kIns, kTruth };
-
 /// How a RowReader reports: the policy, the report that collects bad rows in detail (may be null),
 /// and whether it logs bad rows (a probe that only looks ahead does not).
 struct ReadContext {
@@ -96,8 +93,8 @@ class RowReader {
   std::optional<Sample> next();
 
   const std::string& path() const { return path_; }
-  /// Counts so far (rows_read counts the good rows parsed) and the
-  /// ignored columns. Complete once next() has returned nullopt.
+  /// Counts so far (rows_read: the good rows parsed) and the ignored columns; complete once next()
+  /// has returned nullopt.
   const FileReadReport& file_report() const { return file_report_; }
   /// Bytes held for buffering: the LineReader's and the field list of one row (at most one entry
   /// per byte of a line).
@@ -137,7 +134,7 @@ extern template class RowReader<TruthSample>;
 /// naming how many bad rows were skipped when `with_skipped_count`.
 void require_two_rows(const std::string& path, std::size_t good_rows, std::size_t bad_rows, bool with_skipped_count);
 
-/// True when dir/file exists (as anything: what it is is the reader's to check).
+/// True when `path` exists (as anything: whether it is a regular file is LineReader's to check).
 bool file_exists(const std::string& path);
 
 }  // namespace odonav::dataset_detail
