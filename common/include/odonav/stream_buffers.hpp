@@ -9,6 +9,7 @@
 // max_bracket_s apart. Because each stream arrives in increasing time, once a sample at or after t is
 // buffered the bracket is final; if none has arrived by the watermark t + max_bracket_s, no valid
 // bracket can ever exist. Either way the answer depends on the data only.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <deque>
@@ -46,6 +47,7 @@ inline void check_stream_time(const char* stream, double t_s, const std::optiona
     throw StreamInputError(m.str());
   }
 }
+
 }  // namespace detail
 
 /// Outcome of asking a buffer for a value at a time.
@@ -54,6 +56,35 @@ enum class BracketState {
   kPending,   ///< no sample at or after t yet, and the watermark does not exclude one: wait.
   kMissing,   ///< no valid bracket can exist (gap, or t before the first sample): the value is absent.
 };
+
+namespace detail {
+/// The samples of a time-sorted buffer (entries with a t_s, s) that bracket t_s: lo == hi when one is
+/// stamped exactly t_s. kPending while the buffer cannot know yet (t_s after its last sample, or
+/// nothing buffered, and watermark_s < t_s + max_bracket_s), kMissing when it never will (before the
+/// first sample, or a gap longer than max_bracket_s around t_s). Binary search: O(log n).
+template <class Entries>
+BracketState bracket(const Entries& entries, double t_s, double watermark_s, double max_bracket_s, std::size_t& lo,
+                     std::size_t& hi) {
+  if (entries.empty() || t_s < entries.front().t_s) {
+    // Before the first buffered sample: only pending if nothing has arrived yet.
+    if (entries.empty() && watermark_s < t_s + max_bracket_s) return BracketState::kPending;
+    return BracketState::kMissing;
+  }
+  if (entries.back().t_s < t_s) return watermark_s < t_s + max_bracket_s ? BracketState::kPending : BracketState::kMissing;
+  // The first entry at or after t_s.
+  const auto at = std::lower_bound(entries.begin(), entries.end(), t_s,
+                                   [](const auto& e, double t) { return e.t_s < t; });
+  const std::size_t i = static_cast<std::size_t>(at - entries.begin());
+  if (entries[i].t_s == t_s) {
+    lo = hi = i;
+    return BracketState::kReady;
+  }
+  lo = i - 1;
+  hi = i;
+  return entries[hi].t_s - entries[lo].t_s <= max_bracket_s ? BracketState::kReady : BracketState::kMissing;
+}
+}  // namespace detail
+
 
 /// The pulse-jump gate of the odometer stream: the largest count increment a real vehicle can make
 /// in dt_s. A counter glitch (a bit flip, a reset to a random value, a bus error) shows up as an
@@ -195,10 +226,12 @@ class OdometerBuffer {
   /// kMixed when some do and some do not (0, unknown, counts as forward), else kForward.
   OdometerDirection direction_over(double t0_s, double t1_s) const {
     bool forward = false, reversing = false;
-    for (const Entry& e : entries_) {
-      if (e.t_s <= t0_s) continue;
-      (e.direction < 0 ? reversing : forward) = true;
-      if (e.t_s >= t1_s) break;
+    // From the first sample stamped after t0_s.
+    auto it = std::upper_bound(entries_.begin(), entries_.end(), t0_s,
+                               [](double t, const Entry& e) { return t < e.t_s; });
+    for (; it != entries_.end(); ++it) {
+      (it->direction < 0 ? reversing : forward) = true;
+      if (it->t_s >= t1_s) break;
     }
     if (!reversing) return OdometerDirection::kForward;
     return forward ? OdometerDirection::kMixed : OdometerDirection::kReversing;
@@ -209,8 +242,9 @@ class OdometerBuffer {
   }
   /// The direction of the sample describing the instant t_s (the first stamped at or after it).
   OdometerDirection direction_at(double t_s) const {
-    for (const Entry& e : entries_)
-      if (e.t_s >= t_s) return e.direction < 0 ? OdometerDirection::kReversing : OdometerDirection::kForward;
+    const auto it = std::lower_bound(entries_.begin(), entries_.end(), t_s,
+                                     [](const Entry& e, double t) { return e.t_s < t; });
+    if (it != entries_.end()) return it->direction < 0 ? OdometerDirection::kReversing : OdometerDirection::kForward;
     return OdometerDirection::kForward;
   }
 
@@ -249,23 +283,7 @@ class OdometerBuffer {
 
  private:
   BracketState bracket(double t_s, double watermark_s, std::size_t& lo, std::size_t& hi) const {
-    if (entries_.empty() || t_s < entries_.front().t_s) {
-      // Before the first buffered sample: only pending if nothing has arrived yet.
-      if (entries_.empty() && watermark_s < t_s + max_bracket_s_) return BracketState::kPending;
-      return BracketState::kMissing;
-    }
-    if (entries_.back().t_s < t_s) {
-      return watermark_s < t_s + max_bracket_s_ ? BracketState::kPending : BracketState::kMissing;
-    }
-    std::size_t i = 0;
-    while (entries_[i].t_s < t_s) ++i;  // first entry at or after t_s
-    if (entries_[i].t_s == t_s) {
-      lo = hi = i;
-      return BracketState::kReady;
-    }
-    lo = i - 1;
-    hi = i;
-    return entries_[hi].t_s - entries_[lo].t_s <= max_bracket_s_ ? BracketState::kReady : BracketState::kMissing;
+    return detail::bracket(entries_, t_s, watermark_s, max_bracket_s_, lo, hi);
   }
 
   double max_bracket_s_;
@@ -340,21 +358,7 @@ class AttitudeBuffer {
 
  private:
   BracketState bracket(double t_s, double watermark_s, std::size_t& lo, std::size_t& hi) const {
-    if (entries_.empty() || t_s < entries_.front().t_s) {
-      if (entries_.empty() && watermark_s < t_s + max_bracket_s_) return BracketState::kPending;
-      return BracketState::kMissing;
-    }
-    if (entries_.back().t_s < t_s)
-      return watermark_s < t_s + max_bracket_s_ ? BracketState::kPending : BracketState::kMissing;
-    std::size_t i = 0;
-    while (entries_[i].t_s < t_s) ++i;
-    if (entries_[i].t_s == t_s) {
-      lo = hi = i;
-      return BracketState::kReady;
-    }
-    lo = i - 1;
-    hi = i;
-    return entries_[hi].t_s - entries_[lo].t_s <= max_bracket_s_ ? BracketState::kReady : BracketState::kMissing;
+    return detail::bracket(entries_, t_s, watermark_s, max_bracket_s_, lo, hi);
   }
 
   double max_bracket_s_;
