@@ -12,6 +12,33 @@ OdometerSample odometer_sample_from(const odonav::msg::Odometer& m) {
   return s;
 }
 
+PublishedMisalignment published_misalignment_from(const odonav::msg::Misalignment& m, double t_s) {
+  PublishedMisalignment p;
+  p.t_s = t_s;
+  p.heading_rad = m.heading_rad();
+  p.pitch_rad = m.pitch_rad();
+  p.heading_std_rad = m.heading_std_rad();
+  p.pitch_std_rad = m.pitch_std_rad();
+  p.converged = m.converged();
+  p.samples_used = m.samples_used();
+  return p;
+}
+
+PublishedScaleFactor published_scale_factor_from(const odonav::msg::ScaleFactor& m, double t_s) {
+  PublishedScaleFactor p;
+  p.t_s = t_s;
+  p.k_m_per_pulse = m.k_m_per_pulse();
+  p.sigma_m_per_pulse = m.sigma_m_per_pulse();
+  p.converged = m.converged();
+  p.samples_accepted = m.samples_accepted();
+  p.source = m.source();
+  p.gnss_latency_s = m.gnss_latency_s();
+  p.turn_slip_applies = m.turn_slip_applies();
+  p.turn_slip_s_per_rad = m.turn_slip_s_per_rad();
+  p.turn_slip_threshold_radps = m.turn_slip_threshold_radps();
+  return p;
+}
+
 GnssSample gnss_sample_from(const odonav::msg::GnssFix& m) {
   GnssSample s;
   s.t_s = to_seconds(m.header().stamp());

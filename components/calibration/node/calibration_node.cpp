@@ -52,12 +52,13 @@ odonav::msg::Misalignment misalignment_message(const MisalignmentOutput& out, co
   odonav::msg::Misalignment m;
   m.header(dds::make_header(out.t_s, "body"));
   m.vehicle_id(vehicle_id);
-  m.heading_rad(out.misalignment.heading_rad);
-  m.pitch_rad(out.misalignment.pitch_rad);
-  m.heading_std_rad(std::isfinite(out.sigma_heading_rad) ? out.sigma_heading_rad : -1.0);
-  m.pitch_std_rad(std::isfinite(out.sigma_pitch_rad) ? out.sigma_pitch_rad : -1.0);
-  m.samples_used(static_cast<uint32_t>(std::min<uint64_t>(out.samples_used, std::numeric_limits<uint32_t>::max())));
-  m.converged(out.converged);
+  const PublishedMisalignment p = published_misalignment(out);
+  m.heading_rad(p.heading_rad);
+  m.pitch_rad(p.pitch_rad);
+  m.heading_std_rad(p.heading_std_rad);
+  m.pitch_std_rad(p.pitch_std_rad);
+  m.samples_used(static_cast<uint32_t>(std::min<uint64_t>(p.samples_used, std::numeric_limits<uint32_t>::max())));
+  m.converged(p.converged);
   m.state(to_message_state(out.state));
   return m;
 }

@@ -15,9 +15,9 @@
 namespace odonav::nodes {
 
 namespace {
-DeadReckoner make_core(const DeadReckonerParams& p) {
+DeadReckoningComponent make_component(const DeadReckonerParams& p, const AnchoredPositionParams& anchored) {
   try {
-    return DeadReckoner(p);
+    return DeadReckoningComponent(p, anchored);
   } catch (const std::invalid_argument& e) {
     throw ConfigError(std::string("dead-reckoning parameters: ") + e.what());
   }
@@ -125,9 +125,7 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
                                      const AnchoredPositionParams& anchored, const CheckpointSettings& checkpoint)
     : EventTimeNode(runtime),
       params_(params),
-      core_(make_core(params)),
-      anchor_(anchored),
-      consumer_(params.nominal_k_m_per_pulse),
+      component_(make_component(params, anchored)),
       lifecycle_(checkpoint, runtime.settings().vehicle_id),
       odometer_(add_input("odometer", true)),
       // GNSS is a reference (error, start) applied with the hold-off, as the estimates of its epochs.
@@ -140,7 +138,7 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
   if (params_.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
   // Before any reader exists: no sample can reach the cores before the restored state.
-  lifecycle_.start(state(), static_cast<int64_t>(std::time(nullptr)), dds::steady_now_s());
+  lifecycle_.start(component_.state(), static_cast<int64_t>(std::time(nullptr)), dds::steady_now_s());
   // Resumed from a checkpoint: the sensor readers ask the producers for their history (30 s), so the
   // downtime is processed (what the checkpoint holds is skipped). The estimate readers are
   // TRANSIENT_LOCAL with the same depth already. A fresh start reads from the moment it matched.
@@ -153,7 +151,7 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
   odometer_reader_ = subscribe<odonav::msg::Odometer>(
       topics::with_reader_profile(topics::kOdometer, sensor_profile), odometer_,
       [this](const auto& m, double t_s) {
-        if (lifecycle_.take_sample(DeadReckoningInput::kOdometer, t_s)) core_.add_odometer(dds::odometer_sample_from(m));
+        if (lifecycle_.take_sample(DeadReckoningInput::kOdometer, t_s)) component_.add_odometer(dds::odometer_sample_from(m));
       },
       [this](const odonav::msg::Odometer& m) {
         declare_gnss_published(gnss_, m);
@@ -161,7 +159,7 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
       });
   gnss_reader_ = subscribe<odonav::msg::GnssFix>(
       topics::with_reader_profile(topics::kGnssFix, sensor_profile), gnss_, [this](const auto& m, double t_s) {
-        if (lifecycle_.take_sample(DeadReckoningInput::kGnss, t_s)) core_.add_gnss(dds::gnss_sample_from(m));
+        if (lifecycle_.take_sample(DeadReckoningInput::kGnss, t_s)) component_.add_gnss(dds::gnss_sample_from(m));
       });
   if (ins_) {
     ins_reader_ = subscribe<odonav::msg::InsAttitude>(
@@ -171,16 +169,18 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
         ++ins_->dropped_invalid;
         return;
       }
-      core_.add_ins(dds::ins_sample_from(m));
+      component_.add_ins(dds::ins_sample_from(m));
     });
   }
   misalignment_reader_ = subscribe<odonav::msg::Misalignment>(
       topics::kMisalignment, misalignment_, [this](const auto& m, double t_s) {
-        if (lifecycle_.take_sample(DeadReckoningInput::kMisalignment, t_s)) on_misalignment(m, t_s);
+        if (lifecycle_.take_sample(DeadReckoningInput::kMisalignment, t_s))
+          component_.on_misalignment(dds::published_misalignment_from(m, t_s));
       });
   scale_factor_reader_ = subscribe_arbitrated<odonav::msg::ScaleFactor>(
       topics::kScaleFactor, scale_factor_, k_arbiter_, [this](const auto& m, double t_s) {
-        if (lifecycle_.take_sample(DeadReckoningInput::kScaleFactor, t_s)) on_scale_factor(m, t_s);
+        if (lifecycle_.take_sample(DeadReckoningInput::kScaleFactor, t_s))
+          component_.on_scale_factor(dds::published_scale_factor_from(m, t_s), dds::steady_now_s());
       });
 }
 
@@ -204,63 +204,32 @@ void DeadReckoningNode::close_inputs() {
   scale_factor_reader_.reset();
 }
 
-void DeadReckoningNode::on_misalignment(const odonav::msg::Misalignment& m, double t_s) {
-  core_.add_estimate_received(HeldEstimate::kMisalignment, t_s);  // applicable or not, as odonav-offline
-  if (!misalignment_applicable(m.converged(), m.samples_used(), m.heading_rad(), m.pitch_rad(), m.heading_std_rad(),
-                               m.pitch_std_rad())) return;  // consumer_rules.hpp, as odonav-offline
-  const Misalignment mis{m.heading_rad(), m.pitch_rad()};
-  const double from_s = estimate_applies_from_s(t_s, params_.estimate_hold_off_s);  // as odonav-offline
-  core_.add_misalignment(from_s, mis);  // throws StreamInputError on non-finite angles: counted
-  consumer_.applied_misalignment.add(from_s, mis);
-  ++consumer_.misalignments_applied;
-  consumer_.held_misalignment_t_s = t_s;
-}
-
-void DeadReckoningNode::on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s) {
-  core_.add_estimate_received(HeldEstimate::kScaleFactor, t_s);  // applicable or not, as odonav-offline
-  // The latency of every ScaleFactor, as odonav-offline adds it: the error against GNSS and the
-  // anchor fixes compare each fix with the DR at its stamp minus the latency.
-  if (std::isfinite(m.gnss_latency_s()) && std::abs(m.gnss_latency_s()) < 10.0)
-    core_.add_gnss_latency(estimate_applies_from_s(t_s, params_.estimate_hold_off_s), m.gnss_latency_s());
-  // The slip gain alike. A gain not applied (or not a positive number) is 0; a message whose
-  // threshold is not a rate carries no slip and is skipped, as odonav-offline never sees one.
-  if (std::isfinite(m.turn_slip_threshold_radps()) && m.turn_slip_threshold_radps() >= 0.0)
-    core_.add_turn_slip(estimate_applies_from_s(t_s, params_.estimate_hold_off_s),
-                        turn_slip_gain_to_apply(m.turn_slip_applies(), m.turn_slip_s_per_rad()),
-                        m.turn_slip_threshold_radps());
-  const IdentifiedScaleFactor k{estimate_applies_from_s(t_s, params_.estimate_hold_off_s), m.k_m_per_pulse(),
-                                m.converged(), m.source(), m.sigma_m_per_pulse(), m.samples_accepted()};
-  if (const auto update = k_selection_.on_identified(k, dds::steady_now_s()))
-    core_.add_scale_factor(update->t_s, update->k_m_per_pulse, update->source);
-}
-
 void DeadReckoningNode::publish(std::vector<DeadReckoningOutput> all) {
   if (all.empty()) return;
   const std::vector<DeadReckoningOutput> outputs = lifecycle_.outputs_to_publish(std::move(all), dds::steady_now_s());
   if (outputs.empty()) return;
-  const Geodetic origin = core_.origin().value_or(Geodetic{});
+  const Geodetic origin = component_.core().origin().value_or(Geodetic{});
   for (const DeadReckoningOutput& o : outputs) {
-    const Misalignment mis = consumer_.applied_misalignment.at_or_before(o.t_s).value_or(Misalignment{});
-    if (!writer_.write(dead_reckoning_message(o, origin, mis, runtime_.settings().vehicle_id)))
+    const DeadReckoningStep step = component_.publish(o);
+    if (!writer_.write(dead_reckoning_message(step.output, origin, step.misalignment, runtime_.settings().vehicle_id)))
       spdlog::warn("{}: write refused by the middleware", writer_.topic_name());
-    if (!navigation_writer_.write(navigation_position_message(anchor_.step(o), runtime_.settings().vehicle_id)))
+    if (!navigation_writer_.write(navigation_position_message(step.navigation, runtime_.settings().vehicle_id)))
       spdlog::warn("{}: write refused by the middleware", navigation_writer_.topic_name());
     // A burst (catching up after a wait, the drain) larger than the KEEP_LAST history would
     // overwrite samples not yet delivered: let the transport drain.
     throttle_.after_write();
-    consumer_.applied_misalignment.drop_before(o.t_s);
   }
   last_output_ = outputs.back();
   count_outputs(outputs.size());
   // After the anchored position has taken these outputs: the state is the one after the last.
-  lifecycle_.checkpoint_if_due(state());
+  lifecycle_.checkpoint_if_due(component_.state());
 }
 
-void DeadReckoningNode::process_until(double watermark_s) { publish(core_.process_until(watermark_s)); }
+void DeadReckoningNode::process_until(double watermark_s) { publish(component_.process_until(watermark_s)); }
 
 void DeadReckoningNode::finish() {
-  publish(core_.finish());
-  lifecycle_.checkpoint_at_finish(state());
+  publish(component_.finish());
+  lifecycle_.checkpoint_at_finish(component_.state());
 }
 
 std::vector<dds::detail::WriterBase*> DeadReckoningNode::output_writers() { return {&writer_, &navigation_writer_}; }
@@ -270,11 +239,10 @@ dds::CommandAck DeadReckoningNode::on_command(const odonav::msg::Command& c) {
   ScaleFactorCommandResult r;
   switch (c.command()) {
     case COMMAND_SET_K:
-      r = k_selection_.set_commanded_k(c.value(), aligner_.processed_s());
-      if (r.update) core_.add_scale_factor(r.update->t_s, r.update->k_m_per_pulse, r.update->source);
+      r = component_.set_commanded_k(c.value(), aligner_.processed_s());
       break;
     case COMMAND_RELEASE_K:
-      r = k_selection_.release_commanded_k();
+      r = component_.release_commanded_k();
       break;
     case COMMAND_RESET_ESTIMATION:
       // Dead reckoning estimates nothing to restart; before COMMAND_RELEASE_K existed this kind
@@ -294,28 +262,31 @@ dds::CommandAck DeadReckoningNode::on_command(const odonav::msg::Command& c) {
 }
 
 dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
-  pulse_jumps_.observe(core_.counters().pulse_jumps_rejected, now_s);
+  const DeadReckoner& core = component_.core();
+  const ScaleFactorSelection& k_selection = component_.k_selection();
+  const DeadReckoningConsumerState& consumer = component_.consumer();
+  pulse_jumps_.observe(core.counters().pulse_jumps_rejected, now_s);
   DeadReckoningHealthFacts f;
   f.now_s = now_s;
-  f.started = core_.started();
-  f.k_commanded = k_selection_.commanded();
+  f.started = core.started();
+  f.k_commanded = k_selection.commanded();
   f.scale_factor_absent = input_absent(scale_factor_, now_s);
   f.scale_factor_heard = input_heard(scale_factor_, now_s);
-  f.k_applied = k_selection_.counters().k_applied;
-  f.k_source_note = k_selection_.k_source_note();
-  f.k_source_changed_at_s = k_selection_.k_source_changed_at_s();
-  f.pulse_jumps_rejected = core_.counters().pulse_jumps_rejected;
+  f.k_applied = k_selection.counters().k_applied;
+  f.k_source_note = k_selection.k_source_note();
+  f.k_source_changed_at_s = k_selection.k_source_changed_at_s();
+  f.pulse_jumps_rejected = core.counters().pulse_jumps_rejected;
   f.pulse_jumps_changed_at_s = pulse_jumps_.changed_at_s();
   f.misalignment_absent = input_absent(misalignment_, now_s);
   f.misalignment_heard = input_heard(misalignment_, now_s);
-  f.misalignments_applied = consumer_.misalignments_applied;
-  f.held_misalignment_t_s = consumer_.held_misalignment_t_s;
+  f.misalignments_applied = consumer.misalignments_applied;
+  f.held_misalignment_t_s = consumer.held_misalignment_t_s;
   f.misalignment_silent_s = aligner_.status(misalignment_.id, now_s).silent_for_s;
-  held_k_outputs_.observe(core_.counters().outputs_on_held_k, now_s);
-  held_misalignment_outputs_.observe(core_.counters().outputs_on_held_misalignment, now_s);
-  f.held_k_span = core_.last_held_span(HeldEstimate::kScaleFactor);
+  held_k_outputs_.observe(core.counters().outputs_on_held_k, now_s);
+  held_misalignment_outputs_.observe(core.counters().outputs_on_held_misalignment, now_s);
+  f.held_k_span = core.last_held_span(HeldEstimate::kScaleFactor);
   f.held_k_changed_at_s = held_k_outputs_.changed_at_s();
-  f.held_misalignment_span = core_.last_held_span(HeldEstimate::kMisalignment);
+  f.held_misalignment_span = core.last_held_span(HeldEstimate::kMisalignment);
   f.held_misalignment_changed_at_s = held_misalignment_outputs_.changed_at_s();
   const DeadReckoningHealth h = dead_reckoning_health(f);
   // After a restart: what the restore did, the catch-up of the downtime, failed checkpoint writes.
@@ -327,30 +298,33 @@ dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
 }
 
 void DeadReckoningNode::append_counters(dds::HealthCounters& c) {
-  const DeadReckonerCounters& k = core_.counters();
+  const DeadReckoner& core = component_.core();
+  const ScaleFactorSelection& k_selection = component_.k_selection();
+  const DeadReckoningConsumerState& consumer = component_.consumer();
+  const DeadReckonerCounters& k = core.counters();
   c.emplace_back("odometer_processed", static_cast<double>(k.odometer_samples));
   c.emplace_back("before_start", static_cast<double>(k.before_start));
   c.emplace_back("heading_held", static_cast<double>(k.heading_held));
   c.emplace_back("reversing", static_cast<double>(k.reversing));
   c.emplace_back("pulse_jumps_rejected", static_cast<double>(k.pulse_jumps_rejected));
   c.emplace_back("pulse_rebases", static_cast<double>(k.pulse_rebases));
-  const ScaleFactorSelectionCounters& s = k_selection_.counters();
+  const ScaleFactorSelectionCounters& s = k_selection.counters();
   c.emplace_back("k_applied", static_cast<double>(s.k_applied));
   c.emplace_back("k_ignored", static_cast<double>(s.k_ignored));
   c.emplace_back("k_source_changes", static_cast<double>(s.k_source_changes));
-  c.emplace_back("misalignments_applied", static_cast<double>(consumer_.misalignments_applied));
+  c.emplace_back("misalignments_applied", static_cast<double>(consumer.misalignments_applied));
   c.emplace_back("outputs_on_held_k", static_cast<double>(k.outputs_on_held_k));
   c.emplace_back("outputs_on_held_misalignment", static_cast<double>(k.outputs_on_held_misalignment));
   // The last span of each (event time, s): what the recorder and a monitor can name.
   for (const HeldEstimate e : {HeldEstimate::kScaleFactor, HeldEstimate::kMisalignment}) {
-    const std::optional<HeldSpan>& span = core_.last_held_span(e);
+    const std::optional<HeldSpan>& span = core.last_held_span(e);
     if (!span) continue;
     const std::string name = e == HeldEstimate::kScaleFactor ? "held_k" : "held_misalignment";
     c.emplace_back(name + "_first_t_s", span->first_t_s);
     c.emplace_back(name + "_last_t_s", span->last_t_s);
     c.emplace_back(name + "_epoch_t_s", span->estimate_epoch_s);
   }
-  const AnchoredPositionCounters& a = anchor_.counters();
+  const AnchoredPositionCounters& a = component_.anchor().counters();
   c.emplace_back("anchor_fixes_applied", static_cast<double>(a.fixes_applied));
   c.emplace_back("anchor_fixes_rejected_gate", static_cast<double>(a.fixes_rejected_gate));
   c.emplace_back("anchor_gate_restarts", static_cast<double>(a.gate_restarts));

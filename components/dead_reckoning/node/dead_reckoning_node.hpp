@@ -11,6 +11,7 @@
 #include "odonav/config.hpp"
 #include "odonav/dds/event_time_node.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/dead_reckoning/dead_reckoning_component.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_checkpoint.hpp"
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "odonav/msg/DeadReckoning.h"
@@ -68,20 +69,13 @@ class DeadReckoningNode : public dds::EventTimeNode {
   void append_counters(dds::HealthCounters& counters) override;
 
   void publish(std::vector<DeadReckoningOutput> outputs);
-  DeadReckoningStateRefs state() { return {core_, anchor_, consumer_}; }
   void note_live_sample(const builtin_interfaces::msg::Time& stamp);
-  void on_misalignment(const odonav::msg::Misalignment& m, double t_s);
-  void on_scale_factor(const odonav::msg::ScaleFactor& m, double t_s);
   dds::CommandAck on_command(const odonav::msg::Command& command);
 
   DeadReckonerParams params_;
-  DeadReckoner core_;
-  /// The GNSS-anchored position, fed every DR output as odonav-offline feeds it.
-  AnchoredPositionFilter anchor_;
-  /// The K policy (commanded-K latch, identified K applicability, K source: scale_factor_selection.hpp),
-  /// the misalignments given to the core (to report the one applied in each output), their count.
-  DeadReckoningConsumerState consumer_;
-  ScaleFactorSelection& k_selection_ = consumer_.k_selection;
+  /// Every rule of dead reckoning (the DR, the anchored position, the estimates applied, the K in
+  /// force), as odonav-offline runs it.
+  DeadReckoningComponent component_;
   DeadReckoningLifecycle lifecycle_;
   CountChangeTime pulse_jumps_;  ///< when the pulse-jump total last changed (health WARN window)
   CountChangeTime held_k_outputs_, held_misalignment_outputs_;  ///< when the last held output was made

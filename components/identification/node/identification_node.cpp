@@ -80,27 +80,24 @@ odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& out, c
   odonav::msg::ScaleFactor m;
   m.header(dds::make_header(out.t_s, "odometer"));
   m.vehicle_id(vehicle_id);
-  const ScaleFactorEstimate& e = out.main;
-  const bool has_value = e.valid && std::isfinite(e.k_m_per_pulse);
-  m.k_m_per_pulse(has_value ? e.k_m_per_pulse : 0.0);
-  m.sigma_m_per_pulse(has_value && std::isfinite(e.sigma_m_per_pulse) && e.sigma_m_per_pulse > 0.0
-                          ? e.sigma_m_per_pulse
-                          : -1.0);
-  m.forgetting_factor(e.forgetting_factor);
-  m.window_fill(e.window_fill);
+  const PublishedScaleFactor p = published_scale_factor(out, source);  // what the consumers use
+  m.k_m_per_pulse(p.k_m_per_pulse);
+  m.sigma_m_per_pulse(p.sigma_m_per_pulse);
+  m.forgetting_factor(out.main.forgetting_factor);
+  m.window_fill(out.main.window_fill);
   m.estimator(estimator);
-  m.converged(has_value && e.converged);
-  m.samples_accepted(clamp_u32(out.samples_accepted));
+  m.converged(p.converged);
+  m.samples_accepted(clamp_u32(p.samples_accepted));
   m.samples_rejected(clamp_u32(out.samples_rejected));
   m.frozen(out.frozen);
-  m.source(source);
+  m.source(p.source);
   m.source_priority(source_priority);
-  m.gnss_latency_s(out.latency.applied_s);
+  m.gnss_latency_s(p.gnss_latency_s);
   m.gnss_latency_sigma_s(out.latency.sigma_s >= 0.0 ? out.latency.sigma_s : -1.0);
-  m.turn_slip_s_per_rad(out.turn_slip.g_s_per_rad);
+  m.turn_slip_s_per_rad(p.turn_slip_s_per_rad);
   m.turn_slip_sigma_s_per_rad(out.turn_slip.sigma_s_per_rad >= 0.0 ? out.turn_slip.sigma_s_per_rad : -1.0);
-  m.turn_slip_threshold_radps(out.turn_slip_threshold_radps);
-  m.turn_slip_applies(out.turn_slip.applies);
+  m.turn_slip_threshold_radps(p.turn_slip_threshold_radps);
+  m.turn_slip_applies(p.turn_slip_applies);
   return m;
 }
 
@@ -212,16 +209,7 @@ void IdentificationNode::close_inputs() {
 void IdentificationNode::on_misalignment(const odonav::msg::Misalignment& m, double t_s) {
   // After a restore the calibration's history comes again: what the restored core holds is skipped.
   if (lifecycle_.skip_sample(IdentificationInput::kMisalignment, t_s)) return;
-  // Same rule as odonav-offline (consumer_rules.hpp).
-  if (!misalignment_applicable(m.converged(), m.samples_used(), m.heading_rad(), m.pitch_rad(), m.heading_std_rad(),
-                               m.pitch_std_rad())) return;
-  if (!std::isfinite(m.heading_rad()) || !std::isfinite(m.pitch_rad()))
-    throw StreamInputError("misalignment: angles are not finite");
-  // In force from epoch + hold-off, as odonav-offline: K of epoch g never waits for the calibration
-  // of epoch g.
-  core_.add_misalignment(estimate_applies_from_s(t_s, params_.estimate_hold_off_s),
-                         Misalignment{m.heading_rad(), m.pitch_rad()});
-  lifecycle_.note_misalignment_applied(t_s);
+  if (core_.apply_misalignment(dds::published_misalignment_from(m, t_s))) lifecycle_.note_misalignment_applied(t_s);
 }
 
 void IdentificationNode::publish(const std::vector<IdentificationOutput>& outputs) {

@@ -7,6 +7,18 @@
 
 namespace odonav {
 
+PublishedMisalignment published_misalignment(const MisalignmentOutput& out) {
+  PublishedMisalignment m;
+  m.t_s = out.t_s;
+  m.heading_rad = out.misalignment.heading_rad;
+  m.pitch_rad = out.misalignment.pitch_rad;
+  m.heading_std_rad = std::isfinite(out.sigma_heading_rad) ? out.sigma_heading_rad : -1.0;
+  m.pitch_std_rad = std::isfinite(out.sigma_pitch_rad) ? out.sigma_pitch_rad : -1.0;
+  m.converged = out.converged;
+  m.samples_used = out.samples_used;
+  return m;
+}
+
 const char* to_string(CalibrationState state) {
   switch (state) {
     case CalibrationState::kWaiting: return "waiting";

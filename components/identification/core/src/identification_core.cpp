@@ -213,4 +213,32 @@ void IdentificationCore::restore_state(const std::string& text) {
   *this = std::move(c);
 }
 
+bool IdentificationCore::apply_misalignment(const PublishedMisalignment& m) {
+  if (!misalignment_applicable(m.converged, m.samples_used, m.heading_rad, m.pitch_rad, m.heading_std_rad,
+                               m.pitch_std_rad))
+    return false;
+  if (!std::isfinite(m.heading_rad) || !std::isfinite(m.pitch_rad))
+    throw StreamInputError("misalignment: angles are not finite");
+  add_misalignment(estimate_applies_from_s(m.t_s, params_.estimate_hold_off_s), Misalignment{m.heading_rad, m.pitch_rad});
+  return true;
+}
+
+PublishedScaleFactor published_scale_factor(const IdentificationOutput& out, const std::string& source) {
+  PublishedScaleFactor p;
+  p.t_s = out.t_s;
+  const ScaleFactorEstimate& e = out.main;
+  const bool has_value = e.valid && std::isfinite(e.k_m_per_pulse);
+  p.k_m_per_pulse = has_value ? e.k_m_per_pulse : 0.0;
+  p.sigma_m_per_pulse =
+      has_value && std::isfinite(e.sigma_m_per_pulse) && e.sigma_m_per_pulse > 0.0 ? e.sigma_m_per_pulse : -1.0;
+  p.converged = has_value && e.converged;
+  p.samples_accepted = out.samples_accepted;
+  p.source = source;
+  p.gnss_latency_s = out.latency.applied_s;
+  p.turn_slip_applies = out.turn_slip.applies;
+  p.turn_slip_s_per_rad = out.turn_slip.g_s_per_rad;
+  p.turn_slip_threshold_radps = out.turn_slip_threshold_radps;
+  return p;
+}
+
 }  // namespace odonav

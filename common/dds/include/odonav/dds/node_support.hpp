@@ -31,7 +31,10 @@
 #include "odonav/frames.hpp"
 #include "odonav/msg/GnssFix.h"
 #include "odonav/msg/InsAttitude.h"
+#include "odonav/msg/Misalignment.h"
 #include "odonav/msg/Odometer.h"
+#include "odonav/msg/ScaleFactor.h"
+#include "odonav/published_estimates.hpp"
 #include "odonav/sensor_samples.hpp"
 #include "odonav/stream_buffers.hpp"
 
@@ -49,6 +52,13 @@ GnssSample gnss_sample_from(const odonav::msg::GnssFix& m);
 
 /// InsAttitude message -> sample (radians; velocity only when velocity_valid).
 InsSample ins_sample_from(const odonav::msg::InsAttitude& m);
+
+/// Misalignment message -> what its consumers use (published_estimates.hpp); t_s: its stamp (s),
+/// converted by the caller.
+PublishedMisalignment published_misalignment_from(const odonav::msg::Misalignment& m, double t_s);
+
+/// ScaleFactor message -> what its consumers use (published_estimates.hpp); t_s: its stamp (s).
+PublishedScaleFactor published_scale_factor_from(const odonav::msg::ScaleFactor& m, double t_s);
 
 // ---- inputs ----
 

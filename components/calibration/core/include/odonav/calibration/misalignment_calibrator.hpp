@@ -29,6 +29,7 @@
 
 #include <Eigen/Dense>
 
+#include "odonav/published_estimates.hpp"
 #include "odonav/sensor_samples.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/stream_buffers.hpp"
@@ -144,6 +145,11 @@ struct MisalignmentOutput {
   /// Why the state is what it is, in words (e.g. "no INS: the misalignment needs the INS attitude").
   std::string reason;
 };
+
+/// What the Misalignment topic carries of an output (the calibration node publishes it, odonav-offline
+/// hands it to the consumers): the angles, the one-sigmas (-1 when not finite), converged and the
+/// epochs used.
+PublishedMisalignment published_misalignment(const MisalignmentOutput& output);
 
 class MisalignmentCalibrator {
  public:

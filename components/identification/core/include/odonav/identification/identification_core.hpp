@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "odonav/estimators.hpp"
+#include "odonav/published_estimates.hpp"
 #include "odonav/sample_builder.hpp"
 
 namespace odonav {
@@ -59,6 +60,12 @@ struct IdentificationOutput {
   double turn_slip_threshold_radps = 0.0;
 };
 
+/// What the ScaleFactor topic carries of an output for its consumers (the identification node
+/// publishes it, odonav-offline hands it to dead reckoning): the main estimate (K 0 and sigma -1
+/// while it has no value; sigma -1 when not finite and > 0), the latency in force and the turn slip.
+/// source: the publishing instance's name.
+PublishedScaleFactor published_scale_factor(const IdentificationOutput& output, const std::string& source);
+
 class IdentificationCore {
  public:
   /// Throws std::invalid_argument naming the parameter or the unknown estimator.
@@ -69,6 +76,11 @@ class IdentificationCore {
   void add_ins(const InsSample& sample) { builder_.add_ins(sample); }
   /// Misalignment (rad) in force from t_s on.
   void add_misalignment(double t_s, const Misalignment& misalignment) { builder_.add_misalignment(t_s, misalignment); }
+  /// A published misalignment, applied by the consumer rule (consumer_rules.hpp,
+  /// misalignment_applicable) in force from estimate_applies_from_s(its epoch, params'
+  /// estimate_hold_off_s): K of epoch g never waits for the calibration of epoch g. Returns whether it
+  /// was applied. Throws StreamInputError when an applicable estimate's angles are not finite.
+  bool apply_misalignment(const PublishedMisalignment& misalignment);
 
   /// Processes every GNSS epoch whose inputs are complete up to watermark_s (see sample_builder.hpp).
   std::vector<IdentificationOutput> process_until(double watermark_s);
