@@ -1,144 +1,183 @@
 #include "offline_runner.hpp"
 
-#include "odonav/consumer_rules.hpp"
-#include "odonav/dead_reckoning/scale_factor_selection.hpp"
+#include <limits>
+#include <memory>
+#include <utility>
+
+#include "offline_pipeline.hpp"
 
 namespace odonav::offline {
 namespace {
 
-std::vector<MisalignmentOutput> run_calibration(const Dataset& d, const MisalignmentCalibratorParams& params,
-                                                MisalignmentCounters* counters) {
-  MisalignmentCalibrator calibrator(params);
-  for (const GnssSample& g : d.gnss) calibrator.add_gnss(g);
-  for (const InsSample& i : d.ins) calibrator.add_ins(i);
-  std::vector<MisalignmentOutput> out = calibrator.finish();
-  if (counters) *counters = calibrator.counters();
-  return out;
-}
-
-// Every estimate in force from its epoch + the hold-off (consumer_rules.hpp), as the nodes add it.
-template <class Consumer>
-void add_applicable_misalignments(Consumer& consumer, const std::vector<MisalignmentOutput>& outputs,
-                                  double hold_off_s) {
-  for (const MisalignmentOutput& m : outputs)
-    if (misalignment_applicable(m.converged, m.samples_used, m.misalignment.heading_rad, m.misalignment.pitch_rad,
-                                m.sigma_heading_rad, m.sigma_pitch_rad))
-      consumer.add_misalignment(estimate_applies_from_s(m.t_s, hold_off_s), m.misalignment);
-}
-
-std::vector<IdentificationOutput> run_identification(const Dataset& d, const IdentificationParams& params,
-                                                     const std::vector<MisalignmentOutput>& misalignment,
-                                                     std::vector<std::string>* names,
-                                                     SampleBuilderCounters* counters) {
-  IdentificationCore core(params);
-  for (const OdometerSample& o : d.odometer) core.add_odometer(o);
-  for (const GnssSample& g : d.gnss) core.add_gnss(g);
-  for (const InsSample& i : d.ins) core.add_ins(i);
-  add_applicable_misalignments(core, misalignment, params.estimate_hold_off_s);
-  std::vector<IdentificationOutput> out = core.finish();
-  if (names) *names = core.estimator_names();
-  if (counters) *counters = core.builder_counters();
-  return out;
-}
-
-std::vector<DeadReckoningOutput> run_dead_reckoning(const Dataset& d, const DeadReckonerParams& params,
-                                                    const std::vector<MisalignmentOutput>& misalignment,
-                                                    const std::vector<IdentificationOutput>* identification,
-                                                    DeadReckonerCounters* counters) {
-  DeadReckoner dr(params);
-  for (const OdometerSample& o : d.odometer) dr.add_odometer(o);
-  for (const InsSample& i : d.ins) dr.add_ins(i);
-  for (const GnssSample& g : d.gnss) dr.add_gnss(g);
-  add_applicable_misalignments(dr, misalignment, params.estimate_hold_off_s);
-  // Every estimate is here: no output is on a held one (the node decides alike as they arrive).
-  for (const MisalignmentOutput& m : misalignment) dr.add_estimate_received(HeldEstimate::kMisalignment, m.t_s);
-  if (identification) {
-    for (const IdentificationOutput& k : *identification) dr.add_estimate_received(HeldEstimate::kScaleFactor, k.t_s);
-    // Every ScaleFactor carries the GNSS latency in force: the DR node adds each one alike.
-    for (const IdentificationOutput& k : *identification)
-      dr.add_gnss_latency(estimate_applies_from_s(k.t_s, params.estimate_hold_off_s), k.latency.applied_s);
-    for (const IdentificationOutput& k : *identification)
-      dr.add_turn_slip(estimate_applies_from_s(k.t_s, params.estimate_hold_off_s),
-                       turn_slip_gain_to_apply(k.turn_slip.applies, k.turn_slip.g_s_per_rad), k.turn_slip_threshold_radps);
-    // The dead-reckoning node's own K policy, fed as the node feeds it (one identification here).
-    ScaleFactorSelection selection(params.nominal_k_m_per_pulse);
-    for (const IdentificationOutput& k : *identification) {
-      const IdentifiedScaleFactor s{estimate_applies_from_s(k.t_s, params.estimate_hold_off_s),
-                                    k.main.valid ? k.main.k_m_per_pulse : 0.0,
-                                    k.main.converged,
-                                    "identification",
-                                    k.main.sigma_m_per_pulse,
-                                    k.samples_accepted};
-      if (const auto update = selection.on_identified(s, 0.0))
-        dr.add_scale_factor(update->t_s, update->k_m_per_pulse, update->source);
+// Every sample of one stream to the pipeline, then the end of data.
+void feed(const SampleStream& next, OfflinePipeline& pipeline) {
+  while (const std::optional<DatasetEvent> e = next()) {
+    switch (e->kind) {
+      case DatasetStreamKind::kOdometer: pipeline.add_odometer(e->odometer); break;
+      case DatasetStreamKind::kGnss: pipeline.add_gnss(e->gnss); break;
+      case DatasetStreamKind::kIns: pipeline.add_ins(e->ins); break;
     }
   }
-  std::vector<DeadReckoningOutput> out = dr.finish();
-  if (counters) *counters = dr.counters();
-  return out;
+  pipeline.finish();
 }
 
-std::vector<AnchoredPosition> anchor_positions(const std::vector<DeadReckoningOutput>& dr,
-                                               const AnchoredPositionParams& params, AnchoredPositionCounters* counters) {
-  AnchoredPositionFilter filter(params);
-  std::vector<AnchoredPosition> out;
-  out.reserve(dr.size());
-  for (const DeadReckoningOutput& o : dr) out.push_back(filter.step(o));
-  if (counters) *counters = filter.counters();
-  return out;
-}
+/// Keeps every output of a run (the OfflineResult vectors).
+class Collector : public PipelineSink {
+ public:
+  explicit Collector(OfflineResult& result, bool coarse) : r_(result), coarse_(coarse) {}
+  void on_misalignment(const MisalignmentOutput& m) override {
+    if (!coarse_) r_.misalignment.push_back(m);
+  }
+  void on_scale_factor(const IdentificationOutput& k) override { r_.identification.push_back(k); }
+  void on_dead_reckoning(DeadReckoningStep step) override {
+    if (coarse_) {
+      r_.dr_coarse.push_back(std::move(step.output));
+    } else {
+      r_.dr_online.push_back(std::move(step.output));
+      r_.navigation_position.push_back(std::move(step.navigation));
+    }
+  }
 
-OfflineParams with_degraded_mode(const Dataset& d, OfflineParams p) {
-  const bool ins = d.has_ins();
+ private:
+  OfflineResult& r_;
+  bool coarse_;
+};
+
+OfflineParams with_degraded_mode(bool ins, OfflineParams p) {
   p.calibration.use_ins = ins;
   p.identification.builder.use_ins = ins;
   p.dead_reckoning.use_ins = ins;
+  p.identification.run_all_estimators = true;
   return p;
 }
 
-std::optional<double> final_coarse_k(const std::vector<IdentificationOutput>& outputs,
+std::optional<double> final_coarse_k(const std::optional<IdentificationOutput>& last,
                                      const std::vector<std::string>& names) {
   for (std::size_t i = 0; i < names.size(); ++i)
-    if (names[i] == "coarse" && !outputs.empty() && outputs.back().all[i].valid)
-      return outputs.back().all[i].k_m_per_pulse;
+    if (names[i] == "coarse" && last && last->all[i].valid) return last->all[i].k_m_per_pulse;
   return std::nullopt;
 }
 
+/// Keeps the last estimate and passes every output on.
+class LastEstimate : public PipelineSink {
+ public:
+  explicit LastEstimate(PipelineSink& next) : next_(next) {}
+  void on_misalignment(const MisalignmentOutput& m) override { next_.on_misalignment(m); }
+  void on_scale_factor(const IdentificationOutput& k) override {
+    last = k;
+    next_.on_scale_factor(k);
+  }
+  void on_dead_reckoning(DeadReckoningStep step) override { next_.on_dead_reckoning(std::move(step)); }
+  std::optional<IdentificationOutput> last;
+
+ private:
+  PipelineSink& next_;
+};
+
 }  // namespace
 
-OfflineResult run_offline(const Dataset& dataset, const OfflineParams& given) {
-  OfflineParams params = with_degraded_mode(dataset, given);
-  params.identification.run_all_estimators = true;
-  OfflineResult r;
-  r.misalignment = run_calibration(dataset, params.calibration, &r.calibration_counters);
-  r.identification = run_identification(dataset, params.identification, r.misalignment, &r.estimator_names,
-                                        &r.builder_counters);
-  r.dr_online = run_dead_reckoning(dataset, params.dead_reckoning, r.misalignment, &r.identification, &r.dr_counters);
-  r.navigation_position = anchor_positions(r.dr_online, params.anchored, &r.anchored_counters);
+SampleStream samples_of(const Dataset& d) {
+  struct Cursor {
+    const Dataset* d;
+    std::size_t o = 0, g = 0, i = 0;
+  };
+  auto c = std::make_shared<Cursor>(Cursor{&d});
+  return [c]() -> std::optional<DatasetEvent> {
+    const Dataset& d = *c->d;
+    constexpr double kEnd = std::numeric_limits<double>::infinity();
+    const double to = c->o < d.odometer.size() ? d.odometer[c->o].t_s : kEnd;
+    const double tg = c->g < d.gnss.size() ? d.gnss[c->g].t_s : kEnd;
+    const double ti = c->i < d.ins.size() ? d.ins[c->i].t_s : kEnd;
+    if (to == kEnd && tg == kEnd && ti == kEnd) return std::nullopt;
+    DatasetEvent e;
+    if (tg <= ti && tg <= to) {
+      e.kind = DatasetStreamKind::kGnss;
+      e.gnss = d.gnss[c->g++];
+      e.t_s = tg;
+    } else if (ti <= to) {
+      e.kind = DatasetStreamKind::kIns;
+      e.ins = d.ins[c->i++];
+      e.t_s = ti;
+    } else {
+      e.kind = DatasetStreamKind::kOdometer;
+      e.odometer = d.odometer[c->o++];
+      e.t_s = to;
+    }
+    return e;
+  };
+}
 
+OfflineRunTotals run_offline(const OpenSampleStream& open, bool has_ins, const OfflineParams& given,
+                             PipelineSink& sink, PipelineSink& coarse_sink) {
+  const OfflineParams params = with_degraded_mode(has_ins, given);
+  OfflineRunTotals r;
+  {
+    PipelineConfig config;
+    config.calibration = params.calibration;
+    config.identification = params.identification;
+    config.dead_reckoning = params.dead_reckoning;
+    config.anchored = params.anchored;
+    LastEstimate last(sink);
+    OfflinePipeline pipeline(config, last);
+    feed(open(), pipeline);
+    r.last_identification = std::move(last.last);
+    r.estimator_names = pipeline.identification()->estimator_names();
+    r.builder_counters = pipeline.identification()->builder_counters();
+    r.calibration_counters = pipeline.calibration().counters();
+    r.dr_counters = pipeline.dead_reckoning()->core().counters();
+    r.anchored_counters = pipeline.dead_reckoning()->anchor().counters();
+  }
   if (params.coarse_k_m_per_pulse) {
     r.coarse_k_m_per_pulse = *params.coarse_k_m_per_pulse;
     r.coarse_k_origin = params.coarse_k_origin.empty() ? "given" : params.coarse_k_origin;
-  } else if (auto k = final_coarse_k(r.identification, r.estimator_names)) {
+  } else if (auto k = final_coarse_k(r.last_identification, r.estimator_names)) {
     r.coarse_k_m_per_pulse = *k;
     r.coarse_k_origin = "coarse S/N of this dataset";
   } else {
     r.coarse_k_m_per_pulse = params.dead_reckoning.nominal_k_m_per_pulse;
     r.coarse_k_origin = "nominal (no straight run for S/N)";
   }
-  DeadReckonerParams coarse = params.dead_reckoning;
-  coarse.nominal_k_m_per_pulse = r.coarse_k_m_per_pulse;
-  r.dr_coarse = run_dead_reckoning(dataset, coarse, r.misalignment, nullptr, nullptr);
+  // The coarse run: the same calibration, dead reckoning on the coarse K, no identification.
+  PipelineConfig coarse;
+  coarse.calibration = params.calibration;
+  coarse.dead_reckoning = params.dead_reckoning;
+  coarse.dead_reckoning->nominal_k_m_per_pulse = r.coarse_k_m_per_pulse;
+  coarse.anchored = params.anchored;
+  OfflinePipeline pipeline(coarse, coarse_sink);
+  feed(open(), pipeline);
   return r;
 }
 
-std::optional<double> coarse_k_of(const Dataset& dataset, const OfflineParams& given) {
-  OfflineParams params = with_degraded_mode(dataset, given);
-  params.identification.run_all_estimators = true;
-  const auto misalignment = run_calibration(dataset, params.calibration, nullptr);
-  std::vector<std::string> names;
-  const auto identification = run_identification(dataset, params.identification, misalignment, &names, nullptr);
-  return final_coarse_k(identification, names);
+OfflineResult run_offline(const Dataset& dataset, const OfflineParams& params) {
+  OfflineResult r;
+  Collector collector(r, false);
+  Collector coarse_collector(r, true);
+  const OfflineRunTotals totals =
+      run_offline([&dataset] { return samples_of(dataset); }, dataset.has_ins(), params, collector, coarse_collector);
+  r.estimator_names = totals.estimator_names;
+  r.coarse_k_m_per_pulse = totals.coarse_k_m_per_pulse;
+  r.coarse_k_origin = totals.coarse_k_origin;
+  r.builder_counters = totals.builder_counters;
+  r.calibration_counters = totals.calibration_counters;
+  r.dr_counters = totals.dr_counters;
+  r.anchored_counters = totals.anchored_counters;
+  return r;
+}
+
+std::optional<double> coarse_k_of(const OpenSampleStream& open, bool has_ins, const OfflineParams& given) {
+  const OfflineParams params = with_degraded_mode(has_ins, given);
+  PipelineConfig config;
+  config.calibration = params.calibration;
+  config.identification = params.identification;
+  PipelineSink none;
+  LastEstimate last(none);
+  OfflinePipeline pipeline(config, last);
+  feed(open(), pipeline);
+  return final_coarse_k(last.last, pipeline.identification()->estimator_names());
+}
+
+std::optional<double> coarse_k_of(const Dataset& dataset, const OfflineParams& params) {
+  return coarse_k_of([&dataset] { return samples_of(dataset); }, dataset.has_ins(), params);
 }
 
 }  // namespace odonav::offline

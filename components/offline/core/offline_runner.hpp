@@ -1,16 +1,20 @@
 #pragma once
-// odonav-offline's pipeline without middleware: calibration -> identification -> dead reckoning over
-// a whole dataset, each stage consuming the previous stage's time-stamped outputs exactly as the DDS
-// components consume the published topics (same cores, same consumer rules), so both give the same
-// numbers on the same data.
+// odonav-offline's run: the distributed pipeline's components (calibration, identification, dead
+// reckoning) wired in one process by OfflinePipeline (offline_pipeline.hpp), over a dataset read as
+// one time-ordered stream, in two passes: the pipeline itself, then dead reckoning with the coarse K
+// (the identification's final coarse S/N estimate, known only at the end of the first pass). Each
+// output goes to a sink as it is made, so memory does not grow with the drive.
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "odonav/calibration/misalignment_calibrator.hpp"
 #include "odonav/dataset.hpp"
+#include "odonav/dataset_stream.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/identification/identification_core.hpp"
+#include "offline_pipeline.hpp"
 
 namespace odonav::offline {
 
@@ -40,11 +44,41 @@ struct OfflineResult {
   AnchoredPositionCounters anchored_counters;
 };
 
-/// Runs the three stages. Throws StreamInputError / std::invalid_argument on bad input or params.
+/// A dataset's sensor samples in event-time order, one per call; nullopt at the end.
+using SampleStream = std::function<std::optional<DatasetEvent>()>;
+/// Opens a fresh SampleStream over the same dataset (once per pass).
+using OpenSampleStream = std::function<SampleStream()>;
+
+/// A stream over an in-memory dataset (the order DatasetStream gives: by t_s; equal t_s GNSS, INS,
+/// odometer). `dataset` must outlive the stream.
+SampleStream samples_of(const Dataset& dataset);
+
+/// What a streaming run leaves besides the outputs it delivered.
+struct OfflineRunTotals {
+  std::vector<std::string> estimator_names;  ///< order of IdentificationOutput::all.
+  std::optional<IdentificationOutput> last_identification;  ///< the final estimate (none without GNSS epochs)
+  double coarse_k_m_per_pulse = 0.0;
+  std::string coarse_k_origin;
+  SampleBuilderCounters builder_counters;
+  MisalignmentCounters calibration_counters;
+  DeadReckonerCounters dr_counters;
+  AnchoredPositionCounters anchored_counters;
+};
+
+/// Runs the pipeline over open()'s samples, delivering every output to `sink` as it is made, then
+/// the coarse dead reckoning over a second stream, delivering its outputs to `coarse_sink`
+/// (on_dead_reckoning only; the calibration runs again there, and its outputs, identical, are not
+/// delivered). has_ins: the dataset has INS (false: degraded mode for every component). Throws
+/// StreamInputError / std::invalid_argument on bad input or params, and what open()'s stream throws.
+OfflineRunTotals run_offline(const OpenSampleStream& open, bool has_ins, const OfflineParams& params,
+                             PipelineSink& sink, PipelineSink& coarse_sink);
+
+/// run_offline over an in-memory dataset, every output kept.
 OfflineResult run_offline(const Dataset& dataset, const OfflineParams& params);
 
 /// The coarse S/N K of a dataset (its final coarse estimate), or nullopt if it has no usable
 /// straight run. Runs calibration and identification as run_offline does.
+std::optional<double> coarse_k_of(const OpenSampleStream& open, bool has_ins, const OfflineParams& params);
 std::optional<double> coarse_k_of(const Dataset& dataset, const OfflineParams& params);
 
 }  // namespace odonav::offline

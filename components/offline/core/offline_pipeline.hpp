@@ -1,0 +1,93 @@
+#pragma once
+// The distributed pipeline's processing components in one process, for odonav-offline: the
+// calibration (MisalignmentCalibrator), the identification (IdentificationCore) and dead reckoning
+// (DeadReckoningComponent), the same classes the DDS nodes run, connected by an in-process
+// event-time transport instead of DDS topics.
+//
+// Input: the sensor samples of a dataset in event-time order (odometer, INS, GNSS interleaved by
+// stamp; equal stamps in any order). Each component's outputs go to the components that subscribe
+// to them, converted by the functions their nodes publish from (published_misalignment,
+// published_scale_factor), and to the sink, as they are made.
+//
+// When a component processes: as its DDS node does. Each consumer has its own EventTimeAligner with
+// the node's inputs (the same streams, pacing and hold-off), fed every sample it receives; the
+// sensor streams are declared complete up to the last stamp passed (the dataset is read in time
+// order, as the gateway's completeness declaration says on the bus), and the aligner's watermark
+// decides how far the component's process_until may go. An estimate therefore reaches its consumer
+// before any output that depends on it is computed, whatever the processing schedule, so the
+// outputs are those of the pipeline (and of a run over whole vectors), and memory stays bounded by
+// the hold-off and the components' own windows, not by the drive.
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "odonav/calibration/misalignment_calibrator.hpp"
+#include "odonav/dead_reckoning/dead_reckoning_component.hpp"
+#include "odonav/event_time_aligner.hpp"
+#include "odonav/identification/identification_core.hpp"
+
+namespace odonav::offline {
+
+/// Receives the pipeline's outputs as they are made, each kind in event-time order.
+class PipelineSink {
+ public:
+  virtual ~PipelineSink() = default;
+  virtual void on_misalignment(const MisalignmentOutput& /*output*/) {}
+  virtual void on_scale_factor(const IdentificationOutput& /*output*/) {}
+  virtual void on_dead_reckoning(DeadReckoningStep /*step*/) {}
+};
+
+/// Which components run, with their parameters.
+struct PipelineConfig {
+  MisalignmentCalibratorParams calibration;
+  /// Unset: no identification (dead reckoning keeps its nominal K and a zero GNSS latency).
+  std::optional<IdentificationParams> identification;
+  /// Unset: no dead reckoning.
+  std::optional<DeadReckonerParams> dead_reckoning;
+  AnchoredPositionParams anchored;
+  /// The identification instance's name, as a node publishes it in ScaleFactor.source.
+  std::string identification_source = "identification";
+};
+
+class OfflinePipeline {
+ public:
+  /// Throws std::invalid_argument naming a parameter out of range. `sink` must outlive this.
+  OfflinePipeline(const PipelineConfig& config, PipelineSink& sink);
+  ~OfflinePipeline();
+  OfflinePipeline(const OfflinePipeline&) = delete;
+  OfflinePipeline& operator=(const OfflinePipeline&) = delete;
+
+  /// Sensor samples in event-time order across the three kinds (stamps, s, non-decreasing).
+  /// StreamInputError from a component on bad input (as the cores throw it).
+  void add_odometer(const OdometerSample& sample);
+  void add_gnss(const GnssSample& sample);
+  void add_ins(const InsSample& sample);  ///< ignored by the components whose params say use_ins = false
+  /// End of data: every component finishes in pipeline order and every remaining output is delivered.
+  void finish();
+
+  const MisalignmentCalibrator& calibration() const { return calibration_; }
+  /// nullptr when not configured.
+  const IdentificationCore* identification() const { return identification_.get(); }
+  const DeadReckoningComponent* dead_reckoning() const { return dead_reckoning_.get(); }
+
+ private:
+  struct Consumer;  // a component's aligner and its input streams
+  void advance_to(double t_s);
+  void process(double complete_through_s);
+  void deliver_misalignments(std::vector<MisalignmentOutput> outputs);
+  void deliver_scale_factors(std::vector<IdentificationOutput> outputs);
+  void deliver_dead_reckoning(std::vector<DeadReckoningOutput> outputs);
+
+  PipelineConfig config_;
+  PipelineSink& sink_;
+  MisalignmentCalibrator calibration_;
+  std::unique_ptr<IdentificationCore> identification_;
+  std::unique_ptr<DeadReckoningComponent> dead_reckoning_;
+  std::unique_ptr<Consumer> identification_inputs_;
+  std::unique_ptr<Consumer> dead_reckoning_inputs_;
+  std::optional<double> pending_t_s_;     ///< stamp of the samples passed since the last processing
+  std::optional<double> last_gnss_t_s_;
+  bool finished_ = false;
+};
+
+}  // namespace odonav::offline
