@@ -3,8 +3,12 @@
 // its reference; and their buffers do not grow with the drive.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <tuple>
 
 #include "core/simulator.hpp"
@@ -331,4 +335,64 @@ TEST(StreamingSummary, BuffersDoNotGrowWithTheDrive) {
               1e-7 * 6378137.0 * std::cos(kOrigin.lat_rad), 0.05);
   EXPECT_EQ(s["navigation_position"]["vs_truth"]["rows"].get<std::size_t>(), kRows);
   EXPECT_NEAR(period.median_s(), 0.1, 1e-9);
+}
+
+TEST(StreamingSummary, OutputFilesReadRowByRowAreTheRowsWritten) {
+  namespace fs = std::filesystem;
+  sim::SimulationConfig cfg = sim::scenario_config("straight");
+  cfg.seed = 2;
+  cfg.duration_s = 60.0;
+  const Dataset d = sim::simulate(cfg);
+  const OfflineParams p = user_params(d);
+  const results::OutputRows rows = to_output_rows(run_offline(d, p), p.identification.estimator_name);
+  const fs::path dir = fs::temp_directory_path() / ("odonav-streaming-summary-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  results::write_output_rows(dir.string(), rows);
+  const results::OutputRows whole = results::read_output_rows(dir.string());
+  ASSERT_FALSE(whole.dead_reckoning.empty());
+  ASSERT_FALSE(whole.navigation_position.empty());
+  {
+    results::OutputFileReader reader((dir / "dead_reckoning.csv").string());
+    std::size_t n = 0;
+    for (results::DeadReckoningRow r; reader.next(r); ++n) {
+      ASSERT_LT(n, whole.dead_reckoning.size());
+      EXPECT_EQ(r.t_s, whole.dead_reckoning[n].t_s);
+      EXPECT_EQ(r.lat_rad, whole.dead_reckoning[n].lat_rad);
+      EXPECT_EQ(r.distance_m, whole.dead_reckoning[n].distance_m);
+      EXPECT_EQ(r.k_source, whole.dead_reckoning[n].k_source);
+      EXPECT_EQ(r.t_s, rows.dead_reckoning[n].t_s);  // and the rows written
+    }
+    EXPECT_EQ(n, rows.dead_reckoning.size());
+  }
+  {
+    results::OutputFileReader reader((dir / "scale_factor.csv").string());
+    std::size_t n = 0;
+    for (results::ScaleFactorRow r; reader.next(r); ++n) {
+      ASSERT_LT(n, whole.scale_factor.size());
+      EXPECT_EQ(r.k_by_estimator, whole.scale_factor[n].k_by_estimator);
+      EXPECT_EQ(r.samples_accepted, whole.scale_factor[n].samples_accepted);
+    }
+    EXPECT_EQ(n, rows.scale_factor.size());
+  }
+  // A malformed value is named with its file, line and column.
+  {
+    std::ofstream bad(dir / "navigation_position.csv", std::ios::app);
+    bad << "1.0,x";
+    for (std::size_t i = 2; i < results::navigation_position_columns().size(); ++i) bad << ",";
+    bad << "\n";
+  }
+  results::OutputFileReader reader((dir / "navigation_position.csv").string());
+  results::NavigationPositionRow r;
+  std::string error;
+  try {
+    while (reader.next(r)) {
+    }
+  } catch (const std::runtime_error& e) {
+    error = e.what();
+  }
+  EXPECT_NE(error.find("navigation_position.csv:" + std::to_string(rows.navigation_position.size() + 2) +
+                       ": column 'lat_deg': not a number: 'x'"),
+            std::string::npos)
+      << error;
+  fs::remove_all(dir);
 }
