@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <string>
 
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
@@ -15,20 +17,66 @@
 
 namespace {
 
-// The event-time span of every row of the results (s); NaN when there is none.
-std::pair<double, double> rows_span_s(const odonav::results::OutputRows& rows) {
+namespace results = odonav::results;
+
+// The event-time span of every row of the results files (s); NaN when there is none. Read row by row.
+std::pair<double, double> rows_span_s(const std::string& dir) {
   double first = std::numeric_limits<double>::infinity(), last = -first;
-  const auto extend = [&](const auto& table) {
-    if (table.empty()) return;
-    first = std::min(first, table.front().t_s);
-    last = std::max(last, table.back().t_s);
+  const auto extend = [&](const std::string& file, auto row, bool optional) {
+    if (optional && !results::output_file_exists(dir + "/" + file)) return;
+    results::OutputFileReader reader(dir + "/" + file);
+    bool any = false;
+    while (reader.next(row)) {
+      if (!any) first = std::min(first, row.t_s);
+      any = true;
+    }
+    if (any) last = std::max(last, row.t_s);
   };
-  extend(rows.misalignment);
-  extend(rows.scale_factor);
-  extend(rows.dead_reckoning);
-  extend(rows.dead_reckoning_coarse);
+  extend("misalignment.csv", results::MisalignmentRow{}, false);
+  extend("scale_factor.csv", results::ScaleFactorRow{}, false);
+  extend("dead_reckoning.csv", results::DeadReckoningRow{}, false);
+  extend("dead_reckoning_coarse.csv", results::DeadReckoningRow{}, true);
   if (!std::isfinite(first)) return {std::nan(""), std::nan("")};
   return {first, last};
+}
+
+// The summary of the results files against the dataset, the files read row by row into the
+// accumulator (the DR and navigation rows interleaved by time, as a run produces them).
+nlohmann::json summarize(const odonav::Dataset& dataset, const std::string& dir,
+                         const odonav::offline::SummaryOptions& options) {
+  odonav::offline::SummaryAccumulator acc(odonav::offline::summary_inputs(dataset, options));
+  for (const odonav::OdometerSample& o : dataset.odometer) acc.add_odometer(o.t_s);
+  {
+    results::OutputFileReader reader(dir + "/misalignment.csv");
+    for (results::MisalignmentRow r; reader.next(r);) acc.add(r);
+  }
+  {
+    results::OutputFileReader reader(dir + "/scale_factor.csv");
+    for (results::ScaleFactorRow r; reader.next(r);) acc.add(r);
+  }
+  {
+    results::OutputFileReader dr_reader(dir + "/dead_reckoning.csv");
+    std::optional<results::OutputFileReader> nav_reader;
+    if (results::output_file_exists(dir + "/navigation_position.csv"))
+      nav_reader.emplace(dir + "/navigation_position.csv");
+    results::DeadReckoningRow dr;
+    results::NavigationPositionRow nav;
+    bool have_dr = dr_reader.next(dr), have_nav = nav_reader && nav_reader->next(nav);
+    while (have_dr || have_nav) {
+      if (!have_nav || (have_dr && dr.t_s <= nav.t_s)) {
+        acc.add_dead_reckoning(dr);
+        have_dr = dr_reader.next(dr);
+      } else {
+        acc.add(nav);
+        have_nav = nav_reader->next(nav);
+      }
+    }
+  }
+  if (results::output_file_exists(dir + "/dead_reckoning_coarse.csv")) {
+    results::OutputFileReader reader(dir + "/dead_reckoning_coarse.csv");
+    for (results::DeadReckoningRow r; reader.next(r);) acc.add_dead_reckoning_coarse(r);
+  }
+  return acc.finish();
 }
 
 }  // namespace
@@ -57,9 +105,8 @@ int main(int argc, char** argv) {
     const std::string results = opts.get_string("results");
     const std::string dataset_dir = opts.get_string("dataset");
     const odonav::Dataset dataset = odonav::read_dataset(dataset_dir, odonav::BadRowPolicy::kSkip);
-    const odonav::results::OutputRows rows = odonav::results::read_output_rows(results);
     // Results of another drive would be scored as if they were this one's (a 287 %D that means nothing).
-    const auto [t_first_s, t_last_s] = rows_span_s(rows);
+    const auto [t_first_s, t_last_s] = rows_span_s(results);
     const std::vector<std::string> mismatches =
         odonav::provenance_mismatches(odonav::read_provenance(results), t_first_s, t_last_s, dataset);
     for (const std::string& m : mismatches) spdlog::error("{} does not belong to {}: {}", results, dataset_dir, m);
@@ -73,7 +120,7 @@ int main(int argc, char** argv) {
     odonav::offline::SummaryOptions o;
     o.dataset_name = opts.get_string("dataset");
     o.coarse_k_origin = opts.get_string("coarse-k-origin");
-    nlohmann::json summary = odonav::offline::make_summary(dataset, rows, o);
+    nlohmann::json summary = summarize(dataset, results, o);
     if (!mismatches.empty()) {
       summary["warnings"] = nlohmann::json::array();
       for (const std::string& m : mismatches)

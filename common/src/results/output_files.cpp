@@ -151,164 +151,181 @@ void NavigationPositionCsv::write(const NavigationPositionRow& r) {
 namespace odonav::results {
 namespace {
 
-class CsvTable {
+// One line of a CSV output file at a time: the header's columns by name, and the current row's
+// fields, with errors naming the file, the line and the column.
+class CsvLines {
  public:
-  explicit CsvTable(const std::string& path) : path_(path) {
-    std::ifstream in(path);
-    if (!in) throw std::runtime_error(path + ": cannot open");
+  explicit CsvLines(const std::string& path) : path_(path), in_(path) {
+    if (!in_) throw std::runtime_error(path + ": cannot open");
     std::string line;
-    if (!std::getline(in, line)) throw std::runtime_error(path + ": empty file (no header)");
-    header_ = split(line);
+    if (!std::getline(in_, line)) throw std::runtime_error(path + ": empty file (no header)");
+    split(line, header_);
     for (std::size_t i = 0; i < header_.size(); ++i) index_[header_[i]] = i;
-    std::size_t line_no = 1;
-    while (std::getline(in, line)) {
-      ++line_no;
-      if (line.empty()) continue;
-      rows_.push_back(split(line));
-      line_numbers_.push_back(line_no);
-      if (rows_.back().size() != header_.size())
-        throw std::runtime_error(path + ":" + std::to_string(line_no) + ": " + std::to_string(rows_.back().size()) +
-                                 " fields, header has " + std::to_string(header_.size()));
-    }
   }
-  std::size_t size() const { return rows_.size(); }
-  const std::string& text(std::size_t row, const std::string& column) const {
+  /// Reads the next non-empty line; false at the end of the file.
+  bool next() {
+    while (std::getline(in_, line_)) {
+      ++line_no_;
+      if (line_.empty()) continue;
+      split(line_, fields_);
+      if (fields_.size() != header_.size())
+        throw std::runtime_error(path_ + ":" + std::to_string(line_no_) + ": " + std::to_string(fields_.size()) +
+                                 " fields, header has " + std::to_string(header_.size()));
+      return true;
+    }
+    return false;
+  }
+  const std::string& text(const std::string& column) const {
     auto it = index_.find(column);
     if (it == index_.end()) throw std::runtime_error(path_ + ": missing column '" + column + "'");
-    return rows_[row][it->second];
+    return fields_[it->second];
   }
   bool has(const std::string& column) const { return index_.count(column) > 0; }
-  std::optional<double> optional_number(std::size_t row, const std::string& column) const {
-    const std::string& t = text(row, column);
+  std::optional<double> optional_number(const std::string& column) const {
+    const std::string& t = text(column);
     if (t.empty()) return std::nullopt;
     double v = 0.0;
     const auto res = std::from_chars(t.data(), t.data() + t.size(), v);
     if (res.ec != std::errc() || res.ptr != t.data() + t.size())
-      throw std::runtime_error(path_ + ":" + std::to_string(line_numbers_[row]) + ": column '" + column +
-                               "': not a number: '" + t + "'");
+      throw std::runtime_error(path_ + ":" + std::to_string(line_no_) + ": column '" + column + "': not a number: '" +
+                               t + "'");
     return v;
   }
-  double number(std::size_t row, const std::string& column, double if_empty = std::numeric_limits<double>::quiet_NaN()) const {
-    return optional_number(row, column).value_or(if_empty);
+  double number(const std::string& column, double if_empty = std::numeric_limits<double>::quiet_NaN()) const {
+    return optional_number(column).value_or(if_empty);
   }
 
  private:
-  static std::vector<std::string> split(const std::string& line) {
-    std::vector<std::string> out(1);
+  static void split(const std::string& line, std::vector<std::string>& out) {
+    out.assign(1, std::string());
     for (char c : line) {
       if (c == ',') out.emplace_back();
       else if (c != '\r') out.back() += c;
     }
-    return out;
   }
   std::string path_;
+  std::ifstream in_;
   std::vector<std::string> header_;
   std::map<std::string, std::size_t> index_;
-  std::vector<std::vector<std::string>> rows_;
-  std::vector<std::size_t> line_numbers_;
+  std::string line_;
+  std::vector<std::string> fields_;
+  std::size_t line_no_ = 1;
 };
 
-std::vector<DeadReckoningRow> read_dead_reckoning(const std::string& path) {
-  const CsvTable t(path);
-  std::vector<DeadReckoningRow> rows(t.size());
-  for (std::size_t i = 0; i < t.size(); ++i) {
-    DeadReckoningRow& r = rows[i];
-    r.t_s = t.number(i, "t");
-    r.lat_rad = deg_to_rad(t.number(i, "lat_deg"));
-    r.lon_rad = deg_to_rad(t.number(i, "lon_deg"));
-    r.height_m = t.number(i, "height_m");
-    r.distance_m = t.number(i, "distance_m");
-    r.k_m_per_pulse = t.number(i, "k_m_per_pulse");
-    r.k_source = t.text(i, "k_source");
-    r.east_m = t.number(i, "east_m");
-    r.north_m = t.number(i, "north_m");
-    r.up_m = t.number(i, "up_m");
-    r.heading_rad = deg_to_rad(t.number(i, "heading_deg"));
-    r.horizontal_error_m = t.number(i, "horizontal_error_m");
-    r.error_percent = t.number(i, "error_percent");
-    // Files written before the error was evaluated per GNSS epoch have no error_t column.
-    r.error_t_s = t.has("error_t") ? t.number(i, "error_t") : std::numeric_limits<double>::quiet_NaN();
-  }
-  return rows;
+void parse(const CsvLines& t, MisalignmentRow& r) {
+  r.t_s = t.number("t");
+  r.heading_rad = deg_to_rad(t.number("heading_deg"));
+  r.pitch_rad = deg_to_rad(t.number("pitch_deg"));
+  r.heading_std_rad = deg_to_rad(t.number("heading_std_deg"));
+  r.pitch_std_rad = deg_to_rad(t.number("pitch_std_deg"));
+  r.converged = t.number("converged", 0.0) != 0.0;
+  r.state = t.text("state");
+  r.samples_used = static_cast<uint64_t>(t.number("samples_used", 0.0));
 }
 
-std::vector<NavigationPositionRow> read_navigation_position(const std::string& path) {
-  const CsvTable t(path);
-  std::vector<NavigationPositionRow> rows(t.size());
-  for (std::size_t i = 0; i < t.size(); ++i) {
-    NavigationPositionRow& r = rows[i];
-    r.t_s = t.number(i, "t");
-    r.lat_rad = deg_to_rad(t.number(i, "lat_deg"));
-    r.lon_rad = deg_to_rad(t.number(i, "lon_deg"));
-    r.height_m = t.number(i, "height_m");
-    r.east_m = t.number(i, "east_m");
-    r.north_m = t.number(i, "north_m");
-    r.up_m = t.number(i, "up_m");
-    r.var_east_m2 = t.number(i, "var_east_m2");
-    r.var_north_m2 = t.number(i, "var_north_m2");
-    r.var_up_m2 = t.number(i, "var_up_m2");
-    r.status = t.text(i, "status");
-    r.last_fix_t_s = t.number(i, "last_fix_t");
-    r.distance_since_fix_m = t.number(i, "distance_since_fix_m");
-  }
-  return rows;
+void parse(const CsvLines& t, ScaleFactorRow& r) {
+  r.t_s = t.number("t");
+  r.k_by_estimator.clear();
+  for (const std::string& c : scale_factor_estimator_columns())
+    if (t.has(c)) r.k_by_estimator.emplace_back(c.substr(2), t.optional_number(c));
+  r.lambda_vff_lm_rls = t.optional_number("lambda_vff_lm_rls");
+  r.estimator = t.text("estimator");
+  r.k_m_per_pulse = t.optional_number("k_m_per_pulse");
+  r.sigma_m_per_pulse = t.optional_number("sigma_m_per_pulse");
+  r.forgetting_factor = t.number("forgetting_factor", 1.0);
+  r.window_fill = t.number("window_fill", 0.0);
+  r.converged = t.number("converged", 0.0) != 0.0;
+  r.samples_accepted = static_cast<uint64_t>(t.number("samples_accepted", 0.0));
+  r.samples_rejected = static_cast<uint64_t>(t.number("samples_rejected", 0.0));
+  r.epoch_status = t.text("epoch_status");
+  r.gnss_latency_s = t.number("gnss_latency_s", 0.0);
+  r.gnss_latency_sigma_s = t.has("gnss_latency_sigma_s") ? t.optional_number("gnss_latency_sigma_s") : std::nullopt;
+  r.turn_slip_s_per_rad = t.number("turn_slip_s_per_rad", 0.0);
+  r.turn_slip_sigma_s_per_rad =
+      t.has("turn_slip_sigma_s_per_rad") ? t.optional_number("turn_slip_sigma_s_per_rad") : std::nullopt;
+  r.turn_slip_applies = t.number("turn_slip_applies", 0.0) != 0.0;
 }
 
-bool file_exists(const std::string& path) {
-  struct stat st {};
-  return ::stat(path.c_str(), &st) == 0;
+void parse(const CsvLines& t, DeadReckoningRow& r) {
+  r.t_s = t.number("t");
+  r.lat_rad = deg_to_rad(t.number("lat_deg"));
+  r.lon_rad = deg_to_rad(t.number("lon_deg"));
+  r.height_m = t.number("height_m");
+  r.distance_m = t.number("distance_m");
+  r.k_m_per_pulse = t.number("k_m_per_pulse");
+  r.k_source = t.text("k_source");
+  r.east_m = t.number("east_m");
+  r.north_m = t.number("north_m");
+  r.up_m = t.number("up_m");
+  r.heading_rad = deg_to_rad(t.number("heading_deg"));
+  r.horizontal_error_m = t.number("horizontal_error_m");
+  r.error_percent = t.number("error_percent");
+  // Files written before the error was evaluated per GNSS epoch have no error_t column.
+  r.error_t_s = t.has("error_t") ? t.number("error_t") : std::numeric_limits<double>::quiet_NaN();
+}
+
+void parse(const CsvLines& t, NavigationPositionRow& r) {
+  r.t_s = t.number("t");
+  r.lat_rad = deg_to_rad(t.number("lat_deg"));
+  r.lon_rad = deg_to_rad(t.number("lon_deg"));
+  r.height_m = t.number("height_m");
+  r.east_m = t.number("east_m");
+  r.north_m = t.number("north_m");
+  r.up_m = t.number("up_m");
+  r.var_east_m2 = t.number("var_east_m2");
+  r.var_north_m2 = t.number("var_north_m2");
+  r.var_up_m2 = t.number("var_up_m2");
+  r.status = t.text("status");
+  r.last_fix_t_s = t.number("last_fix_t");
+  r.distance_since_fix_m = t.number("distance_since_fix_m");
+}
+
+template <class Row>
+std::vector<Row> read_all(const std::string& path) {
+  OutputFileReader reader(path);
+  std::vector<Row> rows;
+  Row r;
+  while (reader.next(r)) rows.push_back(r);
+  return rows;
 }
 
 }  // namespace
 
+struct OutputFileReader::Impl {
+  explicit Impl(const std::string& path) : lines(path) {}
+  CsvLines lines;
+};
+
+OutputFileReader::OutputFileReader(const std::string& path) : impl_(std::make_unique<Impl>(path)) {}
+OutputFileReader::~OutputFileReader() = default;
+OutputFileReader::OutputFileReader(OutputFileReader&&) noexcept = default;
+OutputFileReader& OutputFileReader::operator=(OutputFileReader&&) noexcept = default;
+
+template <class Row>
+bool OutputFileReader::read(Row& row) {
+  if (!impl_->lines.next()) return false;
+  parse(impl_->lines, row);
+  return true;
+}
+bool OutputFileReader::next(MisalignmentRow& row) { return read(row); }
+bool OutputFileReader::next(ScaleFactorRow& row) { return read(row); }
+bool OutputFileReader::next(DeadReckoningRow& row) { return read(row); }
+bool OutputFileReader::next(NavigationPositionRow& row) { return read(row); }
+
+bool output_file_exists(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0;
+}
+
 OutputRows read_output_rows(const std::string& dir) {
   OutputRows out;
-  {
-    const CsvTable t(dir + "/misalignment.csv");
-    for (std::size_t i = 0; i < t.size(); ++i) {
-      MisalignmentRow r;
-      r.t_s = t.number(i, "t");
-      r.heading_rad = deg_to_rad(t.number(i, "heading_deg"));
-      r.pitch_rad = deg_to_rad(t.number(i, "pitch_deg"));
-      r.heading_std_rad = deg_to_rad(t.number(i, "heading_std_deg"));
-      r.pitch_std_rad = deg_to_rad(t.number(i, "pitch_std_deg"));
-      r.converged = t.number(i, "converged", 0.0) != 0.0;
-      r.state = t.text(i, "state");
-      r.samples_used = static_cast<uint64_t>(t.number(i, "samples_used", 0.0));
-      out.misalignment.push_back(r);
-    }
-  }
-  {
-    const CsvTable t(dir + "/scale_factor.csv");
-    for (std::size_t i = 0; i < t.size(); ++i) {
-      ScaleFactorRow r;
-      r.t_s = t.number(i, "t");
-      for (const std::string& c : scale_factor_estimator_columns())
-        if (t.has(c)) r.k_by_estimator.emplace_back(c.substr(2), t.optional_number(i, c));
-      r.lambda_vff_lm_rls = t.optional_number(i, "lambda_vff_lm_rls");
-      r.estimator = t.text(i, "estimator");
-      r.k_m_per_pulse = t.optional_number(i, "k_m_per_pulse");
-      r.sigma_m_per_pulse = t.optional_number(i, "sigma_m_per_pulse");
-      r.forgetting_factor = t.number(i, "forgetting_factor", 1.0);
-      r.window_fill = t.number(i, "window_fill", 0.0);
-      r.converged = t.number(i, "converged", 0.0) != 0.0;
-      r.samples_accepted = static_cast<uint64_t>(t.number(i, "samples_accepted", 0.0));
-      r.samples_rejected = static_cast<uint64_t>(t.number(i, "samples_rejected", 0.0));
-      r.epoch_status = t.text(i, "epoch_status");
-      r.gnss_latency_s = t.number(i, "gnss_latency_s", 0.0);
-      r.gnss_latency_sigma_s = t.has("gnss_latency_sigma_s") ? t.optional_number(i, "gnss_latency_sigma_s") : std::nullopt;
-      r.turn_slip_s_per_rad = t.number(i, "turn_slip_s_per_rad", 0.0);
-      r.turn_slip_sigma_s_per_rad =
-          t.has("turn_slip_sigma_s_per_rad") ? t.optional_number(i, "turn_slip_sigma_s_per_rad") : std::nullopt;
-      r.turn_slip_applies = t.number(i, "turn_slip_applies", 0.0) != 0.0;
-      out.scale_factor.push_back(r);
-    }
-  }
-  out.dead_reckoning = read_dead_reckoning(dir + "/dead_reckoning.csv");
-  if (file_exists(dir + "/dead_reckoning_coarse.csv"))
-    out.dead_reckoning_coarse = read_dead_reckoning(dir + "/dead_reckoning_coarse.csv");
-  if (file_exists(dir + "/navigation_position.csv"))
-    out.navigation_position = read_navigation_position(dir + "/navigation_position.csv");
+  out.misalignment = read_all<MisalignmentRow>(dir + "/misalignment.csv");
+  out.scale_factor = read_all<ScaleFactorRow>(dir + "/scale_factor.csv");
+  out.dead_reckoning = read_all<DeadReckoningRow>(dir + "/dead_reckoning.csv");
+  if (output_file_exists(dir + "/dead_reckoning_coarse.csv"))
+    out.dead_reckoning_coarse = read_all<DeadReckoningRow>(dir + "/dead_reckoning_coarse.csv");
+  if (output_file_exists(dir + "/navigation_position.csv"))
+    out.navigation_position = read_all<NavigationPositionRow>(dir + "/navigation_position.csv");
   return out;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "odonav/frames.hpp"
 
@@ -16,36 +17,15 @@ double reference_at(const std::vector<TimedValue>& ref, double t_s) {
   return std::prev(it)->value;
 }
 
-// First time from which every estimate in [from_s, until_s) stays within tol; NaN if none.
-double first_time_staying_within(const std::vector<TimedValue>& est, const std::vector<double>& rel_err,
-                                 double from_s, double until_s, double tol) {
-  double candidate = kNaN;
-  for (std::size_t i = 0; i < est.size(); ++i) {
-    if (est[i].t_s < from_s) continue;
-    if (est[i].t_s >= until_s) break;
-    if (std::abs(rel_err[i]) < tol) {
-      if (std::isnan(candidate)) candidate = est[i].t_s;
-    } else {
-      candidate = kNaN;
-    }
-  }
-  return candidate;
+// Linear interpolation between two positions at fraction f of the way from a to b.
+Geodetic interpolate(const Geodetic& a, const Geodetic& b, double f) {
+  return Geodetic{a.lat_rad + f * (b.lat_rad - a.lat_rad), a.lon_rad + f * (b.lon_rad - a.lon_rad),
+                  a.height_m + f * (b.height_m - a.height_m)};
 }
 
-// Linear interpolation of a track at t (nullopt outside its span or across a gap > max_gap_s).
-std::optional<Geodetic> track_at(const std::vector<TimedPosition>& track, double t_s, double max_gap_s = 1.5) {
-  if (track.empty() || t_s < track.front().t_s || t_s > track.back().t_s) return std::nullopt;
-  auto it = std::lower_bound(track.begin(), track.end(), t_s,
-                             [](const TimedPosition& p, double t) { return p.t_s < t; });
-  if (it->t_s == t_s) return it->position;
-  const TimedPosition& b = *it;
-  const TimedPosition& a = *std::prev(it);
-  if (b.t_s - a.t_s > max_gap_s) return std::nullopt;
-  const double f = (t_s - a.t_s) / (b.t_s - a.t_s);
-  return Geodetic{a.position.lat_rad + f * (b.position.lat_rad - a.position.lat_rad),
-                  a.position.lon_rad + f * (b.position.lon_rad - a.position.lon_rad),
-                  a.position.height_m + f * (b.position.height_m - a.position.height_m)};
-}
+// Largest time gap (s) across which a track is interpolated.
+constexpr double kMaxTrackGapS = 1.5;
+
 // Horizontal distance (m) between a DR position and the reference, the most frequent call of the
 // evaluation (every DR epoch of both runs). GeographicLib's geodesic inverse costs ~1 us and was
 // half the summary's time; the errors compared here are metres to kilometres, where the flat
@@ -67,103 +47,231 @@ double horizontal_error_m(const Geodetic& a, const Geodetic& b) {
   return horizontal_distance_m(a, b);
 }
 
-// Distance travelled at t (the DR epoch at or before t).
-double distance_at(const std::vector<TimedPosition>& dr, const std::vector<double>& distance_m, double t_s) {
-  auto it = std::upper_bound(dr.begin(), dr.end(), t_s, [](double t, const TimedPosition& p) { return t < p.t_s; });
-  if (it == dr.begin()) return distance_m.front();
-  return distance_m[static_cast<std::size_t>(std::prev(it) - dr.begin())];
-}
 }  // namespace
+
+void ScaleFactorEvaluator::Sums::add(double rel) {
+  sum_sq += rel * rel;
+  max_abs = std::max(max_abs, std::abs(rel));
+  ++n;
+}
+
+ScaleFactorEvaluator::ScaleFactorEvaluator(std::vector<KStep> steps, const KEvaluationParams& params)
+    : steps_(std::move(steps)), params_(params), settle_candidate_s_(steps_.size(), kNaN) {}
+
+void ScaleFactorEvaluator::drop_steps_from(std::size_t n) {
+  if (n >= steps_.size()) return;
+  steps_.resize(n);
+  settle_candidate_s_.resize(n);
+  segment_ = std::min(segment_, n);
+}
+
+void ScaleFactorEvaluator::set_first_motion(double t_s) { first_motion_s_ = t_s; }
+
+void ScaleFactorEvaluator::add(double t_s, double estimate, double reference) {
+  const double rel = (estimate - reference) / reference;
+  any_ = true;
+  last_rel_ = rel;
+  while (segment_ < steps_.size() && t_s >= steps_[segment_].t_s) ++segment_;
+  bool in_window = false;
+  for (const KStep& st : steps_) in_window = in_window || (t_s >= st.t_s && t_s < st.t_s + params_.settle_window_s);
+  const bool within = std::abs(rel) < params_.tolerance_rel;
+  // Convergence: the first time from which every estimate from first motion until the first step
+  // stays within the tolerance; the RMS then covers the estimates from that time on.
+  if (segment_ == 0) {
+    if (!(t_s < first_motion_s_)) {
+      if (within) {
+        if (std::isnan(converge_candidate_s_)) {
+          converge_candidate_s_ = t_s;
+          since_candidate_ = {};
+        }
+      } else {
+        converge_candidate_s_ = kNaN;
+        since_candidate_ = {};
+      }
+    }
+  } else {
+    double& candidate = settle_candidate_s_[segment_ - 1];
+    if (!within)
+      candidate = kNaN;
+    else if (std::isnan(candidate))
+      candidate = t_s;
+  }
+  if (in_window) return;
+  if (!std::isnan(converge_candidate_s_) && !(t_s < converge_candidate_s_)) since_candidate_.add(rel);
+  if (!(t_s < first_motion_s_ + params_.settle_window_s)) after_window_.add(rel);
+}
+
+KEvaluation ScaleFactorEvaluator::result() const {
+  KEvaluation out;
+  if (!any_) return out;
+  const double t_conv = converge_candidate_s_;
+  out.time_to_converge_s = std::isnan(t_conv) ? kNaN : t_conv - first_motion_s_;
+  for (std::size_t s = 0; s < steps_.size(); ++s)
+    out.settle_times_s.push_back(std::isnan(settle_candidate_s_[s]) ? kNaN : settle_candidate_s_[s] - steps_[s].t_s);
+  // RMS after convergence (or after the settle window from the first motion when it never
+  // converged), outside the settle windows after each step.
+  const Sums& sums = std::isnan(t_conv) ? after_window_ : since_candidate_;
+  out.epochs = sums.n;
+  if (sums.n > 0) {
+    out.rms_rel_error = std::sqrt(sums.sum_sq / static_cast<double>(sums.n));
+    out.max_rel_error = sums.max_abs;
+  }
+  out.final_rel_error = last_rel_;
+  return out;
+}
 
 KEvaluation evaluate_scale_factor(const std::vector<TimedValue>& estimate, const std::vector<TimedValue>& reference,
                                   const std::vector<KStep>& steps, double first_motion_t_s,
                                   const KEvaluationParams& params) {
-  KEvaluation out;
-  if (estimate.empty() || reference.empty()) return out;
-  std::vector<double> rel(estimate.size());
-  for (std::size_t i = 0; i < estimate.size(); ++i) {
-    const double k_ref = reference_at(reference, estimate[i].t_s);
-    rel[i] = (estimate[i].value - k_ref) / k_ref;
+  if (estimate.empty() || reference.empty()) return KEvaluation{};
+  ScaleFactorEvaluator e(steps, params);
+  e.set_first_motion(first_motion_t_s);
+  for (const TimedValue& v : estimate) e.add(v.t_s, v.value, reference_at(reference, v.t_s));
+  return e.result();
+}
+
+OutageList::OutageList(std::vector<Outage> outages) : outages_(std::move(outages)) {}
+
+OutageList::OutageList(Source<GnssSample> gnss, double min_gap_s) : gnss_(std::move(gnss)), min_gap_s_(min_gap_s) {}
+
+void OutageList::discover_through(double t_s) {
+  // An outage between valid fixes a and b is known once b is read: read until a valid fix after t_s.
+  while (gnss_ && (!last_valid_s_ || !(*last_valid_s_ > t_s))) {
+    const std::optional<GnssSample> g = gnss_();
+    if (!g) {
+      gnss_ = nullptr;
+      break;
+    }
+    if (!g->valid()) continue;
+    if (last_valid_s_ && g->t_s - *last_valid_s_ >= min_gap_s_) outages_.push_back({*last_valid_s_, g->t_s});
+    last_valid_s_ = g->t_s;
   }
-  const double inf = std::numeric_limits<double>::infinity();
-  const double first_step_s = steps.empty() ? inf : steps.front().t_s;
-  const double t_conv = first_time_staying_within(estimate, rel, first_motion_t_s, first_step_s, params.tolerance_rel);
-  out.time_to_converge_s = std::isnan(t_conv) ? kNaN : t_conv - first_motion_t_s;
-  for (std::size_t s = 0; s < steps.size(); ++s) {
-    const double until = s + 1 < steps.size() ? steps[s + 1].t_s : inf;
-    const double t_settle = first_time_staying_within(estimate, rel, steps[s].t_s, until, params.tolerance_rel);
-    out.settle_times_s.push_back(std::isnan(t_settle) ? kNaN : t_settle - steps[s].t_s);
+}
+
+void OutageList::discover_all() { discover_through(std::numeric_limits<double>::infinity()); }
+
+DeadReckoningEvaluator::DeadReckoningEvaluator(const SourceFactory<TimedPosition>& reference, OutageList outages,
+                                               double min_distance_m)
+    : error_ref_(reference()), probe_ref_(reference()), outages_(std::move(outages)), min_distance_m_(min_distance_m) {}
+
+void DeadReckoningEvaluator::add(double t_s, const Geodetic& position, double distance_m) {
+  const Epoch epoch{t_s, position, distance_m};
+  // The reference at this epoch: linear between the reference epochs around it.
+  if (!ref_started_) {
+    ref_next_ = error_ref_();
+    ref_started_ = true;
   }
-  // RMS after convergence (or after the settle window from the first motion when it never
-  // converged), outside the settle windows after each step.
-  const double rms_from = std::isnan(t_conv) ? first_motion_t_s + params.settle_window_s : t_conv;
-  double sum_sq = 0.0, max_abs = 0.0;
-  for (std::size_t i = 0; i < estimate.size(); ++i) {
-    const double t = estimate[i].t_s;
-    if (t < rms_from) continue;
-    bool in_window = false;
-    for (const KStep& st : steps) in_window = in_window || (t >= st.t_s && t < st.t_s + params.settle_window_s);
-    if (in_window) continue;
-    sum_sq += rel[i] * rel[i];
-    max_abs = std::max(max_abs, std::abs(rel[i]));
-    ++out.epochs;
+  while (ref_next_ && ref_next_->t_s < t_s) {
+    ref_prev_ = ref_next_;
+    ref_next_ = error_ref_();
   }
-  if (out.epochs > 0) {
-    out.rms_rel_error = std::sqrt(sum_sq / static_cast<double>(out.epochs));
-    out.max_rel_error = max_abs;
+  std::optional<Geodetic> ref;
+  if (ref_next_ && ref_next_->t_s == t_s)
+    ref = ref_next_->position;
+  else if (ref_next_ && ref_prev_ && !(ref_next_->t_s - ref_prev_->t_s > kMaxTrackGapS))
+    ref = interpolate(ref_prev_->position, ref_next_->position,
+                      (t_s - ref_prev_->t_s) / (ref_next_->t_s - ref_prev_->t_s));
+  if (ref) {
+    const double err = horizontal_error_m(position, *ref);
+    ++out_.epochs;
+    out_.distance_m = distance_m;
+    out_.final_error_m = err;
+    out_.final_error_percent = distance_m > 0 ? 100.0 * err / distance_m : kNaN;
+    max_err_ = std::max(max_err_, err);
+    if (distance_m >= min_distance_m_) {
+      max_pct_ = std::max(max_pct_, 100.0 * err / distance_m);
+      any_pct_ = true;
+    }
   }
-  out.final_rel_error = rel.back();
+  // The DR track at every reference epoch this epoch has passed (for the outages).
+  if (!probe_started_) {
+    probe_next_ = probe_ref_();
+    probe_started_ = true;
+  }
+  while (probe_next_ && probe_next_->t_s < t_s) {
+    resolve(*probe_next_, &epoch);
+    probe_next_ = probe_ref_();
+  }
+  if (!last_ || last_->t_s != t_s) group_first_position_ = position;
+  if (!first_) first_ = epoch;
+  last_ = epoch;
+}
+
+// The DR track at reference epoch q, when every DR epoch before `next` (the first after q.t_s;
+// nullptr after the last) has been added: the DR position at q's time (interpolated as
+// evaluate_dead_reckoning does; none outside the DR's span) and the distance of the last DR epoch
+// at or before it (of the first when none is).
+void DeadReckoningEvaluator::resolve(const TimedPosition& q, const Epoch* next) {
+  outages_.discover_through(q.t_s);
+  if (outage_states_.size() < outages_.outages().size()) outage_states_.resize(outages_.outages().size());
+  Probe p{q, std::nullopt, kNaN};
+  if (last_ && last_->t_s == q.t_s) {
+    p.dr = group_first_position_;
+    p.dr_distance_m = last_->distance_m;
+  } else if (last_) {
+    if (next && !(next->t_s - last_->t_s > kMaxTrackGapS))
+      p.dr = interpolate(last_->position, next->position, (q.t_s - last_->t_s) / (next->t_s - last_->t_s));
+    p.dr_distance_m = last_->distance_m;
+  } else if (next) {
+    p.dr_distance_m = next->distance_m;
+  }
+  close_outages(p);
+  last_probe_ = p;
+}
+
+// Outages: the reference's last epoch at or before the start and first at or after the end
+// bracket the outage (a GNSS reference has no samples inside it).
+void DeadReckoningEvaluator::close_outages(const Probe& p) {
+  for (std::size_t i = 0; i < outage_states_.size(); ++i) {
+    OutageState& st = outage_states_[i];
+    const Outage& o = outages_.outages()[i];
+    if (st.done) continue;
+    if (!st.start_decided && p.reference.t_s > o.start_s) {
+      st.start_decided = true;
+      st.start = last_probe_;
+    }
+    if (!st.start_decided || p.reference.t_s < o.end_s) continue;
+    st.done = true;
+    if (!st.start || !st.start->dr || !p.dr) continue;
+    const Probe& a = *st.start;
+    const LocalEnuFrame frame(a.reference.position);
+    const Eigen::Vector3d dr_delta = frame.to_enu(*p.dr) - frame.to_enu(*a.dr);
+    const Eigen::Vector3d ref_delta = frame.to_enu(p.reference.position);
+    st.error_m = (dr_delta - ref_delta).head<2>().norm();
+    st.error_percent = p.dr_distance_m > a.dr_distance_m ? 100.0 * st.error_m / (p.dr_distance_m - a.dr_distance_m) : kNaN;
+  }
+}
+
+DrEvaluation DeadReckoningEvaluator::finish() {
+  outages_.discover_all();
+  if (outage_states_.size() < outages_.outages().size()) outage_states_.resize(outages_.outages().size());
+  if (!probe_started_) {
+    probe_next_ = probe_ref_();
+    probe_started_ = true;
+  }
+  const auto open = [&] {
+    return std::any_of(outage_states_.begin(), outage_states_.end(), [](const OutageState& s) { return !s.done; });
+  };
+  while (probe_next_ && open()) {
+    resolve(*probe_next_, nullptr);
+    probe_next_ = probe_ref_();
+  }
+  DrEvaluation out = out_;
+  if (out.epochs > 0) out.max_error_m = max_err_;
+  if (any_pct_) out.max_error_percent = max_pct_;
+  for (const OutageState& st : outage_states_) {
+    out.outage_error_m.push_back(st.error_m);
+    out.outage_error_percent.push_back(st.error_percent);
+  }
   return out;
 }
 
 DrEvaluation evaluate_dead_reckoning(const std::vector<TimedPosition>& dr, const std::vector<double>& distance_m,
                                      const std::vector<TimedPosition>& reference, const std::vector<Outage>& outages,
                                      double min_distance_m) {
-  DrEvaluation out;
-  double max_err = 0.0, max_pct = 0.0;
-  bool any_pct = false;
-  for (std::size_t i = 0; i < dr.size(); ++i) {
-    const std::optional<Geodetic> ref = track_at(reference, dr[i].t_s);
-    if (!ref) continue;
-    const double err = horizontal_error_m(dr[i].position, *ref);
-    ++out.epochs;
-    out.distance_m = distance_m[i];
-    out.final_error_m = err;
-    out.final_error_percent = distance_m[i] > 0 ? 100.0 * err / distance_m[i] : kNaN;
-    max_err = std::max(max_err, err);
-    if (distance_m[i] >= min_distance_m) {
-      max_pct = std::max(max_pct, 100.0 * err / distance_m[i]);
-      any_pct = true;
-    }
-  }
-  if (out.epochs > 0) out.max_error_m = max_err;
-  if (any_pct) out.max_error_percent = max_pct;
-
-  // Outages: the reference's last epoch at or before the start and first at or after the end
-  // bracket the outage (a GNSS reference has no samples inside it).
-  for (const Outage& o : outages) {
-    double err_m = kNaN, pct = kNaN;
-    auto ref_start = std::upper_bound(reference.begin(), reference.end(), o.start_s,
-                                      [](double t, const TimedPosition& p) { return t < p.t_s; });
-    auto ref_end = std::lower_bound(reference.begin(), reference.end(), o.end_s,
-                                    [](const TimedPosition& p, double t) { return p.t_s < t; });
-    if (ref_start != reference.begin() && ref_end != reference.end()) {
-      --ref_start;
-      const std::optional<Geodetic> dr_start = track_at(dr, ref_start->t_s);
-      const std::optional<Geodetic> dr_end = track_at(dr, ref_end->t_s);
-      if (dr_start && dr_end) {
-        const LocalEnuFrame frame(ref_start->position);
-        const Eigen::Vector3d dr_delta = frame.to_enu(*dr_end) - frame.to_enu(*dr_start);
-        const Eigen::Vector3d ref_delta = frame.to_enu(ref_end->position);
-        err_m = (dr_delta - ref_delta).head<2>().norm();
-        const double d0 = distance_at(dr, distance_m, ref_start->t_s), d1 = distance_at(dr, distance_m, ref_end->t_s);
-        pct = d1 > d0 ? 100.0 * err_m / (d1 - d0) : kNaN;
-      }
-    }
-    out.outage_error_m.push_back(err_m);
-    out.outage_error_percent.push_back(pct);
-  }
-  return out;
+  DeadReckoningEvaluator e(vector_source(reference), OutageList(outages), min_distance_m);
+  for (std::size_t i = 0; i < dr.size(); ++i) e.add(dr[i].t_s, dr[i].position, distance_m[i]);
+  return e.finish();
 }
 
 }  // namespace odonav::offline

@@ -2,14 +2,37 @@
 // Evaluation of odonav's outputs against a reference: scale-factor error against the true K, and dead
 // reckoning error against a reference track (truth, or GNSS when there is no truth). Middleware-free,
 // used by odonav-offline and by the pipeline's summary alike, so both report the same figures.
+#include <cstddef>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "odonav/geodesy.hpp"
+#include "odonav/sensor_samples.hpp"
 
 namespace odonav::offline {
+
+/// A pull source: each call returns the next item in time order, nullopt at the end (and after).
+/// The evaluations read truth, GNSS and INS through these, so that no file is held in memory.
+template <class T>
+using Source = std::function<std::optional<T>()>;
+/// Opens a fresh source over the same items, from the first (each evaluated stream keeps its own
+/// cursor; a cursor asked for a time before its position opens a fresh one).
+template <class T>
+using SourceFactory = std::function<Source<T>()>;
+
+/// A factory over items held in memory. The vector must outlive every source made.
+template <class T>
+SourceFactory<T> vector_source(const std::vector<T>& items) {
+  return [&items]() -> Source<T> {
+    return [&items, i = std::size_t{0}]() mutable -> std::optional<T> {
+      if (i >= items.size()) return std::nullopt;
+      return items[i++];
+    };
+  };
+}
 
 /// A value at a time (t_s on the dataset's time base).
 struct TimedValue {
@@ -43,9 +66,46 @@ struct KEvaluationParams {
   double settle_window_s = 10.0;      ///< excluded from the RMS after each step (the allowed settle time).
 };
 
+/// evaluate_scale_factor one estimate at a time, in constant memory: estimates in time order, each
+/// with the reference K in force at its time.
+class ScaleFactorEvaluator {
+ public:
+  /// steps: the true K's steps (time order; their times in s bound the settle windows).
+  explicit ScaleFactorEvaluator(std::vector<KStep> steps, const KEvaluationParams& params = {});
+  /// The time (s) of the first accepted regression sample; convergence is timed from it. Estimates
+  /// added before this call only count as the final estimate (they precede the first motion).
+  void set_first_motion(double t_s);
+  /// One estimate K (m/pulse) at t_s (s, not before the previous estimate's) against the reference K
+  /// in force at t_s (m/pulse).
+  void add(double t_s, double estimate_m_per_pulse, double reference_m_per_pulse);
+  /// Forgets the steps from index n on (a drive cut short never reaches them); only while no
+  /// estimate at or after step n's time has been added.
+  void drop_steps_from(std::size_t n);
+  /// The figures of the estimates added so far.
+  KEvaluation result() const;
+
+ private:
+  struct Sums {  // squared and largest relative error, and their count, of an RMS span
+    double sum_sq = 0.0, max_abs = 0.0;
+    std::size_t n = 0;
+    void add(double rel);
+  };
+  std::vector<KStep> steps_;
+  KEvaluationParams params_;
+  double first_motion_s_ = std::numeric_limits<double>::quiet_NaN();
+  std::size_t segment_ = 0;  ///< 0: before the first step; s + 1: from step s to the next.
+  double converge_candidate_s_ = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> settle_candidate_s_;  ///< per step
+  Sums since_candidate_;  ///< estimates from the convergence candidate on
+  Sums after_window_;     ///< estimates from first motion + settle window on (never converged)
+  double last_rel_ = std::numeric_limits<double>::quiet_NaN();
+  bool any_ = false;
+};
+
 /// Compares an estimate series with the reference K (a step function: the latest reference value at
 /// or before each estimate's time). first_motion_t_s: time of the first accepted regression sample.
 /// The RMS covers estimates after convergence (time_to_converge), outside [step, step + settle_window).
+/// ScaleFactorEvaluator over whole vectors.
 KEvaluation evaluate_scale_factor(const std::vector<TimedValue>& estimate_m_per_pulse,
                                   const std::vector<TimedValue>& reference_m_per_pulse,
                                   const std::vector<KStep>& steps, double first_motion_t_s,
@@ -78,9 +138,84 @@ struct DrEvaluation {
   std::vector<double> outage_error_percent;
 };
 
+/// The GNSS outages of a drive, found as a stream is read: a fixed list (the simulator's meta.json),
+/// or the spans of >= 5 s without a valid fix, found by reading a GNSS source ahead of the caller.
+class OutageList {
+ public:
+  /// Outages known beforehand (s, in the order given).
+  explicit OutageList(std::vector<Outage> outages);
+  /// Outages between consecutive valid fixes of `gnss` at least min_gap_s apart (s).
+  explicit OutageList(Source<GnssSample> gnss, double min_gap_s = 5.0);
+  /// Reads the GNSS ahead until every outage that starts at or before t_s (s) is known.
+  void discover_through(double t_s);
+  /// Reads the GNSS to its end.
+  void discover_all();
+  /// The outages found so far, in time order of discovery.
+  const std::vector<Outage>& outages() const { return outages_; }
+
+ private:
+  std::vector<Outage> outages_;
+  Source<GnssSample> gnss_;
+  double min_gap_s_ = 5.0;
+  std::optional<double> last_valid_s_;
+};
+
+/// evaluate_dead_reckoning one DR epoch at a time, in constant memory: the reference is read
+/// through two cursors of its own (one for the errors, one for the outages' end points).
+class DeadReckoningEvaluator {
+ public:
+  /// reference: the reference track (time order); outages: as evaluate_dead_reckoning's;
+  /// min_distance_m: %D maxima ignore the first metres (m).
+  DeadReckoningEvaluator(const SourceFactory<TimedPosition>& reference, OutageList outages,
+                         double min_distance_m = 100.0);
+  /// One DR epoch: time (s, not before the previous epoch's), WGS-84 position, distance travelled (m).
+  void add(double t_s, const Geodetic& position, double distance_m);
+  /// The figures; reads the rest of the reference and of the outage source. Call once.
+  DrEvaluation finish();
+  /// The outages (complete after finish()).
+  const std::vector<Outage>& outages() const { return outages_.outages(); }
+
+ private:
+  struct Epoch {  // one DR epoch as the outage computation needs it
+    double t_s = 0.0;
+    Geodetic position;
+    double distance_m = 0.0;
+  };
+  struct Probe {  // a reference epoch with the DR track at its time
+    TimedPosition reference;
+    std::optional<Geodetic> dr;
+    double dr_distance_m = 0.0;
+  };
+  struct OutageState {
+    bool start_decided = false;
+    std::optional<Probe> start;
+    bool done = false;
+    double error_m = std::numeric_limits<double>::quiet_NaN();
+    double error_percent = std::numeric_limits<double>::quiet_NaN();
+  };
+  void resolve(const TimedPosition& q, const Epoch* next);
+  void close_outages(const Probe& p);
+
+  Source<TimedPosition> error_ref_, probe_ref_;
+  std::optional<TimedPosition> ref_prev_, ref_next_;
+  bool ref_started_ = false;
+  std::optional<TimedPosition> probe_next_;
+  bool probe_started_ = false;
+  OutageList outages_;
+  std::vector<OutageState> outage_states_;
+  double min_distance_m_;
+  std::optional<Epoch> first_, last_;
+  Geodetic group_first_position_;  ///< position of the first epoch at last_'s time
+  std::optional<Probe> last_probe_;
+  DrEvaluation out_;
+  double max_err_ = 0.0, max_pct_ = 0.0;
+  bool any_pct_ = false;
+};
+
 /// Compares a DR track with a reference track (interpolated linearly in time; epochs outside the
 /// reference's span are skipped). distance_m: distance travelled at each DR epoch (same length as dr).
 /// min_distance_m: %D maxima ignore the first metres, where %D is meaningless.
+/// DeadReckoningEvaluator over whole vectors.
 DrEvaluation evaluate_dead_reckoning(const std::vector<TimedPosition>& dr, const std::vector<double>& distance_m,
                                      const std::vector<TimedPosition>& reference,
                                      const std::vector<Outage>& outages, double min_distance_m = 100.0);

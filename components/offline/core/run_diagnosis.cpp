@@ -16,19 +16,10 @@ std::string num(double v, int precision = 4) {
   return s.str();
 }
 
-template <class Samples>
-std::vector<double> times_of(const Samples& samples) {
-  std::vector<double> t;
-  t.reserve(samples.size());
-  for (const auto& s : samples) t.push_back(s.t_s);
-  return t;
-}
-
 // The identification's rejections: which gate took most GNSS epochs, in words with its threshold,
 // the observed value and the flag that sets it.
-std::string dominant_gate(const Dataset& d, const OfflineParams& p, const SampleBuilderCounters& c) {
+std::string dominant_gate(double gnss_period_s, const OfflineParams& p, const SampleBuilderCounters& c) {
   const SampleBuilderParams& b = p.identification.builder;
-  const double gnss_period_s = median_period_s(times_of(d.gnss));
   std::vector<std::pair<uint64_t, std::string>> gates = {
       {c.gap, "as gaps > " + num(effective_max_interval_s(b, gnss_period_s)) +
                   " s (--max-interval-s" + (b.max_interval_s > 0.0 ? "" : ", derived from the GNSS period") +
@@ -57,23 +48,73 @@ std::string dominant_gate(const Dataset& d, const OfflineParams& p, const Sample
 
 }  // namespace
 
-double median_period_s(const std::vector<double>& t) {
-  if (t.size() < 2) return std::nan("");
-  std::vector<double> dt;
-  dt.reserve(t.size() - 1);
-  for (std::size_t i = 1; i < t.size(); ++i) dt.push_back(t[i] - t[i - 1]);
-  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
-  return dt[dt.size() / 2];
+void MedianPeriod::add(double t_s) {
+  if (last_s_) {
+    double dt = t_s - *last_s_;
+    if (rounded_) dt = std::round(dt * 1e6) / 1e6;
+    ++count_by_interval_[dt];
+    ++intervals_;
+    if (!rounded_ && count_by_interval_.size() > kMaxDistinct) {
+      std::map<double, std::size_t> rounded;
+      for (const auto& [interval, n] : count_by_interval_) rounded[std::round(interval * 1e6) / 1e6] += n;
+      count_by_interval_.swap(rounded);
+      rounded_ = true;
+    }
+  }
+  last_s_ = t_s;
 }
 
+double MedianPeriod::median_s() const {
+  if (intervals_ == 0) return std::nan("");
+  const std::size_t k = intervals_ / 2;  // the k-th smallest, from 0
+  std::size_t below = 0;
+  for (const auto& [interval, n] : count_by_interval_) {
+    below += n;
+    if (below > k) return interval;
+  }
+  return std::nan("");
+}
+
+double median_period_s(const std::vector<double>& t) {
+  MedianPeriod m;
+  for (double x : t) m.add(x);
+  return m.median_s();
+}
+
+void RunDiagnosisAccumulator::Span::add(double t_s) {
+  if (n++ == 0) first_s = t_s;
+  last_s = t_s;
+}
+
+void RunDiagnosisAccumulator::add_odometer(double t_s) { odometer_.add(t_s); }
+void RunDiagnosisAccumulator::add_gnss(double t_s) {
+  gnss_.add(t_s);
+  gnss_period_.add(t_s);
+}
+void RunDiagnosisAccumulator::add_ins(double) { has_ins_ = true; }
+void RunDiagnosisAccumulator::add_identification(const ScaleFactorEstimate& main) { last_main_ = main; }
+void RunDiagnosisAccumulator::add_dead_reckoning(double t_s) { dead_reckoning_.add(t_s); }
+
 RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const OfflineResult& r) {
+  RunDiagnosisAccumulator acc;
+  for (const OdometerSample& o : d.odometer) acc.add_odometer(o.t_s);
+  for (const GnssSample& g : d.gnss) acc.add_gnss(g.t_s);
+  for (const InsSample& i : d.ins) acc.add_ins(i.t_s);
+  for (const IdentificationOutput& k : r.identification) acc.add_identification(k.main);
+  for (const DeadReckoningOutput& o : r.dr_online) acc.add_dead_reckoning(o.t_s);
+  return acc.finish(p, r.builder_counters, r.calibration_counters, r.dr_counters);
+}
+
+RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const SampleBuilderCounters& c,
+                                             const MisalignmentCounters& m,
+                                             const DeadReckonerCounters& dr_counters) const {
   RunDiagnosis out;
   auto warn = [&](std::string code, std::string message) { out.warnings.push_back({std::move(code), std::move(message)}); };
 
   // Time overlap of the two streams every result needs.
-  if (!d.odometer.empty() && !d.gnss.empty()) {
-    const double o0 = d.odometer.front().t_s, o1 = d.odometer.back().t_s;
-    const double g0 = d.gnss.front().t_s, g1 = d.gnss.back().t_s;
+  if (odometer_.n > 0 && gnss_.n > 0) {
+    const double o0 = odometer_.first_s, o1 = odometer_.last_s;
+    const double g0 = gnss_.first_s, g1 = gnss_.last_s;
     if (std::min(o1, g1) <= std::max(o0, g0))
       warn("no_time_overlap", "GNSS (t = " + num(g0, 10) + " .. " + num(g1, 10) + " s) and odometer (t = " +
                                   num(o0, 10) + " .. " + num(o1, 10) +
@@ -81,15 +122,14 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
   }
 
   // K.
-  const SampleBuilderCounters& c = r.builder_counters;
   if (c.accepted == 0) {
     out.usable = false;
-    const std::string gate = dominant_gate(d, p, c);
+    const std::string gate = dominant_gate(gnss_period_.median_s(), p, c);
     warn("no_k", "no K identified: 0 of " + num(static_cast<double>(c.epochs), 12) + " GNSS epochs accepted" +
                      (gate.empty() ? std::string() : "; " + gate) + "; dead reckoning used the nominal K " +
                      num(p.dead_reckoning.nominal_k_m_per_pulse, 6) + " m/pulse");
-  } else if (!r.identification.empty()) {
-    const ScaleFactorEstimate& k = r.identification.back().main;
+  } else if (last_main_) {
+    const ScaleFactorEstimate& k = *last_main_;
     const double nominal = p.dead_reckoning.nominal_k_m_per_pulse;
     if (k.valid && std::isfinite(k.k_m_per_pulse) && nominal > 0.0) {
       const double ratio = k.k_m_per_pulse / nominal;
@@ -102,8 +142,7 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
   }
 
   // Misalignment (only with an INS: without one, degraded mode is announced when reading).
-  if (d.has_ins()) {
-    const MisalignmentCounters& m = r.calibration_counters;
+  if (has_ins_) {
     if (m.used == 0) {
       std::vector<std::pair<uint64_t, std::string>> why = {
           {m.low_speed, "below the minimum speed " + num(p.calibration.min_speed_mps) + " m/s (--cal-min-speed)"},
@@ -125,18 +164,18 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
   }
 
   // Dead reckoning: present, and covering the odometer record.
-  if (r.dr_online.empty()) {
+  if (dead_reckoning_.n == 0) {
     out.usable = false;
     warn("no_dead_reckoning", "no dead-reckoning output: DR starts at the first valid GNSS fix inside the odometer "
                               "record, and none was found");
-  } else if (!d.odometer.empty()) {
-    const double span = d.odometer.back().t_s - d.odometer.front().t_s;
-    const double dr_end = r.dr_online.back().t_s;
-    const double missing = d.odometer.back().t_s - dr_end;
+  } else if (odometer_.n > 0) {
+    const double span = odometer_.last_s - odometer_.first_s;
+    const double dr_end = dead_reckoning_.last_s;
+    const double missing = odometer_.last_s - dr_end;
     if (span > 0.0 && missing > 0.1 * span && missing > 1.0) {
       std::string cause;
-      if (r.dr_counters.pulse_jumps_rejected > 0)
-        cause = "; " + num(static_cast<double>(r.dr_counters.pulse_jumps_rejected), 12) +
+      if (dr_counters.pulse_jumps_rejected > 0)
+        cause = "; " + num(static_cast<double>(dr_counters.pulse_jumps_rejected), 12) +
                 " odometer samples rejected by the pulse-jump gate (max " +
                 num(p.dead_reckoning.max_speed_mps) + " m/s at the nominal K " +
                 num(p.dead_reckoning.nominal_k_m_per_pulse, 6) + " m/pulse): check --nominal-k";

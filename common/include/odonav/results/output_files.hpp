@@ -153,8 +153,35 @@ struct OutputRows {
   std::vector<NavigationPositionRow> navigation_position;  ///< empty when the file is absent.
 };
 
+/// Reads one output file a row at a time, in memory that does not grow with the file. The
+/// constructor opens the file and reads its header; next(row) fills row with the next row (the
+/// caller's object is reused) and returns false at the end. Throws std::runtime_error naming the
+/// file, and the line and column where they apply, on a missing file, a row with the wrong number of
+/// fields, a missing column or a malformed value.
+class OutputFileReader {
+ public:
+  explicit OutputFileReader(const std::string& path);
+  ~OutputFileReader();
+  OutputFileReader(OutputFileReader&&) noexcept;
+  OutputFileReader& operator=(OutputFileReader&&) noexcept;
+  bool next(MisalignmentRow& row);         ///< misalignment.csv
+  bool next(ScaleFactorRow& row);          ///< scale_factor.csv
+  bool next(DeadReckoningRow& row);        ///< dead_reckoning.csv, dead_reckoning_coarse.csv
+  bool next(NavigationPositionRow& row);   ///< navigation_position.csv
+
+ private:
+  template <class Row>
+  bool read(Row& row);
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Whether an (optional) output file exists.
+bool output_file_exists(const std::string& path);
+
 /// Reads the output files of a folder (dead_reckoning_coarse.csv, navigation_position.csv optional). Throws
 /// std::runtime_error naming the file, line and column on a missing file or a malformed value.
+/// OutputFileReader over each file.
 OutputRows read_output_rows(const std::string& dir);
 
 /// Writes misalignment.csv, scale_factor.csv, dead_reckoning.csv and (when they have rows)
