@@ -2,11 +2,18 @@
 // without DDS, writes the output files and summary.json, prints a summary. See README.md.
 
 #include <chrono>
+#include <limits>
+#include <memory>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "odonav/calibration/calibration_options.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
+#include "odonav/dataset_stream.hpp"
+#include "odonav/estimators.hpp"
+#include "odonav/results/output_files.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 #include "odonav/identification/identification_options.hpp"
 #include "odonav/logging.hpp"
@@ -72,42 +79,62 @@ std::optional<int> parse_command_line(odonav::Options& opts, int argc, char** ar
   return std::nullopt;
 }
 
-/// The dataset, with its skipped bad rows logged (warn) and counted in `report`.
-odonav::Dataset read_input(const std::string& dataset_dir, const odonav::Options& opts,
-                           odonav::DatasetReadReport& report) {
-  odonav::Dataset dataset =
-      odonav::read_dataset(dataset_dir, odonav::parse_bad_row_policy(opts.get_string("on-bad-row")), &report);
-  if (report.total_bad() > 0) {
-    for (const auto& f : report.files)
-      if (f.rows_bad) spdlog::warn("{}: skipped {} bad rows (kept {})", f.file, f.rows_bad, f.rows_read);
-  }
-  if (!dataset.has_ins()) spdlog::warn("{}: no ins.csv: degraded mode (no misalignment; DR on the GNSS course)", dataset_dir);
-  return dataset;
-}
-
 /// What the flags leave open, from the dataset's meta.json: the GNSS lever arm (body frame, m) and
 /// the nominal K (m/pulse: the flag, else meta.json, else 0.0125, dead_reckoner_params); then the identification
 /// parameters from the flags and these vehicle facts.
-void apply_dataset_defaults(const odonav::Dataset& dataset, const odonav::Options& opts,
+void apply_dataset_defaults(const odonav::DatasetMeta& meta, bool has_ins, const odonav::Options& opts,
                             odonav::DeadReckoningFacts dr_facts, odonav::offline::OfflineParams& params) {
-  if (!dr_facts.lever_arm_body_m && dataset.meta.gnss_lever_arm_m) {
-    const Eigen::Vector3d& l = *dataset.meta.gnss_lever_arm_m;
+  if (!dr_facts.lever_arm_body_m && meta.gnss_lever_arm_m) {
+    const Eigen::Vector3d& l = *meta.gnss_lever_arm_m;
     spdlog::info("GNSS lever arm from meta.json: ({}, {}, {}) m (forward, left, up)", l.x(), l.y(), l.z());
     dr_facts.lever_arm_body_m = l;
     params.calibration.lever_arm_body_m = l;
   }
-  dr_facts.use_ins = dataset.has_ins();
-  dr_facts.dataset_nominal_k_m_per_pulse = dataset.meta.k_nominal_m_per_pulse;
+  dr_facts.use_ins = has_ins;
+  dr_facts.dataset_nominal_k_m_per_pulse = meta.k_nominal_m_per_pulse;
   params.dead_reckoning = odonav::dead_reckoner_params(dr_facts);  // as odonav-dead-reckoning's
   params.anchored = odonav::anchored_position_params(dr_facts);    // likewise
   // The same function as odonav-identification, with the same vehicle facts the launcher gives
   // it as flags (deploy/launch): INS present, lever arm, nominal K (the pulse-jump gate's K).
   odonav::IdentificationVehicleFacts vehicle;
-  vehicle.use_ins = dataset.has_ins();
+  vehicle.use_ins = has_ins;
   vehicle.lever_arm_body_m = params.dead_reckoning.lever_arm_body_m;
   vehicle.nominal_k_m_per_pulse = params.dead_reckoning.nominal_k_m_per_pulse;
   vehicle.run_all_estimators = true;  // every estimator side by side
   params.identification = odonav::identification_params_for(opts, vehicle);
+}
+
+/// A pass over the dataset's sensor files, as one time-ordered stream. The first pass reads through
+/// `first` (opened to learn meta.json and the files present; its report counts the bad rows); each
+/// later pass opens the files again, quietly (its bad rows are those the first pass reported).
+odonav::offline::SampleStream open_pass(const std::string& dir, odonav::BadRowPolicy policy,
+                                        std::shared_ptr<odonav::DatasetStream>& first) {
+  std::shared_ptr<odonav::DatasetStream> stream = std::move(first);
+  if (!stream) {
+    const auto level = spdlog::get_level();
+    spdlog::set_level(spdlog::level::err);  // the bad-row warnings were given by the first pass
+    try {
+      stream = std::make_shared<odonav::DatasetStream>(dir, policy);
+    } catch (...) {
+      spdlog::set_level(level);
+      throw;
+    }
+    spdlog::set_level(level);
+    return [stream]() -> std::optional<odonav::DatasetEvent> {
+      const auto level = spdlog::get_level();
+      spdlog::set_level(spdlog::level::err);
+      std::optional<odonav::DatasetEvent> e;
+      try {
+        e = stream->next();
+      } catch (...) {
+        spdlog::set_level(level);
+        throw;
+      }
+      spdlog::set_level(level);
+      return e;
+    };
+  }
+  return [stream] { return stream->next(); };
 }
 
 /// The coarse K of --coarse-k or --coarse-k-from (neither: run_offline takes this dataset's own).
@@ -118,8 +145,10 @@ bool apply_coarse_k(const odonav::Options& opts, odonav::offline::OfflineParams&
     params.coarse_k_origin = "--coarse-k";
   } else if (!opts.get_string("coarse-k-from").empty()) {
     const std::string from = opts.get_string("coarse-k-from");
-    const odonav::Dataset calibration_run = odonav::read_dataset(from, odonav::BadRowPolicy::kFail);
-    const auto k = odonav::offline::coarse_k_of(calibration_run, params);
+    auto stream = std::make_shared<odonav::DatasetStream>(from, odonav::BadRowPolicy::kFail);
+    const bool has_ins = stream->has_ins();
+    const auto k = odonav::offline::coarse_k_of(
+        [stream] { return odonav::offline::SampleStream([stream] { return stream->next(); }); }, has_ins, params);
     if (!k) {
       spdlog::error("{}: no straight run long enough for a coarse S/N calibration", from);
       return false;
@@ -130,38 +159,140 @@ bool apply_coarse_k(const odonav::Options& opts, odonav::offline::OfflineParams&
   return true;
 }
 
-/// summary.json: make_summary plus the identification gates' counts and the skipped bad rows.
-nlohmann::json offline_summary(const odonav::Dataset& dataset, const std::string& dataset_dir,
-                               const odonav::offline::OfflineResult& result, const odonav::results::OutputRows& rows,
-                               const odonav::DatasetReadReport& report, double elapsed_s) {
-  odonav::offline::SummaryOptions summary_options;
-  summary_options.dataset_name = base_name(dataset_dir);
-  summary_options.coarse_k_origin = result.coarse_k_origin;
-  summary_options.elapsed_s = elapsed_s;
-  nlohmann::json summary = odonav::offline::make_summary(dataset, rows, summary_options);
-  summary["gates"] = {{"epochs", result.builder_counters.epochs},
-                      {"accepted", result.builder_counters.accepted},
-                      {"invalid_fix", result.builder_counters.invalid_fix},
-                      {"speed_jump", result.builder_counters.speed_jump},
-                      {"min_speed", result.builder_counters.min_speed},
-                      {"yaw_rate", result.builder_counters.yaw_rate},
-                      {"gap", result.builder_counters.gap},
-                      {"innovation", result.builder_counters.innovation},
-                      {"cross_track", result.builder_counters.cross_track},
-                      {"reversing", result.builder_counters.reversing},
-                      {"reversing_accepted", result.builder_counters.reversing_accepted}};
+/// The output files written as the pipeline makes them, each row also given to the summary and the
+/// run diagnosis.
+class OutputFiles : public odonav::offline::PipelineSink {
+ public:
+  OutputFiles(const odonav::OutputDirectory& out, std::string main_estimator, std::vector<std::string> estimators,
+              odonav::offline::SummaryAccumulator& summary, odonav::offline::RunDiagnosisAccumulator& diagnosis)
+      : misalignment_(out.file("misalignment.csv")),
+        scale_factor_(out.file("scale_factor.csv")),
+        dead_reckoning_(out.file("dead_reckoning.csv")),
+        navigation_(out.file("navigation_position.csv")),
+        main_estimator_(std::move(main_estimator)),
+        estimators_(std::move(estimators)),
+        summary_(summary),
+        diagnosis_(diagnosis) {}
+
+  void on_misalignment(const odonav::MisalignmentOutput& m) override {
+    const odonav::results::MisalignmentRow row = odonav::offline::to_row(m);
+    misalignment_.write(row);
+    summary_.add(row);
+  }
+  void on_scale_factor(const odonav::IdentificationOutput& k) override {
+    const odonav::results::ScaleFactorRow row = odonav::offline::to_row(k, main_estimator_, estimators_);
+    scale_factor_.write(row);
+    summary_.add(row);
+    diagnosis_.add_identification(k.main);
+  }
+  void on_dead_reckoning(odonav::DeadReckoningStep step) override {
+    const odonav::results::DeadReckoningRow dr = odonav::offline::to_row(step.output);
+    dead_reckoning_.write(dr);
+    summary_.add_dead_reckoning(dr);
+    diagnosis_.add_dead_reckoning(step.output.t_s);
+    const odonav::results::NavigationPositionRow nav = odonav::offline::to_row(step.navigation);
+    navigation_.write(nav);
+    summary_.add(nav);
+    ++navigation_rows_;
+  }
+  /// Renames the complete files into place (a navigation file only when it has rows, as before).
+  void close() {
+    misalignment_.close();
+    scale_factor_.close();
+    dead_reckoning_.close();
+    if (navigation_rows_ > 0) navigation_.close();
+  }
+
+ private:
+  odonav::results::MisalignmentCsv misalignment_;
+  odonav::results::ScaleFactorCsv scale_factor_;
+  odonav::results::DeadReckoningCsv dead_reckoning_;
+  odonav::results::NavigationPositionCsv navigation_;
+  std::string main_estimator_;
+  std::vector<std::string> estimators_;
+  odonav::offline::SummaryAccumulator& summary_;
+  odonav::offline::RunDiagnosisAccumulator& diagnosis_;
+  std::size_t navigation_rows_ = 0;
+};
+
+/// dead_reckoning_coarse.csv, from the second pass.
+class CoarseFile : public odonav::offline::PipelineSink {
+ public:
+  CoarseFile(const odonav::OutputDirectory& out, odonav::offline::SummaryAccumulator& summary)
+      : csv_(out.file("dead_reckoning_coarse.csv")), summary_(summary) {}
+  void on_dead_reckoning(odonav::DeadReckoningStep step) override {
+    const odonav::results::DeadReckoningRow row = odonav::offline::to_row(step.output);
+    csv_.write(row);
+    summary_.add_dead_reckoning_coarse(row);
+    ++rows_;
+  }
+  void close() {
+    if (rows_ > 0) csv_.close();
+  }
+
+ private:
+  odonav::results::DeadReckoningCsv csv_;
+  odonav::offline::SummaryAccumulator& summary_;
+  std::size_t rows_ = 0;
+};
+
+/// The first pass's samples, also given to the summary, the diagnosis and the provenance.
+struct InputTap {
+  odonav::offline::SummaryAccumulator& summary;
+  odonav::offline::RunDiagnosisAccumulator& diagnosis;
+  odonav::DatasetFingerprint& fingerprint;
+  std::size_t odometer = 0, gnss = 0, ins = 0;
+  double first_s = std::numeric_limits<double>::quiet_NaN();
+  double last_s = std::numeric_limits<double>::quiet_NaN();
+  void operator()(const odonav::DatasetEvent& e) {
+    if (odometer + gnss + ins == 0) first_s = e.t_s;
+    last_s = e.t_s;
+    switch (e.kind) {
+      case odonav::DatasetStreamKind::kOdometer:
+        ++odometer;
+        summary.add_odometer(e.t_s);
+        diagnosis.add_odometer(e.t_s);
+        break;
+      case odonav::DatasetStreamKind::kGnss:
+        ++gnss;
+        diagnosis.add_gnss(e.t_s);
+        fingerprint.add(e.gnss);
+        break;
+      case odonav::DatasetStreamKind::kIns:
+        ++ins;
+        diagnosis.add_ins(e.t_s);
+        break;
+    }
+  }
+};
+
+/// summary.json's additions to the summary: the identification gates' counts, the skipped bad
+/// rows, the turn slip of the last estimate.
+void add_run_facts(nlohmann::json& summary, const odonav::offline::OfflineRunTotals& totals,
+                   const odonav::DatasetReadReport& report) {
+  const odonav::SampleBuilderCounters& c = totals.builder_counters;
+  summary["gates"] = {{"epochs", c.epochs},
+                      {"accepted", c.accepted},
+                      {"invalid_fix", c.invalid_fix},
+                      {"speed_jump", c.speed_jump},
+                      {"min_speed", c.min_speed},
+                      {"yaw_rate", c.yaw_rate},
+                      {"gap", c.gap},
+                      {"innovation", c.innovation},
+                      {"cross_track", c.cross_track},
+                      {"reversing", c.reversing},
+                      {"reversing_accepted", c.reversing_accepted}};
   summary["bad_rows_skipped"] = report.total_bad();
-  if (!result.identification.empty() && summary.contains("scale_factor")) {
-    const odonav::TurnSlipEstimate& slip = result.identification.back().turn_slip;
+  if (totals.last_identification && summary.contains("scale_factor")) {
+    const odonav::TurnSlipEstimate& slip = totals.last_identification->turn_slip;
     summary["scale_factor"]["turn_slip_samples"] = slip.samples;
     summary["scale_factor"]["turn_slip_outliers"] = slip.outliers;
     summary["scale_factor"]["turn_slip_reason"] = slip.reason;  // why it is not applied; "" when it is
   }
-  return summary;
 }
 
-/// Reads, runs, writes the files and prints the summary. Exit code 0, 1 (an error, logged) or
-/// kExitNoUsableResult (no K or no dead reckoning: the warnings say why).
+/// Reads, runs, writes the files as the outputs come and prints the summary. Exit code 0, 1 (an
+/// error, logged) or kExitNoUsableResult (no K or no dead reckoning: the warnings say why).
 int run(const odonav::Options& opts, const std::string& dataset_dir, const std::string& out_dir,
         odonav::offline::OfflineParams params, const odonav::DeadReckoningFacts& dr_facts) {
   const auto t_start = std::chrono::steady_clock::now();
@@ -170,35 +301,87 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
   policy.force = opts.get_bool("force");
   policy.inputs = {dataset_dir, opts.get_string("coarse-k-from")};
   const odonav::OutputDirectory out(out_dir, policy);
+  const odonav::BadRowPolicy bad_rows = odonav::parse_bad_row_policy(opts.get_string("on-bad-row"));
   odonav::DatasetReadReport report;
-  const odonav::Dataset dataset = read_input(dataset_dir, opts, report);
-  apply_dataset_defaults(dataset, opts, dr_facts, params);
+  auto first = std::make_shared<odonav::DatasetStream>(dataset_dir, bad_rows, &report);
+  const odonav::DatasetMeta meta = first->meta();
+  const bool has_ins = first->has_ins();
+  const bool has_truth = first->has_truth();
+  if (!has_ins) spdlog::warn("{}: no ins.csv: degraded mode (no misalignment; DR on the GNSS course)", dataset_dir);
+  apply_dataset_defaults(meta, has_ins, opts, dr_facts, params);
   if (!apply_coarse_k(opts, params)) return 1;
 
-  const auto t_read = std::chrono::steady_clock::now();
-  const odonav::offline::OfflineResult result = odonav::offline::run_offline(dataset, params);
-  const odonav::results::OutputRows rows = odonav::offline::to_output_rows(result, params.identification.estimator_name);
+  odonav::offline::SummaryInputs inputs;
+  inputs.meta = meta;
+  if (has_truth)
+    inputs.truth = [dataset_dir, bad_rows]() -> odonav::offline::Source<odonav::TruthSample> {
+      // Quiet: the first stream reports truth.csv's bad rows (has_truth's look), and the summary
+      // opens it several times.
+      auto s = std::make_shared<odonav::TruthStream>(dataset_dir, bad_rows);
+      return [s] { return s->next(); };
+    };
+  inputs.gnss = [dataset_dir, bad_rows] { return odonav::offline::Source<odonav::GnssSample>(odonav::gnss_rows(dataset_dir, bad_rows)); };
+  if (has_ins)
+    inputs.ins = [dataset_dir, bad_rows] { return odonav::offline::Source<odonav::InsSample>(odonav::ins_rows(dataset_dir, bad_rows)); };
+  inputs.options.dataset_name = base_name(dataset_dir);
+  odonav::offline::SummaryAccumulator summary(std::move(inputs));
+  odonav::offline::RunDiagnosisAccumulator diagnosis;
+  odonav::DatasetFingerprint fingerprint(meta.vehicle_id);
+
+  std::vector<std::string> estimators;
+  if (params.identification.run_all_estimators) estimators = odonav::estimator_names();
+  OutputFiles files(out, params.identification.estimator_name, estimators, summary, diagnosis);
+  CoarseFile coarse(out, summary);
+  InputTap tap{summary, diagnosis, fingerprint};
+  int pass = 0;
+  const odonav::offline::OpenSampleStream open = [&]() -> odonav::offline::SampleStream {
+    odonav::offline::SampleStream stream = open_pass(dataset_dir, bad_rows, first);
+    if (pass++ == 0)
+      return [stream, &tap]() {
+        std::optional<odonav::DatasetEvent> e = stream();
+        if (e) tap(*e);
+        return e;
+      };
+    // The fingerprint runs over every GNSS sample, then every odometer sample: the second pass
+    // gives it the odometer samples.
+    return [stream, &fingerprint]() {
+      std::optional<odonav::DatasetEvent> e = stream();
+      if (e && e->kind == odonav::DatasetStreamKind::kOdometer) fingerprint.add(e->odometer);
+      return e;
+    };
+  };
+  const odonav::offline::OfflineRunTotals totals = odonav::offline::run_offline(open, has_ins, params, files, coarse);
+  files.close();
+  coarse.close();
+  for (const auto& f : report.files)
+    if (f.rows_bad) spdlog::warn("{}: skipped {} bad rows (kept {})", f.file, f.rows_bad, f.rows_read);
   const auto t_done = std::chrono::steady_clock::now();
   const double elapsed_s = std::chrono::duration<double>(t_done - t_start).count();
-  spdlog::info("read {:.3f} s, processed {:.3f} s ({} odometer, {} GNSS, {} INS rows)",
-               std::chrono::duration<double>(t_read - t_start).count(),
-               std::chrono::duration<double>(t_done - t_read).count(), dataset.odometer.size(), dataset.gnss.size(),
-               dataset.ins.size());
+  spdlog::info("read and processed in {:.3f} s ({} odometer, {} GNSS, {} INS rows)", elapsed_s, tap.odometer,
+               tap.gnss, tap.ins);
 
-  odonav::results::write_output_rows(out.path(), rows);
-  nlohmann::json summary = offline_summary(dataset, dataset_dir, result, rows, report, elapsed_s);
-  const odonav::offline::RunDiagnosis diagnosis = odonav::offline::diagnose_run(dataset, params, result);
-  summary["warnings"] = nlohmann::json::array();
-  for (const odonav::offline::RunWarning& w : diagnosis.warnings) {
+  summary.options().elapsed_s = elapsed_s;
+  summary.options().coarse_k_origin = totals.coarse_k_origin;
+  nlohmann::json summary_json = summary.finish();
+  add_run_facts(summary_json, totals, report);
+  const odonav::offline::RunDiagnosis result_diagnosis =
+      diagnosis.finish(params, totals.builder_counters, totals.calibration_counters, totals.dr_counters);
+  summary_json["warnings"] = nlohmann::json::array();
+  for (const odonav::offline::RunWarning& w : result_diagnosis.warnings) {
     spdlog::warn("{}", w.message);
-    summary["warnings"].push_back({{"code", w.code}, {"message", w.message}});
+    summary_json["warnings"].push_back({{"code", w.code}, {"message", w.message}});
   }
-  odonav::write_file_atomically(out.file("summary.json"), summary.dump(2) + "\n");
-  odonav::write_file_atomically(out.file(odonav::kProvenanceFile),
-                                odonav::provenance_json(odonav::provenance_of(dataset, "odonav-offline")));
-  odonav::offline::print_summary(summary, odonav::tool_output());
+  odonav::write_file_atomically(out.file("summary.json"), summary_json.dump(2) + "\n");
+  odonav::RunProvenance provenance;
+  provenance.tool = "odonav-offline";
+  provenance.vehicle_id = meta.vehicle_id;
+  provenance.dataset_fingerprint = fingerprint.text();
+  provenance.t_first_s = tap.first_s;
+  provenance.t_last_s = tap.last_s;
+  odonav::write_file_atomically(out.file(odonav::kProvenanceFile), odonav::provenance_json(provenance));
+  odonav::offline::print_summary(summary_json, odonav::tool_output());
   spdlog::info("outputs in {}", out_dir);
-  if (!diagnosis.usable) {
+  if (!result_diagnosis.usable) {
     spdlog::error("no usable result (exit status {}): see the warnings", odonav::offline::kExitNoUsableResult);
     return odonav::offline::kExitNoUsableResult;
   }

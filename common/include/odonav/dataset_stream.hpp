@@ -5,6 +5,7 @@
 // fixed buffer and only a few rows of each are held. The rows are parsed and validated by the same
 // code as read_dataset's, so the samples, errors, bad-row counts and log lines are the same.
 #include <cstddef>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -112,5 +113,14 @@ class TruthStream {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// One sensor file of a dataset row by row, apart from the merged stream, for a reader that looks
+/// at it on its own (the summary reads GNSS ahead for outages, INS for the lever arm): gnss.csv or
+/// ins.csv, validated as read_dataset validates it. Quiet: its bad rows are skipped (kSkip) without
+/// a log line or a report entry, since a DatasetStream over the same directory reports them; under
+/// kFail a bad row throws DatasetError when it is reached. Each call of the function returns the
+/// next good row, nullopt at the end (at once when the file does not exist). Memory as TruthStream.
+std::function<std::optional<GnssSample>()> gnss_rows(const std::string& dir, BadRowPolicy policy);
+std::function<std::optional<InsSample>()> ins_rows(const std::string& dir, BadRowPolicy policy);
 
 }  // namespace odonav

@@ -2,6 +2,7 @@
 // Which recording a folder of results was computed from, so that results are never scored against
 // another drive's data. odonav-offline and the recorder write it (run.json in the output folder);
 // odonav-evaluate and odonav-report check it before they compute anything.
+#include <cstdint>
 #include <limits>
 #include <optional>
 #include <string>
@@ -33,6 +34,22 @@ struct RunProvenance {
 /// odometer sample's time and count, the vehicle id): equal for the same recording read twice,
 /// different for another drive even with the same vehicle id and time span.
 std::string dataset_fingerprint(const Dataset& dataset);
+
+/// dataset_fingerprint computed as the samples pass, for a dataset read as a stream: the digest runs
+/// over the vehicle id, then every GNSS sample, then every odometer sample, in file order, so every
+/// GNSS sample must be added before the first odometer sample (std::logic_error otherwise).
+class DatasetFingerprint {
+ public:
+  explicit DatasetFingerprint(const std::string& vehicle_id);
+  void add(const GnssSample& gnss);
+  void add(const OdometerSample& odometer);
+  /// 16 hex digits, as dataset_fingerprint.
+  std::string text() const;
+
+ private:
+  uint64_t h_;
+  bool odometer_started_ = false;
+};
 
 /// The provenance of `dataset` as odonav-offline records it.
 RunProvenance provenance_of(const Dataset& dataset, const std::string& tool);

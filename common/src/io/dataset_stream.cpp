@@ -4,6 +4,7 @@
 
 #include <array>
 #include <filesystem>
+#include <memory>
 #include <utility>
 
 #include "dataset_internal.hpp"
@@ -200,6 +201,35 @@ std::size_t TruthStream::buffered_bytes() const { return impl_->truth.buffered_b
 std::optional<TruthSample> TruthStream::next() {
   if (impl_->truth.fill(1) == 0) return std::nullopt;
   return impl_->truth.pop();
+}
+
+// ---------------------------------------------------------------------------------------------------
+// One file on its own
+
+namespace {
+template <typename Sample>
+std::function<std::optional<Sample>()> file_rows(const std::string& dir, const char* name, BadRowPolicy policy) {
+  struct State {
+    DatasetReadReport report;  // the Source's entry; nothing reads it
+    Source<Sample> rows;
+  };
+  require_directory(dir);
+  auto state = std::make_shared<State>();
+  const std::string path = join_path(dir, name);
+  if (file_exists(path)) state->rows.open(path, ReadContext{policy, nullptr, false}, state->report);
+  return [state]() -> std::optional<Sample> {
+    if (state->rows.fill(1) == 0) return std::nullopt;
+    return state->rows.pop();
+  };
+}
+}  // namespace
+
+std::function<std::optional<GnssSample>()> gnss_rows(const std::string& dir, BadRowPolicy policy) {
+  return file_rows<GnssSample>(dir, "gnss.csv", policy);
+}
+
+std::function<std::optional<InsSample>()> ins_rows(const std::string& dir, BadRowPolicy policy) {
+  return file_rows<InsSample>(dir, "ins.csv", policy);
 }
 
 }  // namespace odonav

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
@@ -52,21 +53,40 @@ std::string number_text(double v) {
 
 }  // namespace
 
-std::string dataset_fingerprint(const Dataset& d) {
+DatasetFingerprint::DatasetFingerprint(const std::string& vehicle_id) {
   Fnv64 f;
-  f.bytes(d.meta.vehicle_id.data(), d.meta.vehicle_id.size());
-  for (const GnssSample& g : d.gnss) {
-    f.number(g.t_s);
-    f.number(g.position.lat_rad);
-    f.number(g.position.lon_rad);
-  }
-  for (const OdometerSample& o : d.odometer) {
-    f.number(o.t_s);
-    f.number(static_cast<int64_t>(o.pulses));
-  }
+  f.bytes(vehicle_id.data(), vehicle_id.size());
+  h_ = f.h;
+}
+
+void DatasetFingerprint::add(const GnssSample& g) {
+  if (odometer_started_) throw std::logic_error("DatasetFingerprint: a GNSS sample after an odometer sample");
+  Fnv64 f{h_};
+  f.number(g.t_s);
+  f.number(g.position.lat_rad);
+  f.number(g.position.lon_rad);
+  h_ = f.h;
+}
+
+void DatasetFingerprint::add(const OdometerSample& o) {
+  odometer_started_ = true;
+  Fnv64 f{h_};
+  f.number(o.t_s);
+  f.number(static_cast<int64_t>(o.pulses));
+  h_ = f.h;
+}
+
+std::string DatasetFingerprint::text() const {
   char text[17];
-  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(f.h));
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(h_));
   return text;
+}
+
+std::string dataset_fingerprint(const Dataset& d) {
+  DatasetFingerprint f(d.meta.vehicle_id);
+  for (const GnssSample& g : d.gnss) f.add(g);
+  for (const OdometerSample& o : d.odometer) f.add(o);
+  return f.text();
 }
 
 RunProvenance provenance_of(const Dataset& d, const std::string& tool) {

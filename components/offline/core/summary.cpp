@@ -550,6 +550,8 @@ SummaryAccumulator::SummaryAccumulator(SummaryInputs inputs) : impl_(std::make_u
 
 SummaryAccumulator::~SummaryAccumulator() = default;
 
+SummaryOptions& SummaryAccumulator::options() { return impl_->in.options; }
+
 void SummaryAccumulator::add_odometer(double t_s) {
   Impl& m = *impl_;
   if (m.odometer_count++ == 0) m.odometer_first_s = t_s;

@@ -63,6 +63,9 @@ class SummaryAccumulator {
   /// A dead_reckoning_coarse.csv row (the coarse K); may come after every other row.
   void add_dead_reckoning_coarse(const results::DeadReckoningRow& row);
   void add(const results::NavigationPositionRow& row);
+  /// The options, for a caller that learns some only at the end of the run (the processing time,
+  /// the coarse K's origin): read by finish().
+  SummaryOptions& options();
   /// summary.json's content (make_summary's); reads the rest of the sources. Call once.
   nlohmann::json finish();
 
