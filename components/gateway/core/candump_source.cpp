@@ -358,4 +358,15 @@ std::vector<OdometerSample> read_candump_file(const std::string& path, CanOdomet
   return out;
 }
 
+Dataset load_candump_source(const std::string& log_path, CanOdometer& odometer, const std::string& companion_dir,
+                            BadRowPolicy policy, DatasetReadReport* report) {
+  Dataset d;
+  if (!companion_dir.empty()) {
+    d = read_dataset(companion_dir, policy, report);
+    d.truth.clear();  // the truth of the dataset's own odometer, not of this log
+  }
+  d.odometer = read_candump_file(log_path, odometer);
+  return d;
+}
+
 }  // namespace odonav::gateway

@@ -142,4 +142,10 @@ class CandumpStream {
 /// (missing, a directory, a read error); bad lines are only counted.
 std::vector<OdometerSample> read_candump_file(const std::string& path, CanOdometer& odometer);
 
+/// The recorded drive of `--source candump:<file>`: the odometer decoded from the log; the INS
+/// and GNSS of `companion_dir` (a dataset directory, read_dataset with `policy`, its odometer.csv
+/// replaced) when not empty, else none (odometer only). Throws DatasetError naming the file.
+Dataset load_candump_source(const std::string& log_path, CanOdometer& odometer, const std::string& companion_dir,
+                            BadRowPolicy policy, DatasetReadReport* report = nullptr);
+
 }  // namespace odonav::gateway
