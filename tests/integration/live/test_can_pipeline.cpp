@@ -5,7 +5,9 @@
 //      calibration, identification, dead reckoning and the recorder: the files equal odonav-offline
 //      on the equivalent dataset (the odometer as the log carries it), row by row, to 1e-9;
 //   2. `--source candump:-` reading the log on standard input (live mode): every odometer message
-//      equals the log's sample, and Health counts the bad and foreign frames exactly.
+//      equals the log's sample, and Health counts the bad and foreign frames exactly;
+//   3. `--source candump:-` with `--ins-source udp:...` (domain 142): INS lines arrive beside the CAN
+//      odometer, ODO lines of the line source are dropped and counted.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -16,6 +18,7 @@
 
 #include "../nodes/node_test_support.hpp"
 #include "core/can_decoders.hpp"
+#include "core/line_protocol.hpp"
 #include "live_test_support.hpp"
 #include "odonav/results/output_files.hpp"
 
@@ -276,6 +279,57 @@ TEST_F(CanPipeline, LiveStandardInputPublishesEveryFrameAndCountsTheBadOnes) {
   EXPECT_EQ(counter(last, "can_frames_stale"), static_cast<double>(log.stale));
   EXPECT_EQ(counter(last, "can_frames_out_of_order"), 0.0);
   EXPECT_NE(last.reason().find("end of CAN input"), std::string::npos) << last.reason();
+}
+
+TEST_F(CanPipeline, LiveCanOdometerWithInsLinesOverUdp) {
+  const fs::path dir = fresh_live_dir("can-stdin-ins");
+  const Dataset d = read_dataset(simulate(dir, "straight", "5").string(), BadRowPolicy::kFail);
+  ASSERT_TRUE(d.has_ins());
+  const fs::path can_log = dir / "can.log";
+  const CanLog log = write_can_log(d, can_log);
+  const int domain = 142;
+  dds::Participant p(test_participant(domain));
+  Collector<msg::Odometer> odo(p, topics::kOdometer);
+  Collector<msg::InsAttitude> ins(p, topics::kInsAttitude);
+  Collector<msg::Health> health(p, topics::kHealth);
+  const int port = free_loopback_port(SOCK_DGRAM);
+  // Standard input stays open 8 s after the log, while the INS lines come over UDP; its end ends the run.
+  const std::string command = "sleep 2; cat '" + can_log.string() + "'; sleep 8";
+  std::string gateway = binary("odonav-gateway");
+  for (const std::string& a : node_args(domain, 30.0, {"--source", "candump:-", "--can-odometer", kChannel,
+                                                       "--ins-source", "udp:127.0.0.1:" + std::to_string(port)}))
+    gateway += " '" + a + "'";
+  ChildProcess gw("/bin/sh", {"-c", "(" + command + ") | " + gateway}, dir / "gateway.log", dir / "gateway.log");
+  ASSERT_TRUE(ins.reader().wait_for_matched(1, 20s)) << read_text(dir / "gateway.log");
+  std::this_thread::sleep_for(500ms);
+  const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
+  ASSERT_GE(s, 0);
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<uint16_t>(port));
+  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  const auto send = [&](const std::string& line) {
+    const std::string datagram = line + "\n";
+    ::sendto(s, datagram.data(), datagram.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof(to));
+  };
+  send(gateway::odometer_line(d.odometer.front(), false));  // the CAN input gives the odometer: ignored
+  for (std::size_t i = 0; i < d.ins.size(); ++i) {
+    send(gateway::ins_line(d.ins[i], false));
+    if (i % 50 == 49) std::this_thread::sleep_for(5ms);
+  }
+  ::close(s);
+  EXPECT_TRUE(ins.wait_until([&](const auto& v) { return v.size() >= d.ins.size(); }, 10s))
+      << ins.size() << " of " << d.ins.size() << " INS";
+  ASSERT_TRUE(gw.wait_exit(30s)) << read_text(dir / "gateway.log");
+  EXPECT_EQ(gw.exit_code(), 0) << read_text(dir / "gateway.log");
+  EXPECT_TRUE(odo.wait_until([&](const auto& v) { return v.size() >= log.odometer.size(); }, 10s));
+  EXPECT_EQ(odo.size(), log.odometer.size()) << "the CAN samples, not the ODO line as well";
+  ASSERT_TRUE(health.wait_until(
+      [](const auto& v) { return !v.empty() && v.back().state() == msg::HEALTH_STATE_STOPPING; }, 10s));
+  const msg::Health last = health.samples().back();
+  EXPECT_EQ(counter(last, "ins_published"), static_cast<double>(d.ins.size()));
+  EXPECT_EQ(counter(last, "odometer_lines_ignored"), 1.0);
+  EXPECT_EQ(counter(last, "odometer_published"), static_cast<double>(log.odometer.size()));
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "core/can_decoders.hpp"
 #include "core/candump_source.hpp"
 #include "core/sensor_health.hpp"
+#include "core/sensor_source.hpp"
 #include "odonav/config.hpp"
 
 using namespace odonav;
@@ -118,6 +119,15 @@ TEST(CandumpParser, RejectsMalformedLinesWithAReason) {
   std::string noise;
   for (int i = 0; i < 300; ++i) noise.push_back(static_cast<char>((i * 37) & 0xFF));
   EXPECT_EQ(parse_candump_line(noise).kind, CandumpLine::Kind::kMalformed);
+}
+
+TEST(CandumpParser, SourceNamesALogOrStandardInput) {
+  SourceSpec s = parse_source("candump:/logs/drive 1.log");
+  EXPECT_EQ(s.kind, SourceSpec::Kind::kCandump);
+  EXPECT_EQ(s.name, "/logs/drive 1.log");
+  EXPECT_EQ(parse_source("candump:-").name, "-");
+  EXPECT_THROW(parse_source("candump:"), ConfigError);
+  EXPECT_THROW(parse_source("candump"), ConfigError);
 }
 
 // ---- J1939 ------------------------------------------------------------------------------------
