@@ -341,8 +341,16 @@ void CandumpStream::finish(std::vector<OdometerSample>& out) {
 }
 
 std::vector<OdometerSample> read_candump_file(const std::string& path, CanOdometer& odometer) {
+  // As the dataset reader: regular files only (a FIFO or /dev/zero would never end; a pipe is
+  // candump:-), at most kMaxDatasetFileBytes (decoded whole before the replay starts).
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw DatasetError(path + ": is a directory, not a candump log");
+  const auto status = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::exists(status)) throw DatasetError(path + ": cannot open the candump log (no such file)");
+  if (!std::filesystem::is_regular_file(status))
+    throw DatasetError(path + ": not a regular file (a directory, FIFO or device); for a pipe or a live bus use candump:-");
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec && size > kMaxDatasetFileBytes)
+    throw DatasetError(path + ": " + std::to_string(size) + " bytes, more than the 2 GiB a log may have: split it");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw DatasetError(path + ": cannot open the candump log");
   std::vector<OdometerSample> out;

@@ -139,7 +139,8 @@ class CandumpStream {
 };
 
 /// Decodes a whole candump log file. Throws DatasetError naming the file when it cannot be read
-/// (missing, a directory, a read error); bad lines are only counted.
+/// (missing, not a regular file, larger than kMaxDatasetFileBytes, a read error); bad lines are
+/// only counted.
 std::vector<OdometerSample> read_candump_file(const std::string& path, CanOdometer& odometer);
 
 /// The recorded drive of `--source candump:<file>`: the odometer decoded from the log; the INS

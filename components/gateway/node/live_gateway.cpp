@@ -180,6 +180,7 @@ class LiveGateway {
     std::vector<OdometerSample> samples;
     char buffer[65536];
     bool end = false;
+    std::uint64_t unpublishable = 0;
     while (!stop_requested() && !end) {
       pollfd p{STDIN_FILENO, POLLIN, 0};
       const int r = ::poll(&p, 1, 100);
@@ -204,8 +205,8 @@ class LiveGateway {
       for (const OdometerSample& s : samples) {
         try {
           publisher_.odometer(s);
-        } catch (const std::invalid_argument& e) {  // a stamp the message cannot carry: counted as undecodable
-          spdlog::warn("candump: sample at t={} s not published: {}", s.t_s, e.what());
+        } catch (const std::invalid_argument& e) {  // a stamp the message cannot carry (beyond 2038)
+          if (++unpublishable <= 20) spdlog::warn("candump: sample at t={} s not published: {}", s.t_s, e.what());
         }
       }
     }

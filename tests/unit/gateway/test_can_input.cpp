@@ -413,6 +413,7 @@ TEST(CanOdometer, ReadsALogFileAndRefusesADirectory) {
   CanOdometer again(config("ccvs1"));
   EXPECT_THROW(read_candump_file(dir.string(), again), DatasetError);
   EXPECT_THROW(read_candump_file((dir / "missing").string(), again), DatasetError);
+  EXPECT_THROW(read_candump_file("/dev/zero", again), DatasetError);  // never ends: refused, not read
   std::filesystem::remove_all(dir);
 }
 
