@@ -57,4 +57,28 @@ SourceHealth live_source_health(const LineCounters& lines, const LiveInputStats&
   return s;
 }
 
+SourceHealth can_source_health(const CanCounters& can) {
+  SourceHealth s;
+  Counters& c = s.counters;
+  c.emplace_back("can_lines_read", number(can.lines));
+  c.emplace_back("can_frames_decoded", number(can.decoded));
+  c.emplace_back("can_odometer_samples", number(can.samples));
+  c.emplace_back("can_frames_malformed", number(can.malformed));
+  c.emplace_back("can_frames_unknown", number(can.unknown));
+  c.emplace_back("can_frames_out_of_order", number(can.out_of_order));
+  c.emplace_back("can_frames_stale", number(can.stale));
+  c.emplace_back("can_frames_undecodable", number(can.undecodable));
+  s.warn = can.problems() > 0;
+  return s;
+}
+
+SourceHealth combine(SourceHealth first, const SourceHealth& second) {
+  first.counters.insert(first.counters.end(), second.counters.begin(), second.counters.end());
+  first.trailing_counters.insert(first.trailing_counters.end(), second.trailing_counters.begin(),
+                                 second.trailing_counters.end());
+  first.warn = first.warn || second.warn;
+  if (first.reason.empty()) first.reason = second.reason;
+  return first;
+}
+
 }  // namespace odonav::gateway

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/candump_source.hpp"
 #include "core/gpsd_source.hpp"
 #include "core/line_protocol.hpp"
 #include "core/live_input.hpp"
@@ -63,5 +64,15 @@ SourceHealth replay_source_health(const std::array<std::size_t, 3>& matched_read
 /// last failure, else (gpsd not connected) gpsd's last failure or "gpsd: not connected yet".
 SourceHealth live_source_health(const LineCounters& lines, const LiveInputStats& stats,
                                 const std::optional<GpsdCounters>& gpsd, std::uint64_t gnss_lines_ignored);
+
+/// The CAN input (candump): can_lines_read, can_frames_decoded, can_odometer_samples,
+/// can_frames_malformed, can_frames_unknown, can_frames_out_of_order, can_frames_stale,
+/// can_frames_undecodable. WARN once a malformed, out-of-order, stale or undecodable frame was
+/// counted (unknown frames are other traffic of a shared bus: counted, not a warning).
+SourceHealth can_source_health(const CanCounters& can);
+
+/// `first` then `second`: counters and trailing counters appended in that order, WARN if either
+/// warns, the first non-empty reason.
+SourceHealth combine(SourceHealth first, const SourceHealth& second);
 
 }  // namespace odonav::gateway

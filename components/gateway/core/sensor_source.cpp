@@ -25,12 +25,20 @@ SourceSpec parse_source(const std::string& text) {
     s.name = name;
     return s;
   }
-  throw ConfigError("--source: '" + text + "' is neither sim:<scenario> (e.g. sim:terrain) nor replay:<dataset dir>");
+  if (kind == "candump" && colon != std::string::npos && !name.empty()) {
+    s.kind = SourceSpec::Kind::kCandump;
+    s.name = name;
+    return s;
+  }
+  throw ConfigError("--source: '" + text +
+                    "' is neither sim:<scenario> (e.g. sim:terrain), replay:<dataset dir> nor candump:<log file|->");
 }
 
 Dataset load_source(const SourceSpec& source, const SimulatorSettings& sim, BadRowPolicy policy,
                     DatasetReadReport* report) {
   if (source.kind == SourceSpec::Kind::kReplay) return read_dataset(source.name, policy, report);
+  if (source.kind == SourceSpec::Kind::kCandump)
+    throw std::invalid_argument("load_source: a candump source is loaded by load_candump_source");
   sim::SimulationConfig cfg;
   try {
     cfg = sim::scenario_config(source.name);

@@ -17,12 +17,14 @@ namespace odonav::gateway {
 
 /// What `--source` names.
 struct SourceSpec {
-  enum class Kind { kSimulator, kReplay };
+  enum class Kind { kSimulator, kReplay, kCandump };
   Kind kind = Kind::kSimulator;
-  std::string name;  ///< scenario name (kSimulator) or dataset directory (kReplay).
+  /// scenario name (kSimulator), dataset directory (kReplay), candump -L log file (kCandump;
+  /// "-" is standard input, read live by node/live_gateway.hpp, not by load_source).
+  std::string name;
 };
 
-/// Parses "sim:<scenario>" or "replay:<dataset dir>". An empty scenario means "terrain".
+/// Parses "sim:<scenario>", "replay:<dataset dir>" or "candump:<file|->". An empty scenario means "terrain".
 /// Throws ConfigError (config.hpp) naming --source and the accepted forms otherwise.
 SourceSpec parse_source(const std::string& text);
 
@@ -36,6 +38,7 @@ struct SimulatorSettings {
 /// - kSimulator: simulate(scenario_config(name)) with the seed and duration, then as_recorded().
 ///   Throws ConfigError for an unknown scenario or an invalid duration (the message lists the names).
 /// - kReplay: read_dataset(name, policy, report). Throws DatasetError naming file, line and column.
+/// - kCandump: not here (the CAN configuration is needed: load_candump_source, candump_source.hpp).
 Dataset load_source(const SourceSpec& source, const SimulatorSettings& sim, BadRowPolicy policy,
                     DatasetReadReport* report = nullptr);
 

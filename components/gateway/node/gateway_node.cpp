@@ -43,6 +43,27 @@ void add_gateway_options(Options& o) {
                "writers keep the last 200 samples, 2 s at 100 Hz)",
                0.01, 1.0);
   o.add_double("ack-timeout-s", 30.0, "longest wait for the readers' acknowledgments, s", 0.1, 3600.0);
+  o.add_string("can-odometer", "ccvs1",
+               "candump source: the odometer channels, ';'-separated: ccvs1[:sa=N] (J1939 wheel-based speed), "
+               "etc1[:sa=N] (J1939 output shaft speed), signal:id=<3|8 hex digits>,start=<bit>,length=<1..64>,"
+               "as=counter|speed[,order=intel|motorola][,signed=0|1][,scale=X][,offset=X][,wrap=<bits>] (a speed "
+               "signal in m/s after scale and offset); several are averaged (README.md, CAN input)");
+  o.add_double("can-pulses-per-m", 100.0,
+               "candump source: pulses per metre a speed channel is integrated into (ccvs1, etc1 without "
+               "--can-etc1-pulses-per-rev, signal as=speed), pulses/m",
+               1e-6, 1e6);
+  o.add_double("can-gear-ratio", 1.0,
+               "candump etc1: transmission output shaft revolutions per sprocket (wheel) revolution", 1e-6, 1000.0);
+  o.add_double("can-sprocket-radius-m", 0.3, "candump etc1: effective sprocket (wheel) radius, m", 1e-3, 5.0);
+  o.add_double("can-etc1-pulses-per-rev", 0.0,
+               "candump etc1: > 0: pulses per output shaft revolution (the speed, gear ratio and radius unused)", 0.0,
+               1e6);
+  o.add_string("candump-dataset", "",
+               "candump:<file> source: replay the INS and GNSS of this dataset directory with the CAN odometer "
+               "(its odometer.csv is read but replaced); empty: the odometer only");
+  o.add_string("ins-source", "",
+               "candump:- source: INS (and GNSS lines unless --gnss-source) from a line-protocol source "
+               "udp:[<bind IPv4>:]<port> or serial:<device>[:<baud>]; its ODO lines are ignored and counted");
   o.add_bool("tolerate-lost-readers", false,
              "exit 0 even when a reliable reader went away (left, killed, cut off) before the data was complete "
              "(default: exit 4 naming it)");
@@ -60,6 +81,17 @@ GatewaySettings gateway_settings_from(const Options& o) {
   s.ack_timeout_s = o.get_double("ack-timeout-s");
   s.ack_interval_s = o.get_double("ack-interval-s");
   s.tolerate_lost_readers = o.get_bool("tolerate-lost-readers");
+  s.can.channels = parse_can_channels(o.get_string("can-odometer"));
+  s.can.pulses_per_m = o.get_double("can-pulses-per-m");
+  s.can.gear_ratio = o.get_double("can-gear-ratio");
+  s.can.sprocket_radius_m = o.get_double("can-sprocket-radius-m");
+  s.can.etc1_pulses_per_rev = o.get_double("can-etc1-pulses-per-rev");
+  validate(s.can);
+  s.candump_dataset = o.get_string("candump-dataset");
+  if (!s.candump_dataset.empty() && s.source.kind != SourceSpec::Kind::kCandump)
+    throw ConfigError("--candump-dataset goes with --source candump:<file>");
+  if (!o.get_string("ins-source").empty())
+    throw ConfigError("--ins-source goes with --source candump:- (a live CAN input)");
   return s;
 }
 
@@ -81,18 +113,21 @@ std::string sensor_writer_profile(const dds::Participant& participant, const Gat
 }
 }  // namespace
 
-GatewayNode::GatewayNode(dds::ComponentRuntime& runtime, const GatewaySettings& settings, Dataset dataset)
+GatewayNode::GatewayNode(dds::ComponentRuntime& runtime, const GatewaySettings& settings, Dataset dataset,
+                         SourceHealth source_health)
     : runtime_(runtime),
       settings_(settings),
       dataset_(std::move(dataset)),
+      source_health_(std::move(source_health)),
       publisher_(runtime, sensor_writer_profile(runtime.participant(), settings)) {}
 
 void GatewayNode::health(odonav::msg::HealthState state, const std::string& reason, bool force) {
   const double now = dds::steady_now_s();
   if (!force && now - last_health_s_ < dds::kHealthEvaluationPeriod_s) return;
   last_health_s_ = now;
-  publisher_.publish_health(state, reason, replay_source_health(publisher_.matched_readers(), publisher_.ack_timeouts()),
-                            force);
+  publisher_.publish_health(
+      state, reason,
+      combine(replay_source_health(publisher_.matched_readers(), publisher_.ack_timeouts()), source_health_), force);
 }
 
 bool GatewayNode::wait_for_readers() {

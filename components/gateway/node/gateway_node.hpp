@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "core/candump_source.hpp"
 #include "core/pacing.hpp"
 #include "core/sensor_source.hpp"
 #include "node/sensor_publisher.hpp"
@@ -35,13 +36,20 @@ struct GatewaySettings {
   /// were still owed to it) ends the run with exit code 4 unless this is set: the producer could
   /// not deliver everything, and says to whom.
   bool tolerate_lost_readers = false;
+  /// candump source: the odometer channels and their conversion into pulses (--can-*).
+  CanOdometerConfig can;
+  /// candump:<file> source: the dataset directory whose INS and GNSS are replayed with the CAN
+  /// odometer ("" = odometer only).
+  std::string candump_dataset;
 };
 
 /// Exit code of a run that ended with readers lost before everything reached them.
 inline constexpr int kExitLostReaders = 4;
 
 /// Declares --source, --seed, --duration-s, --on-bad-row, --speed, --wait-for-readers,
-/// --wait-for-readers-timeout-s, --ack-interval-s, --ack-timeout-s, --tolerate-lost-readers.
+/// --wait-for-readers-timeout-s, --ack-interval-s, --ack-timeout-s, --tolerate-lost-readers, and
+/// the CAN input's --can-odometer, --can-pulses-per-m, --can-gear-ratio, --can-sprocket-radius-m,
+/// --can-etc1-pulses-per-rev, --candump-dataset, --ins-source.
 void add_gateway_options(Options& options);
 /// Reads them. Throws ConfigError naming the flag when a value is unusable.
 GatewaySettings gateway_settings_from(const Options& options);
@@ -50,7 +58,10 @@ GatewaySettings gateway_settings_from(const Options& options);
 /// publishing, "stopping" with "end of data at t=..." (or "interrupted at t=...") at the end.
 class GatewayNode {
  public:
-  GatewayNode(dds::ComponentRuntime& runtime, const GatewaySettings& settings, Dataset dataset);
+  /// source_health: counters of how the dataset was obtained (the CAN input's), shown in every
+  /// Health after the replay's own.
+  GatewayNode(dds::ComponentRuntime& runtime, const GatewaySettings& settings, Dataset dataset,
+              SourceHealth source_health = {});
 
   /// Waits for the readers, publishes everything (or until SIGINT/SIGTERM), waits for the final
   /// acknowledgments, publishes Health "stopping". Returns the exit code: 0 on a completed or
@@ -82,6 +93,7 @@ class GatewayNode {
   Dataset dataset_;
   std::size_t gnss_published_ = 0;  // GNSS of dataset_ published so far (in file order)
   double last_health_s_ = -1e300;   // steady clock (s) of the last health evaluation
+  SourceHealth source_health_;      // of the loading (CAN counters), fixed
   SensorPublisher publisher_;
 };
 
