@@ -313,16 +313,16 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
 
   odonav::offline::SummaryInputs inputs;
   inputs.meta = meta;
+  // The summary's evaluations read these files with cursors of their own, which move side by side
+  // through the first pass (shared_source: each file parsed once for them).
   if (has_truth)
-    inputs.truth = [dataset_dir, bad_rows]() -> odonav::offline::Source<odonav::TruthSample> {
-      // Quiet: the first stream reports truth.csv's bad rows (has_truth's look), and the summary
-      // opens it several times.
-      auto s = std::make_shared<odonav::TruthStream>(dataset_dir, bad_rows);
-      return [s] { return s->next(); };
-    };
-  inputs.gnss = [dataset_dir, bad_rows] { return odonav::offline::Source<odonav::GnssSample>(odonav::gnss_rows(dataset_dir, bad_rows)); };
+    inputs.truth = odonav::offline::shared_source<odonav::TruthSample>(
+        [dataset_dir, bad_rows] { return odonav::offline::Source<odonav::TruthSample>(odonav::truth_rows(dataset_dir, bad_rows)); });
+  inputs.gnss = odonav::offline::shared_source<odonav::GnssSample>(
+      [dataset_dir, bad_rows] { return odonav::offline::Source<odonav::GnssSample>(odonav::gnss_rows(dataset_dir, bad_rows)); });
   if (has_ins)
-    inputs.ins = [dataset_dir, bad_rows] { return odonav::offline::Source<odonav::InsSample>(odonav::ins_rows(dataset_dir, bad_rows)); };
+    inputs.ins = odonav::offline::shared_source<odonav::InsSample>(
+        [dataset_dir, bad_rows] { return odonav::offline::Source<odonav::InsSample>(odonav::ins_rows(dataset_dir, bad_rows)); });
   inputs.options.dataset_name = base_name(dataset_dir);
   odonav::offline::SummaryAccumulator summary(std::move(inputs));
   odonav::offline::RunDiagnosisAccumulator diagnosis;
@@ -351,6 +351,14 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
     };
   };
   const odonav::offline::OfflineRunTotals totals = odonav::offline::run_offline(open, has_ins, params, files, coarse);
+  {
+    // truth.csv's rows counted and its bad rows told once, as for the sensor files (the summary's
+    // readers are quiet); before the files are complete, so a bad row under --on-bad-row=fail leaves
+    // no output, as any other bad row.
+    odonav::TruthStream truth(dataset_dir, bad_rows, &report);
+    while (truth.next()) {
+    }
+  }
   files.close();
   coarse.close();
   for (const auto& f : report.files)

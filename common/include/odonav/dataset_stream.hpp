@@ -116,11 +116,13 @@ class TruthStream {
 
 /// One sensor file of a dataset row by row, apart from the merged stream, for a reader that looks
 /// at it on its own (the summary reads GNSS ahead for outages, INS for the lever arm): gnss.csv or
-/// ins.csv, validated as read_dataset validates it. Quiet: its bad rows are skipped (kSkip) without
+/// ins.csv (or truth.csv), validated as read_dataset validates it. Quiet: its bad rows are skipped (kSkip) without
 /// a log line or a report entry, since a DatasetStream over the same directory reports them; under
 /// kFail a bad row throws DatasetError when it is reached. Each call of the function returns the
 /// next good row, nullopt at the end (at once when the file does not exist). Memory as TruthStream.
 std::function<std::optional<GnssSample>()> gnss_rows(const std::string& dir, BadRowPolicy policy);
 std::function<std::optional<InsSample>()> ins_rows(const std::string& dir, BadRowPolicy policy);
+/// truth.csv alike (TruthStream reports and logs its bad rows; this does not).
+std::function<std::optional<TruthSample>()> truth_rows(const std::string& dir, BadRowPolicy policy);
 
 }  // namespace odonav

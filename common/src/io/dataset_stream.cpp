@@ -232,4 +232,8 @@ std::function<std::optional<InsSample>()> ins_rows(const std::string& dir, BadRo
   return file_rows<InsSample>(dir, "ins.csv", policy);
 }
 
+std::function<std::optional<TruthSample>()> truth_rows(const std::string& dir, BadRowPolicy policy) {
+  return file_rows<TruthSample>(dir, "truth.csv", policy);
+}
+
 }  // namespace odonav

@@ -3,7 +3,9 @@
 // reckoning error against a reference track (truth, or GNSS when there is no truth). Middleware-free,
 // used by odonav-offline and by the pipeline's summary alike, so both report the same figures.
 #include <cstddef>
+#include <deque>
 #include <functional>
+#include <memory>
 #include <limits>
 #include <optional>
 #include <string>
@@ -31,6 +33,63 @@ SourceFactory<T> vector_source(const std::vector<T>& items) {
       if (i >= items.size()) return std::nullopt;
       return items[i++];
     };
+  };
+}
+
+/// A factory whose sources share one reader of `open`'s items while they move together: the last
+/// `window_items` items read are held, and a source serves its next item from there; a source that
+/// falls further behind (or starts after the first item has left the window) continues with a
+/// reader of its own (a fresh source of `open`, skipped to its place). So several cursors over one
+/// file that advance side by side (the evaluations of one pass over the outputs) parse it once,
+/// and memory is bounded by the window whatever their lag.
+template <class T>
+SourceFactory<T> shared_source(SourceFactory<T> open, std::size_t window_items = 65536) {
+  struct Shared {
+    SourceFactory<T> open;
+    std::size_t max_items = 0;
+    Source<T> reader;       // the shared reader, opened at the first read
+    std::deque<T> window;   // items [base, base + window.size())
+    std::size_t base = 0;
+    bool ended = false;
+  };
+  struct Cursor {
+    std::shared_ptr<Shared> s;
+    std::size_t pos = 0;  // the next item to give
+    Source<T> own;        // fell out of the window: a reader of its own
+    std::optional<T> next() {
+      if (!own && pos < s->base) {
+        own = s->open();
+        for (std::size_t i = 0; i < pos; ++i)
+          if (!own()) return std::nullopt;
+      }
+      if (own) return own();
+      std::optional<T> item;
+      if (pos - s->base < s->window.size()) {
+        item = s->window[pos - s->base];
+      } else if (!s->ended) {
+        if (!s->reader) s->reader = s->open();
+        item = s->reader();
+        if (!item) {
+          s->ended = true;
+        } else {
+          s->window.push_back(*item);
+          if (s->window.size() > s->max_items) {
+            s->window.pop_front();
+            ++s->base;
+          }
+        }
+      }
+      if (item) ++pos;
+      return item;
+    }
+  };
+  auto shared = std::make_shared<Shared>();
+  shared->open = std::move(open);
+  shared->max_items = window_items > 0 ? window_items : 1;
+  return [shared]() -> Source<T> {
+    auto cursor = std::make_shared<Cursor>();
+    cursor->s = shared;
+    return [cursor]() { return cursor->next(); };
   };
 }
 

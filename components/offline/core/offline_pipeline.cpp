@@ -42,7 +42,7 @@ OfflinePipeline::OfflinePipeline(const PipelineConfig& config, PipelineSink& sin
   }
   if (config_.dead_reckoning) {
     const DeadReckonerParams& p = *config_.dead_reckoning;
-    dead_reckoning_ = std::make_unique<DeadReckoningComponent>(p, config_.anchored);
+    dead_reckoning_ = std::make_unique<DeadReckoningComponent>(p, config_.anchored, config_.navigation);
     // As DeadReckoningNode: odometer; GNSS with the hold-off; misalignment and scale factor paced by
     // GNSS with the hold-off; INS.
     auto in = std::make_unique<Consumer>();

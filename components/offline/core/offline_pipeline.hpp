@@ -45,6 +45,9 @@ struct PipelineConfig {
   /// Unset: no dead reckoning.
   std::optional<DeadReckonerParams> dead_reckoning;
   AnchoredPositionParams anchored;
+  /// Compute the GNSS-anchored navigation position of each dead-reckoning output (off: a run whose
+  /// positions nobody reads, e.g. the coarse-K pass).
+  bool navigation = true;
   /// The identification instance's name, as a node publishes it in ScaleFactor.source.
   std::string identification_source = "identification";
 };

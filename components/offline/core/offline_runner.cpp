@@ -143,6 +143,7 @@ OfflineRunTotals run_offline(const OpenSampleStream& open, bool has_ins, const O
   coarse.dead_reckoning = params.dead_reckoning;
   coarse.dead_reckoning->nominal_k_m_per_pulse = r.coarse_k_m_per_pulse;
   coarse.anchored = params.anchored;
+  coarse.navigation = false;  // only its dead reckoning is written
   OfflinePipeline pipeline(coarse, coarse_sink);
   feed(open(), pipeline);
   return r;

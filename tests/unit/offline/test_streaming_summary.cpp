@@ -396,3 +396,44 @@ TEST(StreamingSummary, OutputFilesReadRowByRowAreTheRowsWritten) {
       << error;
   fs::remove_all(dir);
 }
+
+// Cursors over one file that advance side by side read it once; one that falls behind the window, or
+// starts after it moved, reads on its own and still gives every item in order.
+TEST(SharedSource, CursorsMovingTogetherReadTheFileOnceAndALateOneReadsOnItsOwn) {
+  struct Counts {
+    int opens = 0;
+    int reads = 0;
+  };
+  auto counts = std::make_shared<Counts>();
+  constexpr int kItems = 100000;
+  const SourceFactory<int> file = [counts]() -> Source<int> {
+    ++counts->opens;
+    return [counts, i = 0]() mutable -> std::optional<int> {
+      if (i == kItems) return std::nullopt;
+      ++counts->reads;
+      return i++;
+    };
+  };
+  const SourceFactory<int> shared = shared_source(file, 1000);
+  Source<int> a = shared(), b = shared(), c = shared();
+  { Source<int> probe = shared(); }  // opened, never read: costs nothing
+  for (int i = 0; i < kItems; ++i) {
+    ASSERT_EQ(a(), i);
+    if (i >= 3) ASSERT_EQ(b(), i - 3);    // 3 items behind
+    if (i >= 900) ASSERT_EQ(c(), i - 900);  // 900 behind: still inside the window
+  }
+  EXPECT_EQ(counts->opens, 1);
+  EXPECT_EQ(counts->reads, kItems);
+  Source<int> late = shared();  // after the window moved: a reader of its own, from the start
+  for (int i = 0; i < 5; ++i) ASSERT_EQ(late(), i);
+  EXPECT_EQ(counts->opens, 2);
+  // Half the pace of a fresh shared reader: falls out of the window and goes on on its own.
+  const SourceFactory<int> again = shared_source(file, 1000);
+  Source<int> fast = again(), slow = again();
+  for (int i = 0; i < kItems; ++i) {
+    ASSERT_EQ(fast(), i);
+    if (i % 2 == 0) ASSERT_EQ(slow(), i / 2);
+  }
+  EXPECT_FALSE(fast().has_value());
+  EXPECT_EQ(counts->opens, 4);
+}

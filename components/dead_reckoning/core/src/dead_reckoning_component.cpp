@@ -7,8 +7,10 @@
 
 namespace odonav {
 
-DeadReckoningComponent::DeadReckoningComponent(const DeadReckonerParams& params, const AnchoredPositionParams& anchored)
+DeadReckoningComponent::DeadReckoningComponent(const DeadReckonerParams& params, const AnchoredPositionParams& anchored,
+                                               bool navigation)
     : hold_off_s_(params.estimate_hold_off_s),
+      navigation_(navigation),
       core_(params),
       anchor_(anchored),
       consumer_(params.nominal_k_m_per_pulse) {}
@@ -51,7 +53,7 @@ ScaleFactorCommandResult DeadReckoningComponent::set_commanded_k(double k_m_per_
 DeadReckoningStep DeadReckoningComponent::publish(DeadReckoningOutput o) {
   DeadReckoningStep step;
   step.misalignment = consumer_.applied_misalignment.at_or_before(o.t_s).value_or(Misalignment{});
-  step.navigation = anchor_.step(o);
+  if (navigation_) step.navigation = anchor_.step(o);
   consumer_.applied_misalignment.drop_before(o.t_s);
   step.output = std::move(o);
   return step;

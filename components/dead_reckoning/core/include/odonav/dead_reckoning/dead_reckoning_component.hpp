@@ -30,8 +30,11 @@ struct DeadReckoningStep {
 
 class DeadReckoningComponent {
  public:
-  /// Throws std::invalid_argument naming the parameter when params are out of range.
-  DeadReckoningComponent(const DeadReckonerParams& params, const AnchoredPositionParams& anchored);
+  /// Throws std::invalid_argument naming the parameter when params are out of range. navigation:
+  /// false when nobody reads the anchored position (publish() then leaves it at its default and
+  /// spends nothing on it).
+  DeadReckoningComponent(const DeadReckonerParams& params, const AnchoredPositionParams& anchored,
+                         bool navigation = true);
 
   /// Sensor samples, each stream in increasing time (DeadReckoner::add_*; StreamInputError on bad input).
   OdometerAddResult add_odometer(const OdometerSample& sample) { return core_.add_odometer(sample); }
@@ -68,6 +71,7 @@ class DeadReckoningComponent {
 
  private:
   double hold_off_s_;
+  bool navigation_;
   DeadReckoner core_;
   AnchoredPositionFilter anchor_;
   DeadReckoningConsumerState consumer_;
