@@ -18,131 +18,105 @@ std::optional<double> finite_or_empty(double v) {
   return std::isfinite(v) ? std::optional<double>(v) : std::nullopt;
 }
 
+// The header of a file: the column names of its table.
+struct HeaderVisitor {
+  std::vector<std::string>& names;
+  template <class T>
+  void number(const char* n, T&, double, Since = Since::kFirst) { names.emplace_back(n); }
+  template <class T>
+  void finite(const char* n, T&, Since = Since::kFirst) { names.emplace_back(n); }
+  template <class T>
+  void degrees(const char* n, T&) { names.emplace_back(n); }
+  template <class T>
+  void finite_degrees(const char* n, T&) { names.emplace_back(n); }
+  template <class T>
+  void optional(const char* n, T&, Since = Since::kFirst) { names.emplace_back(n); }
+  template <class T>
+  void text(const char* n, T&) { names.emplace_back(n); }
+  template <class T>
+  void flag(const char* n, T&) { names.emplace_back(n); }
+  template <class T>
+  void count(const char* n, T&) { names.emplace_back(n); }
+  template <class T>
+  void estimators(T&) {
+    for (const std::string& c : scale_factor_estimator_columns()) names.push_back(c);
+  }
+};
+
+template <class Row>
+std::vector<std::string> columns_of() {
+  std::vector<std::string> names;
+  Row row;
+  visit_columns(row, HeaderVisitor{names});
+  return names;
+}
+
+// One row into a CsvWriter, field by field in the table's order.
+struct WriteVisitor {
+  CsvWriter& csv;
+  void number(const char*, double v, double, Since = Since::kFirst) { csv.field(v); }
+  void finite(const char*, double v, Since = Since::kFirst) { csv.field(finite_or_empty(v)); }
+  void degrees(const char*, double rad) { csv.field(rad_to_deg(rad)); }
+  void finite_degrees(const char*, double rad) { csv.field(finite_or_empty(rad_to_deg(rad))); }
+  void optional(const char*, const std::optional<double>& v, Since = Since::kFirst) { csv.field(v); }
+  void text(const char*, const std::string& v) { csv.field(v); }
+  void flag(const char*, bool v) { csv.field(v); }
+  void count(const char*, uint64_t v) { csv.field(v); }
+  void estimators(const std::vector<std::pair<std::string, std::optional<double>>>& k_by_estimator) {
+    for (const std::string& column : scale_factor_estimator_columns()) {
+      std::optional<double> k;
+      // column is "k_" + name; compared in place (no temporary string per column and estimator).
+      for (const auto& [name, value] : k_by_estimator)
+        if (column.size() == name.size() + 2 && column.compare(2, std::string::npos, name) == 0) k = value;
+      csv.field(k);
+    }
+  }
+};
+
+template <class Row>
+void write_row(CsvWriter& csv, const Row& row) {
+  visit_columns(row, WriteVisitor{csv});
+  csv.end_row();
+}
+
 }  // namespace
-
-const std::vector<std::string>& misalignment_columns() {
-  static const std::vector<std::string> columns{"t",        "heading_deg", "pitch_deg", "heading_std_deg", "pitch_std_deg",
-                                                "converged", "state",      "samples_used"};
-  return columns;
-}
-
-const std::vector<std::string>& scale_factor_columns() {
-  static const std::vector<std::string> columns = [] {
-    std::vector<std::string> h{"t"};
-    for (const std::string& c : scale_factor_estimator_columns()) h.push_back(c);
-    for (const char* c : {"lambda_vff_lm_rls", "estimator", "k_m_per_pulse", "sigma_m_per_pulse", "forgetting_factor",
-                          "window_fill", "converged", "samples_accepted", "samples_rejected", "epoch_status",
-                          "gnss_latency_s", "gnss_latency_sigma_s", "turn_slip_s_per_rad", "turn_slip_sigma_s_per_rad",
-                          "turn_slip_applies"})
-      h.push_back(c);
-    return h;
-  }();
-  return columns;
-}
-
-const std::vector<std::string>& dead_reckoning_columns() {
-  static const std::vector<std::string> columns{"t",      "lat_deg", "lon_deg", "height_m",    "distance_m",
-                                                "k_m_per_pulse", "k_source", "east_m", "north_m",
-                                                "up_m",   "heading_deg", "horizontal_error_m", "error_percent", "error_t"};
-  return columns;
-}
-
-const std::vector<std::string>& navigation_position_columns() {
-  static const std::vector<std::string> columns{"t",           "lat_deg",     "lon_deg",      "height_m",  "east_m",
-                                                "north_m",     "up_m",        "var_east_m2",  "var_north_m2",
-                                                "var_up_m2",   "status",      "last_fix_t",   "distance_since_fix_m"};
-  return columns;
-}
 
 const std::vector<std::string>& scale_factor_estimator_columns() {
   static const std::vector<std::string> columns{"k_rls", "k_ff_rls", "k_lm_rls", "k_vff_lm_rls", "k_coarse", "k_kf_rw"};
   return columns;
 }
 
-MisalignmentCsv::MisalignmentCsv(const std::string& path)
-    : csv_(path, misalignment_columns()) {}
-
-void MisalignmentCsv::write(const MisalignmentRow& r) {
-  csv_.field(r.t_s)
-      .field(rad_to_deg(r.heading_rad))
-      .field(rad_to_deg(r.pitch_rad))
-      .field(finite_or_empty(rad_to_deg(r.heading_std_rad)))
-      .field(finite_or_empty(rad_to_deg(r.pitch_std_rad)))
-      .field(r.converged)
-      .field(r.state)
-      .field(r.samples_used);
-  csv_.end_row();
+const std::vector<std::string>& misalignment_columns() {
+  static const std::vector<std::string> columns = columns_of<MisalignmentRow>();
+  return columns;
 }
+
+const std::vector<std::string>& scale_factor_columns() {
+  static const std::vector<std::string> columns = columns_of<ScaleFactorRow>();
+  return columns;
+}
+
+const std::vector<std::string>& dead_reckoning_columns() {
+  static const std::vector<std::string> columns = columns_of<DeadReckoningRow>();
+  return columns;
+}
+
+const std::vector<std::string>& navigation_position_columns() {
+  static const std::vector<std::string> columns = columns_of<NavigationPositionRow>();
+  return columns;
+}
+
+MisalignmentCsv::MisalignmentCsv(const std::string& path) : csv_(path, misalignment_columns()) {}
+void MisalignmentCsv::write(const MisalignmentRow& r) { write_row(csv_, r); }
 
 ScaleFactorCsv::ScaleFactorCsv(const std::string& path) : csv_(path, scale_factor_columns()) {}
+void ScaleFactorCsv::write(const ScaleFactorRow& r) { write_row(csv_, r); }
 
-void ScaleFactorCsv::write(const ScaleFactorRow& r) {
-  csv_.field(r.t_s);
-  for (const std::string& column : scale_factor_estimator_columns()) {
-    std::optional<double> k;
-    // column is "k_" + name; compared in place (no temporary string per column and estimator).
-    for (const auto& [name, value] : r.k_by_estimator)
-      if (column.size() == name.size() + 2 && column.compare(2, std::string::npos, name) == 0) k = value;
-    csv_.field(k);
-  }
-  csv_.field(r.lambda_vff_lm_rls)
-      .field(r.estimator)
-      .field(r.k_m_per_pulse)
-      .field(r.sigma_m_per_pulse)
-      .field(r.forgetting_factor)
-      .field(r.window_fill)
-      .field(r.converged)
-      .field(r.samples_accepted)
-      .field(r.samples_rejected)
-      .field(r.epoch_status)
-      .field(r.gnss_latency_s)
-      .field(r.gnss_latency_sigma_s)
-      .field(r.turn_slip_s_per_rad)
-      .field(r.turn_slip_sigma_s_per_rad)
-      .field(r.turn_slip_applies);
-  csv_.end_row();
-}
+DeadReckoningCsv::DeadReckoningCsv(const std::string& path) : csv_(path, dead_reckoning_columns()) {}
+void DeadReckoningCsv::write(const DeadReckoningRow& r) { write_row(csv_, r); }
 
-DeadReckoningCsv::DeadReckoningCsv(const std::string& path)
-    : csv_(path, dead_reckoning_columns()) {}
-
-void DeadReckoningCsv::write(const DeadReckoningRow& r) {
-  csv_.field(r.t_s)
-      .field(rad_to_deg(r.lat_rad))
-      .field(rad_to_deg(r.lon_rad))
-      .field(r.height_m)
-      .field(r.distance_m)
-      .field(r.k_m_per_pulse)
-      .field(r.k_source)
-      .field(r.east_m)
-      .field(r.north_m)
-      .field(r.up_m)
-      .field(rad_to_deg(r.heading_rad))
-      .field(finite_or_empty(r.horizontal_error_m))
-      .field(finite_or_empty(r.error_percent))
-      .field(finite_or_empty(r.error_t_s));
-  csv_.end_row();
-}
-
-NavigationPositionCsv::NavigationPositionCsv(const std::string& path)
-    : csv_(path, navigation_position_columns()) {}
-
-void NavigationPositionCsv::write(const NavigationPositionRow& r) {
-  csv_.field(r.t_s)
-      .field(rad_to_deg(r.lat_rad))
-      .field(rad_to_deg(r.lon_rad))
-      .field(r.height_m)
-      .field(r.east_m)
-      .field(r.north_m)
-      .field(r.up_m)
-      .field(finite_or_empty(r.var_east_m2))
-      .field(finite_or_empty(r.var_north_m2))
-      .field(finite_or_empty(r.var_up_m2))
-      .field(r.status)
-      .field(finite_or_empty(r.last_fix_t_s))
-      .field(finite_or_empty(r.distance_since_fix_m));
-  csv_.end_row();
-}
+NavigationPositionCsv::NavigationPositionCsv(const std::string& path) : csv_(path, navigation_position_columns()) {}
+void NavigationPositionCsv::write(const NavigationPositionRow& r) { write_row(csv_, r); }
 
 }  // namespace odonav::results
 
@@ -212,72 +186,35 @@ class CsvLines {
   std::size_t line_no_ = 1;
 };
 
-void parse(const CsvLines& t, MisalignmentRow& r) {
-  r.t_s = t.number("t");
-  r.heading_rad = deg_to_rad(t.number("heading_deg"));
-  r.pitch_rad = deg_to_rad(t.number("pitch_deg"));
-  r.heading_std_rad = deg_to_rad(t.number("heading_std_deg"));
-  r.pitch_std_rad = deg_to_rad(t.number("pitch_std_deg"));
-  r.converged = t.number("converged", 0.0) != 0.0;
-  r.state = t.text("state");
-  r.samples_used = static_cast<uint64_t>(t.number("samples_used", 0.0));
-}
+// One row from the current line of a file, by column name (the file's own column order).
+struct ReadVisitor {
+  const CsvLines& t;
+  void number(const char* n, double& v, double if_empty, Since since = Since::kFirst) {
+    v = present(n, since) ? t.number(n, if_empty) : if_empty;
+  }
+  void finite(const char* n, double& v, Since since = Since::kFirst) {
+    number(n, v, std::numeric_limits<double>::quiet_NaN(), since);
+  }
+  void degrees(const char* n, double& rad) { rad = deg_to_rad(t.number(n)); }
+  void finite_degrees(const char* n, double& rad) { degrees(n, rad); }
+  void optional(const char* n, std::optional<double>& v, Since since = Since::kFirst) {
+    v = present(n, since) ? t.optional_number(n) : std::nullopt;
+  }
+  void text(const char* n, std::string& v) { v = t.text(n); }
+  void flag(const char* n, bool& v) { v = t.number(n, 0.0) != 0.0; }
+  void count(const char* n, uint64_t& v) { v = static_cast<uint64_t>(t.number(n, 0.0)); }
+  void estimators(std::vector<std::pair<std::string, std::optional<double>>>& k_by_estimator) {
+    k_by_estimator.clear();
+    for (const std::string& c : scale_factor_estimator_columns())
+      if (t.has(c)) k_by_estimator.emplace_back(c.substr(2), t.optional_number(c));
+  }
+  // A column older files lack is read as empty when absent; any other is required (text() names it).
+  bool present(const char* n, Since since) const { return since == Since::kFirst || t.has(n); }
+};
 
-void parse(const CsvLines& t, ScaleFactorRow& r) {
-  r.t_s = t.number("t");
-  r.k_by_estimator.clear();
-  for (const std::string& c : scale_factor_estimator_columns())
-    if (t.has(c)) r.k_by_estimator.emplace_back(c.substr(2), t.optional_number(c));
-  r.lambda_vff_lm_rls = t.optional_number("lambda_vff_lm_rls");
-  r.estimator = t.text("estimator");
-  r.k_m_per_pulse = t.optional_number("k_m_per_pulse");
-  r.sigma_m_per_pulse = t.optional_number("sigma_m_per_pulse");
-  r.forgetting_factor = t.number("forgetting_factor", 1.0);
-  r.window_fill = t.number("window_fill", 0.0);
-  r.converged = t.number("converged", 0.0) != 0.0;
-  r.samples_accepted = static_cast<uint64_t>(t.number("samples_accepted", 0.0));
-  r.samples_rejected = static_cast<uint64_t>(t.number("samples_rejected", 0.0));
-  r.epoch_status = t.text("epoch_status");
-  r.gnss_latency_s = t.number("gnss_latency_s", 0.0);
-  r.gnss_latency_sigma_s = t.has("gnss_latency_sigma_s") ? t.optional_number("gnss_latency_sigma_s") : std::nullopt;
-  r.turn_slip_s_per_rad = t.number("turn_slip_s_per_rad", 0.0);
-  r.turn_slip_sigma_s_per_rad =
-      t.has("turn_slip_sigma_s_per_rad") ? t.optional_number("turn_slip_sigma_s_per_rad") : std::nullopt;
-  r.turn_slip_applies = t.number("turn_slip_applies", 0.0) != 0.0;
-}
-
-void parse(const CsvLines& t, DeadReckoningRow& r) {
-  r.t_s = t.number("t");
-  r.lat_rad = deg_to_rad(t.number("lat_deg"));
-  r.lon_rad = deg_to_rad(t.number("lon_deg"));
-  r.height_m = t.number("height_m");
-  r.distance_m = t.number("distance_m");
-  r.k_m_per_pulse = t.number("k_m_per_pulse");
-  r.k_source = t.text("k_source");
-  r.east_m = t.number("east_m");
-  r.north_m = t.number("north_m");
-  r.up_m = t.number("up_m");
-  r.heading_rad = deg_to_rad(t.number("heading_deg"));
-  r.horizontal_error_m = t.number("horizontal_error_m");
-  r.error_percent = t.number("error_percent");
-  // Files written before the error was evaluated per GNSS epoch have no error_t column.
-  r.error_t_s = t.has("error_t") ? t.number("error_t") : std::numeric_limits<double>::quiet_NaN();
-}
-
-void parse(const CsvLines& t, NavigationPositionRow& r) {
-  r.t_s = t.number("t");
-  r.lat_rad = deg_to_rad(t.number("lat_deg"));
-  r.lon_rad = deg_to_rad(t.number("lon_deg"));
-  r.height_m = t.number("height_m");
-  r.east_m = t.number("east_m");
-  r.north_m = t.number("north_m");
-  r.up_m = t.number("up_m");
-  r.var_east_m2 = t.number("var_east_m2");
-  r.var_north_m2 = t.number("var_north_m2");
-  r.var_up_m2 = t.number("var_up_m2");
-  r.status = t.text("status");
-  r.last_fix_t_s = t.number("last_fix_t");
-  r.distance_since_fix_m = t.number("distance_since_fix_m");
+template <class Row>
+void parse(const CsvLines& t, Row& r) {
+  visit_columns(r, ReadVisitor{t});
 }
 
 template <class Row>

@@ -26,7 +26,10 @@
 // empty fields.
 #include <memory>
 #include <optional>
+#include <limits>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "odonav/csv_writer.hpp"
@@ -102,6 +105,91 @@ struct NavigationPositionRow {
   double last_fix_t_s = 0.0;          ///< NaN = none yet (written empty).
   double distance_since_fix_m = 0.0;  ///< NaN = none yet (written empty).
 };
+
+/// The column table of each row type: one line per column, in file order, naming the column and
+/// the row member it holds, with the kind of value. The header, the writer and the reader of every
+/// file are made from it (a new column is one line here). visit_columns(row, v) calls, per column,
+/// one of these members of v (Row may be const for writing):
+///   number(name, double&, if_empty)      the double as is (NaN: empty field); read: empty -> if_empty
+///   finite(name, double&)                not finite -> empty field; read: empty -> NaN
+///   degrees(name, double& rad)           radians in the row, degrees in the file
+///   finite_degrees(name, double& rad)    the same, not finite -> empty field
+///   optional(name, std::optional<double>&)   nullopt <-> empty field
+///   text(name, std::string&)             no ',' or newline
+///   flag(name, bool&)                    1 / 0
+///   count(name, uint64_t&)
+///   estimators(std::vector<std::pair<std::string, std::optional<double>>>&)
+///                                        the k_<name> columns (scale_factor_estimator_columns())
+/// A trailing `Since::kLater` marks a column that files of older versions lack (read: as empty).
+enum class Since { kFirst, kLater };
+
+template <class Row, class V>
+void visit_columns(Row& r, V&& v) {
+  static_assert(std::is_same_v<std::remove_const_t<Row>, MisalignmentRow> ||
+                    std::is_same_v<std::remove_const_t<Row>, ScaleFactorRow> ||
+                    std::is_same_v<std::remove_const_t<Row>, DeadReckoningRow> ||
+                    std::is_same_v<std::remove_const_t<Row>, NavigationPositionRow>,
+                "visit_columns: not an output row type");
+  using R = std::remove_const_t<Row>;
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  if constexpr (std::is_same_v<R, MisalignmentRow>) {
+    v.number("t", r.t_s, kNaN);
+    v.degrees("heading_deg", r.heading_rad);
+    v.degrees("pitch_deg", r.pitch_rad);
+    v.finite_degrees("heading_std_deg", r.heading_std_rad);
+    v.finite_degrees("pitch_std_deg", r.pitch_std_rad);
+    v.flag("converged", r.converged);
+    v.text("state", r.state);
+    v.count("samples_used", r.samples_used);
+  } else if constexpr (std::is_same_v<R, ScaleFactorRow>) {
+    v.number("t", r.t_s, kNaN);
+    v.estimators(r.k_by_estimator);
+    v.optional("lambda_vff_lm_rls", r.lambda_vff_lm_rls);
+    v.text("estimator", r.estimator);
+    v.optional("k_m_per_pulse", r.k_m_per_pulse);
+    v.optional("sigma_m_per_pulse", r.sigma_m_per_pulse);
+    v.number("forgetting_factor", r.forgetting_factor, 1.0);
+    v.number("window_fill", r.window_fill, 0.0);
+    v.flag("converged", r.converged);
+    v.count("samples_accepted", r.samples_accepted);
+    v.count("samples_rejected", r.samples_rejected);
+    v.text("epoch_status", r.epoch_status);
+    v.number("gnss_latency_s", r.gnss_latency_s, 0.0);
+    v.optional("gnss_latency_sigma_s", r.gnss_latency_sigma_s, Since::kLater);
+    v.number("turn_slip_s_per_rad", r.turn_slip_s_per_rad, 0.0);
+    v.optional("turn_slip_sigma_s_per_rad", r.turn_slip_sigma_s_per_rad, Since::kLater);
+    v.flag("turn_slip_applies", r.turn_slip_applies);
+  } else if constexpr (std::is_same_v<R, DeadReckoningRow>) {
+    v.number("t", r.t_s, kNaN);
+    v.degrees("lat_deg", r.lat_rad);
+    v.degrees("lon_deg", r.lon_rad);
+    v.number("height_m", r.height_m, kNaN);
+    v.number("distance_m", r.distance_m, kNaN);
+    v.number("k_m_per_pulse", r.k_m_per_pulse, kNaN);
+    v.text("k_source", r.k_source);
+    v.number("east_m", r.east_m, kNaN);
+    v.number("north_m", r.north_m, kNaN);
+    v.number("up_m", r.up_m, kNaN);
+    v.degrees("heading_deg", r.heading_rad);
+    v.finite("horizontal_error_m", r.horizontal_error_m);
+    v.finite("error_percent", r.error_percent);
+    v.finite("error_t", r.error_t_s, Since::kLater);
+  } else {
+    v.number("t", r.t_s, kNaN);
+    v.degrees("lat_deg", r.lat_rad);
+    v.degrees("lon_deg", r.lon_rad);
+    v.number("height_m", r.height_m, kNaN);
+    v.number("east_m", r.east_m, kNaN);
+    v.number("north_m", r.north_m, kNaN);
+    v.number("up_m", r.up_m, kNaN);
+    v.finite("var_east_m2", r.var_east_m2);
+    v.finite("var_north_m2", r.var_north_m2);
+    v.finite("var_up_m2", r.var_up_m2);
+    v.text("status", r.status);
+    v.finite("last_fix_t", r.last_fix_t_s);
+    v.finite("distance_since_fix_m", r.distance_since_fix_m);
+  }
+}
 
 /// Writers; each constructor creates the file with its header (throws std::runtime_error naming it).
 class MisalignmentCsv {
