@@ -1,7 +1,12 @@
 // odonav-offline: runs calibration -> identification -> dead reckoning over a dataset directory
 // without DDS, writes the output files and summary.json, prints a summary. See README.md.
 
+#include <atomic>
 #include <chrono>
+#include <exception>
+#include <functional>
+#include <thread>
+#include <variant>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -17,6 +22,7 @@
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 #include "odonav/identification/identification_options.hpp"
 #include "odonav/logging.hpp"
+#include "odonav/task_dispatcher.hpp"
 #include "odonav/run_provenance.hpp"
 #include "odonav/safe_output.hpp"
 #include "odonav/stream_buffers.hpp"
@@ -236,10 +242,105 @@ class CoarseFile : public odonav::offline::PipelineSink {
   std::size_t rows_ = 0;
 };
 
-/// The first pass's samples, also given to the summary, the diagnosis and the provenance.
+/// The first pass's sample times, for the summary and the diagnosis.
+struct InputTime {
+  odonav::DatasetStreamKind kind;
+  double t_s;
+};
+
+/// What the output side receives, in the order the run makes it.
+struct CoarseStep {
+  odonav::DeadReckoningStep step;
+};
+using OutputItem = std::variant<InputTime, odonav::MisalignmentOutput, odonav::IdentificationOutput,
+                                odonav::DeadReckoningStep, CoarseStep>;
+
+/// The output side of the run (the files, the summary, the diagnosis) on a second thread, so that
+/// formatting and evaluating overlap with processing: items are handed over in batches, in the
+/// order they were made, and handled one at a time there, so every figure is what one thread
+/// would give. At most kMaxBatches batches wait: memory stays bounded when the output side is the
+/// slower one. An error there is rethrown by the next push() or by finish().
+class OutputThread {
+ public:
+  explicit OutputThread(std::function<void(OutputItem&)> handle) : handle_(std::move(handle)) {
+    worker_ = std::thread([this] {
+      dispatcher_.run([this] { return stop_.load(); }, nullptr, std::chrono::milliseconds(50));
+    });
+  }
+  ~OutputThread() {
+    if (worker_.joinable()) stop_and_join();
+  }
+  OutputThread(const OutputThread&) = delete;
+  OutputThread& operator=(const OutputThread&) = delete;
+
+  /// One item (an alternative of OutputItem), made in place in the batch.
+  template <class T>
+  void push(T&& item) {
+    batch_.emplace_back(std::forward<T>(item));
+    if (batch_.size() >= kBatchItems) hand_over();
+  }
+  /// Handles everything pushed, stops the thread; rethrows an error of the output side.
+  void finish() {
+    hand_over();
+    stop_and_join();
+    dispatcher_.run_pending();  // what the thread had not started when it stopped
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  static constexpr std::size_t kBatchItems = 1024;
+  static constexpr std::size_t kMaxBatches = 4;
+  void hand_over() {
+    if (error_) std::rethrow_exception(error_);
+    if (batch_.empty()) return;
+    while (dispatcher_.queue_depth() >= kMaxBatches) std::this_thread::sleep_for(std::chrono::microseconds(100));
+    auto batch = std::make_shared<std::vector<OutputItem>>(std::move(batch_));
+    batch_.clear();
+    batch_.reserve(kBatchItems);
+    dispatcher_.post([this, batch] {
+      if (error_) return;
+      try {
+        for (OutputItem& item : *batch) handle_(item);
+      } catch (...) {
+        error_ = std::current_exception();
+      }
+    });
+  }
+  void stop_and_join() {
+    stop_ = true;
+    worker_.join();
+  }
+
+  std::function<void(OutputItem&)> handle_;
+  odonav::TaskDispatcher dispatcher_;  // kQueued: run() executes on worker_
+  std::atomic<bool> stop_{false};
+  std::exception_ptr error_;  // set on the worker, read after a hand-over or the join
+  std::vector<OutputItem> batch_;
+  std::thread worker_;
+};
+
+/// The pipeline's outputs to the output thread.
+class HandOver : public odonav::offline::PipelineSink {
+ public:
+  HandOver(OutputThread& thread, bool coarse) : thread_(thread), coarse_(coarse) {}
+  void on_misalignment(const odonav::MisalignmentOutput& m) override {
+    if (!coarse_) thread_.push(m);
+  }
+  void on_scale_factor(const odonav::IdentificationOutput& k) override { thread_.push(k); }
+  void on_dead_reckoning(odonav::DeadReckoningStep step) override {
+    if (coarse_) thread_.push(CoarseStep{std::move(step)});
+    else thread_.push(std::move(step));
+  }
+
+ private:
+  OutputThread& thread_;
+  bool coarse_;
+};
+
+/// The first pass's samples: their counts, span and fingerprint here, their times to the output
+/// thread (summary, diagnosis).
 struct InputTap {
-  odonav::offline::SummaryAccumulator& summary;
-  odonav::offline::RunDiagnosisAccumulator& diagnosis;
+  OutputThread& output;
   odonav::DatasetFingerprint& fingerprint;
   std::size_t odometer = 0, gnss = 0, ins = 0;
   double first_s = std::numeric_limits<double>::quiet_NaN();
@@ -248,21 +349,14 @@ struct InputTap {
     if (odometer + gnss + ins == 0) first_s = e.t_s;
     last_s = e.t_s;
     switch (e.kind) {
-      case odonav::DatasetStreamKind::kOdometer:
-        ++odometer;
-        summary.add_odometer(e.t_s);
-        diagnosis.add_odometer(e.t_s);
-        break;
+      case odonav::DatasetStreamKind::kOdometer: ++odometer; break;
       case odonav::DatasetStreamKind::kGnss:
         ++gnss;
-        diagnosis.add_gnss(e.t_s);
         fingerprint.add(e.gnss);
         break;
-      case odonav::DatasetStreamKind::kIns:
-        ++ins;
-        diagnosis.add_ins(e.t_s);
-        break;
+      case odonav::DatasetStreamKind::kIns: ++ins; break;
     }
+    output.push(InputTime{e.kind, e.t_s});
   }
 };
 
@@ -315,9 +409,20 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
   inputs.meta = meta;
   // The summary's evaluations read these files with cursors of their own, which move side by side
   // through the first pass (shared_source: each file parsed once for them).
-  if (has_truth)
-    inputs.truth = odonav::offline::shared_source<odonav::TruthSample>(
-        [dataset_dir, bad_rows] { return odonav::offline::Source<odonav::TruthSample>(odonav::truth_rows(dataset_dir, bad_rows)); });
+  // truth.csv's first reader counts its rows and tells its bad rows (into the report, as for the
+  // sensor files); the readers of later generations are quiet.
+  // Its report is its own while the output thread reads it (the sensor files' report is the first
+  // stream's), merged into the run's at the end.
+  odonav::DatasetReadReport truth_file_report;
+  auto truth_report = std::make_shared<std::optional<odonav::TruthStream>>();
+  const auto open_truth = [dataset_dir, bad_rows, &truth_file_report, truth_report]() -> odonav::offline::Source<odonav::TruthSample> {
+    if (!*truth_report) {
+      truth_report->emplace(dataset_dir, bad_rows, &truth_file_report);
+      return [truth_report] { return (*truth_report)->next(); };
+    }
+    return odonav::truth_rows(dataset_dir, bad_rows);
+  };
+  if (has_truth) inputs.truth = odonav::offline::shared_source<odonav::TruthSample>(open_truth);
   inputs.gnss = odonav::offline::shared_source<odonav::GnssSample>(
       [dataset_dir, bad_rows] { return odonav::offline::Source<odonav::GnssSample>(odonav::gnss_rows(dataset_dir, bad_rows)); });
   if (has_ins)
@@ -332,7 +437,28 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
   if (params.identification.run_all_estimators) estimators = odonav::estimator_names();
   OutputFiles files(out, params.identification.estimator_name, estimators, summary, diagnosis);
   CoarseFile coarse(out, summary);
-  InputTap tap{summary, diagnosis, fingerprint};
+  OutputThread output([&](OutputItem& item) {
+    if (const auto* t = std::get_if<InputTime>(&item)) {
+      switch (t->kind) {
+        case odonav::DatasetStreamKind::kOdometer:
+          summary.add_odometer(t->t_s);
+          diagnosis.add_odometer(t->t_s);
+          break;
+        case odonav::DatasetStreamKind::kGnss: diagnosis.add_gnss(t->t_s); break;
+        case odonav::DatasetStreamKind::kIns: diagnosis.add_ins(t->t_s); break;
+      }
+    } else if (const auto* m = std::get_if<odonav::MisalignmentOutput>(&item)) {
+      files.on_misalignment(*m);
+    } else if (const auto* k = std::get_if<odonav::IdentificationOutput>(&item)) {
+      files.on_scale_factor(*k);
+    } else if (auto* step = std::get_if<odonav::DeadReckoningStep>(&item)) {
+      files.on_dead_reckoning(std::move(*step));
+    } else {
+      coarse.on_dead_reckoning(std::move(std::get<CoarseStep>(item).step));
+    }
+  });
+  HandOver to_files(output, false), to_coarse_file(output, true);
+  InputTap tap{output, fingerprint};
   int pass = 0;
   const odonav::offline::OpenSampleStream open = [&]() -> odonav::offline::SampleStream {
     odonav::offline::SampleStream stream = open_pass(dataset_dir, bad_rows, first);
@@ -350,14 +476,19 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
       return e;
     };
   };
-  const odonav::offline::OfflineRunTotals totals = odonav::offline::run_offline(open, has_ins, params, files, coarse);
+  const odonav::offline::OfflineRunTotals totals =
+      odonav::offline::run_offline(open, has_ins, params, to_files, to_coarse_file);
+  output.finish();
   {
-    // truth.csv's rows counted and its bad rows told once, as for the sensor files (the summary's
-    // readers are quiet); before the files are complete, so a bad row under --on-bad-row=fail leaves
-    // no output, as any other bad row.
-    odonav::TruthStream truth(dataset_dir, bad_rows, &report);
-    while (truth.next()) {
+    // The rest of truth.csv through its reporting reader (all of it when the summary read none), so
+    // every row is counted; before the files are complete, so a bad row under --on-bad-row=fail
+    // leaves no output, as any other bad row.
+    const odonav::offline::Source<odonav::TruthSample> rest = *truth_report ? [truth_report] { return (*truth_report)->next(); } : open_truth();
+    while (rest()) {
     }
+    for (const odonav::FileReadReport& f : truth_file_report.files) report.files.push_back(f);
+    for (const odonav::BadRow& b : truth_file_report.bad_rows)
+      if (report.bad_rows.size() < odonav::kMaxDetailedBadRows) report.bad_rows.push_back(b);
   }
   files.close();
   coarse.close();

@@ -81,6 +81,8 @@ struct FileReadReport {
   std::size_t rows_bad = 0;    ///< rows rejected.
   std::vector<std::string> ignored_columns;  ///< unknown header names (warned once).
 };
+/// Bad rows a DatasetReadReport keeps in detail (the rest are only counted).
+inline constexpr std::size_t kMaxDetailedBadRows = 100;
 struct DatasetReadReport {
   std::vector<FileReadReport> files;
   std::vector<BadRow> bad_rows;  ///< at most the first 100 in detail; counts are in files.

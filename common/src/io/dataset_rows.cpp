@@ -26,7 +26,6 @@ using io_detail::trim;
 
 namespace {
 
-constexpr std::size_t kMaxDetailedBadRows = 100;      // DatasetReadReport keeps this many in detail
 constexpr std::size_t kMaxLoggedBadRowsPerFile = 10;  // then one summary line per file
 
 struct ColumnSpec {

@@ -37,50 +37,50 @@ SourceFactory<T> vector_source(const std::vector<T>& items) {
 }
 
 /// A factory whose sources share one reader of `open`'s items while they move together: the last
-/// `window_items` items read are held, and a source serves its next item from there; a source that
-/// falls further behind (or starts after the first item has left the window) continues with a
-/// reader of its own (a fresh source of `open`, skipped to its place). So several cursors over one
-/// file that advance side by side (the evaluations of one pass over the outputs) parse it once,
-/// and memory is bounded by the window whatever their lag.
+/// `window_items` items read are held, and a source serves its next item from there. A source that
+/// falls further behind (or starts after the first item has left the window) moves to a later
+/// generation: another shared reader of a fresh source of `open`, which the sources that fall behind
+/// after it share in turn. So several cursors over one file that advance side by side (the
+/// evaluations of one pass over the outputs) parse it once, those of a later pass once more, and
+/// memory is bounded by a window per generation whatever their lag.
 template <class T>
 SourceFactory<T> shared_source(SourceFactory<T> open, std::size_t window_items = 65536) {
   struct Shared {
     SourceFactory<T> open;
     std::size_t max_items = 0;
-    Source<T> reader;       // the shared reader, opened at the first read
-    std::deque<T> window;   // items [base, base + window.size())
+    Source<T> reader;               // this generation's reader, opened at its first read
+    std::deque<T> window;           // items [base, base + window.size())
     std::size_t base = 0;
     bool ended = false;
+    std::shared_ptr<Shared> later;  // the next generation, made when a source falls behind
   };
   struct Cursor {
     std::shared_ptr<Shared> s;
     std::size_t pos = 0;  // the next item to give
-    Source<T> own;        // fell out of the window: a reader of its own
     std::optional<T> next() {
-      if (!own && pos < s->base) {
-        own = s->open();
-        for (std::size_t i = 0; i < pos; ++i)
-          if (!own()) return std::nullopt;
+      while (pos < s->base) {  // fell behind this generation's window
+        if (!s->later) {
+          s->later = std::make_shared<Shared>();
+          s->later->open = s->open;
+          s->later->max_items = s->max_items;
+        }
+        s = s->later;
       }
-      if (own) return own();
-      std::optional<T> item;
-      if (pos - s->base < s->window.size()) {
-        item = s->window[pos - s->base];
-      } else if (!s->ended) {
-        if (!s->reader) s->reader = s->open();
-        item = s->reader();
-        if (!item) {
-          s->ended = true;
-        } else {
-          s->window.push_back(*item);
-          if (s->window.size() > s->max_items) {
-            s->window.pop_front();
-            ++s->base;
+      Shared& g = *s;
+      while (pos - g.base >= g.window.size() && !g.ended) {  // read up to this source's place
+        if (!g.reader) g.reader = g.open();
+        if (std::optional<T> item = g.reader()) {
+          g.window.push_back(std::move(*item));
+          if (g.window.size() > g.max_items) {
+            g.window.pop_front();
+            ++g.base;
           }
+        } else {
+          g.ended = true;
         }
       }
-      if (item) ++pos;
-      return item;
+      if (pos - g.base >= g.window.size()) return std::nullopt;
+      return g.window[pos++ - g.base];
     }
   };
   auto shared = std::make_shared<Shared>();
