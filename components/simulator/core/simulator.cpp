@@ -272,17 +272,28 @@ Drive plan_drive(const SimulationConfig& cfg) {
   return Drive{std::move(course), std::move(terrain), laps, std::move(profile), total_time_s, std::nullopt};
 }
 
-// Horizontal arc length and (signed) speed at t_rel_s after the start of the data (standstill first).
-SpeedProfile::State drive_state(const SimulationConfig& cfg, const Drive& drive, double t_rel_s) {
-  if (drive.plan) {
-    const MotionPlan::State st = drive.plan->at(t_rel_s - cfg.standstill_start_s);
-    SpeedProfile::State out;
-    out.s_m = st.s_m;
-    out.speed_mps = st.speed_mps;
-    return out;
+// Horizontal arc length and (signed) speed at t_rel_s after the start of the data (standstill first),
+// read forward in time (SpeedProfile::Cursor: an earlier time than the last one starts the profile
+// again from the beginning, so callers ask in time order).
+class DriveCursor {
+ public:
+  DriveCursor(const SimulationConfig& cfg, const Drive& drive) : cfg_(cfg), drive_(drive), profile_(drive.profile) {}
+  SpeedProfile::State at(double t_rel_s) {
+    if (drive_.plan) {
+      const MotionPlan::State st = drive_.plan->at(t_rel_s - cfg_.standstill_start_s);
+      SpeedProfile::State out;
+      out.s_m = st.s_m;
+      out.speed_mps = st.speed_mps;
+      return out;
+    }
+    return profile_.at(t_rel_s - cfg_.standstill_start_s);
   }
-  return drive.profile.at(t_rel_s - cfg.standstill_start_s);
-}
+
+ private:
+  const SimulationConfig& cfg_;
+  const Drive& drive_;
+  SpeedProfile::Cursor profile_;
+};
 
 // K before slip at t_rel_s, m/pulse: the initial true K times every K step reached.
 double k_base_at(const SimulationConfig& cfg, double t_rel_s) {
@@ -329,28 +340,27 @@ class TruthIntegrator {
         drive_(drive),
         sub_dt_s_(1.0 / cfg.truth_rate_hz / cfg.substeps),
         roll_blend_(1.0 - std::exp(-sub_dt_s_ / cfg.roll_time_constant_s)),
+        drive_at_(cfg, drive),
         pos_(cfg.start),
         roll_rad_(roll_target_rad(cfg, drive, 0.0, 0.0)) {}
 
   // Truth row k (at k / truth_rate_hz), after integrating from row k - 1.
   TruthRow row(std::size_t k) {
     const double t_rel = row_time_rel_s(cfg_, k);
-    SpeedProfile::State st = drive_state(cfg_, drive_, t_rel);
-    if (k > 0) {
-      for (int j = 1; j <= cfg_.substeps; ++j) {
-        const double t_sub = j == cfg_.substeps ? t_rel : row_time_rel_s(cfg_, k - 1) + j * sub_dt_s_;
-        substep(t_sub);
-      }
-      st = SpeedProfile::State{s_prev_, v_prev_};
+    if (k == 0) return row_at(t_rel, drive_at_.at(t_rel));
+    for (int j = 1; j <= cfg_.substeps; ++j) {
+      const double t_sub = j == cfg_.substeps ? t_rel : row_time_rel_s(cfg_, k - 1) + j * sub_dt_s_;
+      substep(t_sub);
     }
-    return row_at(t_rel, st);
+    // The last substep ended at t_rel: its state is the drive's state at the row.
+    return row_at(t_rel, SpeedProfile::State{s_prev_, v_prev_});
   }
 
  private:
   // Moves along the road from the last substep to t_sub: position, distance, pulses, roll.
   void substep(double t_sub) {
     const double t_mid = t_sub - 0.5 * sub_dt_s_;
-    const SpeedProfile::State now = drive_state(cfg_, drive_, t_sub);
+    const SpeedProfile::State now = drive_at_.at(t_sub);
     const double ds_h = now.s_m - s_prev_;
     const CoursePoint mid = drive_.course.at(0.5 * (s_prev_ + now.s_m));
     const double dh = drive_.terrain.height_m(now.s_m) - drive_.terrain.height_m(s_prev_);
@@ -389,6 +399,7 @@ class TruthIntegrator {
   const Drive& drive_;
   const double sub_dt_s_;
   const double roll_blend_;
+  DriveCursor drive_at_;
   Geodetic pos_;
   double distance_m_ = 0.0, pulse_phase_ = 0.0;
   double s_prev_ = 0.0, v_prev_ = 0.0;
@@ -472,9 +483,10 @@ std::vector<Outlier> pick_velocity_outliers(const SimulationConfig& cfg, const D
   if (cfg.gnss_velocity_outliers <= 0) return outliers;
   std::mt19937_64 rng = make_stream(cfg.seed, 3);
   EpochRuns candidates;
+  DriveCursor drive_at(cfg, drive);
   for (std::size_t e = 1; e + 1 < epochs.count; ++e) {
     const double t_rel = row_time_rel_s(cfg, epochs.row(e));
-    const SpeedProfile::State st = drive_state(cfg, drive, t_rel);
+    const SpeedProfile::State st = drive_at.at(t_rel);
     const double speed_mps =
         velocity_enu_mps(st.speed_mps, drive.course.at(st.s_m).heading_rad, drive.terrain.slope(st.s_m)).norm();
     if (speed_mps > 2.0 && !in_outage(cfg.gnss_outages, t_rel)) candidates.add(e);
@@ -614,7 +626,7 @@ TruthSample truth_sample(const SimulationConfig& cfg, const TruthRow& r) {
 nlohmann::json simulation_meta(const SimulationConfig& cfg, const Drive& drive, const TruthRow& last,
                                const std::vector<Outlier>& outliers) {
   const Course& course = drive.course;
-  const double s_end = drive_state(cfg, drive, last.t_rel_s).s_m;
+  const double s_end = last.s_m;  // the drive's arc length at the last row
   nlohmann::json sim;
   sim["scenario"] = cfg.scenario;
   sim["seed"] = cfg.seed;

@@ -143,9 +143,10 @@ class SampleSink {
 /// Order: by stamp t_s; at equal stamps truth, odometer, INS, then GNSS (a GNSS row is stamped its
 /// measurement time plus gnss_latency_s and arrives when the truth reaches that stamp; rows stamped
 /// after the last truth row arrive at the end). Each sensor's rows are in time order.
-/// Memory does not grow with the number of samples: three truth rows, the GNSS rows waiting for
-/// their stamp (latency times rate), the outlier candidates as runs of epochs. What does grow with
-/// the drive is the drive plan (the speed profile on a 0.25 m grid: 64 bytes per metre of road).
+/// Memory does not grow with the length of the drive: three truth rows, the GNSS rows waiting for
+/// their stamp (latency times rate), the outlier candidates as runs of epochs, and the speed
+/// profile, whose grid is generated as it is read (SpeedProfile). Only the slow robot's stop-and-go
+/// plan is a list of phases that lengthens with the drive (a few kB per hour).
 /// Exceptions thrown by the sink propagate (the samples so far have been delivered); throws
 /// std::invalid_argument on a bad config before the first sample.
 DatasetMeta simulate(const SimulationConfig& config, SampleSink& sink);
