@@ -11,6 +11,8 @@
 #include <filesystem>
 #include <iostream>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -18,6 +20,7 @@
 #include "core/simulator.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
+#include "odonav/dataset_writer.hpp"
 #include "odonav/logging.hpp"
 #include "odonav/safe_output.hpp"
 
@@ -101,21 +104,51 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    const odonav::Dataset ds = sim::simulate(cfg);
-    if (!nmea_path.empty()) {
-      // One fix per GNSS row, at the GNSS rate; CR LF ends each sentence as NMEA 0183 requires.
-      std::string text;
-      for (const odonav::GnssSample& g : ds.gnss)
-        for (const std::string& sentence : sim::nmea_sentences(g, nmea)) text += sentence + "\r\n";
-      odonav::write_file_atomically(nmea_path, text);
-      spdlog::info("wrote {}: {} fixes as NMEA (UTC of t=0: {} s)", nmea_path, ds.gnss.size(), nmea.utc_epoch_s);
+    if (!out_dir.empty()) check_dataset_destination(out_dir, opts.get_bool("force"));
+    // The samples go to the files as they are produced: memory does not grow with the drive.
+    struct Sink : sim::SampleSink {
+      std::unique_ptr<odonav::DatasetWriter> dataset;
+      std::unique_ptr<odonav::AtomicFile> nmea_file;
+      sim::NmeaSettings nmea;
+      std::size_t fixes = 0;
+      std::optional<odonav::TruthSample> first_truth, last_truth;
+      void add(const odonav::TruthSample& s) override {
+        if (!first_truth) first_truth = s;
+        last_truth = s;
+        if (dataset) dataset->add(s);
+      }
+      void add(const odonav::OdometerSample& s) override {
+        if (dataset) dataset->add(s);
+      }
+      void add(const odonav::InsSample& s) override {
+        if (dataset) dataset->add(s);
+      }
+      void add(const odonav::GnssSample& s) override {
+        if (dataset) dataset->add(s);
+        if (nmea_file) {
+          // One fix per GNSS row, at the GNSS rate; CR LF ends each sentence as NMEA 0183 requires.
+          for (const std::string& sentence : sim::nmea_sentences(s, nmea)) {
+            nmea_file->write(sentence);
+            nmea_file->write("\r\n", 2);
+          }
+          ++fixes;
+        }
+      }
+    } sink;
+    sink.nmea = nmea;
+    if (!nmea_path.empty()) sink.nmea_file = std::make_unique<odonav::AtomicFile>(nmea_path);
+    if (!out_dir.empty()) sink.dataset = std::make_unique<odonav::DatasetWriter>(out_dir, sim::dataset_writer_options(cfg));
+    const odonav::DatasetMeta meta = sim::simulate(cfg, sink);
+    if (sink.nmea_file) {
+      sink.nmea_file->commit();
+      spdlog::info("wrote {}: {} fixes as NMEA (UTC of t=0: {} s)", nmea_path, sink.fixes, nmea.utc_epoch_s);
     }
-    if (out_dir.empty()) return 0;
-    check_dataset_destination(out_dir, opts.get_bool("force"));
-    odonav::write_dataset(out_dir, ds);
+    if (!sink.dataset) return 0;
+    sink.dataset->finish(meta);
+    const odonav::DatasetRowCounts rows = sink.dataset->rows();
     spdlog::info("wrote {} ({}, seed {}): {:.2f} s, {:.1f} m; rows: {} odometer, {} gnss, {} ins, {} truth", out_dir,
-                 cfg.scenario, cfg.seed, ds.truth.back().t_s - ds.truth.front().t_s, ds.truth.back().distance_m,
-                 ds.odometer.size(), ds.gnss.size(), ds.ins.size(), ds.truth.size());
+                 cfg.scenario, cfg.seed, sink.last_truth->t_s - sink.first_truth->t_s, sink.last_truth->distance_m,
+                 rows.odometer, rows.gnss, rows.ins, rows.truth);
   } catch (const std::exception& e) {
     std::cerr << "odonav-sim: " << e.what() << "\n";
     return 1;

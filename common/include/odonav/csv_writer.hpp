@@ -3,8 +3,8 @@
 // double (std::to_chars round-trip form, so outputs of two runs can be compared to the last bit), NaN
 // and absent values as empty fields, no quoting (fields never hold ',' or a newline). Used by the
 // output files of odonav-offline and of the pipeline's recorder (odonav/results/output_files.hpp)
-// and by the dataset writer (docs/DATASET.md), which builds each file in memory first so that a bad
-// value leaves no half-written dataset.
+// and by the dataset writer (odonav/dataset_writer.hpp, docs/DATASET.md), row by row to temporaries
+// that take their real names only when the whole dataset is written.
 // A file writer writes through AtomicFile (odonav/safe_output.hpp): every write checked, the real
 // name only for a complete, closed file; a writer destroyed without close() (an exception, a failed
 // run) leaves the previous file untouched. A killed process leaves its rows in `<path>.tmp-<pid>`.
@@ -58,6 +58,10 @@ class CsvWriter {
 
   const std::string& path() const { return path_; }
   std::size_t rows() const { return rows_; }
+  /// Bytes reserved for text not yet written: a file writer writes its buffer out once it passes
+  /// 64 KiB, so this stays below about twice that plus one row however many rows are written; an
+  /// in-memory writer holds the whole file.
+  std::size_t buffer_capacity_bytes() const { return buffer_.capacity(); }
   /// The text of an in-memory writer so far (header, then every ended row). Throws
   /// std::logic_error for a file writer (its text is on disk).
   const std::string& text() const;

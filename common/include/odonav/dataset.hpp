@@ -1,6 +1,6 @@
 #pragma once
 // The odonav dataset directory, format v1 (docs/DATASET.md): the directory in memory, reader,
-// writer (row by row: odonav/dataset_stream.hpp). The row types (OdometerSample, GnssSample,
+// writer (row by row: odonav/dataset_stream.hpp and odonav/dataset_writer.hpp). The row types (OdometerSample, GnssSample,
 // InsSample, TruthSample) are the cores' sensor samples, in odonav/sensor_samples.hpp.
 //
 // Files hold degrees, metres, m/s; the types hold SI with radians. Time t_s is seconds on the
@@ -116,8 +116,10 @@ Dataset read_dataset(const std::string& dir, BadRowPolicy policy, DatasetReadRep
 /// have none and come back within 1 ulp). Optional columns (pos_std_m, vel_std_mps, INS ve/vn/vu,
 /// each truth column) are written only when some row has them; absent values are empty fields.
 /// A longitude outside [-pi, pi] is wrapped; a latitude or pitch outside [-pi/2, pi/2] or a
-/// non-finite value is a DatasetError naming file, row and column, and then nothing is written.
-/// A stale ins.csv / truth.csv is removed when the dataset has none. meta.json carries the unknown
-/// keys of meta.raw_json; the known keys come from the struct.
+/// non-finite value is a DatasetError naming file, row and column, and then no file is written
+/// under its real name. A stale ins.csv / truth.csv is removed when the dataset has none. meta.json
+/// carries the unknown keys of meta.raw_json; the known keys come from the struct. This is
+/// DatasetWriter (odonav/dataset_writer.hpp) with DatasetWriterOptions::for_dataset, fed file by
+/// file; to write a dataset row by row as it is produced, use DatasetWriter directly.
 void write_dataset(const std::string& dir, const Dataset& dataset);
 }  // namespace odonav

@@ -1,16 +1,18 @@
-// The dataset writer, format v1 (docs/DATASET.md): every file is built in memory with CsvWriter and
-// checked first, so a bad value leaves no half-written set, and its numbers read back to exactly the
-// values given.
-#include <cerrno>
+// The dataset writer, format v1 (docs/DATASET.md), row by row (odonav/dataset_writer.hpp): every
+// file goes through a file CsvWriter (bounded buffer, a temporary renamed into place at finish()),
+// every value is checked before it is written, and its numbers read back to exactly the values
+// given. write_dataset is this writer fed from a Dataset in memory.
+#include "odonav/dataset_writer.hpp"
+
+#include <array>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <functional>
+#include <optional>
+#include <stdexcept>
+#include <utility>
 
 #include "dataset_internal.hpp"
 #include "odonav/csv_writer.hpp"
-#include "odonav/dataset.hpp"
 #include "odonav/safe_output.hpp"
 #include "text_util.hpp"
 
@@ -23,15 +25,14 @@ using io_detail::format_double;
 
 namespace {
 
-// The dataset's value rules on top of an in-memory CsvWriter: numbers must be finite (the reader
-// rejects anything else, so the file always reads back), angles are written as exact degrees
+// The dataset's value rules on top of a file CsvWriter: numbers must be finite (the reader rejects
+// anything else, so the file always reads back), angles are written as exact degrees
 // (exact_degrees_of), latitude and pitch within a quarter turn, longitudes wrapped. Each failed
 // check throws DatasetError naming the file, row and column.
 class CheckedCsv {
  public:
-  CheckedCsv(const std::string& path, std::vector<std::string> columns)
-      : csv_(CsvWriter::InMemory{}, path, std::move(columns)) {}
-  void begin_row(std::size_t index) { row_ = index; }
+  CheckedCsv(const std::string& path, std::vector<std::string> columns) : csv_(path, std::move(columns)) {}
+  void begin_row() { row_ = csv_.rows(); }
   void end_row() { csv_.end_row(); }
   void number(double value, const char* column) { csv_.field(checked(value, column)); }
   void degrees(double angle_rad, const char* column) { csv_.field(exact_degrees_of(checked(angle_rad, column))); }
@@ -45,8 +46,7 @@ class CheckedCsv {
   /// A latitude or pitch: must lie in [-pi/2, pi/2] (the reader rejects anything else).
   void degrees_within_quarter_turn(double angle_rad, const char* column) {
     if (std::isfinite(angle_rad) && std::abs(angle_rad) > deg_to_rad(90.0)) {
-      throw DatasetError(csv_.path() + ": cannot write row " + std::to_string(row_ + 1) + ": column '" + column +
-                         "' is outside [-90, 90] deg");
+      fail(column, "is outside [-90, 90] deg");
     }
     degrees(angle_rad, column);
   }
@@ -56,27 +56,67 @@ class CheckedCsv {
     degrees(lon_rad, column);
   }
   void integer(int64_t value) { csv_.field(value); }
-  const std::string& text() const { return csv_.text(); }
+  /// A value given for a column this file does not have: refused rather than silently dropped.
+  [[noreturn]] void fail_not_a_column(const char* column) const {
+    fail(column, "has a value but the writer was opened without this column (DatasetWriterOptions)");
+  }
+  [[noreturn]] void fail(const char* column, const std::string& why) const {
+    throw DatasetError(csv_.path() + ": cannot write row " + std::to_string(row_ + 1) + ": column '" + column + "' " +
+                       why);
+  }
+  CsvWriter& csv() { return csv_; }
+  const CsvWriter& csv() const { return csv_; }
 
  private:
   double checked(double value, const char* column) const {
-    if (!std::isfinite(value)) {
-      throw DatasetError(csv_.path() + ": cannot write row " + std::to_string(row_ + 1) + ": column '" + column +
-                         "' is not finite (" + format_double(value) + ")");
-    }
+    if (!std::isfinite(value)) fail(column, "is not finite (" + format_double(value) + ")");
     return value;
   }
   CsvWriter csv_;
   std::size_t row_ = 0;
 };
 
-// Checked and atomic (safe_output.hpp): never through a link, never a half file under the name.
-void write_file(const std::string& path, const std::string& text) {
-  try {
-    write_file_atomically(path, text);
-  } catch (const OutputError& e) {
-    throw DatasetError(e.what());
-  }
+// truth.csv's optional columns, in file order.
+enum class TruthKind { kNumber, kAngle, kQuarterTurnAngle, kLongitude };
+struct TruthColumn {
+  const char* name;
+  TruthKind kind;
+  double (*get)(const TruthSample&);
+  bool TruthColumns::*enabled;
+};
+const std::array<TruthColumn, 8> kTruthColumns{{
+    {"lat_deg", TruthKind::kQuarterTurnAngle, [](const TruthSample& s) { return s.position.lat_rad; },
+     &TruthColumns::lat_deg},
+    {"lon_deg", TruthKind::kLongitude, [](const TruthSample& s) { return s.position.lon_rad; }, &TruthColumns::lon_deg},
+    {"height_m", TruthKind::kNumber, [](const TruthSample& s) { return s.position.height_m; }, &TruthColumns::height_m},
+    {"heading_deg", TruthKind::kAngle, [](const TruthSample& s) { return s.attitude.heading_rad; },
+     &TruthColumns::heading_deg},
+    {"pitch_deg", TruthKind::kQuarterTurnAngle, [](const TruthSample& s) { return s.attitude.pitch_rad; },
+     &TruthColumns::pitch_deg},
+    {"roll_deg", TruthKind::kAngle, [](const TruthSample& s) { return s.attitude.roll_rad; }, &TruthColumns::roll_deg},
+    {"k_true", TruthKind::kNumber, [](const TruthSample& s) { return s.k_true_m_per_pulse; }, &TruthColumns::k_true},
+    {"distance_m", TruthKind::kNumber, [](const TruthSample& s) { return s.distance_m; }, &TruthColumns::distance_m},
+}};
+
+std::vector<std::string> gnss_header(const DatasetWriterOptions& o) {
+  std::vector<std::string> columns{"t", "lat_deg", "lon_deg", "height_m", "ve", "vn", "vu"};
+  if (o.gnss_pos_std_m) columns.push_back("pos_std_m");
+  if (o.gnss_vel_std_mps) columns.push_back("vel_std_mps");
+  columns.push_back("fix");
+  return columns;
+}
+
+std::vector<std::string> ins_header(const DatasetWriterOptions& o) {
+  std::vector<std::string> columns{"t", "heading_deg", "pitch_deg", "roll_deg"};
+  if (o.ins_velocity) columns.insert(columns.end(), {"ve", "vn", "vu"});
+  return columns;
+}
+
+std::vector<std::string> truth_header(const DatasetWriterOptions& o) {
+  std::vector<std::string> columns{"t"};
+  for (const TruthColumn& c : kTruthColumns)
+    if (o.truth_columns.*c.enabled) columns.push_back(c.name);
+  return columns;
 }
 
 void remove_stale(const std::string& path) {
@@ -84,32 +124,90 @@ void remove_stale(const std::string& path) {
   fs::remove(path, ec);  // absent is fine; a failure to remove shows up when reading back
 }
 
-std::string odometer_csv(const std::string& path, const std::vector<OdometerSample>& rows) {
-  CheckedCsv csv(path, {"t", "pulses", "direction"});
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    csv.begin_row(i);
-    csv.number(rows[i].t_s, "t");
-    csv.integer(rows[i].pulses);
-    csv.integer(rows[i].direction);
-    csv.end_row();
+}  // namespace
+
+DatasetWriterOptions DatasetWriterOptions::for_dataset(const Dataset& dataset) {
+  DatasetWriterOptions o;
+  for (const GnssSample& s : dataset.gnss) {
+    o.gnss_pos_std_m = o.gnss_pos_std_m || s.pos_std_m.has_value();
+    o.gnss_vel_std_mps = o.gnss_vel_std_mps || s.vel_std_mps.has_value();
   }
-  return csv.text();
+  o.ins = dataset.has_ins();
+  for (const InsSample& s : dataset.ins) o.ins_velocity = o.ins_velocity || s.vel_enu_mps.has_value();
+  o.truth = dataset.has_truth();
+  for (const TruthColumn& c : kTruthColumns) {
+    bool any = false;
+    for (const TruthSample& s : dataset.truth) {
+      if (!std::isnan(c.get(s))) {
+        any = true;
+        break;
+      }
+    }
+    o.truth_columns.*c.enabled = any;
+  }
+  return o;
 }
 
-std::string gnss_csv(const std::string& path, const std::vector<GnssSample>& rows) {
-  bool any_pos_std = false, any_vel_std = false;
-  for (const GnssSample& s : rows) {
-    any_pos_std = any_pos_std || s.pos_std_m.has_value();
-    any_vel_std = any_vel_std || s.vel_std_mps.has_value();
+struct DatasetWriter::Files {
+  Files(const std::string& dir, const DatasetWriterOptions& o)
+      : odometer(join_path(dir, "odometer.csv"), {"t", "pulses", "direction"}),
+        gnss(join_path(dir, "gnss.csv"), gnss_header(o)) {
+    if (o.ins) ins.emplace(join_path(dir, "ins.csv"), ins_header(o));
+    if (o.truth) truth.emplace(join_path(dir, "truth.csv"), truth_header(o));
   }
-  std::vector<std::string> columns{"t", "lat_deg", "lon_deg", "height_m", "ve", "vn", "vu"};
-  if (any_pos_std) columns.push_back("pos_std_m");
-  if (any_vel_std) columns.push_back("vel_std_mps");
-  columns.push_back("fix");
-  CheckedCsv csv(path, columns);
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    const GnssSample& s = rows[i];
-    csv.begin_row(i);
+  CheckedCsv odometer;
+  CheckedCsv gnss;
+  std::optional<CheckedCsv> ins;
+  std::optional<CheckedCsv> truth;
+};
+
+// Runs one write; any exception marks the writer failed, an OutputError (safe_output.hpp: links,
+// I/O) becomes the DatasetError this writer promises.
+template <class F>
+void DatasetWriter::guarded(F&& write) {
+  if (failed_) throw std::logic_error(dir_ + ": DatasetWriter used after a failure");
+  if (finished_) throw std::logic_error(dir_ + ": DatasetWriter used after finish()");
+  try {
+    write();
+  } catch (const OutputError& e) {
+    failed_ = true;
+    throw DatasetError(e.what());
+  } catch (...) {
+    failed_ = true;
+    throw;
+  }
+}
+
+DatasetWriter::DatasetWriter(const std::string& dir, const DatasetWriterOptions& options)
+    : dir_(dir), options_(options) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw DatasetError(dir + ": cannot create the dataset directory: " + ec.message());
+  try {
+    files_ = std::make_unique<Files>(dir, options);
+  } catch (const OutputError& e) {
+    throw DatasetError(e.what());
+  }
+}
+
+// Without finish() every CsvWriter's AtomicFile removes its temporary: no file under a real name.
+DatasetWriter::~DatasetWriter() = default;
+
+void DatasetWriter::add(const OdometerSample& s) {
+  guarded([&] {
+    CheckedCsv& csv = files_->odometer;
+    csv.begin_row();
+    csv.number(s.t_s, "t");
+    csv.integer(s.pulses);
+    csv.integer(s.direction);
+    csv.end_row();
+  });
+}
+
+void DatasetWriter::add(const GnssSample& s) {
+  guarded([&] {
+    CheckedCsv& csv = files_->gnss;
+    csv.begin_row();
     csv.number(s.t_s, "t");
     csv.degrees_within_quarter_turn(s.position.lat_rad, "lat_deg");
     csv.longitude(s.position.lon_rad, "lon_deg");
@@ -117,115 +215,119 @@ std::string gnss_csv(const std::string& path, const std::vector<GnssSample>& row
     csv.number(s.vel_enu_mps.x(), "ve");
     csv.number(s.vel_enu_mps.y(), "vn");
     csv.number(s.vel_enu_mps.z(), "vu");
-    if (any_pos_std) csv.optional_number(s.pos_std_m, "pos_std_m");
-    if (any_vel_std) csv.optional_number(s.vel_std_mps, "vel_std_mps");
+    if (options_.gnss_pos_std_m) csv.optional_number(s.pos_std_m, "pos_std_m");
+    else if (s.pos_std_m) csv.fail_not_a_column("pos_std_m");
+    if (options_.gnss_vel_std_mps) csv.optional_number(s.vel_std_mps, "vel_std_mps");
+    else if (s.vel_std_mps) csv.fail_not_a_column("vel_std_mps");
     csv.integer(s.fix);
     csv.end_row();
-  }
-  return csv.text();
+  });
 }
 
-std::string ins_csv(const std::string& path, const std::vector<InsSample>& rows) {
-  bool any_velocity = false;
-  for (const InsSample& s : rows) any_velocity = any_velocity || s.vel_enu_mps.has_value();
-  std::vector<std::string> columns{"t", "heading_deg", "pitch_deg", "roll_deg"};
-  if (any_velocity) columns.insert(columns.end(), {"ve", "vn", "vu"});
-  CheckedCsv csv(path, columns);
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    const InsSample& s = rows[i];
-    csv.begin_row(i);
+void DatasetWriter::add(const InsSample& s) {
+  guarded([&] {
+    if (!files_->ins) {
+      throw DatasetError(join_path(dir_, "ins.csv") +
+                         ": cannot write an INS row: the writer was opened without ins.csv (DatasetWriterOptions)");
+    }
+    CheckedCsv& csv = *files_->ins;
+    csv.begin_row();
     csv.number(s.t_s, "t");
     csv.degrees(s.attitude.heading_rad, "heading_deg");
     csv.degrees_within_quarter_turn(s.attitude.pitch_rad, "pitch_deg");
     csv.degrees(s.attitude.roll_rad, "roll_deg");
-    if (any_velocity) {
+    if (options_.ins_velocity) {
       for (int axis = 0; axis < 3; ++axis) {
         const char* name = axis == 0 ? "ve" : axis == 1 ? "vn" : "vu";
         csv.optional_number(s.vel_enu_mps ? std::optional<double>((*s.vel_enu_mps)[axis]) : std::nullopt, name);
       }
+    } else if (s.vel_enu_mps) {
+      csv.fail_not_a_column("ve");
     }
     csv.end_row();
-  }
-  return csv.text();
+  });
 }
 
-std::string truth_csv(const std::string& path, const std::vector<TruthSample>& rows) {
-  // A column is written when any row has a value for it; absent values (NaN) are empty fields.
-  enum class Kind { kNumber, kAngle, kQuarterTurnAngle, kLongitude };
-  struct Column {
-    const char* name;
-    Kind kind;
-    std::function<double(const TruthSample&)> get;
-  };
-  const std::vector<Column> all{
-      {"lat_deg", Kind::kQuarterTurnAngle, [](const TruthSample& s) { return s.position.lat_rad; }},
-      {"lon_deg", Kind::kLongitude, [](const TruthSample& s) { return s.position.lon_rad; }},
-      {"height_m", Kind::kNumber, [](const TruthSample& s) { return s.position.height_m; }},
-      {"heading_deg", Kind::kAngle, [](const TruthSample& s) { return s.attitude.heading_rad; }},
-      {"pitch_deg", Kind::kQuarterTurnAngle, [](const TruthSample& s) { return s.attitude.pitch_rad; }},
-      {"roll_deg", Kind::kAngle, [](const TruthSample& s) { return s.attitude.roll_rad; }},
-      {"k_true", Kind::kNumber, [](const TruthSample& s) { return s.k_true_m_per_pulse; }},
-      {"distance_m", Kind::kNumber, [](const TruthSample& s) { return s.distance_m; }},
-  };
-  std::vector<const Column*> used;
-  std::vector<std::string> names{"t"};
-  for (const Column& c : all) {
-    for (const TruthSample& s : rows) {
-      if (!std::isnan(c.get(s))) {
-        used.push_back(&c);
-        names.push_back(c.name);
-        break;
-      }
+void DatasetWriter::add(const TruthSample& s) {
+  guarded([&] {
+    if (!files_->truth) {
+      throw DatasetError(join_path(dir_, "truth.csv") +
+                         ": cannot write a truth row: the writer was opened without truth.csv (DatasetWriterOptions)");
     }
-  }
-  CheckedCsv csv(path, names);
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    csv.begin_row(i);
-    csv.number(rows[i].t_s, "t");
-    for (const Column* c : used) {
-      const double value = c->get(rows[i]);
+    CheckedCsv& csv = *files_->truth;
+    csv.begin_row();
+    csv.number(s.t_s, "t");
+    for (const TruthColumn& c : kTruthColumns) {
+      const double value = c.get(s);
+      if (!(options_.truth_columns.*c.enabled)) {
+        if (!std::isnan(value)) csv.fail_not_a_column(c.name);
+        continue;
+      }
       if (std::isnan(value)) {
         csv.empty();
         continue;
       }
-      switch (c->kind) {
-        case Kind::kNumber: csv.number(value, c->name); break;
-        case Kind::kAngle: csv.degrees(value, c->name); break;
-        case Kind::kQuarterTurnAngle: csv.degrees_within_quarter_turn(value, c->name); break;
-        case Kind::kLongitude: csv.longitude(value, c->name); break;
+      switch (c.kind) {
+        case TruthKind::kNumber: csv.number(value, c.name); break;
+        case TruthKind::kAngle: csv.degrees(value, c.name); break;
+        case TruthKind::kQuarterTurnAngle: csv.degrees_within_quarter_turn(value, c.name); break;
+        case TruthKind::kLongitude: csv.longitude(value, c.name); break;
       }
     }
     csv.end_row();
-  }
-  return csv.text();
+  });
 }
 
-}  // namespace
+void DatasetWriter::finish(const DatasetMeta& meta) {
+  guarded([&] {
+    // Everything that can fail on content or a full disk happens before the first rename.
+    const std::string meta_path = join_path(dir_, "meta.json");
+    const std::string meta_text = meta_json(meta_path, meta);
+    Files& f = *files_;
+    f.odometer.csv().flush();
+    f.gnss.csv().flush();
+    if (f.ins) f.ins->csv().flush();
+    if (f.truth) f.truth->csv().flush();
+    AtomicFile meta_file(meta_path);
+    meta_file.write(meta_text);
+    meta_file.flush(false);
+    // The renames, meta.json last.
+    f.odometer.csv().close();
+    f.gnss.csv().close();
+    if (f.ins) f.ins->csv().close();
+    else remove_stale(join_path(dir_, "ins.csv"));
+    if (f.truth) f.truth->csv().close();
+    else remove_stale(join_path(dir_, "truth.csv"));
+    meta_file.commit();
+    finished_ = true;
+  });
+}
+
+DatasetRowCounts DatasetWriter::rows() const {
+  DatasetRowCounts n;
+  n.odometer = files_->odometer.csv().rows();
+  n.gnss = files_->gnss.csv().rows();
+  if (files_->ins) n.ins = files_->ins->csv().rows();
+  if (files_->truth) n.truth = files_->truth->csv().rows();
+  return n;
+}
+
+std::size_t DatasetWriter::buffer_capacity_bytes() const {
+  std::size_t bytes = files_->odometer.csv().buffer_capacity_bytes() + files_->gnss.csv().buffer_capacity_bytes();
+  if (files_->ins) bytes += files_->ins->csv().buffer_capacity_bytes();
+  if (files_->truth) bytes += files_->truth->csv().buffer_capacity_bytes();
+  return bytes;
+}
 
 void write_dataset(const std::string& dir, const Dataset& dataset) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw DatasetError(dir + ": cannot create the dataset directory: " + ec.message());
-  // Every file is built (and checked) in memory first, so a bad value leaves no half-written set.
-  const std::string odometer_path = join_path(dir, "odometer.csv");
-  const std::string gnss_path = join_path(dir, "gnss.csv");
-  const std::string ins_path = join_path(dir, "ins.csv");
-  const std::string truth_path = join_path(dir, "truth.csv");
-  const std::string meta_path = join_path(dir, "meta.json");
-  const std::string odometer_text = odometer_csv(odometer_path, dataset.odometer);
-  const std::string gnss_text = gnss_csv(gnss_path, dataset.gnss);
-  const std::string ins_text = dataset.has_ins() ? ins_csv(ins_path, dataset.ins) : "";
-  const std::string truth_text = dataset.has_truth() ? truth_csv(truth_path, dataset.truth) : "";
-  const std::string meta_text = meta_json(meta_path, dataset.meta);
-
-  write_file(odometer_path, odometer_text);
-  write_file(gnss_path, gnss_text);
-  // A stale ins.csv / truth.csv from an earlier write would change what the directory means.
-  if (dataset.has_ins()) write_file(ins_path, ins_text);
-  else remove_stale(ins_path);
-  if (dataset.has_truth()) write_file(truth_path, truth_text);
-  else remove_stale(truth_path);
-  write_file(meta_path, meta_text);
+  // File by file, as the rows come: the first bad value found is the one the in-memory writer
+  // found, and it leaves no file of this dataset under its real name.
+  DatasetWriter writer(dir, DatasetWriterOptions::for_dataset(dataset));
+  for (const OdometerSample& s : dataset.odometer) writer.add(s);
+  for (const GnssSample& s : dataset.gnss) writer.add(s);
+  for (const InsSample& s : dataset.ins) writer.add(s);
+  for (const TruthSample& s : dataset.truth) writer.add(s);
+  writer.finish(dataset.meta);
 }
 
 }  // namespace odonav

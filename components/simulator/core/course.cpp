@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
+#include <deque>
 #include <sstream>
 #include <stdexcept>
 
@@ -207,9 +209,98 @@ double TerrainProfile::cross_slope_rad(double s_m) const {
   return r;
 }
 
+// The grid nodes of a SpeedProfile in order, each with its speed after both passes and its
+// arrival time. The forward (acceleration) pass runs node by node. The backward (braking) pass
+// over a block of nodes ahead is run twice from the block's last node: from the forward speed
+// there (an upper bound of the final speed) and from 0 (a lower bound). Both passes are monotone,
+// so the final speed of every node lies between the two; at the first node (going back) where the
+// two agree, the final speed is known, and every node below it follows from it exactly as in the
+// pass over the whole grid. Those nodes are handed out; the block is lengthened when the bounds
+// do not meet in it (braking from a high speed reaches further than the block). Memory: a block.
+class SpeedProfile::Nodes {
+ public:
+  struct Node {
+    double speed_mps;
+    double time_s;
+  };
+  explicit Nodes(const SpeedProfile& profile)
+      : p_(profile),
+        accel_term_(2.0 * profile.limits_.accel_mps2 * profile.step_m_),
+        decel_term_(2.0 * profile.limits_.decel_mps2 * profile.step_m_),
+        time_step_(2.0 * profile.step_m_) {}
+  bool done() const { return next_ == p_.n_; }
+  /// The next node (done() must be false).
+  Node next() {
+    if (ready_.empty()) settle_more();
+    const double v = ready_.front();
+    ready_.pop_front();
+    // Constant acceleration in a cell: time = 2 ds / (v0 + v1), finite even from standstill.
+    const double t = next_ == 0 ? 0.0 : time_s_ + time_step_ / (speed_mps_ + v);
+    ++next_;
+    speed_mps_ = v;
+    time_s_ = t;
+    return Node{v, t};
+  }
+
+ private:
+  static constexpr std::size_t kBlock = 4096;
+
+  // Extends the forward pass to node `end` (exclusive).
+  void forward_to(std::size_t end) {
+    for (; forward_end_ < end; ++forward_end_) {
+      const std::size_t i = forward_end_;
+      double v = p_.limit_mps(i);
+      if (i > 0) v = std::min(v, std::sqrt(forward_last_ * forward_last_ + accel_term_));
+      forward_.push_back(v);
+      forward_last_ = v;
+    }
+  }
+
+  // Moves the nodes from settled_ on whose final speed is known into ready_.
+  void settle_more() {
+    for (std::size_t block = kBlock;; block *= 2) {
+      const std::size_t end = std::min(p_.n_, settled_ + block);
+      forward_to(end);
+      // At the last grid node the final speed is the forward one (the braking pass starts there).
+      const bool at_road_end = end == p_.n_;
+      double upper = forward_[end - 1 - settled_];
+      double lower = at_road_end ? upper : 0.0;
+      std::size_t meet = upper == lower ? end - 1 : p_.n_;
+      backward_.assign(end - settled_, 0.0);
+      backward_[end - 1 - settled_] = upper;
+      for (std::size_t i = end - 1; i-- > settled_;) {
+        const double f = forward_[i - settled_];
+        upper = std::min(f, std::sqrt(upper * upper + decel_term_));
+        backward_[i - settled_] = upper;
+        if (meet == p_.n_) {
+          lower = std::min(f, std::sqrt(lower * lower + decel_term_));
+          if (lower == upper) meet = i;
+        }
+      }
+      if (meet == p_.n_) continue;  // not settled in this block: look further ahead
+      const std::size_t count = meet + 1 - settled_;
+      ready_.insert(ready_.end(), backward_.begin(), backward_.begin() + static_cast<std::ptrdiff_t>(count));
+      forward_.erase(forward_.begin(), forward_.begin() + static_cast<std::ptrdiff_t>(count));
+      settled_ += count;
+      return;
+    }
+  }
+
+  const SpeedProfile& p_;
+  const double accel_term_, decel_term_, time_step_;
+  std::deque<double> forward_;   // forward-pass speeds of nodes [settled_, forward_end_)
+  std::size_t forward_end_ = 0;
+  double forward_last_ = 0.0;
+  std::vector<double> backward_;  // scratch of settle_more
+  std::deque<double> ready_;      // final speeds of nodes [next_, settled_)
+  std::size_t settled_ = 0;
+  std::size_t next_ = 0;
+  double speed_mps_ = 0.0, time_s_ = 0.0;  // node next_ - 1
+};
+
 SpeedProfile::SpeedProfile(const Course& course, double total_length_m, const DriverLimits& limits,
                            double grid_step_m)
-    : total_length_m_(total_length_m) {
+    : course_(course), limits_(limits), total_length_m_(total_length_m) {
   if (!(grid_step_m > 0.0) || !(total_length_m >= 4.0 * grid_step_m) || !std::isfinite(total_length_m)) {
     throw std::invalid_argument("SpeedProfile: total_length_m (" + std::to_string(total_length_m) +
                                 ") must be finite and at least 4 grid steps of " + std::to_string(grid_step_m) + " m");
@@ -219,58 +310,78 @@ SpeedProfile::SpeedProfile(const Course& course, double total_length_m, const Dr
     throw std::invalid_argument("SpeedProfile: accel_mps2, decel_mps2, lateral_accel_mps2 must be > 0, "
                                 "speed_variation_mps >= 0");
   }
-  const std::size_t n = static_cast<std::size_t>(std::ceil(total_length_m / grid_step_m)) + 1;
-  step_m_ = total_length_m / static_cast<double>(n - 1);
-  node_speed_mps_.assign(n, 0.0);
-  auto limit_at = [&](double s) {
-    const CoursePoint p = course.at(s);
-    // Slow wander so the speed is never perfectly constant (two incommensurate wavelengths).
-    const double wander = limits.speed_variation_mps *
-                          (0.6 * std::sin(2.0 * kPi * s / 350.0) + 0.4 * std::sin(2.0 * kPi * s / 90.0 + 1.0));
-    double v = std::max(0.5, p.target_speed_mps + wander);
-    if (p.curvature_per_m != 0.0) v = std::min(v, std::sqrt(limits.lateral_accel_mps2 / std::abs(p.curvature_per_m)));
-    return v;
-  };
-  for (std::size_t i = 0; i < n; ++i) {
-    const double s = step_m_ * static_cast<double>(i);
-    // The node's limit covers the cells either side (segments are longer than a step), so v^2,
-    // linear in between, cannot exceed a limit anywhere in a cell that touches an arc.
-    node_speed_mps_[i] = std::min({limit_at(s - step_m_), limit_at(s - 0.5 * step_m_), limit_at(s),
-                                   limit_at(s + 0.5 * step_m_), limit_at(s + step_m_)});
-  }
-  node_speed_mps_.front() = 0.0;
-  node_speed_mps_.back() = 0.0;
-  for (std::size_t i = 1; i < n; ++i) {
-    node_speed_mps_[i] = std::min(node_speed_mps_[i],
-                                  std::sqrt(node_speed_mps_[i - 1] * node_speed_mps_[i - 1] + 2.0 * limits.accel_mps2 * step_m_));
-  }
-  for (std::size_t i = n - 1; i-- > 0;) {
-    node_speed_mps_[i] = std::min(node_speed_mps_[i],
-                                  std::sqrt(node_speed_mps_[i + 1] * node_speed_mps_[i + 1] + 2.0 * limits.decel_mps2 * step_m_));
-  }
-  node_time_s_.assign(n, 0.0);
-  for (std::size_t i = 1; i < n; ++i) {
-    // Constant acceleration in a cell: time = 2 ds / (v0 + v1), finite even from standstill.
-    node_time_s_[i] = node_time_s_[i - 1] + 2.0 * step_m_ / (node_speed_mps_[i - 1] + node_speed_mps_[i]);
-  }
+  n_ = static_cast<std::size_t>(std::ceil(total_length_m / grid_step_m)) + 1;
+  step_m_ = total_length_m / static_cast<double>(n_ - 1);
+  // The arrival time at the last node, read through once.
+  Nodes nodes(*this);
+  double time_s = 0.0;
+  while (!nodes.done()) time_s = nodes.next().time_s;
+  duration_s_ = time_s;
 }
 
-SpeedProfile::State SpeedProfile::at(double time_s) const {
+double SpeedProfile::limit_mps(std::size_t i) const {
+  auto limit_at = [&](double s) {
+    const CoursePoint p = course_.at(s);
+    // Slow wander so the speed is never perfectly constant (two incommensurate wavelengths).
+    const double wander = limits_.speed_variation_mps *
+                          (0.6 * std::sin(2.0 * kPi * s / 350.0) + 0.4 * std::sin(2.0 * kPi * s / 90.0 + 1.0));
+    double v = std::max(0.5, p.target_speed_mps + wander);
+    if (p.curvature_per_m != 0.0) v = std::min(v, std::sqrt(limits_.lateral_accel_mps2 / std::abs(p.curvature_per_m)));
+    return v;
+  };
+  // Standstill at both ends.
+  if (i == 0 || i + 1 == n_) return 0.0;
+  const double s = step_m_ * static_cast<double>(i);
+  // The node's limit covers the cells either side (segments are longer than a step), so v^2,
+  // linear in between, cannot exceed a limit anywhere in a cell that touches an arc.
+  return std::min({limit_at(s - step_m_), limit_at(s - 0.5 * step_m_), limit_at(s), limit_at(s + 0.5 * step_m_),
+                   limit_at(s + step_m_)});
+}
+
+SpeedProfile::Cursor::Cursor(const SpeedProfile& profile) : profile_(&profile) { restart(); }
+SpeedProfile::Cursor::~Cursor() = default;
+SpeedProfile::Cursor::Cursor(Cursor&&) noexcept = default;
+SpeedProfile::Cursor& SpeedProfile::Cursor::operator=(Cursor&&) noexcept = default;
+
+void SpeedProfile::Cursor::restart() {
+  nodes_ = std::make_unique<Nodes>(*profile_);
+  const Nodes::Node a = nodes_->next(), b = nodes_->next();
+  index_ = 0;
+  a_speed_mps_ = a.speed_mps;
+  a_time_s_ = a.time_s;
+  b_speed_mps_ = b.speed_mps;
+  b_time_s_ = b.time_s;
+}
+
+SpeedProfile::State SpeedProfile::Cursor::at(double time_s) {
+  const SpeedProfile& p = *profile_;
   State st;
   if (time_s <= 0.0) return st;
-  if (time_s >= node_time_s_.back()) {
-    st.s_m = total_length_m_;
+  if (time_s >= p.duration_s_) {
+    st.s_m = p.total_length_m_;
     return st;
   }
-  const std::size_t i = static_cast<std::size_t>(
-                            std::upper_bound(node_time_s_.begin(), node_time_s_.end(), time_s) - node_time_s_.begin()) - 1;
-  const double v0 = node_speed_mps_[i], v1 = node_speed_mps_[i + 1];
-  const double a = (v1 * v1 - v0 * v0) / (2.0 * step_m_);
-  const double tau = time_s - node_time_s_[i];
+  if (time_s < a_time_s_) restart();
+  // The cell [index_, index_ + 1] with a_time_s_ <= time_s < b_time_s_ (time_s is before the last
+  // node's time, so the nodes do not run out).
+  while (b_time_s_ <= time_s) {
+    const Nodes::Node n = nodes_->next();
+    ++index_;
+    a_speed_mps_ = b_speed_mps_;
+    a_time_s_ = b_time_s_;
+    b_speed_mps_ = n.speed_mps;
+    b_time_s_ = n.time_s;
+  }
+  const double v0 = a_speed_mps_, v1 = b_speed_mps_;
+  const double a = (v1 * v1 - v0 * v0) / (2.0 * p.step_m_);
+  const double tau = time_s - a_time_s_;
   st.speed_mps = std::max(0.0, v0 + a * tau);
-  st.s_m = std::min(step_m_ * static_cast<double>(i) + v0 * tau + 0.5 * a * tau * tau, step_m_ * static_cast<double>(i + 1));
+  st.s_m = std::min(p.step_m_ * static_cast<double>(index_) + v0 * tau + 0.5 * a * tau * tau,
+                    p.step_m_ * static_cast<double>(index_ + 1));
   return st;
 }
+
+SpeedProfile::State SpeedProfile::at(double time_s) const { return Cursor(*this).at(time_s); }
 
 MotionPlan::State MotionPlan::end() const {
   if (phases_.empty()) return State{};

@@ -7,6 +7,8 @@
 // unwrapped (a clockwise lap adds +2*pi) so lap counts can be read off them. Curvature is positive
 // for a right (clockwise) turn, in 1/m.
 #include <Eigen/Dense>
+#include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -138,24 +140,55 @@ class MotionPlan {
 /// segment target (plus a slow deterministic wander), capped by the cornering limit, then forward
 /// (acceleration) and backward (braking) passes. Between nodes v^2 is linear in s, i.e. the
 /// acceleration is constant, so position and speed at any time are exact closed forms.
+///
+/// The grid is not stored: the nodes are generated in order when read (Cursor), in memory that does
+/// not depend on the road length. The braking pass looks ahead only as far as braking can reach;
+/// how far is decided exactly (the pass is run from a lower and an upper bound of the speed ahead
+/// until both give the same node speed, after which every node below is the same), so every node
+/// has the bits the pass over the whole grid gives.
 class SpeedProfile {
  public:
   SpeedProfile(const Course& course, double total_length_m, const DriverLimits& limits, double grid_step_m = 0.25);
   /// Time from start to stop, seconds.
-  double duration_s() const { return node_time_s_.back(); }
+  double duration_s() const { return duration_s_; }
   double total_length_m() const { return total_length_m_; }
   struct State {
     double s_m = 0.0;        ///< horizontal arc length travelled.
     double speed_mps = 0.0;  ///< horizontal speed ds/dt.
   };
-  /// State at time_s after the start; clamped to [0, duration_s()].
+  /// State at time_s after the start; clamped to [0, duration_s()]. Reads the grid from the start
+  /// up to time_s: for a sequence of times, use a Cursor.
   State at(double time_s) const;
 
+  class Nodes;
+  /// Reads the profile forward in time: at() with non-decreasing times costs a bounded amount per
+  /// grid node passed; an earlier time than the last one starts again from the beginning. Holds a
+  /// pointer to the profile, which must outlive it.
+  class Cursor {
+   public:
+    explicit Cursor(const SpeedProfile& profile);
+    ~Cursor();
+    Cursor(Cursor&&) noexcept;
+    Cursor& operator=(Cursor&&) noexcept;
+    /// As SpeedProfile::at.
+    State at(double time_s);
+
+   private:
+    void restart();
+    const SpeedProfile* profile_;
+    std::unique_ptr<Nodes> nodes_;
+    std::size_t index_ = 0;  // grid index of node a_
+    double a_speed_mps_ = 0.0, a_time_s_ = 0.0, b_speed_mps_ = 0.0, b_time_s_ = 0.0;  // nodes index_, index_ + 1
+  };
+
  private:
+  double limit_mps(std::size_t i) const;  // node speed limit before the passes
+  Course course_;
+  DriverLimits limits_;
   double total_length_m_;
   double step_m_;
-  std::vector<double> node_speed_mps_;  // speed at each grid node
-  std::vector<double> node_time_s_;     // time of arrival at each node
+  std::size_t n_;  // grid nodes, both ends included
+  double duration_s_;
 };
 
 }  // namespace odonav::sim

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
@@ -271,17 +272,28 @@ Drive plan_drive(const SimulationConfig& cfg) {
   return Drive{std::move(course), std::move(terrain), laps, std::move(profile), total_time_s, std::nullopt};
 }
 
-// Horizontal arc length and (signed) speed at t_rel_s after the start of the data (standstill first).
-SpeedProfile::State drive_state(const SimulationConfig& cfg, const Drive& drive, double t_rel_s) {
-  if (drive.plan) {
-    const MotionPlan::State st = drive.plan->at(t_rel_s - cfg.standstill_start_s);
-    SpeedProfile::State out;
-    out.s_m = st.s_m;
-    out.speed_mps = st.speed_mps;
-    return out;
+// Horizontal arc length and (signed) speed at t_rel_s after the start of the data (standstill first),
+// read forward in time (SpeedProfile::Cursor: an earlier time than the last one starts the profile
+// again from the beginning, so callers ask in time order).
+class DriveCursor {
+ public:
+  DriveCursor(const SimulationConfig& cfg, const Drive& drive) : cfg_(cfg), drive_(drive), profile_(drive.profile) {}
+  SpeedProfile::State at(double t_rel_s) {
+    if (drive_.plan) {
+      const MotionPlan::State st = drive_.plan->at(t_rel_s - cfg_.standstill_start_s);
+      SpeedProfile::State out;
+      out.s_m = st.s_m;
+      out.speed_mps = st.speed_mps;
+      return out;
+    }
+    return profile_.at(t_rel_s - cfg_.standstill_start_s);
   }
-  return drive.profile.at(t_rel_s - cfg.standstill_start_s);
-}
+
+ private:
+  const SimulationConfig& cfg_;
+  const Drive& drive_;
+  SpeedProfile::Cursor profile_;
+};
 
 // K before slip at t_rel_s, m/pulse: the initial true K times every K step reached.
 double k_base_at(const SimulationConfig& cfg, double t_rel_s) {
@@ -307,6 +319,19 @@ double roll_target_rad(const SimulationConfig& cfg, const Drive& drive, double s
 
 // ---- truth, integrated on the ellipsoid ----
 
+// Time of truth row k after the start, s. A division, so that row 4134 is at 413.4, not
+// 413.40000000000003; every use of a row's time goes through here.
+double row_time_rel_s(const SimulationConfig& cfg, std::size_t k) {
+  return static_cast<double>(k) / cfg.truth_rate_hz;
+}
+
+// The vehicle's velocity, ENU m/s, moving at speed_mps along the road (azimuth heading_rad, slope
+// dh/ds): the truth rows and the choice of GNSS outlier epochs (which looks at the speed before the
+// truth is integrated) both use this one expression, so they agree to the bit.
+Eigen::Vector3d velocity_enu_mps(double speed_mps, double heading_rad, double slope) {
+  return speed_mps * Eigen::Vector3d(std::sin(heading_rad), std::cos(heading_rad), slope);
+}
+
 // The vehicle's state between truth rows, advanced in cfg.substeps steps per row.
 class TruthIntegrator {
  public:
@@ -315,29 +340,27 @@ class TruthIntegrator {
         drive_(drive),
         sub_dt_s_(1.0 / cfg.truth_rate_hz / cfg.substeps),
         roll_blend_(1.0 - std::exp(-sub_dt_s_ / cfg.roll_time_constant_s)),
+        drive_at_(cfg, drive),
         pos_(cfg.start),
         roll_rad_(roll_target_rad(cfg, drive, 0.0, 0.0)) {}
 
   // Truth row k (at k / truth_rate_hz), after integrating from row k - 1.
   TruthRow row(std::size_t k) {
-    const double t_rel = static_cast<double>(k) / cfg_.truth_rate_hz;  // division: 413.4, not 413.40000000000003
-    SpeedProfile::State st = drive_state(cfg_, drive_, t_rel);
-    if (k > 0) {
-      for (int j = 1; j <= cfg_.substeps; ++j) {
-        const double t_sub =
-            j == cfg_.substeps ? t_rel : static_cast<double>(k - 1) / cfg_.truth_rate_hz + j * sub_dt_s_;
-        substep(t_sub);
-      }
-      st = SpeedProfile::State{s_prev_, v_prev_};
+    const double t_rel = row_time_rel_s(cfg_, k);
+    if (k == 0) return row_at(t_rel, drive_at_.at(t_rel));
+    for (int j = 1; j <= cfg_.substeps; ++j) {
+      const double t_sub = j == cfg_.substeps ? t_rel : row_time_rel_s(cfg_, k - 1) + j * sub_dt_s_;
+      substep(t_sub);
     }
-    return row_at(t_rel, st);
+    // The last substep ended at t_rel: its state is the drive's state at the row.
+    return row_at(t_rel, SpeedProfile::State{s_prev_, v_prev_});
   }
 
  private:
   // Moves along the road from the last substep to t_sub: position, distance, pulses, roll.
   void substep(double t_sub) {
     const double t_mid = t_sub - 0.5 * sub_dt_s_;
-    const SpeedProfile::State now = drive_state(cfg_, drive_, t_sub);
+    const SpeedProfile::State now = drive_at_.at(t_sub);
     const double ds_h = now.s_m - s_prev_;
     const CoursePoint mid = drive_.course.at(0.5 * (s_prev_ + now.s_m));
     const double dh = drive_.terrain.height_m(now.s_m) - drive_.terrain.height_m(s_prev_);
@@ -359,7 +382,7 @@ class TruthIntegrator {
     r.t_rel_s = t_rel;
     r.position = pos_;
     r.attitude = body_attitude_for_motion(cp.heading_rad, std::atan(slope), roll_rad_, cfg_.misalignment);
-    r.vel_enu_mps = st.speed_mps * Eigen::Vector3d(std::sin(cp.heading_rad), std::cos(cp.heading_rad), slope);
+    r.vel_enu_mps = velocity_enu_mps(st.speed_mps, cp.heading_rad, slope);
     r.speed_mps = r.vel_enu_mps.norm();
     r.k_base_m_per_pulse = k_base_at(cfg_, t_rel);
     r.k_true_m_per_pulse = r.k_base_m_per_pulse / (1.0 + slip_at(cfg_, st.speed_mps * cp.curvature_per_m));
@@ -376,97 +399,97 @@ class TruthIntegrator {
   const Drive& drive_;
   const double sub_dt_s_;
   const double roll_blend_;
+  DriveCursor drive_at_;
   Geodetic pos_;
   double distance_m_ = 0.0, pulse_phase_ = 0.0;
   double s_prev_ = 0.0, v_prev_ = 0.0;
   double roll_rad_;
 };
 
-std::vector<TruthRow> integrate_truth(const SimulationConfig& cfg, const Drive& drive) {
-  const std::size_t n_rows = static_cast<std::size_t>(std::floor(drive.total_time_s * cfg.truth_rate_hz + 1e-9)) + 1;
-  std::vector<TruthRow> rows;
-  rows.reserve(n_rows);
-  TruthIntegrator integrator(cfg, drive);
-  for (std::size_t k = 0; k < n_rows; ++k) rows.push_back(integrator.row(k));
-  return rows;
-}
-
-std::vector<TruthSample> truth_samples(const SimulationConfig& cfg, const std::vector<TruthRow>& rows) {
-  std::vector<TruthSample> truth;
-  truth.reserve(rows.size());
-  for (const TruthRow& r : rows) {
-    TruthSample ts;
-    ts.t_s = cfg.start_time_s + r.t_rel_s;
-    ts.position = r.position;
-    ts.attitude = r.attitude;
-    ts.attitude.heading_rad = wrap_two_pi(r.attitude.heading_rad);
-    ts.k_true_m_per_pulse = r.k_true_m_per_pulse;
-    ts.distance_m = r.distance_m;
-    truth.push_back(ts);
-  }
-  return truth;
-}
-
-// ---- odometer ----
-
-std::vector<OdometerSample> odometer_samples(const SimulationConfig& cfg, const std::vector<TruthRow>& rows) {
-  std::vector<OdometerSample> odometer;
-  const int every = rate_ratio(cfg.truth_rate_hz, cfg.odometer_rate_hz, "odometer_rate_hz");
-  for (std::size_t k = 0; k < rows.size(); k += every) {
-    // The counter counts up in both directions; the direction flag says which way the interval
-    // ending here was driven (a quadrature encoder's direction bit).
-    const int direction = k >= static_cast<std::size_t>(every) && rows[k].s_m < rows[k - every].s_m ? -1 : 1;
-    odometer.push_back(OdometerSample{cfg.start_time_s + rows[k].t_rel_s, rows[k].pulses, direction});
-  }
-  return odometer;
-}
 
 // ---- INS: true attitude + heading bias + white noise (random stream 2) ----
 
-std::vector<InsSample> ins_samples(const SimulationConfig& cfg, const std::vector<TruthRow>& rows) {
-  std::vector<InsSample> ins;
-  std::mt19937_64 rng = make_stream(cfg.seed, 2);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  const int every = rate_ratio(cfg.truth_rate_hz, cfg.ins_rate_hz, "ins_rate_hz");
-  for (std::size_t k = 0; k < rows.size(); k += every) {
-    const double nh = normal(rng), np = normal(rng), nr = normal(rng);  // fixed draw order
+class InsModel {
+ public:
+  explicit InsModel(const SimulationConfig& cfg) : cfg_(cfg), rng_(make_stream(cfg.seed, 2)) {}
+  InsSample sample(const TruthRow& r) {
+    const double nh = normal_(rng_), np = normal_(rng_), nr = normal_(rng_);  // fixed draw order
     InsSample s;
-    s.t_s = cfg.start_time_s + rows[k].t_rel_s;
-    s.attitude.heading_rad =
-        wrap_two_pi(rows[k].attitude.heading_rad + cfg.ins_heading_bias_rad + cfg.ins_heading_noise_rad * nh);
-    s.attitude.pitch_rad = rows[k].attitude.pitch_rad + cfg.ins_tilt_noise_rad * np;
-    s.attitude.roll_rad = rows[k].attitude.roll_rad + cfg.ins_tilt_noise_rad * nr;
-    ins.push_back(s);
+    s.t_s = cfg_.start_time_s + r.t_rel_s;
+    s.attitude.heading_rad = wrap_two_pi(r.attitude.heading_rad + cfg_.ins_heading_bias_rad + cfg_.ins_heading_noise_rad * nh);
+    s.attitude.pitch_rad = r.attitude.pitch_rad + cfg_.ins_tilt_noise_rad * np;
+    s.attitude.roll_rad = r.attitude.roll_rad + cfg_.ins_tilt_noise_rad * nr;
+    return s;
   }
-  return ins;
-}
+
+ private:
+  const SimulationConfig& cfg_;
+  std::mt19937_64 rng_;
+  std::normal_distribution<double> normal_{0.0, 1.0};
+};
 
 // ---- GNSS at the antenna ----
 
 struct Outlier {
   std::size_t epoch;
   Eigen::Vector2d error_en_mps;
+  double t_s;  ///< the stamp of its GNSS row (meta.json lists it).
 };
 
-// Truth row index of every GNSS epoch.
-std::vector<std::size_t> gnss_epoch_rows(const SimulationConfig& cfg, const std::vector<TruthRow>& rows) {
-  const int every = rate_ratio(cfg.truth_rate_hz, cfg.gnss_rate_hz, "gnss_rate_hz");
-  std::vector<std::size_t> epoch_rows;
-  for (std::size_t k = 0; k < rows.size(); k += every) epoch_rows.push_back(k);
-  return epoch_rows;
-}
+// The GNSS epochs: every `every`-th truth row from row 0, `count` of them.
+struct GnssEpochs {
+  std::size_t every;
+  std::size_t count;
+  std::size_t row(std::size_t epoch) const { return epoch * every; }
+};
+
+// A set of epoch numbers added in increasing order, held as runs of consecutive epochs (the
+// candidates for a velocity outlier are long runs broken only by slow driving and outages), indexed
+// as the sorted list they stand for.
+class EpochRuns {
+ public:
+  void add(std::size_t epoch) {
+    if (!runs_.empty() && runs_.back().first + runs_.back().count == epoch) {
+      ++runs_.back().count;
+    } else {
+      runs_.push_back(Run{epoch, 1, size_});
+    }
+    ++size_;
+  }
+  std::size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  /// The i-th epoch of the sorted list (i < size()).
+  std::size_t operator[](std::size_t i) const {
+    const auto it = std::upper_bound(runs_.begin(), runs_.end(), i,
+                                     [](std::size_t index, const Run& r) { return index < r.index; });
+    const Run& r = *(it - 1);
+    return r.first + (i - r.index);
+  }
+
+ private:
+  struct Run {
+    std::size_t first, count, index;  // first epoch, length, position of `first` in the list
+  };
+  std::vector<Run> runs_;
+  std::size_t size_ = 0;
+};
 
 // Velocity outlier epochs, from their own random stream (3), drawn before the GNSS noise:
-// moving (> 2 m/s), GNSS valid, at least 5 s apart; sorted by epoch.
-std::vector<Outlier> pick_velocity_outliers(const SimulationConfig& cfg, const std::vector<TruthRow>& rows,
-                                            const std::vector<std::size_t>& epoch_rows) {
+// moving (> 2 m/s), GNSS valid, at least 5 s apart; sorted by epoch. The speed at an epoch comes
+// from the drive plan directly (what TruthIntegrator::row reports, without integrating the truth),
+// so the outliers are known before the first sample is produced.
+std::vector<Outlier> pick_velocity_outliers(const SimulationConfig& cfg, const Drive& drive, const GnssEpochs& epochs) {
   std::vector<Outlier> outliers;
   if (cfg.gnss_velocity_outliers <= 0) return outliers;
   std::mt19937_64 rng = make_stream(cfg.seed, 3);
-  std::vector<std::size_t> candidates;
-  for (std::size_t e = 1; e + 1 < epoch_rows.size(); ++e) {
-    const TruthRow& r = rows[epoch_rows[e]];
-    if (r.speed_mps > 2.0 && !in_outage(cfg.gnss_outages, r.t_rel_s)) candidates.push_back(e);
+  EpochRuns candidates;
+  DriveCursor drive_at(cfg, drive);
+  for (std::size_t e = 1; e + 1 < epochs.count; ++e) {
+    const double t_rel = row_time_rel_s(cfg, epochs.row(e));
+    const SpeedProfile::State st = drive_at.at(t_rel);
+    const double speed_mps =
+        velocity_enu_mps(st.speed_mps, drive.course.at(st.s_m).heading_rad, drive.terrain.slope(st.s_m)).norm();
+    if (speed_mps > 2.0 && !in_outage(cfg.gnss_outages, t_rel)) candidates.add(e);
   }
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const double min_gap = 5.0 * cfg.gnss_rate_hz;
@@ -481,7 +504,10 @@ std::vector<Outlier> pick_velocity_outliers(const SimulationConfig& cfg, const s
     const bool too_close = std::any_of(outliers.begin(), outliers.end(), [&](const Outlier& o) {
       return std::abs(static_cast<double>(o.epoch) - static_cast<double>(e)) < min_gap;
     });
-    if (!too_close) outliers.push_back(Outlier{e, magnitude * Eigen::Vector2d(std::sin(angle), std::cos(angle))});
+    if (!too_close) {
+      const double t_s = cfg.start_time_s + row_time_rel_s(cfg, epochs.row(e)) + cfg.gnss_latency_s;
+      outliers.push_back(Outlier{e, magnitude * Eigen::Vector2d(std::sin(angle), std::cos(angle)), t_s});
+    }
   }
   std::sort(outliers.begin(), outliers.end(), [](const Outlier& a, const Outlier& b) { return a.epoch < b.epoch; });
   return outliers;
@@ -521,66 +547,86 @@ class GnssErrorModel {
   Eigen::Vector3d gm_, white_, vel_noise_;
 };
 
-// Lever-arm velocity d(C_b^n l)/dt at truth row k, ENU m/s, by central difference over the
-// neighbouring truth rows (10 ms): the truncation error is ~ (omega dt)^2 / 6 relative, far below
-// the noise.
-Eigen::Vector3d lever_arm_velocity_enu_mps(const SimulationConfig& cfg, const std::vector<TruthRow>& rows,
-                                           std::size_t k) {
-  const std::size_t k0 = k > 0 ? k - 1 : k, k1 = k + 1 < rows.size() ? k + 1 : k;
-  Eigen::Vector3d lever_vel = Eigen::Vector3d::Zero();
-  if (k1 > k0) {
-    lever_vel = (body_to_enu(rows[k1].attitude) * cfg.lever_arm_m - body_to_enu(rows[k0].attitude) * cfg.lever_arm_m) /
-                ((rows[k1].t_rel_s - rows[k0].t_rel_s));
-  }
-  return lever_vel;
-}
+// The GNSS rows, epoch after epoch: the truth at the antenna plus the receiver's errors, the
+// outliers, and the outages (last position repeated, fix 0).
+class GnssModel {
+ public:
+  GnssModel(const SimulationConfig& cfg, std::vector<Outlier> outliers)
+      : cfg_(cfg),
+        errors_(cfg),
+        pos_std_m_(std::hypot(cfg.gnss_pos_gm_std_m, cfg.gnss_pos_white_std_m)),
+        outliers_(std::move(outliers)) {}
 
-std::vector<GnssSample> gnss_samples(const SimulationConfig& cfg, const std::vector<TruthRow>& rows,
-                                     const std::vector<std::size_t>& epoch_rows, const std::vector<Outlier>& outliers) {
-  std::vector<GnssSample> gnss;
-  GnssErrorModel errors(cfg);
-  const double pos_std = std::hypot(cfg.gnss_pos_gm_std_m, cfg.gnss_pos_white_std_m);
-  std::optional<Geodetic> last_valid;
-  std::size_t next_outlier = 0;
-  for (std::size_t e = 0; e < epoch_rows.size(); ++e) {
-    const std::size_t k = epoch_rows[e];
-    const TruthRow& r = rows[k];
-    errors.next_epoch(e == 0);
-    const Eigen::Vector3d lever_enu = body_to_enu(r.attitude) * cfg.lever_arm_m;
-    const Eigen::Vector3d lever_vel = lever_arm_velocity_enu_mps(cfg, rows, k);
+  // The row of epoch `epoch` at truth row `r`; `before` and `after` are the truth rows either side
+  // (or `r` itself at the ends), for the lever-arm velocity.
+  GnssSample sample(std::size_t epoch, const TruthRow& before, const TruthRow& r, const TruthRow& after) {
+    errors_.next_epoch(epoch == 0);
+    const Eigen::Vector3d lever_enu = body_to_enu(r.attitude) * cfg_.lever_arm_m;
+    const Eigen::Vector3d lever_vel = lever_arm_velocity_enu_mps(before, after);
     GnssSample g;
-    g.t_s = cfg.start_time_s + r.t_rel_s + cfg.gnss_latency_s;
-    if (in_outage(cfg.gnss_outages, r.t_rel_s)) {
+    g.t_s = cfg_.start_time_s + r.t_rel_s + cfg_.gnss_latency_s;
+    if (in_outage(cfg_.gnss_outages, r.t_rel_s)) {
       // No solution: the receiver repeats its last position, reports no velocity, fix 0.
-      g.position = last_valid ? *last_valid : move_geodetic(r.position, lever_enu);
+      g.position = last_valid_ ? *last_valid_ : move_geodetic(r.position, lever_enu);
       g.vel_enu_mps.setZero();
       g.fix = 0;
       g.pos_std_m = 999.0;
       g.vel_std_mps = 999.0;
     } else {
-      g.position = move_geodetic(move_geodetic(r.position, lever_enu), errors.position_error_enu_m());
-      g.vel_enu_mps = r.vel_enu_mps + lever_vel + errors.velocity_error_enu_mps();
-      if (next_outlier < outliers.size() && outliers[next_outlier].epoch == e) {
-        g.vel_enu_mps.head<2>() += outliers[next_outlier].error_en_mps;
-        ++next_outlier;
+      g.position = move_geodetic(move_geodetic(r.position, lever_enu), errors_.position_error_enu_m());
+      g.vel_enu_mps = r.vel_enu_mps + lever_vel + errors_.velocity_error_enu_mps();
+      if (next_outlier_ < outliers_.size() && outliers_[next_outlier_].epoch == epoch) {
+        g.vel_enu_mps.head<2>() += outliers_[next_outlier_].error_en_mps;
+        ++next_outlier_;
       }
       g.fix = 1;
-      g.pos_std_m = pos_std;
-      g.vel_std_mps = cfg.gnss_vel_std_mps;
-      last_valid = g.position;
+      g.pos_std_m = pos_std_m_;
+      g.vel_std_mps = cfg_.gnss_vel_std_mps;
+      last_valid_ = g.position;
     }
-    gnss.push_back(g);
+    return g;
   }
-  return gnss;
+
+  const std::vector<Outlier>& outliers() const { return outliers_; }
+
+ private:
+  // Lever-arm velocity d(C_b^n l)/dt, ENU m/s, by central difference over the neighbouring truth
+  // rows (10 ms): the truncation error is ~ (omega dt)^2 / 6 relative, far below the noise.
+  Eigen::Vector3d lever_arm_velocity_enu_mps(const TruthRow& before, const TruthRow& after) const {
+    Eigen::Vector3d lever_vel = Eigen::Vector3d::Zero();
+    if (after.t_rel_s > before.t_rel_s) {
+      lever_vel = (body_to_enu(after.attitude) * cfg_.lever_arm_m - body_to_enu(before.attitude) * cfg_.lever_arm_m) /
+                  ((after.t_rel_s - before.t_rel_s));
+    }
+    return lever_vel;
+  }
+
+  const SimulationConfig& cfg_;
+  GnssErrorModel errors_;
+  const double pos_std_m_;
+  const std::vector<Outlier> outliers_;
+  std::size_t next_outlier_ = 0;
+  std::optional<Geodetic> last_valid_;
+};
+
+TruthSample truth_sample(const SimulationConfig& cfg, const TruthRow& r) {
+  TruthSample ts;
+  ts.t_s = cfg.start_time_s + r.t_rel_s;
+  ts.position = r.position;
+  ts.attitude = r.attitude;
+  ts.attitude.heading_rad = wrap_two_pi(r.attitude.heading_rad);
+  ts.k_true_m_per_pulse = r.k_true_m_per_pulse;
+  ts.distance_m = r.distance_m;
+  return ts;
 }
 
 // ---- meta ----
 
 // meta.json's "simulation" object: what was simulated, for the evaluation and for people.
 nlohmann::json simulation_meta(const SimulationConfig& cfg, const Drive& drive, const TruthRow& last,
-                               const std::vector<Outlier>& outliers, const std::vector<GnssSample>& gnss) {
+                               const std::vector<Outlier>& outliers) {
   const Course& course = drive.course;
-  const double s_end = drive_state(cfg, drive, last.t_rel_s).s_m;
+  const double s_end = last.s_m;  // the drive's arc length at the last row
   nlohmann::json sim;
   sim["scenario"] = cfg.scenario;
   sim["seed"] = cfg.seed;
@@ -611,7 +657,7 @@ nlohmann::json simulation_meta(const SimulationConfig& cfg, const Drive& drive, 
   nlohmann::json outlier_list = nlohmann::json::array();
   for (const Outlier& o : outliers) {
     outlier_list.push_back(
-        {{"t_s", gnss[o.epoch].t_s}, {"error_ve_mps", o.error_en_mps.x()}, {"error_vn_mps", o.error_en_mps.y()}});
+        {{"t_s", o.t_s}, {"error_ve_mps", o.error_en_mps.x()}, {"error_vn_mps", o.error_en_mps.y()}});
   }
   sim["gnss_velocity_outliers"] = outlier_list;
   sim["lever_arm_m"] = {cfg.lever_arm_m.x(), cfg.lever_arm_m.y(), cfg.lever_arm_m.z()};
@@ -652,21 +698,76 @@ DatasetMeta dataset_meta(const SimulationConfig& cfg, const nlohmann::json& sim)
 
 }  // namespace
 
-Dataset simulate(const SimulationConfig& cfg) {
+DatasetWriterOptions dataset_writer_options(const SimulationConfig& cfg) {
+  DatasetWriterOptions o;
+  o.gnss_pos_std_m = true;  // every GNSS row has both (999 in an outage)
+  o.gnss_vel_std_mps = true;
+  o.ins = cfg.has_ins;
+  o.ins_velocity = false;  // the simulated INS reports attitude only
+  o.truth = true;
+  o.truth_columns = TruthColumns{};  // every column, every row
+  return o;
+}
+
+DatasetMeta simulate(const SimulationConfig& cfg, SampleSink& sink) {
   validate(cfg);
   const Drive drive = plan_drive(cfg);
-  const std::vector<TruthRow> rows = integrate_truth(cfg, drive);
-  Dataset ds;
-  ds.truth = truth_samples(cfg, rows);
-  ds.odometer = odometer_samples(cfg, rows);
-  if (cfg.has_ins) ds.ins = ins_samples(cfg, rows);
-  // Each sensor draws from its own random stream (make_stream), so the order of these calls does
-  // not change any number; within a stream the draw order is fixed.
-  const std::vector<std::size_t> epoch_rows = gnss_epoch_rows(cfg, rows);
-  const std::vector<Outlier> outliers = pick_velocity_outliers(cfg, rows, epoch_rows);
-  ds.gnss = gnss_samples(cfg, rows, epoch_rows, outliers);
-  ds.meta = dataset_meta(cfg, simulation_meta(cfg, drive, rows.back(), outliers, ds.gnss));
-  return ds;
+  const std::size_t n_rows = static_cast<std::size_t>(std::floor(drive.total_time_s * cfg.truth_rate_hz + 1e-9)) + 1;
+  const std::size_t odometer_every = rate_ratio(cfg.truth_rate_hz, cfg.odometer_rate_hz, "odometer_rate_hz");
+  const std::size_t ins_every = rate_ratio(cfg.truth_rate_hz, cfg.ins_rate_hz, "ins_rate_hz");
+  const std::size_t gnss_every = rate_ratio(cfg.truth_rate_hz, cfg.gnss_rate_hz, "gnss_rate_hz");
+  const GnssEpochs epochs{gnss_every, (n_rows - 1) / gnss_every + 1};
+  // Each sensor draws from its own random stream (make_stream), so the order in which the sensors
+  // are sampled does not change any number; within a stream the draw order is fixed.
+  GnssModel gnss(cfg, pick_velocity_outliers(cfg, drive, epochs));
+  InsModel ins(cfg);
+  TruthIntegrator integrator(cfg, drive);
+
+  // Three truth rows are held: the one being sampled and its neighbours (the GNSS lever-arm
+  // velocity is a central difference). A GNSS row's stamp is its measurement time plus the
+  // latency, so it waits in `stamped` until the truth reaches its stamp: at most latency * rate rows.
+  TruthRow before, row = integrator.row(0), after;
+  std::deque<GnssSample> stamped;
+  double last_odometer_s_m = 0.0;
+  for (std::size_t k = 0; k < n_rows; ++k) {
+    if (k + 1 < n_rows) after = integrator.row(k + 1);
+    const TruthRow& next = k + 1 < n_rows ? after : row;
+    const TruthRow& previous = k > 0 ? before : row;
+    const double t_s = cfg.start_time_s + row.t_rel_s;
+    sink.add(truth_sample(cfg, row));
+    if (k % odometer_every == 0) {
+      // The counter counts up in both directions; the direction flag says which way the interval
+      // ending here was driven (a quadrature encoder's direction bit).
+      const int direction = k >= odometer_every && row.s_m < last_odometer_s_m ? -1 : 1;
+      sink.add(OdometerSample{t_s, row.pulses, direction});
+      last_odometer_s_m = row.s_m;
+    }
+    if (cfg.has_ins && k % ins_every == 0) sink.add(ins.sample(row));
+    if (k % gnss_every == 0) stamped.push_back(gnss.sample(k / gnss_every, previous, row, next));
+    while (!stamped.empty() && stamped.front().t_s <= t_s) {
+      sink.add(stamped.front());
+      stamped.pop_front();
+    }
+    if (k + 1 < n_rows) {
+      before = std::move(row);
+      row = std::move(after);
+    }
+  }
+  for (; !stamped.empty(); stamped.pop_front()) sink.add(stamped.front());
+  return dataset_meta(cfg, simulation_meta(cfg, drive, row, gnss.outliers()));
+}
+
+Dataset simulate(const SimulationConfig& cfg) {
+  // Collects what the streaming simulation produces.
+  struct Collector : SampleSink {
+    Dataset ds;
+    void add(const TruthSample& s) override { ds.truth.push_back(s); }
+    void add(const OdometerSample& s) override { ds.odometer.push_back(s); }
+    void add(const InsSample& s) override { ds.ins.push_back(s); }
+    void add(const GnssSample& s) override { ds.gnss.push_back(s); }
+  } collector;
+  collector.ds.meta = simulate(cfg, static_cast<SampleSink&>(collector));
+  return std::move(collector.ds);
 }
 
 }  // namespace odonav::sim

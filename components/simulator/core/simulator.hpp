@@ -1,6 +1,7 @@
 #pragma once
-// The seeded tracked-vehicle simulator: drives a course, and writes what the odometer, the GNSS
-// receiver and the INS would report, plus the ground truth, as an odonav::Dataset (docs/DATASET.md).
+// The seeded tracked-vehicle simulator: drives a course, and produces what the odometer, the GNSS
+// receiver and the INS would report, plus the ground truth, one sample at a time (SampleSink) or as
+// an odonav::Dataset in memory (docs/DATASET.md).
 //
 // Every field below is a default a user may change; components/simulator/README.md lists them with
 // their units and the reasoning behind each value. SI inside: radians, metres, seconds, m/s.
@@ -12,6 +13,7 @@
 
 #include "core/course.hpp"
 #include "odonav/dataset.hpp"
+#include "odonav/dataset_writer.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
 
@@ -125,10 +127,36 @@ SimulationConfig scenario_config(const std::string& name);
 /// Checks every field; throws std::invalid_argument naming the field and the valid range.
 void validate(const SimulationConfig& config);
 
-/// Runs the simulation. Returns odometer, gnss, ins, truth and meta (meta.raw_json is the whole
-/// meta.json, with a "simulation" object: scenario, seed, k_steps, gnss_outages, outlier epochs,
-/// lever_arm_m, gnss_latency_s, ins_heading_bias_deg, laps). Throws std::invalid_argument on a bad
-/// config.
+/// Receives the simulated samples one at a time (simulate(config, sink)).
+class SampleSink {
+ public:
+  virtual ~SampleSink() = default;
+  virtual void add(const TruthSample& sample) = 0;
+  virtual void add(const OdometerSample& sample) = 0;
+  virtual void add(const InsSample& sample) = 0;  ///< never called when config.has_ins is false.
+  virtual void add(const GnssSample& sample) = 0;
+};
+
+/// Runs the simulation, handing every sample to `sink` as it is produced, and returns the meta
+/// (meta.raw_json is the whole meta.json, with a "simulation" object: scenario, seed, k_steps,
+/// gnss_outages, outlier epochs, lever_arm_m, gnss_latency_s, ins_heading_bias_deg, laps).
+/// Order: by stamp t_s; at equal stamps truth, odometer, INS, then GNSS (a GNSS row is stamped its
+/// measurement time plus gnss_latency_s and arrives when the truth reaches that stamp; rows stamped
+/// after the last truth row arrive at the end). Each sensor's rows are in time order.
+/// Memory does not grow with the length of the drive: three truth rows, the GNSS rows waiting for
+/// their stamp (latency times rate), the outlier candidates as runs of epochs, and the speed
+/// profile, whose grid is generated as it is read (SpeedProfile). Only the slow robot's stop-and-go
+/// plan is a list of phases that lengthens with the drive (a few kB per hour).
+/// Exceptions thrown by the sink propagate (the samples so far have been delivered); throws
+/// std::invalid_argument on a bad config before the first sample.
+DatasetMeta simulate(const SimulationConfig& config, SampleSink& sink);
+
+/// The same simulation collected into memory: simulate(config, sink) into a Dataset.
 Dataset simulate(const SimulationConfig& config);
+
+/// The columns and files of a simulated dataset (every GNSS row has pos_std_m and vel_std_mps, the
+/// INS reports attitude only, every truth column is filled), for writing it with DatasetWriter as
+/// it is produced: the files are those write_dataset writes for simulate(config).
+DatasetWriterOptions dataset_writer_options(const SimulationConfig& config);
 
 }  // namespace odonav::sim

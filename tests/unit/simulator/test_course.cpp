@@ -2,7 +2,9 @@
 // numerical integration and the driver limits.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "core/course.hpp"
 #include "odonav/frames.hpp"
@@ -83,8 +85,10 @@ TEST(SpeedProfile, StartsAndStopsAndRespectsDriverLimits) {
   EXPECT_EQ(p.at(p.duration_s()).speed_mps, 0.0);
   const double dt = 0.05;
   double v_max = 0.0, v_min_moving = 1e9;
+  // One cursor per time series, each read forward (SpeedProfile::at reads from the start each time).
+  SpeedProfile::Cursor before(p), now(p), after(p);
   for (double t = dt; t + dt < p.duration_s(); t += dt) {
-    const SpeedProfile::State a = p.at(t - dt), b = p.at(t), e = p.at(t + dt);
+    const SpeedProfile::State a = before.at(t - dt), b = now.at(t), e = after.at(t + dt);
     // ds/dt is the speed (central difference), accelerations within the limits.
     EXPECT_NEAR((e.s_m - a.s_m) / (2 * dt), b.speed_mps, 0.02) << "t=" << t;
     const double acc = (e.speed_mps - b.speed_mps) / dt;
@@ -100,4 +104,90 @@ TEST(SpeedProfile, StartsAndStopsAndRespectsDriverLimits) {
   EXPECT_LT(v_max, 15.5);
   EXPECT_GT(v_min_moving, 3.0);
   EXPECT_LT(v_min_moving, 5.0);
+}
+
+namespace {
+
+// The speed profile built over the whole grid at once (both passes over every stored node), as
+// SpeedProfile did before it generated its nodes as they are read: the reference the streamed
+// grid must match bit for bit.
+class WholeGridProfile {
+ public:
+  WholeGridProfile(const Course& course, double total_length_m, const DriverLimits& limits, double grid_step_m)
+      : total_length_m_(total_length_m) {
+    const std::size_t n = static_cast<std::size_t>(std::ceil(total_length_m / grid_step_m)) + 1;
+    step_m_ = total_length_m / static_cast<double>(n - 1);
+    v_.assign(n, 0.0);
+    auto limit_at = [&](double s) {
+      const CoursePoint p = course.at(s);
+      const double wander = limits.speed_variation_mps *
+                            (0.6 * std::sin(2.0 * kPi * s / 350.0) + 0.4 * std::sin(2.0 * kPi * s / 90.0 + 1.0));
+      double v = std::max(0.5, p.target_speed_mps + wander);
+      if (p.curvature_per_m != 0.0) v = std::min(v, std::sqrt(limits.lateral_accel_mps2 / std::abs(p.curvature_per_m)));
+      return v;
+    };
+    for (std::size_t i = 0; i < n; ++i) {
+      const double s = step_m_ * static_cast<double>(i);
+      v_[i] = std::min({limit_at(s - step_m_), limit_at(s - 0.5 * step_m_), limit_at(s), limit_at(s + 0.5 * step_m_),
+                        limit_at(s + step_m_)});
+    }
+    v_.front() = 0.0;
+    v_.back() = 0.0;
+    for (std::size_t i = 1; i < n; ++i)
+      v_[i] = std::min(v_[i], std::sqrt(v_[i - 1] * v_[i - 1] + 2.0 * limits.accel_mps2 * step_m_));
+    for (std::size_t i = n - 1; i-- > 0;)
+      v_[i] = std::min(v_[i], std::sqrt(v_[i + 1] * v_[i + 1] + 2.0 * limits.decel_mps2 * step_m_));
+    t_.assign(n, 0.0);
+    for (std::size_t i = 1; i < n; ++i) t_[i] = t_[i - 1] + 2.0 * step_m_ / (v_[i - 1] + v_[i]);
+  }
+  double duration_s() const { return t_.back(); }
+  SpeedProfile::State at(double time_s) const {
+    SpeedProfile::State st;
+    if (time_s <= 0.0) return st;
+    if (time_s >= t_.back()) {
+      st.s_m = total_length_m_;
+      return st;
+    }
+    const std::size_t i = static_cast<std::size_t>(std::upper_bound(t_.begin(), t_.end(), time_s) - t_.begin()) - 1;
+    const double v0 = v_[i], v1 = v_[i + 1];
+    const double a = (v1 * v1 - v0 * v0) / (2.0 * step_m_);
+    const double tau = time_s - t_[i];
+    st.speed_mps = std::max(0.0, v0 + a * tau);
+    st.s_m = std::min(step_m_ * static_cast<double>(i) + v0 * tau + 0.5 * a * tau * tau,
+                      step_m_ * static_cast<double>(i + 1));
+    return st;
+  }
+
+ private:
+  double total_length_m_, step_m_;
+  std::vector<double> v_, t_;
+};
+
+void expect_same_profile(const Course& course, double length_m, double step_m, double dt_s) {
+  const DriverLimits limits;
+  const WholeGridProfile reference(course, length_m, limits, step_m);
+  const SpeedProfile streamed(course, length_m, limits, step_m);
+  ASSERT_EQ(streamed.duration_s(), reference.duration_s());
+  SpeedProfile::Cursor cursor(streamed);
+  std::size_t differing = 0, n = 0;
+  for (double t = -1.0; t < reference.duration_s() + 1.0; t += dt_s, ++n) {
+    const SpeedProfile::State a = cursor.at(t), b = reference.at(t);
+    if (a.s_m != b.s_m || a.speed_mps != b.speed_mps) ++differing;
+  }
+  EXPECT_EQ(differing, 0u) << "of " << n;
+  // An earlier time starts the cursor again; SpeedProfile::at reads from the start.
+  const double t_mid = 0.5 * reference.duration_s();
+  EXPECT_EQ(cursor.at(t_mid).s_m, reference.at(t_mid).s_m);
+  EXPECT_EQ(streamed.at(t_mid).speed_mps, reference.at(t_mid).speed_mps);
+}
+
+}  // namespace
+
+TEST(SpeedProfile, StreamedGridIsBitForBitTheWholeGridPasses) {
+  // Three laps of the training ground on the default 0.25 m grid (about 48 000 nodes).
+  const Course ring = Course::training_ground();
+  expect_same_profile(ring, 3.0 * ring.lap_length_m(), 0.25, 0.01);
+  // A 1 cm grid: braking from 14 m/s spans about 6 500 nodes, more than one block of nodes, so the
+  // look-ahead has to grow before the bounds meet.
+  expect_same_profile(Course::straight(300.0, 0.3, 14.0), 300.0, 0.01, 0.001);
 }
