@@ -273,10 +273,8 @@ json identification_summary(const odonav::Dataset& d, const odonav::offline::Off
   for (const auto& o : d.odometer) core.add_odometer(o);
   for (const auto& g : d.gnss) core.add_gnss(g);
   for (const auto& i : d.ins) core.add_ins(i);
-  for (const auto& m : misalignment)
-    if (odonav::misalignment_applicable(m.converged, m.samples_used, m.misalignment.heading_rad,
-                                        m.misalignment.pitch_rad, m.sigma_heading_rad, m.sigma_pitch_rad))
-      core.add_misalignment(odonav::estimate_applies_from_s(m.t_s, ip.estimate_hold_off_s), m.misalignment);
+  // Applied by the identification's own rule, as the pipeline applies them.
+  for (const auto& m : misalignment) core.apply_misalignment(odonav::published_misalignment(m));
   odonav::results::OutputRows rows;
   for (const auto& k : core.finish()) rows.scale_factor.push_back(odonav::offline::to_row(k, "vff_lm_rls", {}));
   return summary_of(d, rows, "terrain");
