@@ -17,6 +17,10 @@ inline std::string join_path(const std::string& dir, const char* file) {
 /// The whole content of a file, in one read (meta.json; the CSV files are read line by line by
 /// dataset_rows.hpp's LineReader). Throws DatasetError naming the path when it cannot be opened or
 /// read.
+/// A dataset file may be read: it exists, is a regular file (a directory gives a library error naming
+/// nothing, a FIFO or a device such as /dev/zero blocks or never ends) and is within
+/// kMaxDatasetFileBytes. Throws DatasetError naming the path and the problem.
+void check_dataset_file(const std::string& path);
 std::string read_whole_file(const std::string& path);
 
 /// Reads meta.json (every key optional; unknown keys kept in raw_json). Throws DatasetError naming

@@ -38,9 +38,7 @@ std::size_t DatasetReadReport::total_bad() const {
 
 namespace dataset_detail {
 
-std::string read_whole_file(const std::string& path) {
-  // Only regular files: a directory gives a library error naming nothing, a FIFO or a device
-  // (/dev/zero) blocks or grows memory without end.
+void check_dataset_file(const std::string& path) {
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
   if (ec && !fs::exists(st)) throw DatasetError(path + ": cannot open: " + ec.message());
@@ -51,6 +49,10 @@ std::string read_whole_file(const std::string& path) {
   if (!ec && bytes > kMaxDatasetFileBytes)
     throw DatasetError(path + ": " + std::to_string(bytes) + " bytes, more than the limit of " +
                        std::to_string(kMaxDatasetFileBytes) + " bytes per dataset file: split the recording");
+}
+
+std::string read_whole_file(const std::string& path) {
+  check_dataset_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw DatasetError(path + ": cannot open: " + std::strerror(errno));
   // One read into a string sized from the file length: an ostringstream << rdbuf() grows its buffer

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <limits>
 
+#include "dataset_internal.hpp"
 #include "text_util.hpp"
 
 namespace odonav::dataset_detail {
@@ -368,18 +369,7 @@ const char* unit_for_step(double step, double typical_step_s) {
 // LineReader
 
 LineReader::LineReader(const std::string& path) : path_(path) {
-  // Only regular files: a directory gives a library error naming nothing, a FIFO or a device
-  // (/dev/zero) blocks or never ends.
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (ec && !fs::exists(st)) throw DatasetError(path + ": cannot open: " + ec.message());
-  if (fs::is_directory(st)) throw DatasetError(path + ": is a directory, not a dataset file");
-  if (!fs::is_regular_file(st))
-    throw DatasetError(path + ": not a regular file (a FIFO, socket or device): dataset files must be regular files");
-  const std::uintmax_t bytes = fs::file_size(path, ec);
-  if (!ec && bytes > kMaxDatasetFileBytes)
-    throw DatasetError(path + ": " + std::to_string(bytes) + " bytes, more than the limit of " +
-                       std::to_string(kMaxDatasetFileBytes) + " bytes per dataset file: split the recording");
+  check_dataset_file(path);
   // O_NONBLOCK: should the path have become a FIFO since the check, open() must not wait for a writer.
   fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd_ < 0) throw DatasetError(path + ": cannot open: " + std::strerror(errno));

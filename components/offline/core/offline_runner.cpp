@@ -153,15 +153,8 @@ OfflineResult run_offline(const Dataset& dataset, const OfflineParams& params) {
   OfflineResult r;
   Collector collector(r, false);
   Collector coarse_collector(r, true);
-  const OfflineRunTotals totals =
+  static_cast<OfflineRunTotals&>(r) =
       run_offline([&dataset] { return samples_of(dataset); }, dataset.has_ins(), params, collector, coarse_collector);
-  r.estimator_names = totals.estimator_names;
-  r.coarse_k_m_per_pulse = totals.coarse_k_m_per_pulse;
-  r.coarse_k_origin = totals.coarse_k_origin;
-  r.builder_counters = totals.builder_counters;
-  r.calibration_counters = totals.calibration_counters;
-  r.dr_counters = totals.dr_counters;
-  r.anchored_counters = totals.anchored_counters;
   return r;
 }
 

@@ -29,20 +29,6 @@ struct OfflineParams {
   std::string coarse_k_origin;  ///< where coarse_k_m_per_pulse came from, for the summary.
 };
 
-struct OfflineResult {
-  std::vector<MisalignmentOutput> misalignment;      ///< one per GNSS epoch.
-  std::vector<IdentificationOutput> identification;  ///< one per GNSS epoch.
-  std::vector<std::string> estimator_names;          ///< order of IdentificationOutput::all.
-  std::vector<DeadReckoningOutput> dr_online;        ///< DR with the identified K.
-  std::vector<AnchoredPosition> navigation_position; ///< dr_online anchored on GNSS, one per output.
-  std::vector<DeadReckoningOutput> dr_coarse;        ///< DR with the coarse K.
-  double coarse_k_m_per_pulse = 0.0;
-  std::string coarse_k_origin;
-  SampleBuilderCounters builder_counters;
-  MisalignmentCounters calibration_counters;
-  DeadReckonerCounters dr_counters;
-  AnchoredPositionCounters anchored_counters;
-};
 
 /// A dataset's sensor samples in event-time order, one per call; nullopt at the end.
 using SampleStream = std::function<std::optional<DatasetEvent>()>;
@@ -63,6 +49,15 @@ struct OfflineRunTotals {
   MisalignmentCounters calibration_counters;
   DeadReckonerCounters dr_counters;
   AnchoredPositionCounters anchored_counters;
+};
+
+/// A run over an in-memory dataset with every output kept (tests, benchmarks).
+struct OfflineResult : OfflineRunTotals {
+  std::vector<MisalignmentOutput> misalignment;      ///< one per GNSS epoch.
+  std::vector<IdentificationOutput> identification;  ///< one per GNSS epoch.
+  std::vector<DeadReckoningOutput> dr_online;        ///< DR with the identified K.
+  std::vector<AnchoredPosition> navigation_position; ///< dr_online anchored on GNSS, one per output.
+  std::vector<DeadReckoningOutput> dr_coarse;        ///< DR with the coarse K.
 };
 
 /// Runs the pipeline over open()'s samples, delivering every output to `sink` as it is made, then
