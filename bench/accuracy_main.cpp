@@ -276,7 +276,7 @@ json identification_summary(const odonav::Dataset& d, const odonav::offline::Off
   // Applied by the identification's own rule, as the pipeline applies them.
   for (const auto& m : misalignment) core.apply_misalignment(odonav::published_misalignment(m));
   odonav::results::OutputRows rows;
-  for (const auto& k : core.finish()) rows.scale_factor.push_back(odonav::offline::to_row(k, "vff_lm_rls", {}));
+  for (const auto& k : core.finish()) rows.scale_factor.push_back(odonav::output_row(k, "vff_lm_rls", {}));
   return summary_of(d, rows, "terrain");
 }
 

@@ -181,22 +181,22 @@ class OutputFiles : public odonav::offline::PipelineSink {
         diagnosis_(diagnosis) {}
 
   void on_misalignment(const odonav::MisalignmentOutput& m) override {
-    const odonav::results::MisalignmentRow row = odonav::offline::to_row(m);
+    const odonav::results::MisalignmentRow row = odonav::output_row(m);
     misalignment_.write(row);
     summary_.add(row);
   }
   void on_scale_factor(const odonav::IdentificationOutput& k) override {
-    const odonav::results::ScaleFactorRow row = odonav::offline::to_row(k, main_estimator_, estimators_);
+    const odonav::results::ScaleFactorRow row = odonav::output_row(k, main_estimator_, estimators_);
     scale_factor_.write(row);
     summary_.add(row);
     diagnosis_.add_identification(k.main);
   }
   void on_dead_reckoning(odonav::DeadReckoningStep step) override {
-    const odonav::results::DeadReckoningRow dr = odonav::offline::to_row(step.output);
+    const odonav::results::DeadReckoningRow dr = odonav::output_row(step.output);
     dead_reckoning_.write(dr);
     summary_.add_dead_reckoning(dr);
     diagnosis_.add_dead_reckoning(step.output.t_s);
-    const odonav::results::NavigationPositionRow nav = odonav::offline::to_row(step.navigation);
+    const odonav::results::NavigationPositionRow nav = odonav::output_row(step.navigation);
     navigation_.write(nav);
     summary_.add(nav);
     ++navigation_rows_;
@@ -227,7 +227,7 @@ class CoarseFile : public odonav::offline::PipelineSink {
   CoarseFile(const odonav::OutputDirectory& out, odonav::offline::SummaryAccumulator& summary)
       : csv_(out.file("dead_reckoning_coarse.csv")), summary_(summary) {}
   void on_dead_reckoning(odonav::DeadReckoningStep step) override {
-    const odonav::results::DeadReckoningRow row = odonav::offline::to_row(step.output);
+    const odonav::results::DeadReckoningRow row = odonav::output_row(step.output);
     csv_.write(row);
     summary_.add_dead_reckoning_coarse(row);
     ++rows_;

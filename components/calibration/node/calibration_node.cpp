@@ -8,22 +8,13 @@
 #include <spdlog/spdlog.h>
 
 #include "odonav/calibration/calibration_options.hpp"
+#include "odonav/dds/output_messages.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/topics.hpp"
 
 namespace odonav::nodes {
 
 namespace {
-odonav::msg::MisalignmentState to_message_state(CalibrationState s) {
-  switch (s) {
-    case CalibrationState::kWaiting: return odonav::msg::MISALIGNMENT_WAITING;
-    case CalibrationState::kCalibrating: return odonav::msg::MISALIGNMENT_CALIBRATING;
-    case CalibrationState::kConverged: return odonav::msg::MISALIGNMENT_CONVERGED;
-    case CalibrationState::kFrozen: return odonav::msg::MISALIGNMENT_FROZEN;
-  }
-  return odonav::msg::MISALIGNMENT_WAITING;
-}
-
 MisalignmentCalibrator make_calibrator(const MisalignmentCalibratorParams& p) {
   try {
     return MisalignmentCalibrator(p);
@@ -49,17 +40,8 @@ MisalignmentCalibratorParams calibration_node_params_from(const Options& o) {
 }
 
 odonav::msg::Misalignment misalignment_message(const MisalignmentOutput& out, const std::string& vehicle_id) {
-  odonav::msg::Misalignment m;
-  m.header(dds::make_header(out.t_s, "body"));
+  odonav::msg::Misalignment m = dds::message_of(output_row(out));  // the field table
   m.vehicle_id(vehicle_id);
-  const PublishedMisalignment p = published_misalignment(out);
-  m.heading_rad(p.heading_rad);
-  m.pitch_rad(p.pitch_rad);
-  m.heading_std_rad(p.heading_std_rad);
-  m.pitch_std_rad(p.pitch_std_rad);
-  m.samples_used(static_cast<uint32_t>(std::min<uint64_t>(p.samples_used, std::numeric_limits<uint32_t>::max())));
-  m.converged(p.converged);
-  m.state(to_message_state(out.state));
   return m;
 }
 

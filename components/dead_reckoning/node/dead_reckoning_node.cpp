@@ -1,5 +1,7 @@
 #include "dead_reckoning_node.hpp"
 
+#include "odonav/dds/output_messages.hpp"
+
 #include <cmath>
 #include <ctime>
 #include <stdexcept>
@@ -22,17 +24,6 @@ DeadReckoningComponent make_component(const DeadReckonerParams& p, const Anchore
     throw ConfigError(std::string("dead-reckoning parameters: ") + e.what());
   }
 }
-
-odonav::msg::KSource to_message_source(ScaleFactorSource s) {
-  switch (s) {
-    case ScaleFactorSource::kNominal: return odonav::msg::K_SOURCE_NOMINAL;
-    case ScaleFactorSource::kIdentified: return odonav::msg::K_SOURCE_IDENTIFIED;
-    case ScaleFactorSource::kCommanded: return odonav::msg::K_SOURCE_COMMANDED;
-  }
-  return odonav::msg::K_SOURCE_NOMINAL;
-}
-
-double or_minus_one(double v) { return std::isfinite(v) ? v : -1.0; }
 
 odonav::msg::HealthState to_message_state(DeadReckoningHealthState s) {
   switch (s) {
@@ -71,53 +62,23 @@ AnchoredPositionParams anchored_position_node_params_from(const Options& o) {
 
 odonav::msg::DeadReckoning dead_reckoning_message(const DeadReckoningOutput& o, const Geodetic& origin,
                                                   const Misalignment& mis, const std::string& vehicle_id) {
-  odonav::msg::DeadReckoning m;
-  m.header(dds::make_header(o.t_s, "wgs84"));
+  odonav::msg::DeadReckoning m = dds::message_of(output_row(o));  // the field table
   m.vehicle_id(vehicle_id);
-  m.latitude_deg(rad_to_deg(o.position.lat_rad));
-  m.longitude_deg(rad_to_deg(o.position.lon_rad));
-  m.height_m(o.position.height_m);
-  m.enu_east_m(o.enu_m.x());
-  m.enu_north_m(o.enu_m.y());
-  m.enu_up_m(o.enu_m.z());
   m.origin_latitude_deg(rad_to_deg(origin.lat_rad));
   m.origin_longitude_deg(rad_to_deg(origin.lon_rad));
   m.origin_height_m(origin.height_m);
-  m.heading_rad(o.heading_rad);
-  m.distance_m(o.distance_m);
-  m.k_m_per_pulse(o.k_m_per_pulse);
-  m.k_source(to_message_source(o.k_source));
   m.misalignment_heading_rad(mis.heading_rad);
   m.misalignment_pitch_rad(mis.pitch_rad);
   m.gnss_valid(o.gnss_reference);
-  m.horizontal_error_m(or_minus_one(o.horizontal_error_m));
-  m.error_percent_distance(or_minus_one(o.error_percent_distance));
-  m.error_t_s(or_minus_one(o.error_t_s));
   return m;
 }
 
 odonav::msg::NavigationPosition navigation_position_message(const AnchoredPosition& p, const std::string& vehicle_id) {
-  odonav::msg::NavigationPosition m;
-  m.header(dds::make_header(p.t_s, "wgs84"));
+  odonav::msg::NavigationPosition m = dds::message_of(output_row(p));  // the field table
   m.vehicle_id(vehicle_id);
-  m.latitude_deg(rad_to_deg(p.position.lat_rad));
-  m.longitude_deg(rad_to_deg(p.position.lon_rad));
-  m.height_m(p.position.height_m);
-  m.enu_east_m(p.enu_m.x());
-  m.enu_north_m(p.enu_m.y());
-  m.enu_up_m(p.enu_m.z());
-  const bool known = p.covariance_enu_m2.diagonal().allFinite();
-  m.position_covariance_east_m2(known ? p.covariance_enu_m2(0, 0) : -1.0);
-  m.position_covariance_north_m2(known ? p.covariance_enu_m2(1, 1) : -1.0);
-  m.position_covariance_up_m2(known ? p.covariance_enu_m2(2, 2) : -1.0);
+  const bool known = m.position_covariance_east_m2() >= 0.0 && m.position_covariance_north_m2() >= 0.0 &&
+                     m.position_covariance_up_m2() >= 0.0;
   m.position_covariance_type(known ? 2 : 0);  // NavSatFix: COVARIANCE_TYPE_DIAGONAL_KNOWN / UNKNOWN
-  switch (p.status) {
-    case AnchorStatus::kNotStarted: m.status(odonav::msg::NAVIGATION_STATUS_NOT_STARTED); break;
-    case AnchorStatus::kAnchored: m.status(odonav::msg::NAVIGATION_STATUS_ANCHORED); break;
-    case AnchorStatus::kDeadReckoning: m.status(odonav::msg::NAVIGATION_STATUS_DEAD_RECKONING); break;
-  }
-  m.last_fix_stamp_s(or_minus_one(p.last_fix_t_s));
-  m.distance_since_fix_m(or_minus_one(p.distance_since_fix_m));
   return m;
 }
 

@@ -1,5 +1,7 @@
 #include "identification_node.hpp"
 
+#include "odonav/dds/output_messages.hpp"
+
 #include "odonav/lever_arm_option.hpp"
 
 #include <cmath>
@@ -27,8 +29,6 @@ IdentificationCore make_core(const IdentificationParams& p) {
     throw ConfigError(std::string("identification parameters: ") + e.what());
   }
 }
-
-uint32_t clamp_u32(uint64_t v) { return static_cast<uint32_t>(std::min<uint64_t>(v, std::numeric_limits<uint32_t>::max())); }
 
 }  // namespace
 
@@ -77,27 +77,12 @@ IdentificationParams identification_node_params_from(const Options& o) {
 odonav::msg::ScaleFactor scale_factor_message(const IdentificationOutput& out, const std::string& estimator,
                                               const std::string& vehicle_id, const std::string& source,
                                               uint32_t source_priority) {
-  odonav::msg::ScaleFactor m;
-  m.header(dds::make_header(out.t_s, "odometer"));
+  odonav::msg::ScaleFactor m = dds::message_of(output_row(out, estimator, {}));  // the field table
   m.vehicle_id(vehicle_id);
-  const PublishedScaleFactor p = published_scale_factor(out, source);  // what the consumers use
-  m.k_m_per_pulse(p.k_m_per_pulse);
-  m.sigma_m_per_pulse(p.sigma_m_per_pulse);
-  m.forgetting_factor(out.main.forgetting_factor);
-  m.window_fill(out.main.window_fill);
-  m.estimator(estimator);
-  m.converged(p.converged);
-  m.samples_accepted(clamp_u32(p.samples_accepted));
-  m.samples_rejected(clamp_u32(out.samples_rejected));
   m.frozen(out.frozen);
-  m.source(p.source);
+  m.source(source);
   m.source_priority(source_priority);
-  m.gnss_latency_s(p.gnss_latency_s);
-  m.gnss_latency_sigma_s(out.latency.sigma_s >= 0.0 ? out.latency.sigma_s : -1.0);
-  m.turn_slip_s_per_rad(p.turn_slip_s_per_rad);
-  m.turn_slip_sigma_s_per_rad(out.turn_slip.sigma_s_per_rad >= 0.0 ? out.turn_slip.sigma_s_per_rad : -1.0);
-  m.turn_slip_threshold_radps(p.turn_slip_threshold_radps);
-  m.turn_slip_applies(p.turn_slip_applies);
+  m.turn_slip_threshold_radps(out.turn_slip_threshold_radps);
   return m;
 }
 

@@ -178,98 +178,18 @@ std::optional<double> coarse_k_of(const Dataset& dataset, const OfflineParams& p
 
 namespace odonav::offline {
 
-results::MisalignmentRow to_row(const MisalignmentOutput& m) {
-  results::MisalignmentRow r;
-  r.t_s = m.t_s;
-  r.heading_rad = m.misalignment.heading_rad;
-  r.pitch_rad = m.misalignment.pitch_rad;
-  r.heading_std_rad = m.sigma_heading_rad;
-  r.pitch_std_rad = m.sigma_pitch_rad;
-  r.converged = m.converged;
-  r.state = to_string(m.state);
-  r.samples_used = m.samples_used;
-  return r;
-}
-
-results::ScaleFactorRow to_row(const IdentificationOutput& k, const std::string& main_estimator,
-                      const std::vector<std::string>& names) {
-  results::ScaleFactorRow r;
-  r.t_s = k.t_s;
-  auto value_of = [](const ScaleFactorEstimate& e) { return e.valid ? std::optional<double>(e.k_m_per_pulse) : std::nullopt; };
-  for (std::size_t i = 0; i < names.size() && i < k.all.size(); ++i) {
-    r.k_by_estimator.emplace_back(names[i], value_of(k.all[i]));
-    if (names[i] == "vff_lm_rls" && k.all[i].valid) r.lambda_vff_lm_rls = k.all[i].forgetting_factor;
-  }
-  if (names.empty()) {  // one estimator only (the DDS node): its own column
-    r.k_by_estimator.emplace_back(main_estimator, value_of(k.main));
-    if (main_estimator == "vff_lm_rls" && k.main.valid) r.lambda_vff_lm_rls = k.main.forgetting_factor;
-  }
-  r.estimator = main_estimator;
-  r.k_m_per_pulse = value_of(k.main);
-  if (k.main.valid) r.sigma_m_per_pulse = k.main.sigma_m_per_pulse;
-  r.forgetting_factor = k.main.forgetting_factor;
-  r.window_fill = k.main.window_fill;
-  r.converged = k.main.converged;
-  r.samples_accepted = k.samples_accepted;
-  r.samples_rejected = k.samples_rejected;
-  r.epoch_status = to_string(k.epoch_status);
-  r.gnss_latency_s = k.latency.applied_s;
-  if (k.latency.sigma_s >= 0.0) r.gnss_latency_sigma_s = k.latency.sigma_s;
-  r.turn_slip_s_per_rad = k.turn_slip.g_s_per_rad;
-  if (k.turn_slip.sigma_s_per_rad >= 0.0) r.turn_slip_sigma_s_per_rad = k.turn_slip.sigma_s_per_rad;
-  r.turn_slip_applies = k.turn_slip.applies;
-  return r;
-}
-
-results::DeadReckoningRow to_row(const DeadReckoningOutput& o) {
-  results::DeadReckoningRow r;
-  r.t_s = o.t_s;
-  r.lat_rad = o.position.lat_rad;
-  r.lon_rad = o.position.lon_rad;
-  r.height_m = o.position.height_m;
-  r.distance_m = o.distance_m;
-  r.k_m_per_pulse = o.k_m_per_pulse;
-  r.k_source = to_string(o.k_source);
-  r.east_m = o.enu_m.x();
-  r.north_m = o.enu_m.y();
-  r.up_m = o.enu_m.z();
-  r.heading_rad = o.heading_rad;
-  r.horizontal_error_m = o.horizontal_error_m;
-  r.error_percent = o.error_percent_distance;
-  r.error_t_s = o.error_t_s;
-  return r;
-}
-
-results::NavigationPositionRow to_row(const AnchoredPosition& p) {
-  results::NavigationPositionRow r;
-  r.t_s = p.t_s;
-  r.lat_rad = p.position.lat_rad;
-  r.lon_rad = p.position.lon_rad;
-  r.height_m = p.position.height_m;
-  r.east_m = p.enu_m.x();
-  r.north_m = p.enu_m.y();
-  r.up_m = p.enu_m.z();
-  r.var_east_m2 = p.covariance_enu_m2(0, 0);
-  r.var_north_m2 = p.covariance_enu_m2(1, 1);
-  r.var_up_m2 = p.covariance_enu_m2(2, 2);
-  r.status = to_string(p.status);
-  r.last_fix_t_s = p.last_fix_t_s;
-  r.distance_since_fix_m = p.distance_since_fix_m;
-  return r;
-}
-
 results::OutputRows to_output_rows(const OfflineResult& result, const std::string& main_estimator) {
   results::OutputRows rows;
   rows.misalignment.reserve(result.misalignment.size());
-  for (const auto& m : result.misalignment) rows.misalignment.push_back(to_row(m));
+  for (const auto& m : result.misalignment) rows.misalignment.push_back(output_row(m));
   rows.scale_factor.reserve(result.identification.size());
-  for (const auto& k : result.identification) rows.scale_factor.push_back(to_row(k, main_estimator, result.estimator_names));
+  for (const auto& k : result.identification) rows.scale_factor.push_back(output_row(k, main_estimator, result.estimator_names));
   rows.dead_reckoning.reserve(result.dr_online.size());
-  for (const auto& o : result.dr_online) rows.dead_reckoning.push_back(to_row(o));
+  for (const auto& o : result.dr_online) rows.dead_reckoning.push_back(output_row(o));
   rows.dead_reckoning_coarse.reserve(result.dr_coarse.size());
-  for (const auto& o : result.dr_coarse) rows.dead_reckoning_coarse.push_back(to_row(o));
+  for (const auto& o : result.dr_coarse) rows.dead_reckoning_coarse.push_back(output_row(o));
   rows.navigation_position.reserve(result.navigation_position.size());
-  for (const auto& p : result.navigation_position) rows.navigation_position.push_back(to_row(p));
+  for (const auto& p : result.navigation_position) rows.navigation_position.push_back(output_row(p));
   return rows;
 }
 

@@ -82,13 +82,8 @@ std::optional<double> coarse_k_of(const Dataset& dataset, const OfflineParams& p
 
 namespace odonav::offline {
 
-/// The output rows of a run (what the files hold). Misalignment and scale-factor rows convert the
-/// cores' outputs exactly as the DDS nodes convert them into messages and the recorder back to rows.
-results::MisalignmentRow to_row(const MisalignmentOutput& m);
-results::ScaleFactorRow to_row(const IdentificationOutput& k, const std::string& main_estimator,
-                      const std::vector<std::string>& estimator_names);
-results::DeadReckoningRow to_row(const DeadReckoningOutput& dr);
-results::NavigationPositionRow to_row(const AnchoredPosition& p);
+/// The output rows of a run (what the files hold), each made by its component's output_row, the
+/// function its DDS node publishes from.
 results::OutputRows to_output_rows(const OfflineResult& result, const std::string& main_estimator);
 
 }  // namespace odonav::offline

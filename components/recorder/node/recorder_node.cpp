@@ -14,9 +14,8 @@
 #include <set>
 #include <stdexcept>
 
-#include "odonav/calibration/misalignment_calibrator.hpp"
+#include "odonav/dds/output_messages.hpp"
 #include "odonav/dds/time.hpp"
-#include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/run_provenance.hpp"
 #include "odonav/topics.hpp"
@@ -24,30 +23,6 @@
 namespace odonav::recorder {
 
 namespace {
-
-CalibrationState calibration_state(odonav::msg::MisalignmentState s) {
-  switch (s) {
-    case odonav::msg::MISALIGNMENT_WAITING: return CalibrationState::kWaiting;
-    case odonav::msg::MISALIGNMENT_CALIBRATING: return CalibrationState::kCalibrating;
-    case odonav::msg::MISALIGNMENT_CONVERGED: return CalibrationState::kConverged;
-    case odonav::msg::MISALIGNMENT_FROZEN: return CalibrationState::kFrozen;
-  }
-  return CalibrationState::kWaiting;
-}
-
-ScaleFactorSource k_source(odonav::msg::KSource s) {
-  switch (s) {
-    case odonav::msg::K_SOURCE_NOMINAL: return ScaleFactorSource::kNominal;
-    case odonav::msg::K_SOURCE_IDENTIFIED: return ScaleFactorSource::kIdentified;
-    case odonav::msg::K_SOURCE_COMMANDED: return ScaleFactorSource::kCommanded;
-  }
-  return ScaleFactorSource::kNominal;
-}
-
-/// -1 (the wire's "unknown") and any negative or non-finite value -> NaN.
-double known_or_nan(double v) {
-  return std::isfinite(v) && v >= 0.0 ? v : std::numeric_limits<double>::quiet_NaN();
-}
 
 const char* health_state_name(odonav::msg::HealthState s) {
   switch (s) {
@@ -71,86 +46,6 @@ const char* health_level_name(odonav::msg::HealthLevel l) {
 }
 
 }  // namespace
-
-results::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m) {
-  results::MisalignmentRow r;
-  r.t_s = dds::to_seconds(m.header().stamp());
-  r.heading_rad = m.heading_rad();
-  r.pitch_rad = m.pitch_rad();
-  r.heading_std_rad = known_or_nan(m.heading_std_rad());
-  r.pitch_std_rad = known_or_nan(m.pitch_std_rad());
-  r.converged = m.converged();
-  r.state = to_string(calibration_state(m.state()));
-  r.samples_used = m.samples_used();
-  return r;
-}
-
-results::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m) {
-  results::ScaleFactorRow r;
-  r.t_s = dds::to_seconds(m.header().stamp());
-  const bool has_value = std::isfinite(m.k_m_per_pulse()) && m.k_m_per_pulse() > 0.0;
-  const std::optional<double> k = has_value ? std::optional<double>(m.k_m_per_pulse()) : std::nullopt;
-  r.k_by_estimator.emplace_back(m.estimator(), k);
-  if (m.estimator() == "vff_lm_rls" && has_value) r.lambda_vff_lm_rls = m.forgetting_factor();
-  r.estimator = m.estimator();
-  r.k_m_per_pulse = k;
-  if (has_value && std::isfinite(m.sigma_m_per_pulse()) && m.sigma_m_per_pulse() >= 0.0)
-    r.sigma_m_per_pulse = m.sigma_m_per_pulse();
-  r.forgetting_factor = m.forgetting_factor();
-  r.window_fill = m.window_fill();
-  r.converged = m.converged();
-  r.samples_accepted = m.samples_accepted();
-  r.samples_rejected = m.samples_rejected();
-  r.gnss_latency_s = m.gnss_latency_s();
-  if (std::isfinite(m.gnss_latency_sigma_s()) && m.gnss_latency_sigma_s() >= 0.0)
-    r.gnss_latency_sigma_s = m.gnss_latency_sigma_s();
-  r.turn_slip_s_per_rad = m.turn_slip_s_per_rad();
-  if (std::isfinite(m.turn_slip_sigma_s_per_rad()) && m.turn_slip_sigma_s_per_rad() >= 0.0)
-    r.turn_slip_sigma_s_per_rad = m.turn_slip_sigma_s_per_rad();
-  r.turn_slip_applies = m.turn_slip_applies();
-  return r;
-}
-
-results::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m) {
-  results::DeadReckoningRow r;
-  r.t_s = dds::to_seconds(m.header().stamp());
-  r.lat_rad = exact_radians_of(m.latitude_deg());
-  r.lon_rad = exact_radians_of(m.longitude_deg());
-  r.height_m = m.height_m();
-  r.distance_m = m.distance_m();
-  r.k_m_per_pulse = m.k_m_per_pulse();
-  r.k_source = to_string(k_source(m.k_source()));
-  r.east_m = m.enu_east_m();
-  r.north_m = m.enu_north_m();
-  r.up_m = m.enu_up_m();
-  r.heading_rad = m.heading_rad();
-  r.horizontal_error_m = known_or_nan(m.horizontal_error_m());
-  r.error_percent = known_or_nan(m.error_percent_distance());
-  r.error_t_s = known_or_nan(m.error_t_s());
-  return r;
-}
-
-results::NavigationPositionRow navigation_position_row(const odonav::msg::NavigationPosition& m) {
-  results::NavigationPositionRow r;
-  r.t_s = dds::to_seconds(m.header().stamp());
-  r.lat_rad = exact_radians_of(m.latitude_deg());
-  r.lon_rad = exact_radians_of(m.longitude_deg());
-  r.height_m = m.height_m();
-  r.east_m = m.enu_east_m();
-  r.north_m = m.enu_north_m();
-  r.up_m = m.enu_up_m();
-  r.var_east_m2 = known_or_nan(m.position_covariance_east_m2());
-  r.var_north_m2 = known_or_nan(m.position_covariance_north_m2());
-  r.var_up_m2 = known_or_nan(m.position_covariance_up_m2());
-  switch (m.status()) {
-    case odonav::msg::NAVIGATION_STATUS_NOT_STARTED: r.status = to_string(AnchorStatus::kNotStarted); break;
-    case odonav::msg::NAVIGATION_STATUS_ANCHORED: r.status = to_string(AnchorStatus::kAnchored); break;
-    case odonav::msg::NAVIGATION_STATUS_DEAD_RECKONING: r.status = to_string(AnchorStatus::kDeadReckoning); break;
-  }
-  r.last_fix_t_s = known_or_nan(m.last_fix_stamp_s());
-  r.distance_since_fix_m = known_or_nan(m.distance_since_fix_m());
-  return r;
-}
 
 std::vector<GapRow> recording_gaps(const std::vector<double>& gnss_epochs_s, const std::vector<double>& misalignment_s,
                                    const std::vector<double>& scale_factor_s,
@@ -388,7 +283,7 @@ void RecorderNode::note_navigation_gap(double t_s) {
 }
 
 void RecorderNode::on_misalignment(const odonav::msg::Misalignment& m) {
-  const results::MisalignmentRow r = misalignment_row(m);
+  const results::MisalignmentRow r = dds::row_of(m);
   // A calibration restarted from its checkpoint publishes again the epochs after it, which the
   // killed process had published already (the same values): each epoch is recorded once, as the
   // scale factor's arbiter does for a restarted identification.
@@ -426,7 +321,7 @@ void RecorderNode::on_scale_factor(const odonav::msg::ScaleFactor& m) {
 }
 
 void RecorderNode::write_scale_factor(const odonav::msg::ScaleFactor& m) {
-  const results::ScaleFactorRow r = scale_factor_row(m);
+  const results::ScaleFactorRow r = dds::row_of(m);
   if (!scale_factor_stamps_.admit(r.t_s)) return;
   unflushed_ = true;
   scale_factor_csv_.write(r);
@@ -436,7 +331,7 @@ void RecorderNode::write_scale_factor(const odonav::msg::ScaleFactor& m) {
 }
 
 void RecorderNode::on_dead_reckoning(const odonav::msg::DeadReckoning& m) {
-  const results::DeadReckoningRow r = dead_reckoning_row(m);
+  const results::DeadReckoningRow r = dds::row_of(m);
   if (!dead_reckoning_stamps_.admit(r.t_s)) return;
   unflushed_ = true;
   dead_reckoning_csv_.write(r);
@@ -451,7 +346,7 @@ void RecorderNode::on_dead_reckoning(const odonav::msg::DeadReckoning& m) {
 }
 
 void RecorderNode::on_navigation_position(const odonav::msg::NavigationPosition& m) {
-  const results::NavigationPositionRow r = navigation_position_row(m);
+  const results::NavigationPositionRow r = dds::row_of(m);
   if (!navigation_stamps_.admit(r.t_s)) return;
   unflushed_ = true;
   navigation_position_csv_.write(r);

@@ -30,25 +30,8 @@
 
 namespace odonav::recorder {
 
-// ---- message -> row, exactly as odonav-offline's rows come from the cores (offline_runner.hpp) ----
-
-/// Misalignment: t = header stamp (s); angles in rad; a one-sigma of -1 (unknown) or non-finite ->
-/// NaN (written empty); state as the calibrator names it (to_string(CalibrationState)).
-results::MisalignmentRow misalignment_row(const odonav::msg::Misalignment& m);
-/// ScaleFactor: the main estimator only (its own k_<name> column; the other estimators' columns stay
-/// empty); K and sigma absent while K <= 0 or non-finite (the producer's "no value"); sigma absent
-/// when -1 or non-finite; lambda_vff_lm_rls = forgetting_factor when the estimator is vff_lm_rls
-/// and has a value. epoch_status is not on the wire: empty.
-results::ScaleFactorRow scale_factor_row(const odonav::msg::ScaleFactor& m);
-/// DeadReckoning: position (degrees -> exact_radians_of, frames.hpp: the rows hold radians and the
-/// CSV writer converts with rad_to_deg, so the message's degrees reach the file unchanged, as
-/// odonav-offline writes them), distance, K and its source (to_string(ScaleFactorSource)), ENU
-/// offsets, heading (rad); horizontal error and %D: negative (-1 = no reference) or non-finite ->
-/// NaN (written empty).
-results::DeadReckoningRow dead_reckoning_row(const odonav::msg::DeadReckoning& m);
-/// NavigationPosition: position as dead_reckoning_row; -1 (unknown) covariance, last fix stamp and
-/// distance -> NaN (written empty, as odonav-offline writes them); status by name.
-results::NavigationPositionRow navigation_position_row(const odonav::msg::NavigationPosition& m);
+// Each estimate message becomes its file's row by the topic's field table (dds::row_of,
+// odonav/dds/output_messages.hpp): the rows odonav-offline writes from the cores' output_row.
 
 /// One row of gaps.csv: what the recording lacks on one topic, over one span (event time, s).
 struct GapRow {

@@ -5,6 +5,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
+#include <optional>
+#include <stdexcept>
 #include <random>
 #include <sstream>
 #include <vector>
@@ -12,6 +15,9 @@
 #include <sys/stat.h>
 
 #include "node/recorder_node.hpp"
+#include "odonav/calibration/misalignment_calibrator.hpp"
+#include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/dds/output_messages.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/frames.hpp"
 
@@ -48,7 +54,7 @@ TEST(RecorderRows, MisalignmentUnknownSigmaIsEmptyAndStateIsNamed) {
   m.samples_used(42);
   m.converged(false);
   m.state(odonav::msg::MISALIGNMENT_CALIBRATING);
-  const results::MisalignmentRow r = recorder::misalignment_row(m);
+  const results::MisalignmentRow r = odonav::dds::row_of(m);
   EXPECT_EQ(r.t_s, 12.3);
   EXPECT_EQ(r.heading_rad, deg_to_rad(0.8));
   EXPECT_TRUE(std::isnan(r.heading_std_rad));
@@ -92,7 +98,7 @@ TEST(RecorderRows, ScaleFactorWithoutValueAndWithValue) {
   m.estimator("vff_lm_rls");
   m.samples_accepted(3);
   m.samples_rejected(7);
-  results::ScaleFactorRow r = recorder::scale_factor_row(m);
+  results::ScaleFactorRow r = odonav::dds::row_of(m);
   EXPECT_FALSE(r.k_m_per_pulse.has_value());
   EXPECT_FALSE(r.sigma_m_per_pulse.has_value());
   EXPECT_FALSE(r.lambda_vff_lm_rls.has_value());
@@ -104,7 +110,7 @@ TEST(RecorderRows, ScaleFactorWithoutValueAndWithValue) {
   m.sigma_m_per_pulse(2e-6);
   m.forgetting_factor(0.97);
   m.converged(true);
-  r = recorder::scale_factor_row(m);
+  r = odonav::dds::row_of(m);
   EXPECT_EQ(*r.k_m_per_pulse, 0.0126875);
   EXPECT_EQ(*r.k_by_estimator[0].second, 0.0126875);
   EXPECT_EQ(*r.sigma_m_per_pulse, 2e-6);
@@ -124,7 +130,7 @@ TEST(RecorderRows, DeadReckoningWithoutReference) {
   m.heading_rad(1.0);
   m.horizontal_error_m(-1.0);
   m.error_percent_distance(-1.0);
-  const results::DeadReckoningRow r = recorder::dead_reckoning_row(m);
+  const results::DeadReckoningRow r = odonav::dds::row_of(m);
   EXPECT_EQ(r.t_s, 100.25);
   EXPECT_EQ(rad_to_deg(r.lat_rad), 52.5001);
   EXPECT_EQ(rad_to_deg(r.lon_rad), 13.4002);
@@ -150,7 +156,7 @@ TEST(RecorderRows, NavigationPositionUnknownsAreEmptyAndStatusIsNamedAsOfflineWr
   m.status(odonav::msg::NAVIGATION_STATUS_NOT_STARTED);
   m.last_fix_stamp_s(-1.0);
   m.distance_since_fix_m(-1.0);
-  results::NavigationPositionRow r = recorder::navigation_position_row(m);
+  results::NavigationPositionRow r = odonav::dds::row_of(m);
   EXPECT_EQ(r.t_s, 100.25);
   EXPECT_EQ(rad_to_deg(r.lat_rad), 52.5001);
   EXPECT_EQ(r.east_m, 12.5);
@@ -165,11 +171,127 @@ TEST(RecorderRows, NavigationPositionUnknownsAreEmptyAndStatusIsNamedAsOfflineWr
   m.status(odonav::msg::NAVIGATION_STATUS_DEAD_RECKONING);
   m.last_fix_stamp_s(98.5);
   m.distance_since_fix_m(17.5);
-  r = recorder::navigation_position_row(m);
+  r = odonav::dds::row_of(m);
   EXPECT_EQ(r.status, "dead_reckoning");
   EXPECT_EQ(r.var_north_m2, 1.25);
   EXPECT_EQ(r.last_fix_t_s, 98.5);
   EXPECT_EQ(r.distance_since_fix_m, 17.5);
+}
+
+// The field table (odonav/dds/output_messages.hpp) carries every column a row shares with its
+// message: a row written to its file, and the same row sent as a message and recorded, give the same
+// text, for random values with each "unknown" taken at random, and every enumeration name the cores
+// write crosses the wire unchanged.
+template <class Row, class Csv>
+std::string file_text_of(const Row& row, const std::string& path) {
+  {
+    Csv csv(path);
+    csv.write(row);
+    csv.close();
+  }
+  return read_file(path);
+}
+
+TEST(OutputMessages, EverySharedColumnCrossesTheWireUnchanged) {
+  const std::string dir = std::string(ODONAV_BINARY_DIR) + "/test-output-messages";
+  ::mkdir(dir.c_str(), 0755);
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::bernoulli_distribution unknown(0.3);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto maybe = [&](double v) { return unknown(rng) ? nan : v; };
+  auto maybe_opt = [&](double v) { return unknown(rng) ? std::nullopt : std::optional<double>(v); };
+  // The names as the cores write them into odonav-offline's files.
+  const char* calibration_states[] = {to_string(CalibrationState::kWaiting), to_string(CalibrationState::kCalibrating),
+                                      to_string(CalibrationState::kConverged), to_string(CalibrationState::kFrozen)};
+  const char* k_sources[] = {to_string(ScaleFactorSource::kNominal), to_string(ScaleFactorSource::kIdentified),
+                             to_string(ScaleFactorSource::kCommanded)};
+  const char* statuses[] = {to_string(AnchorStatus::kNotStarted), to_string(AnchorStatus::kAnchored),
+                            to_string(AnchorStatus::kDeadReckoning)};
+  for (int i = 0; i < 200; ++i) {
+    const double t = 100.0 + 0.01 * i;
+    results::MisalignmentRow mr;
+    mr.t_s = t;
+    mr.heading_rad = 0.02 * u(rng);
+    mr.pitch_rad = 0.02 * u(rng);
+    mr.heading_std_rad = maybe(1e-4 * (1.0 + u(rng)));
+    mr.pitch_std_rad = maybe(1e-4 * (1.0 + u(rng)));
+    mr.converged = u(rng) > 0;
+    mr.state = calibration_states[i % 4];
+    mr.samples_used = static_cast<uint64_t>(i * 7);
+    const auto mr2 = odonav::dds::row_of(odonav::dds::message_of(mr));
+    ASSERT_EQ((file_text_of<results::MisalignmentRow, results::MisalignmentCsv>(mr2, dir + "/b.csv")),
+              (file_text_of<results::MisalignmentRow, results::MisalignmentCsv>(mr, dir + "/a.csv")));
+
+    results::ScaleFactorRow kr;
+    kr.t_s = t;
+    kr.estimator = "vff_lm_rls";
+    kr.k_m_per_pulse = maybe_opt(0.0125 * (1.0 + 0.1 * u(rng)));
+    kr.k_by_estimator = {{kr.estimator, kr.k_m_per_pulse}};
+    if (kr.k_m_per_pulse) kr.sigma_m_per_pulse = maybe_opt(1e-6 * (1.0 + u(rng)));
+    kr.forgetting_factor = 0.99 + 0.01 * u(rng);
+    if (kr.k_m_per_pulse) kr.lambda_vff_lm_rls = kr.forgetting_factor;
+    kr.window_fill = 0.5 + 0.5 * u(rng);
+    kr.converged = kr.k_m_per_pulse && u(rng) > 0;
+    kr.samples_accepted = static_cast<uint64_t>(i * 3);
+    kr.samples_rejected = static_cast<uint64_t>(i);
+    kr.gnss_latency_s = 0.1 * u(rng);
+    kr.gnss_latency_sigma_s = maybe_opt(1e-3 * (1.0 + u(rng)));
+    kr.turn_slip_s_per_rad = 0.05 * (1.0 + u(rng));
+    kr.turn_slip_sigma_s_per_rad = maybe_opt(1e-3 * (1.0 + u(rng)));
+    kr.turn_slip_applies = u(rng) > 0;
+    const auto kr2 = odonav::dds::row_of(odonav::dds::message_of(kr));
+    ASSERT_EQ((file_text_of<results::ScaleFactorRow, results::ScaleFactorCsv>(kr2, dir + "/b.csv")),
+              (file_text_of<results::ScaleFactorRow, results::ScaleFactorCsv>(kr, dir + "/a.csv")));
+
+    results::DeadReckoningRow dr;
+    dr.t_s = t;
+    dr.lat_rad = 1.2 * u(rng);
+    dr.lon_rad = 3.0 * u(rng);
+    dr.height_m = 100.0 * u(rng);
+    dr.distance_m = 1000.0 * (1.0 + u(rng));
+    dr.k_m_per_pulse = 0.0125 * (1.0 + 0.1 * u(rng));
+    dr.k_source = k_sources[i % 3];
+    dr.east_m = 500.0 * u(rng);
+    dr.north_m = 500.0 * u(rng);
+    dr.up_m = 10.0 * u(rng);
+    dr.heading_rad = 3.0 * (1.0 + u(rng));
+    dr.horizontal_error_m = maybe(2.0 * (1.0 + u(rng)));
+    dr.error_percent = maybe(0.1 * (1.0 + u(rng)));
+    dr.error_t_s = maybe(t - 0.05);
+    const auto dr2 = odonav::dds::row_of(odonav::dds::message_of(dr));
+    ASSERT_EQ((file_text_of<results::DeadReckoningRow, results::DeadReckoningCsv>(dr2, dir + "/b.csv")),
+              (file_text_of<results::DeadReckoningRow, results::DeadReckoningCsv>(dr, dir + "/a.csv")));
+
+    results::NavigationPositionRow nr;
+    nr.t_s = t;
+    nr.lat_rad = 1.2 * u(rng);
+    nr.lon_rad = 3.0 * u(rng);
+    nr.height_m = 100.0 * u(rng);
+    nr.east_m = 500.0 * u(rng);
+    nr.north_m = 500.0 * u(rng);
+    nr.up_m = 10.0 * u(rng);
+    nr.var_east_m2 = maybe(1.0 + u(rng));
+    nr.var_north_m2 = maybe(1.0 + u(rng));
+    nr.var_up_m2 = maybe(4.0 + u(rng));
+    nr.status = statuses[i % 3];
+    nr.last_fix_t_s = maybe(t - 0.1);
+    nr.distance_since_fix_m = maybe(10.0 * (1.0 + u(rng)));
+    const auto nr2 = odonav::dds::row_of(odonav::dds::message_of(nr));
+    ASSERT_EQ((file_text_of<results::NavigationPositionRow, results::NavigationPositionCsv>(nr2, dir + "/b.csv")),
+              (file_text_of<results::NavigationPositionRow, results::NavigationPositionCsv>(nr, dir + "/a.csv")));
+  }
+}
+
+TEST(OutputMessages, AnEnumerationNameTheTopicDoesNotKnowIsRefusedByName) {
+  results::MisalignmentRow r;
+  r.state = "calibratin";
+  try {
+    (void)odonav::dds::message_of(r);
+    FAIL() << "accepted an unknown state";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'calibratin'"), std::string::npos) << e.what();
+  }
 }
 
 // gaps.csv: 10 Hz GNSS epochs 0.0-20.0 s; the calibration's rows are all there, the

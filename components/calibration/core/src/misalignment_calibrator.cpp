@@ -19,6 +19,19 @@ PublishedMisalignment published_misalignment(const MisalignmentOutput& out) {
   return m;
 }
 
+results::MisalignmentRow output_row(const MisalignmentOutput& m) {
+  results::MisalignmentRow r;
+  r.t_s = m.t_s;
+  r.heading_rad = m.misalignment.heading_rad;
+  r.pitch_rad = m.misalignment.pitch_rad;
+  r.heading_std_rad = m.sigma_heading_rad;
+  r.pitch_std_rad = m.sigma_pitch_rad;
+  r.converged = m.converged;
+  r.state = to_string(m.state);
+  r.samples_used = m.samples_used;
+  return r;
+}
+
 const char* to_string(CalibrationState state) {
   switch (state) {
     case CalibrationState::kWaiting: return "waiting";

@@ -11,6 +11,24 @@
 
 namespace odonav {
 
+results::NavigationPositionRow output_row(const AnchoredPosition& p) {
+  results::NavigationPositionRow r;
+  r.t_s = p.t_s;
+  r.lat_rad = p.position.lat_rad;
+  r.lon_rad = p.position.lon_rad;
+  r.height_m = p.position.height_m;
+  r.east_m = p.enu_m.x();
+  r.north_m = p.enu_m.y();
+  r.up_m = p.enu_m.z();
+  r.var_east_m2 = p.covariance_enu_m2(0, 0);
+  r.var_north_m2 = p.covariance_enu_m2(1, 1);
+  r.var_up_m2 = p.covariance_enu_m2(2, 2);
+  r.status = to_string(p.status);
+  r.last_fix_t_s = p.last_fix_t_s;
+  r.distance_since_fix_m = p.distance_since_fix_m;
+  return r;
+}
+
 const char* to_string(AnchorStatus status) {
   switch (status) {
     case AnchorStatus::kNotStarted: return "not_started";

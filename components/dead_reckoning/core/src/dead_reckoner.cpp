@@ -9,6 +9,25 @@
 
 namespace odonav {
 
+results::DeadReckoningRow output_row(const DeadReckoningOutput& o) {
+  results::DeadReckoningRow r;
+  r.t_s = o.t_s;
+  r.lat_rad = o.position.lat_rad;
+  r.lon_rad = o.position.lon_rad;
+  r.height_m = o.position.height_m;
+  r.distance_m = o.distance_m;
+  r.k_m_per_pulse = o.k_m_per_pulse;
+  r.k_source = to_string(o.k_source);
+  r.east_m = o.enu_m.x();
+  r.north_m = o.enu_m.y();
+  r.up_m = o.enu_m.z();
+  r.heading_rad = o.heading_rad;
+  r.horizontal_error_m = o.horizontal_error_m;
+  r.error_percent = o.error_percent_distance;
+  r.error_t_s = o.error_t_s;
+  return r;
+}
+
 const char* to_string(ScaleFactorSource source) {
   switch (source) {
     case ScaleFactorSource::kNominal: return "nominal";

@@ -241,4 +241,35 @@ PublishedScaleFactor published_scale_factor(const IdentificationOutput& out, con
   return p;
 }
 
+results::ScaleFactorRow output_row(const IdentificationOutput& k, const std::string& main_estimator,
+                                   const std::vector<std::string>& names) {
+  results::ScaleFactorRow r;
+  r.t_s = k.t_s;
+  auto value_of = [](const ScaleFactorEstimate& e) { return e.valid ? std::optional<double>(e.k_m_per_pulse) : std::nullopt; };
+  for (std::size_t i = 0; i < names.size() && i < k.all.size(); ++i) {
+    r.k_by_estimator.emplace_back(names[i], value_of(k.all[i]));
+    if (names[i] == "vff_lm_rls" && k.all[i].valid) r.lambda_vff_lm_rls = k.all[i].forgetting_factor;
+  }
+  if (names.empty()) {  // one estimator only (the DDS node): its own column
+    r.k_by_estimator.emplace_back(main_estimator, value_of(k.main));
+    if (main_estimator == "vff_lm_rls" && k.main.valid) r.lambda_vff_lm_rls = k.main.forgetting_factor;
+  }
+  r.estimator = main_estimator;
+  const PublishedScaleFactor p = published_scale_factor(k, "");
+  if (k.main.valid && std::isfinite(k.main.k_m_per_pulse)) r.k_m_per_pulse = k.main.k_m_per_pulse;
+  if (p.sigma_m_per_pulse >= 0.0) r.sigma_m_per_pulse = p.sigma_m_per_pulse;
+  r.forgetting_factor = k.main.forgetting_factor;
+  r.window_fill = k.main.window_fill;
+  r.converged = p.converged;
+  r.samples_accepted = k.samples_accepted;
+  r.samples_rejected = k.samples_rejected;
+  r.epoch_status = to_string(k.epoch_status);
+  r.gnss_latency_s = k.latency.applied_s;
+  if (k.latency.sigma_s >= 0.0) r.gnss_latency_sigma_s = k.latency.sigma_s;
+  r.turn_slip_s_per_rad = k.turn_slip.g_s_per_rad;
+  if (k.turn_slip.sigma_s_per_rad >= 0.0) r.turn_slip_sigma_s_per_rad = k.turn_slip.sigma_s_per_rad;
+  r.turn_slip_applies = k.turn_slip.applies;
+  return r;
+}
+
 }  // namespace odonav

@@ -30,6 +30,7 @@
 #include <Eigen/Dense>
 
 #include "odonav/published_estimates.hpp"
+#include "odonav/results/output_files.hpp"
 #include "odonav/sensor_samples.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/stream_buffers.hpp"
@@ -150,6 +151,11 @@ struct MisalignmentOutput {
 /// hands it to the consumers): the angles, the one-sigmas (-1 when not finite), converged and the
 /// epochs used.
 PublishedMisalignment published_misalignment(const MisalignmentOutput& output);
+
+/// The misalignment.csv row of an output (odonav/results/output_files.hpp): what odonav-offline
+/// writes, and what the calibration node publishes through the topic's field table
+/// (odonav/dds/output_messages.hpp), so the file of either transport holds the same values.
+results::MisalignmentRow output_row(const MisalignmentOutput& output);
 
 class MisalignmentCalibrator {
  public:

@@ -56,6 +56,7 @@
 
 #include "odonav/consumer_rules.hpp"
 #include "odonav/geodesy.hpp"
+#include "odonav/results/output_files.hpp"
 
 namespace odonav {
 
@@ -148,6 +149,11 @@ struct AnchoredPosition {
   /// Horizontal one-sigma, sqrt(var_e + var_n) (m); NaN while kNotStarted.
   double horizontal_sigma_m() const { return std::sqrt(covariance_enu_m2(0, 0) + covariance_enu_m2(1, 1)); }
 };
+
+/// The navigation_position.csv row of a position (odonav/results/output_files.hpp): what
+/// odonav-offline writes, and what the dead-reckoning node publishes through the topic's field table
+/// (odonav/dds/output_messages.hpp).
+results::NavigationPositionRow output_row(const AnchoredPosition& position);
 
 struct AnchoredPositionCounters {
   uint64_t steps = 0;

@@ -64,6 +64,7 @@
 #include "odonav/dead_reckoning/anchored_position.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
+#include "odonav/results/output_files.hpp"
 #include "odonav/stream_buffers.hpp"
 #include "odonav/turn_slip.hpp"
 
@@ -155,6 +156,11 @@ struct DeadReckoningOutput {
   bool k_held = false;
   bool misalignment_held = false;
 };
+
+/// The dead_reckoning.csv row of an output (odonav/results/output_files.hpp): what odonav-offline
+/// writes, and what the dead-reckoning node publishes through the topic's field table
+/// (odonav/dds/output_messages.hpp).
+results::DeadReckoningRow output_row(const DeadReckoningOutput& output);
 
 /// The estimates whose arrival the dead reckoner tracks (add_estimate_received).
 enum class HeldEstimate { kScaleFactor, kMisalignment };

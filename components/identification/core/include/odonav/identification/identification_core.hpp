@@ -16,6 +16,7 @@
 
 #include "odonav/estimators.hpp"
 #include "odonav/published_estimates.hpp"
+#include "odonav/results/output_files.hpp"
 #include "odonav/sample_builder.hpp"
 
 namespace odonav {
@@ -65,6 +66,15 @@ struct IdentificationOutput {
 /// while it has no value; sigma -1 when not finite and > 0), the latency in force and the turn slip.
 /// source: the publishing instance's name.
 PublishedScaleFactor published_scale_factor(const IdentificationOutput& output, const std::string& source);
+
+/// The scale_factor.csv row of an output (odonav/results/output_files.hpp): the main estimate as
+/// the topic carries it (K, its sigma and converged only while K has a value, as
+/// published_scale_factor), with the k_<name> column of each estimator in `names` (every estimator
+/// run side by side, odonav-offline) or, when `names` is empty, of the main one alone (the node).
+/// What odonav-offline writes, and what the identification node publishes through the topic's field
+/// table (odonav/dds/output_messages.hpp).
+results::ScaleFactorRow output_row(const IdentificationOutput& output, const std::string& main_estimator,
+                                   const std::vector<std::string>& names);
 
 class IdentificationCore {
  public:
