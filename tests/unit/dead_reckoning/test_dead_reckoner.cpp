@@ -529,6 +529,47 @@ TEST(DeadReckoner, ErrorAgainstGnssComparesEachFixWithTheDrAtItsStampMinusTheLat
   EXPECT_THROW(dr.add_gnss_latency(1.0, 12.0), StreamInputError);
 }
 
+TEST(DeadReckoner, AStampThatLeadsItsMeasurementIsComparedWhenTheDrReachesIt) {
+  // The same drive, the receiver stamping every fix `lead` s EARLY (a negative latency): fix g shows
+  // the truth at g + lead. Within the hold-off (0.05 s) and beyond it (0.5 s: the DR must wait for
+  // the instant the fix describes), every fix after the start is compared with the DR there and
+  // anchors once: the run neither stops on a repeated fix time nor drops the fixes.
+  for (const double lead : {0.05, 0.5}) {
+    SensorConfig c;
+    c.duration_s = 40.0;
+    c.k_m_per_pulse = kK;
+    SyntheticData d = simulate(straight(deg_to_rad(60.0), 0.0, 0.0, 0.5), c);
+    for (auto& g : d.gnss) g.t_s -= lead;
+    DeadReckoner dr(exact_k());
+    dr.add_gnss_latency(0.0, -lead);
+    for (const auto& s : d.odometer) dr.add_odometer(s);
+    for (const auto& s : d.ins) dr.add_ins(s);
+    for (const auto& s : d.gnss) dr.add_gnss(s);
+    std::vector<DeadReckoningOutput> out;
+    ASSERT_NO_THROW(out = dr.finish()) << lead;
+    std::size_t fixes = 0, with_error = 0;
+    double worst = 0.0, last_fix_t = -1e9;
+    for (const auto& o : out) {
+      for (const auto& f : o.gnss_fixes) {
+        EXPECT_GT(f.t_s, last_fix_t) << lead;  // each fix once, in order
+        last_fix_t = f.t_s;
+        ++fixes;
+      }
+      if (std::isfinite(o.horizontal_error_m)) {
+        ++with_error;
+        worst = std::max(worst, o.horizontal_error_m);
+      }
+    }
+    // 10 Hz over 40 s: the fixes from the start on, but the last ones (their instant after the end).
+    EXPECT_GE(fixes, 390u - static_cast<std::size_t>(10 * lead) - 2) << lead;
+    EXPECT_GT(with_error, out.size() * 9 / 10) << lead;
+    // The lead is compensated: what remains is the start, taken at the first fix's stamp (no
+    // latency is applied to the start) while the fix shows the vehicle lead s later, 0.5 a lead^2
+    // further from rest, plus the DR's own error (below 0.02 m, as with a late stamp above).
+    EXPECT_LT(worst, 0.5 * 0.5 * lead * lead + 0.02) << lead;
+  }
+}
+
 // Held estimates. A 30 s straight drive with GNSS at 10 Hz and the odometer at 50 Hz; the
 // identification publishes K from epoch 2.0 s on (K = kK (1 + 1e-4 i) at epoch i x 0.1 s) but its
 // epochs 10.1-15.0 s never arrive (killed, restarted), and the calibration's epochs 20.1-22.0 s

@@ -524,15 +524,20 @@ void DeadReckoner::evaluate_errors(DeadReckoningOutput& o) {
   while (!error_epochs_.empty() && estimate_applies_from_s(error_epochs_.front().first.t_s, d) <= t_j) {
     const GnssSample g = error_epochs_.front().first;
     const double applies_s = estimate_applies_from_s(g.t_s, d);
-    EpochError e{g.t_s, applies_s, std::numeric_limits<double>::quiet_NaN(),
-                 std::numeric_limits<double>::quiet_NaN(), error_epochs_.front().second};
-    error_epochs_.pop_front();
     // The fix describes the position at its stamp minus the latency in force when it is evaluated.
     const double t_ref = g.t_s - gnss_latency_.at_or_before(applies_s).value_or(0.0);
+    // A stamp that leads its measurement by more than the hold-off (a negative latency) waits until
+    // the dead reckoning has reached the instant the fix describes; from then on its error applies.
+    if (t_ref > t_j) break;
+    EpochError e{g.t_s, std::max(applies_s, t_ref), std::numeric_limits<double>::quiet_NaN(),
+                 std::numeric_limits<double>::quiet_NaN(), error_epochs_.front().second};
+    error_epochs_.pop_front();
     // DR at t_ref: between the outputs bracketing it (none before the start, or beyond the last one).
     std::size_t hi = 0;
     while (hi < past_.size() && past_[hi].t_s < t_ref) ++hi;
-    const bool after_start = start_t_s_ && t_ref > *start_t_s_;
+    // The start epoch is the start fix itself: with a negative latency (stamps that lead the
+    // measurement) its t_ref lies after the start, and it must not anchor a second time.
+    const bool after_start = start_t_s_ && t_ref > *start_t_s_ && g.t_s > *start_t_s_;
     if (g.valid() && after_start && hi < past_.size() && (hi > 0 || past_[0].t_s == t_ref)) {
       // Everything interpolated, so that an epoch a few ulps off an odometer instant (a stamp that
       // crossed DDS) gives the same result to 1e-9.

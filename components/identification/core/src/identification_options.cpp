@@ -46,7 +46,8 @@ void add_identification_options(Options& o) {
              "intervals driven backwards (odometer direction -1 throughout) make samples of K too");
   o.add_string("gnss-latency-s", "auto",
                "GNSS latency (s) the fixes are stamped late by (receiver delay or clock offset): 'auto' "
-               "estimates it online, 'off' assumes 0, a number fixes it");
+               "estimates it online, 'off' assumes 0, a number fixes it (negative: stamps that lead the "
+               "measurement)");
 }
 
 std::optional<double> parse_gnss_latency_option(const std::string& text, bool& estimate) {
