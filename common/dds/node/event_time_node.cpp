@@ -1,18 +1,31 @@
 // The event-time node skeleton (event_time_node.hpp): run loop, drain, inputs, health.
 #include "odonav/dds/event_time_node.hpp"
 
+#include <stdexcept>
+
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 
 namespace odonav::dds {
 
-EventTimeNode::EventTimeNode(ComponentRuntime& runtime, double in_flight_max_wait_s)
+EventTimeNode::EventTimeNode(ComponentRuntime& runtime, const std::vector<ComponentInput>& inputs,
+                             double in_flight_max_wait_s)
     : runtime_(runtime),
       aligner_(runtime.settings().max_wait_s, steady_now_s(),
                in_flight_max_wait_s > 0.0 ? std::max(in_flight_max_wait_s, runtime.settings().max_wait_s) : 0.0) {
   // A core step and KEEP_LAST writes never block: run them where the sample arrives.
   runtime_.set_dispatch(TaskDispatcher::Mode::kOnPost);
+  for (const ComponentInput& c : inputs) {
+    const NodeInput* pacing = c.paced_by.empty() ? nullptr : &input(c.paced_by);
+    auto in = std::make_unique<NodeInput>();
+    in->name = c.name;
+    in->estimate = pacing != nullptr;
+    in->id = pacing ? aligner_.add_paced_stream(c.name, pacing->id, c.hold_off_s) : aligner_.add_stream(c.name, c.hold_off_s);
+    inputs_.push_back(in.get());
+    if (c.required) required_.push_back(in.get());
+    owned_.push_back(std::move(in));
+  }
 }
 
 int EventTimeNode::run() {
@@ -52,16 +65,15 @@ int EventTimeNode::run() {
   return 0;
 }
 
-NodeInput& EventTimeNode::add_input(const std::string& name, bool required, const NodeInput* pacing,
-                                    double hold_off_s) {
-  auto in = std::make_unique<NodeInput>();
-  in->name = name;
-  in->estimate = pacing != nullptr;
-  in->id = pacing ? aligner_.add_paced_stream(name, pacing->id, hold_off_s) : aligner_.add_stream(name, hold_off_s);
-  inputs_.push_back(in.get());
-  if (required) required_.push_back(in.get());
-  owned_.push_back(std::move(in));
-  return *owned_.back();
+NodeInput* EventTimeNode::find_input(const std::string& name) {
+  for (const auto& in : owned_)
+    if (in->name == name) return in.get();
+  return nullptr;
+}
+
+NodeInput& EventTimeNode::input(const std::string& name) {
+  if (NodeInput* in = find_input(name)) return *in;
+  throw std::logic_error(runtime_.settings().component + ": no input '" + name + "' declared");
 }
 
 void EventTimeNode::tick() {

@@ -80,6 +80,17 @@ enum class SampleAdmission {
 /// "accepted", "late", "repeated", "backwards", "invalid".
 const char* to_string(SampleAdmission admission);
 
+/// One input of a consumer component, as its core declares it (calibration_inputs,
+/// identification_inputs, dead_reckoning_inputs): the DDS node subscribes and aligns it so
+/// (EventTimeNode), and odonav-offline declares it to the component's aligner so (OfflinePipeline).
+/// One list serves both, so the two transports decide alike when the component may process.
+struct ComponentInput {
+  std::string name;          ///< the stream: "odometer", "gnss", "ins", "misalignment", "scale_factor"
+  bool required = false;     ///< a sensor stream the component cannot work without (Health WARN when absent)
+  std::string paced_by;      ///< empty, or the input declared before whose epochs pace this estimate stream
+  double hold_off_s = 0.0;   ///< samples apply from their stamp (or pacing epoch) + hold-off (s)
+};
+
 class EventTimeAligner {
  public:
   using StreamId = std::size_t;

@@ -50,13 +50,13 @@ CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const Misalignm
     // An exact estimate late rather than a different one: an input whose samples are declared
     // published but still on their way (a restart's history hand-over) is waited for up to the
     // producers' history length (EventTimeAligner, "Samples in flight").
-    : EventTimeNode(runtime, kInFlightMaxWait_s),
+    : EventTimeNode(runtime, calibration_inputs(params), kInFlightMaxWait_s),
       params_(params),
       core_(make_calibrator(params)),
       lifecycle_(checkpoint, runtime.settings().vehicle_id, core_.restore_margin_s()),
-      gnss_(add_input("gnss", true)),
+      gnss_(input("gnss")),
+      ins_(find_input("ins")),
       misalignment_(runtime.participant(), topics::kMisalignment.name, topics::kMisalignment.writer_profile) {
-  if (params_.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
   // Before any reader exists: no sample can reach the core before the restored state.
   lifecycle_.start(core_, static_cast<int64_t>(std::time(nullptr)), dds::steady_now_s());

@@ -84,19 +84,18 @@ odonav::msg::NavigationPosition navigation_position_message(const AnchoredPositi
 
 DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadReckonerParams& params,
                                      const AnchoredPositionParams& anchored, const CheckpointSettings& checkpoint)
-    : EventTimeNode(runtime),
+    : EventTimeNode(runtime, dead_reckoning_inputs(params)),
       params_(params),
       component_(make_component(params, anchored)),
       lifecycle_(checkpoint, runtime.settings().vehicle_id),
-      odometer_(add_input("odometer", true)),
-      // GNSS is a reference (error, start) applied with the hold-off, as the estimates of its epochs.
-      gnss_(add_input("gnss", true, nullptr, params.estimate_hold_off_s)),
-      misalignment_(add_input("misalignment", false, &gnss_, params.estimate_hold_off_s)),
-      scale_factor_(add_input("scale_factor", false, &gnss_, params.estimate_hold_off_s)),
+      odometer_(input("odometer")),
+      gnss_(input("gnss")),
+      ins_(find_input("ins")),
+      misalignment_(input("misalignment")),
+      scale_factor_(input("scale_factor")),
       writer_(runtime.participant(), topics::kDeadReckoning.name, topics::kDeadReckoning.writer_profile),
       navigation_writer_(runtime.participant(), topics::kNavigationPosition.name,
                          topics::kNavigationPosition.writer_profile) {
-  if (params_.use_ins) ins_ = &add_input("ins", true);
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
   // Before any reader exists: no sample can reach the cores before the restored state.
   lifecycle_.start(component_.state(), static_cast<int64_t>(std::time(nullptr)), dds::steady_now_s());

@@ -103,15 +103,15 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
     // An exact estimate late rather than a different one: an input whose samples are declared
     // published but still on their way (a restart's history hand-over) is waited for up to the
     // producers' history length (EventTimeAligner, "Samples in flight").
-    : EventTimeNode(runtime, kInFlightMaxWait_s),
+    : EventTimeNode(runtime, identification_inputs(params), kInFlightMaxWait_s),
       params_(params),
       instance_(instance),
       core_(make_core(params)),
       lifecycle_(checkpoint, runtime.settings().vehicle_id, instance.instance),
-      odometer_(add_input("odometer", true)),
-      gnss_(add_input("gnss", true)),
-      misalignment_(add_input("misalignment", false, &gnss_, params.estimate_hold_off_s)) {
-  if (params_.builder.use_ins) ins_ = &add_input("ins", true);
+      odometer_(input("odometer")),
+      gnss_(input("gnss")),
+      ins_(find_input("ins")),
+      misalignment_(input("misalignment")) {
   runtime.set_command_handler([this](const odonav::msg::Command& c) { return on_command(c); });
   // Before any reader exists: no sample can reach the core before the restored state.
   lifecycle_.start(core_, static_cast<int64_t>(std::time(nullptr)), dds::steady_now_s());

@@ -1,6 +1,9 @@
 #include "offline_pipeline.hpp"
 
+#include <stdexcept>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include "odonav/stream_buffers.hpp"
 
@@ -13,45 +16,46 @@ constexpr double kNow_s = 0.0;
 constexpr double kMaxWait_s = 1.0;
 }  // namespace
 
-/// A consumer component's inputs, declared as its DDS node declares them (the node's add_input calls).
+/// A consumer component's aligner over the inputs its core declares (the list its DDS node
+/// subscribes), but an estimate stream no component of this run produces (no identification: no
+/// scale_factor to wait for).
 struct OfflinePipeline::Consumer {
+  using StreamId = EventTimeAligner::StreamId;
   EventTimeAligner aligner{kMaxWait_s, kNow_s};
-  EventTimeAligner::StreamId odometer = 0;
-  EventTimeAligner::StreamId gnss = 0;
-  std::optional<EventTimeAligner::StreamId> ins;
-  EventTimeAligner::StreamId misalignment = 0;
-  std::optional<EventTimeAligner::StreamId> scale_factor;
+  std::optional<StreamId> odometer, gnss, ins, misalignment, scale_factor;
 
-  bool admit(EventTimeAligner::StreamId stream, double t_s) {
-    return aligner.on_sample(stream, t_s, kNow_s) == SampleAdmission::kAccepted;
+  Consumer(const std::vector<ComponentInput>& inputs, bool scale_factor_produced) {
+    for (const ComponentInput& in : inputs) {
+      if (in.name == "scale_factor" && !scale_factor_produced) continue;
+      std::optional<StreamId>& slot = stream(in.name);
+      slot = in.paced_by.empty() ? aligner.add_stream(in.name, in.hold_off_s)
+                                 : aligner.add_paced_stream(in.name, *stream(in.paced_by), in.hold_off_s);
+    }
+  }
+  std::optional<StreamId>& stream(const std::string& name) {
+    if (name == "odometer") return odometer;
+    if (name == "gnss") return gnss;
+    if (name == "ins") return ins;
+    if (name == "misalignment") return misalignment;
+    if (name == "scale_factor") return scale_factor;
+    throw std::logic_error("offline pipeline: no stream '" + name + "' on the in-process bus");
+  }
+  /// Whether a sample of `input` reaches the component: it has the input and the aligner admits it.
+  bool admit(const std::optional<StreamId>& input, double t_s) {
+    return input && aligner.on_sample(*input, t_s, kNow_s) == SampleAdmission::kAccepted;
   }
 };
 
 OfflinePipeline::OfflinePipeline(const PipelineConfig& config, PipelineSink& sink)
     : config_(config), sink_(sink), calibration_(config.calibration) {
   if (config_.identification) {
-    const IdentificationParams& p = *config_.identification;
-    identification_ = std::make_unique<IdentificationCore>(p);
-    // As IdentificationNode: odometer, GNSS, misalignment paced by GNSS with the hold-off, INS.
-    auto in = std::make_unique<Consumer>();
-    in->odometer = in->aligner.add_stream("odometer");
-    in->gnss = in->aligner.add_stream("gnss");
-    in->misalignment = in->aligner.add_paced_stream("misalignment", in->gnss, p.estimate_hold_off_s);
-    if (p.builder.use_ins) in->ins = in->aligner.add_stream("ins");
-    identification_inputs_ = std::move(in);
+    identification_ = std::make_unique<IdentificationCore>(*config_.identification);
+    identification_inputs_ = std::make_unique<Consumer>(identification_inputs(*config_.identification), false);
   }
   if (config_.dead_reckoning) {
-    const DeadReckonerParams& p = *config_.dead_reckoning;
-    dead_reckoning_ = std::make_unique<DeadReckoningComponent>(p, config_.anchored, config_.navigation);
-    // As DeadReckoningNode: odometer; GNSS with the hold-off; misalignment and scale factor paced by
-    // GNSS with the hold-off; INS.
-    auto in = std::make_unique<Consumer>();
-    in->odometer = in->aligner.add_stream("odometer");
-    in->gnss = in->aligner.add_stream("gnss", p.estimate_hold_off_s);
-    in->misalignment = in->aligner.add_paced_stream("misalignment", in->gnss, p.estimate_hold_off_s);
-    if (identification_) in->scale_factor = in->aligner.add_paced_stream("scale_factor", in->gnss, p.estimate_hold_off_s);
-    if (p.use_ins) in->ins = in->aligner.add_stream("ins");
-    dead_reckoning_inputs_ = std::move(in);
+    dead_reckoning_ = std::make_unique<DeadReckoningComponent>(*config_.dead_reckoning, config_.anchored, config_.navigation);
+    dead_reckoning_inputs_ =
+        std::make_unique<Consumer>(dead_reckoning_inputs(*config_.dead_reckoning), identification_ != nullptr);
   }
 }
 
@@ -87,17 +91,16 @@ void OfflinePipeline::add_gnss(const GnssSample& s) {
 void OfflinePipeline::add_ins(const InsSample& s) {
   advance_to(s.t_s);
   if (config_.calibration.use_ins) calibration_.add_ins(s);
-  if (identification_ && identification_inputs_->ins &&
-      identification_inputs_->admit(*identification_inputs_->ins, s.t_s))
+  if (identification_ && identification_inputs_->admit(identification_inputs_->ins, s.t_s))
     identification_->add_ins(s);
-  if (dead_reckoning_ && dead_reckoning_inputs_->ins && dead_reckoning_inputs_->admit(*dead_reckoning_inputs_->ins, s.t_s))
+  if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->ins, s.t_s))
     dead_reckoning_->add_ins(s);
 }
 
 void OfflinePipeline::process(double complete_through_s) {
   // What the gateway declares on each sensor sample: GNSS is complete up to here.
   for (Consumer* in : {identification_inputs_.get(), dead_reckoning_inputs_.get()})
-    if (in) in->aligner.declare_published(in->gnss, complete_through_s, last_gnss_t_s_);
+    if (in && in->gnss) in->aligner.declare_published(*in->gnss, complete_through_s, last_gnss_t_s_);
   deliver_misalignments(calibration_.process_until(complete_through_s));
   if (identification_)
     if (const auto w = identification_inputs_->aligner.advance(kNow_s))
@@ -131,7 +134,7 @@ void OfflinePipeline::deliver_misalignments(std::vector<MisalignmentOutput> outp
 void OfflinePipeline::deliver_scale_factors(std::vector<IdentificationOutput> outputs) {
   for (const IdentificationOutput& k : outputs) {
     sink_.on_scale_factor(k);
-    if (dead_reckoning_ && dead_reckoning_inputs_->admit(*dead_reckoning_inputs_->scale_factor, k.t_s))
+    if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->scale_factor, k.t_s))
       dead_reckoning_->on_scale_factor(published_scale_factor(k, config_.identification_source), kNow_s);
   }
 }

@@ -9,8 +9,9 @@
 // to them, converted by the functions their nodes publish from (published_misalignment,
 // published_scale_factor), and to the sink, as they are made.
 //
-// When a component processes: as its DDS node does. Each consumer has its own EventTimeAligner with
-// the node's inputs (the same streams, pacing and hold-off), fed every sample it receives; the
+// When a component processes: as its DDS node does. Each consumer has its own EventTimeAligner over
+// the inputs its core declares (identification_inputs, dead_reckoning_inputs: the list its node
+// subscribes, with the same pacing and hold-off), fed every sample it receives; the
 // sensor streams are declared complete up to the last stamp passed (the dataset is read in time
 // order, as the gateway's completeness declaration says on the bus), and the aligner's watermark
 // decides how far the component's process_until may go. An estimate therefore reaches its consumer

@@ -32,6 +32,12 @@ results::MisalignmentRow output_row(const MisalignmentOutput& m) {
   return r;
 }
 
+std::vector<ComponentInput> calibration_inputs(const MisalignmentCalibratorParams& p) {
+  std::vector<ComponentInput> in{{"gnss", true, "", 0.0}};
+  if (p.use_ins) in.push_back({"ins", true, "", 0.0});
+  return in;
+}
+
 const char* to_string(CalibrationState state) {
   switch (state) {
     case CalibrationState::kWaiting: return "waiting";

@@ -59,4 +59,13 @@ DeadReckoningStep DeadReckoningComponent::publish(DeadReckoningOutput o) {
   return step;
 }
 
+std::vector<ComponentInput> dead_reckoning_inputs(const DeadReckonerParams& p) {
+  std::vector<ComponentInput> in{{"odometer", true, "", 0.0},
+                                 {"gnss", true, "", p.estimate_hold_off_s},
+                                 {"misalignment", false, "gnss", p.estimate_hold_off_s},
+                                 {"scale_factor", false, "gnss", p.estimate_hold_off_s}};
+  if (p.use_ins) in.push_back({"ins", true, "", 0.0});
+  return in;
+}
+
 }  // namespace odonav

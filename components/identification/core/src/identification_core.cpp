@@ -272,4 +272,12 @@ results::ScaleFactorRow output_row(const IdentificationOutput& k, const std::str
   return r;
 }
 
+std::vector<ComponentInput> identification_inputs(const IdentificationParams& p) {
+  std::vector<ComponentInput> in{{"odometer", true, "", 0.0},
+                                 {"gnss", true, "", 0.0},
+                                 {"misalignment", false, "gnss", p.estimate_hold_off_s}};
+  if (p.builder.use_ins) in.push_back({"ins", true, "", 0.0});
+  return in;
+}
+
 }  // namespace odonav

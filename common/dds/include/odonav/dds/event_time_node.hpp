@@ -32,7 +32,10 @@ class EventTimeNode {
   /// in_flight_max_wait_s: how long an input with samples declared published but not received yet
   /// may stay silent (EventTimeAligner, "Samples in flight"); 0 = the max wait, for components whose
   /// outputs must stay fresh.
-  explicit EventTimeNode(ComponentRuntime& runtime, double in_flight_max_wait_s = 0.0);
+  /// inputs: the component's inputs as its core declares them (ComponentInput: the same list
+  /// odonav-offline aligns), declared in order before any reader exists.
+  EventTimeNode(ComponentRuntime& runtime, const std::vector<ComponentInput>& inputs,
+                double in_flight_max_wait_s = 0.0);
   virtual ~EventTimeNode() = default;
   EventTimeNode(const EventTimeNode&) = delete;
   EventTimeNode& operator=(const EventTimeNode&) = delete;
@@ -48,12 +51,12 @@ class EventTimeNode {
     std::string reason;
   };
 
-  /// Declares an input stream (plain, or paced by `pacing`, an input declared before). `required`:
-  /// its absence degrades the node (WARN "no <name> for N s"); an optional input's absence is the
-  /// node's to describe (node_status). Call in the derived constructor, before creating readers.
-  /// hold_off_s: the input's samples apply from stamp + hold-off (event_time_aligner.hpp "Hold-off").
-  NodeInput& add_input(const std::string& name, bool required, const NodeInput* pacing = nullptr,
-                       double hold_off_s = 0.0);
+  /// The input of that name (ComponentInput::name); `find_input` returns nullptr when the component
+  /// has none (e.g. "ins" without use_ins), `input` throws std::logic_error. A required input's
+  /// absence degrades the node (WARN "no <name> for N s"); an optional input's absence is the node's
+  /// to describe (node_status).
+  NodeInput* find_input(const std::string& name);
+  NodeInput& input(const std::string& name);
 
   /// A reader of one input topic for this node's vehicle: each sample of another vehicle is ignored;
   /// each of ours is posted to the runtime (executed at once), admitted by the aligner on its stamp (late,

@@ -29,6 +29,7 @@
 
 #include <Eigen/Dense>
 
+#include "odonav/event_time_aligner.hpp"
 #include "odonav/published_estimates.hpp"
 #include "odonav/results/output_files.hpp"
 #include "odonav/sensor_samples.hpp"
@@ -156,6 +157,9 @@ PublishedMisalignment published_misalignment(const MisalignmentOutput& output);
 /// writes, and what the calibration node publishes through the topic's field table
 /// (odonav/dds/output_messages.hpp), so the file of either transport holds the same values.
 results::MisalignmentRow output_row(const MisalignmentOutput& output);
+
+/// The calibration's inputs (event_time_aligner.hpp ComponentInput): GNSS, and the INS with use_ins.
+std::vector<ComponentInput> calibration_inputs(const MisalignmentCalibratorParams& params);
 
 class MisalignmentCalibrator {
  public:

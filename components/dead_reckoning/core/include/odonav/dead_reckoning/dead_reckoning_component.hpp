@@ -16,6 +16,7 @@
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_checkpoint.hpp"
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
+#include "odonav/event_time_aligner.hpp"
 #include "odonav/published_estimates.hpp"
 
 namespace odonav {
@@ -27,6 +28,11 @@ struct DeadReckoningStep {
   AnchoredPosition navigation;
   Misalignment misalignment;
 };
+
+/// Dead reckoning's inputs (event_time_aligner.hpp ComponentInput): the odometer, GNSS as the
+/// reference applied after the hold-off, the misalignment and scale-factor estimates paced by the
+/// GNSS epochs with the same hold-off, and the INS with use_ins.
+std::vector<ComponentInput> dead_reckoning_inputs(const DeadReckonerParams& params);
 
 class DeadReckoningComponent {
  public:

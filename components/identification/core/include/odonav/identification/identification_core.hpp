@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "odonav/estimators.hpp"
+#include "odonav/event_time_aligner.hpp"
 #include "odonav/published_estimates.hpp"
 #include "odonav/results/output_files.hpp"
 #include "odonav/sample_builder.hpp"
@@ -75,6 +76,11 @@ PublishedScaleFactor published_scale_factor(const IdentificationOutput& output, 
 /// table (odonav/dds/output_messages.hpp).
 results::ScaleFactorRow output_row(const IdentificationOutput& output, const std::string& main_estimator,
                                    const std::vector<std::string>& names);
+
+/// The identification's inputs (event_time_aligner.hpp ComponentInput): odometer and GNSS, the
+/// misalignment estimates paced by the GNSS epochs and applied after the hold-off, and the INS with
+/// use_ins.
+std::vector<ComponentInput> identification_inputs(const IdentificationParams& params);
 
 class IdentificationCore {
  public:
