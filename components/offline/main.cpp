@@ -504,7 +504,9 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
   nlohmann::json summary_json = summary.finish();
   add_run_facts(summary_json, totals, report);
   const odonav::offline::RunDiagnosis result_diagnosis =
-      diagnosis.finish(params, totals.builder_counters, totals.calibration_counters, totals.dr_counters);
+      diagnosis.finish(params, totals.builder_counters, totals.calibration_counters, totals.dr_counters,
+                       totals.consistency);
+  odonav::offline::add_consistency(summary_json, totals.consistency);
   summary_json["warnings"] = nlohmann::json::array();
   for (const odonav::offline::RunWarning& w : result_diagnosis.warnings) {
     spdlog::warn("{}", w.message);

@@ -248,6 +248,7 @@ dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
   f.held_k_changed_at_s = held_k_outputs_.changed_at_s();
   f.held_misalignment_span = core.last_held_span(HeldEstimate::kMisalignment);
   f.held_misalignment_changed_at_s = held_misalignment_outputs_.changed_at_s();
+  f.inconsistency = component_.monitor().reason();
   const DeadReckoningHealth h = dead_reckoning_health(f);
   // After a restart: what the restore did, the catch-up of the downtime, failed checkpoint writes.
   std::string reason = h.reason;

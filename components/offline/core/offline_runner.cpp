@@ -126,6 +126,8 @@ OfflineRunTotals run_offline(const OpenSampleStream& open, bool has_ins, const O
     r.calibration_counters = pipeline.calibration().counters();
     r.dr_counters = pipeline.dead_reckoning()->core().counters();
     r.anchored_counters = pipeline.dead_reckoning()->anchor().counters();
+    for (int i = 0; i < kConsistencyChecks; ++i)
+      r.consistency.push_back(pipeline.dead_reckoning()->monitor().state(static_cast<ConsistencyCheck>(i)));
   }
   if (params.coarse_k_m_per_pulse) {
     r.coarse_k_m_per_pulse = *params.coarse_k_m_per_pulse;

@@ -49,6 +49,9 @@ struct OfflineRunTotals {
   MisalignmentCounters calibration_counters;
   DeadReckonerCounters dr_counters;
   AnchoredPositionCounters anchored_counters;
+  /// The online dead reckoning's consistency checks at the end (consistency_monitor.hpp), by
+  /// ConsistencyCheck.
+  std::vector<ConsistencyState> consistency;
 };
 
 /// A run over an in-memory dataset with every output kept (tests, benchmarks).

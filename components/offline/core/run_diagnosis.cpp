@@ -102,14 +102,24 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
   for (const InsSample& i : d.ins) acc.add_ins(i.t_s);
   for (const IdentificationOutput& k : r.identification) acc.add_identification(k.main);
   for (const DeadReckoningOutput& o : r.dr_online) acc.add_dead_reckoning(o.t_s);
-  return acc.finish(p, r.builder_counters, r.calibration_counters, r.dr_counters);
+  return acc.finish(p, r.builder_counters, r.calibration_counters, r.dr_counters, r.consistency);
 }
 
 RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const SampleBuilderCounters& c,
                                              const MisalignmentCounters& m,
-                                             const DeadReckonerCounters& dr_counters) const {
+                                             const DeadReckonerCounters& dr_counters,
+                                             const std::vector<ConsistencyState>& consistency) const {
   RunDiagnosis out;
   auto warn = [&](std::string code, std::string message) { out.warnings.push_back({std::move(code), std::move(message)}); };
+
+  // The results contradicted independent evidence: a wrong input, named with its numbers.
+  for (std::size_t i = 0; i < consistency.size(); ++i) {
+    const ConsistencyState& s = consistency[i];
+    if (s.times_raised == 0) continue;
+    warn(std::string("inconsistent_") + to_string(static_cast<ConsistencyCheck>(i)),
+         s.text + " (from t = " + num(s.raised_at_s, 10) + " s" +
+             (s.raised ? ", to the end: converged withdrawn)" : ", later cleared)"));
+  }
 
   // Time overlap of the two streams every result needs.
   if (odometer_.n > 0 && gnss_.n > 0) {

@@ -65,8 +65,11 @@ class RunDiagnosisAccumulator {
   void add_identification(const ScaleFactorEstimate& main);  ///< each identification output's main estimate
   void add_dead_reckoning(double t_s);                    ///< each online dead-reckoning output's time (s)
   /// The warnings, from the facts gathered and the run's final gate counters.
+  /// consistency: the dead reckoning's checks at the end (OfflineRunTotals::consistency; each one
+  /// raised during the run is a warning "inconsistent_<check>" with its finding).
   RunDiagnosis finish(const OfflineParams& params, const SampleBuilderCounters& builder,
-                      const MisalignmentCounters& calibration, const DeadReckonerCounters& dead_reckoning) const;
+                      const MisalignmentCounters& calibration, const DeadReckonerCounters& dead_reckoning,
+                      const std::vector<ConsistencyState>& consistency = {}) const;
 
  private:
   struct Span {  // first and last time (s) of a stream, and its count

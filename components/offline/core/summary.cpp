@@ -665,6 +665,7 @@ json SummaryAccumulator::finish() {
   if (m.last_k_row) {
     const results::ScaleFactorRow& last = *m.last_k_row;
     sf["main_estimator"] = last.estimator;
+    sf["converged"] = last.converged;
     sf["samples_accepted"] = last.samples_accepted;
     sf["samples_rejected"] = last.samples_rejected;
     sf["first_motion_t_s"] = number_or_null(m.first_motion);
@@ -737,6 +738,33 @@ std::string fmt(const json& v, int precision, const char* unit = "") {
 }
 }  // namespace
 
+void add_consistency(json& s, const std::vector<ConsistencyState>& checks) {
+  json c = json::object();
+  std::string misalignment_withdrawn, k_withdrawn;
+  for (std::size_t i = 0; i < checks.size(); ++i) {
+    const ConsistencyState& st = checks[i];
+    const auto check = static_cast<ConsistencyCheck>(i);
+    c[to_string(check)] = {{"raised", st.raised},
+                           {"times_raised", st.times_raised},
+                           {"finding", st.times_raised ? json(st.text) : json()},
+                           {"last_value", number_or_null(st.last_value)}};
+    if (!st.raised) continue;
+    // A heading that contradicts the GNSS course spoils the misalignment; a distance that does, K;
+    // a drifting track, either.
+    if (check != ConsistencyCheck::kOdometerSpeed && misalignment_withdrawn.empty()) misalignment_withdrawn = st.text;
+    if (check != ConsistencyCheck::kHeadingRate && k_withdrawn.empty()) k_withdrawn = st.text;
+  }
+  s["consistency"] = c;
+  if (!misalignment_withdrawn.empty() && s.contains("misalignment") && s["misalignment"].is_object()) {
+    s["misalignment"]["converged"] = false;
+    s["misalignment"]["converged_withdrawn"] = misalignment_withdrawn;
+  }
+  if (!k_withdrawn.empty() && s.contains("scale_factor") && s["scale_factor"].contains("converged")) {
+    s["scale_factor"]["converged"] = false;
+    s["scale_factor"]["converged_withdrawn"] = k_withdrawn;
+  }
+}
+
 void print_summary(const json& s, std::ostream& out) {
   out << "odonav summary: " << s["dataset"]["name"].get<std::string>() << " (" << fmt(s["dataset"]["duration_s"], 1)
       << " s";
@@ -746,7 +774,7 @@ void print_summary(const json& s, std::ostream& out) {
     const json& m = s["misalignment"];
     out << "  misalignment   heading " << fmt(m["heading_deg"], 3) << " deg +- " << fmt(m["heading_std_deg"], 3)
         << ", pitch " << fmt(m["pitch_deg"], 3) << " deg +- " << fmt(m["pitch_std_deg"], 3) << "  ("
-        << m["state"].get<std::string>() << ")";
+        << m["state"].get<std::string>() << (m.contains("converged_withdrawn") ? ", converged withdrawn" : "") << ")";
     if (m.contains("heading_error_deg"))
       out << "\n                 error vs truth: heading " << fmt(m["heading_error_deg"], 4) << " deg, pitch "
           << fmt(m["pitch_error_deg"], 4) << " deg";
@@ -755,6 +783,9 @@ void print_summary(const json& s, std::ostream& out) {
           << " deg; the angle dead reckoning needs): " << fmt(m["dr_heading_error_deg"], 4) << " deg";
     out << "\n";
   }
+  if (s.contains("consistency"))
+    for (const auto& [name, c] : s["consistency"].items())
+      if (c.value("raised", false)) out << "  INCONSISTENT   " << c["finding"].get<std::string>() << "\n";
   const json& sf = s["scale_factor"];
   out << "  scale factor   (main: " << sf.value("main_estimator", std::string("-")) << ", accepted "
       << sf.value("samples_accepted", 0) << ", rejected " << sf.value("samples_rejected", 0) << ")\n";

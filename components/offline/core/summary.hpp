@@ -12,6 +12,7 @@
 
 #include "evaluation.hpp"
 #include "odonav/dataset.hpp"
+#include "odonav/dead_reckoning/consistency_monitor.hpp"
 #include "odonav/results/output_files.hpp"
 
 namespace odonav::offline {
@@ -90,5 +91,11 @@ nlohmann::json make_summary(const Dataset& dataset, const results::OutputRows& r
 
 /// Prints the summary as a readable table.
 void print_summary(const nlohmann::json& summary, std::ostream& out);
+
+/// Adds the dead reckoning's consistency checks (OfflineRunTotals::consistency) to a summary as
+/// "consistency", and withdraws "converged" (false, with "converged_withdrawn" naming the finding) of
+/// the misalignment while a heading-rate or drift check is raised at the end, and of the scale
+/// factor while an odometer-speed or drift check is.
+void add_consistency(nlohmann::json& summary, const std::vector<ConsistencyState>& checks);
 
 }  // namespace odonav::offline

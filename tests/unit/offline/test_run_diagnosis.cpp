@@ -7,6 +7,7 @@
 #include "core/simulator.hpp"
 #include "offline_runner.hpp"
 #include "run_diagnosis.hpp"
+#include "summary.hpp"
 
 using namespace odonav;
 using namespace odonav::offline;
@@ -116,4 +117,68 @@ TEST(RunDiagnosis, AKFarFromTheNominalIsCalledImplausible) {
 TEST(RunDiagnosis, MedianPeriodIgnoresOutagesAndJitter) {
   EXPECT_NEAR(median_period_s({0.0, 1.0, 2.0, 3.01, 4.0, 100.0, 101.0}), 1.0, 0.02);
   EXPECT_TRUE(std::isnan(median_period_s({5.0})));
+}
+
+// The consistency monitor on the terrain course (turns, a K step, GNSS outliers and an outage): a
+// good drive raises nothing; an INS heading of the other sign convention, or in radians, is named
+// with its numbers, withdraws converged, and every output is still produced.
+namespace {
+sim::SimulationConfig terrain(double duration_s = 300.0) {
+  sim::SimulationConfig cfg = sim::scenario_config("terrain");
+  cfg.seed = 2;
+  cfg.duration_s = duration_s;
+  return cfg;
+}
+}  // namespace
+
+TEST(Consistency, AGoodTerrainDriveRaisesNothing) {
+  for (const double rate_hz : {10.0, 1.0}) {
+    sim::SimulationConfig cfg = terrain();
+    cfg.gnss_rate_hz = rate_hz;
+    const Dataset d = sim::simulate(cfg);
+    const OfflineParams p = params_for(d);
+    const OfflineResult result = run_offline(d, p);
+    ASSERT_EQ(result.consistency.size(), 3u);
+    for (const ConsistencyState& s : result.consistency) EXPECT_EQ(s.times_raised, 0u) << rate_hz << " Hz: " << s.text;
+    // The heading-rate check did decide (the course turned enough): its ratio is about 1.
+    EXPECT_NEAR(result.consistency[0].last_value, 1.0, 0.1) << rate_hz;
+    EXPECT_NEAR(result.consistency[2].last_value, 1.0, 0.05) << rate_hz;
+    const RunDiagnosis r = diagnose_run(d, p, result);
+    for (const RunWarning& w : r.warnings) EXPECT_EQ(w.code.rfind("inconsistent_", 0), std::string::npos) << w.message;
+  }
+}
+
+TEST(Consistency, AHeadingOfTheOtherSignOrInRadiansIsNamedAndConvergedWithdrawn) {
+  const Dataset good = sim::simulate(terrain());
+  const OfflineParams p = params_for(good);
+  const std::size_t good_outputs = run_offline(good, p).dr_online.size();
+  struct Case {
+    const char* name;
+    double (*heading)(double);
+    const char* words;
+  };
+  const Case cases[] = {
+      {"negated", [](double h) { return std::fmod(2.0 * kPi - h, 2.0 * kPi); }, "turns opposite to the GNSS course"},
+      {"radians", [](double h) { return deg_to_rad(h); }, "radians?"},
+  };
+  for (const Case& c : cases) {
+    Dataset d = good;
+    for (InsSample& s : d.ins) s.attitude.heading_rad = c.heading(s.attitude.heading_rad);
+    const OfflineResult result = run_offline(d, p);
+    EXPECT_EQ(result.dr_online.size(), good_outputs) << c.name;  // nothing good lost
+    const ConsistencyState& s = result.consistency[static_cast<int>(ConsistencyCheck::kHeadingRate)];
+    EXPECT_TRUE(s.raised) << c.name;
+    EXPECT_NE(s.text.find(c.words), std::string::npos) << c.name << ": " << s.text;
+    if (std::string(c.name) == "negated") EXPECT_NEAR(s.last_value, -1.0, 0.1);
+    else EXPECT_NEAR(1.0 / s.last_value, 57.3, 10.0);
+    const RunDiagnosis r = diagnose_run(d, p, result);
+    const RunWarning* w = find(r, "inconsistent_heading_rate");
+    ASSERT_NE(w, nullptr) << c.name;
+    EXPECT_NE(w->message.find("converged withdrawn"), std::string::npos) << w->message;
+    nlohmann::json summary = {{"misalignment", {{"converged", true}}}, {"scale_factor", {{"converged", true}}}};
+    add_consistency(summary, result.consistency);
+    EXPECT_FALSE(summary["misalignment"]["converged"].get<bool>()) << c.name;
+    EXPECT_NE(summary["misalignment"]["converged_withdrawn"].get<std::string>().find(c.words), std::string::npos);
+    EXPECT_TRUE(summary["consistency"]["heading_rate"]["raised"].get<bool>());
+  }
 }

@@ -8,18 +8,20 @@
 namespace odonav {
 
 DeadReckoningComponent::DeadReckoningComponent(const DeadReckonerParams& params, const AnchoredPositionParams& anchored,
-                                               bool navigation)
+                                               bool navigation, const ConsistencyParams& consistency)
     : hold_off_s_(params.estimate_hold_off_s),
       navigation_(navigation),
       core_(params),
       anchor_(anchored),
-      consumer_(params.nominal_k_m_per_pulse) {}
+      consumer_(params.nominal_k_m_per_pulse),
+      monitor_(consistency) {}
 
 void DeadReckoningComponent::on_misalignment(const PublishedMisalignment& m) {
   core_.add_estimate_received(HeldEstimate::kMisalignment, m.t_s);  // applicable or not
   if (!misalignment_applicable(m.converged, m.samples_used, m.heading_rad, m.pitch_rad, m.heading_std_rad,
                                m.pitch_std_rad))
     return;
+  monitor_.set_misalignment(m.heading_std_rad, m.converged);
   const Misalignment misalignment{m.heading_rad, m.pitch_rad};
   const double from_s = estimate_applies_from_s(m.t_s, hold_off_s_);
   core_.add_misalignment(from_s, misalignment);  // StreamInputError on non-finite angles
@@ -38,6 +40,7 @@ void DeadReckoningComponent::on_scale_factor(const PublishedScaleFactor& k, doub
   if (std::isfinite(k.turn_slip_threshold_radps) && k.turn_slip_threshold_radps >= 0.0)
     core_.add_turn_slip(from_s, turn_slip_gain_to_apply(k.turn_slip_applies, k.turn_slip_s_per_rad),
                         k.turn_slip_threshold_radps);
+  monitor_.set_scale_factor(k.k_m_per_pulse, k.sigma_m_per_pulse, k.converged);
   const IdentifiedScaleFactor identified{from_s, k.k_m_per_pulse, k.converged, k.source, k.sigma_m_per_pulse,
                                          k.samples_accepted};
   if (const auto update = consumer_.k_selection.on_identified(identified, now_s))
@@ -55,6 +58,8 @@ DeadReckoningStep DeadReckoningComponent::publish(DeadReckoningOutput o) {
   step.misalignment = consumer_.applied_misalignment.at_or_before(o.t_s).value_or(Misalignment{});
   if (navigation_) step.navigation = anchor_.step(o);
   consumer_.applied_misalignment.drop_before(o.t_s);
+  monitor_.on_output(o);
+  step.consistent = monitor_.consistent();
   step.output = std::move(o);
   return step;
 }

@@ -124,6 +124,11 @@ DeadReckoningHealth dead_reckoning_health(const DeadReckoningHealthFacts& f) {
     add("using zero misalignment: no calibration");
   else if (f.misalignment_heard && f.misalignments_applied == 0)
     add("misalignment not converged yet: using zero");
+  // The results contradict independent evidence (consistency_monitor.hpp): a wrong input, named.
+  if (!f.inconsistency.empty()) {
+    s.level = Level::kWarn;
+    add("inconsistent: " + f.inconsistency);
+  }
   return s;
 }
 

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "odonav/dead_reckoning/anchored_position.hpp"
+#include "odonav/dead_reckoning/consistency_monitor.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_checkpoint.hpp"
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
@@ -27,6 +28,9 @@ struct DeadReckoningStep {
   DeadReckoningOutput output;
   AnchoredPosition navigation;
   Misalignment misalignment;
+  /// ConsistencyMonitor::consistent() after this output: false while the results contradict
+  /// independent evidence (monitor().reason() says how).
+  bool consistent = true;
 };
 
 /// Dead reckoning's inputs (event_time_aligner.hpp ComponentInput): the odometer, GNSS as the
@@ -40,12 +44,15 @@ class DeadReckoningComponent {
   /// false when nobody reads the anchored position (publish() then leaves it at its default and
   /// spends nothing on it).
   DeadReckoningComponent(const DeadReckonerParams& params, const AnchoredPositionParams& anchored,
-                         bool navigation = true);
+                         bool navigation = true, const ConsistencyParams& consistency = {});
 
   /// Sensor samples, each stream in increasing time (DeadReckoner::add_*; StreamInputError on bad input).
   OdometerAddResult add_odometer(const OdometerSample& sample) { return core_.add_odometer(sample); }
   void add_ins(const InsSample& sample) { core_.add_ins(sample); }
-  void add_gnss(const GnssSample& sample) { core_.add_gnss(sample); }
+  void add_gnss(const GnssSample& sample) {
+    core_.add_gnss(sample);
+    monitor_.add_gnss(sample);
+  }
 
   /// A misalignment of the calibration: received (the held-estimate report), and in force from
   /// estimate_applies_from_s(epoch, hold-off) when misalignment_applicable. Throws StreamInputError
@@ -72,6 +79,9 @@ class DeadReckoningComponent {
   const AnchoredPositionFilter& anchor() const { return anchor_; }
   const DeadReckoningConsumerState& consumer() const { return consumer_; }
   const ScaleFactorSelection& k_selection() const { return consumer_.k_selection; }
+  /// The checks of the results against independent evidence (not part of the checkpoint: after a
+  /// restart they gather their evidence anew).
+  const ConsistencyMonitor& monitor() const { return monitor_; }
   /// The state a checkpoint saves and restores.
   DeadReckoningStateRefs state() { return {core_, anchor_, consumer_}; }
 
@@ -81,6 +91,7 @@ class DeadReckoningComponent {
   DeadReckoner core_;
   AnchoredPositionFilter anchor_;
   DeadReckoningConsumerState consumer_;
+  ConsistencyMonitor monitor_;
 };
 
 }  // namespace odonav

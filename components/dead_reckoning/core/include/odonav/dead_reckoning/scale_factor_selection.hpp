@@ -167,6 +167,8 @@ struct DeadReckoningHealthFacts {
   double held_k_changed_at_s = -std::numeric_limits<double>::infinity();
   std::optional<HeldSpan> held_misalignment_span;
   double held_misalignment_changed_at_s = -std::numeric_limits<double>::infinity();
+  /// ConsistencyMonitor::reason(): the findings in force ("" none).
+  std::string inconsistency;
 };
 
 /// "outputs t=52.5-54.6 s used the K of t=52.4 s held: identification silent" (span closed), or
