@@ -377,6 +377,10 @@ void add_run_facts(nlohmann::json& summary, const odonav::offline::OfflineRunTot
                       {"reversing", c.reversing},
                       {"reversing_accepted", c.reversing_accepted}};
   summary["bad_rows_skipped"] = report.total_bad();
+  summary["gnss_position_jumps"] = {{"count", totals.gnss_jumps.jumps},
+                                    {"first_t_s", totals.gnss_jumps.jumps ? nlohmann::json(totals.gnss_jumps.first_t_s) : nlohmann::json()},
+                                    {"largest_m", totals.gnss_jumps.largest_m},
+                                    {"relocations", totals.gnss_jumps.relocations}};
   if (totals.last_identification && summary.contains("scale_factor")) {
     const odonav::TurnSlipEstimate& slip = totals.last_identification->turn_slip;
     summary["scale_factor"]["turn_slip_samples"] = slip.samples;
@@ -505,7 +509,7 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
   add_run_facts(summary_json, totals, report);
   const odonav::offline::RunDiagnosis result_diagnosis =
       diagnosis.finish(params, totals.builder_counters, totals.calibration_counters, totals.dr_counters,
-                       totals.consistency);
+                       totals.consistency, totals.gnss_jumps);
   odonav::offline::add_consistency(summary_json, totals.consistency);
   summary_json["warnings"] = nlohmann::json::array();
   for (const odonav::offline::RunWarning& w : result_diagnosis.warnings) {

@@ -290,6 +290,7 @@ void DeadReckoningNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("anchor_fixes_rejected_gate", static_cast<double>(a.fixes_rejected_gate));
   c.emplace_back("anchor_gate_restarts", static_cast<double>(a.gate_restarts));
   c.emplace_back("anchor_fixes_no_attitude", static_cast<double>(k.anchor_fixes_no_attitude));
+  c.emplace_back("gnss_position_jumps", static_cast<double>(component_.monitor().gnss_jumps().jumps));
   for (auto& counter : lifecycle_.restart().counters()) c.push_back(std::move(counter));
   if (last_output_) {
     c.emplace_back("distance_m", last_output_->distance_m);

@@ -128,6 +128,7 @@ OfflineRunTotals run_offline(const OpenSampleStream& open, bool has_ins, const O
     r.anchored_counters = pipeline.dead_reckoning()->anchor().counters();
     for (int i = 0; i < kConsistencyChecks; ++i)
       r.consistency.push_back(pipeline.dead_reckoning()->monitor().state(static_cast<ConsistencyCheck>(i)));
+    r.gnss_jumps = pipeline.dead_reckoning()->monitor().gnss_jumps();
   }
   if (params.coarse_k_m_per_pulse) {
     r.coarse_k_m_per_pulse = *params.coarse_k_m_per_pulse;

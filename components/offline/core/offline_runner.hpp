@@ -52,6 +52,7 @@ struct OfflineRunTotals {
   /// The online dead reckoning's consistency checks at the end (consistency_monitor.hpp), by
   /// ConsistencyCheck.
   std::vector<ConsistencyState> consistency;
+  GnssJumpCounters gnss_jumps;  ///< GNSS position jumps (consistency_monitor.hpp)
 };
 
 /// A run over an in-memory dataset with every output kept (tests, benchmarks).

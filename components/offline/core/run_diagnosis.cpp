@@ -102,16 +102,23 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
   for (const InsSample& i : d.ins) acc.add_ins(i.t_s);
   for (const IdentificationOutput& k : r.identification) acc.add_identification(k.main);
   for (const DeadReckoningOutput& o : r.dr_online) acc.add_dead_reckoning(o.t_s);
-  return acc.finish(p, r.builder_counters, r.calibration_counters, r.dr_counters, r.consistency);
+  return acc.finish(p, r.builder_counters, r.calibration_counters, r.dr_counters, r.consistency, r.gnss_jumps);
 }
 
 RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const SampleBuilderCounters& c,
                                              const MisalignmentCounters& m,
                                              const DeadReckonerCounters& dr_counters,
-                                             const std::vector<ConsistencyState>& consistency) const {
+                                             const std::vector<ConsistencyState>& consistency,
+                                             const GnssJumpCounters& gnss_jumps) const {
   RunDiagnosis out;
   auto warn = [&](std::string code, std::string message) { out.warnings.push_back({std::move(code), std::move(message)}); };
 
+  if (gnss_jumps.jumps > 0)
+    warn("gnss_position_jumps",
+         std::to_string(gnss_jumps.jumps) + " GNSS fix" + (gnss_jumps.jumps == 1 ? "" : "es") +
+             " jumped away from the track (first at t = " + num(gnss_jumps.first_t_s, 10) + " s, the largest " +
+             num(gnss_jumps.largest_m / 1000.0, 4) +
+             " km): outliers, kept out of the anchored position by its gate; the estimators use the GNSS velocity");
   // The results contradicted independent evidence: a wrong input, named with its numbers.
   for (std::size_t i = 0; i < consistency.size(); ++i) {
     const ConsistencyState& s = consistency[i];

@@ -69,7 +69,8 @@ class RunDiagnosisAccumulator {
   /// raised during the run is a warning "inconsistent_<check>" with its finding).
   RunDiagnosis finish(const OfflineParams& params, const SampleBuilderCounters& builder,
                       const MisalignmentCounters& calibration, const DeadReckonerCounters& dead_reckoning,
-                      const std::vector<ConsistencyState>& consistency = {}) const;
+                      const std::vector<ConsistencyState>& consistency = {},
+                      const GnssJumpCounters& gnss_jumps = {}) const;
 
  private:
   struct Span {  // first and last time (s) of a stream, and its count

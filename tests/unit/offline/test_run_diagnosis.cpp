@@ -182,3 +182,34 @@ TEST(Consistency, AHeadingOfTheOtherSignOrInRadiansIsNamedAndConvergedWithdrawn)
     EXPECT_TRUE(summary["consistency"]["heading_rate"]["raised"].get<bool>());
   }
 }
+
+TEST(Consistency, AGnssFixAThousandKilometresAwayIsCountedReportedAndKeptOutOfTheAnchoredPosition) {
+  const Dataset good = sim::simulate(terrain(120.0));
+  const OfflineParams p = params_for(good);
+  const OfflineResult good_result = run_offline(good, p);
+  EXPECT_EQ(good_result.gnss_jumps.jumps, 0u);
+  Dataset d = good;
+  GnssSample& g = d.gnss[600];  // t = 60 s
+  g.position.lat_rad += 1000e3 / 6371e3;
+  const OfflineResult result = run_offline(d, p);
+  EXPECT_EQ(result.gnss_jumps.jumps, 1u);
+  EXPECT_EQ(result.gnss_jumps.first_t_s, g.t_s);
+  EXPECT_NEAR(result.gnss_jumps.largest_m, 1000e3, 1e3);
+  const RunDiagnosis r = diagnose_run(d, p, result);
+  const RunWarning* w = find(r, "gnss_position_jumps");
+  ASSERT_NE(w, nullptr);
+  EXPECT_NE(w->message.find("1 GNSS fix jumped away from the track (first at t = 60 s, the largest 1000"),
+            std::string::npos)
+      << w->message;
+  // Nothing good lost: every output, K as without the jump, and the anchored position but for
+  // centimetres (its gate refuses the fix; the refusal itself leaves a trace in the filter), far
+  // below the GNSS noise.
+  ASSERT_EQ(result.navigation_position.size(), good_result.navigation_position.size());
+  double worst_m = 0.0;
+  for (std::size_t i = 0; i < result.navigation_position.size(); ++i)
+    worst_m = std::max(worst_m, (result.navigation_position[i].enu_m - good_result.navigation_position[i].enu_m).norm());
+  EXPECT_LT(worst_m, 0.2);
+  EXPECT_NEAR(result.identification.back().main.k_m_per_pulse, good_result.identification.back().main.k_m_per_pulse,
+              1e-4 * good_result.identification.back().main.k_m_per_pulse);
+  EXPECT_EQ(result.misalignment.size(), good_result.misalignment.size());
+}

@@ -70,7 +70,9 @@ ConsistencyMonitor::ConsistencyMonitor(const ConsistencyParams& p) : params_(p) 
       {"min_turn_rad", p.min_turn_rad},         {"rate_ratio_tolerance", p.rate_ratio_tolerance},
       {"growth_window_m", p.growth_window_m},   {"growth_floor_percent", p.growth_floor_percent},
       {"sigma_factor", p.sigma_factor},         {"gnss_position_sigma_m", p.gnss_position_sigma_m},
-      {"speed_ratio_tolerance", p.speed_ratio_tolerance}, {"persist_s", p.persist_s}};
+      {"speed_ratio_tolerance", p.speed_ratio_tolerance}, {"persist_s", p.persist_s},
+      {"jump_speed_mps", p.jump_speed_mps},     {"jump_margin_m", p.jump_margin_m},
+      {"jump_max_consecutive", p.jump_max_consecutive}};
   for (const auto& [name, v] : positive)
     if (!(std::isfinite(v) && v > 0.0))
       throw std::invalid_argument(std::string("consistency monitor: ") + name + " must be finite and > 0");
@@ -80,7 +82,37 @@ ConsistencyMonitor::ConsistencyMonitor(const ConsistencyParams& p) : params_(p) 
   }
 }
 
+void ConsistencyMonitor::count_jump(const GnssSample& g) {
+  if (!last_accepted_fix_) {
+    last_accepted_fix_ = g;
+    return;
+  }
+  // Great-circle distance on the mean Earth radius: metres of accuracy at the kilometres a jump is.
+  const GnssSample& a = *last_accepted_fix_;
+  const double dlat = g.position.lat_rad - a.position.lat_rad;
+  const double dlon = g.position.lon_rad - a.position.lon_rad;
+  const double h = std::sin(dlat / 2) * std::sin(dlat / 2) +
+                   std::cos(a.position.lat_rad) * std::cos(g.position.lat_rad) * std::sin(dlon / 2) * std::sin(dlon / 2);
+  const double distance_m = 2.0 * 6371008.8 * std::asin(std::min(1.0, std::sqrt(h)));
+  const double allowed_m = params_.jump_speed_mps * std::abs(g.t_s - a.t_s) + params_.jump_margin_m;
+  if (!(distance_m > allowed_m)) {
+    last_accepted_fix_ = g;
+    consecutive_jumps_ = 0;
+    return;
+  }
+  if (++consecutive_jumps_ >= params_.jump_max_consecutive) {  // elsewhere for good: follow it
+    last_accepted_fix_ = g;
+    consecutive_jumps_ = 0;
+    ++jumps_.relocations;
+    return;
+  }
+  if (jumps_.jumps == 0) jumps_.first_t_s = g.t_s;
+  ++jumps_.jumps;
+  jumps_.largest_m = std::max(jumps_.largest_m, distance_m);
+}
+
 void ConsistencyMonitor::add_gnss(const GnssSample& g) {
+  if (g.valid() && std::isfinite(g.position.lat_rad) && std::isfinite(g.position.lon_rad)) count_jump(g);
   if (!g.valid() || !g.vel_enu_mps.allFinite()) {
     last_gnss_.reset();
     return;

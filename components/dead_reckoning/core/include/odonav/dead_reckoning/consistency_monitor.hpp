@@ -20,6 +20,12 @@
 //   odometer speed  the odometer distance (with the K in force) against the GNSS distance (speed
 //                   integrated between epochs) over the same window; 1 +- speed_ratio_tolerance.
 //
+// GNSS position jumps are counted too: a valid fix farther from the last accepted one than
+// jump_speed_mps times their interval plus jump_margin_m (a fix of the track it left; after
+// jump_max_consecutive such fixes in a row the receiver really is elsewhere, and the newest one is
+// taken). They are outliers of the input, counted and reported; the anchored position's gate and the
+// estimators (which use the GNSS velocity) keep them out of the results.
+//
 // A finding needs persist_s of consistent evidence before it is raised or cleared, so that one bad
 // fix cannot raise it. Its text names the likely cause with the observed numbers. The monitor only
 // reads: it changes no output; the node turns its findings into Health WARN and odonav-offline into
@@ -53,6 +59,17 @@ struct ConsistencyParams {
   double gnss_position_sigma_m = 3.0;    ///< GNSS position one-sigma when a fix has none (m)
   double speed_ratio_tolerance = 0.2;    ///< |odometer / GNSS distance - 1| beyond this is a violation (-)
   double persist_s = 5.0;                ///< evidence needed this long to raise or clear a finding (s)
+  double jump_speed_mps = 100.0;         ///< a fix farther than this speed allows from the last one is a jump (m/s)
+  double jump_margin_m = 100.0;          ///< plus this (m): GNSS noise and a receiver's reacquisition
+  double jump_max_consecutive = 10;      ///< this many jumps in a row: the receiver is elsewhere, take it
+};
+
+/// GNSS position jumps (see the file comment).
+struct GnssJumpCounters {
+  uint64_t jumps = 0;
+  double first_t_s = 0.0;      ///< event time of the first (s)
+  double largest_m = 0.0;      ///< the largest distance from the track (m)
+  uint64_t relocations = 0;    ///< jump_max_consecutive jumps in a row, taken as the new track
 };
 
 /// The checks, in the order of the file comment.
@@ -100,6 +117,7 @@ class ConsistencyMonitor {
   /// The findings in force, "; "-separated ("" when consistent).
   std::string reason() const;
   const ConsistencyState& state(ConsistencyCheck check) const { return states_[static_cast<int>(check)]; }
+  const GnssJumpCounters& gnss_jumps() const { return jumps_; }
 
  private:
   struct Epoch {                 // a valid GNSS epoch waiting for the output that reaches it
@@ -124,7 +142,11 @@ class ConsistencyMonitor {
   void evidence(ConsistencyCheck c, double t_s, const std::optional<std::string>& finding, double value);
 
   ConsistencyParams params_;
+  void count_jump(const GnssSample& g);
   std::optional<GnssSample> last_gnss_;
+  std::optional<GnssSample> last_accepted_fix_;
+  int consecutive_jumps_ = 0;
+  GnssJumpCounters jumps_;
   double gnss_distance_m_ = 0.0;
   uint64_t gnss_segment_ = 0;
   std::deque<Epoch> epochs_;
