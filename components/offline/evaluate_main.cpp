@@ -13,6 +13,7 @@
 #include "odonav/results/output_files.hpp"
 #include "odonav/run_provenance.hpp"
 #include "odonav/safe_output.hpp"
+#include "evaluation.hpp"
 #include "summary.hpp"
 
 namespace {
@@ -104,7 +105,16 @@ int main(int argc, char** argv) {
   try {
     const std::string results = opts.get_string("results");
     const std::string dataset_dir = opts.get_string("dataset");
-    const odonav::Dataset dataset = odonav::read_dataset(dataset_dir, odonav::BadRowPolicy::kSkip);
+    odonav::Dataset dataset = odonav::read_dataset(dataset_dir, odonav::BadRowPolicy::kSkip);
+    // A truth file of another drive: refused, the results evaluated against the GNSS fixes instead.
+    const std::optional<std::string> truth_refused =
+        dataset.truth.empty() ? std::nullopt
+                              : odonav::offline::truth_mismatch(odonav::offline::vector_source(dataset.gnss)(),
+                                                                odonav::offline::vector_source(dataset.truth)());
+    if (truth_refused) {
+      spdlog::warn("{}: {}; evaluating against the GNSS fixes instead", dataset_dir, *truth_refused);
+      dataset.truth.clear();
+    }
     // Results of another drive would be scored as if they were this one's (a 287 %D that means nothing).
     const auto [t_first_s, t_last_s] = rows_span_s(results);
     const std::vector<std::string> mismatches =
@@ -121,10 +131,13 @@ int main(int argc, char** argv) {
     o.dataset_name = opts.get_string("dataset");
     o.coarse_k_origin = opts.get_string("coarse-k-origin");
     nlohmann::json summary = summarize(dataset, results, o);
-    if (!mismatches.empty()) {
+    if (!mismatches.empty() || truth_refused) {
       summary["warnings"] = nlohmann::json::array();
       for (const std::string& m : mismatches)
         summary["warnings"].push_back({{"code", "results_not_of_this_dataset"}, {"message", m}});
+      if (truth_refused)
+        summary["warnings"].push_back(
+            {{"code", "truth_refused"}, {"message", *truth_refused + "; evaluated against the GNSS fixes instead"}});
     }
     odonav::write_file_atomically(results + "/summary.json", summary.dump(2) + "\n", {dataset_dir});
     odonav::offline::print_summary(summary, odonav::tool_output());

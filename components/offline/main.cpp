@@ -404,7 +404,18 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
   auto first = std::make_shared<odonav::DatasetStream>(dataset_dir, bad_rows, &report);
   const odonav::DatasetMeta meta = first->meta();
   const bool has_ins = first->has_ins();
-  const bool has_truth = first->has_truth();
+  bool has_truth = first->has_truth();
+  // A truth file of another drive would score this one against the wrong track: refused (the run
+  // is evaluated against the GNSS fixes instead), named in the log and in summary.json.
+  std::optional<std::string> truth_refused;
+  if (has_truth) {
+    truth_refused = odonav::offline::truth_mismatch(odonav::offline::Source<odonav::GnssSample>(odonav::gnss_rows(dataset_dir, bad_rows)),
+                                                    odonav::offline::Source<odonav::TruthSample>(odonav::truth_rows(dataset_dir, bad_rows)));
+    if (truth_refused) {
+      spdlog::warn("{}: {}; evaluating against the GNSS fixes instead", dataset_dir, *truth_refused);
+      has_truth = false;
+    }
+  }
   if (!has_ins) spdlog::warn("{}: no ins.csv: degraded mode (no misalignment; DR on the GNSS course)", dataset_dir);
   apply_dataset_defaults(meta, has_ins, opts, dr_facts, params);
   if (!apply_coarse_k(opts, params)) return 1;
@@ -516,6 +527,9 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
     spdlog::warn("{}", w.message);
     summary_json["warnings"].push_back({{"code", w.code}, {"message", w.message}});
   }
+  if (truth_refused)
+    summary_json["warnings"].push_back(
+        {{"code", "truth_refused"}, {"message", *truth_refused + "; evaluated against the GNSS fixes instead"}});
   odonav::write_file_atomically(out.file("summary.json"), summary_json.dump(2) + "\n");
   odonav::RunProvenance provenance;
   provenance.tool = "odonav-offline";

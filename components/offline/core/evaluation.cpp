@@ -1,5 +1,7 @@
 #include "evaluation.hpp"
 
+#include <sstream>
+
 #include <algorithm>
 #include <cmath>
 #include <utility>
@@ -272,6 +274,65 @@ DrEvaluation evaluate_dead_reckoning(const std::vector<TimedPosition>& dr, const
   DeadReckoningEvaluator e(vector_source(reference), OutageList(outages), min_distance_m);
   for (std::size_t i = 0; i < dr.size(); ++i) e.add(dr[i].t_s, dr[i].position, distance_m[i]);
   return e.finish();
+}
+
+std::optional<std::string> truth_mismatch(Source<GnssSample> gnss, Source<TruthSample> truth, std::size_t fixes,
+                                          double min_speed_mps, double max_median_m) {
+  const auto has_position = [](const TruthSample& t) {
+    return std::isfinite(t.position.lat_rad) && std::isfinite(t.position.lon_rad);
+  };
+  std::optional<TruthSample> before = truth();
+  while (before && !has_position(*before)) before = truth();
+  if (!before) return std::nullopt;  // no truth position: nothing to compare
+  const double truth_first_s = before->t_s;
+  std::optional<TruthSample> after = before;
+  std::vector<double> moving_m, resting_m;  // distance fix - truth, moving and at rest
+  std::optional<double> first_fix_s, last_fix_s;
+  while (moving_m.size() < fixes) {
+    const std::optional<GnssSample> g = gnss();
+    if (!g) break;
+    if (!g->valid()) continue;
+    if (!first_fix_s) first_fix_s = g->t_s;
+    last_fix_s = g->t_s;
+    if (g->t_s < truth_first_s) continue;  // before the truth starts
+    while (after && after->t_s < g->t_s) {
+      before = after;
+      do after = truth(); while (after && !has_position(*after));
+    }
+    if (!after) break;  // the truth ended
+    const double span = after->t_s - before->t_s;
+    const double f = span > 0.0 ? (g->t_s - before->t_s) / span : 0.0;
+    const double lat = before->position.lat_rad + f * (after->position.lat_rad - before->position.lat_rad);
+    const double lon = before->position.lon_rad + f * wrap_pi(after->position.lon_rad - before->position.lon_rad);
+    // Great-circle distance on the mean Earth radius: ample for telling metres from kilometres.
+    const double dlat = g->position.lat_rad - lat, dlon = wrap_pi(g->position.lon_rad - lon);
+    const double h = std::sin(dlat / 2) * std::sin(dlat / 2) +
+                     std::cos(lat) * std::cos(g->position.lat_rad) * std::sin(dlon / 2) * std::sin(dlon / 2);
+    const double d = 2.0 * 6371008.8 * std::asin(std::min(1.0, std::sqrt(h)));
+    if (!std::isfinite(d)) continue;
+    if (g->vel_enu_mps.head<2>().norm() >= min_speed_mps)
+      moving_m.push_back(d);
+    else if (resting_m.size() < fixes)
+      resting_m.push_back(d);
+  }
+  if (!first_fix_s) return std::nullopt;  // no valid fix: nothing to compare
+  std::vector<double>& d = moving_m.empty() ? resting_m : moving_m;
+  if (d.empty()) {
+    std::ostringstream m;
+    m << "truth.csv (from t = " << truth_first_s << " s) does not overlap the valid GNSS fixes in time (t = "
+      << *first_fix_s << " .. " << *last_fix_s << " s)";
+    return m.str();
+  }
+  std::sort(d.begin(), d.end());
+  const double median = d[d.size() / 2];
+  if (median <= max_median_m) return std::nullopt;
+  std::ostringstream m;
+  m.precision(4);
+  m << "truth.csv is " << (median >= 10e3 ? median / 1000.0 : median) << (median >= 10e3 ? " km" : " m")
+    << " from the GNSS fixes (median of " << d.size() << (moving_m.empty() ? " fixes at rest" : " moving fixes")
+    << " from t = " << *first_fix_s << " s; at most " << max_median_m
+    << " m expected): the truth of another drive, or shifted in time?";
+  return m.str();
 }
 
 }  // namespace odonav::offline

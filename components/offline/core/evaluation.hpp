@@ -279,4 +279,14 @@ DrEvaluation evaluate_dead_reckoning(const std::vector<TimedPosition>& dr, const
                                      const std::vector<TimedPosition>& reference,
                                      const std::vector<Outage>& outages, double min_distance_m = 100.0);
 
+/// Whether a truth file describes the drive of the GNSS fixes: the horizontal distance between each
+/// of the first `fixes` valid moving fixes (GNSS speed >= min_speed_mps; the first valid fixes when
+/// the drive has fewer) that lie within the truth's time span and the truth interpolated at its
+/// stamp, their median against max_median_m. A truth of another place, or shifted in time by more
+/// than max_median_m / speed, is refused. Returns why (naming the times and distances), or nullopt
+/// when it matches or there is nothing to compare (no valid fix, no truth position). Reads gnss until
+/// the fixes are found (and further while the truth starts later) and truth as far as they reach.
+std::optional<std::string> truth_mismatch(Source<GnssSample> gnss, Source<TruthSample> truth, std::size_t fixes = 20,
+                                          double min_speed_mps = 2.0, double max_median_m = 100.0);
+
 }  // namespace odonav::offline

@@ -7,6 +7,7 @@
 #include "core/simulator.hpp"
 #include "offline_runner.hpp"
 #include "run_diagnosis.hpp"
+#include "evaluation.hpp"
 #include "summary.hpp"
 
 using namespace odonav;
@@ -212,4 +213,27 @@ TEST(Consistency, AGnssFixAThousandKilometresAwayIsCountedReportedAndKeptOutOfTh
   EXPECT_NEAR(result.identification.back().main.k_m_per_pulse, good_result.identification.back().main.k_m_per_pulse,
               1e-4 * good_result.identification.back().main.k_m_per_pulse);
   EXPECT_EQ(result.misalignment.size(), good_result.misalignment.size());
+}
+
+TEST(TruthCheck, TheDrivesOwnTruthMatchesAndAnotherPlaceATimeShiftOrNoOverlapIsRefusedByName) {
+  const Dataset d = sim::simulate(terrain(120.0));
+  ASSERT_FALSE(d.truth.empty());
+  const auto check = [&](const std::vector<TruthSample>& truth) {
+    return truth_mismatch(vector_source(d.gnss)(), vector_source(truth)());
+  };
+  EXPECT_FALSE(check(d.truth));
+  std::vector<TruthSample> elsewhere = d.truth, shifted = d.truth, later = d.truth;
+  for (TruthSample& t : elsewhere) t.position.lat_rad += deg_to_rad(5.0);
+  for (TruthSample& t : shifted) t.t_s += 60.0;
+  for (TruthSample& t : later) t.t_s += 1000.0;
+  const auto a = check(elsewhere);
+  ASSERT_TRUE(a);
+  EXPECT_NE(a->find("truth.csv is 55"), std::string::npos) << *a;  // 5 deg of latitude: 556 km
+  EXPECT_NE(a->find(" km from the GNSS fixes (median of 20 moving fixes"), std::string::npos) << *a;
+  const auto b = check(shifted);
+  ASSERT_TRUE(b);
+  EXPECT_NE(b->find("shifted in time?"), std::string::npos) << *b;
+  const auto c = check(later);
+  ASSERT_TRUE(c);
+  EXPECT_NE(c->find("does not overlap the valid GNSS fixes in time"), std::string::npos) << *c;
 }
