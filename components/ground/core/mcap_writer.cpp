@@ -1,8 +1,11 @@
 #include "core/mcap_writer.hpp"
 
+#include <zlib.h>
+
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cstring>
@@ -23,16 +26,6 @@ constexpr std::uint8_t kOpStatistics = 0x0B;
 constexpr std::uint8_t kOpSummaryOffset = 0x0E;
 constexpr std::uint8_t kOpDataEnd = 0x0F;
 constexpr std::array<std::uint8_t, 8> kMagic{0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'};
-
-std::array<std::uint32_t, 256> make_crc_table() {
-  std::array<std::uint32_t, 256> table{};
-  for (std::uint32_t i = 0; i < 256; ++i) {
-    std::uint32_t c = i;
-    for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-    table[i] = c;
-  }
-  return table;
-}
 
 // Little-endian primitives of the spec: every integer is little endian; strings and byte arrays are
 // prefixed by a uint32 length; maps by their uint32 byte length.
@@ -60,10 +53,15 @@ void put_record(std::string& out, std::uint8_t opcode, const std::string& conten
 }  // namespace
 
 std::uint32_t crc32_update(std::uint32_t crc, const std::uint8_t* data, std::size_t size) {
-  static const std::array<std::uint32_t, 256> table = make_crc_table();
-  std::uint32_t c = crc ^ 0xFFFFFFFFu;
-  for (std::size_t i = 0; i < size; ++i) c = table[(c ^ data[i]) & 0xFFu] ^ (c >> 8);
-  return c ^ 0xFFFFFFFFu;
+  // zlib's CRC-32 (the one MCAP specifies), fed in pieces its uInt length can hold.
+  uLong c = crc;
+  while (size > 0) {
+    const uInt n = static_cast<uInt>(std::min<std::size_t>(size, std::numeric_limits<uInt>::max()));
+    c = ::crc32(c, data, n);
+    data += n;
+    size -= n;
+  }
+  return static_cast<std::uint32_t>(c);
 }
 
 McapWriter::McapWriter(const std::string& path, Options options) : path_(path), options_(std::move(options)) {
