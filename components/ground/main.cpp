@@ -36,11 +36,7 @@ void declare_options(Options& o) {
   o.add_positional("action", "monitor | serve | record | command");
   o.add_positional("command", "command: reset | set-k | freeze | unfreeze | release-k", false);
   o.add_positional("value", "command set-k: K in metres per pulse", false);
-  o.add_int("domain", 0, "DDS domain id of the fleet", 0, 232);
-  o.add_string("profile", "",
-               "Fast DDS XML file with the participant profile (qos.xml is read from its directory); "
-               "empty = $FASTRTPS_DEFAULT_PROFILES_FILE");
-  o.add_string("profile-name", "loopback_only", "participant profile name in --profile");
+  odonav::dds::add_participant_options(o, "DDS domain id of the fleet");
   o.add_string("log-level", "", std::string("log level (") + kLogLevelNames + "); empty = $ODONAV_LOG_LEVEL or info");
   // monitor
   o.add_string("vehicle", "", "monitor: vehicle ids to show, comma separated (empty: all); command: the vehicle");
@@ -73,22 +69,7 @@ void declare_options(Options& o) {
 }
 
 odonav::dds::ParticipantOptions participant_options(const Options& o) {
-  odonav::dds::ParticipantOptions p;
-  p.profiles_file = o.get_string("profile");
-  if (p.profiles_file.empty()) {
-    const char* env = std::getenv("FASTRTPS_DEFAULT_PROFILES_FILE");
-    if (env == nullptr || *env == '\0') {
-      throw ConfigError("--profile: not given and FASTRTPS_DEFAULT_PROFILES_FILE is not set (use e.g. "
-                        "--profile deploy/profiles/loopback.xml)");
-    }
-    p.profiles_file = env;
-  }
-  p.participant_profile = o.get_string("profile-name");
-  if (p.participant_profile.empty()) throw ConfigError("--profile-name: must not be empty");
-  p.domain_id = static_cast<int>(o.get_int("domain"));
-  p.participant_name = "odonav-ground";
-  std::tie(p.security_dir, p.security_identity) = odonav::dds::security_options_from(o);
-  return p;
+  return odonav::dds::participant_options_from(o, "odonav-ground");
 }
 
 std::vector<std::string> split_list(const std::string& s) {

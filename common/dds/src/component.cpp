@@ -18,12 +18,31 @@
 
 namespace odonav::dds {
 
-void add_component_options(Options& o) {
-  o.add_int("domain", 0, "DDS domain id; components of one vehicle share it", 0, 232);
+void add_participant_options(Options& o, const std::string& domain_help) {
+  o.add_int("domain", 0, domain_help, 0, 232);
   o.add_string("profile", "",
                "Fast DDS XML file with the participant profile (qos.xml is read from its directory); "
                "empty = $FASTRTPS_DEFAULT_PROFILES_FILE");
   o.add_string("profile-name", topics::kLoopbackParticipantProfile, "participant profile name in --profile");
+}
+
+ParticipantOptions participant_options_from(const Options& o, const std::string& participant_name) {
+  ParticipantOptions p;
+  const std::optional<std::string> file = profiles_file_or_environment(o.get_string("profile"));
+  if (!file)
+    throw ConfigError("--profile: not given and FASTRTPS_DEFAULT_PROFILES_FILE is not set (use e.g. "
+                      "--profile deploy/profiles/loopback.xml)");
+  p.profiles_file = *file;
+  p.participant_profile = o.get_string("profile-name");
+  if (p.participant_profile.empty()) throw ConfigError("--profile-name: must not be empty");
+  p.domain_id = static_cast<int>(o.get_int("domain"));
+  p.participant_name = participant_name;
+  std::tie(p.security_dir, p.security_identity) = security_options_from(o);
+  return p;
+}
+
+void add_component_options(Options& o) {
+  add_participant_options(o, "DDS domain id; components of one vehicle share it");
   o.add_string("vehicle-id", "vehicle-01", "vehicle whose topics are read and written (the DDS key)");
   o.add_double("max-wait-s", 2.0,
                "event time: an input silent this long (wall clock, s) while the others are ahead is treated "
@@ -40,19 +59,7 @@ ComponentSettings component_settings_from(const Options& o, const std::string& c
   s.component = component;
   s.vehicle_id = o.get_string("vehicle-id");
   if (s.vehicle_id.empty()) throw ConfigError("--vehicle-id: must not be empty");
-  s.participant.profiles_file = o.get_string("profile");
-  if (s.participant.profiles_file.empty()) {
-    const char* env = std::getenv("FASTRTPS_DEFAULT_PROFILES_FILE");
-    if (env == nullptr || *env == '\0')
-      throw ConfigError("--profile: not given and FASTRTPS_DEFAULT_PROFILES_FILE is not set (use e.g. "
-                        "--profile deploy/profiles/loopback.xml)");
-    s.participant.profiles_file = env;
-  }
-  s.participant.participant_profile = o.get_string("profile-name");
-  if (s.participant.participant_profile.empty()) throw ConfigError("--profile-name: must not be empty");
-  s.participant.domain_id = static_cast<int>(o.get_int("domain"));
-  s.participant.participant_name = component;
-  std::tie(s.participant.security_dir, s.participant.security_identity) = security_options_from(o);
+  s.participant = participant_options_from(o, component);
   s.max_wait_s = o.get_double("max-wait-s");
   s.log_level = o.get_string("log-level");
   if (!s.log_level.empty()) parse_log_level(s.log_level, "--log-level");

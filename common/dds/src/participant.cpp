@@ -387,17 +387,19 @@ eprosima::fastdds::dds::Topic& ParticipantCore::topic(const std::string& topic_n
 
 }  // namespace detail
 
+std::optional<std::string> profiles_file_or_environment(const std::string& given) {
+  if (!given.empty()) return given;
+  const char* env = std::getenv("FASTRTPS_DEFAULT_PROFILES_FILE");
+  if (env == nullptr || *env == '\0') return std::nullopt;
+  return std::string(env);
+}
+
 Participant::Participant(const ParticipantOptions& options) : domain_id_(options.domain_id) {
-  profiles_file_ = options.profiles_file;
-  if (profiles_file_.empty()) {
-    const char* env = std::getenv("FASTRTPS_DEFAULT_PROFILES_FILE");
-    if (env == nullptr || *env == '\0') {
-      throw std::runtime_error(
-          "odonav::dds::Participant: no participant profiles file given and "
-          "FASTRTPS_DEFAULT_PROFILES_FILE is not set");
-    }
-    profiles_file_ = env;
-  }
+  const std::optional<std::string> file = profiles_file_or_environment(options.profiles_file);
+  if (!file)
+    throw std::runtime_error(
+        "odonav::dds::Participant: no participant profiles file given and FASTRTPS_DEFAULT_PROFILES_FILE is not set");
+  profiles_file_ = *file;
   qos_file_ = options.qos_file.empty() ? directory_of(profiles_file_) + "/qos.xml" : options.qos_file;
   std::optional<SecurityMaterial> security;
   try {

@@ -41,6 +41,15 @@ struct ComponentSettings {
   std::string log_level;     ///< empty: ODONAV_LOG_LEVEL or info.
 };
 
+/// The participant options of every odonav program: --domain (0..232, default 0; domain_help says
+/// what shares it), --profile (participant XML file; empty = $FASTRTPS_DEFAULT_PROFILES_FILE),
+/// --profile-name (default "loopback_only"). The DDS Security options (add_security_options) are
+/// declared beside them by the caller; participant_options_from reads them.
+void add_participant_options(Options& options, const std::string& domain_help);
+/// Reads them back for a participant named participant_name. Throws ConfigError naming the flag
+/// when no profile file is given and FASTRTPS_DEFAULT_PROFILES_FILE is unset, or the name is empty.
+ParticipantOptions participant_options_from(const Options& options, const std::string& participant_name);
+
 /// Declares --domain (0..232, default 0), --profile (participant XML file; empty =
 /// $FASTRTPS_DEFAULT_PROFILES_FILE), --profile-name (default "loopback_only"), --vehicle-id
 /// (default "vehicle-01"), --max-wait-s (s, (0, 3600], default 2) and --log-level.

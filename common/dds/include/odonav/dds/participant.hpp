@@ -46,6 +46,10 @@ struct ParticipantOptions {
   std::string security_identity;
 };
 
+/// The participant profiles file: `given`, else $FASTRTPS_DEFAULT_PROFILES_FILE; nullopt when both
+/// are empty. The one lookup of the programs' --profile and of Participant.
+std::optional<std::string> profiles_file_or_environment(const std::string& given);
+
 /// Environment variable that sets the verbosity of Fast DDS's own log (printed on standard
 /// output by Fast DDS): "error" (the default), "warning" or "info" (info needs a Fast DDS built
 /// with it; the Debian one prints warnings and errors only). Discovery and security problems
