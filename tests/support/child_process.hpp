@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -30,6 +31,23 @@ namespace odonav::test {
 /// Path of an odonav executable of this build.
 inline std::string binary(const std::string& name) { return std::string(ODONAV_BINARY_DIR) + "/bin/" + name; }
 #endif
+
+/// A shell command's exit status (-1: it did not exit normally) and its output, stderr included.
+struct CommandResult {
+  int status = -1;
+  std::string output;
+};
+/// Runs `command` with /bin/sh, waits, and returns its status and combined output.
+inline CommandResult run_command(const std::string& command) {
+  CommandResult r;
+  FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return r;
+  char buffer[4096];
+  while (fgets(buffer, sizeof buffer, pipe) != nullptr) r.output += buffer;
+  const int status = ::pclose(pipe);
+  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
 
 /// `fastdds shm clean` (removes only unused shared-memory segments; safe while others run).
 inline void shm_clean() { [[maybe_unused]] int rc = std::system("fastdds shm clean >/dev/null 2>&1"); }

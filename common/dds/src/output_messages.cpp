@@ -61,8 +61,9 @@ void scale_factor_fields(Row& r, Msg& m, V&& v) {
   v.flag(r.turn_slip_applies, m.turn_slip_applies());
 }
 
+// The position both dead-reckoning topics carry: WGS-84 and the local ENU of the DR origin.
 template <class Row, class Msg, class V>
-void dead_reckoning_fields(Row& r, Msg& m, V&& v) {
+void position_fields(Row& r, Msg& m, V& v) {
   v.stamp(r.t_s, m.header(), "wgs84");
   v.degrees(r.lat_rad, m.latitude_deg());
   v.degrees(r.lon_rad, m.longitude_deg());
@@ -70,6 +71,11 @@ void dead_reckoning_fields(Row& r, Msg& m, V&& v) {
   v.number(r.east_m, m.enu_east_m());
   v.number(r.north_m, m.enu_north_m());
   v.number(r.up_m, m.enu_up_m());
+}
+
+template <class Row, class Msg, class V>
+void dead_reckoning_fields(Row& r, Msg& m, V&& v) {
+  position_fields(r, m, v);
   v.number(r.heading_rad, m.heading_rad());
   v.number(r.distance_m, m.distance_m());
   v.number(r.k_m_per_pulse, m.k_m_per_pulse());
@@ -81,13 +87,7 @@ void dead_reckoning_fields(Row& r, Msg& m, V&& v) {
 
 template <class Row, class Msg, class V>
 void navigation_position_fields(Row& r, Msg& m, V&& v) {
-  v.stamp(r.t_s, m.header(), "wgs84");
-  v.degrees(r.lat_rad, m.latitude_deg());
-  v.degrees(r.lon_rad, m.longitude_deg());
-  v.number(r.height_m, m.height_m());
-  v.number(r.east_m, m.enu_east_m());
-  v.number(r.north_m, m.enu_north_m());
-  v.number(r.up_m, m.enu_up_m());
+  position_fields(r, m, v);
   v.unknown(r.var_east_m2, m.position_covariance_east_m2());
   v.unknown(r.var_north_m2, m.position_covariance_north_m2());
   v.unknown(r.var_up_m2, m.position_covariance_up_m2());

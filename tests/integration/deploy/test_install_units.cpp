@@ -7,6 +7,8 @@
 // because verify --root resolves ExecStart inside the root.
 #include <gtest/gtest.h>
 
+#include "child_process.hpp"
+
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -17,26 +19,13 @@
 
 namespace fs = std::filesystem;
 
+using odonav::test::CommandResult;
+const auto run = odonav::test::run_command;
+
 namespace {
 
 const fs::path kDeploy = fs::path(ODONAV_SOURCE_DIR) / "deploy";
 const char* kComponents[] = {"gateway", "calibration", "identification", "dead-reckoning"};
-
-struct CommandResult {
-  int status = -1;
-  std::string output;
-};
-
-CommandResult run(const std::string& command) {
-  CommandResult r;
-  FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return r;
-  std::array<char, 4096> buffer{};
-  while (fgets(buffer.data(), buffer.size(), pipe) != nullptr) r.output += buffer.data();
-  const int status = ::pclose(pipe);
-  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
 
 std::string read(const fs::path& file) {
   std::ifstream in(file);

@@ -5,6 +5,8 @@
 // root) and skips otherwise, or when an odonav package is already installed.
 #include <gtest/gtest.h>
 
+#include "child_process.hpp"
+
 #include <unistd.h>
 
 #include <array>
@@ -14,23 +16,10 @@
 
 namespace fs = std::filesystem;
 
+using odonav::test::CommandResult;
+const auto run = odonav::test::run_command;
+
 namespace {
-
-struct CommandResult {
-  int status = -1;
-  std::string output;
-};
-
-CommandResult run(const std::string& command) {
-  CommandResult r;
-  FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return r;
-  std::array<char, 4096> buffer{};
-  while (fgets(buffer.data(), buffer.size(), pipe) != nullptr) r.output += buffer.data();
-  const int status = ::pclose(pipe);
-  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
 
 const char* kPrograms[] = {"odonav-gateway",  "odonav-calibration", "odonav-identification", "odonav-dead-reckoning",
                            "odonav-recorder", "odonav-ground",      "odonav-offline",        "odonav-evaluate",
