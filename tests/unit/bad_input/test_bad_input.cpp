@@ -374,3 +374,61 @@ TEST(BadInput, OneWrongGnssVelocityRowDoesNotMoveTheMisalignment) {
       << strict.output;
   EXPECT_NEAR(heading_error_deg(dir.file("skipped"), "--on-bad-row=skip"), clean, 0.01);
 }
+
+// Plausible row by row, wrong as a whole: an INS heading counted the other way round, and a truth
+// file of another place. The run says so (log and summary.json), keeps every output, exits 0.
+TEST(BadInput, AHeadingOfTheOtherConventionAndAForeignTruthAreNamedAndNothingGoodIsLost) {
+  ScratchDir dir;
+  const std::string dataset = dir.file("terrain");
+  ASSERT_EQ(run(binary("odonav-sim") + " terrain --duration-s 200 --out " + dataset + " --log-level error").exit_code, 0);
+  const auto lines_of = [](const std::string& file) {
+    std::ifstream in(file);
+    std::size_t n = 0;
+    for (std::string l; std::getline(in, l);) ++n;
+    return n;
+  };
+  const auto read_all = [](const std::string& file) {
+    std::ifstream in(file);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  // Rewrites one column of a CSV file of the dataset with f(value).
+  const auto rewrite = [&](const std::string& file, const std::string& column, double (*f)(double)) {
+    std::ifstream in(dataset + "/" + file);
+    std::vector<std::string> lines;
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+    std::vector<std::string> header;
+    std::stringstream hs(lines[0]);
+    for (std::string h; std::getline(hs, h, ',');) header.push_back(h);
+    const std::size_t c = static_cast<std::size_t>(std::find(header.begin(), header.end(), column) - header.begin());
+    ASSERT_LT(c, header.size()) << column;
+    std::ofstream out(dataset + "/" + file);
+    out << lines[0] << '\n';
+    for (std::size_t i = 1; i < lines.size(); ++i) {
+      std::vector<std::string> fields;
+      std::stringstream ss(lines[i]);
+      for (std::string v; std::getline(ss, v, ',');) fields.push_back(v);
+      char text[32];
+      std::snprintf(text, sizeof text, "%.17g", f(std::stod(fields.at(c))));
+      fields[c] = text;
+      for (std::size_t k = 0; k < fields.size(); ++k) out << (k ? "," : "") << fields[k];
+      out << '\n';
+    }
+  };
+  const RunResult clean = run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("clean") + " --log-level warn");
+  ASSERT_EQ(clean.exit_code, 0) << clean.output;
+  EXPECT_EQ(clean.output.find("inconsistent"), std::string::npos) << clean.output;
+
+  rewrite("ins.csv", "heading_deg", [](double h) { return std::fmod(360.0 - h, 360.0); });
+  rewrite("truth.csv", "lat_deg", [](double lat) { return lat + 5.0; });
+  const RunResult bad = run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("bad") + " --log-level warn");
+  EXPECT_EQ(bad.exit_code, 0) << bad.output;
+  EXPECT_NE(bad.output.find("INS heading turns opposite to the GNSS course"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("heading sign convention?"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("truth.csv is 55"), std::string::npos) << bad.output;  // 5 deg: 556 km
+  const std::string summary = read_all(dir.file("bad") + "/summary.json");
+  EXPECT_NE(summary.find("\"inconsistent_heading_rate\""), std::string::npos);
+  EXPECT_NE(summary.find("\"converged_withdrawn\""), std::string::npos);
+  EXPECT_NE(summary.find("\"truth_refused\""), std::string::npos);
+  for (const char* f : {"misalignment.csv", "scale_factor.csv", "dead_reckoning.csv", "navigation_position.csv"})
+    EXPECT_EQ(lines_of(dir.file("bad") + "/" + f), lines_of(dir.file("clean") + "/" + f)) << f;
+}
