@@ -184,6 +184,7 @@ class OutputFiles : public odonav::offline::PipelineSink {
     const odonav::results::MisalignmentRow row = odonav::output_row(m);
     misalignment_.write(row);
     summary_.add(row);
+    diagnosis_.add_misalignment(m);
   }
   void on_scale_factor(const odonav::IdentificationOutput& k) override {
     const odonav::results::ScaleFactorRow row = odonav::output_row(k, main_estimator_, estimators_);

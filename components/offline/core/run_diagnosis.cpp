@@ -101,9 +101,12 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
   for (const GnssSample& g : d.gnss) acc.add_gnss(g.t_s);
   for (const InsSample& i : d.ins) acc.add_ins(i.t_s);
   for (const IdentificationOutput& k : r.identification) acc.add_identification(k.main);
+  for (const MisalignmentOutput& m : r.misalignment) acc.add_misalignment(m);
   for (const DeadReckoningOutput& o : r.dr_online) acc.add_dead_reckoning(o.t_s);
   return acc.finish(p, r.builder_counters, r.calibration_counters, r.dr_counters, r.consistency, r.gnss_jumps);
 }
+
+void RunDiagnosisAccumulator::add_misalignment(const MisalignmentOutput& output) { last_misalignment_ = output; }
 
 RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const SampleBuilderCounters& c,
                                              const MisalignmentCounters& m,
@@ -177,6 +180,22 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
                                                                " " + why.front().second
                                                          : std::string()) +
                                   "; zero misalignment applied");
+    } else if (last_misalignment_ && !last_misalignment_->converged) {
+      // Used, but not enough: say what is missing, epochs or precision.
+      const MisalignmentOutput& o = *last_misalignment_;
+      std::string missing;
+      if (o.samples_used < p.calibration.min_samples)
+        missing = num(static_cast<double>(o.samples_used), 12) + " GNSS epochs used of the " +
+                  num(static_cast<double>(p.calibration.min_samples), 12) + " required (--cal-min-samples)";
+      const double limit_deg = rad_to_deg(p.calibration.converged_sigma_rad);
+      const double worst_deg = rad_to_deg(std::max(o.sigma_heading_rad, o.sigma_pitch_rad));
+      if (!(worst_deg < limit_deg))
+        missing += (missing.empty() ? "" : "; ") + std::string("sigma ") + num(worst_deg, 3) + " deg above the " +
+                   num(limit_deg, 3) + " deg required (--cal-converged-sigma-deg)";
+      warn("misalignment_not_converged",
+           "the misalignment did not converge: " + (missing.empty() ? std::string("state ") + to_string(o.state) : missing) +
+               "; the estimate is provisional (a longer drive with straight segments above " +
+               num(p.calibration.min_speed_mps) + " m/s gives more epochs)");
     }
   }
 

@@ -63,6 +63,7 @@ class RunDiagnosisAccumulator {
   void add_gnss(double t_s);                              ///< each GNSS epoch's time (s), valid or not
   void add_ins(double t_s);                               ///< each INS sample's time (s)
   void add_identification(const ScaleFactorEstimate& main);  ///< each identification output's main estimate
+  void add_misalignment(const MisalignmentOutput& output);    ///< each calibration output
   void add_dead_reckoning(double t_s);                    ///< each online dead-reckoning output's time (s)
   /// The warnings, from the facts gathered and the run's final gate counters.
   /// consistency: the dead reckoning's checks at the end (OfflineRunTotals::consistency; each one
@@ -82,6 +83,7 @@ class RunDiagnosisAccumulator {
   MedianPeriod gnss_period_;
   bool has_ins_ = false;
   std::optional<ScaleFactorEstimate> last_main_;
+  std::optional<MisalignmentOutput> last_misalignment_;
 };
 
 /// Warnings of one run of run_offline over `dataset` with `params`: a RunDiagnosisAccumulator fed

@@ -237,3 +237,23 @@ TEST(TruthCheck, TheDrivesOwnTruthMatchesAndAnotherPlaceATimeShiftOrNoOverlapIsR
   ASSERT_TRUE(c);
   EXPECT_NE(c->find("does not overlap the valid GNSS fixes in time"), std::string::npos) << *c;
 }
+
+TEST(RunDiagnosis, AShortOneHertzDriveSaysTheMisalignmentDidNotConvergeAndWhatIsMissing) {
+  sim::SimulationConfig cfg = straight(80.0);
+  cfg.gnss_rate_hz = 1.0;
+  const Dataset d = sim::simulate(cfg);
+  OfflineParams p = params_for(d);
+  p.identification.builder.max_interval_s = 1.5;
+  const OfflineResult result = run_offline(d, p);
+  ASSERT_FALSE(result.misalignment.empty());
+  ASSERT_FALSE(result.misalignment.back().converged);
+  const RunDiagnosis r = diagnose_run(d, p, result);
+  const RunWarning* w = find(r, "misalignment_not_converged");
+  ASSERT_NE(w, nullptr);
+  EXPECT_NE(w->message.find("GNSS epochs used of the 100 required (--cal-min-samples)"), std::string::npos)
+      << w->message;
+  // The same drive for 120 s at 10 Hz converges: no such warning.
+  const Dataset ok = sim::simulate(straight(120.0));
+  const OfflineParams q = params_for(ok);
+  EXPECT_EQ(find(diagnose_run(ok, q, run_offline(ok, q)), "misalignment_not_converged"), nullptr);
+}
