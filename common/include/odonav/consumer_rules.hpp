@@ -10,12 +10,9 @@
 #include <sstream>
 #include <string>
 
-namespace odonav {
+#include "odonav/defaults.hpp"
 
-/// Hold-off d (s) of the estimate-application rule below, when no --estimate-hold-off-s is given. It
-/// covers a GNSS receiver's normal latency (the fix reaches the gateway ~0.05-0.1 s after its epoch)
-/// plus one processing hop (an estimate leaves its producer ms after the fix arrives), with margin.
-constexpr double kDefaultEstimateHoldOff_s = 0.2;
+namespace odonav {
 
 /// The estimate-application rule: an estimate stamped at GNSS epoch `epoch_s` (misalignment, K), or
 /// a GNSS fix used as a reference, applies to the odometer samples stamped at or after

@@ -19,6 +19,7 @@
 #include <string>
 #include <utility>
 
+#include "odonav/defaults.hpp"
 #include "odonav/sensor_samples.hpp"
 #include "odonav/frames.hpp"
 
@@ -100,7 +101,7 @@ struct OdometerJumpGate {
   /// Fastest physically possible speed (m/s, > 0).
   double max_speed_mps = 100.0;
   /// Scale factor the speed is converted to pulses with: the nominal K (m/pulse, > 0).
-  double k_m_per_pulse = 0.0125;
+  double k_m_per_pulse = kDefaultNominalK_m_per_pulse;
   /// Allowance for pulse quantisation and time-stamp jitter (pulses, >= 0).
   double margin_pulses = 2.0;
   /// The largest plausible increment over dt_s (s, >= 0), in pulses.

@@ -1,5 +1,6 @@
 #include "identification_node.hpp"
 
+#include "odonav/defaults.hpp"
 #include "odonav/dds/output_messages.hpp"
 
 #include "odonav/lever_arm_option.hpp"
@@ -46,7 +47,7 @@ void add_identification_node_options(Options& o) {
             "priority of this instance, published as ScaleFactor.source_priority: consumers follow the "
             "highest-priority live instance (primary e.g. 20, standby 10)",
             0, 1000000);
-  o.add_double("nominal-k", 0.0125, "reference K (m/pulse) a set_k command must stay within 0.1x..10x of", 1e-6,
+  o.add_double("nominal-k", kDefaultNominalK_m_per_pulse, "reference K (m/pulse) a set_k command must stay within 0.1x..10x of", 1e-6,
                10.0);
 }
 

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "odonav/defaults.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dds/event_time_node.hpp"
 #include "odonav/identification/identification_core.hpp"
@@ -46,7 +47,7 @@ struct InstanceSettings {
   /// topic ignores.
   uint32_t ownership_strength = 10;
   /// Reference K [m/pulse] (> 0) a set_k command is checked against: [0.1, 10] x this.
-  double nominal_k_m_per_pulse = 0.0125;
+  double nominal_k_m_per_pulse = kDefaultNominalK_m_per_pulse;
   /// The last ScaleFactor is republished (same stamp) when nothing was written for this long
   /// (wall clock, s, > 0): well inside the writer's offered 300 ms deadline, even in a GNSS outage.
   double heartbeat_period_s = 0.1;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/course.hpp"
+#include "odonav/defaults.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dataset_writer.hpp"
 #include "odonav/frames.hpp"
@@ -81,8 +82,8 @@ struct SimulationConfig {
   // --- odometer ---
   double odometer_rate_hz = 100.0;
   /// Nominal K of a sprocket pulse counter: pi * 0.6526 m pitch diameter / 164 pulses per rev.
-  double k_nominal_m_per_pulse = 0.0125;
-  double k_true_m_per_pulse = 0.0125 * 1.015;  ///< true K at the start (+1.5 %: worn, stretched track).
+  double k_nominal_m_per_pulse = kDefaultNominalK_m_per_pulse;
+  double k_true_m_per_pulse = kDefaultNominalK_m_per_pulse * 1.015;  ///< true K at the start (+1.5 %: worn, stretched track).
   std::vector<KStep> k_steps;
   /// Counter value at the start; 2^32 - 10^5 so every default run crosses the wrap.
   std::uint32_t counter_start = 4294967296ull - 100000ull;

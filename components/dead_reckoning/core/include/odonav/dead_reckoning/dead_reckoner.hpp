@@ -60,6 +60,7 @@
 
 #include <Eigen/Dense>
 
+#include "odonav/defaults.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dead_reckoning/anchored_position.hpp"
 #include "odonav/frames.hpp"
@@ -82,7 +83,7 @@ enum class DeadReckoningMode { k3D, k2D };
 
 struct DeadReckonerParams {
   /// K used before any add_scale_factor() (m/pulse, > 0).
-  double nominal_k_m_per_pulse = 0.0125;
+  double nominal_k_m_per_pulse = kDefaultNominalK_m_per_pulse;
   DeadReckoningMode mode = DeadReckoningMode::k3D;
   /// False without INS: degraded mode (GNSS course, horizontal only).
   bool use_ins = true;
@@ -123,7 +124,7 @@ struct DeadReckonerParams {
   /// Hold-off d (s, >= 0) of the estimate-application rule (consumer_rules.hpp). The node and
   /// odonav-offline add misalignment and K of epoch g as in force from g + d; the core itself
   /// evaluates the error against the GNSS fix of epoch g at the first odometer sample >= g + d.
-  double estimate_hold_off_s = 0.2;
+  double estimate_hold_off_s = kDefaultEstimateHoldOff_s;
   /// Track slip in turns (turn_slip.hpp, add_turn_slip): the yaw rate of an odometer interval is
   /// the INS heading change over the window of this length (s, > 0) ending at its mid-interval, the
   /// step over which the identification measures the slip. Default 0.1 s.

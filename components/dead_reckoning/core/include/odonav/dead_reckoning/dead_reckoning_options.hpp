@@ -5,14 +5,13 @@
 
 #include <Eigen/Dense>
 
+#include "odonav/defaults.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dead_reckoning/anchored_position.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 
 namespace odonav {
 
-/// Nominal K (m/pulse) when neither --nominal-k nor the dataset's meta.json gives one.
-inline constexpr double kDefaultNominalK_m_per_pulse = 0.0125;
 
 /// Offset random walk (%D) of the navigation position at least, without INS: the DR heading is then
 /// the GNSS course held through stops and turns.
@@ -38,7 +37,7 @@ struct DeadReckoningFacts {
   /// The dataset's meta.json nominal K (m/pulse), if any (odonav-offline; none on a vehicle).
   std::optional<double> dataset_nominal_k_m_per_pulse;
   /// --estimate-hold-off-s (s): hold_off_option.hpp.
-  double estimate_hold_off_s = 0.2;
+  double estimate_hold_off_s = kDefaultEstimateHoldOff_s;
   /// The navigation position's --anchor-* flags (hold_off_s is set from estimate_hold_off_s by
   /// anchored_position_params).
   AnchoredPositionParams anchored;

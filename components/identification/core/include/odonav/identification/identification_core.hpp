@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "odonav/defaults.hpp"
 #include "odonav/estimators.hpp"
 #include "odonav/event_time_aligner.hpp"
 #include "odonav/published_estimates.hpp"
@@ -33,7 +34,7 @@ struct IdentificationParams {
   /// epoch g is added (by the node and by odonav-offline) as in force from
   /// estimate_applies_from_s(g, d), so K of epoch g uses the misalignment of the epochs <= g - d and
   /// never waits for calibration's output of its own epoch.
-  double estimate_hold_off_s = 0.2;
+  double estimate_hold_off_s = kDefaultEstimateHoldOff_s;
   /// Track slip in turns (turn_slip.hpp): estimated from the intervals the yaw-rate gate keeps out
   /// of K and published for dead reckoning. turn_slip_enabled false: no estimate, g = 0 published.
   bool turn_slip_enabled = true;

@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 
+#include "odonav/defaults.hpp"
 #include "odonav/config.hpp"
 #include "odonav/identification/identification_core.hpp"
 
@@ -33,7 +34,7 @@ struct IdentificationVehicleFacts {
   std::optional<Eigen::Vector3d> lever_arm_body_m;
   /// The vehicle's nominal K (m/pulse, finite, > 0): the pulse-jump gate converts its maximum
   /// speed to pulses with it, so a fine encoder (small K) does not see real motion as a jump.
-  double nominal_k_m_per_pulse = 0.0125;
+  double nominal_k_m_per_pulse = kDefaultNominalK_m_per_pulse;
   /// Also run every other estimator side by side (odonav-offline compares them; the node publishes
   /// the main one only).
   bool run_all_estimators = false;
