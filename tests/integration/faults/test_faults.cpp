@@ -452,10 +452,11 @@ void expect_rows_equal(const results::OutputRows& pipe, const results::OutputRow
     ASSERT_NEAR(pipe.scale_factor[i].t_s, ref.scale_factor[i].t_s, kTol) << "scale factor row " << i;
     ASSERT_EQ(pipe.scale_factor[i].k_m_per_pulse.has_value(), ref.scale_factor[i].k_m_per_pulse.has_value())
         << "scale factor row " << i;
-    if (ref.scale_factor[i].k_m_per_pulse)
+    if (ref.scale_factor[i].k_m_per_pulse) {
       ASSERT_NEAR(*pipe.scale_factor[i].k_m_per_pulse, *ref.scale_factor[i].k_m_per_pulse,
                   kTol * *ref.scale_factor[i].k_m_per_pulse)
           << "scale factor row " << i;
+    }
     ASSERT_EQ(pipe.scale_factor[i].samples_accepted, ref.scale_factor[i].samples_accepted) << "scale factor row " << i;
   }
   ASSERT_EQ(pipe.dead_reckoning.size(), ref.dead_reckoning.size());

@@ -239,7 +239,9 @@ void expect_navigation_equal(const results::OutputRows& pipe, const results::Out
     anchored += b.status == "anchored";
     if (::testing::Test::HasFailure()) FAIL() << "first difference at navigation-position row " << i;
   }
-  if (mostly_anchored) EXPECT_GT(anchored, ref.navigation_position.size() / 2);
+  if (mostly_anchored) {
+    EXPECT_GT(anchored, ref.navigation_position.size() / 2);
+  }
 }
 
 TEST_F(Pipeline, EveryPublishedSampleEqualsTheOfflineTool) {

@@ -277,7 +277,9 @@ TEST_F(HotStandby, PrimaryKilledStandbyTakesOverWithinOneSecondExactlyForEveryRe
     bool primary_heard = false;
     for (const auto& a : follow(reference.k).delivered) {
       primary_heard = primary_heard || a.message.source() == kPrimary;
-      if (primary_heard && a.wall_s < reference.stop_wall_s) ASSERT_EQ(a.message.source(), kPrimary);
+      if (primary_heard && a.wall_s < reference.stop_wall_s) {
+        ASSERT_EQ(a.message.source(), kPrimary);
+      }
     }
   }
   constexpr double kCheckFromS = 5.0;  // every process matched long before (event time = wall time)

@@ -229,8 +229,9 @@ TEST(SecurityGrants, EveryTopicHasAPublisherAndTheGroundStationReadsIt) {
   for (const auto& spec : topics::kAllTopics) {
     const std::string name = spec.name;
     EXPECT_FALSE(publishers_of[name].empty()) << name << ": no identity may publish it";
-    if (name != topics::kCommand.name)  // the ground station writes commands, it does not read them
+    if (name != topics::kCommand.name) {  // the ground station writes commands, it does not read them
       EXPECT_TRUE(subscribers_of[name].count("odonav-ground")) << name << ": the ground station may not read it";
+    }
   }
 }
 

@@ -24,9 +24,13 @@ double counter(const HealthCounters& c, const std::string& name) {
 // are repeats of estimates already applied, not a fault; on a sensor input the same stamps are.
 TEST(AdmitSample, EstimatesOlderThanTheLastTakenAreRepublishedRepeatsNotProblems) {
   EventTimeAligner aligner(/*max_wait_s=*/2.0, /*start_s=*/0.0);
-  NodeInput estimate{"misalignment", aligner.add_stream("misalignment")};
+  NodeInput estimate;
+  estimate.name = "misalignment";
+  estimate.id = aligner.add_stream("misalignment");
   estimate.estimate = true;
-  NodeInput sensor{"odometer", aligner.add_stream("odometer")};
+  NodeInput sensor;
+  sensor.name = "odometer";
+  sensor.id = aligner.add_stream("odometer");
   std::vector<double> fed;
   auto feed = [&](double t_s) { fed.push_back(t_s); };
   const std::vector<double> stamps = {52.3, 52.4, 52.5, 50.1, 50.2, 52.5, 52.6};

@@ -106,8 +106,10 @@ Figures figures(uint64_t seed, double gnss_rate_hz = 10.0, double latency_s = 0.
   }
   f.gnss_rms_m = std::sqrt(g2 / m);
 
-  const auto err = [&](std::size_t i) {
-    return frame.to_enu(r.navigation_position[i].position) - truth.at(r.navigation_position[i].t_s).enu_m;
+  const auto err = [&](std::size_t i) -> Eigen::Vector3d {
+    const TruthAt tr = truth.at(r.navigation_position[i].t_s);
+    const Eigen::Vector3d position = frame.to_enu(r.navigation_position[i].position);
+    return position - tr.enu_m;
   };
   f.outage_start_error_m = horizontal(err(i_start));
   f.outage_end_error_m = horizontal(err(i_end));

@@ -178,9 +178,11 @@ TEST(SensorRates, AtOneHertzASidewaysVelocityErrorInTheFirstHalfMinuteCostsTheCa
   EXPECT_NEAR(rad_to_deg(last.misalignment.heading_rad), *d.meta.truth_misalignment_heading_deg, 0.05);
   // From the start on, not only at the end: every published estimate after the first minute is
   // within 0.25 deg (armed at 20, the estimate at 60 s was not).
-  for (const MisalignmentOutput& m : r.misalignment)
-    if (m.t_s >= d.odometer.front().t_s + 60.0)
+  for (const MisalignmentOutput& m : r.misalignment) {
+    if (m.t_s >= d.odometer.front().t_s + 60.0) {
       ASSERT_NEAR(rad_to_deg(m.misalignment.heading_rad), *d.meta.truth_misalignment_heading_deg, 0.25) << "t " << m.t_s;
+    }
+  }
   const FirstMetres f = evaluate_first_metres(d, r.dr_online);
   SCOPED_TRACE(describe(f));
   EXPECT_LE(f.final_percent, 0.1);

@@ -419,8 +419,12 @@ TEST(SharedSource, CursorsMovingTogetherReadTheFileOnceAndALateOneReadsOnItsOwn)
   { Source<int> probe = shared(); }  // opened, never read: costs nothing
   for (int i = 0; i < kItems; ++i) {
     ASSERT_EQ(a(), i);
-    if (i >= 3) ASSERT_EQ(b(), i - 3);    // 3 items behind
-    if (i >= 900) ASSERT_EQ(c(), i - 900);  // 900 behind: still inside the window
+    if (i >= 3) {
+      ASSERT_EQ(b(), i - 3);  // 3 items behind
+    }
+    if (i >= 900) {
+      ASSERT_EQ(c(), i - 900);  // 900 behind: still inside the window
+    }
   }
   EXPECT_EQ(counts->opens, 1);
   EXPECT_EQ(counts->reads, kItems);
@@ -439,7 +443,9 @@ TEST(SharedSource, CursorsMovingTogetherReadTheFileOnceAndALateOneReadsOnItsOwn)
   Source<int> fast = again(), slow = again();
   for (int i = 0; i < kItems; ++i) {
     ASSERT_EQ(fast(), i);
-    if (i % 2 == 0) ASSERT_EQ(slow(), i / 2);
+    if (i % 2 == 0) {
+      ASSERT_EQ(slow(), i / 2);
+    }
   }
   EXPECT_FALSE(fast().has_value());
   EXPECT_EQ(counts->opens, 4);

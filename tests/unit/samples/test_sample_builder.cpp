@@ -900,7 +900,9 @@ TEST(SampleBuilder, AnEpochLeavesWhenItsOwnDataIsInAndTheDeferredLatencySearchIs
     // The deferred search still finds the receiver's latency, and it was applied during the run.
     EXPECT_NEAR(a.latency().applied_s, 0.1, 0.005) << period_s;
     // At 10 Hz it is applied during the run (at 1 Hz it wanders by tens of ms before it settles).
-    if (period_s < 0.5) EXPECT_NEAR(ea[ea.size() * 3 / 4].latency.applied_s, 0.1, 0.01);
+    if (period_s < 0.5) {
+      EXPECT_NEAR(ea[ea.size() * 3 / 4].latency.applied_s, 0.1, 0.01);
+    }
     EXPECT_EQ(a.latency().applied_s, b.latency().applied_s) << period_s;
   }
 }
