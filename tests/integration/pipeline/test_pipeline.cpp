@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -534,45 +535,78 @@ TEST_F(Pipeline, GnssAbsentForMinutesDeadReckoningKeepsPublishingOnHeldEstimates
 // The same drive replayed at real time and as fast as flow control allows gives byte-identical
 // files at every GNSS rate: estimates apply by the event-time hold-off rule, never by arrival.
 // A drive of duration_s (standstill, then driving off along the first straight) keeps real time short.
-void expect_speed_invariant(const std::string& rate, double duration_s, const std::string& domain_real,
-                            const std::string& domain_fast) {
-  const std::string dir = fresh_dir("speed-" + rate + "hz");
-  const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s " + std::to_string(duration_s) + " --seed 5 --gnss-rate " +
-                rate + " --out " + data + " >" + dir + "/sim.log 2>&1"),
-            0);
-  const std::string real = dir + "/real-time";
-  const std::string fast = dir + "/max";
-  ASSERT_NO_FATAL_FAILURE(
-      launch_ok({"--source", "replay:" + data, "--speed", "1", "--domain", domain_real, "--out", real}, real, 200));
-  shm_clean();
-  ASSERT_NO_FATAL_FAILURE(
-      launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", domain_fast, "--out", fast}, fast, 200));
-  for (const char* file : {"misalignment.csv", "scale_factor.csv", "dead_reckoning.csv", "navigation_position.csv"}) {
-    const std::string a = read_text(real + "/" + file);
-    const std::string b = read_text(fast + "/" + file);
-    EXPECT_FALSE(a.empty()) << file << " at " << rate << " Hz";
-    EXPECT_EQ(a, b) << file << " differs between --speed 1 and --speed max at " << rate << " Hz GNSS";
-  }
-  // Every odometer sample gives a DR output and an anchored position; every GNSS epoch after the
-  // first gives an estimate (the first only opens the sample chain).
-  const double gnss_rate_hz = std::stod(rate);
-  const results::OutputRows rows = results::read_output_rows(fast);
-  EXPECT_GT(rows.dead_reckoning.size(), static_cast<std::size_t>((duration_s - 1.0) * 100.0)) << rate << " Hz";
-  EXPECT_GT(rows.navigation_position.size(), static_cast<std::size_t>((duration_s - 1.0) * 100.0)) << rate << " Hz";
-  EXPECT_GT(rows.scale_factor.size(), static_cast<std::size_t>((duration_s - 5.0) * gnss_rate_hz)) << rate << " Hz";
-  EXPECT_GT(rows.misalignment.size(), static_cast<std::size_t>((duration_s - 5.0) * gnss_rate_hz)) << rate << " Hz";
-}
+struct SpeedCase {
+  std::string rate;  ///< GNSS rate [Hz], as given to odonav-sim --gnss-rate
+  double duration_s;
+  std::string domain_real, domain_fast;
+  std::string dir{}, data{}, real{}, fast{};  ///< filled in by the test
+};
 
-TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFiles) { expect_speed_invariant("10", 25, "53", "54"); }
-TEST_F(Pipeline, OneHertzGnssReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFiles) {
-  expect_speed_invariant("1", 40, "223", "224");
-}
-TEST_F(Pipeline, FiveHertzGnssReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFiles) {
-  expect_speed_invariant("5", 25, "225", "226");
-}
-TEST_F(Pipeline, TwentyHertzGnssReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFiles) {
-  expect_speed_invariant("20", 25, "227", "228");
+// The real-time replays of every rate run side by side (each in its own DDS domain): paced by the
+// drive, they wait most of the time, so together they take as long as the longest one. The replays
+// at maximum speed, which use the processor fully, run one after another.
+TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFilesAtEveryGnssRate) {
+  std::vector<SpeedCase> cases{{"10", 25, "53", "54"}, {"1", 40, "223", "224"}, {"5", 25, "225", "226"},
+                               {"20", 25, "227", "228"}};
+  for (SpeedCase& c : cases) {
+    c.dir = fresh_dir("speed-" + c.rate + "hz");
+    c.data = c.dir + "/data";
+    c.real = c.dir + "/real-time";
+    c.fast = c.dir + "/max";
+    ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s " + std::to_string(c.duration_s) + " --seed 5 --gnss-rate " +
+                  c.rate + " --out " + c.data + " >" + c.dir + "/sim.log 2>&1"),
+              0)
+        << c.rate << " Hz";
+  }
+  {
+    const std::string script = std::string(ODONAV_SOURCE_DIR) + "/deploy/launch";
+    std::vector<std::unique_ptr<test::ChildProcess>> real_time;
+    for (const SpeedCase& c : cases) {
+      const std::string log = c.real + ".launch.log";
+      real_time.push_back(std::make_unique<test::ChildProcess>(
+          "/bin/bash",
+          std::vector<std::string>{script, "--build-dir", ODONAV_BINARY_DIR, "--source", "replay:" + c.data, "--speed",
+                                   "1", "--domain", c.domain_real, "--out", c.real},
+          log, log));
+      ASSERT_TRUE(real_time.back()->started()) << c.rate << " Hz";
+    }
+    for (std::size_t i = 0; i < cases.size(); ++i) {
+      test::ChildProcess& launcher = *real_time[i];
+      const bool exited = launcher.wait_exit(std::chrono::seconds(200));
+      if (!exited) {
+        launcher.signal(SIGTERM);
+        launcher.wait_exit_or_kill(std::chrono::seconds(15));
+      }
+      const std::string log = read_text(cases[i].real + ".launch.log");
+      ASSERT_TRUE(exited) << "deploy/launch at " << cases[i].rate << " Hz did not finish within 200 s\n" << log;
+      ASSERT_EQ(launcher.exit_code(), 0) << cases[i].rate << " Hz\n" << log;
+      EXPECT_EQ(log.find("started again"), std::string::npos) << "a component died during the run\n" << log;
+    }
+  }
+  shm_clean();
+  for (const SpeedCase& c : cases) {
+    ASSERT_NO_FATAL_FAILURE(
+        launch_ok({"--source", "replay:" + c.data, "--speed", "max", "--domain", c.domain_fast, "--out", c.fast}, c.fast,
+                  200));
+    shm_clean();
+  }
+  for (const SpeedCase& c : cases) {
+    for (const char* file : {"misalignment.csv", "scale_factor.csv", "dead_reckoning.csv", "navigation_position.csv"}) {
+      const std::string a = read_text(c.real + "/" + file);
+      const std::string b = read_text(c.fast + "/" + file);
+      EXPECT_FALSE(a.empty()) << file << " at " << c.rate << " Hz";
+      EXPECT_EQ(a, b) << file << " differs between --speed 1 and --speed max at " << c.rate << " Hz GNSS";
+    }
+    // Every odometer sample gives a DR output and an anchored position; every GNSS epoch after the
+    // first gives an estimate (the first only opens the sample chain).
+    const double gnss_rate_hz = std::stod(c.rate);
+    const results::OutputRows rows = results::read_output_rows(c.fast);
+    EXPECT_GT(rows.dead_reckoning.size(), static_cast<std::size_t>((c.duration_s - 1.0) * 100.0)) << c.rate << " Hz";
+    EXPECT_GT(rows.navigation_position.size(), static_cast<std::size_t>((c.duration_s - 1.0) * 100.0))
+        << c.rate << " Hz";
+    EXPECT_GT(rows.scale_factor.size(), static_cast<std::size_t>((c.duration_s - 5.0) * gnss_rate_hz)) << c.rate << " Hz";
+    EXPECT_GT(rows.misalignment.size(), static_cast<std::size_t>((c.duration_s - 5.0) * gnss_rate_hz)) << c.rate << " Hz";
+  }
 }
 
 TEST_F(Pipeline, GnssRemovedMidRunIdentificationHoldsKAndDeadReckoningContinues) {
