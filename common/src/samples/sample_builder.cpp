@@ -524,7 +524,7 @@ Eigen::Vector3d SampleBuilder::reference_point_velocity(const GnssSample& g, con
   if (!compensates_lever_arm()) return g.vel_enu_mps;
   // The rate over [t - h, t], the window that ends at the epoch: nothing after the epoch is needed,
   // so its sample leaves when the epoch's own data is in. Its lag (h / 2) is measured in
-  // BENCHMARKS.md against the centred window it replaced.
+  // docs/DESIGN_DECISIONS.md against the centred window it replaced.
   const double h = params_.lever_arm_rate_half_window_s;
   const double t = sensor_time(g.t_s);
   const std::optional<Attitude> before = attitude_.attitude_at(t - h, watermark_s_);

@@ -652,7 +652,7 @@ struct Kill {
 /// published since (the consumers skip those repeats) and publishes the outputs of its downtime
 /// late. Faster than real time the consumers wait for it (--max-wait-s 30), so the recorder's rows,
 /// misalignment, K, dead reckoning and navigation position alike, must all be there and equal
-/// odonav-offline's. Without a checkpoint (the figures of BENCHMARKS.md section 11) a restarted
+/// odonav-offline's. Without a checkpoint (the figures of docs/DESIGN_DECISIONS.md) a restarted
 /// component starts again from nothing, and the comparison fails on the rows it lost or changed.
 void kill_nine_and_restart_catches_up(int domain, const std::vector<Kill>& kills, bool checkpointed) {
   constexpr const char* kSeed = "6";
@@ -791,7 +791,7 @@ void kill_nine_and_restart_catches_up(int domain, const std::vector<Kill>& kills
 }
 
 /// ODONAV_FAULTS_RESTART=<component> runs instead one kill of that component (at the time it has in
-/// these runs) without its --state-dir: the "before" figures of BENCHMARKS.md section 11.
+/// these runs) without its --state-dir: the "before" figures of docs/DESIGN_DECISIONS.md.
 bool before_figure_instead(int domain) {
   const char* restart_env = std::getenv("ODONAV_FAULTS_RESTART");
   if (!restart_env || !*restart_env) return false;

@@ -158,7 +158,7 @@ TEST(QosProfiles, EveryProfileHasTheDocumentedQosAndTopicsMatchTheirReaders) {
 
 // The ground station's readers keep one instance per vehicle (health: per vehicle x component).
 // Fast DDS keeps 10 instances per reader unless told otherwise, and the samples of any further
-// vehicle are refused without an error: a fleet of 200 was seen as 103 vehicles (BENCHMARKS.md §9).
+// vehicle are refused without an error: a fleet of 200 was seen as 103 vehicles (docs/DESIGN_DECISIONS.md).
 TEST(QosProfiles, GroundStationReadersHoldAFleetOf1024Vehicles) {
   odonav::dds::Participant participant(loopback_options());
   auto& subscriber = participant.core()->subscriber();

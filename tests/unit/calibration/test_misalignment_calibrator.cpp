@@ -315,7 +315,7 @@ TEST(MisalignmentCalibratorOutlierGate, ASidewaysErrorAmongTheFirstTwentyEpochsI
   // The innovation test is armed after 5 epochs, not 20: at 1 Hz GNSS 20 epochs are the first half
   // minute, and one sideways error then (terrain seed 8 at 1 Hz, about 25 s in) moved the heading
   // from 0.83 to -0.98 deg; 800 s later it was still 0.03 deg off and not converged, and the DR
-  // ended at 0.153 %D instead of 0.076 (BENCHMARKS.md 4n).
+  // ended at 0.153 %D instead of 0.076 (docs/DESIGN_DECISIONS.md).
   const auto out = expect_only_outliers_at({12}, 3.0 * left_of_drive());
   // Right away, not only in the long run: at epoch 20 the estimate is that of the clean epochs.
   EXPECT_NEAR(rad_to_deg(out.at(20).misalignment.heading_rad), 0.8, 0.3);

@@ -50,7 +50,7 @@ TEST(FirstMetre, TerrainSeed1DeadReckoningMeetsTheFinalGoal) {
   // Measured 0.0443 %D with the track slip in turns removed (0.0507 %D without it, 0.082 %D when
   // only converged estimates were applied): the goal is 0.05 %D. Of the 0.9 m that slip had put
   // into this seed's 4.1 m, the fitted slip gain (0.054 s/rad against the simulator's 0.05) takes
-  // 0.5 m out (BENCHMARKS.md 4j).
+  // 0.5 m out (docs/DESIGN_DECISIONS.md).
   EXPECT_LE(f.final_percent, 0.05);
   // The K (1.5 % off the nominal) is taken after 11 m of odometer distance instead of 59 m.
   EXPECT_LE(f.distance_on_nominal_k_m, 20.0);
@@ -65,7 +65,7 @@ TEST(FirstMetre, TerrainSeed1DeadReckoningMeetsTheFinalGoal) {
 TEST(FirstMetre, AnRtkStartMeetsTheMaxAfter500mGoal) {
   // The max %D after 500 m is mostly the start fix's error: the simulator's GNSS error is 1.4 m per
   // axis of Gauss-Markov noise correlated over 60 s, which no origin built from the fixes of the
-  // first minute averages away (BENCHMARKS.md 4f). What does meet the goal is a start fix of
+  // first minute averages away (BENCHMARKS.md §5.1). What does meet the goal is a start fix of
   // centimetres: the same drive with RTK-grade positions (the slow robot's 1 cm + 1 cm), the DR
   // unchanged.
   sim::SimulationConfig cfg = terrain_config(1);

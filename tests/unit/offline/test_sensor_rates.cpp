@@ -62,7 +62,7 @@ TEST(SensorRates, TerrainAtOneHertzIdentifiesKWithTheDefaults) {
   // Before the gates followed the data, every 1 Hz interval was a "gap" (0 of 799 accepted).
   EXPECT_EQ(r.builder_counters.gap, 0u);
   EXPECT_GT(r.builder_counters.accepted, 500u);
-  // The goal, 0.1 %. Measured 0.085 % (10-seed median 0.077 %, BENCHMARKS.md 4h); 0.125 %
+  // The goal, 0.1 %. Measured 0.085 % (10-seed median 0.077 %, docs/DESIGN_DECISIONS.md); 0.125 %
   // before the change detector cut the window back after the K steps and the trapezoid
   // correction's rates followed the pulse quantisation (docs/ALGORITHM.md §2, §3).
   EXPECT_LE(vff_rms_percent(s), 0.1);
@@ -81,7 +81,7 @@ TEST(SensorRates, GnssLatencySweepIsEstimatedWithin5msAndKStaysAccurate) {
     const OfflineResult r = run_offline(d, p);
     const json s = summarize(d, r, p);
     SCOPED_TRACE(s["scale_factor"].dump(1));
-    // Seed 1 is the worst of ten seeds: -3.0 / -3.0 / -3.1 ms at 50 / 100 / 200 ms (BENCHMARKS.md 4g).
+    // Seed 1 is the worst of ten seeds: -3.0 / -3.0 / -3.1 ms at 50 / 100 / 200 ms (docs/DESIGN_DECISIONS.md).
     const GnssLatencyEstimate& l = r.identification.back().latency;
     EXPECT_NEAR(l.applied_s, latency_s, 0.004) << latency_s;
     EXPECT_GT(l.sigma_s, 0.0);
@@ -114,7 +114,7 @@ TEST(SensorRates, GnssLatencySweepIsEstimatedWithin5msAndKStaysAccurate) {
 TEST(SensorRates, AtOneHertzALatencyIsAppliedWithinTheFirstMinutesAndKKeepsItsZeroLatencyAccuracy) {
   // The minimum of the latency estimate is 20 s of samples, not 200 samples: 20 at 1 Hz. With 200
   // the 100 ms of seed 1 were applied after 307 s and K was 0.179 % RMS; now after 91 s, 0.096 %
-  // against 0.085 % without a latency (BENCHMARKS.md 4k).
+  // against 0.085 % without a latency (docs/DESIGN_DECISIONS.md).
   const Dataset d0 = scenario("terrain", 1.0);
   const OfflineParams p0 = user_params(d0);
   const double rms0 = vff_rms_percent(summarize(d0, run_offline(d0, p0), p0));
@@ -137,7 +137,7 @@ TEST(SensorRates, AtOneHertzALatencyIsAppliedWithinTheFirstMinutesAndKKeepsItsZe
   // What is applied first at 1 Hz is a coarse estimate (sigma 10-12 ms; 133.7 ms here, the worst of
   // ten seeds). It is refined once a later estimate's sigma is half of it: 114.0 ms at sigma 5.5 ms.
   // Kept until the end, the coarse value was -14 to +34 ms off on the ten seeds, refined -14 to
-  // +14 ms (BENCHMARKS.md 4l). The 10 Hz receiver's latency is within 4 ms (test above).
+  // +14 ms (docs/DESIGN_DECISIONS.md). The 10 Hz receiver's latency is within 4 ms (test above).
   const GnssLatencyEstimate& last = r.identification.back().latency;
   EXPECT_GT(first_sigma_s, 0.008);
   EXPECT_GT(last.applied_sigma_s, 0.0);
@@ -150,7 +150,7 @@ TEST(SensorRates, AtOneHertzWithA200msLatencyTheStartOfTheDriveKeepsTheDeadRecko
   // 14 s on seed 8). Two things keep that out of the DR: the latency search's start K is published
   // at 1 Hz too, and each later estimate of the identification replaces the K in force even when
   // it is within 3 sigma of the nominal. Seed 1: DR final 0.095 %D before both, 0.054 %D with them
-  // (ten seeds: median 0.099 -> 0.060 %D, BENCHMARKS.md 4m).
+  // (ten seeds: median 0.099 -> 0.060 %D, docs/DESIGN_DECISIONS.md).
   const Dataset d = scenario("terrain", 1.0, 0.2);
   const OfflineParams p = user_params(d);
   const OfflineResult r = run_offline(d, p);
@@ -167,7 +167,7 @@ TEST(SensorRates, AtOneHertzASidewaysVelocityErrorInTheFirstHalfMinuteCostsTheCa
   // innovation test waited for 20 epochs (the first 20 s at 1 Hz), that epoch moved the heading to
   // -1 deg, the calibration ended the drive 0.031 deg off and still calibrating, and the DR at
   // 0.153 %D; armed after 5 epochs, it rejects the epoch: converged, 0.029 deg, 0.076 %D
-  // (BENCHMARKS.md 4n).
+  // (docs/DESIGN_DECISIONS.md).
   const Dataset d = scenario("terrain", 1.0, 0.0, 8);
   const OfflineParams p = user_params(d);
   const OfflineResult r = run_offline(d, p);

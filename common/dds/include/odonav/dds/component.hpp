@@ -97,8 +97,8 @@ class StopSignals {
 ///   listener thread only copies the sample; a slow task (file I/O) never delays reception.
 /// - kOnPost: executed at once by the thread that posts it (a Fast DDS listener thread),
 ///   under the mutex; run()'s thread only ticks every tick period. This saves a thread wake-up and
-///   two context switches per sample (the largest per-sample cost at 100 Hz inputs, BENCHMARKS.md
-///   §6i), and an output leaves on the thread that received its last input. For nodes whose tasks
+///   two context switches per sample (the largest per-sample cost at 100 Hz inputs, docs/DESIGN_DECISIONS.md),
+///   and an output leaves on the thread that received its last input. For nodes whose tasks
 ///   are short and never block (the event-time nodes: a core step and non-blocking KEEP_LAST
 ///   writes). Tasks posted before run() and after the stop are queued and run by run() and
 ///   run_pending() as with the worker, so the drain is the same.

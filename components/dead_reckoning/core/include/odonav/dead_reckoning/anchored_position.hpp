@@ -76,7 +76,7 @@ struct AnchoredPositionParams {
   /// Prior one-sigma of the scale error of the DR increments at the first fix (%, >= 0). 0 by
   /// default: the identified K is taken as right and the state only follows slow residual errors
   /// (measured on sim:terrain, a prior of 0.3-1 % lets the state chase the turn slip and the K
-  /// re-identifications and costs 0.05-0.5 m RMS; BENCHMARKS.md 4d). Give the K's uncertainty
+  /// re-identifications and costs 0.05-0.5 m RMS; docs/DESIGN_DECISIONS.md). Give the K's uncertainty
   /// when the DR runs on a nominal K.
   double scale_sigma_percent = 0.0;
   /// Random walk of the scale error (% per sqrt(km), >= 0).
