@@ -54,15 +54,19 @@ std::string read_text(const std::string& path) {
   return s.str();
 }
 
-/// Runs deploy/launch with `args` (output to log_path), bounded by timeout_s: on timeout it gets
-/// SIGTERM (its trap stops every component), then SIGKILL after 15 s.
-LaunchResult launch(const std::vector<std::string>& args, const std::string& log_path, int timeout_s) {
+/// Starts deploy/launch with `args` (output to log_path); launch_result() waits for it.
+std::unique_ptr<test::ChildProcess> start_launch(const std::vector<std::string>& args, const std::string& log_path) {
   const std::string script = std::string(ODONAV_SOURCE_DIR) + "/deploy/launch";
   std::vector<std::string> all{script, "--build-dir", ODONAV_BINARY_DIR};
   all.insert(all.end(), args.begin(), args.end());
+  return std::make_unique<test::ChildProcess>("/bin/bash", all, log_path, log_path);
+}
+
+/// Waits for a launcher started at t0, bounded by timeout_s: on timeout it gets SIGTERM (its trap
+/// stops every component), then SIGKILL after 15 s.
+LaunchResult launch_result(test::ChildProcess& launcher, const std::string& log_path, int timeout_s,
+                           std::chrono::steady_clock::time_point t0) {
   LaunchResult r;
-  const auto t0 = std::chrono::steady_clock::now();
-  test::ChildProcess launcher("/bin/bash", all, log_path, log_path);
   if (!launcher.started()) {
     r.log = "posix_spawn failed";
     return r;
@@ -76,6 +80,13 @@ LaunchResult launch(const std::vector<std::string>& args, const std::string& log
   r.exit_code = launcher.exit_code();
   r.log = read_text(log_path);
   return r;
+}
+
+/// Runs deploy/launch with `args` (output to log_path), bounded by timeout_s.
+LaunchResult launch(const std::vector<std::string>& args, const std::string& log_path, int timeout_s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::unique_ptr<test::ChildProcess> launcher = start_launch(args, log_path);
+  return launch_result(*launcher, log_path, timeout_s, t0);
 }
 
 int run(const std::string& command) {
@@ -108,15 +119,19 @@ std::string ring_without_gnss(const std::string& dir, int duration_s, double gap
   return data;
 }
 
-/// Runs the launcher and fails the test (with the launcher's log) unless it exits 0.
-void launch_ok(const std::vector<std::string>& args, const std::string& out, int timeout_s) {
-  const LaunchResult r = launch(args, out + ".launch.log", timeout_s);
+/// Fails the test (with the launcher's log) unless the launcher exited 0 within its time.
+void expect_launch_ok(const LaunchResult& r, const std::string& what, int timeout_s) {
   ASSERT_FALSE(r.timed_out) << "deploy/launch did not finish within " << timeout_s << " s\n" << r.log;
   ASSERT_EQ(r.exit_code, 0) << r.log;
   // The launcher restarts a component that dies and the run can still complete exactly: here, with
   // nothing killed on purpose, any restart is a crash to report.
   EXPECT_EQ(r.log.find("started again"), std::string::npos) << "a component died during the run\n" << r.log;
-  std::cerr << "deploy/launch " << args[1] << " took " << r.seconds << " s\n";
+  std::cerr << "deploy/launch " << what << " took " << r.seconds << " s\n";
+}
+
+/// Runs the launcher and fails the test (with the launcher's log) unless it exits 0.
+void launch_ok(const std::vector<std::string>& args, const std::string& out, int timeout_s) {
+  expect_launch_ok(launch(args, out + ".launch.log", timeout_s), args[1], timeout_s);
 }
 
 class Pipeline : public ::testing::Test {
@@ -559,28 +574,16 @@ TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFilesAtEveryGnssR
         << c.rate << " Hz";
   }
   {
-    const std::string script = std::string(ODONAV_SOURCE_DIR) + "/deploy/launch";
+    const auto t0 = std::chrono::steady_clock::now();
     std::vector<std::unique_ptr<test::ChildProcess>> real_time;
-    for (const SpeedCase& c : cases) {
-      const std::string log = c.real + ".launch.log";
-      real_time.push_back(std::make_unique<test::ChildProcess>(
-          "/bin/bash",
-          std::vector<std::string>{script, "--build-dir", ODONAV_BINARY_DIR, "--source", "replay:" + c.data, "--speed",
-                                   "1", "--domain", c.domain_real, "--out", c.real},
-          log, log));
-      ASSERT_TRUE(real_time.back()->started()) << c.rate << " Hz";
-    }
+    for (const SpeedCase& c : cases)
+      real_time.push_back(start_launch(
+          {"--source", "replay:" + c.data, "--speed", "1", "--domain", c.domain_real, "--out", c.real},
+          c.real + ".launch.log"));
     for (std::size_t i = 0; i < cases.size(); ++i) {
-      test::ChildProcess& launcher = *real_time[i];
-      const bool exited = launcher.wait_exit(std::chrono::seconds(200));
-      if (!exited) {
-        launcher.signal(SIGTERM);
-        launcher.wait_exit_or_kill(std::chrono::seconds(15));
-      }
-      const std::string log = read_text(cases[i].real + ".launch.log");
-      ASSERT_TRUE(exited) << "deploy/launch at " << cases[i].rate << " Hz did not finish within 200 s\n" << log;
-      ASSERT_EQ(launcher.exit_code(), 0) << cases[i].rate << " Hz\n" << log;
-      EXPECT_EQ(log.find("started again"), std::string::npos) << "a component died during the run\n" << log;
+      SCOPED_TRACE(cases[i].rate + " Hz");
+      ASSERT_NO_FATAL_FAILURE(expect_launch_ok(
+          launch_result(*real_time[i], cases[i].real + ".launch.log", 200, t0), "replay:" + cases[i].data, 200));
     }
   }
   shm_clean();
