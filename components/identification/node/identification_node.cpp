@@ -4,6 +4,7 @@
 #include "odonav/dds/output_messages.hpp"
 
 #include "odonav/lever_arm_option.hpp"
+#include "odonav/nominal_k_option.hpp"
 
 #include <cmath>
 #include <ctime>
@@ -47,8 +48,7 @@ void add_identification_node_options(Options& o) {
             "priority of this instance, published as ScaleFactor.source_priority: consumers follow the "
             "highest-priority live instance (primary e.g. 20, standby 10)",
             0, 1000000);
-  o.add_double("nominal-k", kDefaultNominalK_m_per_pulse, "reference K (m/pulse) a set_k command must stay within 0.1x..10x of", 1e-6,
-               10.0);
+  add_nominal_k_option(o);
 }
 
 InstanceSettings instance_settings_from(const Options& o) {
@@ -60,7 +60,7 @@ InstanceSettings instance_settings_from(const Options& o) {
     throw ConfigError(std::string("--instance: ") + e.what());
   }
   s.ownership_strength = static_cast<uint32_t>(o.get_int("ownership-strength"));
-  s.nominal_k_m_per_pulse = o.get_double("nominal-k");
+  s.nominal_k_m_per_pulse = resolve_nominal_k(nominal_k_option_from(o));
   return s;
 }
 
@@ -70,7 +70,7 @@ IdentificationParams identification_node_params_from(const Options& o) {
   IdentificationVehicleFacts facts;
   facts.use_ins = o.get_bool("use-ins");
   facts.lever_arm_body_m = lever_arm_from(o);
-  facts.nominal_k_m_per_pulse = o.get_double("nominal-k");
+  facts.nominal_k_m_per_pulse = resolve_nominal_k(nominal_k_option_from(o));
   facts.run_all_estimators = false;  // the node publishes the main estimator only
   return identification_params_for(o, facts);
 }

@@ -8,9 +8,11 @@
 #include <sstream>
 
 #include "odonav/consumer_rules.hpp"
+#include "odonav/defaults.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "odonav/lever_arm_option.hpp"
+#include "odonav/nominal_k_option.hpp"
 
 using namespace odonav;
 
@@ -484,6 +486,31 @@ TEST(DeadReckoningParams, FactsFromOptions) {
   EXPECT_EQ(d.nominal_k_option_m_per_pulse, 0.0);  // not given
   EXPECT_EQ(dead_reckoner_params(d).nominal_k_m_per_pulse, 0.0125);
   EXPECT_FALSE(d.lever_arm_body_m);
+}
+
+TEST(NominalKOption, OneFlagOneResolutionForEveryProgram) {
+  // The flag given wins, then the dataset's meta.json, then the product default.
+  EXPECT_EQ(resolve_nominal_k(0.0131, 0.0127), 0.0131);
+  EXPECT_EQ(resolve_nominal_k(0.0, 0.0127), 0.0127);
+  EXPECT_EQ(resolve_nominal_k(0.0), kDefaultNominalK_m_per_pulse);
+  // Declared once in a tool holding both identification and dead-reckoning options; its range
+  // takes 0 (not given) and refuses a negative K, naming the flag.
+  Options o("odonav-test", "nominal K");
+  add_nominal_k_option(o);
+  add_dead_reckoning_options(o);
+  add_lever_arm_option(o);
+  std::ostringstream help;
+  ASSERT_EQ(o.parse({"--nominal-k", "0.02"}, help), ParseResult::kRun);
+  EXPECT_EQ(nominal_k_option_from(o), 0.02);
+  EXPECT_EQ(dead_reckoner_params(dead_reckoning_facts_from(o)).nominal_k_m_per_pulse, 0.02);
+  Options bad("odonav-test", "nominal K");
+  add_nominal_k_option(bad);
+  try {
+    bad.parse({"--nominal-k", "-0.01"}, help);
+    FAIL() << "a negative nominal K was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("--nominal-k"), std::string::npos) << e.what();
+  }
 }
 
 TEST(DeadReckoningParams, ThePulseJumpGateUsesTheNominalKOfTheFunction) {
