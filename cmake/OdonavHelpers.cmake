@@ -1,11 +1,18 @@
 # Helpers shared by every CMakeLists.txt of the project.
 
-# odonav_add_gtest(<name> SOURCES <files...> LIBS <targets...> [LABELS <labels...>] [ENVIRONMENT <VAR=...>...])
+# odonav_add_gtest(<name> SOURCES <files...> LIBS <targets...> [LABELS <labels...>] [LANE <lane>]
+#                  [ENVIRONMENT <VAR=...>...] [TIMEOUT <s>])
 # Builds bin/odonav-test-<name> and registers each of its GoogleTest cases with CTest.
 # Every test runs with SKIP_DEFAULT_XML=1 so a stray DEFAULT_FASTRTPS_PROFILES.xml cannot change it,
 # and with the loopback-only profile as the default Fast DDS profile.
+#
+# Multi-process tests (label "integration") start several DDS programs each. By default one runs
+# alone (RUN_SERIAL). With LANE <lane>, the tests of the lane run one at a time (RESOURCE_LOCK) but
+# beside the tests of the other lane and the unit tests: most multi-process tests wait on real-time
+# pacing, leases and restarts, so two lanes fill two cores. A lane's DDS domain ids must not be used
+# by any test of the other lane (each CMakeLists.txt names its domains).
 function(odonav_add_gtest name)
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS;LABELS;ENVIRONMENT" ${ARGN})
+  cmake_parse_arguments(ARG "" "TIMEOUT;LANE" "SOURCES;LIBS;LABELS;ENVIRONMENT" ${ARGN})
   set(target odonav-test-${name})
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gmock GTest::gtest_main)
@@ -18,20 +25,29 @@ function(odonav_add_gtest name)
     set(ARG_TIMEOUT 300)
   endif()
   # PROPERTIES takes key/value pairs: a list value must keep its ';' escaped or only its first
-  # element survives.
-  string(REPLACE ";" "\\;" _labels "${ARG_LABELS}")
-  # Multi-process tests (label "integration") run one at a time: each starts several DDS processes
-  # that pace themselves on event time with bounded waits, and two such runs on a 2-core machine
-  # starve each other. Unit tests still run in parallel.
-  set(_serial FALSE)
+  # element survives, and an empty value would shift every pair after it (tests without labels are
+  # labelled "unit").
+  set(_labels "${ARG_LABELS}")
+  if(NOT _labels)
+    set(_labels unit)
+  endif()
+  string(REPLACE ";" "\\;" _labels "${_labels}")
   if("integration" IN_LIST ARG_LABELS)
-    set(_serial TRUE)
+    if(ARG_LANE)
+      set(_schedule RESOURCE_LOCK "odonav-integration-lane-${ARG_LANE}")
+    else()
+      set(_schedule RUN_SERIAL TRUE)
+    endif()
+  elseif(ARG_LANE)
+    message(FATAL_ERROR "odonav_add_gtest(${name}): LANE is for tests labelled integration")
+  else()
+    set(_schedule RUN_SERIAL FALSE)
   endif()
   gtest_discover_tests(${target}
     DISCOVERY_MODE PRE_TEST
     PROPERTIES
       TIMEOUT ${ARG_TIMEOUT}
       LABELS "${_labels}"
-      RUN_SERIAL ${_serial}
+      ${_schedule}
       ENVIRONMENT "SKIP_DEFAULT_XML=1;FASTRTPS_DEFAULT_PROFILES_FILE=${PROJECT_SOURCE_DIR}/deploy/profiles/loopback.xml;${ARG_ENVIRONMENT}")
 endfunction()

@@ -34,10 +34,15 @@ class NodeProcess : public ::testing::Test {
   void TearDown() override { shm_clean(); }
 };
 
-/// Waits until a collector has received nothing new (heartbeats aside) for `quiet` (at most `limit`).
+/// Waits until a collector holds at least `at_least` samples (heartbeats aside), then until it has
+/// received nothing new for `quiet`; at most `limit` in all. The count comes first because a node
+/// starved of processor time by other work on the machine can pause for longer than `quiet`.
 template <class T>
-void wait_quiet(Collector<T>& c, std::chrono::milliseconds quiet = 1500ms, std::chrono::milliseconds limit = 60s) {
+void wait_quiet(Collector<T>& c, std::size_t at_least = 0, std::chrono::milliseconds quiet = 1500ms,
+                std::chrono::milliseconds limit = 60s) {
   const auto end = std::chrono::steady_clock::now() + limit;
+  while (std::chrono::steady_clock::now() < end && without_repeats(c.samples()).size() < at_least)
+    std::this_thread::sleep_for(100ms);
   std::size_t n = without_repeats(c.samples()).size();
   auto since = std::chrono::steady_clock::now();
   while (std::chrono::steady_clock::now() < end) {
@@ -168,7 +173,7 @@ TEST_F(NodeProcess, CalibrationNodePublishesWhatTheCalibratorComputesAndDrainsOn
   ASSERT_TRUE(out.reader().wait_for_matched(1, 20s));
   settle_discovery();
   replay(sensor_writes(d, nullptr, &gnss, &ins), {&gnss, &ins});
-  wait_quiet(out);
+  wait_quiet(out, expected.size());
   const std::size_t before_stop = without_repeats(out.samples()).size();
 
   node.signal(SIGINT);
@@ -312,7 +317,7 @@ TEST_F(NodeProcess, DeadReckoningNodeEqualsTheDeadReckonerFedTheSameEstimates) {
   for (const auto& k : k_messages)
     writes.push_back({odonav::dds::to_seconds(k.header().stamp()), 2, [&k_writer, k] { k_writer.write(k); }});
   replay(writes, {&odo, &gnss, &ins, &mis_writer, &k_writer});
-  wait_quiet(out);
+  wait_quiet(out, expected.size());
 
   node.signal(SIGINT);
   ASSERT_TRUE(node.wait_exit(30s));
@@ -356,7 +361,7 @@ TEST_F(NodeProcess, DeadReckoningWithoutIdentificationUsesTheNominalKAndSaysSo) 
                v.back().level() == msg::HEALTH_LEVEL_WARN && counter(v.back(), "scale_factor_absent_events") >= 1.0;
       },
       10s));
-  wait_quiet(out);
+  wait_quiet(out, expected.size());
   node.signal(SIGINT);
   ASSERT_TRUE(node.wait_exit(30s));
   EXPECT_EQ(node.exit_code(), 0);
@@ -415,7 +420,7 @@ TEST_F(NodeProcess, LateJoiningDeadReckoningGetsTheLastPublishedK) {
   for (std::size_t i = 1; i < d.gnss.size(); ++i)  // later epochs: a different K
     writes.push_back({d.gnss[i].t_s, 2, [&k_writer, m = k_message(d.gnss[i].t_s, 0.0132)] { k_writer.write(m); }});
   replay(writes, {&odo, &gnss, &ins, &k_writer});
-  wait_quiet(out);
+  wait_quiet(out, d.odometer.size() - 1);
   node.signal(SIGINT);
   ASSERT_TRUE(node.wait_exit(30s));
   EXPECT_EQ(node.exit_code(), 0);
