@@ -247,15 +247,39 @@ TEST(RunDiagnosis, AShortOneHertzDriveSaysTheMisalignmentDidNotConvergeAndWhatIs
   const OfflineResult result = run_offline(d, p);
   ASSERT_FALSE(result.misalignment.empty());
   ASSERT_FALSE(result.misalignment.back().converged);
+  // The calibration's own reason (the node's Health detail) names the same numbers.
+  EXPECT_NE(result.misalignment.back().reason.find(" GNSS epochs used (straight, above 3 m/s), 100 needed"),
+            std::string::npos)
+      << result.misalignment.back().reason;
   const RunDiagnosis r = diagnose_run(d, p, result);
   const RunWarning* w = find(r, "misalignment_not_converged");
   ASSERT_NE(w, nullptr);
-  EXPECT_NE(w->message.find("GNSS epochs used of the 100 required (--cal-min-samples)"), std::string::npos)
+  EXPECT_NE(w->message.find("GNSS epochs used while moving (straight, above 3 m/s) of the 100 required (--cal-min-samples)"), std::string::npos)
       << w->message;
   // The same drive for 120 s at 10 Hz converges: no such warning.
   const Dataset ok = sim::simulate(straight(120.0));
   const OfflineParams q = params_for(ok);
   EXPECT_EQ(find(diagnose_run(ok, q, run_offline(ok, q)), "misalignment_not_converged"), nullptr);
+}
+
+TEST(RunDiagnosis, AShortOneHertzDriveSaysKDidNotConvergeAndWhatIsMissing) {
+  sim::SimulationConfig cfg = straight(20.0);  // 15 s of driving after the 5 s standstill
+  cfg.gnss_rate_hz = 1.0;
+  const Dataset d = sim::simulate(cfg);
+  const OfflineParams p = params_for(d);
+  const OfflineResult result = run_offline(d, p);
+  ASSERT_FALSE(result.identification.empty());
+  ASSERT_TRUE(result.identification.back().main.valid);
+  ASSERT_FALSE(result.identification.back().main.converged);
+  const RunDiagnosis r = diagnose_run(d, p, result);
+  const RunWarning* w = find(r, "k_not_converged");
+  ASSERT_NE(w, nullptr);
+  // "K did not converge: sigma 0.144 % of K, 0.1 % needed (--converged-rel-sigma) (14 of 21 GNSS
+  // epochs accepted); the last K 0.0126892 m/pulse is provisional"
+  EXPECT_NE(w->message.find("K did not converge: sigma "), std::string::npos) << w->message;
+  EXPECT_NE(w->message.find(" % of K, 0.1 % needed (--converged-rel-sigma)"), std::string::npos) << w->message;
+  EXPECT_NE(w->message.find("GNSS epochs accepted); the last K "), std::string::npos) << w->message;
+  // The 120 s drive at 10 Hz converges: no such warning (ACleanDriveHasNoWarning).
 }
 
 // Braking to a standstill at the end of a drive (docs/ALGORITHM.md §2, "Braking to a standstill"):

@@ -1,6 +1,8 @@
 #include "odonav/calibration/misalignment_calibrator.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 #include "odonav/checkpoint_file.hpp"
@@ -243,7 +245,23 @@ MisalignmentOutput MisalignmentCalibrator::current() const {
     o.reason = "both sigmas below the threshold";
   } else {
     o.state = CalibrationState::kCalibrating;
-    o.reason = samples_used_ < params_.min_samples ? "collecting samples" : "sigma above the threshold";
+    // Name what is missing with its numbers: a short drive must say it, not just "calibrating".
+    auto deg = [](double rad) {
+      std::ostringstream t;
+      t.precision(3);
+      t << rad * 180.0 / kPi;
+      return t.str();
+    };
+    if (samples_used_ < params_.min_samples) {
+      std::ostringstream t;
+      t.precision(3);
+      t << params_.min_speed_mps;
+      o.reason = "collecting samples: " + std::to_string(samples_used_) + " GNSS epochs used (straight, above " +
+                 t.str() + " m/s), " + std::to_string(params_.min_samples) + " needed";
+    } else {
+      o.reason = "sigma above the threshold: " + deg(std::max(o.sigma_heading_rad, o.sigma_pitch_rad)) +
+                 " deg, " + deg(params_.converged_sigma_rad) + " deg needed";
+    }
   }
   return o;
 }
