@@ -362,7 +362,7 @@ struct InputTap {
 };
 
 /// summary.json's additions to the summary: the identification gates' counts, the skipped bad
-/// rows, the turn slip of the last estimate.
+/// rows, the turn slip of the last estimate and the brakings to a standstill withdrawn from K.
 void add_run_facts(nlohmann::json& summary, const odonav::offline::OfflineRunTotals& totals,
                    const odonav::DatasetReadReport& report) {
   const odonav::SampleBuilderCounters& c = totals.builder_counters;
@@ -387,6 +387,10 @@ void add_run_facts(nlohmann::json& summary, const odonav::offline::OfflineRunTot
     summary["scale_factor"]["turn_slip_samples"] = slip.samples;
     summary["scale_factor"]["turn_slip_outliers"] = slip.outliers;
     summary["scale_factor"]["turn_slip_reason"] = slip.reason;  // why it is not applied; "" when it is
+    // Brakings that ended in a standstill, whose samples were withdrawn from K (braking_stop.hpp).
+    const odonav::BrakingStopCounters& stops = totals.last_identification->braking_stop;
+    summary["scale_factor"]["braking_stops"] = stops.stops;
+    summary["scale_factor"]["braking_samples_withdrawn"] = stops.samples_withdrawn;
   }
 }
 

@@ -64,6 +64,8 @@ int main(int argc, char** argv) {
   opts.add_double("duration-s", 0.0, "run length, s; more laps (or a longer road) are driven and the data cut "
                   "there (0: the scenario's natural length)", 0.0, 604800.0);
   opts.add_int("laps", base.laps, "laps of the ring/terrain course", 1, 10000);
+  opts.add_double("standstill-end-s", base.standstill_end_s,
+                  "standing still after the final stop, s (a drive that ends by braking to a standstill)", 0.0, 3600.0);
   opts.add_double("gnss-latency-s", 0.0, "GNSS time-stamp latency, s (stamp = measurement time + latency)", 0.0, 9.99);
   opts.add_double("k-true", base.k_true_m_per_pulse, "true scale factor at the start, m/pulse", 1e-5, 1.0);
   opts.add_double("misalignment-heading-deg", odonav::rad_to_deg(base.misalignment.heading_rad),
@@ -89,6 +91,7 @@ int main(int argc, char** argv) {
     if (opts.get_string("gnss-rate") != "default") cfg.gnss_rate_hz = std::stod(opts.get_string("gnss-rate"));
     cfg.duration_s = opts.get_double("duration-s");
     if (opts.was_set("laps")) cfg.laps = static_cast<int>(opts.get_int("laps"));
+    if (opts.was_set("standstill-end-s")) cfg.standstill_end_s = opts.get_double("standstill-end-s");
     cfg.gnss_latency_s = opts.get_double("gnss-latency-s");
     if (opts.was_set("k-true")) cfg.k_true_m_per_pulse = opts.get_double("k-true");
     if (opts.was_set("misalignment-heading-deg")) {

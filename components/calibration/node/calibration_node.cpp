@@ -210,6 +210,9 @@ void CalibrationNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("epochs_low_speed", static_cast<double>(k.low_speed));
   c.emplace_back("epochs_invalid_fix", static_cast<double>(k.invalid_fix));
   c.emplace_back("epochs_no_attitude", static_cast<double>(k.no_attitude));
+  // Brakings that ended in a standstill and the used epochs they withdrew (braking_stop.hpp).
+  c.emplace_back("braking_stops", static_cast<double>(k.braking_stops));
+  c.emplace_back("epochs_braking_withdrawn", static_cast<double>(k.braking_withdrawn));
   c.emplace_back("heartbeats", static_cast<double>(misalignment_.heartbeats()));
   for (auto& counter : lifecycle_.restart().counters()) c.push_back(std::move(counter));
   if (last_output_) {

@@ -308,6 +308,9 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
   c.emplace_back("rejected_innovation", static_cast<double>(b.innovation));
   c.emplace_back("rejected_cross_track", static_cast<double>(b.cross_track));
   c.emplace_back("samples_reversing", static_cast<double>(b.reversing_accepted));
+  // Brakings that ended in a standstill and the samples they withdrew from K (braking_stop.hpp).
+  c.emplace_back("braking_stops", static_cast<double>(core_.braking_stop_counters().stops));
+  c.emplace_back("braking_samples_withdrawn", static_cast<double>(core_.braking_stop_counters().samples_withdrawn));
   // The GNSS latency in force and its online one-sigma (0 when fixed, -1 while there is none).
   const GnssLatencyEstimate& latency = core_.latency();
   c.emplace_back("gnss_latency_s", latency.applied_s);

@@ -151,6 +151,23 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
   } else if (last_main_) {
     const ScaleFactorEstimate& k = *last_main_;
     const double nominal = p.dead_reckoning.nominal_k_m_per_pulse;
+    // Accepted samples, but not enough for the convergence rule: say what is missing.
+    if (k.valid && !k.converged && std::isfinite(k.k_m_per_pulse) && k.k_m_per_pulse != 0.0) {
+      const ScaleFactorEstimatorParams& e = p.identification.estimator;
+      std::string missing;
+      if (c.accepted < e.min_samples)
+        missing = num(static_cast<double>(c.accepted), 12) + " samples accepted while moving, " +
+                  num(static_cast<double>(e.min_samples), 12) + " needed";
+      const double rel_percent = 100.0 * k.sigma_m_per_pulse / std::abs(k.k_m_per_pulse);
+      if (!(rel_percent < 100.0 * e.converged_rel_sigma))
+        missing += (missing.empty() ? "" : "; ") + std::string("sigma ") + num(rel_percent, 3) + " % of K, " +
+                   num(100.0 * e.converged_rel_sigma, 3) + " % needed (--converged-rel-sigma)";
+      warn("k_not_converged", "K did not converge: " + (missing.empty() ? std::string("estimator not converged") : missing) +
+                                  " (" + num(static_cast<double>(c.accepted), 12) + " of " +
+                                  num(static_cast<double>(c.epochs), 12) +
+                                  " GNSS epochs accepted); the last K " + num(k.k_m_per_pulse, 6) +
+                                  " m/pulse is provisional");
+    }
     if (k.valid && std::isfinite(k.k_m_per_pulse) && nominal > 0.0) {
       const double ratio = k.k_m_per_pulse / nominal;
       if (ratio < 0.5 || ratio > 2.0)
@@ -185,7 +202,8 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
       const MisalignmentOutput& o = *last_misalignment_;
       std::string missing;
       if (o.samples_used < p.calibration.min_samples)
-        missing = num(static_cast<double>(o.samples_used), 12) + " GNSS epochs used of the " +
+        missing = num(static_cast<double>(o.samples_used), 12) + " GNSS epochs used while moving (straight, above " +
+                  num(p.calibration.min_speed_mps) + " m/s) of the " +
                   num(static_cast<double>(p.calibration.min_samples), 12) + " required (--cal-min-samples)";
       const double limit_deg = rad_to_deg(p.calibration.converged_sigma_rad);
       const double worst_deg = rad_to_deg(std::max(o.sigma_heading_rad, o.sigma_pitch_rad));

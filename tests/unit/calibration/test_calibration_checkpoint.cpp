@@ -236,7 +236,7 @@ TEST_F(CalibrationCheckpointTest, StateTextRoundTripsAndTheFileIsVersionedAndSel
       serialize_calibration_checkpoint(CalibrationCheckpoint{kVehicle, kHash, a.current().t_s, state});
   EXPECT_EQ(text.rfind("odonav-calibration-checkpoint 1\nvehicle vehicle-07\nconfig_hash 0123456789abcdef\n", 0), 0u)
       << text;
-  EXPECT_NE(text.find("odonav-misalignment-calibrator-state 1\n"), std::string::npos);
+  EXPECT_NE(text.find("odonav-misalignment-calibrator-state 2\n"), std::string::npos);
   const CalibrationCheckpoint c = parse_calibration_checkpoint(text);
   EXPECT_EQ(c.last_sample_t_s, a.current().t_s);
   EXPECT_EQ(c.calibrator_state, state);

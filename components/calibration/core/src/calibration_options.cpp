@@ -15,6 +15,8 @@ void add_calibration_options(Options& o) {
                "misalignment converged when both sigmas are below this (deg)", 1e-5, 10.0);
   o.add_int("cal-min-samples", static_cast<int64_t>(d.min_samples), "misalignment converged only after this many epochs",
             1, 100000000);
+  o.add_bool("cal-braking-stop", d.braking_stop.enabled,
+             "a braking that ends in a standstill leaves the misalignment as it was before the braking");
 }
 
 MisalignmentCalibratorParams calibration_params_from(const Options& o) {
@@ -24,6 +26,7 @@ MisalignmentCalibratorParams calibration_params_from(const Options& o) {
   p.converged_sigma_rad = deg_to_rad(o.get_double("cal-converged-sigma-deg"));
   p.min_samples = static_cast<uint64_t>(o.get_int("cal-min-samples"));
   p.lever_arm_body_m = lever_arm_from(o);
+  p.braking_stop.enabled = o.get_bool("cal-braking-stop");
   return p;
 }
 

@@ -1,6 +1,8 @@
 #include "odonav/calibration/misalignment_calibrator.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 #include "odonav/checkpoint_file.hpp"
@@ -71,7 +73,7 @@ double MisalignmentCalibrator::Regression::residual_sum_squares() const {
 }
 
 MisalignmentCalibrator::MisalignmentCalibrator(const MisalignmentCalibratorParams& p)
-    : params_(p), attitude_(p.max_bracket_s) {
+    : params_(p), attitude_(p.max_bracket_s), motion_(p.braking_stop) {
   auto require = [](bool ok, const char* what) {
     if (!ok) throw std::invalid_argument(std::string("MisalignmentCalibratorParams: ") + what);
   };
@@ -137,6 +139,37 @@ void MisalignmentCalibrator::reset() {
   samples_used_ = 0;
   last_used_forward_.reset();
   consecutive_innovation_rejections_ = 0;
+  braking_snapshot_.reset();
+}
+
+void MisalignmentCalibrator::track_braking_stop(double t_s, double speed_mps) {
+  const MotionPhase phase = motion_.add(t_s, speed_mps);
+  if (!params_.braking_stop.enabled || frozen_) {
+    braking_snapshot_.reset();
+    return;
+  }
+  switch (phase) {
+    case MotionPhase::kUnknown: return;
+    case MotionPhase::kDriving: braking_snapshot_.reset(); return;
+    case MotionPhase::kBraking:
+      if (!braking_snapshot_)
+        braking_snapshot_ = BrakingSnapshot{heading_, pitch_, samples_used_, last_used_forward_,
+                                            consecutive_innovation_rejections_, 0};
+      return;
+    case MotionPhase::kStandstill:
+      if (!braking_snapshot_) return;
+      if (braking_snapshot_->used_since > 0) {
+        heading_ = braking_snapshot_->heading;
+        pitch_ = braking_snapshot_->pitch;
+        samples_used_ = braking_snapshot_->samples_used;
+        last_used_forward_ = braking_snapshot_->last_used_forward;
+        consecutive_innovation_rejections_ = braking_snapshot_->consecutive_innovation_rejections;
+        ++counters_.braking_stops;
+        counters_.braking_withdrawn += braking_snapshot_->used_since;
+      }
+      braking_snapshot_.reset();
+      return;
+  }
 }
 
 MisalignmentCalibrator::RegressionSpread MisalignmentCalibrator::spread(const Regression& r) const {
@@ -212,7 +245,23 @@ MisalignmentOutput MisalignmentCalibrator::current() const {
     o.reason = "both sigmas below the threshold";
   } else {
     o.state = CalibrationState::kCalibrating;
-    o.reason = samples_used_ < params_.min_samples ? "collecting samples" : "sigma above the threshold";
+    // Name what is missing with its numbers: a short drive must say it, not just "calibrating".
+    auto deg = [](double rad) {
+      std::ostringstream t;
+      t.precision(3);
+      t << rad * 180.0 / kPi;
+      return t.str();
+    };
+    if (samples_used_ < params_.min_samples) {
+      std::ostringstream t;
+      t.precision(3);
+      t << params_.min_speed_mps;
+      o.reason = "collecting samples: " + std::to_string(samples_used_) + " GNSS epochs used (straight, above " +
+                 t.str() + " m/s), " + std::to_string(params_.min_samples) + " needed";
+    } else {
+      o.reason = "sigma above the threshold: " + deg(std::max(o.sigma_heading_rad, o.sigma_pitch_rad)) +
+                 " deg, " + deg(params_.converged_sigma_rad) + " deg needed";
+    }
   }
   return o;
 }
@@ -227,7 +276,10 @@ MisalignmentOutput MisalignmentCalibrator::process_epoch(const GnssSample& g) {
     return o;
   };
   if (!params_.use_ins) return finish_epoch(CalibrationEpochStatus::kNoIns, counters_.no_ins);
-  if (frozen_) return finish_epoch(CalibrationEpochStatus::kFrozen, counters_.frozen);
+  if (frozen_) {
+    braking_snapshot_.reset();
+    return finish_epoch(CalibrationEpochStatus::kFrozen, counters_.frozen);
+  }
   if (!g.valid()) return finish_epoch(CalibrationEpochStatus::kInvalidFix, counters_.invalid_fix);
 
   const double h = params_.yaw_rate_half_window_s;
@@ -259,6 +311,7 @@ MisalignmentOutput MisalignmentCalibrator::process_epoch(const GnssSample& g) {
 
   Eigen::Vector3d v_b = enu_to_body(*att) * g.vel_enu_mps;
   if (params_.lever_arm_body_m) v_b -= omega_b.cross(*params_.lever_arm_body_m);
+  track_braking_stop(g.t_s, std::isfinite(v_b.x()) ? v_b.x() : std::nan(""));
 
   // 1. Physical limit, before the sign and speed tests so a spike is not counted as reversing (also
   // catches 1e308 and its overflow to inf in the rotation).
@@ -281,12 +334,13 @@ MisalignmentOutput MisalignmentCalibrator::process_epoch(const GnssSample& g) {
   pitch_.sum_phi_y += phi * v_b.z();
   pitch_.sum_y2 += v_b.z() * v_b.z();
   ++samples_used_;
+  if (braking_snapshot_) ++braking_snapshot_->used_since;
   return finish_epoch(CalibrationEpochStatus::kUsed, counters_.used);
 }
 
 namespace {
 constexpr const char* kStateMagic = "odonav-misalignment-calibrator-state";
-constexpr int kStateVersion = 1;
+constexpr int kStateVersion = 2;
 }  // namespace
 
 std::string MisalignmentCalibrator::save_state() const {
@@ -304,9 +358,19 @@ std::string MisalignmentCalibrator::save_state() const {
   s += "last_t_s " + hex(last_t_s_) + "\n";
   s += "counters";
   for (uint64_t v : {c.epochs, c.used, c.no_ins, c.invalid_fix, c.no_attitude, c.reversing, c.low_speed, c.turning,
-                     c.frozen, c.outlier, c.innovation_suspended})
+                     c.frozen, c.outlier, c.innovation_suspended, c.braking_stops, c.braking_withdrawn})
     s += " " + std::to_string(v);
-  return s + "\n";
+  s += "\n" + checkpoint_value_list("motion_epochs", motion_.state());
+  if (const auto& b = braking_snapshot_) {
+    s += "braking_snapshot " + sums(b->heading) + " " + sums(b->pitch) + " " + std::to_string(b->samples_used) + " " +
+         std::to_string(b->consecutive_innovation_rejections) + " " + std::to_string(b->used_since) + "\n";
+    s += "braking_snapshot_last_used_forward " +
+         (b->last_used_forward ? hex(b->last_used_forward->first) + " " + hex(b->last_used_forward->second) : "none") +
+         "\n";
+  } else {
+    s += "braking_snapshot none\n";
+  }
+  return s;
 }
 
 void MisalignmentCalibrator::restore_state(const std::string& text) {
@@ -332,7 +396,31 @@ void MisalignmentCalibrator::restore_state(const std::string& text) {
   const uint64_t frozen = r.unsigned_field("frozen");
   if (frozen > 1) throw CheckpointError("field 'frozen' is not 0 or 1");
   const double last_t_s = r.finite_doubles("last_t_s", 1)[0];
-  const std::vector<uint64_t> v = r.unsigned_list("counters", 11);
+  const std::vector<uint64_t> v = r.unsigned_list("counters", 13);
+  std::vector<double> motion_epochs = r.value_list("motion_epochs", 2);
+  MotionPhaseTracker motion(params_.braking_stop);
+  try {
+    motion.restore(motion_epochs);
+  } catch (const std::invalid_argument& e) {
+    throw CheckpointError(e.what());
+  }
+  std::optional<BrakingSnapshot> snapshot;
+  if (const std::string f = r.field("braking_snapshot"); f != "none") {
+    const std::vector<double> t = checkpoint_parse_finite_doubles(f, "braking_snapshot", 9);
+    for (int i : {6, 7, 8})
+      if (t[i] < 0.0 || t[i] != std::floor(t[i])) throw CheckpointError("field 'braking_snapshot' has a bad count");
+    BrakingSnapshot b;
+    b.heading = Regression{t[0], t[1], t[2]};
+    b.pitch = Regression{t[3], t[4], t[5]};
+    b.samples_used = static_cast<uint64_t>(t[6]);
+    b.consecutive_innovation_rejections = static_cast<int>(t[7]);
+    b.used_since = static_cast<uint64_t>(t[8]);
+    if (const std::string l = r.field("braking_snapshot_last_used_forward"); l != "none") {
+      const std::vector<double> u = checkpoint_parse_finite_doubles(l, "braking_snapshot_last_used_forward", 2);
+      b.last_used_forward = std::make_pair(u[0], u[1]);
+    }
+    snapshot = b;
+  }
   if (!r.at_end()) throw CheckpointError("unexpected text after the calibrator state");
   if (samples_used > v[1]) throw CheckpointError("samples_used exceeds the used-epoch counter");
 
@@ -344,7 +432,9 @@ void MisalignmentCalibrator::restore_state(const std::string& text) {
   consecutive_innovation_rejections_ = static_cast<int>(rejections);
   frozen_ = frozen == 1;
   last_t_s_ = last_t_s;
-  counters_ = MisalignmentCounters{v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10]};
+  counters_ = MisalignmentCounters{v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12]};
+  motion_ = std::move(motion);
+  braking_snapshot_ = snapshot;
   // The epochs up to the restored one were processed: one stamped at or before it is refused.
   if (counters_.epochs > 0) last_gnss_t_s_ = last_t_s_;
 }

@@ -14,7 +14,8 @@ IdentificationCore::IdentificationCore(const IdentificationParams& params)
     : params_(params),
       builder_(params.builder),
       main_(make_scale_factor_estimator(params.estimator_name, params.estimator)),
-      turn_slip_(params.turn_slip) {
+      turn_slip_(params.turn_slip),
+      motion_(params.braking_stop) {
   if (params_.run_all_estimators) {
     for (const std::string& name : odonav::estimator_names())
       all_.push_back(make_scale_factor_estimator(name, params_.estimator));
@@ -32,6 +33,7 @@ void IdentificationCore::reset() {
   for (auto& e : all_) e->reset();
   turn_slip_ = TurnSlipEstimator(params_.turn_slip);
   seed_k_m_per_pulse_.reset();
+  braking_snapshot_.reset();
 }
 
 std::optional<std::string> IdentificationCore::commanded_k_problem(double k, double nominal_k) {
@@ -40,6 +42,9 @@ std::optional<std::string> IdentificationCore::commanded_k_problem(double k, dou
 
 namespace {
 bool takes_pseudo_samples(const ScaleFactorEstimator& e) { return e.name() != "coarse"; }
+// The coarse S/N divides distances between GNSS positions by pulses over whole straight runs: no
+// velocity, so no timing error enters it, and it is the traditional baseline: braking stays in it.
+bool withdraws_braking(const ScaleFactorEstimator& e) { return e.name() != "coarse"; }
 }  // namespace
 
 IdentificationOutput IdentificationCore::set_k(double k, double t_s) {
@@ -61,6 +66,7 @@ IdentificationOutput IdentificationCore::set_k(double k, double t_s) {
   reseed(*main_);
   for (auto& e : all_) reseed(*e);
   seed_k_m_per_pulse_ = k;
+  braking_snapshot_.reset();  // a commanded K is never withdrawn
 
   IdentificationOutput out;
   out.t_s = t_s;
@@ -109,9 +115,42 @@ TurnSlipEstimate IdentificationCore::turn_slip_estimate() const {
   return turn_slip_.estimate();
 }
 
+void IdentificationCore::track_braking_stop(const SampleBuilderEpoch& epoch, MotionPhase phase) {
+  if (!params_.braking_stop.enabled || frozen_) {
+    braking_snapshot_.reset();
+    return;
+  }
+  switch (phase) {
+    case MotionPhase::kUnknown: return;  // no speed at this epoch: the braking is neither confirmed nor over
+    case MotionPhase::kDriving: braking_snapshot_.reset(); return;  // the braking ended moving: its samples stay
+    case MotionPhase::kBraking:
+      if (!braking_snapshot_ && epoch.sample) {
+        BrakingSnapshot snap;
+        snap.main = withdraws_braking(*main_) ? main_->save_state() : std::string();
+        for (const auto& e : all_) snap.all.push_back(withdraws_braking(*e) ? e->save_state() : std::string());
+        braking_snapshot_ = std::move(snap);
+      }
+      return;
+    case MotionPhase::kStandstill:
+      if (!braking_snapshot_) return;
+      if (withdraws_braking(*main_)) main_->restore_state(braking_snapshot_->main);
+      for (std::size_t i = 0; i < all_.size(); ++i)
+        if (withdraws_braking(*all_[i])) all_[i]->restore_state(braking_snapshot_->all[i]);
+      ++braking_stop_counters_.stops;
+      braking_stop_counters_.samples_withdrawn += braking_snapshot_->samples;
+      braking_snapshot_.reset();
+      // The innovation gate tests against the K the drive stopped with from the next epoch on.
+      feed_gate(epoch.t_s, main_estimate());
+      return;
+  }
+}
+
 IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoch) {
+  const MotionPhase phase = motion_.add(epoch.t_s, epoch.forward_speed_mps);
+  track_braking_stop(epoch, phase);
   if (epoch.sample && !frozen_) {
     ++accepted_;
+    if (braking_snapshot_) ++braking_snapshot_->samples;
     main_->update(*epoch.sample);
     for (auto& e : all_) e->update(*epoch.sample);
     // Feed the gate from inside the callback, stamped with the sample time: it then applies from
@@ -132,6 +171,8 @@ IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoc
   out.latency = epoch.latency;
   out.turn_slip = turn_slip_estimate();
   out.turn_slip_threshold_radps = turn_slip_threshold_radps();
+  out.motion_phase = phase;
+  out.braking_stop = braking_stop_counters_;
   // Only what is published changes: the estimators and the builder's innovation gate keep the
   // estimator's own K (feed_gate above), and a commanded or frozen K is never replaced.
   if (out.main.valid && !out.main.converged && !frozen_ && !seed_k_m_per_pulse_) {
@@ -157,7 +198,7 @@ std::vector<IdentificationOutput> IdentificationCore::finish() {
 
 namespace {
 constexpr const char* kCoreStateMagic = "odonav-identification-core-state";
-constexpr int kCoreStateVersion = 2;
+constexpr int kCoreStateVersion = 3;
 }  // namespace
 
 std::string IdentificationCore::save_state() const {
@@ -174,6 +215,14 @@ std::string IdentificationCore::save_state() const {
   s += checkpoint_state_block(turn_slip_.save_state());
   s += "side_by_side " + std::to_string(all_.size()) + "\n";
   for (const auto& e : all_) s += "estimator " + e->name() + "\n" + checkpoint_state_block(e->save_state());
+  s += "braking_stop " + std::to_string(braking_stop_counters_.stops) + " " +
+       std::to_string(braking_stop_counters_.samples_withdrawn) + "\n";
+  s += checkpoint_value_list("motion_epochs", motion_.state());
+  s += "braking_snapshot " + (braking_snapshot_ ? std::to_string(braking_snapshot_->samples) : std::string("none")) + "\n";
+  if (braking_snapshot_) {
+    s += checkpoint_state_block(braking_snapshot_->main);
+    for (const std::string& a : braking_snapshot_->all) s += checkpoint_state_block(a);
+  }
   return s;
 }
 
@@ -209,6 +258,24 @@ void IdentificationCore::restore_state(const std::string& text) {
     throw CheckpointError("field 'side_by_side' is " + std::to_string(n) + ", this core runs " +
                           std::to_string(c.all_.size()) + " side-by-side estimators");
   for (auto& e : c.all_) restore_estimator(*e);
+  const std::vector<uint64_t> stops = r.unsigned_list("braking_stop", 2);
+  c.braking_stop_counters_ = BrakingStopCounters{stops[0], stops[1]};
+  try {
+    c.motion_.restore(r.value_list("motion_epochs", 2));
+  } catch (const std::invalid_argument& e) {
+    throw CheckpointError(e.what());
+  }
+  if (const std::string snap = r.field("braking_snapshot"); snap != "none") {
+    BrakingSnapshot b;
+    try {
+      b.samples = std::stoull(snap);
+    } catch (const std::exception&) {
+      throw CheckpointError("field 'braking_snapshot' is not a count or 'none'");
+    }
+    b.main = read_checkpoint_state_block(r, "braking snapshot");
+    for (std::size_t i = 0; i < c.all_.size(); ++i) b.all.push_back(read_checkpoint_state_block(r, "braking snapshot"));
+    c.braking_snapshot_ = std::move(b);
+  }
   if (!r.at_end()) throw CheckpointError("unexpected text after the identification core state");
   *this = std::move(c);
 }

@@ -44,6 +44,10 @@ void add_identification_options(Options& o) {
              "and publish it for dead reckoning");
   o.add_bool("reversing-samples", d.builder.reversing_samples,
              "intervals driven backwards (odometer direction -1 throughout) make samples of K too");
+  o.add_bool("braking-stop", d.braking_stop.enabled,
+             "a braking that ends in a standstill leaves K as it was before the braking (its samples are withdrawn)");
+  o.add_double("braking-stop-decel-mps2", d.braking_stop.braking_mps2,
+               "braking-stop: braking is the GNSS speed falling faster than this over 1 s (m/s^2)", 0.01, 100.0);
   o.add_string("gnss-latency-s", "auto",
                "GNSS latency (s) the fixes are stamped late by (receiver delay or clock offset): 'auto' "
                "estimates it online, 'off' assumes 0, a number fixes it (negative: stamps that lead the "
@@ -87,6 +91,8 @@ IdentificationParams identification_params_from(const Options& o) {
   p.builder.min_pulses = o.get_double("min-pulses");
   p.builder.reversing_samples = o.get_bool("reversing-samples");
   p.turn_slip_enabled = o.get_bool("turn-slip");
+  p.braking_stop.enabled = o.get_bool("braking-stop");
+  p.braking_stop.braking_mps2 = o.get_double("braking-stop-decel-mps2");
   bool estimate_latency = true;
   p.builder.gnss_latency_fixed_s = parse_gnss_latency_option(o.get_string("gnss-latency-s"), estimate_latency);
   p.builder.latency_estimation_enabled = estimate_latency;

@@ -11,7 +11,8 @@
 
 namespace odonav {
 
-/// Declares --cal-min-speed, --cal-max-yaw-rate-deg-s, --cal-converged-sigma-deg, --cal-min-samples.
+/// Declares --cal-min-speed, --cal-max-yaw-rate-deg-s, --cal-converged-sigma-deg, --cal-min-samples,
+/// --cal-braking-stop.
 void add_calibration_options(Options& options);
 MisalignmentCalibratorParams calibration_params_from(const Options& options);
 

@@ -29,6 +29,7 @@
 
 #include <Eigen/Dense>
 
+#include "odonav/braking_stop.hpp"
 #include "odonav/event_time_aligner.hpp"
 #include "odonav/published_estimates.hpp"
 #include "odonav/results/output_files.hpp"
@@ -95,6 +96,13 @@ struct MisalignmentCalibratorParams {
   double gnss_velocity_sigma_mps = 0.1;
   double innovation_angle_margin_rad = 1.0 * kDegToRad;
   int innovation_max_consecutive_rejections = 50;
+
+  /// Braking to a standstill (braking_stop.hpp), classified by V_b,forward at each epoch: when a
+  /// braking ends in a standstill, the regressions go back to their sums from before the speed
+  /// started to fall. A braking vehicle pitches on its suspension (nose down), so V_up of its
+  /// epochs measures the dive, not the odometer axis; and a drive that ends on them leaves them
+  /// with the most recent say in a short calibration. A braking that ends moving keeps its epochs.
+  BrakingStopParams braking_stop;
 };
 
 enum class CalibrationState {
@@ -132,6 +140,9 @@ struct MisalignmentCounters {
   uint64_t outlier = 0;
   /// Epochs used while the innovation test was suspended (also counted in used).
   uint64_t innovation_suspended = 0;
+  /// Brakings that ended in a standstill, and the used epochs they withdrew (still in used).
+  uint64_t braking_stops = 0;
+  uint64_t braking_withdrawn = 0;
 };
 
 /// One output per GNSS epoch.
@@ -216,6 +227,9 @@ class MisalignmentCalibrator {
     double sigma_theta;
   };
   RegressionSpread spread(const Regression& r) const;
+  /// The braking-to-a-standstill rule for an epoch with forward speed speed_mps (NaN: none),
+  /// before the epoch's own gates (braking_stop.hpp).
+  void track_braking_stop(double t_s, double speed_mps);
 
   MisalignmentCalibratorParams params_;
   AttitudeBuffer attitude_;
@@ -231,6 +245,16 @@ class MisalignmentCalibrator {
   bool frozen_ = false;
   double last_t_s_ = 0.0;
   MisalignmentCounters counters_;
+  MotionPhaseTracker motion_;
+  /// The regressions when the current braking began, and the epochs used since; none while driving.
+  struct BrakingSnapshot {
+    Regression heading, pitch;
+    uint64_t samples_used = 0;
+    std::optional<std::pair<double, double>> last_used_forward;
+    int consecutive_innovation_rejections = 0;
+    uint64_t used_since = 0;
+  };
+  std::optional<BrakingSnapshot> braking_snapshot_;
 };
 
 // body_rate_rad_s() lives in frames.hpp (the sample builder uses it too).

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "odonav/braking_stop.hpp"
 #include "odonav/defaults.hpp"
 #include "odonav/estimators.hpp"
 #include "odonav/event_time_aligner.hpp"
@@ -39,6 +40,16 @@ struct IdentificationParams {
   /// of K and published for dead reckoning. turn_slip_enabled false: no estimate, g = 0 published.
   bool turn_slip_enabled = true;
   TurnSlipParams turn_slip;
+  /// Braking to a standstill (braking_stop.hpp): the estimators go back to their state from before
+  /// the speed started to fall when the braking ends in a standstill, so the K a drive stops with is
+  /// not the braking's. The GNSS latency search and the turn slip keep what they learnt.
+  BrakingStopParams braking_stop;
+};
+
+/// What braking to a standstill withdrew (braking_stop.hpp), over the run.
+struct BrakingStopCounters {
+  uint64_t stops = 0;              ///< brakings that ended in a standstill and were withdrawn.
+  uint64_t samples_withdrawn = 0;  ///< accepted samples of those brakings (still in samples_accepted).
 };
 
 /// One output per processed GNSS epoch (the estimate after that epoch).
@@ -61,6 +72,9 @@ struct IdentificationOutput {
   /// applies (the yaw-rate gate: below it any slip is inside K).
   TurnSlipEstimate turn_slip;
   double turn_slip_threshold_radps = 0.0;
+  /// The epoch's motion phase (braking_stop.hpp) and the withdrawals so far.
+  MotionPhase motion_phase = MotionPhase::kUnknown;
+  BrakingStopCounters braking_stop;
 };
 
 /// What the ScaleFactor topic carries of an output for its consumers (the identification node
@@ -133,6 +147,7 @@ class IdentificationCore {
   /// Names of the side-by-side estimators (empty unless run_all_estimators).
   std::vector<std::string> estimator_names() const;
   const SampleBuilderCounters& builder_counters() const { return builder_.counters(); }
+  const BrakingStopCounters& braking_stop_counters() const { return braking_stop_counters_; }
   /// The track slip in turns so far (turn_slip.hpp; "off" or "no INS" as its reason when not estimated)
   /// and the yaw rate (rad/s) beyond which it applies (the yaw-rate gate).
   TurnSlipEstimate turn_slip_estimate() const;
@@ -159,6 +174,8 @@ class IdentificationCore {
   /// no value of its own since set_k().
   ScaleFactorEstimate main_estimate() const;
   void feed_gate(double t_s, const ScaleFactorEstimate& estimate);
+  /// The braking-to-a-standstill rule for one epoch (braking_stop.hpp), before its sample is fed.
+  void track_braking_stop(const SampleBuilderEpoch& epoch, MotionPhase phase);
 
   IdentificationParams params_;
   SampleBuilder builder_;
@@ -170,6 +187,16 @@ class IdentificationCore {
   bool frozen_ = false;
   std::optional<double> seed_k_m_per_pulse_;  ///< commanded K of the last set_k() (m/pulse)
   std::optional<double> last_gate_t_s_;       ///< stamp of the last estimate given to the gate (s)
+  MotionPhaseTracker motion_;
+  /// The estimators' states (main, then side by side) when the current braking began, and the
+  /// samples accepted since; none while driving.
+  struct BrakingSnapshot {
+    std::string main;
+    std::vector<std::string> all;
+    uint64_t samples = 0;
+  };
+  std::optional<BrakingSnapshot> braking_snapshot_;
+  BrakingStopCounters braking_stop_counters_;
 };
 
 }  // namespace odonav
