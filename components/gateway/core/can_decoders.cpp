@@ -237,7 +237,7 @@ std::optional<std::uint64_t> extract_raw(const CanFrame& frame, const SignalSpec
 }
 
 std::int64_t signed_raw(std::uint64_t raw, const SignalSpec& spec) {
-  if (!spec.is_signed || spec.length_bits >= 64) return static_cast<std::int64_t>(raw);
+  if (!spec.is_signed || spec.length_bits == 0 || spec.length_bits >= 64) return static_cast<std::int64_t>(raw);
   const std::uint64_t sign = std::uint64_t{1} << (spec.length_bits - 1);
   if (raw & sign) return static_cast<std::int64_t>(raw) - static_cast<std::int64_t>(sign << 1);
   return static_cast<std::int64_t>(raw);

@@ -276,7 +276,7 @@ DrEvaluation evaluate_dead_reckoning(const std::vector<TimedPosition>& dr, const
   return e.finish();
 }
 
-std::optional<std::string> truth_mismatch(Source<GnssSample> gnss, Source<TruthSample> truth, std::size_t fixes,
+std::optional<std::string> truth_mismatch(Source<GnssSample>&& gnss, Source<TruthSample>&& truth, std::size_t fixes,
                                           double min_speed_mps, double max_median_m) {
   const auto has_position = [](const TruthSample& t) {
     return std::isfinite(t.position.lat_rad) && std::isfinite(t.position.lon_rad);

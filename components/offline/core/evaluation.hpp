@@ -286,7 +286,7 @@ DrEvaluation evaluate_dead_reckoning(const std::vector<TimedPosition>& dr, const
 /// than max_median_m / speed, is refused. Returns why (naming the times and distances), or nullopt
 /// when it matches or there is nothing to compare (no valid fix, no truth position). Reads gnss until
 /// the fixes are found (and further while the truth starts later) and truth as far as they reach.
-std::optional<std::string> truth_mismatch(Source<GnssSample> gnss, Source<TruthSample> truth, std::size_t fixes = 20,
+std::optional<std::string> truth_mismatch(Source<GnssSample>&& gnss, Source<TruthSample>&& truth, std::size_t fixes = 20,
                                           double min_speed_mps = 2.0, double max_median_m = 100.0);
 
 }  // namespace odonav::offline

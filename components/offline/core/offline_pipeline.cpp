@@ -120,7 +120,7 @@ void OfflinePipeline::finish() {
   if (dead_reckoning_) deliver_dead_reckoning(dead_reckoning_->finish());
 }
 
-void OfflinePipeline::deliver_misalignments(std::vector<MisalignmentOutput> outputs) {
+void OfflinePipeline::deliver_misalignments(const std::vector<MisalignmentOutput>& outputs) {
   for (const MisalignmentOutput& m : outputs) {
     sink_.on_misalignment(m);
     const PublishedMisalignment p = published_misalignment(m);
@@ -131,7 +131,7 @@ void OfflinePipeline::deliver_misalignments(std::vector<MisalignmentOutput> outp
   }
 }
 
-void OfflinePipeline::deliver_scale_factors(std::vector<IdentificationOutput> outputs) {
+void OfflinePipeline::deliver_scale_factors(const std::vector<IdentificationOutput>& outputs) {
   for (const IdentificationOutput& k : outputs) {
     sink_.on_scale_factor(k);
     if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->scale_factor, k.t_s))

@@ -35,7 +35,8 @@ class PipelineSink {
   virtual ~PipelineSink() = default;
   virtual void on_misalignment(const MisalignmentOutput& /*output*/) {}
   virtual void on_scale_factor(const IdentificationOutput& /*output*/) {}
-  virtual void on_dead_reckoning(DeadReckoningStep /*step*/) {}
+  // By value: a forwarding sink moves the step on.
+  virtual void on_dead_reckoning(DeadReckoningStep /*step*/) {}  // NOLINT(performance-unnecessary-value-param)
 };
 
 /// Which components run, with their parameters.
@@ -78,8 +79,8 @@ class OfflinePipeline {
   struct Consumer;  // a component's aligner and its input streams
   void advance_to(double t_s);
   void process(double complete_through_s);
-  void deliver_misalignments(std::vector<MisalignmentOutput> outputs);
-  void deliver_scale_factors(std::vector<IdentificationOutput> outputs);
+  void deliver_misalignments(const std::vector<MisalignmentOutput>& outputs);
+  void deliver_scale_factors(const std::vector<IdentificationOutput>& outputs);
   void deliver_dead_reckoning(std::vector<DeadReckoningOutput> outputs);
 
   PipelineConfig config_;

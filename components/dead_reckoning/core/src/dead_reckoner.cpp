@@ -384,6 +384,8 @@ std::vector<DeadReckoningOutput> DeadReckoner::process_until(double watermark_s)
         break;
       }
     }
+    // Every pending stamp was added to the buffer with it and is dropped only after its step.
+    if (entry == nullptr) throw std::logic_error("dead reckoning: a pending odometer stamp is missing from its buffer");
     out.push_back(step(*entry));
     pending_odometer_t_s_.pop_front();
     // What later intervals (starting at t_j) can still need: the attitude back to the slip's yaw-rate
