@@ -7,6 +7,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "odonav/calibration/calibration_health.hpp"
 #include "odonav/calibration/calibration_options.hpp"
 #include "odonav/dds/output_messages.hpp"
 #include "odonav/dds/time.hpp"
@@ -179,25 +180,21 @@ dds::CommandAck CalibrationNode::on_command(const odonav::msg::Command& c) {
 }
 
 dds::EventTimeNode::Status CalibrationNode::node_status(double now_s) {
+  CalibrationHealthFacts facts;
+  static_cast<RestartHealthNotes&>(facts) = lifecycle_.restart().health_notes();
+  facts.use_ins = params_.use_ins;
+  if (last_output_) facts.current = core_.current();
+  facts.now_s = now_s;
+  const CalibrationHealth h = calibration_health(facts);
   using namespace odonav::msg;
-  Status s{HEALTH_STATE_RUNNING, HEALTH_LEVEL_OK, ""};
-  if (!params_.use_ins) {
-    s = {HEALTH_STATE_DEGRADED, HEALTH_LEVEL_WARN, "no INS: the misalignment cannot be calibrated"};
-  } else if (!last_output_) {
-    s = {HEALTH_STATE_STARTING, HEALTH_LEVEL_OK, "waiting for the first GNSS epoch to process"};
-  } else {
-    const MisalignmentOutput cur = core_.current();
-    switch (cur.state) {
-      case CalibrationState::kConverged: break;
-      case CalibrationState::kFrozen: s.reason = "frozen by command"; break;
-      case CalibrationState::kWaiting:
-      case CalibrationState::kCalibrating: s.reason = "not converged yet: " + cur.reason; break;
-    }
+  Status s;
+  switch (h.state) {
+    case CalibrationHealth::State::kStarting: s.state = HEALTH_STATE_STARTING; break;
+    case CalibrationHealth::State::kRunning: s.state = HEALTH_STATE_RUNNING; break;
+    case CalibrationHealth::State::kDegraded: s.state = HEALTH_STATE_DEGRADED; break;
   }
-  // After a restart: what the restore did, the catch-up of the downtime, failed checkpoint writes.
-  bool warn = s.level != HEALTH_LEVEL_OK;
-  apply_restart_notes(lifecycle_.restart().health_notes(), now_s, s.reason, warn);
-  if (warn && s.level == HEALTH_LEVEL_OK) s.level = HEALTH_LEVEL_WARN;
+  s.level = h.level == CalibrationHealth::Level::kWarn ? HEALTH_LEVEL_WARN : HEALTH_LEVEL_OK;
+  s.reason = h.reason;
   return s;
 }
 
