@@ -11,6 +11,7 @@
 #include "odonav/lever_arm_option.hpp"
 #include "odonav/consumer_rules.hpp"
 #include "odonav/dds/time.hpp"
+#include "odonav/dead_reckoning/dead_reckoning_health.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 #include "odonav/topics.hpp"
 

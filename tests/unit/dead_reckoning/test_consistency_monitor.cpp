@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "odonav/dead_reckoning/dead_reckoning_health.hpp"
 #include "odonav/dead_reckoning/consistency_monitor.hpp"
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
 

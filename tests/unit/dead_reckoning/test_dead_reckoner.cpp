@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 
+#include "odonav/dead_reckoning/dead_reckoning_health.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/consumer_rules.hpp"
 #include "odonav/dead_reckoning/drift_evaluator.hpp"

@@ -9,6 +9,7 @@
 
 #include "odonav/consumer_rules.hpp"
 #include "odonav/defaults.hpp"
+#include "odonav/dead_reckoning/dead_reckoning_health.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "odonav/lever_arm_option.hpp"

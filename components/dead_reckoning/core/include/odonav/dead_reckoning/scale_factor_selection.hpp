@@ -1,5 +1,5 @@
 #pragma once
-// Which K dead reckoning navigates with, and what its health says about it: the policy of
+// Which K dead reckoning navigates with: the policy of
 // odonav-dead-reckoning, without middleware, so its node only converts messages and calls this
 // (docs/ALGORITHM.md §4 for the DR itself, docs/DDS.md for the topics).
 //
@@ -24,10 +24,6 @@
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 
 namespace odonav {
-
-/// How long (wall clock, s) health tells about an event (K source change, pulse jump): long enough
-/// for a monitor polling at 1 Hz, or an operator, to see it.
-inline constexpr double kDeadReckoningNoticeDuration_s = 30.0;
 
 /// A K to give DeadReckoner::add_scale_factor: in force from t_s (event time, s) on.
 struct ScaleFactorUpdate {
@@ -138,55 +134,5 @@ class CountChangeTime {
   uint64_t count_ = 0;
   double changed_at_s_ = -std::numeric_limits<double>::infinity();
 };
-
-// ---- health ----
-
-enum class DeadReckoningHealthState { kStarting, kRunning, kDegraded };
-enum class DeadReckoningHealthLevel { kOk, kWarn };
-
-/// What the dead-reckoning node knows when it publishes Health (past its required inputs' checks).
-struct DeadReckoningHealthFacts {
-  double now_s = 0.0;                   ///< wall clock (s)
-  bool started = false;                 ///< DeadReckoner::started(): a start fix was found
-  bool k_commanded = false;             ///< ScaleFactorSelection::commanded()
-  bool scale_factor_absent = false;     ///< the scale-factor input is declared absent
-  bool scale_factor_heard = false;      ///< a ScaleFactor was received
-  uint64_t k_applied = 0;               ///< identified K given to the DR
-  std::string k_source_note;            ///< last K source change note ("" none)
-  double k_source_changed_at_s = -std::numeric_limits<double>::infinity();   ///< wall clock (s)
-  uint64_t pulse_jumps_rejected = 0;    ///< DeadReckonerCounters::pulse_jumps_rejected
-  double pulse_jumps_changed_at_s = -std::numeric_limits<double>::infinity();  ///< wall clock (s)
-  bool misalignment_absent = false;     ///< the misalignment input is declared absent
-  bool misalignment_heard = false;      ///< a Misalignment was received
-  uint64_t misalignments_applied = 0;   ///< misalignments given to the DR
-  std::optional<double> held_misalignment_t_s;  ///< stamp of the last one given (event time, s)
-  double misalignment_silent_s = 0.0;   ///< wall time since the calibration was last heard (s)
-  /// DeadReckoner::last_held_span: the last outputs on a held K / misalignment, and when (wall
-  /// clock, s) a held output was last made (the notice lasts kDeadReckoningNoticeDuration_s after).
-  std::optional<HeldSpan> held_k_span;
-  double held_k_changed_at_s = -std::numeric_limits<double>::infinity();
-  std::optional<HeldSpan> held_misalignment_span;
-  double held_misalignment_changed_at_s = -std::numeric_limits<double>::infinity();
-  /// ConsistencyMonitor::reason(): the findings in force ("" none).
-  std::string inconsistency;
-};
-
-/// "outputs t=52.5-54.6 s used the K of t=52.4 s held: identification silent" (span closed), or
-/// "outputs since t=52.5 s use the K of t=52.4 s held: identification silent" (open); the
-/// misalignment's names the calibration.
-std::string held_span_text(HeldEstimate estimate, const HeldSpan& span);
-
-struct DeadReckoningHealth {
-  DeadReckoningHealthState state = DeadReckoningHealthState::kRunning;
-  DeadReckoningHealthLevel level = DeadReckoningHealthLevel::kOk;
-  std::string reason;  ///< "; "-separated, in the order of components/dead_reckoning/README.md
-};
-
-/// The dead-reckoning node's own health (components/dead_reckoning/README.md, Health): starting
-/// until the start fix; the K in use (commanded, or why nominal / last identified); the K source
-/// change note and the pulse-jump WARN, each for kDeadReckoningNoticeDuration_s after the event;
-/// why the misalignment is zero; the last span of outputs on a held K / misalignment (WARN) while
-/// it goes on and for kDeadReckoningNoticeDuration_s after. Pure: the same facts give the same answer.
-DeadReckoningHealth dead_reckoning_health(const DeadReckoningHealthFacts& facts);
 
 }  // namespace odonav
