@@ -94,6 +94,19 @@ void EventTimeNode::tick() {
   }
 }
 
+EventTimeNode::Status EventTimeNode::status_of(const ComponentHealth& h) {
+  using namespace odonav::msg;
+  Status s;
+  switch (h.state) {
+    case ComponentHealth::State::kStarting: s.state = HEALTH_STATE_STARTING; break;
+    case ComponentHealth::State::kRunning: s.state = HEALTH_STATE_RUNNING; break;
+    case ComponentHealth::State::kDegraded: s.state = HEALTH_STATE_DEGRADED; break;
+  }
+  s.level = h.level == ComponentHealth::Level::kWarn ? HEALTH_LEVEL_WARN : HEALTH_LEVEL_OK;
+  s.reason = h.reason;
+  return s;
+}
+
 EventTimeNode::Status EventTimeNode::status(double now_s) {
   using namespace odonav::msg;
   if (stopping_) return {HEALTH_STATE_STOPPING, HEALTH_LEVEL_OK, drained_ ? "stopped: drained" : "stopping: draining"};

@@ -185,17 +185,7 @@ dds::EventTimeNode::Status CalibrationNode::node_status(double now_s) {
   facts.use_ins = params_.use_ins;
   if (last_output_) facts.current = core_.current();
   facts.now_s = now_s;
-  const CalibrationHealth h = calibration_health(facts);
-  using namespace odonav::msg;
-  Status s;
-  switch (h.state) {
-    case CalibrationHealth::State::kStarting: s.state = HEALTH_STATE_STARTING; break;
-    case CalibrationHealth::State::kRunning: s.state = HEALTH_STATE_RUNNING; break;
-    case CalibrationHealth::State::kDegraded: s.state = HEALTH_STATE_DEGRADED; break;
-  }
-  s.level = h.level == CalibrationHealth::Level::kWarn ? HEALTH_LEVEL_WARN : HEALTH_LEVEL_OK;
-  s.reason = h.reason;
-  return s;
+  return status_of(calibration_health(facts));
 }
 
 void CalibrationNode::append_counters(dds::HealthCounters& c) {

@@ -26,18 +26,6 @@ DeadReckoningComponent make_component(const DeadReckonerParams& p, const Anchore
   }
 }
 
-odonav::msg::HealthState to_message_state(DeadReckoningHealthState s) {
-  switch (s) {
-    case DeadReckoningHealthState::kStarting: return odonav::msg::HEALTH_STATE_STARTING;
-    case DeadReckoningHealthState::kRunning: return odonav::msg::HEALTH_STATE_RUNNING;
-    case DeadReckoningHealthState::kDegraded: return odonav::msg::HEALTH_STATE_DEGRADED;
-  }
-  return odonav::msg::HEALTH_STATE_RUNNING;
-}
-
-odonav::msg::HealthLevel to_message_level(DeadReckoningHealthLevel l) {
-  return l == DeadReckoningHealthLevel::kWarn ? odonav::msg::HEALTH_LEVEL_WARN : odonav::msg::HEALTH_LEVEL_OK;
-}
 }  // namespace
 
 void add_dead_reckoning_node_options(Options& o) {
@@ -228,6 +216,8 @@ dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
   const DeadReckoningConsumerState& consumer = component_.consumer();
   pulse_jumps_.observe(core.counters().pulse_jumps_rejected, now_s);
   DeadReckoningHealthFacts f;
+  // After a restart: what the restore did, the catch-up of the downtime, failed checkpoint writes.
+  static_cast<RestartHealthNotes&>(f) = lifecycle_.restart().health_notes();
   f.now_s = now_s;
   f.started = core.started();
   f.k_commanded = k_selection.commanded();
@@ -250,13 +240,7 @@ dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
   f.held_misalignment_span = core.last_held_span(HeldEstimate::kMisalignment);
   f.held_misalignment_changed_at_s = held_misalignment_outputs_.changed_at_s();
   f.inconsistency = component_.monitor().reason();
-  const DeadReckoningHealth h = dead_reckoning_health(f);
-  // After a restart: what the restore did, the catch-up of the downtime, failed checkpoint writes.
-  std::string reason = h.reason;
-  bool warn = h.level == DeadReckoningHealthLevel::kWarn;
-  apply_restart_notes(lifecycle_.restart().health_notes(), now_s, reason, warn);
-  return {to_message_state(h.state),
-          to_message_level(warn ? DeadReckoningHealthLevel::kWarn : DeadReckoningHealthLevel::kOk), reason};
+  return status_of(dead_reckoning_health(f));
 }
 
 void DeadReckoningNode::append_counters(dds::HealthCounters& c) {

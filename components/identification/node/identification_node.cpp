@@ -288,17 +288,7 @@ dds::EventTimeNode::Status IdentificationNode::node_status(double now_s) {
   facts.misalignment_absent = input_absent(misalignment_, now_s);
   facts.misalignment_heard = input_heard(misalignment_, now_s);
   facts.misalignment_silent_s = aligner_.status(misalignment_.id, now_s).silent_for_s;
-  const IdentificationHealth h = identification_health(facts);
-  using namespace odonav::msg;
-  Status s;
-  switch (h.state) {
-    case IdentificationHealth::State::kStarting: s.state = HEALTH_STATE_STARTING; break;
-    case IdentificationHealth::State::kRunning: s.state = HEALTH_STATE_RUNNING; break;
-    case IdentificationHealth::State::kDegraded: s.state = HEALTH_STATE_DEGRADED; break;
-  }
-  s.level = h.level == IdentificationHealth::Level::kWarn ? HEALTH_LEVEL_WARN : HEALTH_LEVEL_OK;
-  s.reason = h.reason;
-  return s;
+  return status_of(identification_health(facts));
 }
 
 void IdentificationNode::append_counters(dds::HealthCounters& c) {

@@ -159,9 +159,9 @@ TEST(DeadReckoningHealth, AnInconsistencyWarnsWithItsFinding) {
   f.k_applied = 1;
   f.misalignment_heard = true;
   f.misalignments_applied = 1;
-  EXPECT_EQ(dead_reckoning_health(f).level, DeadReckoningHealthLevel::kOk);
+  EXPECT_EQ(dead_reckoning_health(f).level, ComponentHealth::Level::kOk);
   f.inconsistency = "INS heading turns opposite to the GNSS course (ratio -1.00 over 200 deg of turns)";
-  const DeadReckoningHealth h = dead_reckoning_health(f);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kWarn);
+  const ComponentHealth h = dead_reckoning_health(f);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kWarn);
   EXPECT_EQ(h.reason, "inconsistent: " + f.inconsistency);
 }

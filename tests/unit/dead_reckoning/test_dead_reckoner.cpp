@@ -667,12 +667,12 @@ TEST(DeadReckoner, OutputsOnAnEstimateHeldThroughAnEstimatorSilenceAreCountedAsO
   f.held_k_span = k_span;
   f.held_k_changed_at_s = 100.0;
   f.now_s = 100.0 + kDeadReckoningNoticeDuration_s - 1.0;
-  DeadReckoningHealth h = dead_reckoning_health(f);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kWarn);
+  ComponentHealth h = dead_reckoning_health(f);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kWarn);
   EXPECT_EQ(h.reason, "outputs t=10.3-15.3 s used the K of t=10.0 s held: identification silent");
   f.now_s = 100.0 + kDeadReckoningNoticeDuration_s + 1.0;
   h = dead_reckoning_health(f);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kOk);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kOk);
   EXPECT_EQ(h.reason, "");
   HeldSpan open = *k_span;
   open.open = true;

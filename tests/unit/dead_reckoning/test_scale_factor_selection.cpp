@@ -297,7 +297,7 @@ TEST(DeadReckoningScaleFactorSelection, SourceChangeIsCountedNotedAndTheNoteExpi
   f.k_source_changed_at_s = s.k_source_changed_at_s();
   f.now_s = 229.9;  // within kDeadReckoningNoticeDuration_s (30 s)
   EXPECT_EQ(dead_reckoning_health(f).reason, s.k_source_note());
-  EXPECT_EQ(dead_reckoning_health(f).level, DeadReckoningHealthLevel::kOk);  // told, not warned
+  EXPECT_EQ(dead_reckoning_health(f).level, ComponentHealth::Level::kOk);  // told, not warned
   f.now_s = 230.0;
   EXPECT_EQ(dead_reckoning_health(f).reason, "");
 
@@ -323,9 +323,9 @@ DeadReckoningHealthFacts running_facts() {
 }  // namespace
 
 TEST(DeadReckoningHealthDecision, AllWellIsRunningOkWithoutReason) {
-  const DeadReckoningHealth h = dead_reckoning_health(running_facts());
-  EXPECT_EQ(h.state, DeadReckoningHealthState::kRunning);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kOk);
+  const ComponentHealth h = dead_reckoning_health(running_facts());
+  EXPECT_EQ(h.state, ComponentHealth::State::kRunning);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kOk);
   EXPECT_EQ(h.reason, "");
 }
 
@@ -334,42 +334,42 @@ TEST(DeadReckoningHealthDecision, EachKCaseHasItsReason) {
   f.started = false;
   f.scale_factor_heard = false;
   f.k_applied = 0;
-  DeadReckoningHealth h = dead_reckoning_health(f);
-  EXPECT_EQ(h.state, DeadReckoningHealthState::kStarting);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kOk);
+  ComponentHealth h = dead_reckoning_health(f);
+  EXPECT_EQ(h.state, ComponentHealth::State::kStarting);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kOk);
   EXPECT_EQ(h.reason, "waiting for a valid GNSS fix to start from; waiting for identification");
 
   f = running_facts();
   f.k_commanded = true;
   f.scale_factor_absent = true;  // commanded wins: the absence does not matter
   h = dead_reckoning_health(f);
-  EXPECT_EQ(h.state, DeadReckoningHealthState::kRunning);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kOk);
+  EXPECT_EQ(h.state, ComponentHealth::State::kRunning);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kOk);
   EXPECT_EQ(h.reason, "using commanded K");
 
   f = running_facts();
   f.scale_factor_absent = true;
   f.k_applied = 0;
   h = dead_reckoning_health(f);
-  EXPECT_EQ(h.state, DeadReckoningHealthState::kDegraded);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kWarn);
+  EXPECT_EQ(h.state, ComponentHealth::State::kDegraded);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kWarn);
   EXPECT_EQ(h.reason, "using nominal K: no identification");
 
   f.k_applied = 7;  // heard before: the DR keeps the last identified K
   h = dead_reckoning_health(f);
-  EXPECT_EQ(h.state, DeadReckoningHealthState::kDegraded);
+  EXPECT_EQ(h.state, ComponentHealth::State::kDegraded);
   EXPECT_EQ(h.reason, "no identification: keeping the last identified K");
 
   f.started = false;  // absent before the start: still starting, but warned
   h = dead_reckoning_health(f);
-  EXPECT_EQ(h.state, DeadReckoningHealthState::kStarting);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kWarn);
+  EXPECT_EQ(h.state, ComponentHealth::State::kStarting);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kWarn);
   EXPECT_EQ(h.reason, "waiting for a valid GNSS fix to start from; no identification: keeping the last identified K");
 
   f = running_facts();
   f.k_applied = 0;  // heard, nothing applicable yet
   h = dead_reckoning_health(f);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kOk);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kOk);
   EXPECT_EQ(h.reason, "K not converged yet: using nominal K");
 }
 
@@ -387,13 +387,13 @@ TEST(DeadReckoningHealthDecision, PulseJumpsWarnForThirtySecondsAfterTheTotalCha
   f.pulse_jumps_rejected = 2;
   f.pulse_jumps_changed_at_s = jumps.changed_at_s();
   f.now_s = 129.9;
-  DeadReckoningHealth h = dead_reckoning_health(f);
-  EXPECT_EQ(h.state, DeadReckoningHealthState::kRunning);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kWarn);
+  ComponentHealth h = dead_reckoning_health(f);
+  EXPECT_EQ(h.state, ComponentHealth::State::kRunning);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kWarn);
   EXPECT_EQ(h.reason, "rejected 2 odometer samples: pulse jump (counter glitch)");
   f.now_s = 130.0;
   h = dead_reckoning_health(f);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kOk);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kOk);
   EXPECT_EQ(h.reason, "");
 
   jumps.observe(3, 140.0);  // a new jump opens the window again, with the new total
@@ -407,7 +407,7 @@ TEST(DeadReckoningHealthDecision, MisalignmentReasonsAndTheirOrderAfterK) {
   DeadReckoningHealthFacts f = running_facts();
   f.misalignment_absent = true;
   EXPECT_EQ(dead_reckoning_health(f).reason, "using zero misalignment: no calibration");
-  EXPECT_EQ(dead_reckoning_health(f).level, DeadReckoningHealthLevel::kOk);
+  EXPECT_EQ(dead_reckoning_health(f).level, ComponentHealth::Level::kOk);
   // Absent after some were applied: the last one is held, and the text says so (not "zero").
   f.misalignments_applied = 12;
   f.held_misalignment_t_s = 40.0;
@@ -429,8 +429,8 @@ TEST(DeadReckoningHealthDecision, MisalignmentReasonsAndTheirOrderAfterK) {
   f.pulse_jumps_rejected = 1;
   f.pulse_jumps_changed_at_s = 995.0;
   f.misalignment_absent = true;
-  const DeadReckoningHealth h = dead_reckoning_health(f);
-  EXPECT_EQ(h.level, DeadReckoningHealthLevel::kWarn);
+  const ComponentHealth h = dead_reckoning_health(f);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kWarn);
   EXPECT_EQ(h.reason,
             "using commanded K; K source changed from 'a' to 'b' at t=3 s; rejected 1 odometer samples: pulse jump "
             "(counter glitch); using zero misalignment: no calibration");

@@ -30,8 +30,8 @@ constexpr const char* kVehicle = "vehicle-07";
 constexpr const char* kHash = "0123456789abcdef";
 constexpr int64_t kUnixTime_s = 1700000000;
 
-using State = IdentificationHealth::State;
-using Level = IdentificationHealth::Level;
+using State = ComponentHealth::State;
+using Level = ComponentHealth::Level;
 
 /// An identification core (vff_lm_rls) fed a straight 10 m/s drive of n GNSS epochs at 10 Hz
 /// (velocity noise 2 cm/s), everything processed.
@@ -175,7 +175,7 @@ TEST_F(IdentificationLifecycleTest, RestoredCheckpointCarriesStateTimeAndCounter
   f.misalignments_applied = 3;
   EXPECT_EQ(f.restore_note, expected);
   EXPECT_FALSE(f.restore_warn);
-  const IdentificationHealth h = identification_health(f);
+  const ComponentHealth h = identification_health(f);
   EXPECT_EQ(h.reason, expected) << "the restored estimate is converged: the note alone";
   EXPECT_EQ(h.level, Level::kOk);
   f.now_s = 1030.0;
@@ -201,7 +201,7 @@ TEST_F(IdentificationLifecycleTest, CorruptCheckpointIsMovedAsideWithAWarnNote) 
   f.misalignment_heard = true;
   f.misalignments_applied = 1;
   const std::string note = "checkpoint " + ckpt_.string() + " was corrupt: moved aside; starting from nominal K";
-  IdentificationHealth h = identification_health(f);
+  ComponentHealth h = identification_health(f);
   EXPECT_EQ(h.state, State::kStarting);
   EXPECT_EQ(h.level, Level::kWarn);
   EXPECT_EQ(h.reason, note + "; waiting for the first GNSS epoch to process");
@@ -445,7 +445,7 @@ TEST_F(IdentificationLifecycleTest, FailedCheckpointWriteIsCountedWarnedAndRetri
   IdentificationHealthFacts f = l.health_facts(0.0);
   f.misalignment_heard = true;
   f.misalignments_applied = 1;
-  IdentificationHealth h = identification_health(f);
+  ComponentHealth h = identification_health(f);
   EXPECT_EQ(h.level, Level::kWarn);
   EXPECT_EQ(h.reason, "1 checkpoint writes failed") << "the estimate of 100 samples is converged";
 
@@ -514,7 +514,7 @@ IdentificationHealthFacts running_facts(bool converged) {
 }
 
 TEST(IdentificationHealthDecision, ConvergedWithMisalignmentIsRunningOkWithoutReason) {
-  const IdentificationHealth h = identification_health(running_facts(true));
+  const ComponentHealth h = identification_health(running_facts(true));
   EXPECT_EQ(h.state, State::kRunning);
   EXPECT_EQ(h.level, Level::kOk);
   EXPECT_EQ(h.reason, "");
@@ -523,7 +523,7 @@ TEST(IdentificationHealthDecision, ConvergedWithMisalignmentIsRunningOkWithoutRe
 TEST(IdentificationHealthDecision, WaitingFrozenAndNotConverged) {
   IdentificationHealthFacts f = running_facts(true);
   f.last_output.reset();
-  IdentificationHealth h = identification_health(f);
+  ComponentHealth h = identification_health(f);
   EXPECT_EQ(h.state, State::kStarting);
   EXPECT_EQ(h.reason, "waiting for the first GNSS epoch to process");
 
@@ -547,7 +547,7 @@ TEST(IdentificationHealthDecision, ZeroMisalignmentTextsNeverRaiseTheLevel) {
   IdentificationHealthFacts f = running_facts(true);
   f.misalignment_heard = false;
   f.misalignments_applied = 0;
-  IdentificationHealth h = identification_health(f);
+  ComponentHealth h = identification_health(f);
   EXPECT_EQ(h.reason, "no misalignment received yet: using zero");
   EXPECT_EQ(h.state, State::kRunning);
   EXPECT_EQ(h.level, Level::kOk);
@@ -586,7 +586,7 @@ TEST(IdentificationHealthDecision, RestoreNoteComesFirstUntilItExpires) {
   f.restore_note = "restored K=0.0126 m/pulse from checkpoint (t=61.200 s)";
   f.restore_note_until_s = 130.0;
   f.now_s = 129.99;
-  IdentificationHealth h = identification_health(f);
+  ComponentHealth h = identification_health(f);
   EXPECT_EQ(h.reason, "restored K=0.0126 m/pulse from checkpoint (t=61.200 s); K not converged yet");
   EXPECT_EQ(h.level, Level::kOk);
   f.restore_warn = true;
@@ -600,7 +600,7 @@ TEST(IdentificationHealthDecision, RestoreNoteComesFirstUntilItExpires) {
 TEST(IdentificationHealthDecision, CheckpointErrorsWarnFirstUnlessAlreadyWarned) {
   IdentificationHealthFacts f = running_facts(false);
   f.checkpoint_errors = 2;
-  IdentificationHealth h = identification_health(f);
+  ComponentHealth h = identification_health(f);
   EXPECT_EQ(h.level, Level::kWarn);
   EXPECT_EQ(h.reason, "2 checkpoint writes failed; K not converged yet");
 

@@ -2,10 +2,10 @@
 
 namespace odonav {
 
-CalibrationHealth calibration_health(const CalibrationHealthFacts& f) {
-  using State = CalibrationHealth::State;
-  using Level = CalibrationHealth::Level;
-  CalibrationHealth h{State::kRunning, Level::kOk, ""};
+ComponentHealth calibration_health(const CalibrationHealthFacts& f) {
+  using State = ComponentHealth::State;
+  using Level = ComponentHealth::Level;
+  ComponentHealth h{State::kRunning, Level::kOk, ""};
   if (!f.use_ins) {
     h = {State::kDegraded, Level::kWarn, "no INS: the misalignment cannot be calibrated"};
   } else if (!f.current) {

@@ -18,10 +18,10 @@ std::string held_span_text(HeldEstimate estimate, const HeldSpan& span) {
   return buf;
 }
 
-DeadReckoningHealth dead_reckoning_health(const DeadReckoningHealthFacts& f) {
-  using State = DeadReckoningHealthState;
-  using Level = DeadReckoningHealthLevel;
-  DeadReckoningHealth s;
+ComponentHealth dead_reckoning_health(const DeadReckoningHealthFacts& f) {
+  using State = ComponentHealth::State;
+  using Level = ComponentHealth::Level;
+  ComponentHealth s;
   auto add = [&s](const std::string& r) { s.reason = s.reason.empty() ? r : s.reason + "; " + r; };
   if (!f.started) {
     s.state = State::kStarting;
@@ -68,6 +68,10 @@ DeadReckoningHealth dead_reckoning_health(const DeadReckoningHealthFacts& f) {
     s.level = Level::kWarn;
     add("inconsistent: " + f.inconsistency);
   }
+  // After a restart: what the restore did, the catch-up of the downtime, failed checkpoint writes.
+  bool warn = s.level == Level::kWarn;
+  apply_restart_notes(f, f.now_s, s.reason, warn);
+  if (warn) s.level = Level::kWarn;
   return s;
 }
 

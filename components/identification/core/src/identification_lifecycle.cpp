@@ -10,10 +10,10 @@
 
 namespace odonav {
 
-IdentificationHealth identification_health(const IdentificationHealthFacts& f) {
-  using State = IdentificationHealth::State;
-  using Level = IdentificationHealth::Level;
-  IdentificationHealth s{State::kRunning, Level::kOk, ""};
+ComponentHealth identification_health(const IdentificationHealthFacts& f) {
+  using State = ComponentHealth::State;
+  using Level = ComponentHealth::Level;
+  ComponentHealth s{State::kRunning, Level::kOk, ""};
   if (!f.last_output) {
     s = {State::kStarting, Level::kOk, "waiting for the first GNSS epoch to process"};
   } else if (f.last_output->frozen) {

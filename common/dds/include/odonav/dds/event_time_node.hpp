@@ -20,6 +20,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "odonav/component_health.hpp"
 #include "odonav/dds/component.hpp"
 #include "odonav/dds/node_support.hpp"
 #include "odonav/source_arbiter.hpp"
@@ -50,6 +51,8 @@ class EventTimeNode {
     odonav::msg::HealthLevel level = odonav::msg::HEALTH_LEVEL_OK;
     std::string reason;
   };
+  /// The Health topic's state and level of a core's health decision (component_health.hpp).
+  static Status status_of(const ComponentHealth& health);
 
   /// The input of that name (ComponentInput::name); `find_input` returns nullptr when the component
   /// has none (e.g. "ins" without use_ins), `input` throws std::logic_error. A required input's

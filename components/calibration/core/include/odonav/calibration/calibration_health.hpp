@@ -6,18 +6,10 @@
 #include <string>
 
 #include "odonav/calibration/misalignment_calibrator.hpp"
+#include "odonav/component_health.hpp"
 #include "odonav/restart_policy.hpp"
 
 namespace odonav {
-
-/// The calibration's health as the node reports it past the checks on its required inputs.
-struct CalibrationHealth {
-  enum class State { kStarting, kRunning, kDegraded };
-  enum class Level { kOk, kWarn };
-  State state = State::kRunning;
-  Level level = Level::kOk;
-  std::string reason;  ///< "" when all is well; parts joined by "; ".
-};
 
 /// Everything calibration_health() decides on. The restart notes come from the lifecycle
 /// (CalibrationLifecycle::restart().health_notes()).
@@ -37,6 +29,6 @@ struct CalibrationHealthFacts : RestartHealthNotes {
 ///    reason>" (level OK: converging is normal at the start of a drive);
 ///  - then the restart notes (restore, checkpoint errors, catch-up: apply_restart_notes), which
 ///    raise the level to WARN when they say so.
-CalibrationHealth calibration_health(const CalibrationHealthFacts& facts);
+ComponentHealth calibration_health(const CalibrationHealthFacts& facts);
 
 }  // namespace odonav

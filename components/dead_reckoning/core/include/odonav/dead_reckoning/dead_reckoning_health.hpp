@@ -8,7 +8,9 @@
 #include <optional>
 #include <string>
 
+#include "odonav/component_health.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
+#include "odonav/restart_policy.hpp"
 
 namespace odonav {
 
@@ -16,11 +18,8 @@ namespace odonav {
 /// for a monitor polling at 1 Hz, or an operator, to see it.
 inline constexpr double kDeadReckoningNoticeDuration_s = 30.0;
 
-enum class DeadReckoningHealthState { kStarting, kRunning, kDegraded };
-enum class DeadReckoningHealthLevel { kOk, kWarn };
-
 /// What the dead-reckoning node knows when it publishes Health (past its required inputs' checks).
-struct DeadReckoningHealthFacts {
+struct DeadReckoningHealthFacts : RestartHealthNotes {
   double now_s = 0.0;                   ///< wall clock (s)
   bool started = false;                 ///< DeadReckoner::started(): a start fix was found
   bool k_commanded = false;             ///< ScaleFactorSelection::commanded()
@@ -51,17 +50,11 @@ struct DeadReckoningHealthFacts {
 /// misalignment's names the calibration.
 std::string held_span_text(HeldEstimate estimate, const HeldSpan& span);
 
-struct DeadReckoningHealth {
-  DeadReckoningHealthState state = DeadReckoningHealthState::kRunning;
-  DeadReckoningHealthLevel level = DeadReckoningHealthLevel::kOk;
-  std::string reason;  ///< "; "-separated, in the order of components/dead_reckoning/README.md
-};
-
 /// The dead-reckoning node's own health (components/dead_reckoning/README.md, Health): starting
 /// until the start fix; the K in use (commanded, or why nominal / last identified); the K source
 /// change note and the pulse-jump WARN, each for kDeadReckoningNoticeDuration_s after the event;
 /// why the misalignment is zero; the last span of outputs on a held K / misalignment (WARN) while
 /// it goes on and for kDeadReckoningNoticeDuration_s after. Pure: the same facts give the same answer.
-DeadReckoningHealth dead_reckoning_health(const DeadReckoningHealthFacts& facts);
+ComponentHealth dead_reckoning_health(const DeadReckoningHealthFacts& facts);
 
 }  // namespace odonav

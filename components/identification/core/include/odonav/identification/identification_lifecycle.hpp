@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "odonav/component_health.hpp"
 #include "odonav/identification/checkpoint.hpp"
 #include "odonav/identification/identification_core.hpp"
 #include "odonav/identification/instance.hpp"
@@ -31,15 +32,6 @@ namespace odonav {
 // kCatchUpSettle_s: odonav/restart_policy.hpp, the restart policy the calibration shares; this
 // lifecycle adds what is the identification's (its inputs and margins, its checkpoint file and
 // texts, what each input had taken in, the misalignments applied, set_k).
-
-/// The identification's health as the node reports it past the checks on its required inputs.
-struct IdentificationHealth {
-  enum class State { kStarting, kRunning, kDegraded };
-  enum class Level { kOk, kWarn };
-  State state = State::kRunning;
-  Level level = Level::kOk;
-  std::string reason;  ///< "" when all is well; parts joined by "; ".
-};
 
 /// Everything identification_health() decides on. The node supplies the input facts; the
 /// lifecycle the rest (IdentificationLifecycle::health_facts), the restart notes included
@@ -75,7 +67,7 @@ struct IdentificationHealthFacts : RestartHealthNotes {
 ///    t=40.1-41.2 s published late", then "caught up after restart: ..." for 30 s; with a loss
 ///    (WARN) "lost t=40.0-52.3 s after the checkpoint (older than the producers' history, 30 s):
 ///    its estimates are missing".
-IdentificationHealth identification_health(const IdentificationHealthFacts& facts);
+ComponentHealth identification_health(const IdentificationHealthFacts& facts);
 
 /// One identification run's restart policy. Not thread-safe: the node runs it one task at a time.
 class IdentificationLifecycle {
