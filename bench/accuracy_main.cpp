@@ -84,7 +84,8 @@ double median_of_finite(const Figure& f) {
 }
 
 std::size_t count_never(const Figure& f) {
-  return static_cast<std::size_t>(std::count_if(f.values.begin(), f.values.end(), [](double v) { return !std::isfinite(v); }));
+  return static_cast<std::size_t>(
+      std::count_if(f.values.begin(), f.values.end(), [](double v) { return !std::isfinite(v); }));
 }
 
 // ---- one run ---------------------------------------------------------------------------------------
@@ -192,7 +193,8 @@ void collect(const json& s, ScenarioFigures& f) {
   if (sf.contains("gnss_latency_error_s") && sf["gnss_latency_error_s"].is_number())
     f.latency_error_ms.add(1000.0 * sf["gnss_latency_error_s"].get<double>());
   if (sf.contains("gnss_latency_sigma_s"))
-    f.latency_sigma_ms.add(sf["gnss_latency_sigma_s"].is_number() ? 1000.0 * sf["gnss_latency_sigma_s"].get<double>() : kNaN);
+    f.latency_sigma_ms.add(sf["gnss_latency_sigma_s"].is_number() ? 1000.0 * sf["gnss_latency_sigma_s"].get<double>()
+                                                                  : kNaN);
   if (sf["estimators"].contains("vff_lm_rls"))
     f.rms_by_seed.push_back(sf["estimators"]["vff_lm_rls"].value("rms_rel_error_percent", kNaN));
   for (const char* which : {"online_k", "coarse_k"}) {
@@ -234,8 +236,9 @@ void print_scenario(const std::string& scenario, const ScenarioFigures& f, std::
   out << "\nvff_lm_rls RMS K error per seed (%):";
   for (double v : f.rms_by_seed) out << " " << std::fixed << std::setprecision(3) << v;
   out << "\n";
-  out << "\n| DR with | final %D | max %D (after 100 m) |" << (f.has_outage ? " outage error (m) | outage error (% of outage distance) |" : "")
-      << "\n|---|---|---|" << (f.has_outage ? "---|---|" : "") << "\n";
+  out << "\n| DR with | final %D | max %D (after 100 m) |"
+      << (f.has_outage ? " outage error (m) | outage error (% of outage distance) |" : "") << "\n|---|---|---|"
+      << (f.has_outage ? "---|---|" : "") << "\n";
   for (const auto& [label, d] : {std::pair<const char*, const DrFigures*>{"online K (vff_lm_rls)", &f.online},
                                  {"coarse K (S/N of the straight run, same seed)", &f.coarse}}) {
     out << "| " << label << " | " << describe(d->final_percent, 3) << " | " << describe(d->max_percent, 3) << " |";
@@ -244,7 +247,8 @@ void print_scenario(const std::string& scenario, const ScenarioFigures& f, std::
   }
   out << "\nOnline DR, its origin against the truth (m) and its max %D after 500 m:\n\n"
       << "| DR origin | origin error (m) | max %D after 500 m |\n|---|---|---|\n"
-      << "| first fix (the DR's) | " << describe(f.start_offset_m, 2) << " | " << describe(f.max_after_500m, 3) << " |\n"
+      << "| first fix (the DR's) | " << describe(f.start_offset_m, 2) << " | " << describe(f.max_after_500m, 3)
+      << " |\n"
       << "| the truth (start offset removed) | 0 | " << describe(f.drift_max_after_500m, 3) << " |\n"
       << "| mean of the standstill fixes | " << describe(f.standstill_offset_m, 2) << " | "
       << describe(f.standstill_max_after_500m, 3) << " |\n"
@@ -390,8 +394,7 @@ int main(int argc, char** argv) {
       // The coarse K of the DR comparison: S/N of the straight calibration run of the same seed, as a
       // crew would calibrate before the drive.
       const odonav::Dataset straight = simulate("straight", seed);
-      const std::optional<double> coarse_k =
-          odonav::offline::coarse_k_of(straight, params_for(straight, base, opts));
+      const std::optional<double> coarse_k = odonav::offline::coarse_k_of(straight, params_for(straight, base, opts));
       for (const std::string& scenario : scenarios) {
         const odonav::Dataset d = scenario == "straight" ? straight : simulate(scenario, seed);
         odonav::offline::OfflineParams p = params_for(d, base, opts);

@@ -115,7 +115,8 @@ struct SyntheticDrive {
     t_s += dt_s;
     heading_rad += kYawRateRadS * dt_s;
     const double d = kSpeedMps * dt_s;
-    position = odonav::move_geodetic(position, Eigen::Vector3d(d * std::sin(heading_rad), d * std::cos(heading_rad), 0.0));
+    position =
+        odonav::move_geodetic(position, Eigen::Vector3d(d * std::sin(heading_rad), d * std::cos(heading_rad), 0.0));
     pulses += d / kK;
     odo.t_s = t_s;
     odo.pulses = static_cast<uint32_t>(static_cast<uint64_t>(pulses) & 0xffffffffu);

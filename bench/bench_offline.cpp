@@ -140,8 +140,10 @@ int main(int argc, char** argv) {
   std::vector<char*> args;
   for (int i = 0; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a.rfind("--dataset=", 0) == 0) g_dataset_dir = a.substr(10);
-    else args.push_back(argv[i]);
+    if (a.rfind("--dataset=", 0) == 0)
+      g_dataset_dir = a.substr(10);
+    else
+      args.push_back(argv[i]);
   }
   if (g_dataset_dir.empty() && std::getenv("ODONAV_BENCH_DATASET")) g_dataset_dir = std::getenv("ODONAV_BENCH_DATASET");
   try {

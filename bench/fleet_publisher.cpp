@@ -35,7 +35,8 @@ namespace topics = odonav::topics;
 
 int main(int argc, char** argv) {
   odds::StopSignals stop;
-  odonav::Options o("odonav-bench-fleet-publisher", "A synthetic fleet's estimates, dead reckoning and health (benchmark).");
+  odonav::Options o("odonav-bench-fleet-publisher",
+                    "A synthetic fleet's estimates, dead reckoning and health (benchmark).");
   o.add_int("vehicles", 10, "number of vehicles", 1, 10000);
   o.add_int("domain", 189, "DDS domain", 0, 232);
   o.add_string("profile", "", "Fast DDS profile file (deploy/profiles/loopback.xml)");
@@ -66,11 +67,11 @@ int main(int argc, char** argv) {
   };
   std::vector<std::unique_ptr<Group>> groups;
   for (int g = 0; g < (n + 9) / 10; ++g) {
-    groups.push_back(std::unique_ptr<Group>(new Group{
-        {participant, topics::kDeadReckoning.name, topics::kDeadReckoning.writer_profile},
-        {participant, topics::kScaleFactor.name, topics::kScaleFactor.writer_profile},
-        {participant, topics::kMisalignment.name, topics::kMisalignment.writer_profile},
-        {participant, topics::kHealth.name, topics::kHealth.writer_profile}}));
+    groups.push_back(std::unique_ptr<Group>(
+        new Group{{participant, topics::kDeadReckoning.name, topics::kDeadReckoning.writer_profile},
+                  {participant, topics::kScaleFactor.name, topics::kScaleFactor.writer_profile},
+                  {participant, topics::kMisalignment.name, topics::kMisalignment.writer_profile},
+                  {participant, topics::kHealth.name, topics::kHealth.writer_profile}}));
   }
   std::vector<std::string> ids;
   for (int i = 0; i < n; ++i) {

@@ -188,8 +188,9 @@ class Arrivals {
 // Rows sorted by stamp, keeping the first arrival of each stamp.
 std::vector<Arrivals::Row> by_stamp(std::vector<Arrivals::Row> rows) {
   std::stable_sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.stamp_ns < b.stamp_ns; });
-  rows.erase(std::unique(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.stamp_ns == b.stamp_ns; }),
-             rows.end());
+  rows.erase(
+      std::unique(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.stamp_ns == b.stamp_ns; }),
+      rows.end());
   return rows;
 }
 
@@ -252,8 +253,8 @@ struct Reference {  // odonav-offline on the same dataset
 
 struct ComponentFigures {
   std::string name;
-  double cpu_percent = 0.0;  // over the data period, % of one core
-  double rss_mb = 0.0;       // peak RSS, MB (1e6 bytes)
+  double cpu_percent = 0.0;     // over the data period, % of one core
+  double rss_mb = 0.0;          // peak RSS, MB (1e6 bytes)
   double switches_per_s = 0.0;  // context switches of all its threads over the data period, per second
   int exit_code = -1;
 };
@@ -266,7 +267,7 @@ struct RunResult {
   std::size_t samples_published = 0;
   double samples_per_s = 0.0;
   Percentiles end_to_end, after_last_input, hop;
-  Percentiles end_to_end_steady, after_last_input_steady;  // outputs after the warm-up only
+  Percentiles end_to_end_steady, after_last_input_steady;         // outputs after the warm-up only
   Percentiles calibration_after_gnss, identification_after_gnss;  // estimate received - its GNSS received
   Percentiles navigation_end_to_end_steady;  // anchored position received - its odometer sample received
   std::vector<ComponentFigures> components;
@@ -282,9 +283,9 @@ struct Setup {
   std::string profile;
   std::string work;
   int domain = 140;
-  double warmup_s = 10.0;  // data time excluded from the steady-state latency (standing start, first fixes)
-  double gnss_rate_hz = 10.0;   // odonav-sim --gnss-rate
-  double hold_off_s = 0.2;      // the components' --estimate-hold-off-s (given to them when pass_hold_off)
+  double warmup_s = 10.0;      // data time excluded from the steady-state latency (standing start, first fixes)
+  double gnss_rate_hz = 10.0;  // odonav-sim --gnss-rate
+  double hold_off_s = 0.2;     // the components' --estimate-hold-off-s (given to them when pass_hold_off)
   bool pass_hold_off = false;
   std::string vehicle_id = "bench-vehicle";
 };
@@ -293,7 +294,7 @@ struct DatasetInfo {
   std::string dir;
   std::size_t odometer = 0, ins = 0, gnss = 0;
   double duration_s = 0.0;
-  std::vector<std::string> component_flags;  // --lever-arm, --no-use-ins from meta.json (all three)
+  std::vector<std::string> component_flags;       // --lever-arm, --no-use-ins from meta.json (all three)
   std::vector<std::string> dead_reckoning_flags;  // --nominal-k from meta.json (DR only, as deploy/launch)
   Reference reference;
 };
@@ -324,8 +325,8 @@ std::size_t column_index(const std::string& header, const std::string& name, con
 
 Reference offline_reference(const Setup& setup, const std::string& dataset, const std::string& out) {
   const std::string hold = setup.pass_hold_off ? " --estimate-hold-off-s " + shortest(setup.hold_off_s) : "";
-  run_or_throw("odonav-offline", "'" + setup.bin_dir + "/odonav-offline' '" + dataset + "' --out '" + out + "'" +
-                                     hold + " --log-level warn >'" + out + ".log' 2>&1");
+  run_or_throw("odonav-offline", "'" + setup.bin_dir + "/odonav-offline' '" + dataset + "' --out '" + out + "'" + hold +
+                                     " --log-level warn >'" + out + ".log' 2>&1");
   Reference ref;
   std::string line, header;
   {
@@ -334,8 +335,10 @@ Reference offline_reference(const Setup& setup, const std::string& dataset, cons
     if (!in) throw std::runtime_error("cannot read " + file);
     while (std::getline(in, line)) {
       if (line.empty() || line[0] == '#') continue;
-      if (header.empty()) header = line;
-      else ++ref.dr_outputs;
+      if (header.empty())
+        header = line;
+      else
+        ++ref.dr_outputs;
     }
   }
   const std::string file = out + "/scale_factor.csv";
@@ -345,8 +348,10 @@ Reference offline_reference(const Setup& setup, const std::string& dataset, cons
   std::string last;
   while (std::getline(in, line)) {
     if (line.empty() || line[0] == '#') continue;
-    if (header.empty()) header = line;
-    else last = line;
+    if (header.empty())
+      header = line;
+    else
+      last = line;
   }
   const std::size_t col = column_index(header, "samples_accepted", file);
   std::stringstream fields(last);
@@ -363,8 +368,9 @@ DatasetInfo make_dataset(const Setup& setup, const std::string& scenario, int64_
   name << scenario << "-" << seed << "-" << duration_s << "s-" << setup.gnss_rate_hz << "hz";
   info.dir = setup.work + "/" + name.str();
   run_or_throw("odonav-sim", "'" + setup.bin_dir + "/odonav-sim' " + scenario + " --seed " + std::to_string(seed) +
-                                 " --duration-s " + shortest(duration_s) + " --gnss-rate " + shortest(setup.gnss_rate_hz) + " --out '" + info.dir +
-                                 "' --log-level warn >'" + info.dir + ".log' 2>&1");
+                                 " --duration-s " + shortest(duration_s) + " --gnss-rate " +
+                                 shortest(setup.gnss_rate_hz) + " --out '" + info.dir + "' --log-level warn >'" +
+                                 info.dir + ".log' 2>&1");
   const odonav::Dataset d = odonav::read_dataset(info.dir, odonav::BadRowPolicy::kFail);
   info.odometer = d.odometer.size();
   info.ins = d.ins.size();
@@ -416,8 +422,9 @@ struct Probes {
                    [this](const Misalignment& m) { misalignment.add(stamp_ns(m.header()), steady_ns()); }),
         dr_reader(p, odonav::topics::kDeadReckoning.name, odonav::topics::kDeadReckoning.reader_profile,
                   [this](const DeadReckoning& m) { dead_reckoning.add(stamp_ns(m.header()), steady_ns()); }),
-        nav_reader(p, odonav::topics::kNavigationPosition.name, odonav::topics::kNavigationPosition.reader_profile,
-                   [this](const odonav::msg::NavigationPosition& m) { navigation.add(stamp_ns(m.header()), steady_ns()); }),
+        nav_reader(
+            p, odonav::topics::kNavigationPosition.name, odonav::topics::kNavigationPosition.reader_profile,
+            [this](const odonav::msg::NavigationPosition& m) { navigation.add(stamp_ns(m.header()), steady_ns()); }),
         ping_writer(p, kPingTopic, odonav::topics::kSensorWriterProfile),
         pong_reader(p, kPongTopic, odonav::topics::kSensorReaderProfile, [this](const Odometer& m) {
           const int64_t now = steady_ns();
@@ -427,8 +434,8 @@ struct Probes {
   // The components and the echo are up when their outputs matched these readers.
   bool all_matched() const {
     return sf_reader.matched_writers() >= 1 && mis_reader.matched_writers() >= 1 && dr_reader.matched_writers() >= 1 &&
-           nav_reader.matched_writers() >= 1 &&
-           pong_reader.matched_writers() >= 1 && ping_writer.matched_readers() >= 1;
+           nav_reader.matched_writers() >= 1 && pong_reader.matched_writers() >= 1 &&
+           ping_writer.matched_readers() >= 1;
   }
 };
 
@@ -523,8 +530,10 @@ class PipelineRun {
 
  private:
   std::vector<std::string> common_flags() const {
-    return {"--domain",     std::to_string(setup_.domain), "--profile",   setup_.profile,
-            "--vehicle-id", setup_.vehicle_id,             "--log-level", "warn"};
+    return {"--domain",     std::to_string(setup_.domain),
+            "--profile",    setup_.profile,
+            "--vehicle-id", setup_.vehicle_id,
+            "--log-level",  "warn"};
   }
 
   // Dead reckoning, identification, calibration and the echo process.
@@ -558,7 +567,8 @@ class PipelineRun {
       if (steady_ns() > match_deadline) return "components or echo not matched within 60 s (logs: " + logs_ + ")";
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
-    std::this_thread::sleep_for(std::chrono::seconds(1));  // their mutual matching, as the gateway waits for GNSS readers only
+    std::this_thread::sleep_for(
+        std::chrono::seconds(1));  // their mutual matching, as the gateway waits for GNSS readers only
     return std::nullopt;
   }
 
@@ -687,8 +697,9 @@ class PipelineRun {
                                        [](const auto& r, int64_t v) { return r.stamp_ns < v; });
       if (it == a.odo.end() || it->stamp_ns != dr.stamp_ns) continue;
       l.end_to_end.push_back(dr.recv_ns - it->recv_ns);
-      l.after_last_input.push_back(dr.recv_ns - release_time_ns(dr.stamp_ns, it->recv_ns, a.ins, a.gnss, a.sf, a.mis,
-                                                                static_cast<int64_t>(std::llround(setup_.hold_off_s * 1e9))));
+      l.after_last_input.push_back(dr.recv_ns -
+                                   release_time_ns(dr.stamp_ns, it->recv_ns, a.ins, a.gnss, a.sf, a.mis,
+                                                   static_cast<int64_t>(std::llround(setup_.hold_off_s * 1e9))));
       if (dr.stamp_ns >= steady_from) {
         l.end_to_end_steady.push_back(l.end_to_end.back());
         l.after_last_input_steady.push_back(l.after_last_input.back());
@@ -707,8 +718,8 @@ class PipelineRun {
     result_.after_last_input_steady = percentiles_ms(l.after_last_input_steady);
     // Offered rate: the samples over the span the odometer stream took to arrive here.
     if (a.odo.size() > 1) {
-      const auto [first, last] = std::minmax_element(a.odo.begin(), a.odo.end(),
-                                                     [](const auto& x, const auto& y) { return x.recv_ns < y.recv_ns; });
+      const auto [first, last] = std::minmax_element(
+          a.odo.begin(), a.odo.end(), [](const auto& x, const auto& y) { return x.recv_ns < y.recv_ns; });
       result_.samples_per_s = static_cast<double>(data_.odometer + data_.ins + data_.gnss) /
                               (static_cast<double>(last->recv_ns - first->recv_ns) * 1e-9);
     }
@@ -775,9 +786,9 @@ class PipelineRun {
   std::unique_ptr<Pinger> pinger_;  // destroyed first: it writes on probes_->ping_writer
   std::size_t odo_before_ = 0;
   int64_t data_start_ = -1;
-  std::vector<double> cpu_at_start_, cpu_at_end_;  // components, then the gateway (start only)
+  std::vector<double> cpu_at_start_, cpu_at_end_;               // components, then the gateway (start only)
   std::vector<long long> switches_at_start_, switches_at_end_;  // components, then the gateway
-  std::vector<long> hwm_kb_;                       // components, then the gateway
+  std::vector<long> hwm_kb_;                                    // components, then the gateway
 };
 
 RunResult run_pipeline(const Setup& setup, const DatasetInfo& data, const std::string& speed) {
@@ -885,7 +896,7 @@ int main(int argc, char** argv) {
     setup.pass_hold_off = opts.get_double("estimate-hold-off-s") >= 0.0;
     if (setup.pass_hold_off) setup.hold_off_s = opts.get_double("estimate-hold-off-s");
     if (setup.vehicle_id.empty()) throw odonav::ConfigError("--vehicle-id: must not be empty");
-    for (const auto& s : split(opts.get_string("speeds")) ) {
+    for (const auto& s : split(opts.get_string("speeds"))) {
       if (s == "max") continue;
       char* end = nullptr;
       const double v = std::strtod(s.c_str(), &end);
@@ -931,8 +942,8 @@ int main(int argc, char** argv) {
     setup.work = work;
     const std::string scenario = opts.get_string("scenario");
     const int64_t seed = opts.get_int("seed");
-    std::cout << "# odonav-bench-pipeline: " << std::thread::hardware_concurrency() << " cores, load "
-              << load_average() << ", domain " << setup.domain << ", profile " << setup.profile << "\n";
+    std::cout << "# odonav-bench-pipeline: " << std::thread::hardware_concurrency() << " cores, load " << load_average()
+              << ", domain " << setup.domain << ", profile " << setup.profile << "\n";
     std::cout << "method: receive times in this process (steady clock): DR output minus odometer sample of the same "
                  "stamp; raw hop = ping-pong round trip / 2 to an echo process; CPU from /proc/<pid>/stat over the "
                  "data period; peak RSS = VmHWM from /proc/<pid>/status, sampled during the run\n";
@@ -960,10 +971,10 @@ int main(int argc, char** argv) {
         break;
       }
       std::cout << std::fixed << std::setprecision(0) << r.samples_per_s << " samples/s over " << std::setprecision(2)
-                << r.data_wall_s << " s (first odometer sample -> gateway exit); DR outputs " << r.dr_outputs << " / " << fast.reference.dr_outputs
-                << ", samples_accepted " << r.samples_accepted << " / " << fast.reference.samples_accepted << ", steady e2e "
-                << format_ms(r.end_to_end_steady) << ", load " << r.load_after << ": "
-                << (r.nothing_lost ? "nothing lost" : "LOST DATA") << "\n";
+                << r.data_wall_s << " s (first odometer sample -> gateway exit); DR outputs " << r.dr_outputs << " / "
+                << fast.reference.dr_outputs << ", samples_accepted " << r.samples_accepted << " / "
+                << fast.reference.samples_accepted << ", steady e2e " << format_ms(r.end_to_end_steady) << ", load "
+                << r.load_after << ": " << (r.nothing_lost ? "nothing lost" : "LOST DATA") << "\n";
       std::cout.flush();
       if (!r.nothing_lost) break;
       best = s;

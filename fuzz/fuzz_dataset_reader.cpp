@@ -64,7 +64,8 @@ void check_promises(const odonav::Dataset& d, const odonav::DatasetReadReport& r
   }
   for (const auto& s : d.ins) {
     const odonav::Attitude& a = s.attitude;
-    check(std::isfinite(a.heading_rad) && std::isfinite(a.pitch_rad) && std::isfinite(a.roll_rad), "ins attitude not finite");
+    check(std::isfinite(a.heading_rad) && std::isfinite(a.pitch_rad) && std::isfinite(a.roll_rad),
+          "ins attitude not finite");
     check(std::abs(a.pitch_rad) <= odonav::kPi / 2.0, "ins pitch outside [-90, 90] deg");
     check(!s.vel_enu_mps || s.vel_enu_mps->allFinite(), "ins velocity not finite");
   }

@@ -29,10 +29,11 @@ int main(int argc, char** argv) {
             dataset = odonav::gateway::load_candump_source(settings.source.name, can, settings.candump_dataset,
                                                            settings.on_bad_row, &report);
             const odonav::gateway::CanCounters& c = can.counters();
-            spdlog::info("{}: {} lines, {} frames decoded into {} odometer samples; {} malformed, {} unknown, {} out "
-                         "of order, {} stale, {} undecodable",
-                         settings.source.name, c.lines, c.decoded, c.samples, c.malformed, c.unknown, c.out_of_order,
-                         c.stale, c.undecodable);
+            spdlog::info(
+                "{}: {} lines, {} frames decoded into {} odometer samples; {} malformed, {} unknown, {} out "
+                "of order, {} stale, {} undecodable",
+                settings.source.name, c.lines, c.decoded, c.samples, c.malformed, c.unknown, c.out_of_order, c.stale,
+                c.undecodable);
             source_health = odonav::gateway::can_source_health(c);
           } else {
             dataset = odonav::gateway::load_source(settings.source, settings.simulator, settings.on_bad_row, &report);

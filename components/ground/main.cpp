@@ -46,8 +46,9 @@ void declare_options(Options& o) {
   o.add_double("refresh-s", 0.5, "monitor: refresh period (s); in a pipe at least 5 s unless given", 0.05, 3600.0);
   // record
   o.add_string("out", "", "record: the MCAP file to write");
-  o.add_string("topics", "", "record: topics, comma separated (odometer, ins/attitude, gnss/fix, misalignment, "
-                             "scale_factor, dead_reckoning, health, command); empty = all");
+  o.add_string("topics", "",
+               "record: topics, comma separated (odometer, ins/attitude, gnss/fix, misalignment, "
+               "scale_factor, dead_reckoning, health, command); empty = all");
   o.add_double("duration-s", 0.0, "record: stop after this many seconds (0: until SIGINT/SIGTERM)", 0.0, 1e9);
   o.add_bool("best-effort", false,
              "record: read every topic best effort (weak links: odonav_ground_reader_best_effort) instead "
@@ -58,8 +59,8 @@ void declare_options(Options& o) {
   o.add_string("token", "", "serve: the token commands from the web need (empty: commands disabled)");
   o.add_string("token-file", "", "serve: read the token from the first line of this file instead");
   o.add_double("diagnostics-period-s", 0.5, "serve: DiagnosticArray of each vehicle this often (s)", 0.05, 60.0);
-  o.add_int("client-queue-kib", 4096, "serve: data queued per Foxglove client before its frames are dropped (KiB)",
-            16, 1 << 20);
+  o.add_int("client-queue-kib", 4096, "serve: data queued per Foxglove client before its frames are dropped (KiB)", 16,
+            1 << 20);
   o.add_double("forget-after-s", 60.0, "serve: unadvertise a channel silent this long (s)", 1.0, 1e6);
   // command
   o.add_string("component", "", "command: the addressed component, e.g. odonav-identification");
@@ -179,8 +180,9 @@ int run_record(const Options& o, odonav::dds::StopSignals& stop) {
   recorder.stop();
   writer.close();
   const std::uint64_t standard = recorder.standard_messages();
-  tool_output() << "recorded " << writer.message_count() - standard << " messages on " << chosen.size() << " topics and "
-                << standard << " on the standard channels (NavSatFix, DiagnosticArray) to " << path << std::endl;
+  tool_output() << "recorded " << writer.message_count() - standard << " messages on " << chosen.size()
+                << " topics and " << standard << " on the standard channels (NavSatFix, DiagnosticArray) to " << path
+                << std::endl;
   return recorder.failures() == 0 ? kExitOk : kExitFailure;
 }
 
@@ -207,19 +209,21 @@ int run_serve(const Options& o, odonav::dds::StopSignals& stop) {
   web.port = static_cast<int>(o.get_int("port"));
   web.max_queued_bytes_per_client = static_cast<std::size_t>(o.get_int("client-queue-kib")) * 1024;
   if (!is_loopback(web.bind_address)) {
-    spdlog::warn("serve: listening on {}, not loopback: the page and the Foxglove channels are readable by anyone "
-                 "who reaches this address{}",
-                 web.bind_address, serve.token.empty() ? "" : " (commands still need the token)");
+    spdlog::warn(
+        "serve: listening on {}, not loopback: the page and the Foxglove channels are readable by anyone "
+        "who reaches this address{}",
+        web.bind_address, serve.token.empty() ? "" : " (commands still need the token)");
   }
   odonav::dds::Participant participant(participant_options(o));
   serve.domain = participant.domain_id();
   web.metadata = {{"domain", std::to_string(participant.domain_id())}};
   GroundWeb ground(participant, serve, web);
   ground.start();
-  const std::string host = web.bind_address.find(':') != std::string::npos ? "[" + web.bind_address + "]" : web.bind_address;
-  tool_output() << "odonav-ground serve: page http://" << host << ":" << ground.port() << "/  Foxglove ws://" << host << ":"
-                << ground.port() << "  (commands " << (serve.token.empty() ? "disabled: no --token" : "need the token")
-                << ")" << std::endl;
+  const std::string host =
+      web.bind_address.find(':') != std::string::npos ? "[" + web.bind_address + "]" : web.bind_address;
+  tool_output() << "odonav-ground serve: page http://" << host << ":" << ground.port() << "/  Foxglove ws://" << host
+                << ":" << ground.port() << "  (commands "
+                << (serve.token.empty() ? "disabled: no --token" : "need the token") << ")" << std::endl;
   spdlog::info("serving domain {} on {}:{}", participant.domain_id(), web.bind_address, ground.port());
   while (!stop.stop_requested()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -270,8 +274,7 @@ int run_command(const Options& o) {
     case CommandOutcome::kRejected:
       tool_output() << what.str() << "REJECTED: " << reply.detail << std::endl;
       return kExitFailure;
-    case CommandOutcome::kTimeout:
-      break;
+    case CommandOutcome::kTimeout: break;
   }
   tool_output() << what.str() << "TIMEOUT: " << reply.detail << std::endl;
   return kExitTimeout;
@@ -282,14 +285,15 @@ int run_command(const Options& o) {
 int main(int argc, char** argv) {
   // Before any thread exists: SIGINT/SIGTERM become a flag (see StopSignals).
   odonav::dds::StopSignals stop;
-  Options options("odonav-ground",
-                  "The ground station of an odonav fleet.\n"
-                  "  monitor [--once --json] [--vehicle ID,...]   live dashboard of every vehicle\n"
-                  "  serve [--port 8765] [--bind 127.0.0.1] [--token T | --token-file F]   fleet page + Foxglove WebSocket\n"
-                  "  record --out FILE.mcap [--topics a,b] [--duration-s S]   MCAP recording (ros2msg + cdr)\n"
-                  "  command --vehicle ID --component NAME (reset|set-k VALUE|freeze|unfreeze|release-k)\n"
-                  "Exit codes: 0 done (command: accepted), 1 failure (command: rejected), 2 bad configuration, "
-                  "3 command not acknowledged in time.");
+  Options options(
+      "odonav-ground",
+      "The ground station of an odonav fleet.\n"
+      "  monitor [--once --json] [--vehicle ID,...]   live dashboard of every vehicle\n"
+      "  serve [--port 8765] [--bind 127.0.0.1] [--token T | --token-file F]   fleet page + Foxglove WebSocket\n"
+      "  record --out FILE.mcap [--topics a,b] [--duration-s S]   MCAP recording (ros2msg + cdr)\n"
+      "  command --vehicle ID --component NAME (reset|set-k VALUE|freeze|unfreeze|release-k)\n"
+      "Exit codes: 0 done (command: accepted), 1 failure (command: rejected), 2 bad configuration, "
+      "3 command not acknowledged in time.");
   declare_options(options);
   try {
     if (options.parse(argc, argv) == ParseResult::kHelp) return kExitOk;

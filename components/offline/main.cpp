@@ -48,15 +48,18 @@ odonav::Options make_options() {
                        "position) and summary.json into --out, and prints a "
                        "summary; with truth.csv it also evaluates against the truth.");
   opts.add_positional("dataset", "dataset directory");
-  opts.add_string("out", "", "output directory (created if missing; an existing one must be empty or an odonav "
+  opts.add_string("out", "",
+                  "output directory (created if missing; an existing one must be empty or an odonav "
                   "output directory, see --force); required");
   opts.add_bool("force", false, "write into an existing non-empty directory that is not an odonav output directory");
-  opts.add_choice("on-bad-row", "fail", {"fail", "skip"}, "a bad input row stops the run (fail) or is skipped and counted");
+  opts.add_choice("on-bad-row", "fail", {"fail", "skip"},
+                  "a bad input row stops the run (fail) or is skipped and counted");
   opts.add_double("coarse-k", 0.0, "K for the coarse DR run (m/pulse); 0 = see --coarse-k-from", 0.0, 10.0);
   opts.add_string("coarse-k-from", "",
                   "dataset whose coarse S/N calibration gives the coarse K (e.g. a 'straight' run); empty = this "
                   "dataset's own coarse S/N estimate");
-  opts.add_string("log-level", "", "trace, debug, info, warn, error, critical, off (default: $ODONAV_LOG_LEVEL or info)");
+  opts.add_string("log-level", "",
+                  "trace, debug, info, warn, error, critical, off (default: $ODONAV_LOG_LEVEL or info)");
   odonav::add_identification_options(opts);
   odonav::add_calibration_options(opts);
   odonav::add_dead_reckoning_options(opts);
@@ -264,9 +267,8 @@ using OutputItem = std::variant<InputTime, odonav::MisalignmentOutput, odonav::I
 class OutputThread {
  public:
   explicit OutputThread(std::function<void(OutputItem&)> handle) : handle_(std::move(handle)) {
-    worker_ = std::thread([this] {
-      dispatcher_.run([this] { return stop_.load(); }, nullptr, std::chrono::milliseconds(50));
-    });
+    worker_ = std::thread(
+        [this] { dispatcher_.run([this] { return stop_.load(); }, nullptr, std::chrono::milliseconds(50)); });
   }
   ~OutputThread() {
     if (worker_.joinable()) stop_and_join();
@@ -329,8 +331,10 @@ class HandOver : public odonav::offline::PipelineSink {
   }
   void on_scale_factor(const odonav::IdentificationOutput& k) override { thread_.push(k); }
   void on_dead_reckoning(odonav::DeadReckoningStep step) override {
-    if (coarse_) thread_.push(CoarseStep{std::move(step)});
-    else thread_.push(std::move(step));
+    if (coarse_)
+      thread_.push(CoarseStep{std::move(step)});
+    else
+      thread_.push(std::move(step));
   }
 
  private:
@@ -378,10 +382,11 @@ void add_run_facts(nlohmann::json& summary, const odonav::offline::OfflineRunTot
                       {"reversing", c.reversing},
                       {"reversing_accepted", c.reversing_accepted}};
   summary["bad_rows_skipped"] = report.total_bad();
-  summary["gnss_position_jumps"] = {{"count", totals.gnss_jumps.jumps},
-                                    {"first_t_s", totals.gnss_jumps.jumps ? nlohmann::json(totals.gnss_jumps.first_t_s) : nlohmann::json()},
-                                    {"largest_m", totals.gnss_jumps.largest_m},
-                                    {"relocations", totals.gnss_jumps.relocations}};
+  summary["gnss_position_jumps"] = {
+      {"count", totals.gnss_jumps.jumps},
+      {"first_t_s", totals.gnss_jumps.jumps ? nlohmann::json(totals.gnss_jumps.first_t_s) : nlohmann::json()},
+      {"largest_m", totals.gnss_jumps.largest_m},
+      {"relocations", totals.gnss_jumps.relocations}};
   if (totals.last_identification && summary.contains("scale_factor")) {
     const odonav::TurnSlipEstimate& slip = totals.last_identification->turn_slip;
     summary["scale_factor"]["turn_slip_samples"] = slip.samples;
@@ -414,8 +419,9 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
   // is evaluated against the GNSS fixes instead), named in the log and in summary.json.
   std::optional<std::string> truth_refused;
   if (has_truth) {
-    truth_refused = odonav::offline::truth_mismatch(odonav::offline::Source<odonav::GnssSample>(odonav::gnss_rows(dataset_dir, bad_rows)),
-                                                    odonav::offline::Source<odonav::TruthSample>(odonav::truth_rows(dataset_dir, bad_rows)));
+    truth_refused = odonav::offline::truth_mismatch(
+        odonav::offline::Source<odonav::GnssSample>(odonav::gnss_rows(dataset_dir, bad_rows)),
+        odonav::offline::Source<odonav::TruthSample>(odonav::truth_rows(dataset_dir, bad_rows)));
     if (truth_refused) {
       spdlog::warn("{}: {}; evaluating against the GNSS fixes instead", dataset_dir, *truth_refused);
       has_truth = false;
@@ -435,7 +441,8 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
   // stream's), merged into the run's at the end.
   odonav::DatasetReadReport truth_file_report;
   auto truth_report = std::make_shared<std::optional<odonav::TruthStream>>();
-  const auto open_truth = [dataset_dir, bad_rows, &truth_file_report, truth_report]() -> odonav::offline::Source<odonav::TruthSample> {
+  const auto open_truth = [dataset_dir, bad_rows, &truth_file_report,
+                           truth_report]() -> odonav::offline::Source<odonav::TruthSample> {
     if (!*truth_report) {
       truth_report->emplace(dataset_dir, bad_rows, &truth_file_report);
       return [truth_report] { return (*truth_report)->next(); };
@@ -443,11 +450,13 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
     return odonav::truth_rows(dataset_dir, bad_rows);
   };
   if (has_truth) inputs.truth = odonav::offline::shared_source<odonav::TruthSample>(open_truth);
-  inputs.gnss = odonav::offline::shared_source<odonav::GnssSample>(
-      [dataset_dir, bad_rows] { return odonav::offline::Source<odonav::GnssSample>(odonav::gnss_rows(dataset_dir, bad_rows)); });
+  inputs.gnss = odonav::offline::shared_source<odonav::GnssSample>([dataset_dir, bad_rows] {
+    return odonav::offline::Source<odonav::GnssSample>(odonav::gnss_rows(dataset_dir, bad_rows));
+  });
   if (has_ins)
-    inputs.ins = odonav::offline::shared_source<odonav::InsSample>(
-        [dataset_dir, bad_rows] { return odonav::offline::Source<odonav::InsSample>(odonav::ins_rows(dataset_dir, bad_rows)); });
+    inputs.ins = odonav::offline::shared_source<odonav::InsSample>([dataset_dir, bad_rows] {
+      return odonav::offline::Source<odonav::InsSample>(odonav::ins_rows(dataset_dir, bad_rows));
+    });
   inputs.options.dataset_name = base_name(dataset_dir);
   odonav::offline::SummaryAccumulator summary(std::move(inputs));
   odonav::offline::RunDiagnosisAccumulator diagnosis;
@@ -503,7 +512,8 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
     // The rest of truth.csv through its reporting reader (all of it when the summary read none), so
     // every row is counted; before the files are complete, so a bad row under --on-bad-row=fail
     // leaves no output, as any other bad row.
-    const odonav::offline::Source<odonav::TruthSample> rest = *truth_report ? [truth_report] { return (*truth_report)->next(); } : open_truth();
+    const odonav::offline::Source<odonav::TruthSample> rest =
+        *truth_report ? [truth_report] { return (*truth_report)->next(); } : open_truth();
     while (rest()) {
     }
     for (const odonav::FileReadReport& f : truth_file_report.files) report.files.push_back(f);
@@ -516,8 +526,8 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
     if (f.rows_bad) spdlog::warn("{}: skipped {} bad rows (kept {})", f.file, f.rows_bad, f.rows_read);
   const auto t_done = std::chrono::steady_clock::now();
   const double elapsed_s = std::chrono::duration<double>(t_done - t_start).count();
-  spdlog::info("read and processed in {:.3f} s ({} odometer, {} GNSS, {} INS rows)", elapsed_s, tap.odometer,
-               tap.gnss, tap.ins);
+  spdlog::info("read and processed in {:.3f} s ({} odometer, {} GNSS, {} INS rows)", elapsed_s, tap.odometer, tap.gnss,
+               tap.ins);
 
   summary.options().elapsed_s = elapsed_s;
   summary.options().coarse_k_origin = totals.coarse_k_origin;

@@ -51,18 +51,22 @@ int main(int argc, char** argv) {
                        "Simulates a tracked vehicle (odometer, GNSS, INS, truth) on a named scenario and "
                        "writes a dataset directory (docs/DATASET.md). Deterministic for a given seed.");
   opts.add_positional("scenario", "straight, ring, terrain or slow_robot");
-  opts.add_string("out", "", "dataset directory to write (created if missing; never an existing dataset or a "
+  opts.add_string("out", "",
+                  "dataset directory to write (created if missing; never an existing dataset or a "
                   "non-empty foreign directory, see --force); required unless --nmea is given");
   opts.add_bool("force", false, "write into an existing dataset or non-empty directory (replacing its files)");
-  opts.add_string("nmea", "", "also (or only) write the GNSS as NMEA 0183 GGA, RMC, VTG and GST sentences, one fix "
+  opts.add_string("nmea", "",
+                  "also (or only) write the GNSS as NMEA 0183 GGA, RMC, VTG and GST sentences, one fix "
                   "per GNSS row, to this file (for gpsfake / gpsd)");
   opts.add_double("nmea-utc-epoch-s", odonav::sim::NmeaSettings{}.utc_epoch_s,
                   "--nmea: UTC of t = 0, s since 1970 (a fix at t is reported at this + t)", 0.0, 4e9);
   opts.add_int("seed", 1, "random seed of the sensor noise", 0, std::numeric_limits<int64_t>::max());
   opts.add_choice("gnss-rate", "default", {"default", "1", "2", "5", "10", "20"},
                   "GNSS rate, Hz (default: the scenario's, 10 Hz except slow_robot's 1 Hz)");
-  opts.add_double("duration-s", 0.0, "run length, s; more laps (or a longer road) are driven and the data cut "
-                  "there (0: the scenario's natural length)", 0.0, 604800.0);
+  opts.add_double("duration-s", 0.0,
+                  "run length, s; more laps (or a longer road) are driven and the data cut "
+                  "there (0: the scenario's natural length)",
+                  0.0, 604800.0);
   opts.add_int("laps", base.laps, "laps of the ring/terrain course", 1, 10000);
   opts.add_double("standstill-end-s", base.standstill_end_s,
                   "standing still after the final stop, s (a drive that ends by braking to a standstill)", 0.0, 3600.0);
@@ -73,7 +77,8 @@ int main(int argc, char** argv) {
   opts.add_double("misalignment-pitch-deg", odonav::rad_to_deg(base.misalignment.pitch_rad),
                   "odometer axis pointing up relative to the INS forward axis, deg", -10.0, 10.0);
   opts.add_double("start-time-s", 0.0, "t of the first row, s", 0.0, 1e10);
-  opts.add_string("log-level", "", "trace, debug, info, warn, error, critical, off (default: ODONAV_LOG_LEVEL or info)");
+  opts.add_string("log-level", "",
+                  "trace, debug, info, warn, error, critical, off (default: ODONAV_LOG_LEVEL or info)");
 
   sim::SimulationConfig cfg;
   std::string out_dir, nmea_path;
@@ -140,7 +145,8 @@ int main(int argc, char** argv) {
     } sink;
     sink.nmea = nmea;
     if (!nmea_path.empty()) sink.nmea_file = std::make_unique<odonav::AtomicFile>(nmea_path);
-    if (!out_dir.empty()) sink.dataset = std::make_unique<odonav::DatasetWriter>(out_dir, sim::dataset_writer_options(cfg));
+    if (!out_dir.empty())
+      sink.dataset = std::make_unique<odonav::DatasetWriter>(out_dir, sim::dataset_writer_options(cfg));
     const odonav::DatasetMeta meta = sim::simulate(cfg, sink);
     if (sink.nmea_file) {
       sink.nmea_file->commit();

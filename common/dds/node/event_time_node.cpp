@@ -21,7 +21,8 @@ EventTimeNode::EventTimeNode(ComponentRuntime& runtime, const std::vector<Compon
     auto in = std::make_unique<NodeInput>();
     in->name = c.name;
     in->estimate = pacing != nullptr;
-    in->id = pacing ? aligner_.add_paced_stream(c.name, pacing->id, c.hold_off_s) : aligner_.add_stream(c.name, c.hold_off_s);
+    in->id = pacing ? aligner_.add_paced_stream(c.name, pacing->id, c.hold_off_s)
+                    : aligner_.add_stream(c.name, c.hold_off_s);
     inputs_.push_back(in.get());
     if (c.required) required_.push_back(in.get());
     owned_.push_back(std::move(in));

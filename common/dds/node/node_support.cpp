@@ -63,12 +63,10 @@ void NodeInput::note_problem(const std::string& why, double now_s) {
   ++problems;
   last_problem = why;
   last_problem_wall_s = now_s;
-  if (problems <= 10 || problems % 1000 == 0)
-    spdlog::warn("{}: sample not used ({} so far): {}", name, problems, why);
+  if (problems <= 10 || problems % 1000 == 0) spdlog::warn("{}: sample not used ({} so far): {}", name, problems, why);
 }
 
-void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, const NodeInput& in,
-                                  double now_s) {
+void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, const NodeInput& in, double now_s) {
   const EventTimeAligner::StreamStatus st = aligner.status(in.id, now_s);
   const double rejected = static_cast<double>(st.backwards - in.republished + st.invalid + in.refused +
                                               in.dropped_invalid + (in.estimate ? 0 : st.repeated));
@@ -79,13 +77,14 @@ void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, c
   c.emplace_back(in.name + "_silent_s", std::round(st.silent_for_s * 10.0) / 10.0);
   if (in.estimate) c.emplace_back(in.name + "_skipped_epochs", static_cast<double>(st.skipped_pacing_epochs));
   if (in.estimate) c.emplace_back(in.name + "_republished", static_cast<double>(in.republished));
-  if (in.estimate || st.hold_off_s > 0.0) c.emplace_back(in.name + "_hold_off_waits", static_cast<double>(st.hold_off_waits));
+  if (in.estimate || st.hold_off_s > 0.0)
+    c.emplace_back(in.name + "_hold_off_waits", static_cast<double>(st.hold_off_waits));
   if (aligner.in_flight_max_wait_s() > aligner.max_wait_s())
     c.emplace_back(in.name + "_in_flight_waits", static_cast<double>(st.in_flight_waits));
 }
 
-std::optional<std::string> absent_reason(const EventTimeAligner& aligner,
-                                                const std::vector<const NodeInput*>& inputs, double now_s) {
+std::optional<std::string> absent_reason(const EventTimeAligner& aligner, const std::vector<const NodeInput*>& inputs,
+                                         double now_s) {
   for (const NodeInput* in : inputs) {
     const EventTimeAligner::StreamStatus st = aligner.status(in->id, now_s);
     if (st.absent) {
@@ -97,15 +96,15 @@ std::optional<std::string> absent_reason(const EventTimeAligner& aligner,
   return std::nullopt;
 }
 
-std::optional<std::string> waiting_reason(const EventTimeAligner& aligner,
-                                                 const std::vector<const NodeInput*>& inputs, double now_s) {
+std::optional<std::string> waiting_reason(const EventTimeAligner& aligner, const std::vector<const NodeInput*>& inputs,
+                                          double now_s) {
   for (const NodeInput* in : inputs)
     if (!aligner.status(in->id, now_s).last_t_s) return "waiting for " + in->name;
   return std::nullopt;
 }
 
 std::optional<std::string> rejection_reason(const std::vector<const NodeInput*>& inputs, double now_s,
-                                                   double recent_s) {
+                                            double recent_s) {
   for (const NodeInput* in : inputs) {
     if (in->last_problem_wall_s && now_s - *in->last_problem_wall_s <= recent_s) {
       std::ostringstream m;

@@ -30,8 +30,9 @@ ParticipantOptions participant_options_from(const Options& o, const std::string&
   ParticipantOptions p;
   const std::optional<std::string> file = profiles_file_or_environment(o.get_string("profile"));
   if (!file)
-    throw ConfigError("--profile: not given and FASTRTPS_DEFAULT_PROFILES_FILE is not set (use e.g. "
-                      "--profile deploy/profiles/loopback.xml)");
+    throw ConfigError(
+        "--profile: not given and FASTRTPS_DEFAULT_PROFILES_FILE is not set (use e.g. "
+        "--profile deploy/profiles/loopback.xml)");
   p.profiles_file = *file;
   p.participant_profile = o.get_string("profile-name");
   if (p.participant_profile.empty()) throw ConfigError("--profile-name: must not be empty");
@@ -108,9 +109,9 @@ ComponentRuntime::ComponentRuntime(const ComponentSettings& settings, StopSignal
     : settings_(settings), stop_(stop) {
   participant_ = std::make_unique<Participant>(settings_.participant);
   health_ = std::make_unique<HealthPublisher>(*participant_, settings_.vehicle_id, settings_.component);
-  commands_ = std::make_unique<Reader<odonav::msg::Command>>(
-      *participant_, topics::kCommand.name, topics::kCommand.reader_profile,
-      [this](const odonav::msg::Command& c) { on_command(c); });
+  commands_ = std::make_unique<Reader<odonav::msg::Command>>(*participant_, topics::kCommand.name,
+                                                             topics::kCommand.reader_profile,
+                                                             [this](const odonav::msg::Command& c) { on_command(c); });
 }
 
 ComponentRuntime::~ComponentRuntime() {
@@ -158,8 +159,10 @@ void ComponentRuntime::publish_health(odonav::msg::HealthState state, odonav::ms
   for (const auto& e : peers.edges(steady)) {
     force = true;
     if (e.silent)
-      spdlog::warn("no {} from {} for {:.1f} s although it is matched and others are heard (cut off, stalled, "
-                   "or gone without leaving)", e.who.stream, e.who.peer, e.who.silent_s);
+      spdlog::warn(
+          "no {} from {} for {:.1f} s although it is matched and others are heard (cut off, stalled, "
+          "or gone without leaving)",
+          e.who.stream, e.who.peer, e.who.silent_s);
     else
       spdlog::info("{} from {} heard again", e.who.stream, e.who.peer);
   }
@@ -192,22 +195,21 @@ void ComponentRuntime::publish_health(odonav::msg::HealthState state, odonav::ms
     if (!p.refused && stalled_handshakes_warned_.insert(p.guid).second) {
       const auto grant = stalled_handshake_log_.take(std::chrono::steady_clock::now());
       if (!grant.log) continue;
-      spdlog::warn("DDS Security handshake with participant '{}' ({}) incomplete after {:.0f} s: no data flows "
-                   "between us (a peer of another PKI, or see deploy/README.md, DDS Security and Fast DDS 2.9){}",
-                   p.name, p.guid, p.age_s,
-                   grant.left_out == 0 ? std::string()
-                                       : " (" + std::to_string(grant.left_out) + " more not logged)");
+      spdlog::warn(
+          "DDS Security handshake with participant '{}' ({}) incomplete after {:.0f} s: no data flows "
+          "between us (a peer of another PKI, or see deploy/README.md, DDS Security and Fast DDS 2.9){}",
+          p.name, p.guid, p.age_s,
+          grant.left_out == 0 ? std::string() : " (" + std::to_string(grant.left_out) + " more not logged)");
     }
   }
   // Forget those that left: the set stays as large as the list (bounded by the participant's).
   for (auto it = stalled_handshakes_warned_.begin(); it != stalled_handshakes_warned_.end();)
     it = listed.count(*it) == 0 ? stalled_handshakes_warned_.erase(it) : std::next(it);
   const auto& first = strangers.front();
-  const std::string stranger =
-      (first.refused ? "DDS Security refused '" + first.name + "'"
-                     : "DDS Security handshake with '" + first.name + "' incomplete for " +
-                           std::to_string(static_cast<long>(first.age_s)) + " s") +
-      (strangers.size() > 1 ? " (and " + std::to_string(strangers.size() - 1) + " more)" : "");
+  const std::string stranger = (first.refused ? "DDS Security refused '" + first.name + "'"
+                                              : "DDS Security handshake with '" + first.name + "' incomplete for " +
+                                                    std::to_string(static_cast<long>(first.age_s)) + " s") +
+                               (strangers.size() > 1 ? " (and " + std::to_string(strangers.size() - 1) + " more)" : "");
   HealthCounters with_count = counters;
   with_count.emplace_back("dds_unauthenticated_participants", static_cast<double>(strangers.size()));
   publish(level == odonav::msg::HEALTH_LEVEL_OK ? odonav::msg::HEALTH_LEVEL_WARN : level,

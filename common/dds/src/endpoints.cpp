@@ -23,8 +23,7 @@ using eprosima::fastrtps::types::ReturnCode_t;
 namespace {
 eprosima::fastrtps::Duration_t to_duration(std::chrono::milliseconds timeout) {
   const auto ms = timeout.count() < 0 ? 0 : timeout.count();
-  return eprosima::fastrtps::Duration_t(static_cast<int32_t>(ms / 1000),
-                                        static_cast<uint32_t>((ms % 1000) * 1000000));
+  return eprosima::fastrtps::Duration_t(static_cast<int32_t>(ms / 1000), static_cast<uint32_t>((ms % 1000) * 1000000));
 }
 }  // namespace
 
@@ -50,20 +49,18 @@ bool MatchCounter::wait_for(std::size_t n, std::chrono::milliseconds timeout) co
 
 // ---- WriterBase ----
 
-WriterBase::WriterBase(const Participant& participant, const std::string& topic_name,
-                       const std::string& qos_profile, eprosima::fastdds::dds::TypeSupport type,
-                       const WriterSettings& settings)
+WriterBase::WriterBase(const Participant& participant, const std::string& topic_name, const std::string& qos_profile,
+                       eprosima::fastdds::dds::TypeSupport type, const WriterSettings& settings)
     : core_(participant.core()), topic_name_(topic_name) {
   auto& publisher = core_->publisher();
   DataWriterQos qos;
   if (publisher.get_datawriter_qos_from_profile(qos_profile, qos) != ReturnCode_t::RETCODE_OK) {
-    throw std::runtime_error("odonav::dds::Writer: no data_writer QoS profile named '" + qos_profile +
-                             "' for topic '" + topic_name + "' (" + core_->description() + ")");
+    throw std::runtime_error("odonav::dds::Writer: no data_writer QoS profile named '" + qos_profile + "' for topic '" +
+                             topic_name + "' (" + core_->description() + ")");
   }
   auto& topic = core_->topic(topic_name, type);
   if (settings.empty()) {
-    writer_ = publisher.create_datawriter_with_profile(&topic, qos_profile, this,
-                                                       StatusMask::publication_matched());
+    writer_ = publisher.create_datawriter_with_profile(&topic, qos_profile, this, StatusMask::publication_matched());
   } else {
     if (settings.ownership_strength) qos.ownership_strength().value = *settings.ownership_strength;
     if (settings.transient) qos.durability().kind = eprosima::fastdds::dds::TRANSIENT_DURABILITY_QOS;
@@ -75,10 +72,9 @@ WriterBase::WriterBase(const Participant& participant, const std::string& topic_
     if (const auto& security = core_->security()) {
       // Access control returns nullptr for a topic the permissions do not grant (docs/DDS.md §6).
       throw std::runtime_error("odonav::dds::Writer: cannot create the writer of topic '" + topic_name +
-                               "': the DDS Security permissions of identity '" + security->identity +
-                               "' (" + security->permissions_file + ") do not allow publishing it, or profile '" +
-                               qos_profile + "' is inconsistent (see the Fast DDS log; " + core_->description() +
-                               ")");
+                               "': the DDS Security permissions of identity '" + security->identity + "' (" +
+                               security->permissions_file + ") do not allow publishing it, or profile '" + qos_profile +
+                               "' is inconsistent (see the Fast DDS log; " + core_->description() + ")");
     }
     throw std::runtime_error("odonav::dds::Writer: cannot create the writer of topic '" + topic_name +
                              "' with profile '" + qos_profile + "' (inconsistent QoS? see the Fast DDS log; " +
@@ -132,13 +128,13 @@ std::string endpoint_key(const eprosima::fastdds::dds::InstanceHandle_t& handle)
 
 // ---- ReaderBase ----
 
-ReaderBase::ReaderBase(const Participant& participant, const std::string& topic_name,
-                       const std::string& qos_profile, eprosima::fastdds::dds::TypeSupport type)
+ReaderBase::ReaderBase(const Participant& participant, const std::string& topic_name, const std::string& qos_profile,
+                       eprosima::fastdds::dds::TypeSupport type)
     : core_(participant.core()), topic_name_(topic_name), qos_profile_(qos_profile) {
   DataReaderQos qos;
   if (core_->subscriber().get_datareader_qos_from_profile(qos_profile, qos) != ReturnCode_t::RETCODE_OK) {
-    throw std::runtime_error("odonav::dds::Reader: no data_reader QoS profile named '" + qos_profile +
-                             "' for topic '" + topic_name + "' (" + core_->description() + ")");
+    throw std::runtime_error("odonav::dds::Reader: no data_reader QoS profile named '" + qos_profile + "' for topic '" +
+                             topic_name + "' (" + core_->description() + ")");
   }
   topic_ = &core_->topic(topic_name, type);
   track_peers_ = topic_name != odonav::topics::kHealth.name && topic_name != odonav::topics::kCommand.name;
@@ -155,8 +151,7 @@ void ReaderBase::open(bool listen_for_data, bool listen_for_deadline) {
       throw std::runtime_error("odonav::dds::Reader: cannot create the reader of topic '" + topic_name_ +
                                "': the DDS Security permissions of identity '" + security->identity + "' (" +
                                security->permissions_file + ") do not allow subscribing to it, or profile '" +
-                               qos_profile_ + "' is inconsistent (see the Fast DDS log; " + core_->description() +
-                               ")");
+                               qos_profile_ + "' is inconsistent (see the Fast DDS log; " + core_->description() + ")");
     }
     throw std::runtime_error("odonav::dds::Reader: cannot create the reader of topic '" + topic_name_ +
                              "' with profile '" + qos_profile_ + "' (inconsistent QoS? see the Fast DDS log; " +
@@ -220,8 +215,8 @@ void ReaderBase::on_data_available(DataReader* reader) {
   if (reader != nullptr) handle_data_available(*reader);
 }
 
-void ReaderBase::on_requested_deadline_missed(
-    DataReader* /*reader*/, const eprosima::fastdds::dds::RequestedDeadlineMissedStatus& status) {
+void ReaderBase::on_requested_deadline_missed(DataReader* /*reader*/,
+                                              const eprosima::fastdds::dds::RequestedDeadlineMissedStatus& status) {
   std::lock_guard<std::recursive_mutex> lock(state_mutex_);
   if (closed_) return;
   // Fires every period for a silent instance: report the first one only.

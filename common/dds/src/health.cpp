@@ -9,8 +9,7 @@ namespace odonav::dds {
 
 odonav::msg::Health make_health(const std::string& vehicle_id, const std::string& component, double stamp_s,
                                 odonav::msg::HealthState state, odonav::msg::HealthLevel level,
-                                const std::string& reason, const HealthCounters& counters,
-                                const CommandAck& ack) {
+                                const std::string& reason, const HealthCounters& counters, const CommandAck& ack) {
   odonav::msg::Health health;
   health.header(make_header(stamp_s, ""));
   health.vehicle_id(vehicle_id);
@@ -55,8 +54,7 @@ double HealthPublisher::period_from_rate(double max_rate_hz) {
 }
 
 HealthPublisher::HealthPublisher(const Participant& participant, std::string vehicle_id, std::string component,
-                                 double max_rate_hz, const std::string& qos_profile,
-                                 const std::string& topic_name)
+                                 double max_rate_hz, const std::string& qos_profile, const std::string& topic_name)
     : vehicle_id_(std::move(vehicle_id)),
       component_(std::move(component)),
       limiter_(period_from_rate(max_rate_hz)),

@@ -102,9 +102,7 @@ struct ToMessage {
   void number(double r, double& m) const { m = r; }
   void degrees(double rad, double& deg) const { deg = rad_to_deg(rad); }
   void unknown(double r, double& m) const { m = std::isfinite(r) ? r : -1.0; }
-  void unknown(const std::optional<double>& r, double& m) const {
-    m = r && std::isfinite(*r) && *r >= 0.0 ? *r : -1.0;
-  }
+  void unknown(const std::optional<double>& r, double& m) const { m = r && std::isfinite(*r) && *r >= 0.0 ? *r : -1.0; }
   void value_or_zero(const std::optional<double>& r, double& m) const { m = r ? *r : 0.0; }
   void flag(bool r, bool& m) const { m = r; }
   void text(const std::string& r, std::string& m) const { m = r; }

@@ -37,12 +37,12 @@ std::string directory_of(const std::string& path) {
 // Fast DDS only logs why an XML file failed; check readability first for a precise message.
 void load_xml_file(const std::string& path, const char* what) {
   if (!std::ifstream(path).good()) {
-    throw std::runtime_error(std::string("odonav::dds::Participant: cannot read the ") + what +
-                             " file '" + path + "' (missing or not readable)");
+    throw std::runtime_error(std::string("odonav::dds::Participant: cannot read the ") + what + " file '" + path +
+                             "' (missing or not readable)");
   }
   if (DomainParticipantFactory::get_instance()->load_XML_profiles_file(path) != ReturnCode_t::RETCODE_OK) {
-    throw std::runtime_error(std::string("odonav::dds::Participant: Fast DDS rejected the ") + what +
-                             " file '" + path + "' (not a valid Fast DDS XML profiles file; see the Fast DDS log)");
+    throw std::runtime_error(std::string("odonav::dds::Participant: Fast DDS rejected the ") + what + " file '" + path +
+                             "' (not a valid Fast DDS XML profiles file; see the Fast DDS log)");
   }
 }
 
@@ -103,11 +103,12 @@ ParticipantEventLog::~ParticipantEventLog() {
   const Counts c = counts();
   // One line with what the participant met over its life: the figures behind "a flood of strangers
   // at start-up cost nothing" (docs/DDS.md §6).
-  spdlog::info("odonav::dds: {}: DDS Security summary: {} participants discovered, {} without credentials, "
-               "{} refused, {} authenticated; {} handshake set-ups spaced, {} held back for {:.3f} s in total; "
-               "{} strangers not tracked",
-               own_name_, c.discovered, c.without_credentials, c.refused, c.authenticated, c.setups_spaced,
-               c.setups_delayed, c.setup_wait_s, c.untracked);
+  spdlog::info(
+      "odonav::dds: {}: DDS Security summary: {} participants discovered, {} without credentials, "
+      "{} refused, {} authenticated; {} handshake set-ups spaced, {} held back for {:.3f} s in total; "
+      "{} strangers not tracked",
+      own_name_, c.discovered, c.without_credentials, c.refused, c.authenticated, c.setups_spaced, c.setups_delayed,
+      c.setup_wait_s, c.untracked);
 }
 
 ParticipantEventLog::Counts ParticipantEventLog::counts() const {
@@ -140,11 +141,11 @@ void ParticipantEventLog::on_discovered_secure(const std::string& name, const st
       grant = stranger_log_.take(std::chrono::steady_clock::now());
     }
     if (grant.log) {
-      spdlog::warn("odonav::dds: {} discovered participant '{}' ({}) without DDS Security credentials: refused, "
-                   "it gets no data{}",
-                   own_name_, name, guid,
-                   grant.left_out == 0 ? std::string()
-                                       : " (" + std::to_string(grant.left_out) + " more refusals not logged)");
+      spdlog::warn(
+          "odonav::dds: {} discovered participant '{}' ({}) without DDS Security credentials: refused, "
+          "it gets no data{}",
+          own_name_, name, guid,
+          grant.left_out == 0 ? std::string() : " (" + std::to_string(grant.left_out) + " more refusals not logged)");
     }
     return;
   }
@@ -184,16 +185,17 @@ void ParticipantEventLog::on_left(const std::string& name, const std::string& gu
     if (grant.log) {
       spdlog::info("odonav::dds: {}: refused participant '{}' ({}) {}{}", own_name_, name, guid,
                    lease_expired ? "gone (lease expired)" : "left",
-                   grant.left_out == 0 ? std::string()
-                                       : " (" + std::to_string(grant.left_out) + " more not logged)");
+                   grant.left_out == 0 ? std::string() : " (" + std::to_string(grant.left_out) + " more not logged)");
     }
     return;
   }
   if (!lease_expired) {
     spdlog::info("odonav::dds: {}: participant '{}' ({}) left", own_name_, name, guid);
   } else {
-    spdlog::warn("odonav::dds: {}: participant '{}' ({}) lost: its lease expired (process dead, host down "
-                 "or link cut)", own_name_, name, guid);
+    spdlog::warn(
+        "odonav::dds: {}: participant '{}' ({}) lost: its lease expired (process dead, host down "
+        "or link cut)",
+        own_name_, name, guid);
   }
 }
 
@@ -224,14 +226,12 @@ void ParticipantEventLog::on_participant_discovery(DomainParticipant* /*particip
       on_discovered_secure(name, guid, credentials);
       break;
     }
-    case Status::CHANGED_QOS_PARTICIPANT:
-      break;
+    case Status::CHANGED_QOS_PARTICIPANT: break;
     case Status::REMOVED_PARTICIPANT:
-    case Status::DROPPED_PARTICIPANT:
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        names_.erase(guid_text(info.info.m_guid));
-      }
+    case Status::DROPPED_PARTICIPANT: {
+      std::lock_guard<std::mutex> lock(mutex_);
+      names_.erase(guid_text(info.info.m_guid));
+    }
       on_left(info.info.m_participantName.to_string(), guid_text(info.info.m_guid),
               info.status == Status::DROPPED_PARTICIPANT);
       break;
@@ -239,8 +239,8 @@ void ParticipantEventLog::on_participant_discovery(DomainParticipant* /*particip
 }
 
 #if HAVE_SECURITY
-void ParticipantEventLog::onParticipantAuthentication(
-    DomainParticipant* /*participant*/, eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) {
+void ParticipantEventLog::onParticipantAuthentication(DomainParticipant* /*participant*/,
+                                                      eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) {
   using Status = eprosima::fastrtps::rtps::ParticipantAuthenticationInfo::AUTHENTICATION_STATUS;
   const std::string guid = guid_text(info.guid);
   const bool authorized = info.status == Status::AUTHORIZED_PARTICIPANT;
@@ -274,11 +274,11 @@ void ParticipantEventLog::onParticipantAuthentication(
   }
   // A refused participant keeps announcing itself, and may be refused again: warn once.
   if (grant.log) {
-    spdlog::warn("odonav::dds: {}: participant {} failed DDS Security authentication (certificate not from "
-                 "our identity CA, or invalid permissions): it gets no data{}",
-                 own_name_, guid,
-                 grant.left_out == 0 ? std::string()
-                                     : " (" + std::to_string(grant.left_out) + " more refusals not logged)");
+    spdlog::warn(
+        "odonav::dds: {}: participant {} failed DDS Security authentication (certificate not from "
+        "our identity CA, or invalid permissions): it gets no data{}",
+        own_name_, guid,
+        grant.left_out == 0 ? std::string() : " (" + std::to_string(grant.left_out) + " more refusals not logged)");
   } else if (refusals > 1) {
     spdlog::debug("odonav::dds: {}: participant {} refused again ({} times)", own_name_, guid, refusals);
   }
@@ -306,8 +306,7 @@ void ParticipantEventLog::on_subscriber_discovery(DomainParticipant* /*participa
   std::lock_guard<std::mutex> lock(mutex_);
   if (info.status == Status::REMOVED_READER) {
     reader_reliable_.erase(info.info.guid());
-  } else if (reader_reliable_.size() < 16 * kMaxNamedParticipants ||
-             reader_reliable_.count(info.info.guid()) > 0) {
+  } else if (reader_reliable_.size() < 16 * kMaxNamedParticipants || reader_reliable_.count(info.info.guid()) > 0) {
     reader_reliable_[info.info.guid()] =
         info.info.m_qos.m_reliability.kind == eprosima::fastdds::dds::RELIABLE_RELIABILITY_QOS;
   }
@@ -338,8 +337,7 @@ ParticipantCore::ParticipantCore(DomainParticipant* participant, std::string des
     participant_->delete_contained_entities();
     participant_->set_listener(nullptr);
     DomainParticipantFactory::get_instance()->delete_participant(participant_);
-    throw std::runtime_error("odonav::dds::Participant: cannot create the publisher/subscriber of " +
-                             description_);
+    throw std::runtime_error("odonav::dds::Participant: cannot create the publisher/subscriber of " + description_);
   }
 }
 
@@ -379,8 +377,8 @@ eprosima::fastdds::dds::Topic& ParticipantCore::topic(const std::string& topic_n
   }
   auto* topic = participant_->create_topic(topic_name, type_name, eprosima::fastdds::dds::TOPIC_QOS_DEFAULT);
   if (topic == nullptr) {
-    throw std::runtime_error("odonav::dds: cannot create topic '" + topic_name + "' of type '" + type_name +
-                             "' in " + description_);
+    throw std::runtime_error("odonav::dds: cannot create topic '" + topic_name + "' of type '" + type_name + "' in " +
+                             description_);
   }
   return *topic;
 }
@@ -407,13 +405,12 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error(std::string("odonav::dds::Participant: ") + e.what());
   }
-  std::string description = "participant profile '" + options.participant_profile + "' of file '" +
-                            profiles_file_ + "', QoS file '" + qos_file_ + "', domain " +
-                            std::to_string(domain_id_);
+  std::string description = "participant profile '" + options.participant_profile + "' of file '" + profiles_file_ +
+                            "', QoS file '" + qos_file_ + "', domain " + std::to_string(domain_id_);
   if (security) description += ", " + security->describe();
   if (domain_id_ < 0 || domain_id_ > kMaxDomainId) {
-    throw std::runtime_error("odonav::dds::Participant: domain id " + std::to_string(domain_id_) +
-                             " is outside 0.." + std::to_string(kMaxDomainId) + " (" + description + ")");
+    throw std::runtime_error("odonav::dds::Participant: domain id " + std::to_string(domain_id_) + " is outside 0.." +
+                             std::to_string(kMaxDomainId) + " (" + description + ")");
   }
 
   apply_fast_dds_log_verbosity();
@@ -423,9 +420,8 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
   auto* factory = DomainParticipantFactory::get_instance();
   DomainParticipantQos qos;
   if (factory->get_participant_qos_from_profile(options.participant_profile, qos) != ReturnCode_t::RETCODE_OK) {
-    throw std::runtime_error("odonav::dds::Participant: no participant profile named '" +
-                             options.participant_profile + "' in '" + profiles_file_ +
-                             "' (or in another loaded XML file)");
+    throw std::runtime_error("odonav::dds::Participant: no participant profile named '" + options.participant_profile +
+                             "' in '" + profiles_file_ + "' (or in another loaded XML file)");
   }
   if (!options.participant_name.empty()) qos.name(options.participant_name);
   if (security) {
@@ -436,26 +432,29 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
     // secure.xml names the plugins and the shared files only: the identity comes from the layer.
     throw std::runtime_error("odonav::dds::Participant: " + description +
                              " enables DDS Security but names no identity certificate: give the security "
-                             "directory (--security-dir or " + std::string(kSecurityDirEnv) + ")");
+                             "directory (--security-dir or " +
+                             std::string(kSecurityDirEnv) + ")");
   }
   // The listener takes no status (StatusMask::none()): endpoint statuses stay with the endpoints;
   // participant discovery and authentication reach it regardless of the mask.
   auto event_log = std::make_unique<detail::ParticipantEventLog>(
       options.participant_name.empty() ? options.participant_profile : options.participant_name,
       has_property(qos, "dds.sec.auth.plugin"));
-  DomainParticipant* participant = factory->create_participant(domain_id_, qos, event_log.get(),
-                                                               eprosima::fastdds::dds::StatusMask::none());
+  DomainParticipant* participant =
+      factory->create_participant(domain_id_, qos, event_log.get(), eprosima::fastdds::dds::StatusMask::none());
   if (participant == nullptr) {
     std::string why = " (see the Fast DDS log)";
     if (security) {
       // Fast DDS 2.9 refuses a secure participant without saying why (docs/DDS.md §6).
-      why = " (DDS Security refused it: check that the certificate is signed by identity_ca.cert.pem and "
-            "matches key.pem, that governance and permissions are signed by permissions_ca.cert.pem, that "
-            "the permissions subject_name is the certificate subject in RFC 2253 order (CN=...,O=...,C=...) "
-            "and still valid, and that they grant domain " + std::to_string(domain_id_) + "; see the Fast DDS log)";
+      why =
+          " (DDS Security refused it: check that the certificate is signed by identity_ca.cert.pem and "
+          "matches key.pem, that governance and permissions are signed by permissions_ca.cert.pem, that "
+          "the permissions subject_name is the certificate subject in RFC 2253 order (CN=...,O=...,C=...) "
+          "and still valid, and that they grant domain " +
+          std::to_string(domain_id_) + "; see the Fast DDS log)";
     }
-    throw std::runtime_error("odonav::dds::Participant: Fast DDS could not create the participant from " +
-                             description + why);
+    throw std::runtime_error("odonav::dds::Participant: Fast DDS could not create the participant from " + description +
+                             why);
   }
   if (security) spdlog::info("odonav::dds: participant in domain {} uses {}", domain_id_, security->describe());
   core_ = std::make_shared<detail::ParticipantCore>(participant, description, security, std::move(event_log));

@@ -19,8 +19,8 @@ std::string env_or_empty(const char* name) {
 bool is_plain_name(const std::string& name) {
   if (name.empty() || name == "." || name == "..") return false;
   for (const char c : name) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
-                    c == '_' || c == '.';
+    const bool ok =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' || c == '_' || c == '.';
     if (!ok) return false;
   }
   return true;
@@ -42,7 +42,8 @@ SecurityMaterial security_material_paths(const std::string& directory, const std
   if (!is_plain_name(identity)) {
     throw std::invalid_argument("DDS Security: identity '" + identity +
                                 "' is not a plain name (letters, digits, '-', '_', '.'): it names a "
-                                "subdirectory of the security directory '" + directory + "'");
+                                "subdirectory of the security directory '" +
+                                directory + "'");
   }
   SecurityMaterial m;
   m.directory = directory;
@@ -70,7 +71,8 @@ void check_security_material(const SecurityMaterial& m) {
     std::ifstream in(*path);
     if (!in.good() || in.peek() == std::ifstream::traits_type::eof()) {
       throw std::runtime_error("DDS Security: cannot read the " + std::string(what) + " '" + *path + "' of " +
-                               m.describe() + " (missing, empty or not readable by this user; make it with "
+                               m.describe() +
+                               " (missing, empty or not readable by this user; make it with "
                                "deploy/security/make-pki)");
     }
   }
@@ -85,8 +87,8 @@ std::optional<SecurityMaterial> resolve_security_material(const std::string& dir
   if (identity.empty()) identity = participant_name;
   if (identity.empty()) {
     throw std::invalid_argument("DDS Security: security directory '" + directory +
-                                "' given but no identity: set --security-identity, " +
-                                kSecurityIdentityEnv + " or a participant name");
+                                "' given but no identity: set --security-identity, " + kSecurityIdentityEnv +
+                                " or a participant name");
   }
   return security_material_paths(directory, identity);
 }

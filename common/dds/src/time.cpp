@@ -41,9 +41,8 @@ builtin_interfaces::msg::Time to_time_msg(double seconds) {
 
 double to_seconds(const builtin_interfaces::msg::Time& time) {
   if (time.nanosec() >= kNanosecondsPerSecond) {
-    throw std::invalid_argument("odonav::dds::to_seconds: Time {sec " + std::to_string(time.sec()) +
-                                ", nanosec " + std::to_string(time.nanosec()) +
-                                "} is not normalized (nanosec must be < 1000000000)");
+    throw std::invalid_argument("odonav::dds::to_seconds: Time {sec " + std::to_string(time.sec()) + ", nanosec " +
+                                std::to_string(time.nanosec()) + "} is not normalized (nanosec must be < 1000000000)");
   }
   return static_cast<double>(time.sec()) + static_cast<double>(time.nanosec()) / 1e9;
 }

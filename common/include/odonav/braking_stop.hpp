@@ -49,7 +49,8 @@ const char* to_string(MotionPhase phase);
 /// epoch dt_s earlier (s): standstill by the speed alone, else braking when |speed| fell faster than
 /// braking_mps2. Pure function; unknown when a speed is not finite or dt_s is not > 0 (standstill
 /// still wins when the speed now is known).
-MotionPhase classify_motion(double speed_before_mps, double speed_now_mps, double dt_s, const BrakingStopParams& params);
+MotionPhase classify_motion(double speed_before_mps, double speed_now_mps, double dt_s,
+                            const BrakingStopParams& params);
 
 /// Throws std::invalid_argument naming the field when a parameter is out of range.
 void validate(const BrakingStopParams& params);

@@ -57,8 +57,8 @@ class Options {
   /// A boolean switch: `--name`, `--no-name`, `--name=true|false` (also 1|0, yes|no, on|off).
   void add_bool(const std::string& name, bool default_value, const std::string& help);
   /// A text option restricted to `choices` (the default must be one). Read with get_string.
-  void add_choice(const std::string& name, const std::string& default_value,
-                  const std::vector<std::string>& choices, const std::string& help);
+  void add_choice(const std::string& name, const std::string& default_value, const std::vector<std::string>& choices,
+                  const std::string& help);
 
   /// Parses argv[1..argc-1]. Prints the usage to `help_out` and returns kHelp on --help/-h.
   /// Throws ConfigError on any user error. May be called once.

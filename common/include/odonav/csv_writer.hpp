@@ -32,13 +32,13 @@ class CsvWriter {
   CsvWriter(const CsvWriter&) = delete;
   CsvWriter& operator=(const CsvWriter&) = delete;
 
-  CsvWriter& field(double value);                 ///< NaN -> empty field.
+  CsvWriter& field(double value);  ///< NaN -> empty field.
   CsvWriter& field(const std::optional<double>& value);
   CsvWriter& field(int64_t value);
   CsvWriter& field(uint64_t value);
   CsvWriter& field(int value) { return field(static_cast<int64_t>(value)); }
-  CsvWriter& field(bool value);                   ///< 1 or 0.
-  CsvWriter& field(const std::string& value);     ///< must not contain ',' or a newline.
+  CsvWriter& field(bool value);                ///< 1 or 0.
+  CsvWriter& field(const std::string& value);  ///< must not contain ',' or a newline.
   CsvWriter& field(const char* value) { return field(std::string(value)); }
   CsvWriter& empty();
   /// Ends the row; throws std::logic_error when the row has the wrong number of fields.

@@ -41,12 +41,12 @@ inline constexpr std::size_t kMaxDatasetLineBytes = 64 * 1024;
 /// Physical limits of a ground vehicle's data (docs/DATASET.md, "Physical limits"): a value outside
 /// them is a bad row (or, in meta.json and --lever-arm, an error), because no recording of a land
 /// vehicle can hold it and an estimator would turn it into a result that looks fine and is not.
-inline constexpr double kMinHeight_m = -1000.0;       ///< WGS-84 ellipsoidal; the Dead Sea shore is about -400 m.
+inline constexpr double kMinHeight_m = -1000.0;  ///< WGS-84 ellipsoidal; the Dead Sea shore is about -400 m.
 inline constexpr double kMaxHeight_m = 10000.0;
 inline constexpr double kMaxVelocityComponent_mps = 500.0;  ///< per ENU component (GNSS, INS).
 inline constexpr double kMaxHeadingMagnitude_deg = 720.0;   ///< headings are taken modulo 360 within this.
 inline constexpr double kMaxRollMagnitude_deg = 180.0;
-inline constexpr double kMaxLeverArmComponent_m = 20.0;     ///< GNSS antenna from the INS, per axis.
+inline constexpr double kMaxLeverArmComponent_m = 20.0;  ///< GNSS antenna from the INS, per axis.
 
 /// A whole dataset directory in memory.
 struct Dataset {
@@ -68,8 +68,8 @@ BadRowPolicy parse_bad_row_policy(const std::string& text);
 /// One rejected row: where and why. Message format: "<file>:<line>: column '<col>': <reason>".
 struct BadRow {
   std::string file;
-  std::size_t line = 0;   ///< 1-based line number in the file.
-  std::string column;     ///< header name of the offending column (empty when the whole row is bad).
+  std::size_t line = 0;  ///< 1-based line number in the file.
+  std::string column;    ///< header name of the offending column (empty when the whole row is bad).
   std::string reason;
   std::string message() const;
 };
@@ -77,8 +77,8 @@ struct BadRow {
 /// Counts per file, and the first bad rows in detail.
 struct FileReadReport {
   std::string file;
-  std::size_t rows_read = 0;   ///< good rows kept.
-  std::size_t rows_bad = 0;    ///< rows rejected.
+  std::size_t rows_read = 0;                 ///< good rows kept.
+  std::size_t rows_bad = 0;                  ///< rows rejected.
   std::vector<std::string> ignored_columns;  ///< unknown header names (warned once).
 };
 /// Bad rows a DatasetReadReport keeps in detail (the rest are only counted).

@@ -142,11 +142,17 @@ class ResidualScaleTracker {
   void add(double eps_m, double s);
   /// max(sqrt(running mean of eps^2/s), floor) [m]; the floor when nothing was added.
   double sigma_m() const;
-  void reset() { count_ = 0; variance_m2_ = 0.0; }
+  void reset() {
+    count_ = 0;
+    variance_m2_ = 0.0;
+  }
   uint64_t count() const { return count_; }
   double variance_m2() const { return variance_m2_; }
   /// For save/restore.
-  void set_state(uint64_t count, double variance_m2) { count_ = count; variance_m2_ = variance_m2; }
+  void set_state(uint64_t count, double variance_m2) {
+    count_ = count;
+    variance_m2_ = variance_m2;
+  }
 
  private:
   double floor_m_;
@@ -229,8 +235,8 @@ class FfRlsEstimator : public RlsEstimator {
 
 /// The window sums of a sliding-window estimator, for checks and diagnostics.
 struct WindowSums {
-  double s_pp = 0.0;   ///< sum of w_i phi_i^2 over the window, prior excluded [pulse^2].
-  double s_py = 0.0;   ///< sum of w_i phi_i y_i over the window, prior excluded [pulse m].
+  double s_pp = 0.0;     ///< sum of w_i phi_i^2 over the window, prior excluded [pulse^2].
+  double s_py = 0.0;     ///< sum of w_i phi_i y_i over the window, prior excluded [pulse m].
   std::size_t held = 0;  ///< samples in the window.
 };
 

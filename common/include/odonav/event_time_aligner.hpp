@@ -85,10 +85,10 @@ const char* to_string(SampleAdmission admission);
 /// (EventTimeNode), and odonav-offline declares it to the component's aligner so (OfflinePipeline).
 /// One list serves both, so the two transports decide alike when the component may process.
 struct ComponentInput {
-  std::string name;          ///< the stream: "odometer", "gnss", "ins", "misalignment", "scale_factor"
-  bool required = false;     ///< a sensor stream the component cannot work without (Health WARN when absent)
-  std::string paced_by;      ///< empty, or the input declared before whose epochs pace this estimate stream
-  double hold_off_s = 0.0;   ///< samples apply from their stamp (or pacing epoch) + hold-off (s)
+  std::string name;         ///< the stream: "odometer", "gnss", "ins", "misalignment", "scale_factor"
+  bool required = false;    ///< a sensor stream the component cannot work without (Health WARN when absent)
+  std::string paced_by;     ///< empty, or the input declared before whose epochs pace this estimate stream
+  double hold_off_s = 0.0;  ///< samples apply from their stamp (or pacing epoch) + hold-off (s)
 };
 
 class EventTimeAligner {
@@ -98,16 +98,16 @@ class EventTimeAligner {
   /// What a component reports about one input stream (health counters and reasons).
   struct StreamStatus {
     std::string name;
-    std::optional<double> last_t_s;    ///< latest stamp seen (s, event time), accepted or late.
-    double watermark_s = 0.0;          ///< complete up to this (s); -inf before anything, +inf see above.
-    bool absent = false;               ///< declared absent and not heard since.
-    double silent_for_s = 0.0;         ///< wall time since its last sample (or since start) (s).
+    std::optional<double> last_t_s;  ///< latest stamp seen (s, event time), accepted or late.
+    double watermark_s = 0.0;        ///< complete up to this (s); -inf before anything, +inf see above.
+    bool absent = false;             ///< declared absent and not heard since.
+    double silent_for_s = 0.0;       ///< wall time since its last sample (or since start) (s).
     uint64_t accepted = 0;
     uint64_t late = 0;
     uint64_t repeated = 0;
     uint64_t backwards = 0;
     uint64_t invalid = 0;
-    uint64_t absent_events = 0;        ///< times it was declared absent.
+    uint64_t absent_events = 0;  ///< times it was declared absent.
     /// Paced streams: pacing epochs skipped between two consecutive samples (a sample lost upstream
     /// or in transit). 0 for other streams.
     uint64_t skipped_pacing_epochs = 0;
@@ -115,7 +115,7 @@ class EventTimeAligner {
     /// watermark back while another present stream was ahead (its samples later than the
     /// hold-off), one per episode.
     uint64_t hold_off_waits = 0;
-    double hold_off_s = 0.0;           ///< its hold-off (s).
+    double hold_off_s = 0.0;  ///< its hold-off (s).
     /// Samples declared published by its producer and not received yet (see "Samples in flight").
     bool in_flight = false;
     /// Times the in-flight wait kept it present past max_wait_s, one per episode.
@@ -163,21 +163,21 @@ class EventTimeAligner {
  private:
   struct Stream {
     std::string name;
-    std::optional<StreamId> pacing;       ///< set for paced streams.
-    std::vector<StreamId> followers;      ///< paced streams that this one paces.
+    std::optional<StreamId> pacing;   ///< set for paced streams.
+    std::vector<StreamId> followers;  ///< paced streams that this one paces.
     std::optional<double> last_t_s;
-    std::deque<double> pacing_stamps;     ///< pacing streams: own stamps newer than some follower's last.
+    std::deque<double> pacing_stamps;  ///< pacing streams: own stamps newer than some follower's last.
     std::optional<double> last_arrival_s;
-    std::optional<double> behind_since_s; ///< wall time since when others are ahead of it.
+    std::optional<double> behind_since_s;  ///< wall time since when others are ahead of it.
     double hold_off_s = 0.0;
     /// declare_published: complete up to here (the declarations whose last stamp has been seen) ...
     double declared_through_s = -std::numeric_limits<double>::infinity();
     /// ... and the declarations waiting for their last stamp: (complete through, last stamp).
     std::deque<std::pair<double, double>> pending_declarations;
-    bool holding_back = false;            ///< hold-off streams: limited the last watermark.
-    bool in_flight_held = false;          ///< kept present by the in-flight wait (counted once).
+    bool holding_back = false;    ///< hold-off streams: limited the last watermark.
+    bool in_flight_held = false;  ///< kept present by the in-flight wait (counted once).
     bool absent = false;
-    StreamStatus counts;                  ///< counters only (name etc. filled by status()).
+    StreamStatus counts;  ///< counters only (name etc. filled by status()).
   };
   Stream& stream_at(StreamId id);
   const Stream& stream_at(StreamId id) const;

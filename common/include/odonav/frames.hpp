@@ -41,8 +41,8 @@ inline double exact_preimage(double target, double guess, Forward forward) {
   for (int step = 0; step < 16 && best_error != 0.0; ++step) {
     const double back = forward(candidate);
     if (back == target) return candidate;
-    candidate = std::nextafter(candidate, back < target ? std::numeric_limits<double>::infinity()
-                                                        : -std::numeric_limits<double>::infinity());
+    candidate = std::nextafter(
+        candidate, back < target ? std::numeric_limits<double>::infinity() : -std::numeric_limits<double>::infinity());
     const double error = std::abs(forward(candidate) - target);
     if (error < best_error) {
       best = candidate;
@@ -124,8 +124,7 @@ inline Eigen::Matrix3d odometer_to_body(const Misalignment& mis) {
 /// Unit vector of the odometer forward axis in the body frame (FLU).
 inline Eigen::Vector3d odometer_axis_in_body(const Misalignment& mis) {
   return Eigen::Vector3d(std::cos(mis.heading_rad) * std::cos(mis.pitch_rad),
-                         std::sin(mis.heading_rad) * std::cos(mis.pitch_rad),
-                         std::sin(mis.pitch_rad));
+                         std::sin(mis.heading_rad) * std::cos(mis.pitch_rad), std::sin(mis.pitch_rad));
 }
 
 /// Speed along the odometer forward axis (m/s) of an ENU velocity (m/s), exact rotation:
@@ -147,7 +146,8 @@ inline Attitude interpolate_attitude(const Attitude& a, const Attitude& b, doubl
 /// Angular rate of the body (rad/s, body frame FLU) between two attitudes dt_s apart, evaluated at
 /// the attitude `mid`: the axial vector of C_mid^T (C_after - C_before) / dt_s, with C = C_b^n.
 /// dt_s > 0; the attitudes a few tens of milliseconds apart (a finite difference).
-inline Eigen::Vector3d body_rate_rad_s(const Attitude& before, const Attitude& mid, const Attitude& after, double dt_s) {
+inline Eigen::Vector3d body_rate_rad_s(const Attitude& before, const Attitude& mid, const Attitude& after,
+                                       double dt_s) {
   const Eigen::Matrix3d c_dot = (body_to_enu(after) - body_to_enu(before)) / dt_s;
   const Eigen::Matrix3d omega = body_to_enu(mid).transpose() * c_dot;  // ~ skew(omega_b)
   // Antisymmetric part: the finite difference adds a small symmetric error that is not a rotation.

@@ -26,8 +26,8 @@ class GapDetector {
   /// The next stamp (s). Returns the gap it closes, if any.
   std::optional<OutputGap> offer(double t_s);
 
-  std::uint64_t missed() const { return missed_; }       ///< outputs missing in all gaps
-  std::uint64_t gaps() const { return gaps_; }           ///< number of gaps
+  std::uint64_t missed() const { return missed_; }  ///< outputs missing in all gaps
+  std::uint64_t gaps() const { return gaps_; }      ///< number of gaps
   const std::optional<OutputGap>& last_gap() const { return last_gap_; }
   /// The period in use (declared or learned so far); nothing before two stamps when learning.
   std::optional<double> period_s() const;

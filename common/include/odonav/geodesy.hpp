@@ -17,8 +17,8 @@ struct Geodetic {
 
 /// Radii of curvature of WGS-84 at a latitude.
 struct CurvatureRadii {
-  double meridian_m = 0.0;         ///< R_M, north-south radius of curvature.
-  double prime_vertical_m = 0.0;   ///< R_N, east-west (transverse) radius of curvature.
+  double meridian_m = 0.0;        ///< R_M, north-south radius of curvature.
+  double prime_vertical_m = 0.0;  ///< R_N, east-west (transverse) radius of curvature.
 };
 
 /// WGS-84 radii of curvature at latitude lat_rad (radians, [-pi/2, pi/2]).

@@ -202,7 +202,7 @@ class RestartPolicy {
   CheckpointSettings settings_;
   std::vector<RestartInput> inputs_;
   std::vector<bool> first_seen_;
-  std::vector<std::optional<double>> fed_until_t_s_;  ///< per input (note_restored)
+  std::vector<std::optional<double>> fed_until_t_s_;    ///< per input (note_restored)
   std::vector<std::optional<double>> taken_until_t_s_;  ///< per input: last stamp not skipped
   std::string checkpoint_file_;
   std::optional<double> restored_t_s_;

@@ -16,7 +16,7 @@ namespace odonav {
 inline constexpr const char* kProvenanceFile = "run.json";
 
 struct RunProvenance {
-  std::string tool;        ///< "odonav-offline", "odonav-recorder".
+  std::string tool;  ///< "odonav-offline", "odonav-recorder".
   /// The dataset's meta.json vehicle_id (compared with the dataset's); empty when the writer did not
   /// read the dataset.
   std::string vehicle_id;
@@ -64,7 +64,6 @@ std::optional<RunProvenance> read_provenance(const std::string& folder);
 /// t_last_s] of its rows) cannot belong to `dataset`: another vehicle, another recording, or rows
 /// outside the dataset's time span by more than tolerance_s. Empty when they may belong.
 std::vector<std::string> provenance_mismatches(const std::optional<RunProvenance>& results, double rows_t_first_s,
-                                               double rows_t_last_s, const Dataset& dataset,
-                                               double tolerance_s = 1.0);
+                                               double rows_t_last_s, const Dataset& dataset, double tolerance_s = 1.0);
 
 }  // namespace odonav

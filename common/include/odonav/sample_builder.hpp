@@ -482,8 +482,8 @@ class SampleBuilder {
   /// The parabola fit of the per-candidate sums of normalised squared residuals (samples of them,
   /// fitted_k K values fitted to them): fills estimate_s, sigma_s, samples, reason of out and
   /// returns whether there is an estimate.
-  bool fit_latency(const std::vector<double>& sums, uint64_t samples, uint64_t fitted_k,
-                   GnssLatencyEstimate& out, uint64_t min_samples) const;
+  bool fit_latency(const std::vector<double>& sums, uint64_t samples, uint64_t fitted_k, GnssLatencyEstimate& out,
+                   uint64_t min_samples) const;
   /// The open block's residual sum per candidate (against the candidate's own K over the block),
   /// scaled by the block's residual variance: (samples - 1) / its smallest sum. False when the
   /// block has too few samples or no residual.
@@ -526,10 +526,10 @@ class SampleBuilder {
   double latency_block_yy_m2_ = 0.0;
   std::vector<double> latency_block_yphi_;
   std::vector<double> latency_block_phiphi_;
-  std::vector<double> latency_chi2_;  ///< closed blocks plus the open one, per candidate.
+  std::vector<double> latency_chi2_;                  ///< closed blocks plus the open one, per candidate.
   std::deque<PendingLatencySample> latency_pending_;  ///< accepted, not yet in the sums (in order).
-  uint64_t latency_samples_ = 0;  ///< samples in latency_chi2_.
-  double latency_sums_applied_s_ = 0.0;  ///< the applied latency the sums were collected at.
+  uint64_t latency_samples_ = 0;                      ///< samples in latency_chi2_.
+  double latency_sums_applied_s_ = 0.0;               ///< the applied latency the sums were collected at.
   uint64_t latency_restarts_ = 0;
 };
 

@@ -16,13 +16,13 @@ namespace odonav {
 
 /// One regression sample, built by the sample builder (sample_builder.hpp).
 struct ScaleFactorSample {
-  double t_s = 0.0;          ///< end of the interval (a GNSS epoch), seconds.
-  double phi_pulses = 0.0;   ///< pulse increment over the interval.
-  double y_m = 0.0;          ///< distance from GNSS velocity over the interval, metres.
-  double dt_s = 0.0;         ///< interval length, seconds.
+  double t_s = 0.0;         ///< end of the interval (a GNSS epoch), seconds.
+  double phi_pulses = 0.0;  ///< pulse increment over the interval.
+  double y_m = 0.0;         ///< distance from GNSS velocity over the interval, metres.
+  double dt_s = 0.0;        ///< interval length, seconds.
   /// GNSS position at t_s in a local ENU frame (metres); used by the coarse S/N calibration only.
   Eigen::Vector3d gnss_position_enu_m = Eigen::Vector3d::Zero();
-  bool straight = true;      ///< the yaw-rate gate says this interval was on a straight line.
+  bool straight = true;  ///< the yaw-rate gate says this interval was on a straight line.
 };
 
 /// The sensor noise model of the regression (docs/ALGORITHM.md, "Estimators": sigma_y^2): the
@@ -43,13 +43,13 @@ inline double regression_noise_variance_m2(double sigma_v_mps, double interval_s
 
 /// What every estimator reports.
 struct ScaleFactorEstimate {
-  bool valid = false;               ///< false until the estimator has a value.
-  double k_m_per_pulse = 0.0;       ///< K estimate.
-  double sigma_m_per_pulse = 0.0;   ///< one-sigma of K (0 when unknown).
-  double forgetting_factor = 1.0;   ///< lambda applied at the last update (1 for RLS / windows).
-  double window_fill = 0.0;         ///< held samples / window capacity, 0..1 (1 for growing memory).
-  bool converged = false;           ///< sigma below the convergence threshold.
-  uint64_t samples_used = 0;        ///< samples given to update() since reset.
+  bool valid = false;              ///< false until the estimator has a value.
+  double k_m_per_pulse = 0.0;      ///< K estimate.
+  double sigma_m_per_pulse = 0.0;  ///< one-sigma of K (0 when unknown).
+  double forgetting_factor = 1.0;  ///< lambda applied at the last update (1 for RLS / windows).
+  double window_fill = 0.0;        ///< held samples / window capacity, 0..1 (1 for growing memory).
+  bool converged = false;          ///< sigma below the convergence threshold.
+  uint64_t samples_used = 0;       ///< samples given to update() since reset.
 };
 
 class ScaleFactorEstimator {

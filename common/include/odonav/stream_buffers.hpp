@@ -53,9 +53,9 @@ inline void check_stream_time(const char* stream, double t_s, const std::optiona
 
 /// Outcome of asking a buffer for a value at a time.
 enum class BracketState {
-  kReady,     ///< a valid bracket exists: the value is available.
-  kPending,   ///< no sample at or after t yet, and the watermark does not exclude one: wait.
-  kMissing,   ///< no valid bracket can exist (gap, or t before the first sample): the value is absent.
+  kReady,    ///< a valid bracket exists: the value is available.
+  kPending,  ///< no sample at or after t yet, and the watermark does not exclude one: wait.
+  kMissing,  ///< no valid bracket can exist (gap, or t before the first sample): the value is absent.
 };
 
 namespace detail {
@@ -71,10 +71,11 @@ BracketState bracket(const Entries& entries, double t_s, double watermark_s, dou
     if (entries.empty() && watermark_s < t_s + max_bracket_s) return BracketState::kPending;
     return BracketState::kMissing;
   }
-  if (entries.back().t_s < t_s) return watermark_s < t_s + max_bracket_s ? BracketState::kPending : BracketState::kMissing;
+  if (entries.back().t_s < t_s)
+    return watermark_s < t_s + max_bracket_s ? BracketState::kPending : BracketState::kMissing;
   // The first entry at or after t_s.
-  const auto at = std::lower_bound(entries.begin(), entries.end(), t_s,
-                                   [](const auto& e, double t) { return e.t_s < t; });
+  const auto at =
+      std::lower_bound(entries.begin(), entries.end(), t_s, [](const auto& e, double t) { return e.t_s < t; });
   const std::size_t i = static_cast<std::size_t>(at - entries.begin());
   if (entries[i].t_s == t_s) {
     lo = hi = i;
@@ -85,7 +86,6 @@ BracketState bracket(const Entries& entries, double t_s, double watermark_s, dou
   return entries[hi].t_s - entries[lo].t_s <= max_bracket_s ? BracketState::kReady : BracketState::kMissing;
 }
 }  // namespace detail
-
 
 /// The pulse-jump gate of the odometer stream: the largest count increment a real vehicle can make
 /// in dt_s. A counter glitch (a bit flip, a reset to a random value, a bus error) shows up as an
@@ -228,8 +228,8 @@ class OdometerBuffer {
   OdometerDirection direction_over(double t0_s, double t1_s) const {
     bool forward = false, reversing = false;
     // From the first sample stamped after t0_s.
-    auto it = std::upper_bound(entries_.begin(), entries_.end(), t0_s,
-                               [](double t, const Entry& e) { return t < e.t_s; });
+    auto it =
+        std::upper_bound(entries_.begin(), entries_.end(), t0_s, [](double t, const Entry& e) { return t < e.t_s; });
     for (; it != entries_.end(); ++it) {
       (it->direction < 0 ? reversing : forward) = true;
       if (it->t_s >= t1_s) break;
@@ -243,8 +243,8 @@ class OdometerBuffer {
   }
   /// The direction of the sample describing the instant t_s (the first stamped at or after it).
   OdometerDirection direction_at(double t_s) const {
-    const auto it = std::lower_bound(entries_.begin(), entries_.end(), t_s,
-                                     [](const Entry& e, double t) { return e.t_s < t; });
+    const auto it =
+        std::lower_bound(entries_.begin(), entries_.end(), t_s, [](const Entry& e, double t) { return e.t_s < t; });
     if (it != entries_.end()) return it->direction < 0 ? OdometerDirection::kReversing : OdometerDirection::kForward;
     return OdometerDirection::kForward;
   }

@@ -43,9 +43,9 @@ class TaskDispatcher {
   void enqueue(std::function<void()> task);
 
   Mode mode_ = Mode::kQueued;
-  std::mutex execute_mutex_;            // held while a task or the tick runs
-  bool execute_on_post_ = false;        // kOnPost, under execute_mutex_: run() is running
-  std::function<void()> after_task_;    // the tick, under execute_mutex_
+  std::mutex execute_mutex_;          // held while a task or the tick runs
+  bool execute_on_post_ = false;      // kOnPost, under execute_mutex_: run() is running
+  std::function<void()> after_task_;  // the tick, under execute_mutex_
   mutable std::mutex queue_mutex_;
   std::condition_variable queue_changed_;
   std::deque<std::function<void()>> queue_;

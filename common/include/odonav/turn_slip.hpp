@@ -28,15 +28,15 @@ namespace odonav {
 
 /// One interval that the yaw-rate gate kept out of K (every other interval gate passed).
 struct TurnSlipSample {
-  double t_s = 0.0;                ///< end of the interval (GNSS epoch, event time, s)
-  double dt_s = 0.0;               ///< interval length (s)
-  double phi_pulses = 0.0;         ///< pulses counted over the interval
-  double y_m = 0.0;                ///< distance from the GNSS velocity over the interval (m), as a K sample's
+  double t_s = 0.0;         ///< end of the interval (GNSS epoch, event time, s)
+  double dt_s = 0.0;        ///< interval length (s)
+  double phi_pulses = 0.0;  ///< pulses counted over the interval
+  double y_m = 0.0;         ///< distance from the GNSS velocity over the interval (m), as a K sample's
   /// X = sum over the interval's yaw-rate steps of the step's pulses times max(0, |yaw rate| -
   /// threshold) (pulses rad/s).
   double turn_pulses_radps = 0.0;
-  double k_m_per_pulse = 0.0;      ///< the K estimate the residual is taken against (m/pulse)
-  double sigma_y_m = 0.0;          ///< one-sigma of y - K phi from sensor noise alone (m)
+  double k_m_per_pulse = 0.0;  ///< the K estimate the residual is taken against (m/pulse)
+  double sigma_y_m = 0.0;      ///< one-sigma of y - K phi from sensor noise alone (m)
 };
 
 struct TurnSlipParams {
@@ -56,11 +56,11 @@ struct TurnSlipParams {
 
 /// The estimate after the samples so far.
 struct TurnSlipEstimate {
-  double g_s_per_rad = 0.0;        ///< least-squares slip gain (s/rad); 0 without samples
-  double sigma_s_per_rad = -1.0;   ///< its one-sigma (s/rad); -1 = not enough samples for one
-  uint64_t samples = 0;            ///< samples in the fit
-  uint64_t outliers = 0;           ///< samples dropped as velocity outliers
-  bool applies = false;            ///< significant: the dead reckoning applies g
+  double g_s_per_rad = 0.0;       ///< least-squares slip gain (s/rad); 0 without samples
+  double sigma_s_per_rad = -1.0;  ///< its one-sigma (s/rad); -1 = not enough samples for one
+  uint64_t samples = 0;           ///< samples in the fit
+  uint64_t outliers = 0;          ///< samples dropped as velocity outliers
+  bool applies = false;           ///< significant: the dead reckoning applies g
   /// Why g does not apply, with the observed values ("" when it applies), e.g.
   /// "12 turn samples < 30" or "|g| = 0.004 s/rad < 3 sigma (sigma 0.006 s/rad)".
   std::string reason;

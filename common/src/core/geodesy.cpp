@@ -38,8 +38,8 @@ Geodetic move_geodetic(const Geodetic& start, const Eigen::Vector3d& delta_enu_m
 
 double horizontal_distance_m(const Geodetic& a, const Geodetic& b) {
   double s12 = 0.0;
-  GeographicLib::Geodesic::WGS84().Inverse(rad_to_deg(a.lat_rad), rad_to_deg(a.lon_rad),
-                                           rad_to_deg(b.lat_rad), rad_to_deg(b.lon_rad), s12);
+  GeographicLib::Geodesic::WGS84().Inverse(rad_to_deg(a.lat_rad), rad_to_deg(a.lon_rad), rad_to_deg(b.lat_rad),
+                                           rad_to_deg(b.lon_rad), s12);
   return s12;
 }
 
@@ -138,8 +138,7 @@ Eigen::Vector3d LocalEnuFrame::Impl::compute_enu(const Geodetic& p) const {
   Impl::geodetic_to_ecef(p.lat_rad, p.lon_rad, p.height_m, x, y, z);
   const long double d[3] = {x - x0, y - y0, z - z0};
   Eigen::Vector3d out;
-  for (int i = 0; i < 3; ++i)
-    out[i] = static_cast<double>(r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);
+  for (int i = 0; i < 3; ++i) out[i] = static_cast<double>(r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);
   return out;
 }
 

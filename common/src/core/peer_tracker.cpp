@@ -41,11 +41,14 @@ std::vector<PeerTracker::SilentPeer> PeerTracker::silent_locked(double now_s) co
   bool someone_alive = false;
   for (const auto& [id, w] : writers_) {
     const double quiet = now_s - w.since_s;
-    if (quiet >= silence_s_) out.push_back({w.stream, w.peer, quiet});
-    else if (w.ever_heard) someone_alive = true;
+    if (quiet >= silence_s_)
+      out.push_back({w.stream, w.peer, quiet});
+    else if (w.ever_heard)
+      someone_alive = true;
   }
   if (!someone_alive) return {};
-  std::stable_sort(out.begin(), out.end(), [](const SilentPeer& a, const SilentPeer& b) { return a.silent_s > b.silent_s; });
+  std::stable_sort(out.begin(), out.end(),
+                   [](const SilentPeer& a, const SilentPeer& b) { return a.silent_s > b.silent_s; });
   return out;
 }
 

@@ -112,7 +112,8 @@ void CoarseEstimator::restore_state(const std::string& state) {
   in.check_params(params_);
   const auto rows = in.rows("row", 3);
   const std::string where = "estimator state for 'coarse': ";
-  if (rows.size() != 3) throw std::runtime_error(where + "expected 3 position rows, got " + std::to_string(rows.size()));
+  if (rows.size() != 3)
+    throw std::runtime_error(where + "expected 3 position rows, got " + std::to_string(rows.size()));
   const uint64_t have_previous = in.get_u64("have_previous");
   const uint64_t run_open = in.get_u64("run_open");
   if (have_previous > 1 || run_open > 1) throw std::runtime_error(where + "flags must be 0 or 1");

@@ -25,7 +25,8 @@ void KfRandomWalkEstimator::update(const ScaleFactorSample& sample) {
   if (!sample_is_valid(sample)) check_sample(name(), sample);  // throws, naming the field
   const double phi = sample.phi_pulses;
   const double y = sample.y_m;
-  const double k_for_model = initialised_ ? k_ : (params_.prior_weight_pulses2 > 0.0 ? params_.k_prior_m_per_pulse : y / phi);
+  const double k_for_model =
+      initialised_ ? k_ : (params_.prior_weight_pulses2 > 0.0 ? params_.k_prior_m_per_pulse : y / phi);
   const double r = residual_scale_.count() >= kMinResidualsForOnlineScale
                        ? std::pow(residual_scale_.sigma_m(), 2)
                        : model_sigma_y2_m2(params_, k_for_model, sample.dt_s);

@@ -24,8 +24,7 @@ std::string format_value(double value) {
 }
 
 // Checks lo (<|<=) value (<|<=) hi; NaN fails every comparison so it is always rejected.
-void check_range(const char* name, double value, double lo, bool lo_open, double hi, bool hi_open,
-                 const char* range) {
+void check_range(const char* name, double value, double lo, bool lo_open, double hi, bool hi_open, const char* range) {
   const bool lo_ok = lo_open ? value > lo : value >= lo;
   const bool hi_ok = hi_open ? value < hi : value <= hi;
   if (!(lo_ok && hi_ok)) bad_param(name, value, range);
@@ -83,8 +82,8 @@ namespace estimators_internal {
 
 void check_sample(const std::string& estimator, const ScaleFactorSample& sample) {
   auto fail = [&](const char* field, double value, const char* rule) {
-    throw std::invalid_argument(estimator + ": rejected sample at t_s = " + format_value(sample.t_s) + ": " +
-                                field + " = " + format_value(value) + " " + rule);
+    throw std::invalid_argument(estimator + ": rejected sample at t_s = " + format_value(sample.t_s) + ": " + field +
+                                " = " + format_value(value) + " " + rule);
   };
   if (!std::isfinite(sample.t_s)) fail("t_s", sample.t_s, "is not finite");
   if (!std::isfinite(sample.phi_pulses) || !(sample.phi_pulses > 0.0))
@@ -93,11 +92,11 @@ void check_sample(const std::string& estimator, const ScaleFactorSample& sample)
   if (!std::isfinite(sample.dt_s) || sample.dt_s < 0.0) fail("dt_s", sample.dt_s, "must be finite and >= 0");
   for (int i = 0; i < 3; ++i)
     if (!std::isfinite(sample.gnss_position_enu_m[i]))
-      fail(i == 0 ? "gnss_position_enu_m.east" : i == 1 ? "gnss_position_enu_m.north" : "gnss_position_enu_m.up",
+      fail(i == 0   ? "gnss_position_enu_m.east"
+           : i == 1 ? "gnss_position_enu_m.north"
+                    : "gnss_position_enu_m.up",
            sample.gnss_position_enu_m[i], "is not finite");
 }
-
-
 
 }  // namespace estimators_internal
 

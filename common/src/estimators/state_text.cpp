@@ -75,9 +75,7 @@ StateWriter::StateWriter(const std::string& estimator_name) {
 
 void StateWriter::put(const std::string& key, double value) { text_ += key + " " + hex_double(value) + "\n"; }
 
-void StateWriter::put_u64(const std::string& key, uint64_t value) {
-  text_ += key + " " + std::to_string(value) + "\n";
-}
+void StateWriter::put_u64(const std::string& key, uint64_t value) { text_ += key + " " + std::to_string(value) + "\n"; }
 
 void StateWriter::put_row(const std::string& key, const std::vector<double>& values) {
   text_ += key;
@@ -121,8 +119,8 @@ StateReader::StateReader(const std::string& text, const std::string& estimator_n
       if (fields.size() != 2 || fields[0] != kMagic)
         throw std::runtime_error(where + "not an odonav estimator state (first line '" + line + "')");
       if (fields[1] != kVersion)
-        throw std::runtime_error(where + "unsupported state version " + fields[1] + " (this build reads " +
-                                 kVersion + ")");
+        throw std::runtime_error(where + "unsupported state version " + fields[1] + " (this build reads " + kVersion +
+                                 ")");
       continue;
     }
     if (line_number == 2) {
@@ -144,7 +142,8 @@ StateReader::StateReader(const std::string& text, const std::string& estimator_n
 
 const std::vector<std::string>& StateReader::values(const std::string& key) const {
   const auto it = single_.find(key);
-  if (it == single_.end()) throw std::runtime_error("estimator state for '" + estimator_ + "': missing field '" + key + "'");
+  if (it == single_.end())
+    throw std::runtime_error("estimator state for '" + estimator_ + "': missing field '" + key + "'");
   if (it->second.size() != 1)
     throw std::runtime_error("estimator state for '" + estimator_ + "': field '" + key + "' must have one value");
   return it->second;
@@ -158,8 +157,8 @@ uint64_t StateReader::get_u64(const std::string& key) const {
   char* end = nullptr;
   const unsigned long long value = std::strtoull(token.c_str(), &end, 10);
   if (token.empty() || token[0] == '-' || end != token.c_str() + token.size() || errno == ERANGE)
-    throw std::runtime_error("estimator state for '" + estimator_ + "': field '" + key +
-                             "' has a bad count '" + token + "'");
+    throw std::runtime_error("estimator state for '" + estimator_ + "': field '" + key + "' has a bad count '" + token +
+                             "'");
   return value;
 }
 

@@ -66,7 +66,7 @@ void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
   std::optional<uint64_t> change_began;
   if (held_ > 0 && s_pp_total > 0.0) {
     const double k_prev = (s_py_ + w0 * params_.k_prior_m_per_pulse) / s_pp_total;
-    const double eps = y - k_prev * phi;       // a-priori error: follows the identification result
+    const double eps = y - k_prev * phi;  // a-priori error: follows the identification result
     const double s = 1.0 + phi * phi / s_pp_total;
     // The detector normalises by the residual scale observed so far (not the model's): it then
     // holds whatever the samples' real noise is, e.g. the trapezoid correction's at low rates.

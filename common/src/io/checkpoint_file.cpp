@@ -219,11 +219,11 @@ std::string read_checkpoint_state_block(CheckpointReader& reader, const std::str
 
 const std::vector<std::string>& checkpoint_neutral_options() {
   static const std::vector<std::string> names{
-      "checkpoint-every-s", "config",   "domain",        "log-level", "max-wait-s", "profile",
-      "profile-name",       "security-dir", "security-identity", "state-dir", "vehicle-id",
+      "checkpoint-every-s", "config", "domain", "log-level", "max-wait-s", "profile", "profile-name", "security-dir",
+      "security-identity", "state-dir", "vehicle-id",
       // Hot standby and command checks: they do not change the estimate, and a standby may take
       // over a primary's checkpoint.
-      "instance",           "ownership-strength", "nominal-k"};
+      "instance", "ownership-strength", "nominal-k"};
   return names;
 }
 
@@ -241,8 +241,8 @@ std::string config_hash_of(const std::vector<std::string>& values_as_text) {
 void check_checkpoint_vehicle_id(const std::string& vehicle_id) {
   if (vehicle_id.empty()) throw std::invalid_argument("checkpoint: the vehicle id is empty");
   for (char c : vehicle_id) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
-                    c == '_' || c == '-';
+    const bool ok =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-';
     if (!ok)
       throw std::invalid_argument("checkpoint: vehicle id '" + vehicle_id +
                                   "' cannot be part of a file name (letters, digits, '.', '_', '-' only)");
@@ -262,8 +262,8 @@ std::string move_checkpoint_aside(const std::string& path, int64_t unix_time_s) 
   std::string target = base;
   for (int i = 2; std::filesystem::exists(target); ++i) target = base + "-" + std::to_string(i);
   if (::rename(path.c_str(), target.c_str()) != 0)
-    throw std::runtime_error("checkpoint: cannot move aside to '" + target + "' '" + path + "': " +
-                             std::strerror(errno));
+    throw std::runtime_error("checkpoint: cannot move aside to '" + target + "' '" + path +
+                             "': " + std::strerror(errno));
   return target;
 }
 

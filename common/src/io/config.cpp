@@ -144,9 +144,7 @@ void Options::assign(Option& o, const Assignment& a) {
   const auto error = [&](const std::string& what) { return ConfigError(a.where + ": " + what); };
   switch (o.type) {
     case Type::kString:
-    case Type::kPositional:
-      o.text = a.value;
-      break;
+    case Type::kPositional: o.text = a.value; break;
     case Type::kChoice:
       if (std::find(o.choices.begin(), o.choices.end(), value) == o.choices.end()) {
         throw error("must be one of " + io_detail::join(o.choices));
@@ -154,9 +152,12 @@ void Options::assign(Option& o, const Assignment& a) {
       o.text = value;
       break;
     case Type::kBool:
-      if (value == "true" || value == "1" || value == "yes" || value == "on") o.bool_value = true;
-      else if (value == "false" || value == "0" || value == "no" || value == "off") o.bool_value = false;
-      else throw error("must be true or false");
+      if (value == "true" || value == "1" || value == "yes" || value == "on")
+        o.bool_value = true;
+      else if (value == "false" || value == "0" || value == "no" || value == "off")
+        o.bool_value = false;
+      else
+        throw error("must be true or false");
       o.text = o.bool_value ? "true" : "false";
       break;
     case Type::kDouble: {
@@ -221,9 +222,11 @@ void Options::load_config_file(const std::string& path, std::map<std::string, As
     if (key == "config") throw ConfigError(at + ": 'config' cannot be set in a config file");
     Option* o = find_option(key);
     if (!o) {
-      const bool positional = std::any_of(options_.begin(), options_.end(), [&](const Option& p) { return p.name == key; });
-      throw ConfigError(at + ": " + (positional ? "'" + key + "' is a positional argument, give it on the command line"
-                                                : "unknown key '" + key + "'"));
+      const bool positional =
+          std::any_of(options_.begin(), options_.end(), [&](const Option& p) { return p.name == key; });
+      throw ConfigError(at + ": " +
+                        (positional ? "'" + key + "' is a positional argument, give it on the command line"
+                                    : "unknown key '" + key + "'"));
     }
     if (const auto it = first_line.find(key); it != first_line.end()) {
       throw ConfigError(at + ": duplicate key '" + key + "' (first at line " + std::to_string(it->second) + ")");
@@ -401,8 +404,7 @@ std::string Options::usage() const {
         left = "--" + o.name + " <choice>";
         details = "default: " + o.default_text + ", choices: " + io_detail::join(o.choices);
         break;
-      case Type::kPositional:
-        break;
+      case Type::kPositional: break;
     }
     flags.push_back({left, o.help + " (" + details + ")"});
   }

@@ -48,9 +48,7 @@ CsvWriter& CsvWriter::field(double value) {
   return *this;
 }
 
-CsvWriter& CsvWriter::field(const std::optional<double>& value) {
-  return value ? field(*value) : empty();
-}
+CsvWriter& CsvWriter::field(const std::optional<double>& value) { return value ? field(*value) : empty(); }
 
 CsvWriter& CsvWriter::field(int64_t value) {
   separator();

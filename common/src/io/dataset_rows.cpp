@@ -103,8 +103,8 @@ class RowFields {
   /// Checks lo <= value <= hi for a value read from column id.
   void check_range(int id, double value, double lo, double hi, const char* what) {
     if (failed_ || (value >= lo && value <= hi)) return;
-    fail(id, std::string(what) + " outside [" + io_detail::format_number(lo) + ", " +
-                 io_detail::format_number(hi) + "]: " + in_quotes(text(id)));
+    fail(id, std::string(what) + " outside [" + io_detail::format_number(lo) + ", " + io_detail::format_number(hi) +
+                 "]: " + in_quotes(text(id)));
   }
 
   void check_not_negative(int id, const std::optional<double>& value) {
@@ -116,20 +116,11 @@ class RowFields {
   double parse_number(int id) {
     double value = 0.0;
     switch (io_detail::parse_double(text(id), value)) {
-      case NumberStatus::kOk:
-        return value;
-      case NumberStatus::kEmpty:
-        fail(id, "missing value");
-        break;
-      case NumberStatus::kNotFinite:
-        fail(id, "NaN or infinity is not allowed: " + in_quotes(text(id)));
-        break;
-      case NumberStatus::kOutOfRange:
-        fail(id, "number out of range of a double: " + in_quotes(text(id)));
-        break;
-      case NumberStatus::kNotNumber:
-        fail(id, "not a number: " + in_quotes(text(id)));
-        break;
+      case NumberStatus::kOk: return value;
+      case NumberStatus::kEmpty: fail(id, "missing value"); break;
+      case NumberStatus::kNotFinite: fail(id, "NaN or infinity is not allowed: " + in_quotes(text(id))); break;
+      case NumberStatus::kOutOfRange: fail(id, "number out of range of a double: " + in_quotes(text(id))); break;
+      case NumberStatus::kNotNumber: fail(id, "not a number: " + in_quotes(text(id))); break;
     }
     return 0.0;
   }
@@ -182,29 +173,27 @@ const std::vector<ColumnSpec> kSpecs{{"t", true}, {"pulses", true}, {"direction"
 }  // namespace odo
 namespace gnss {
 enum { kT, kLat, kLon, kHeight, kVe, kVn, kVu, kPosStd, kVelStd, kFix };
-const std::vector<ColumnSpec> kSpecs{{"t", true},        {"lat_deg", true},    {"lon_deg", true},
-                                     {"height_m", true}, {"ve", true},         {"vn", true},
-                                     {"vu", true},       {"pos_std_m", false}, {"vel_std_mps", false},
-                                     {"fix", false}};
+const std::vector<ColumnSpec> kSpecs{
+    {"t", true},  {"lat_deg", true}, {"lon_deg", true},    {"height_m", true},     {"ve", true},
+    {"vn", true}, {"vu", true},      {"pos_std_m", false}, {"vel_std_mps", false}, {"fix", false}};
 }  // namespace gnss
 namespace ins {
 enum { kT, kHeading, kPitch, kRoll, kVe, kVn, kVu };
-const std::vector<ColumnSpec> kSpecs{{"t", true},  {"heading_deg", true}, {"pitch_deg", true},
-                                     {"roll_deg", true}, {"ve", false},    {"vn", false},
-                                     {"vu", false}};
+const std::vector<ColumnSpec> kSpecs{{"t", true},   {"heading_deg", true}, {"pitch_deg", true}, {"roll_deg", true},
+                                     {"ve", false}, {"vn", false},         {"vu", false}};
 }  // namespace ins
 namespace truth {
 enum { kT, kLat, kLon, kHeight, kHeading, kPitch, kRoll, kK, kDistance };
-const std::vector<ColumnSpec> kSpecs{{"t", true},           {"lat_deg", false}, {"lon_deg", false},
-                                     {"height_m", false},   {"heading_deg", false},  {"pitch_deg", false},
-                                     {"roll_deg", false},   {"k_true", false},       {"distance_m", false}};
+const std::vector<ColumnSpec> kSpecs{{"t", true},         {"lat_deg", false},     {"lon_deg", false},
+                                     {"height_m", false}, {"heading_deg", false}, {"pitch_deg", false},
+                                     {"roll_deg", false}, {"k_true", false},      {"distance_m", false}};
 }  // namespace truth
 
 OdometerSample parse_odometer_row(RowFields& row) {
   OdometerSample s;
   s.t_s = row.required_double(odo::kT);
-  s.pulses = static_cast<uint32_t>(
-      row.integer(odo::kPulses, true, 0, 0, 4294967295LL, "an integer in [0, 4294967295]"));
+  s.pulses =
+      static_cast<uint32_t>(row.integer(odo::kPulses, true, 0, 0, 4294967295LL, "an integer in [0, 4294967295]"));
   s.direction = static_cast<int>(row.integer(odo::kDirection, false, 1, -1, 1, "-1, 0 or 1"));
   return s;
 }
@@ -278,7 +267,8 @@ TruthSample parse_truth_row(RowFields& row) {
   const double lon_deg = value_or_nan(truth::kLon);
   if (!std::isnan(lon_deg)) row.check_range(truth::kLon, lon_deg, -180.0, 180.0, "longitude");
   const double height_m = value_or_nan(truth::kHeight);
-  if (!std::isnan(height_m)) row.check_range(truth::kHeight, height_m, kMinHeight_m, kMaxHeight_m, "height (m) of a land vehicle");
+  if (!std::isnan(height_m))
+    row.check_range(truth::kHeight, height_m, kMinHeight_m, kMaxHeight_m, "height (m) of a land vehicle");
   s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(lon_deg), height_m};
   const double heading_deg = value_or_nan(truth::kHeading);
   if (!std::isnan(heading_deg))
@@ -578,8 +568,8 @@ void RowReader<Sample>::note_first_row(double t_s, std::size_t line, std::string
       const char* unit = magnitude >= kMinEpochNanoseconds    ? "nanoseconds"
                          : magnitude >= kMinEpochMicroseconds ? "microseconds"
                                                               : "milliseconds";
-      throw DatasetError(path_ + ":" + std::to_string(line) + ": column 't': " + first_t_text_ + " looks like " +
-                         unit + " since 1970; odonav expects seconds (docs/DATASET.md)");
+      throw DatasetError(path_ + ":" + std::to_string(line) + ": column 't': " + first_t_text_ + " looks like " + unit +
+                         " since 1970; odonav expects seconds (docs/DATASET.md)");
     }
   }
   first_t_[first_t_count_++] = t_s;

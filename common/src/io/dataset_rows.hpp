@@ -98,9 +98,7 @@ class RowReader {
   const FileReadReport& file_report() const { return file_report_; }
   /// Bytes held for buffering: the LineReader's and the field list of one row (at most one entry
   /// per byte of a line).
-  std::size_t buffered_bytes() const {
-    return lines_.buffered_bytes() + fields_.capacity() * sizeof(std::string_view);
-  }
+  std::size_t buffered_bytes() const { return lines_.buffered_bytes() + fields_.capacity() * sizeof(std::string_view); }
 
  private:
   bool read_good_row(Sample& sample);  // false at the end of the file

@@ -38,8 +38,10 @@ class CheckedCsv {
   void degrees(double angle_rad, const char* column) { csv_.field(exact_degrees_of(checked(angle_rad, column))); }
   /// A value that may be absent: empty field for nullopt.
   void optional_number(const std::optional<double>& value, const char* column) {
-    if (value) number(*value, column);
-    else csv_.empty();
+    if (value)
+      number(*value, column);
+    else
+      csv_.empty();
   }
   /// An absent value.
   void empty() { csv_.empty(); }
@@ -215,10 +217,14 @@ void DatasetWriter::add(const GnssSample& s) {
     csv.number(s.vel_enu_mps.x(), "ve");
     csv.number(s.vel_enu_mps.y(), "vn");
     csv.number(s.vel_enu_mps.z(), "vu");
-    if (options_.gnss_pos_std_m) csv.optional_number(s.pos_std_m, "pos_std_m");
-    else if (s.pos_std_m) csv.fail_not_a_column("pos_std_m");
-    if (options_.gnss_vel_std_mps) csv.optional_number(s.vel_std_mps, "vel_std_mps");
-    else if (s.vel_std_mps) csv.fail_not_a_column("vel_std_mps");
+    if (options_.gnss_pos_std_m)
+      csv.optional_number(s.pos_std_m, "pos_std_m");
+    else if (s.pos_std_m)
+      csv.fail_not_a_column("pos_std_m");
+    if (options_.gnss_vel_std_mps)
+      csv.optional_number(s.vel_std_mps, "vel_std_mps");
+    else if (s.vel_std_mps)
+      csv.fail_not_a_column("vel_std_mps");
     csv.integer(s.fix);
     csv.end_row();
   });
@@ -294,10 +300,14 @@ void DatasetWriter::finish(const DatasetMeta& meta) {
     // The renames, meta.json last.
     f.odometer.csv().close();
     f.gnss.csv().close();
-    if (f.ins) f.ins->csv().close();
-    else remove_stale(join_path(dir_, "ins.csv"));
-    if (f.truth) f.truth->csv().close();
-    else remove_stale(join_path(dir_, "truth.csv"));
+    if (f.ins)
+      f.ins->csv().close();
+    else
+      remove_stale(join_path(dir_, "ins.csv"));
+    if (f.truth)
+      f.truth->csv().close();
+    else
+      remove_stale(join_path(dir_, "truth.csv"));
     meta_file.commit();
     finished_ = true;
   });

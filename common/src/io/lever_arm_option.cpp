@@ -29,7 +29,8 @@ std::optional<Eigen::Vector3d> lever_arm_from(const Options& o) {
   }
   if (i != 3) throw ConfigError("--lever-arm=" + text + ": expected three numbers x,y,z in metres");
   if (v.cwiseAbs().maxCoeff() > kMaxLeverArmComponent_m)
-    throw ConfigError("--lever-arm=" + text + ": a component beyond +-20 m (an antenna on a land vehicle is within "
+    throw ConfigError("--lever-arm=" + text +
+                      ": a component beyond +-20 m (an antenna on a land vehicle is within "
                       "that of the INS)");
   return v;
 }

@@ -11,8 +11,8 @@ spdlog::level::level_enum parse_log_level(const std::string& name, const std::st
   using spdlog::level::level_enum;
   // spdlog::level::from_str maps any unknown name to "off", which would silence a typo: check here.
   static const std::pair<const char*, level_enum> kLevels[] = {
-      {"trace", level_enum::trace}, {"debug", level_enum::debug}, {"info", level_enum::info},
-      {"warn", level_enum::warn},   {"warning", level_enum::warn}, {"error", level_enum::err},
+      {"trace", level_enum::trace},       {"debug", level_enum::debug},  {"info", level_enum::info},
+      {"warn", level_enum::warn},         {"warning", level_enum::warn}, {"error", level_enum::err},
       {"critical", level_enum::critical}, {"off", level_enum::off}};
   for (const auto& [text, level] : kLevels) {
     if (name == text) return level;

@@ -16,8 +16,9 @@ namespace odonav {
 
 void add_checkpoint_options(Options& o, const std::string& file) {
   o.add_string("state-dir", "",
-               "folder of the checkpoint " + file + " (restored at start, written every --checkpoint-every-s of "
-               "event time and at shutdown); empty = no checkpoint");
+               "folder of the checkpoint " + file +
+                   " (restored at start, written every --checkpoint-every-s of "
+                   "event time and at shutdown); empty = no checkpoint");
   o.add_double("checkpoint-every-s", 5.0, "checkpoint period in event time of the processed epochs (s)", 0.1, 1e6);
 }
 
@@ -84,8 +85,7 @@ bool RestartPolicy::note_load(const CheckpointFileLoad& r, const std::string& fr
                            (r.moved_to.empty() ? std::string(" FAILED") : " to " + r.moved_to) + "; " + fresh_start,
                        "checkpoint " + r.path + " was corrupt: moved aside; " + fresh_start, steady_now_s);
       return false;
-    case CheckpointLoadStatus::kRestored:
-      break;
+    case CheckpointLoadStatus::kRestored: break;
   }
   return true;
 }
@@ -126,10 +126,11 @@ bool RestartPolicy::skip_restored(std::size_t input, double t_s) {
     const double complete_from_s = fed_until ? std::max(*fed_until, *restored_t_s_) : *restored_t_s_;
     if (t_s > complete_from_s + kStampSlack_s && (!lost_until_t_s_ || t_s > *lost_until_t_s_)) {
       lost_until_t_s_ = t_s;
-      spdlog::error("catch-up: the first {} sample after the restart is t={:.3f} s, {:.3f} s after the checkpoint "
-                    "(t={:.3f} s): the producers' history (30 s) did not reach back to it; the estimates of "
-                    "t={:.3f}-{:.3f} s are missing",
-                    in.name, t_s, t_s - *restored_t_s_, *restored_t_s_, *restored_t_s_, t_s);
+      spdlog::error(
+          "catch-up: the first {} sample after the restart is t={:.3f} s, {:.3f} s after the checkpoint "
+          "(t={:.3f} s): the producers' history (30 s) did not reach back to it; the estimates of "
+          "t={:.3f}-{:.3f} s are missing",
+          in.name, t_s, t_s - *restored_t_s_, *restored_t_s_, *restored_t_s_, t_s);
     }
   }
   // An output-making sample before the first samples of the other inputs has no data to be
@@ -236,8 +237,8 @@ RestartHealthNotes RestartPolicy::health_notes() const {
     }
     n.catch_up_note = note;
     n.catch_up_warn = lost_until_t_s_.has_value();
-    n.catch_up_note_until_s = catching_up_ ? std::numeric_limits<double>::infinity()
-                                           : catch_up_ended_steady_s_ + kRestoreNoteDuration_s;
+    n.catch_up_note_until_s =
+        catching_up_ ? std::numeric_limits<double>::infinity() : catch_up_ended_steady_s_ + kRestoreNoteDuration_s;
   }
   return n;
 }

@@ -43,8 +43,7 @@ std::string input_hit(const fs::path& path, const std::vector<std::string>& inpu
     if (input.empty()) continue;
     const fs::path in = resolved(input);
     std::error_code ec;
-    if (fs::is_directory(in, ec) ? is_inside(path, in) : (path == in || fs::equivalent(path, in, ec)))
-      return input;
+    if (fs::is_directory(in, ec) ? is_inside(path, in) : (path == in || fs::equivalent(path, in, ec))) return input;
   }
   return "";
 }
@@ -63,7 +62,8 @@ void check_output_file(const std::string& path, const std::vector<std::string>& 
   if (!hit.empty()) throw OutputError("refusing to write '" + path + "': it is an input of this run ('" + hit + "')");
 }
 
-OutputDirectory::OutputDirectory(const std::string& path, OutputPolicy policy) : path_(path), policy_(std::move(policy)) {
+OutputDirectory::OutputDirectory(const std::string& path, OutputPolicy policy)
+    : path_(path), policy_(std::move(policy)) {
   if (path_.empty()) throw OutputError("output directory: no path given");
   std::error_code ec;
   const fs::path dir = resolved(path_);

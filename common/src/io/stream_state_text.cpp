@@ -12,7 +12,8 @@ constexpr std::size_t kMany = 10000000;
 void append(Values& out, std::initializer_list<double> v) { out.insert(out.end(), v.begin(), v.end()); }
 
 void append_odometer_entry(Values& out, const OdometerBuffer::Entry& e) {
-  append(out, {e.t_s, static_cast<double>(e.count), static_cast<double>(e.raw_pulses), static_cast<double>(e.direction)});
+  append(out,
+         {e.t_s, static_cast<double>(e.count), static_cast<double>(e.raw_pulses), static_cast<double>(e.direction)});
 }
 OdometerBuffer::Entry odometer_entry_of(const double* v) {
   OdometerBuffer::Entry e;
@@ -38,9 +39,9 @@ std::optional<double> read_optional_state_value(CheckpointReader& reader, const 
 }
 
 void append_gnss_state_values(std::vector<double>& out, const GnssSample& g) {
-  append(out, {g.t_s, g.position.lat_rad, g.position.lon_rad, g.position.height_m, g.vel_enu_mps.x(),
-               g.vel_enu_mps.y(), g.vel_enu_mps.z(), g.pos_std_m ? 1.0 : 0.0, g.pos_std_m.value_or(0.0),
-               g.vel_std_mps ? 1.0 : 0.0, g.vel_std_mps.value_or(0.0), static_cast<double>(g.fix)});
+  append(out, {g.t_s, g.position.lat_rad, g.position.lon_rad, g.position.height_m, g.vel_enu_mps.x(), g.vel_enu_mps.y(),
+               g.vel_enu_mps.z(), g.pos_std_m ? 1.0 : 0.0, g.pos_std_m.value_or(0.0), g.vel_std_mps ? 1.0 : 0.0,
+               g.vel_std_mps.value_or(0.0), static_cast<double>(g.fix)});
 }
 
 GnssSample gnss_from_state_values(const double* v) {
@@ -104,7 +105,8 @@ OdometerBuffer::State read_odometer_buffer_state(CheckpointReader& r) {
 
 std::string attitude_buffer_state_lines(const AttitudeBuffer::State& at) {
   Values v;
-  for (const auto& e : at.entries) append(v, {e.t_s, e.attitude.heading_rad, e.attitude.pitch_rad, e.attitude.roll_rad});
+  for (const auto& e : at.entries)
+    append(v, {e.t_s, e.attitude.heading_rad, e.attitude.pitch_rad, e.attitude.roll_rad});
   return checkpoint_value_list("attitude_entries", v) +
          checkpoint_value_list("attitude_last_t_s", optional_state_values(at.last_t_s));
 }

@@ -8,7 +8,6 @@
 #include <limits>
 #include <system_error>
 
-
 namespace odonav::io_detail {
 
 std::string_view trim(std::string_view text) {

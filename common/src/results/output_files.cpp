@@ -14,29 +14,43 @@
 
 namespace odonav::results {
 namespace {
-std::optional<double> finite_or_empty(double v) {
-  return std::isfinite(v) ? std::optional<double>(v) : std::nullopt;
-}
+std::optional<double> finite_or_empty(double v) { return std::isfinite(v) ? std::optional<double>(v) : std::nullopt; }
 
 // The header of a file: the column names of its table.
 struct HeaderVisitor {
   std::vector<std::string>& names;
   template <class T>
-  void number(const char* n, T&, double, Since = Since::kFirst) { names.emplace_back(n); }
+  void number(const char* n, T&, double, Since = Since::kFirst) {
+    names.emplace_back(n);
+  }
   template <class T>
-  void finite(const char* n, T&, Since = Since::kFirst) { names.emplace_back(n); }
+  void finite(const char* n, T&, Since = Since::kFirst) {
+    names.emplace_back(n);
+  }
   template <class T>
-  void degrees(const char* n, T&) { names.emplace_back(n); }
+  void degrees(const char* n, T&) {
+    names.emplace_back(n);
+  }
   template <class T>
-  void finite_degrees(const char* n, T&) { names.emplace_back(n); }
+  void finite_degrees(const char* n, T&) {
+    names.emplace_back(n);
+  }
   template <class T>
-  void optional(const char* n, T&, Since = Since::kFirst) { names.emplace_back(n); }
+  void optional(const char* n, T&, Since = Since::kFirst) {
+    names.emplace_back(n);
+  }
   template <class T>
-  void text(const char* n, T&) { names.emplace_back(n); }
+  void text(const char* n, T&) {
+    names.emplace_back(n);
+  }
   template <class T>
-  void flag(const char* n, T&) { names.emplace_back(n); }
+  void flag(const char* n, T&) {
+    names.emplace_back(n);
+  }
   template <class T>
-  void count(const char* n, T&) { names.emplace_back(n); }
+  void count(const char* n, T&) {
+    names.emplace_back(n);
+  }
   template <class T>
   void estimators(T&) {
     for (const std::string& c : scale_factor_estimator_columns()) names.push_back(c);
@@ -173,8 +187,10 @@ class CsvLines {
   static void split(const std::string& line, std::vector<std::string>& out) {
     out.assign(1, std::string());
     for (char c : line) {
-      if (c == ',') out.emplace_back();
-      else if (c != '\r') out.back() += c;
+      if (c == ',')
+        out.emplace_back();
+      else if (c != '\r')
+        out.back() += c;
     }
   }
   std::string path_;

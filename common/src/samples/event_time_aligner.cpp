@@ -71,7 +71,7 @@ EventTimeAligner::StreamId EventTimeAligner::add_stream(const std::string& name,
 }
 
 EventTimeAligner::StreamId EventTimeAligner::add_paced_stream(const std::string& name, StreamId pacing,
-                                                               double hold_off_s) {
+                                                              double hold_off_s) {
   check_hold_off(name, hold_off_s);
   if (pacing >= streams_.size() || streams_[pacing].pacing) {
     throw std::invalid_argument("EventTimeAligner::add_paced_stream('" + name +

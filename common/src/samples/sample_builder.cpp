@@ -12,18 +12,13 @@ namespace odonav {
 int fix_quality_rank(int fix) {
   switch (fix) {
     case 0:
-    case 6:
-      return 0;
+    case 6: return 0;
     case 2:
     case 3:
-    case 9:
-      return 2;
-    case 5:
-      return 3;
-    case 4:
-      return 4;
-    default:
-      return 1;
+    case 9: return 2;
+    case 5: return 3;
+    case 4: return 4;
+    default: return 1;
   }
 }
 
@@ -139,9 +134,11 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
   require(p.max_bracket_s > 0.0, "max_bracket_s must be > 0");
   require(!p.lever_arm_body_m || p.lever_arm_body_m->allFinite(), "lever_arm_body_m must be finite");
   require(p.lever_arm_rate_half_window_s > 0.0, "lever_arm_rate_half_window_s must be > 0");
-  require(!p.gnss_latency_fixed_s || (std::isfinite(*p.gnss_latency_fixed_s) && std::abs(*p.gnss_latency_fixed_s) < 10.0),
-          "gnss_latency_fixed_s must be finite and within +-10 s");
-  require(p.latency_search_step_s > 0.0 && p.latency_search_max_s >= p.latency_search_min_s + 2.0 * p.latency_search_step_s &&
+  require(
+      !p.gnss_latency_fixed_s || (std::isfinite(*p.gnss_latency_fixed_s) && std::abs(*p.gnss_latency_fixed_s) < 10.0),
+      "gnss_latency_fixed_s must be finite and within +-10 s");
+  require(p.latency_search_step_s > 0.0 &&
+              p.latency_search_max_s >= p.latency_search_min_s + 2.0 * p.latency_search_step_s &&
               p.latency_search_min_s > -10.0 && p.latency_search_max_s < 10.0,
           "latency search range: step > 0, max >= min + 2 steps, within +-10 s");
   require(p.latency_apply_sigma_s > 0.0, "latency_apply_sigma_s must be > 0");
@@ -162,7 +159,9 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
     latency_.applied_sigma_s = 0.0;
     latency_.sigma_s = 0.0;
   } else if (p.latency_estimation_enabled) {
-    const int n = static_cast<int>(std::floor((p.latency_search_max_s - p.latency_search_min_s) / p.latency_search_step_s + 1e-9)) + 1;
+    const int n = static_cast<int>(
+                      std::floor((p.latency_search_max_s - p.latency_search_min_s) / p.latency_search_step_s + 1e-9)) +
+                  1;
     for (int i = 0; i < n; ++i) latency_candidates_s_.push_back(p.latency_search_min_s + i * p.latency_search_step_s);
     latency_closed_chi2_.assign(latency_candidates_s_.size(), 0.0);
     latency_block_yphi_.assign(latency_candidates_s_.size(), 0.0);
@@ -209,13 +208,11 @@ double SampleBuilder::earliest_sensor_offset_s() const {
   return m;
 }
 
-
 void SampleBuilder::defer_latency_sample(double t0_s, double t1_s, double y_m) {
   if (latency_candidates_s_.empty()) return;
   // The smallest candidate looks furthest ahead: its pulse rate at t1 - candidate ends h later.
   const double needs_until_s = t1_s - latency_candidates_s_.front() + params_.pulse_rate_half_window_s;
-  latency_pending_.push_back(
-      PendingLatencySample{t0_s, t1_s, y_m, latency_.applied_s, needs_until_s});
+  latency_pending_.push_back(PendingLatencySample{t0_s, t1_s, y_m, latency_.applied_s, needs_until_s});
 }
 
 void SampleBuilder::fold_latency_sample(const PendingLatencySample& s) {
@@ -226,8 +223,7 @@ void SampleBuilder::fold_latency_sample(const PendingLatencySample& s) {
 
 bool SampleBuilder::fit_latency(const std::vector<double>& sums, uint64_t samples, uint64_t fitted_k,
                                 GnssLatencyEstimate& out, uint64_t min_samples) const {
-  const std::size_t best =
-      static_cast<std::size_t>(std::min_element(sums.begin(), sums.end()) - sums.begin());
+  const std::size_t best = static_cast<std::size_t>(std::min_element(sums.begin(), sums.end()) - sums.begin());
   std::ostringstream why;
   // Below the minimum the sums are nearly flat and their smallest value jumps from candidate to
   // candidate with the last bits of the data: no estimate yet.
@@ -238,8 +234,8 @@ bool SampleBuilder::fit_latency(const std::vector<double>& sums, uint64_t sample
     return false;
   }
   if (best == 0 || best + 1 == sums.size()) {
-    why << "the residuals are smallest at the bound " << latency_candidates_s_[best]
-        << " s of the search range [" << latency_candidates_s_.front() << ", " << latency_candidates_s_.back() << "] s";
+    why << "the residuals are smallest at the bound " << latency_candidates_s_[best] << " s of the search range ["
+        << latency_candidates_s_.front() << ", " << latency_candidates_s_.back() << "] s";
     out.reason = why.str();
     out.sigma_s = -1.0;
     return false;
@@ -397,8 +393,8 @@ void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {
   const double applied_s = latency_.applied_s;
   const double applied_sigma_s = latency_.applied_sigma_s;
   latency_.samples = latency_samples_;
-  const bool have = fit_latency(latency_chi2_, latency_samples_, latency_closed_blocks_ + (open_block ? 1 : 0), latency_,
-                                latency_min_samples_in_force());
+  const bool have = fit_latency(latency_chi2_, latency_samples_, latency_closed_blocks_ + (open_block ? 1 : 0),
+                                latency_, latency_min_samples_in_force());
   latency_.applied_s = applied_s;
   latency_.applied_sigma_s = applied_sigma_s;
   if (!have) return;
@@ -408,11 +404,13 @@ void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {
   // change must be significant, not the estimate's own wandering.
   const double change_s = std::abs(latency_.estimate_s - applied_s);
   const bool precise = latency_.sigma_s <= params_.latency_apply_sigma_s && change_s > latency_.sigma_s;
-  const bool clearly_off = latency_.sigma_s <= params_.latency_apply_coarse_sigma_s && change_s > 5.0 * latency_.sigma_s;
+  const bool clearly_off =
+      latency_.sigma_s <= params_.latency_apply_coarse_sigma_s && change_s > 5.0 * latency_.sigma_s;
   // Or one that knows the latency clearly better than the value in force did when it was applied:
   // at 1 Hz sigma ends near 5 ms and never meets the precise rule, so without this the first coarse
   // estimate (sigma 10-12 ms, up to 34 ms off on terrain) would stay in force for the whole drive.
-  const bool refined = applied_sigma_s > 0.0 && latency_.sigma_s <= params_.latency_refine_sigma_fraction * applied_sigma_s &&
+  const bool refined = applied_sigma_s > 0.0 &&
+                       latency_.sigma_s <= params_.latency_refine_sigma_fraction * applied_sigma_s &&
                        change_s > latency_.sigma_s;
   if (!precise && !clearly_off && !refined) return;
   latency_.applied_s = latency_.estimate_s;
@@ -456,8 +454,8 @@ void SampleBuilder::add_misalignment(double t_s, const Misalignment& m) {
 void SampleBuilder::add_scale_factor_estimate(double t_s, double k, double sigma) {
   if (!std::isfinite(k) || !(k > 0.0) || !std::isfinite(sigma) || sigma < 0.0) {
     std::ostringstream s;
-    s << "scale_factor_estimate: at t=" << t_s << " s, K=" << k << " m/pulse must be finite and > 0 and sigma="
-      << sigma << " finite and >= 0";
+    s << "scale_factor_estimate: at t=" << t_s << " s, K=" << k << " m/pulse must be finite and > 0 and sigma=" << sigma
+      << " finite and >= 0";
     throw StreamInputError(s.str());
   }
   k_estimates_.add(t_s, KEstimate{k, sigma});
@@ -630,9 +628,9 @@ EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs
       const double step_s = dt / steps;
       std::optional<Attitude> previous = s.attitude;
       for (int i = 1; i <= steps; ++i) {
-        const std::optional<Attitude> now =
-            i == steps ? std::optional<Attitude>(in.epoch.attitude)
-                       : attitude_.attitude_at(start_sensor_t + i * step_s, watermark_s_);
+        const std::optional<Attitude> now = i == steps
+                                                ? std::optional<Attitude>(in.epoch.attitude)
+                                                : attitude_.attitude_at(start_sensor_t + i * step_s, watermark_s_);
         if (!now) continue;  // no INS inside a gap: the mean over the interval still stands
         const double rate = wrap_pi(now->heading_rad - previous->heading_rad) / step_s;
         if (std::abs(rate) > std::abs(yaw_rate)) yaw_rate = rate;

@@ -20,10 +20,25 @@ using Values = std::vector<double>;
 void append(Values& out, std::initializer_list<double> v) { out.insert(out.end(), v.begin(), v.end()); }
 
 std::vector<uint64_t*> counter_fields(SampleBuilderCounters& c) {
-  return {&c.epochs,         &c.accepted,   &c.chain_starts,  &c.invalid_fix,          &c.low_fix_quality,
-          &c.no_odometer,    &c.no_attitude, &c.negative_speed, &c.speed_jump,          &c.gap,
-          &c.min_speed,      &c.reversing,  &c.yaw_rate,      &c.no_pulses,            &c.innovation,
-          &c.cross_track,    &c.innovation_suspended,          &c.reversing_accepted,   &c.odometer_jumps_rejected,
+  return {&c.epochs,
+          &c.accepted,
+          &c.chain_starts,
+          &c.invalid_fix,
+          &c.low_fix_quality,
+          &c.no_odometer,
+          &c.no_attitude,
+          &c.negative_speed,
+          &c.speed_jump,
+          &c.gap,
+          &c.min_speed,
+          &c.reversing,
+          &c.yaw_rate,
+          &c.no_pulses,
+          &c.innovation,
+          &c.cross_track,
+          &c.innovation_suspended,
+          &c.reversing_accepted,
+          &c.odometer_jumps_rejected,
           &c.odometer_rebases};
 }
 
@@ -72,8 +87,9 @@ std::string SampleBuilder::save_state() const {
   line("last_period_row_t_s", optional_state_values(last_period_row_t_s_));
   line("gnss_period_s", {gnss_period_s_});
 
-  line("latency", {latency_.applied_s, latency_.estimate_s, latency_.sigma_s, static_cast<double>(latency_.samples),
-                   latency_.fixed ? 1.0 : 0.0, static_cast<double>(latency_.blocks_left_out), latency_.applied_sigma_s});
+  line("latency",
+       {latency_.applied_s, latency_.estimate_s, latency_.sigma_s, static_cast<double>(latency_.samples),
+        latency_.fixed ? 1.0 : 0.0, static_cast<double>(latency_.blocks_left_out), latency_.applied_sigma_s});
   s += "latency_reason " + one_line(latency_.reason) + "\n";
   line("latency_closed_chi2", latency_closed_chi2_);
   line("latency_closed", {static_cast<double>(latency_closed_blocks_), static_cast<double>(latency_closed_samples_)});
@@ -81,9 +97,11 @@ std::string SampleBuilder::save_state() const {
   line("latency_block", {latency_block_start_s_, static_cast<double>(latency_block_samples_), latency_block_yy_m2_});
   line("latency_block_yphi", latency_block_yphi_);
   line("latency_block_phiphi", latency_block_phiphi_);
-  line("latency_sums", {static_cast<double>(latency_samples_), latency_sums_applied_s_, static_cast<double>(latency_restarts_)});
+  line("latency_sums",
+       {static_cast<double>(latency_samples_), latency_sums_applied_s_, static_cast<double>(latency_restarts_)});
   v.clear();
-  for (const PendingLatencySample& p : latency_pending_) append(v, {p.t0_s, p.t1_s, p.y_m, p.applied_s, p.needs_until_s});
+  for (const PendingLatencySample& p : latency_pending_)
+    append(v, {p.t0_s, p.t1_s, p.y_m, p.applied_s, p.needs_until_s});
   line("latency_pending", v);
   return s;
 }
@@ -113,8 +131,7 @@ void SampleBuilder::restore_state(const std::string& text) {
   if (std::isnan(v[0])) throw CheckpointError("field 'watermark_s' is not a number");
   b.watermark_s_ = v[0];
   v = r.value_list("chain_start", 8, 8);
-  if (!v.empty())
-    b.chain_start_ = GoodEpoch{v[0], Eigen::Vector3d(v[1], v[2], v[3]), Attitude{v[4], v[5], v[6]}, v[7]};
+  if (!v.empty()) b.chain_start_ = GoodEpoch{v[0], Eigen::Vector3d(v[1], v[2], v[3]), Attitude{v[4], v[5], v[6]}, v[7]};
   v = r.value_list("last_good_speed", 2, 2);
   if (!v.empty()) b.last_good_speed_ = std::make_pair(v[0], v[1]);
   v = exactly("consecutive_innovation_rejections", 1);
@@ -140,7 +157,8 @@ void SampleBuilder::restore_state(const std::string& text) {
   b.latency_.blocks_left_out = count_of(v[5], "latency");
   b.latency_.applied_sigma_s = v[6];
   if (!std::isfinite(v[0])) throw CheckpointError("field 'latency' has an applied latency that is not finite");
-  if (!std::isfinite(v[6])) throw CheckpointError("field 'latency' has a sigma of the applied latency that is not finite");
+  if (!std::isfinite(v[6]))
+    throw CheckpointError("field 'latency' has a sigma of the applied latency that is not finite");
   b.latency_.reason = r.field("latency_reason");
   auto per_candidate = [&](const char* key) {
     Values x = r.value_list(key);

@@ -14,7 +14,8 @@ void TurnSlipParams::validate() const {
     if (!ok) throw std::invalid_argument(std::string("turn slip: ") + what);
   };
   require(min_samples >= 1, "min_samples must be >= 1");
-  require(std::isfinite(min_significance_sigmas) && min_significance_sigmas > 0.0, "min_significance_sigmas must be > 0");
+  require(std::isfinite(min_significance_sigmas) && min_significance_sigmas > 0.0,
+          "min_significance_sigmas must be > 0");
   require(std::isfinite(outlier_n_sigma) && outlier_n_sigma > 0.0, "outlier_n_sigma must be > 0");
   require(std::isfinite(max_slip_fraction) && max_slip_fraction > 0.0 && max_slip_fraction < 0.5,
           "max_slip_fraction must be in (0, 0.5)");
@@ -31,15 +32,16 @@ double turn_slip_gain_to_apply(bool applies, double g) { return applies && std::
 TurnSlipEstimator::TurnSlipEstimator(const TurnSlipParams& params) : params_(params) { params_.validate(); }
 
 void TurnSlipEstimator::update(const TurnSlipSample& s) {
-  const bool usable = std::isfinite(s.turn_pulses_radps) && s.turn_pulses_radps > 0.0 && std::isfinite(s.k_m_per_pulse) &&
-                      s.k_m_per_pulse > 0.0 && std::isfinite(s.sigma_y_m) && s.sigma_y_m > 0.0 &&
-                      std::isfinite(s.y_m) && std::isfinite(s.phi_pulses);
+  const bool usable = std::isfinite(s.turn_pulses_radps) && s.turn_pulses_radps > 0.0 &&
+                      std::isfinite(s.k_m_per_pulse) && s.k_m_per_pulse > 0.0 && std::isfinite(s.sigma_y_m) &&
+                      s.sigma_y_m > 0.0 && std::isfinite(s.y_m) && std::isfinite(s.phi_pulses);
   if (!usable) return;
   const double r = s.y_m - s.k_m_per_pulse * s.phi_pulses;
   // Slip only shortens the GNSS distance against K phi, by at most max_slip_fraction of it: a
   // residual beyond that and the noise is a velocity outlier (the cross-track and speed-jump gates
   // let a glitch along the track through).
-  if (std::abs(r) > params_.outlier_n_sigma * s.sigma_y_m + params_.max_slip_fraction * std::abs(s.k_m_per_pulse * s.phi_pulses)) {
+  if (std::abs(r) >
+      params_.outlier_n_sigma * s.sigma_y_m + params_.max_slip_fraction * std::abs(s.k_m_per_pulse * s.phi_pulses)) {
     ++outliers_;
     return;
   }

@@ -100,29 +100,32 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
   odometer_reader_ = subscribe<odonav::msg::Odometer>(
       topics::with_reader_profile(topics::kOdometer, sensor_profile), odometer_,
       [this](const auto& m, double t_s) {
-        if (lifecycle_.take_sample(DeadReckoningInput::kOdometer, t_s)) component_.add_odometer(dds::odometer_sample_from(m));
+        if (lifecycle_.take_sample(DeadReckoningInput::kOdometer, t_s))
+          component_.add_odometer(dds::odometer_sample_from(m));
       },
       [this](const odonav::msg::Odometer& m) {
         declare_gnss_published(gnss_, m);
         note_live_sample(m.header().stamp());
       });
-  gnss_reader_ = subscribe<odonav::msg::GnssFix>(
-      topics::with_reader_profile(topics::kGnssFix, sensor_profile), gnss_, [this](const auto& m, double t_s) {
-        if (lifecycle_.take_sample(DeadReckoningInput::kGnss, t_s)) component_.add_gnss(dds::gnss_sample_from(m));
-      });
+  gnss_reader_ = subscribe<odonav::msg::GnssFix>(topics::with_reader_profile(topics::kGnssFix, sensor_profile), gnss_,
+                                                 [this](const auto& m, double t_s) {
+                                                   if (lifecycle_.take_sample(DeadReckoningInput::kGnss, t_s))
+                                                     component_.add_gnss(dds::gnss_sample_from(m));
+                                                 });
   if (ins_) {
-    ins_reader_ = subscribe<odonav::msg::InsAttitude>(
-        topics::with_reader_profile(topics::kInsAttitude, sensor_profile), *ins_, [this](const auto& m, double t_s) {
-      if (!lifecycle_.take_sample(DeadReckoningInput::kIns, t_s)) return;
-      if (!m.valid()) {
-        ++ins_->dropped_invalid;
-        return;
-      }
-      component_.add_ins(dds::ins_sample_from(m));
-    });
+    ins_reader_ = subscribe<odonav::msg::InsAttitude>(topics::with_reader_profile(topics::kInsAttitude, sensor_profile),
+                                                      *ins_, [this](const auto& m, double t_s) {
+                                                        if (!lifecycle_.take_sample(DeadReckoningInput::kIns, t_s))
+                                                          return;
+                                                        if (!m.valid()) {
+                                                          ++ins_->dropped_invalid;
+                                                          return;
+                                                        }
+                                                        component_.add_ins(dds::ins_sample_from(m));
+                                                      });
   }
-  misalignment_reader_ = subscribe<odonav::msg::Misalignment>(
-      topics::kMisalignment, misalignment_, [this](const auto& m, double t_s) {
+  misalignment_reader_ =
+      subscribe<odonav::msg::Misalignment>(topics::kMisalignment, misalignment_, [this](const auto& m, double t_s) {
         if (lifecycle_.take_sample(DeadReckoningInput::kMisalignment, t_s))
           component_.on_misalignment(dds::published_misalignment_from(m, t_s));
       });
@@ -187,25 +190,19 @@ dds::CommandAck DeadReckoningNode::on_command(const odonav::msg::Command& c) {
   using namespace odonav::msg;
   ScaleFactorCommandResult r;
   switch (c.command()) {
-    case COMMAND_SET_K:
-      r = component_.set_commanded_k(c.value(), aligner_.processed_s());
-      break;
-    case COMMAND_RELEASE_K:
-      r = component_.release_commanded_k();
-      break;
+    case COMMAND_SET_K: r = component_.set_commanded_k(c.value(), aligner_.processed_s()); break;
+    case COMMAND_RELEASE_K: r = component_.release_commanded_k(); break;
     case COMMAND_RESET_ESTIMATION:
       // Dead reckoning estimates nothing to restart; before COMMAND_RELEASE_K existed this kind
       // released the commanded K here: refuse it rather than guess which meaning the sender has.
-      r = {false, "reset is for the estimators (calibration, identification); to follow the identified K again "
-                  "send release-k (COMMAND_RELEASE_K)", std::nullopt};
+      r = {false,
+           "reset is for the estimators (calibration, identification); to follow the identified K again "
+           "send release-k (COMMAND_RELEASE_K)",
+           std::nullopt};
       break;
     case COMMAND_FREEZE_ESTIMATION:
-    case COMMAND_UNFREEZE_ESTIMATION:
-      r = {false, "freeze/unfreeze is for odonav-identification", std::nullopt};
-      break;
-    default:
-      r = {false, "unknown command kind", std::nullopt};
-      break;
+    case COMMAND_UNFREEZE_ESTIMATION: r = {false, "freeze/unfreeze is for odonav-identification", std::nullopt}; break;
+    default: r = {false, "unknown command kind", std::nullopt}; break;
   }
   return {c.command_id(), r.accepted ? COMMAND_RESULT_ACCEPTED : COMMAND_RESULT_REJECTED, r.detail};
 }

@@ -53,7 +53,8 @@ CandumpLine malformed(std::string why) {
 std::string quoted(std::string_view s) {
   std::string q;
   for (char c : s.substr(0, 40)) {
-    if (c >= 0x20 && c < 0x7F) q += c;
+    if (c >= 0x20 && c < 0x7F)
+      q += c;
     else {
       char b[8];
       std::snprintf(b, sizeof(b), "\\x%02X", static_cast<unsigned char>(c));
@@ -168,8 +169,10 @@ std::string candump_line(const CanFrame& frame, const std::string& interface_nam
   char head[64];
   std::snprintf(head, sizeof(head), "(%.6f) ", frame.t_s);
   char id[16];
-  if (frame.extended) std::snprintf(id, sizeof(id), "%08X", frame.id | (frame.error_frame ? 0x20000000u : 0u));
-  else std::snprintf(id, sizeof(id), "%03X", frame.id);
+  if (frame.extended)
+    std::snprintf(id, sizeof(id), "%08X", frame.id | (frame.error_frame ? 0x20000000u : 0u));
+  else
+    std::snprintf(id, sizeof(id), "%03X", frame.id);
   std::string s = std::string(head) + interface_name + " " + id + (frame.fd ? "##0" : "#");
   if (frame.remote) return s + "R";
   char byte[4];
@@ -229,9 +232,8 @@ std::string check_signal(const SignalSpec& spec, std::size_t max_bytes) {
 
 std::optional<std::uint64_t> extract_raw(const CanFrame& frame, const SignalSpec& spec) {
   std::uint64_t raw = 0;
-  const bool inside = for_each_bit_msb_first(spec, frame.size, [&](unsigned pos) {
-    raw = (raw << 1) | ((frame.data[pos / 8] >> (pos % 8)) & 1u);
-  });
+  const bool inside = for_each_bit_msb_first(
+      spec, frame.size, [&](unsigned pos) { raw = (raw << 1) | ((frame.data[pos / 8] >> (pos % 8)) & 1u); });
   if (!inside) return std::nullopt;
   return raw;
 }
@@ -254,8 +256,10 @@ void insert_raw(CanFrame& frame, const SignalSpec& spec, std::uint64_t raw) {
   int shift = static_cast<int>(spec.length_bits) - 1;
   for_each_bit_msb_first(spec, frame.size, [&](unsigned pos) {
     const std::uint8_t mask = static_cast<std::uint8_t>(1u << (pos % 8));
-    if ((raw >> shift) & 1u) frame.data[pos / 8] |= mask;
-    else frame.data[pos / 8] &= static_cast<std::uint8_t>(~mask);
+    if ((raw >> shift) & 1u)
+      frame.data[pos / 8] |= mask;
+    else
+      frame.data[pos / 8] &= static_cast<std::uint8_t>(~mask);
     --shift;
   });
 }

@@ -91,13 +91,13 @@ Decoded etc1_output_shaft_rev_per_s(const CanFrame& frame);
 /// A signal as a DBC line describes it: "SG_ name : start|length@order sign (scale,offset)".
 struct SignalSpec {
   enum class ByteOrder { kIntel, kMotorola };  ///< DBC @1 (little-endian) / @0 (big-endian).
-  std::uint32_t id = 0;         ///< the frame's identifier.
-  bool extended = false;        ///< a 29-bit identifier.
-  unsigned start_bit = 0;       ///< DBC start bit: Intel the LSB, Motorola the MSB (bit b = byte b/8, bit b%8).
-  unsigned length_bits = 1;     ///< 1..64.
+  std::uint32_t id = 0;                        ///< the frame's identifier.
+  bool extended = false;                       ///< a 29-bit identifier.
+  unsigned start_bit = 0;    ///< DBC start bit: Intel the LSB, Motorola the MSB (bit b = byte b/8, bit b%8).
+  unsigned length_bits = 1;  ///< 1..64.
   ByteOrder order = ByteOrder::kIntel;
-  bool is_signed = false;       ///< two's complement.
-  double scale = 1.0;           ///< physical = raw * scale + offset.
+  bool is_signed = false;  ///< two's complement.
+  double scale = 1.0;      ///< physical = raw * scale + offset.
   double offset = 0.0;
 };
 

@@ -55,8 +55,8 @@ CanChannelSpec parse_channel(const std::string& text) {
   CanChannelSpec c;
   const std::size_t colon = text.find(':');
   const std::string kind = trim(text.substr(0, colon));
-  const std::vector<std::string> params = colon == std::string::npos ? std::vector<std::string>{}
-                                                                      : split(text.substr(colon + 1), ',');
+  const std::vector<std::string> params =
+      colon == std::string::npos ? std::vector<std::string>{} : split(text.substr(colon + 1), ',');
   if (kind == "ccvs1" || kind == "etc1") {
     c.kind = kind == "ccvs1" ? CanChannelSpec::Kind::kCcvs1 : CanChannelSpec::Kind::kEtc1;
     for (const std::string& p0 : params) {
@@ -79,7 +79,8 @@ CanChannelSpec parse_channel(const std::string& text) {
     unsigned long u = 0;
     if (key == "id") {
       if ((v.size() != 3 && v.size() != 8) || v.find_first_not_of("0123456789abcdefABCDEF") != std::string::npos)
-        throw channel_error(text, "id '" + v + "' is neither 3 hex digits (11-bit) nor 8 (29-bit), as candump prints it");
+        throw channel_error(text,
+                            "id '" + v + "' is neither 3 hex digits (11-bit) nor 8 (29-bit), as candump prints it");
       c.signal.id = static_cast<std::uint32_t>(std::stoul(v, nullptr, 16));
       c.signal.extended = v.size() == 8;
       have_id = true;
@@ -92,9 +93,12 @@ CanChannelSpec parse_channel(const std::string& text) {
       c.signal.length_bits = static_cast<unsigned>(u);
       have_length = true;
     } else if (key == "order") {
-      if (v == "intel") c.signal.order = SignalSpec::ByteOrder::kIntel;
-      else if (v == "motorola") c.signal.order = SignalSpec::ByteOrder::kMotorola;
-      else throw channel_error(text, "order '" + v + "' is not intel or motorola");
+      if (v == "intel")
+        c.signal.order = SignalSpec::ByteOrder::kIntel;
+      else if (v == "motorola")
+        c.signal.order = SignalSpec::ByteOrder::kMotorola;
+      else
+        throw channel_error(text, "order '" + v + "' is not intel or motorola");
     } else if (key == "signed") {
       if (v != "0" && v != "1") throw channel_error(text, "signed '" + v + "' is not 0 or 1");
       c.signal.is_signed = v == "1";
@@ -106,9 +110,12 @@ CanChannelSpec parse_channel(const std::string& text) {
     } else if (key == "wrap") {
       if (!parse_unsigned(v, 64, wrap) || wrap == 0) throw channel_error(text, "wrap '" + v + "' is not 1..64 bits");
     } else if (key == "as") {
-      if (v == "counter") c.kind = CanChannelSpec::Kind::kSignalCounter;
-      else if (v == "speed") c.kind = CanChannelSpec::Kind::kSignalSpeed;
-      else throw channel_error(text, "as '" + v + "' is not counter or speed");
+      if (v == "counter")
+        c.kind = CanChannelSpec::Kind::kSignalCounter;
+      else if (v == "speed")
+        c.kind = CanChannelSpec::Kind::kSignalSpeed;
+      else
+        throw channel_error(text, "as '" + v + "' is not counter or speed");
       have_as = true;
     } else {
       throw channel_error(text, "unknown key '" + key + "'");
@@ -144,8 +151,9 @@ std::string to_string(const CanChannelSpec& spec) {
     << ",order=" << (spec.signal.order == SignalSpec::ByteOrder::kIntel ? "intel" : "motorola")
     << ",signed=" << (spec.signal.is_signed ? 1 : 0) << ",scale=" << spec.signal.scale
     << ",offset=" << spec.signal.offset
-    << (spec.kind == CanChannelSpec::Kind::kSignalCounter ? ",as=counter,wrap=" + std::to_string(spec.counter_width_bits)
-                                                          : std::string(",as=speed"));
+    << (spec.kind == CanChannelSpec::Kind::kSignalCounter
+            ? ",as=counter,wrap=" + std::to_string(spec.counter_width_bits)
+            : std::string(",as=speed"));
   return s.str();
 }
 
@@ -267,14 +275,15 @@ std::optional<OdometerSample> CanOdometer::process(const CanFrame& frame, std::u
     const Decoded d = value(spec, frame);
     if (d.status != DecodeStatus::kOk || !std::isfinite(d.value)) {
       ++counters_.undecodable;
-      problem(line_number, to_string(spec) + ": no value (" + to_string(d.status) + ", " +
-                               std::to_string(frame.size) + " data bytes)");
+      problem(line_number, to_string(spec) + ": no value (" + to_string(d.status) + ", " + std::to_string(frame.size) +
+                               " data bytes)");
       continue;
     }
     if (spec.kind == CanChannelSpec::Kind::kSignalCounter) {
       const auto raw = static_cast<std::uint64_t>(d.value);
-      ch.count = ch.has_value ? ch.count + static_cast<double>(counter_increment(ch.last_raw, raw, spec.counter_width_bits))
-                              : static_cast<double>(raw);
+      ch.count = ch.has_value
+                     ? ch.count + static_cast<double>(counter_increment(ch.last_raw, raw, spec.counter_width_bits))
+                     : static_cast<double>(raw);
       ch.last_raw = raw;
     } else {
       // Trapezoid rule between this channel's frames; distance counts forward and backward alike.
@@ -318,8 +327,10 @@ std::optional<OdometerSample> CanOdometer::process(const CanFrame& frame, std::u
 void CandumpStream::feed(std::string_view bytes, std::vector<OdometerSample>& out) {
   for (char c : bytes) {
     if (c == '\n') {
-      if (skipping_overlong_) skipping_overlong_ = false;
-      else if (auto s = odometer_.parse_line(pending_)) out.push_back(*s);
+      if (skipping_overlong_)
+        skipping_overlong_ = false;
+      else if (auto s = odometer_.parse_line(pending_))
+        out.push_back(*s);
       pending_.clear();
       continue;
     }
@@ -347,7 +358,8 @@ std::vector<OdometerSample> read_candump_file(const std::string& path, CanOdomet
   const auto status = std::filesystem::status(path, ec);
   if (ec || !std::filesystem::exists(status)) throw DatasetError(path + ": cannot open the candump log (no such file)");
   if (!std::filesystem::is_regular_file(status))
-    throw DatasetError(path + ": not a regular file (a directory, FIFO or device); for a pipe or a live bus use candump:-");
+    throw DatasetError(path +
+                       ": not a regular file (a directory, FIFO or device); for a pipe or a live bus use candump:-");
   const auto size = std::filesystem::file_size(path, ec);
   if (!ec && size > kMaxDatasetFileBytes)
     throw DatasetError(path + ": " + std::to_string(size) + " bytes, more than the 2 GiB a log may have: split it");

@@ -296,8 +296,10 @@ class GpsdInput {
         fail(e.what());
         continue;
       }
-      if (json.empty()) release();
-      else on_report(json, session_->data());
+      if (json.empty())
+        release();
+      else
+        on_report(json, session_->data());
     }
     release();
   }

@@ -38,7 +38,8 @@ bool is_gpsd_source(const std::string& text);
 /// Parses "gpsd:<port>", "gpsd:<host>:<port>" or "gpsd:" (127.0.0.1:2947). Throws ConfigError naming
 /// `flag` and the accepted forms on a bad port, and naming --allow-non-loopback when the host is not
 /// "localhost", "::1" or an IPv4 address in 127.0.0.0/8 and allow_non_loopback is false.
-GpsdSourceSpec parse_gpsd_source(const std::string& text, bool allow_non_loopback, const std::string& flag = "--source");
+GpsdSourceSpec parse_gpsd_source(const std::string& text, bool allow_non_loopback,
+                                 const std::string& flag = "--source");
 
 /// "gpsd:127.0.0.1:2947".
 std::string to_string(const GpsdSourceSpec& spec);
@@ -47,21 +48,21 @@ std::string to_string(const GpsdSourceSpec& spec);
 /// (the libgps convention). Plain numbers so the conversion is testable without gpsd.
 struct GpsdReport {
   static constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
-  double time_utc_s = kUnknown;  ///< UTC of the fix, s since 1970 (fix.time).
-  int mode = 0;                  ///< 0 not seen, 1 no fix, 2 2D, 3 3D (gpsd MODE_*).
-  int status = 0;                ///< gpsd STATUS_*: 0 unknown (JSON leaves it out for a plain fix), 1 GPS,
-                                 ///< 2 DGPS, 3 RTK fixed, 4 RTK float, 5 DR, 6 GNSS+DR.
-  double lat_deg = kUnknown;     ///< WGS-84 latitude, deg, [-90, 90].
-  double lon_deg = kUnknown;     ///< WGS-84 longitude, deg, [-180, 180].
-  double alt_hae_m = kUnknown;   ///< height above the WGS-84 ellipsoid, m.
-  double alt_msl_m = kUnknown;   ///< height above mean sea level, m.
-  double geoid_sep_m = kUnknown; ///< geoid separation (ellipsoid height - MSL height), m.
-  double speed_mps = kUnknown;   ///< horizontal speed over ground, m/s, >= 0.
-  double track_deg = kUnknown;   ///< course over ground, deg clockwise from true north, [0, 360).
-  double climb_mps = kUnknown;   ///< vertical speed, m/s, up positive.
+  double time_utc_s = kUnknown;   ///< UTC of the fix, s since 1970 (fix.time).
+  int mode = 0;                   ///< 0 not seen, 1 no fix, 2 2D, 3 3D (gpsd MODE_*).
+  int status = 0;                 ///< gpsd STATUS_*: 0 unknown (JSON leaves it out for a plain fix), 1 GPS,
+                                  ///< 2 DGPS, 3 RTK fixed, 4 RTK float, 5 DR, 6 GNSS+DR.
+  double lat_deg = kUnknown;      ///< WGS-84 latitude, deg, [-90, 90].
+  double lon_deg = kUnknown;      ///< WGS-84 longitude, deg, [-180, 180].
+  double alt_hae_m = kUnknown;    ///< height above the WGS-84 ellipsoid, m.
+  double alt_msl_m = kUnknown;    ///< height above mean sea level, m.
+  double geoid_sep_m = kUnknown;  ///< geoid separation (ellipsoid height - MSL height), m.
+  double speed_mps = kUnknown;    ///< horizontal speed over ground, m/s, >= 0.
+  double track_deg = kUnknown;    ///< course over ground, deg clockwise from true north, [0, 360).
+  double climb_mps = kUnknown;    ///< vertical speed, m/s, up positive.
   double ecef_vx_mps = kUnknown, ecef_vy_mps = kUnknown, ecef_vz_mps = kUnknown;  ///< ECEF velocity, m/s.
-  double eph_m = kUnknown;       ///< gpsd's horizontal position error estimate, m (about 95 %).
-  double eps_mps = kUnknown;     ///< gpsd's speed error estimate, m/s (about 95 %).
+  double eph_m = kUnknown;          ///< gpsd's horizontal position error estimate, m (about 95 %).
+  double eps_mps = kUnknown;        ///< gpsd's speed error estimate, m/s (about 95 %).
   double gst_lat_std_m = kUnknown;  ///< GST one-sigma latitude error of the same epoch, m.
   double gst_lon_std_m = kUnknown;  ///< GST one-sigma longitude error of the same epoch, m.
 };
@@ -100,14 +101,14 @@ class GnssTimeGate {
 
 /// Counters of the gpsd source (health).
 struct GpsdCounters {
-  std::uint64_t reports = 0;          ///< TPV reports read.
-  std::uint64_t no_time = 0;          ///< TPV without a time (dropped).
-  std::uint64_t time_backwards = 0;   ///< TPV earlier than the last published fix (dropped).
-  std::uint64_t repeated = 0;         ///< TPV at the time of the last published fix (dropped).
-  std::uint64_t no_fix = 0;           ///< published with fix 0 (mode < 2 or status 0).
+  std::uint64_t reports = 0;              ///< TPV reports read.
+  std::uint64_t no_time = 0;              ///< TPV without a time (dropped).
+  std::uint64_t time_backwards = 0;       ///< TPV earlier than the last published fix (dropped).
+  std::uint64_t repeated = 0;             ///< TPV at the time of the last published fix (dropped).
+  std::uint64_t no_fix = 0;               ///< published with fix 0 (mode < 2 or status 0).
   std::uint64_t connection_failures = 0;  ///< failed connects and lost connections.
   bool connected = false;
-  std::string last_failure;           ///< "gpsd:127.0.0.1:2947: ..." of the last failure, empty if none.
+  std::string last_failure;  ///< "gpsd:127.0.0.1:2947: ..." of the last failure, empty if none.
 };
 
 /// Back-off before reconnecting after the n-th consecutive failure (n >= 1): 1, 2, 4, 8, 16, 30, 30... s.

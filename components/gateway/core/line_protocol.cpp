@@ -111,8 +111,8 @@ ParsedLine LineDecoder::parse_line(std::string_view line) {
   ++counters_.lines;
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
   if (line.size() > kMaxLineBytes)
-    return reject(LineError::kOverlong, std::to_string(line.size()) + " bytes, more than " +
-                                            std::to_string(kMaxLineBytes));
+    return reject(LineError::kOverlong,
+                  std::to_string(line.size()) + " bytes, more than " + std::to_string(kMaxLineBytes));
   if (line.empty() || line.front() == '#') return ParsedLine{};
 
   // Optional NMEA-style framing: "$<body>*HH".
@@ -138,14 +138,20 @@ ParsedLine LineDecoder::parse_line(std::string_view line) {
   const std::string_view type = f[0];
   int stream = -1;
   std::size_t min_fields = 0, max_fields = 0;
-  if (type == "ODO") stream = 0, min_fields = 3, max_fields = 4;
-  else if (type == "ATT") stream = 1, min_fields = 5, max_fields = 5;
-  else if (type == "GNSS") stream = 2, min_fields = 9, max_fields = 11;
-  else return reject(LineError::kMalformed, "unknown line type '" + std::string(type.substr(0, 16)) + "'");
+  if (type == "ODO")
+    stream = 0, min_fields = 3, max_fields = 4;
+  else if (type == "ATT")
+    stream = 1, min_fields = 5, max_fields = 5;
+  else if (type == "GNSS")
+    stream = 2, min_fields = 9, max_fields = 11;
+  else
+    return reject(LineError::kMalformed, "unknown line type '" + std::string(type.substr(0, 16)) + "'");
   if (f.size() < min_fields || f.size() > max_fields || (stream == 2 && f.size() == 10))
-    return reject(LineError::kWrongFieldCount,
-                  std::string(type) + " with " + std::to_string(f.size()) + " fields, expected " +
-                      (stream == 0 ? "3 or 4" : stream == 1 ? "5" : "9 or 11"));
+    return reject(LineError::kWrongFieldCount, std::string(type) + " with " + std::to_string(f.size()) +
+                                                   " fields, expected " +
+                                                   (stream == 0   ? "3 or 4"
+                                                    : stream == 1 ? "5"
+                                                                  : "9 or 11"));
 
   // Every field but the integers is a real number: check them all first, naming the field.
   static const char* const kNames[3][11] = {
@@ -171,8 +177,8 @@ ParsedLine LineDecoder::parse_line(std::string_view line) {
         return reject(LineError::kMalformed, "ODO field pulses '" + std::string(f[2].substr(0, 24)) +
                                                  "' is not an integer in [0, 4294967295]");
       if (f.size() == 4 && (!parse_integer(f[3], direction) || direction < -1 || direction > 1))
-        return reject(LineError::kMalformed, "ODO field direction '" + std::string(f[3].substr(0, 24)) +
-                                                 "' is not -1, 0 or 1");
+        return reject(LineError::kMalformed,
+                      "ODO field direction '" + std::string(f[3].substr(0, 24)) + "' is not -1, 0 or 1");
       p.kind = ParsedLine::Kind::kOdometer;
       p.odometer.t_s = t_s;
       p.odometer.pulses = static_cast<std::uint32_t>(pulses);
@@ -189,8 +195,8 @@ ParsedLine LineDecoder::parse_line(std::string_view line) {
       if (v[2] < -90.0 || v[2] > 90.0) return reject(LineError::kMalformed, "GNSS field lat_deg outside [-90, 90]");
       long long fix = 0;
       if (!parse_integer(f[8], fix) || fix < 0 || fix > 255)
-        return reject(LineError::kMalformed, "GNSS field fix '" + std::string(f[8].substr(0, 24)) +
-                                                 "' is not an integer in [0, 255]");
+        return reject(LineError::kMalformed,
+                      "GNSS field fix '" + std::string(f[8].substr(0, 24)) + "' is not an integer in [0, 255]");
       if (f.size() == 11 && (v[9] < 0.0 || v[10] < 0.0))
         return reject(LineError::kMalformed, "GNSS accuracies must not be negative");
       p.kind = ParsedLine::Kind::kGnss;
@@ -221,8 +227,10 @@ ParsedLine LineDecoder::parse_line(std::string_view line) {
 void LineDecoder::feed(std::string_view bytes, std::vector<ParsedLine>& out) {
   for (char c : bytes) {
     if (c == '\n') {
-      if (skipping_overlong_) skipping_overlong_ = false;  // already counted when it overflowed
-      else out.push_back(parse_line(pending_));
+      if (skipping_overlong_)
+        skipping_overlong_ = false;  // already counted when it overflowed
+      else
+        out.push_back(parse_line(pending_));
       pending_.clear();
       continue;
     }

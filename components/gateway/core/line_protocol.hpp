@@ -31,12 +31,12 @@ inline constexpr std::size_t kMaxLineBytes = 256;
 
 /// Why a line was rejected.
 enum class LineError {
-  kMalformed = 0,       ///< unknown type, a field that is not a number, or a value out of its range.
-  kBadChecksum = 1,     ///< '*HH' present but not two hex digits, or not the XOR of the line.
-  kTimeBackwards = 2,   ///< t not greater than the previous accepted t of the same stream.
-  kOverlong = 3,        ///< more than kMaxLineBytes before the terminator (the line is skipped).
-  kWrongFieldCount = 4, ///< a known type with the wrong number of fields.
-  kNonFinite = 5,       ///< a NaN or infinite number.
+  kMalformed = 0,        ///< unknown type, a field that is not a number, or a value out of its range.
+  kBadChecksum = 1,      ///< '*HH' present but not two hex digits, or not the XOR of the line.
+  kTimeBackwards = 2,    ///< t not greater than the previous accepted t of the same stream.
+  kOverlong = 3,         ///< more than kMaxLineBytes before the terminator (the line is skipped).
+  kWrongFieldCount = 4,  ///< a known type with the wrong number of fields.
+  kNonFinite = 5,        ///< a NaN or infinite number.
 };
 inline constexpr std::size_t kLineErrorCount = 6;
 
@@ -51,13 +51,13 @@ struct ParsedLine {
   InsSample ins;            ///< kIns: attitude in radians (deg_to_rad of the line's degrees), no velocity.
   GnssSample gnss;          ///< kGnss: position in radians, ENU velocity, fix, accuracies when given.
   LineError error = LineError::kMalformed;  ///< kError: the kind of error.
-  std::string detail;       ///< kError: "line N: <what is wrong>" (N counts lines of this decoder from 1).
+  std::string detail;  ///< kError: "line N: <what is wrong>" (N counts lines of this decoder from 1).
 };
 
 /// Counts of a LineDecoder, cumulative.
 struct LineCounters {
-  std::uint64_t lines = 0;                      ///< lines seen, including ignored and rejected ones.
-  std::array<std::uint64_t, 3> samples{};       ///< accepted: odometer, INS, GNSS.
+  std::uint64_t lines = 0;                              ///< lines seen, including ignored and rejected ones.
+  std::array<std::uint64_t, 3> samples{};               ///< accepted: odometer, INS, GNSS.
   std::array<std::uint64_t, kLineErrorCount> errors{};  ///< rejected, indexed by LineError.
   std::uint64_t total_errors() const;
 };

@@ -188,7 +188,8 @@ LiveSourceSpec parse_live_source(const std::string& text, bool allow_non_loopbac
       unsigned long b = 0;
       const std::string baud = rest.substr(colon + 1);
       if (!parse_uint(baud, 4000000, b) || baud_constant(static_cast<int>(b)) == 0)
-        throw bad("baud rate '" + baud + "' is not one of 1200 2400 4800 9600 19200 38400 57600 115200 230400 460800 921600");
+        throw bad("baud rate '" + baud +
+                  "' is not one of 1200 2400 4800 9600 19200 38400 57600 115200 230400 460800 921600");
       spec.baud = static_cast<int>(b);
       rest = rest.substr(0, colon);
     }

@@ -30,7 +30,7 @@ SourceSpec parse_source(const std::string& text);
 
 /// Settings of the simulator source.
 struct SimulatorSettings {
-  std::uint64_t seed = 1;  ///< noise seed, as odonav-sim --seed.
+  std::uint64_t seed = 1;   ///< noise seed, as odonav-sim --seed.
   double duration_s = 0.0;  ///< > 0: run length in seconds, as odonav-sim --duration-s; 0 = natural length.
 };
 

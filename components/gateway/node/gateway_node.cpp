@@ -33,7 +33,8 @@ void add_gateway_options(Options& o) {
             std::numeric_limits<int64_t>::max());
   o.add_double("duration-s", 0.0, "sim source: run length, s (as odonav-sim --duration-s); 0 = the scenario's", 0.0,
                604800.0);
-  o.add_choice("on-bad-row", "fail", {"fail", "skip"}, "replay source: a bad row stops the gateway, or is skipped and counted");
+  o.add_choice("on-bad-row", "fail", {"fail", "skip"},
+               "replay source: a bad row stops the gateway, or is skipped and counted");
   o.add_string("speed", "1", "1 = real time, N = N times real time, max = as fast as the readers acknowledge");
   o.add_int("wait-for-readers", 0,
             "before publishing, wait until this many consumers read the GNSS topic (0 = do not wait)", 0, 1000);
@@ -103,8 +104,8 @@ namespace {
 std::string sensor_writer_profile(const dds::Participant& participant, const GatewaySettings& settings) {
   if (!settings.speed.as_fast_as_possible) return topics::kSensorWriterProfile;
   eprosima::fastdds::dds::DataWriterQos qos;
-  if (participant.core()->publisher().get_datawriter_qos_from_profile(topics::kGatewayFastAckSensorWriterProfile,
-                                                                      qos) != eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+  if (participant.core()->publisher().get_datawriter_qos_from_profile(
+          topics::kGatewayFastAckSensorWriterProfile, qos) != eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
     spdlog::warn("{} has no data_writer profile '{}': flow control will be slow", participant.qos_file(),
                  topics::kGatewayFastAckSensorWriterProfile);
     return topics::kSensorWriterProfile;
@@ -243,7 +244,8 @@ int GatewayNode::run() {
     health(HEALTH_STATE_ERROR, "expected readers not matched", true);
     return 1;
   }
-  if (events.empty()) spdlog::warn("the source holds no sensor samples");
+  if (events.empty())
+    spdlog::warn("the source holds no sensor samples");
   else
     spdlog::info("publishing {} odometer, {} INS, {} GNSS samples, t={}..{} s, speed {}", dataset_.odometer.size(),
                  dataset_.ins.size(), dataset_.gnss.size(), events.front().t_s, events.back().t_s,

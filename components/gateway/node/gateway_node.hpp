@@ -83,7 +83,8 @@ class GatewayNode {
   /// Publishes the events in order, paced by settings_.speed from wall_start_s (steady clock, s;
   /// flow control in "max" mode), until the end or a stop request. kFailed: a stamp a message
   /// cannot carry (logged, Health ERROR).
-  Outcome publish_all(const std::vector<SensorEvent>& events, double wall_start_s, std::chrono::milliseconds ack_timeout);
+  Outcome publish_all(const std::vector<SensorEvent>& events, double wall_start_s,
+                      std::chrono::milliseconds ack_timeout);
   /// Paced mode: sleeps until due_wall_s in short steps (SIGINT and Health stay responsive); false
   /// when a stop was requested.
   bool sleep_until(double due_wall_s);

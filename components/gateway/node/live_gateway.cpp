@@ -34,7 +34,8 @@ class LineSink : public SampleSink {
       : publisher_(publisher), gnss_from_gpsd_(gnss_from_gpsd), odometer_from_can_(odometer_from_can) {}
   void odometer(const OdometerSample& s) override {
     if (odometer_from_can_) {
-      if (odometer_ignored_++ == 0) spdlog::warn("ODO lines on --ins-source are ignored: the CAN input gives the odometer");
+      if (odometer_ignored_++ == 0)
+        spdlog::warn("ODO lines on --ins-source are ignored: the CAN input gives the odometer");
       return;
     }
     publisher_.odometer(s);
@@ -64,7 +65,7 @@ struct LiveSpecs {
   std::optional<LiveSourceSpec> line;
   std::optional<GpsdSourceSpec> gpsd;
   std::optional<CanOdometerConfig> can;  ///< candump:-: the odometer from standard input.
-  double utc_origin_s = 0.0;  ///< gpsd: t = UTC - utc_origin_s.
+  double utc_origin_s = 0.0;             ///< gpsd: t = UTC - utc_origin_s.
 };
 
 constexpr const char* kCandumpStdin = "candump:-";
@@ -129,8 +130,10 @@ class LiveGateway {
       can_thread = std::thread([this] { run_can_input(); });
     }
     try {
-      if (specs_.line) run_line_input(std::move(source));
-      else if (specs_.gpsd) run_gpsd([this] { periodic(); });
+      if (specs_.line)
+        run_line_input(std::move(source));
+      else if (specs_.gpsd)
+        run_gpsd([this] { periodic(); });
       else
         while (!stop_requested()) {
           periodic();
@@ -222,16 +225,18 @@ class LiveGateway {
   }
   bool stop_requested() { return runtime_.stop_signals().stop_requested(); }
   void run_gpsd(const std::function<void()>& periodic_work) {
-    run_gpsd_input(*specs_.gpsd, specs_.utc_origin_s, [this](const GnssSample& s) { publisher_.gnss(s); },
-                   [this] { return stop_requested(); }, periodic_work, gpsd_counters_, gpsd_mutex_);
+    run_gpsd_input(
+        *specs_.gpsd, specs_.utc_origin_s, [this](const GnssSample& s) { publisher_.gnss(s); },
+        [this] { return stop_requested(); }, periodic_work, gpsd_counters_, gpsd_mutex_);
   }
   // The line source on this thread, gpsd (if any) on its own.
   void run_line_input(std::unique_ptr<ByteSource> source) {
     std::thread gpsd_thread;
     if (specs_.gpsd) gpsd_thread = std::thread([this] { run_gpsd([] {}); });
     try {
-      run_live_input(std::move(source), decoder_, line_sink_, [this] { return stop_requested(); },
-                     [this] { periodic(); }, [this] { return open_live_source(*specs_.line); }, stats_);
+      run_live_input(
+          std::move(source), decoder_, line_sink_, [this] { return stop_requested(); }, [this] { periodic(); },
+          [this] { return open_live_source(*specs_.line); }, stats_);
     } catch (...) {
       runtime_.stop_signals().request_stop();
       if (gpsd_thread.joinable()) gpsd_thread.join();
@@ -246,10 +251,10 @@ class LiveGateway {
       spdlog::info("{}: {} lines, {} rejected", reason, decoder_.counters().lines, decoder_.counters().total_errors());
     if (can_) {
       const CanCounters c = can_snapshot();
-      spdlog::info("{}: candump {} lines, {} frames decoded into {} odometer samples; {} malformed, {} unknown, {} out "
-                   "of order, {} stale, {} undecodable",
-                   reason, c.lines, c.decoded, c.samples, c.malformed, c.unknown, c.out_of_order, c.stale,
-                   c.undecodable);
+      spdlog::info(
+          "{}: candump {} lines, {} frames decoded into {} odometer samples; {} malformed, {} unknown, {} out "
+          "of order, {} stale, {} undecodable",
+          reason, c.lines, c.decoded, c.samples, c.malformed, c.unknown, c.out_of_order, c.stale, c.undecodable);
     }
     if (specs_.gpsd) {
       const GpsdCounters g = *gpsd_snapshot();
@@ -290,8 +295,7 @@ int run_live_gateway(const Options& options, dds::ComponentRuntime& runtime) {
       spdlog::error("{}", e.what());
       return 1;
     }
-    spdlog::info("listening on {} (line protocol, README.md){}", to_string(*specs.line),
-                 specs.can ? " for INS" : "");
+    spdlog::info("listening on {} (line protocol, README.md){}", to_string(*specs.line), specs.can ? " for INS" : "");
   }
   LiveGateway gateway(runtime, std::move(specs));
   return gateway.run(std::move(source));

@@ -25,8 +25,8 @@ odonav::msg::Odometer odometer_message(const OdometerSample& s, const std::strin
   return m;
 }
 
-odonav::msg::InsAttitude ins_message(const InsSample& s, const std::string& vehicle_id,
-                                     double gnss_complete_through_s, std::optional<double> gnss_last_stamp_s) {
+odonav::msg::InsAttitude ins_message(const InsSample& s, const std::string& vehicle_id, double gnss_complete_through_s,
+                                     std::optional<double> gnss_last_stamp_s) {
   odonav::msg::InsAttitude m;
   m.header(dds::make_header(s.t_s, "body"));
   m.vehicle_id(vehicle_id);
@@ -109,9 +109,9 @@ void SensorPublisher::count(bool written, std::size_t stream, double t_s) {
 
 bool SensorPublisher::wait_for_acknowledgments(std::chrono::milliseconds timeout) {
   bool all = true;
-  for (dds::detail::WriterBase* w : {static_cast<dds::detail::WriterBase*>(&odometer_),
-                                     static_cast<dds::detail::WriterBase*>(&ins_),
-                                     static_cast<dds::detail::WriterBase*>(&gnss_)}) {
+  for (dds::detail::WriterBase* w :
+       {static_cast<dds::detail::WriterBase*>(&odometer_), static_cast<dds::detail::WriterBase*>(&ins_),
+        static_cast<dds::detail::WriterBase*>(&gnss_)}) {
     if (!dds::wait_for_acknowledgments_logged(*w, timeout)) {
       const std::lock_guard<std::mutex> lock(mutex_);
       ++ack_timeouts_;
@@ -133,15 +133,17 @@ std::uint64_t SensorPublisher::ack_timeouts() const {
 
 std::vector<std::string> SensorPublisher::readers_lost_since(double since_s) const {
   std::vector<std::pair<std::string, std::string>> lost;  // participant, streams
-  for (const dds::detail::WriterBase* w : {static_cast<const dds::detail::WriterBase*>(&odometer_),
-                                           static_cast<const dds::detail::WriterBase*>(&ins_),
-                                           static_cast<const dds::detail::WriterBase*>(&gnss_)}) {
+  for (const dds::detail::WriterBase* w :
+       {static_cast<const dds::detail::WriterBase*>(&odometer_), static_cast<const dds::detail::WriterBase*>(&ins_),
+        static_cast<const dds::detail::WriterBase*>(&gnss_)}) {
     for (const auto& r : w->lost_readers()) {
       if (r.at_s < since_s) continue;
       const std::string stream = stream_name_of_topic(w->topic_name());
       auto it = std::find_if(lost.begin(), lost.end(), [&](const auto& l) { return l.first == r.reader; });
-      if (it == lost.end()) lost.emplace_back(r.reader, stream);
-      else if (it->second.find(stream) == std::string::npos) it->second += ", " + stream;
+      if (it == lost.end())
+        lost.emplace_back(r.reader, stream);
+      else if (it->second.find(stream) == std::string::npos)
+        it->second += ", " + stream;
     }
   }
   std::vector<std::string> out;

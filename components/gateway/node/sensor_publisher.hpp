@@ -31,8 +31,8 @@ odonav::msg::Odometer odometer_message(const OdometerSample& s, const std::strin
                                        double gnss_complete_through_s, std::optional<double> gnss_last_stamp_s);
 /// INS attitude in radians, ENU velocity when the dataset has it (velocity_valid), valid, frame "body";
 /// the GNSS completeness as for the odometer (the calibration reads INS and GNSS only).
-odonav::msg::InsAttitude ins_message(const InsSample& s, const std::string& vehicle_id,
-                                     double gnss_complete_through_s, std::optional<double> gnss_last_stamp_s);
+odonav::msg::InsAttitude ins_message(const InsSample& s, const std::string& vehicle_id, double gnss_complete_through_s,
+                                     std::optional<double> gnss_last_stamp_s);
 /// GNSS fix: latitude/longitude in the degrees the dataset files hold (recorded_degrees), height,
 /// ENU velocity, fix quality; accuracies -1 when unknown; valid = fix not 0, 6, 7 or 8 and every value
 /// finite (a fix-0 row is published as an invalid fix, not dropped). Frame "wgs84".

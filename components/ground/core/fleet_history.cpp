@@ -52,7 +52,8 @@ void FleetHistory::on_gnss(const GnssView& g) {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = vehicles_.find(g.vehicle_id);
   if (it == vehicles_.end() || !it->second.frame) return;
-  const auto enu = it->second.frame->to_enu(Geodetic{g.latitude_deg * kDegToRad, g.longitude_deg * kDegToRad, g.height_m});
+  const auto enu =
+      it->second.frame->to_enu(Geodetic{g.latitude_deg * kDegToRad, g.longitude_deg * kDegToRad, g.height_m});
   add_track_point(it->second.gnss, enu.x(), enu.y());
 }
 
@@ -76,7 +77,8 @@ nlohmann::json FleetHistory::json(std::size_t max_points) const {
     const std::size_t m = std::min(n, max_points);
     for (std::size_t k = 0; k < m; ++k) {
       // Evenly spaced indices from the first to the last point.
-      const std::size_t i = m == 1 ? 0 : static_cast<std::size_t>(std::llround(k * static_cast<double>(n - 1) / (m - 1)));
+      const std::size_t i =
+          m == 1 ? 0 : static_cast<std::size_t>(std::llround(k * static_cast<double>(n - 1) / (m - 1)));
       const Point& p = s[i];
       if (three) {
         out.push_back({p.a, p.b, std::isfinite(p.c) && p.c >= 0.0 ? nlohmann::json(p.c) : nlohmann::json()});
@@ -90,8 +92,9 @@ nlohmann::json FleetHistory::json(std::size_t max_points) const {
   nlohmann::json all = nlohmann::json::object();
   for (const auto& [id, v] : vehicles_) {
     nlohmann::json j;
-    j["origin"] = v.origin_deg ? nlohmann::json{{"latitude_deg", v.origin_deg->first}, {"longitude_deg", v.origin_deg->second}}
-                               : nlohmann::json();
+    j["origin"] = v.origin_deg
+                      ? nlohmann::json{{"latitude_deg", v.origin_deg->first}, {"longitude_deg", v.origin_deg->second}}
+                      : nlohmann::json();
     j["dr"] = thin(v.dr, false);
     j["gnss"] = thin(v.gnss, false);
     j["k"] = thin(v.k, true);

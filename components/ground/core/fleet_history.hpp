@@ -25,9 +25,9 @@ class LocalEnuFrame;
 namespace odonav::ground {
 
 struct FleetHistoryConfig {
-  double k_window_s = 600.0;          ///< K kept for this long by stamp (s, > 0)
+  double k_window_s = 600.0;            ///< K kept for this long by stamp (s, > 0)
   std::size_t max_track_points = 4000;  ///< per vehicle and series (>= 16)
-  double track_min_step_m = 0.5;      ///< a track point is kept when it moved this far from the last (m)
+  double track_min_step_m = 0.5;        ///< a track point is kept when it moved this far from the last (m)
 };
 
 class FleetHistory {

@@ -162,8 +162,7 @@ void FleetState::on_silence(const std::string& vehicle_id, Stream stream, const 
     case Stream::kGnssFix:
       if (v.gnss) v.gnss->second.silent = silent;
       break;
-    default:
-      break;
+    default: break;
   }
 }
 
@@ -176,7 +175,8 @@ FleetSnapshot FleetState::snapshot(double now_s, const std::vector<std::string>&
     VehicleSnapshot vs;
     vs.vehicle_id = id;
     for (const auto& [name, entry] : v.components) {
-      ComponentSnapshot c{entry.first, now_s - entry.second.last_arrival_s, is_stale(entry.second, Stream::kHealth, now_s)};
+      ComponentSnapshot c{entry.first, now_s - entry.second.last_arrival_s,
+                          is_stale(entry.second, Stream::kHealth, now_s)};
       vs.stale = vs.stale || c.stale;
       vs.components.push_back(std::move(c));
     }
@@ -250,7 +250,9 @@ nlohmann::json snapshot_json(const FleetSnapshot& snap) {
     }
     if (v.misalignment) {
       const auto& m = v.misalignment->view;
-      const auto std_deg = [](double r) { return r < 0.0 || !std::isfinite(r) ? nlohmann::json(nullptr) : nlohmann::json(rad_to_deg(r)); };
+      const auto std_deg = [](double r) {
+        return r < 0.0 || !std::isfinite(r) ? nlohmann::json(nullptr) : nlohmann::json(rad_to_deg(r));
+      };
       jv["misalignment"] = {{"heading_rad", m.heading_rad},
                             {"pitch_rad", m.pitch_rad},
                             {"heading_deg", rad_to_deg(m.heading_rad)},
@@ -286,27 +288,25 @@ nlohmann::json snapshot_json(const FleetSnapshot& snap) {
       const auto& n = v.navigation->view;
       const char* status = n.status == 1 ? "anchored" : n.status == 2 ? "dead_reckoning" : "not_started";
       const bool known = n.covariance_east_m2 >= 0.0 && n.covariance_north_m2 >= 0.0;
-      jv["navigation"] = {{"status", status},
-                          {"latitude_deg", n.latitude_deg},
-                          {"longitude_deg", n.longitude_deg},
-                          {"horizontal_sigma_m", known ? nlohmann::json(std::sqrt(n.covariance_east_m2 + n.covariance_north_m2))
-                                                       : nlohmann::json(nullptr)},
-                          {"distance_since_fix_m", known_or_null(n.distance_since_fix_m)},
-                          {"stamp_s", n.stamp_s},
-                          {"age_s", v.navigation->age_s},
-                          {"stale", v.navigation->stale}};
+      jv["navigation"] = {
+          {"status", status},
+          {"latitude_deg", n.latitude_deg},
+          {"longitude_deg", n.longitude_deg},
+          {"horizontal_sigma_m",
+           known ? nlohmann::json(std::sqrt(n.covariance_east_m2 + n.covariance_north_m2)) : nlohmann::json(nullptr)},
+          {"distance_since_fix_m", known_or_null(n.distance_since_fix_m)},
+          {"stamp_s", n.stamp_s},
+          {"age_s", v.navigation->age_s},
+          {"stale", v.navigation->stale}};
     } else {
       jv["navigation"] = nullptr;
     }
     if (v.gnss) {
       const auto& g = v.gnss->view;
-      jv["gnss"] = {{"valid", g.valid},
-                    {"fix_quality", g.fix_quality},
-                    {"fix", fix_quality_name(g.fix_quality)},
-                    {"speed_mps", g.speed_mps},
-                    {"stamp_s", g.stamp_s},
-                    {"age_s", v.gnss->age_s},
-                    {"stale", v.gnss->stale}};
+      jv["gnss"] = {
+          {"valid", g.valid},         {"fix_quality", g.fix_quality}, {"fix", fix_quality_name(g.fix_quality)},
+          {"speed_mps", g.speed_mps}, {"stamp_s", g.stamp_s},         {"age_s", v.gnss->age_s},
+          {"stale", v.gnss->stale}};
     } else {
       jv["gnss"] = nullptr;
     }
@@ -348,8 +348,9 @@ std::vector<Line> vehicle_block(const VehicleSnapshot& v) {
   std::ostringstream head;
   head << "== " << v.vehicle_id << (v.stale ? " [STALE]" : "") << " ";
   if (v.gnss) {
-    head << " GNSS " << (v.gnss->view.valid ? "valid" : "INVALID") << " fix " << fix_quality_name(v.gnss->view.fix_quality)
-         << format(" %.1f m/s", v.gnss->view.speed_mps) << (v.gnss->stale ? " STALE" : "");
+    head << " GNSS " << (v.gnss->view.valid ? "valid" : "INVALID") << " fix "
+         << fix_quality_name(v.gnss->view.fix_quality) << format(" %.1f m/s", v.gnss->view.speed_mps)
+         << (v.gnss->stale ? " STALE" : "");
   } else {
     head << " GNSS -";
   }
@@ -453,8 +454,10 @@ std::string render_dashboard(const FleetSnapshot& snap, int width, int height, b
   std::string text;
   for (const Line& l : out) {
     const std::string t = fit(l.text, width);
-    if (ansi && l.alert) text += "\x1b[7m" + t + "\x1b[0m";
-    else text += t;
+    if (ansi && l.alert)
+      text += "\x1b[7m" + t + "\x1b[0m";
+    else
+      text += t;
     text += '\n';
   }
   return text;

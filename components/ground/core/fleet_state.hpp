@@ -68,7 +68,7 @@ struct DeadReckoningView {
   std::string vehicle_id;
   double stamp_s = 0.0;
   double latitude_deg = 0.0, longitude_deg = 0.0;
-  double height_m = 0.0;                        ///< ellipsoidal [m]
+  double height_m = 0.0;                       ///< ellipsoidal [m]
   double enu_east_m = 0.0, enu_north_m = 0.0;  ///< local ENU of the DR origin [m]
   double origin_latitude_deg = 0.0, origin_longitude_deg = 0.0, origin_height_m = 0.0;
   double distance_m = 0.0;
@@ -84,7 +84,7 @@ struct NavigationPositionView {
   std::string vehicle_id;
   double stamp_s = 0.0;
   double latitude_deg = 0.0, longitude_deg = 0.0;
-  double height_m = 0.0;  ///< ellipsoidal [m]
+  double height_m = 0.0;                                                                  ///< ellipsoidal [m]
   double covariance_east_m2 = -1.0, covariance_north_m2 = -1.0, covariance_up_m2 = -1.0;  ///< -1 unknown
   std::uint32_t status = 0;  ///< 0 not started, 1 anchored, 2 dead reckoning
   double distance_since_fix_m = -1.0;
@@ -94,18 +94,18 @@ struct GnssView {
   std::string vehicle_id;
   double stamp_s = 0.0;
   bool valid = false;
-  std::uint8_t fix_quality = 0;  ///< NMEA GGA quality
-  double speed_mps = 0.0;        ///< horizontal speed from the ENU velocity
+  std::uint8_t fix_quality = 0;                                    ///< NMEA GGA quality
+  double speed_mps = 0.0;                                          ///< horizontal speed from the ENU velocity
   double latitude_deg = 0.0, longitude_deg = 0.0, height_m = 0.0;  ///< WGS-84, ellipsoidal [m]
-  double position_std_m = -1.0;  ///< one-sigma horizontal [m]; -1: unknown
+  double position_std_m = -1.0;                                    ///< one-sigma horizontal [m]; -1: unknown
 };
 
 /// Names for the numeric enumerations of the topics.
-std::string health_state_name(std::uint32_t state);  ///< "STARTING" .. "STOPPING", else "STATE<n>"
-std::string health_level_name(std::uint32_t level);  ///< "OK", "WARN", "ERROR", "STALE", else "LEVEL<n>"
-std::string command_result_name(std::uint32_t result);  ///< "none", "accepted", "rejected"
-std::string fix_quality_name(std::uint8_t quality);  ///< "invalid", "single", "dgps", "rtk-fixed", ...
-std::string k_source_name(std::uint32_t source);     ///< "nominal", "identified", "commanded"
+std::string health_state_name(std::uint32_t state);        ///< "STARTING" .. "STOPPING", else "STATE<n>"
+std::string health_level_name(std::uint32_t level);        ///< "OK", "WARN", "ERROR", "STALE", else "LEVEL<n>"
+std::string command_result_name(std::uint32_t result);     ///< "none", "accepted", "rejected"
+std::string fix_quality_name(std::uint8_t quality);        ///< "invalid", "single", "dgps", "rtk-fixed", ...
+std::string k_source_name(std::uint32_t source);           ///< "nominal", "identified", "commanded"
 std::string misalignment_state_name(std::uint32_t state);  ///< "waiting" .. "frozen"
 
 /// When an item counts as STALE: silent by the reader's deadline (edge reported through
@@ -141,7 +141,7 @@ struct VehicleSnapshot {
   std::optional<ItemSnapshot<NavigationPositionView>> navigation;  ///< stale as dead_reckoning
   std::optional<ItemSnapshot<GnssView>> gnss;
   double rate_hz[kStreamCount] = {0, 0, 0, 0, 0, 0, 0};  ///< arrivals per second over the rate window
-  bool stale = false;  ///< some producer of this vehicle is stale
+  bool stale = false;                                    ///< some producer of this vehicle is stale
   /// Holes in the dead-reckoning outputs this ground station received, from their stamps (event
   /// time; odonav/gap_detector.hpp, period learned, 100 Hz): outputs missed in all gaps, the number
   /// of gaps, and the last one. They are what did not reach the ground: a fault on the vehicle
@@ -215,7 +215,6 @@ nlohmann::json snapshot_json(const FleetSnapshot& snapshot);
 /// The dashboard text: at most `height` lines of at most `width` characters (>= 40 x 8), one block
 /// per vehicle while they fit, then a line counting the vehicles left out. With `ansi`, STALE
 /// marks and warnings are shown in reverse video / colour (SGR codes, which take no columns).
-std::string render_dashboard(const FleetSnapshot& snapshot, int width, int height, bool ansi,
-                             const std::string& title);
+std::string render_dashboard(const FleetSnapshot& snapshot, int width, int height, bool ansi, const std::string& title);
 
 }  // namespace odonav::ground

@@ -91,7 +91,8 @@ std::vector<nlohmann::json> ClientSubscriptions::handle(const nlohmann::json& me
     for (const auto& s : message["subscriptions"]) {
       if (!s.is_object() || !s.contains("id") || !s["id"].is_number_unsigned() || !s.contains("channelId") ||
           !s["channelId"].is_number_unsigned()) {
-        replies.push_back(status_json(2, "subscribe: each subscription needs unsigned \"id\" and \"channelId\": " + s.dump()));
+        replies.push_back(
+            status_json(2, "subscribe: each subscription needs unsigned \"id\" and \"channelId\": " + s.dump()));
         continue;
       }
       const auto id = s["id"].get<std::uint32_t>();

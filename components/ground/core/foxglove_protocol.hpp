@@ -70,8 +70,8 @@ class ClientSubscriptions {
 
  private:
   std::vector<nlohmann::json> handle(const nlohmann::json& message, const std::set<std::uint32_t>& unknown_channels);
-  std::map<std::uint32_t, std::uint32_t> by_subscription_;           // subscription id -> channel id
-  std::map<std::uint32_t, std::set<std::uint32_t>> by_channel_;      // channel id -> its subscription ids
+  std::map<std::uint32_t, std::uint32_t> by_subscription_;       // subscription id -> channel id
+  std::map<std::uint32_t, std::set<std::uint32_t>> by_channel_;  // channel id -> its subscription ids
 };
 
 template <class ChannelExists>

@@ -31,7 +31,7 @@ std::uint32_t crc32_update(std::uint32_t crc, const std::uint8_t* data, std::siz
 class McapWriter {
  public:
   struct Options {
-    std::string profile = "ros2";                ///< Header.profile ("ros2": ROS 2 CDR messages)
+    std::string profile = "ros2";                 ///< Header.profile ("ros2": ROS 2 CDR messages)
     std::string library = "odonav-ground 0.1.0";  ///< Header.library
     /// Buffered bytes above which write_message() flushes by itself (bounds memory).
     std::size_t max_buffer_bytes = 4u << 20;
@@ -95,9 +95,9 @@ class McapWriter {
   int fd_ = -1;
   Options options_;
   mutable std::mutex mutex_;
-  std::string buffer_;            // whole records not yet in the file
-  std::uint32_t data_crc_ = 0;    // CRC32 of every data-section byte so far (magic included)
-  std::uint64_t file_offset_ = 0; // bytes in the file + buffer
+  std::string buffer_;             // whole records not yet in the file
+  std::uint32_t data_crc_ = 0;     // CRC32 of every data-section byte so far (magic included)
+  std::uint64_t file_offset_ = 0;  // bytes in the file + buffer
   std::vector<Schema> schemas_;
   std::vector<Channel> channels_;
   std::uint64_t message_count_ = 0;

@@ -70,8 +70,8 @@ std::string offered_qos_profiles_yaml(const OfferedQos& q) {
       y << "    sec: 2147483647\n    nsec: 4294967295\n";
     } else {
       const double whole = std::floor(*s);
-      y << "    sec: " << static_cast<long long>(whole) << "\n    nsec: " << static_cast<long long>(std::llround((*s - whole) * 1e9))
-        << "\n";
+      y << "    sec: " << static_cast<long long>(whole)
+        << "\n    nsec: " << static_cast<long long>(std::llround((*s - whole) * 1e9)) << "\n";
     }
   };
   y << "- history: " << (q.keep_all ? 2 : 1) << "\n";

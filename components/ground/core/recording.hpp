@@ -36,7 +36,7 @@ struct OfferedQos {
   bool reliable = true;
   bool transient_local = false;
   bool keep_all = false;
-  int depth = 1;                    ///< history depth (KEEP_LAST)
+  int depth = 1;                     ///< history depth (KEEP_LAST)
   std::optional<double> deadline_s;  ///< none: infinite
 };
 

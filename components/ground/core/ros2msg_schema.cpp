@@ -15,9 +15,9 @@ namespace fs = std::filesystem;
 namespace {
 
 const std::set<std::string>& builtin_types() {
-  static const std::set<std::string> types{"bool",   "byte",   "char",   "int8",    "uint8",   "int16",
-                                           "uint16", "int32",  "uint32", "int64",   "uint64",  "float32",
-                                           "float64", "string", "wstring", "time", "duration"};
+  static const std::set<std::string> types{"bool",    "byte",   "char",    "int8",  "uint8",   "int16",
+                                           "uint16",  "int32",  "uint32",  "int64", "uint64",  "float32",
+                                           "float64", "string", "wstring", "time",  "duration"};
   return types;
 }
 
@@ -77,8 +77,8 @@ std::vector<std::string> msg_dependencies(const std::string& msg_text, const std
     std::istringstream tokens(line);
     std::string type, name;
     if (!(tokens >> type >> name)) {
-      throw std::runtime_error("msg: line " + std::to_string(line_number) + " is not '<type> <name>': '" +
-                               trim(raw) + "'");
+      throw std::runtime_error("msg: line " + std::to_string(line_number) + " is not '<type> <name>': '" + trim(raw) +
+                               "'");
     }
     type = type.substr(0, type.find('['));   // arrays: T[], T[N], T[<=N]
     type = type.substr(0, type.find("<="));  // bounded strings: string<=N
@@ -96,21 +96,21 @@ std::string ros2msg_schema(const MsgLibrary& library, const std::string& type_na
   if (main == library.end()) throw std::runtime_error("ros2msg schema: no .msg for type '" + type_name + "'");
   std::string schema = main->second;
   std::vector<std::string> appended;
-  std::function<void(const std::string&, const std::string&)> append_dependencies =
-      [&](const std::string& of_type, const std::string& text) {
-        for (const std::string& dep : msg_dependencies(text, package_of(of_type))) {
-          if (dep == type_name || std::find(appended.begin(), appended.end(), dep) != appended.end()) continue;
-          const auto it = library.find(dep);
-          if (it == library.end()) {
-            throw std::runtime_error("ros2msg schema of '" + type_name + "': type '" + dep + "' used by '" + of_type +
-                                     "' has no .msg");
-          }
-          appended.push_back(dep);
-          if (!schema.empty() && schema.back() != '\n') schema += '\n';
-          schema += std::string(80, '=') + "\nMSG: " + short_name(dep) + "\n" + it->second;
-          append_dependencies(dep, it->second);
-        }
-      };
+  std::function<void(const std::string&, const std::string&)> append_dependencies = [&](const std::string& of_type,
+                                                                                        const std::string& text) {
+    for (const std::string& dep : msg_dependencies(text, package_of(of_type))) {
+      if (dep == type_name || std::find(appended.begin(), appended.end(), dep) != appended.end()) continue;
+      const auto it = library.find(dep);
+      if (it == library.end()) {
+        throw std::runtime_error("ros2msg schema of '" + type_name + "': type '" + dep + "' used by '" + of_type +
+                                 "' has no .msg");
+      }
+      appended.push_back(dep);
+      if (!schema.empty() && schema.back() != '\n') schema += '\n';
+      schema += std::string(80, '=') + "\nMSG: " + short_name(dep) + "\n" + it->second;
+      append_dependencies(dep, it->second);
+    }
+  };
   append_dependencies(type_name, main->second);
   return schema;
 }

@@ -28,8 +28,8 @@ namespace odonav::ground {
 struct NavSatFixMsg {
   double stamp_s = 0.0;  ///< header.stamp, the source sample's stamp (s)
   std::string frame_id;
-  std::int8_t status = -1;     ///< NavSatStatus.STATUS_* (-1 no fix, 0 fix, 1 SBAS, 2 GBAS)
-  std::uint16_t service = 0;   ///< NavSatStatus.SERVICE_* bits (0: not known)
+  std::int8_t status = -1;    ///< NavSatStatus.STATUS_* (-1 no fix, 0 fix, 1 SBAS, 2 GBAS)
+  std::uint16_t service = 0;  ///< NavSatStatus.SERVICE_* bits (0: not known)
   double latitude_deg = 0.0, longitude_deg = 0.0, altitude_m = 0.0;
   std::array<double, 9> position_covariance_m2{};  ///< ENU, row major
   std::uint8_t position_covariance_type = 0;       ///< 0 unknown .. 3 known

@@ -215,26 +215,26 @@ FleetMonitor::FleetMonitor(const dds::Participant& participant, FleetState& stat
         s->on_silence(last.vehicle_id(), Stream::kMisalignment, "", silent);
       }));
   const char* best_effort = topics::kGroundBestEffortReaderProfile;
-  readers_.push_back(std::make_unique<Reader<msg::DeadReckoning>>(
-      participant, topics::kDeadReckoning.name, best_effort, [s, now, tap](const msg::DeadReckoning& m) {
-        s->on_dead_reckoning(view_of(m), now());
-        if (tap) tap(TopicId::kDeadReckoning, &m);
-      }));
+  readers_.push_back(std::make_unique<Reader<msg::DeadReckoning>>(participant, topics::kDeadReckoning.name, best_effort,
+                                                                  [s, now, tap](const msg::DeadReckoning& m) {
+                                                                    s->on_dead_reckoning(view_of(m), now());
+                                                                    if (tap) tap(TopicId::kDeadReckoning, &m);
+                                                                  }));
   readers_.push_back(std::make_unique<Reader<msg::NavigationPosition>>(
       participant, topics::kNavigationPosition.name, best_effort, [s, now, tap](const msg::NavigationPosition& m) {
         s->on_navigation(view_of(m), now());
         if (tap) tap(TopicId::kNavigationPosition, &m);
       }));
-  readers_.push_back(std::make_unique<Reader<msg::GnssFix>>(
-      participant, topics::kGnssFix.name, best_effort, [s, now, tap](const msg::GnssFix& m) {
-        s->on_gnss(view_of(m), now());
-        if (tap) tap(TopicId::kGnssFix, &m);
-      }));
-  readers_.push_back(std::make_unique<Reader<msg::Odometer>>(
-      participant, topics::kOdometer.name, best_effort, [s, now, tap](const msg::Odometer& m) {
-        s->on_arrival(m.vehicle_id(), Stream::kOdometer, now());
-        if (tap) tap(TopicId::kOdometer, &m);
-      }));
+  readers_.push_back(std::make_unique<Reader<msg::GnssFix>>(participant, topics::kGnssFix.name, best_effort,
+                                                            [s, now, tap](const msg::GnssFix& m) {
+                                                              s->on_gnss(view_of(m), now());
+                                                              if (tap) tap(TopicId::kGnssFix, &m);
+                                                            }));
+  readers_.push_back(std::make_unique<Reader<msg::Odometer>>(participant, topics::kOdometer.name, best_effort,
+                                                             [s, now, tap](const msg::Odometer& m) {
+                                                               s->on_arrival(m.vehicle_id(), Stream::kOdometer, now());
+                                                               if (tap) tap(TopicId::kOdometer, &m);
+                                                             }));
   readers_.push_back(std::make_unique<Reader<msg::InsAttitude>>(
       participant, topics::kInsAttitude.name, best_effort, [s, now, tap](const msg::InsAttitude& m) {
         s->on_arrival(m.vehicle_id(), Stream::kInsAttitude, now());
@@ -279,7 +279,8 @@ class TopicRecorder::Standard {
   }
   void on_gnss(const GnssView& v, std::uint64_t t_ns) {
     const auto bytes = encode_cdr(navsat_from_gnss(v));
-    writer_.write_message(channel_of(v.vehicle_id, DerivedChannel::kNavSatGnss), t_ns, t_ns, bytes.data(), bytes.size());
+    writer_.write_message(channel_of(v.vehicle_id, DerivedChannel::kNavSatGnss), t_ns, t_ns, bytes.data(),
+                          bytes.size());
     ++messages_;
   }
   std::uint64_t messages() const { return messages_; }
@@ -301,8 +302,8 @@ class TopicRecorder::Standard {
     auto it = channels_.find(key);
     if (it != channels_.end()) return it->second;
     const std::uint16_t schema = kind == DerivedChannel::kDiagnostics ? diagnostics_schema_ : navsat_schema_;
-    const char* source = kind == DerivedChannel::kDiagnostics ? topics::kHealth.name
-                         : kind == DerivedChannel::kNavSatGnss ? topics::kGnssFix.name
+    const char* source = kind == DerivedChannel::kDiagnostics        ? topics::kHealth.name
+                         : kind == DerivedChannel::kNavSatGnss       ? topics::kGnssFix.name
                          : kind == DerivedChannel::kNavSatNavigation ? topics::kNavigationPosition.name
                                                                      : topics::kDeadReckoning.name;
     const std::uint16_t id = writer_.add_channel(schema, derived_topic(vehicle, kind), "cdr",
@@ -335,13 +336,15 @@ TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& wr
   for (const topics::TopicSpec& spec : topic_list) {
     auto schema = schema_ids.find(spec.ros_type_name);
     if (schema == schema_ids.end()) {
-      const std::uint16_t id = writer.add_schema(spec.ros_type_name, "ros2msg", ros2msg_schema(library, spec.ros_type_name));
+      const std::uint16_t id =
+          writer.add_schema(spec.ros_type_name, "ros2msg", ros2msg_schema(library, spec.ros_type_name));
       schema = schema_ids.emplace(spec.ros_type_name, id).first;
     }
     const std::string profile = recording_reader_profile(spec, best_effort);
     const std::string ros_topic = std::string(spec.name).substr(2);  // "rt/odonav/x" -> "/odonav/x"
-    const std::uint16_t channel = writer.add_channel(
-        schema->second, ros_topic, "cdr", channel_metadata(spec, offered_qos(participant, spec.writer_profile), profile));
+    const std::uint16_t channel =
+        writer.add_channel(schema->second, ros_topic, "cdr",
+                           channel_metadata(spec, offered_qos(participant, spec.writer_profile), profile));
     McapWriter* out = &writer;
     std::atomic<std::uint64_t>* failures = &failures_;
     with_message_type_of(topic_id_of(spec), [&](auto prototype, auto /*topic id*/) {
@@ -359,7 +362,8 @@ TopicRecorder::TopicRecorder(const dds::Participant& participant, McapWriter& wr
           if constexpr (std::is_same_v<T, msg::DeadReckoning>) standard->on_dead_reckoning(view_of(sample), t);
           if constexpr (std::is_same_v<T, msg::NavigationPosition>) standard->on_navigation(view_of(sample), t);
           if constexpr (std::is_same_v<T, msg::GnssFix>) standard->on_gnss(view_of(sample), t);
-          if constexpr (std::is_same_v<T, msg::Health>) standard->fleet().on_health(view_of(sample), dds::steady_now_s());
+          if constexpr (std::is_same_v<T, msg::Health>)
+            standard->fleet().on_health(view_of(sample), dds::steady_now_s());
         } catch (const std::exception& e) {
           if ((*failures)++ == 0) spdlog::error("record: sample of {} not written: {}", ros_topic, e.what());
         }
@@ -420,7 +424,8 @@ msg::CommandKind parse_command_kind(const std::string& name) {
         "'reset-calibration' is no longer a command: use 'reset' (the addressed estimator restarts) or, "
         "for odonav-dead-reckoning, 'release-k' (follow the identified K again)");
   }
-  throw std::invalid_argument("unknown command '" + name + "' (valid: reset, set-k VALUE, freeze, unfreeze, release-k)");
+  throw std::invalid_argument("unknown command '" + name +
+                              "' (valid: reset, set-k VALUE, freeze, unfreeze, release-k)");
 }
 
 std::string command_kind_name(msg::CommandKind kind) {
@@ -470,8 +475,8 @@ CommandReply send_command(const dds::Participant& participant, const CommandRequ
       return reply;
     }
   }
-  if (!writer.wait_for_matched(1, std::chrono::duration_cast<std::chrono::milliseconds>(
-                                      deadline - std::chrono::steady_clock::now()))) {
+  if (!writer.wait_for_matched(
+          1, std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()))) {
     reply.detail = "no reader of " + std::string(topics::kCommand.name) + " matched";
     return reply;
   }

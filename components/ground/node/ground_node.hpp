@@ -28,10 +28,10 @@
 namespace odonav::ground {
 
 /// One received sample of any topic of the contract (valid during the callback only).
-using AnySample = std::variant<const odonav::msg::Odometer*, const odonav::msg::InsAttitude*, const odonav::msg::GnssFix*,
-                               const odonav::msg::Misalignment*, const odonav::msg::ScaleFactor*,
-                               const odonav::msg::DeadReckoning*, const odonav::msg::Health*, const odonav::msg::Command*,
-                               const odonav::msg::NavigationPosition*>;
+using AnySample =
+    std::variant<const odonav::msg::Odometer*, const odonav::msg::InsAttitude*, const odonav::msg::GnssFix*,
+                 const odonav::msg::Misalignment*, const odonav::msg::ScaleFactor*, const odonav::msg::DeadReckoning*,
+                 const odonav::msg::Health*, const odonav::msg::Command*, const odonav::msg::NavigationPosition*>;
 /// Sees every sample the monitor's readers receive (from the listener threads, after the FleetState).
 using SampleTap = std::function<void(topics::TopicId topic, AnySample sample)>;
 
@@ -109,8 +109,8 @@ struct CommandRequest {
   std::string vehicle_id;
   std::string component;  ///< target_component, e.g. "odonav-identification"
   odonav::msg::CommandKind kind = odonav::msg::COMMAND_RESET_ESTIMATION;
-  double value = 0.0;     ///< K [m/pulse] for COMMAND_SET_K, else 0
-  double timeout_s = 5.0; ///< whole exchange: discovery, delivery and acknowledgement (s, > 0)
+  double value = 0.0;      ///< K [m/pulse] for COMMAND_SET_K, else 0
+  double timeout_s = 5.0;  ///< whole exchange: discovery, delivery and acknowledgement (s, > 0)
 };
 
 enum class CommandOutcome { kAccepted, kRejected, kTimeout };

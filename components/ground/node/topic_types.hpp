@@ -23,25 +23,51 @@ namespace odonav::ground {
 
 template <topics::TopicId Id>
 struct MessageOf;  // Only the specializations below exist.
-template <> struct MessageOf<topics::TopicId::kOdometer> { using type = odonav::msg::Odometer; };
-template <> struct MessageOf<topics::TopicId::kInsAttitude> { using type = odonav::msg::InsAttitude; };
-template <> struct MessageOf<topics::TopicId::kGnssFix> { using type = odonav::msg::GnssFix; };
-template <> struct MessageOf<topics::TopicId::kMisalignment> { using type = odonav::msg::Misalignment; };
-template <> struct MessageOf<topics::TopicId::kScaleFactor> { using type = odonav::msg::ScaleFactor; };
-template <> struct MessageOf<topics::TopicId::kDeadReckoning> { using type = odonav::msg::DeadReckoning; };
-template <> struct MessageOf<topics::TopicId::kHealth> { using type = odonav::msg::Health; };
-template <> struct MessageOf<topics::TopicId::kCommand> { using type = odonav::msg::Command; };
-template <> struct MessageOf<topics::TopicId::kNavigationPosition> { using type = odonav::msg::NavigationPosition; };
+template <>
+struct MessageOf<topics::TopicId::kOdometer> {
+  using type = odonav::msg::Odometer;
+};
+template <>
+struct MessageOf<topics::TopicId::kInsAttitude> {
+  using type = odonav::msg::InsAttitude;
+};
+template <>
+struct MessageOf<topics::TopicId::kGnssFix> {
+  using type = odonav::msg::GnssFix;
+};
+template <>
+struct MessageOf<topics::TopicId::kMisalignment> {
+  using type = odonav::msg::Misalignment;
+};
+template <>
+struct MessageOf<topics::TopicId::kScaleFactor> {
+  using type = odonav::msg::ScaleFactor;
+};
+template <>
+struct MessageOf<topics::TopicId::kDeadReckoning> {
+  using type = odonav::msg::DeadReckoning;
+};
+template <>
+struct MessageOf<topics::TopicId::kHealth> {
+  using type = odonav::msg::Health;
+};
+template <>
+struct MessageOf<topics::TopicId::kCommand> {
+  using type = odonav::msg::Command;
+};
+template <>
+struct MessageOf<topics::TopicId::kNavigationPosition> {
+  using type = odonav::msg::NavigationPosition;
+};
 
 namespace detail {
 template <class F, std::size_t... I>
 void with_message_type_of(topics::TopicId id, F& f, std::index_sequence<I...>) {
   // One branch per TopicId of the contract, each instantiated: f(prototype, TopicId constant).
-  ((id == topics::kAllTopicIds[I]
-        ? (f(typename MessageOf<topics::kAllTopicIds[I]>::type{},
-             std::integral_constant<topics::TopicId, topics::kAllTopicIds[I]>{}),
-           true)
-        : false) ||
+  ((id == topics::kAllTopicIds[I] ? (f(typename MessageOf<topics::kAllTopicIds[I]>::type{},
+                                       std::integral_constant<topics::TopicId, topics::kAllTopicIds[I]>{}),
+                                     true)
+                                  : false) ||
    ...);
 }
 }  // namespace detail

@@ -137,7 +137,8 @@ void GroundWeb::on_sample(topics::TopicId topic, AnySample sample) {
           if (server_->subscribed(c)) publish_json(c, v.stamp_s, scale_factor_plot(v).dump());
         } else if constexpr (std::is_same_v<T, odonav::msg::Health>) {
           // The diagnostics channel lives while some component of the vehicle speaks; tick() fills it.
-          channel(vehicle, derived_key(DerivedChannel::kDiagnostics), [&] { return derived_info(vehicle, DerivedChannel::kDiagnostics); });
+          channel(vehicle, derived_key(DerivedChannel::kDiagnostics),
+                  [&] { return derived_info(vehicle, DerivedChannel::kDiagnostics); });
         }
       },
       sample);
@@ -178,7 +179,9 @@ HttpReply GroundWeb::get(const std::string& target) {
     j["domain"] = options_.domain;
     j["commands_enabled"] = !options_.token.empty();
     const auto st = server_->stats();
-    j["server"] = {{"foxglove_clients", st.clients}, {"frames_sent", st.frames_sent}, {"frames_dropped", st.frames_dropped},
+    j["server"] = {{"foxglove_clients", st.clients},
+                   {"frames_sent", st.frames_sent},
+                   {"frames_dropped", st.frames_dropped},
                    {"channels", channels_.size()}};
     j["snapshot"] = snapshot_json(snap);
     const std::string wanted = query_parameter(target, "history");

@@ -36,7 +36,10 @@ class WsSession;
 class WebServer::Impl {
  public:
   Impl(WebServerOptions options, WebHandlers handlers, const ChannelSet& channels)
-      : options_(std::move(options)), handlers_(std::move(handlers)), channels_(channels), acceptor_(ioc_),
+      : options_(std::move(options)),
+        handlers_(std::move(handlers)),
+        channels_(channels),
+        acceptor_(ioc_),
         session_id_(random_session_id()) {}
 
   WebServerOptions options_;
@@ -207,8 +210,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       frame = queue_.front();
     }
     ws_.binary(frame.binary);
-    ws_.async_write(net::buffer(*frame.bytes),
-                    [self = shared_from_this(), frame](beast::error_code ec, std::size_t) { self->on_write(ec, frame); });
+    ws_.async_write(net::buffer(*frame.bytes), [self = shared_from_this(), frame](beast::error_code ec, std::size_t) {
+      self->on_write(ec, frame);
+    });
   }
 
   void on_write(beast::error_code ec, const Frame& frame) {
@@ -279,9 +283,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       const auto offered = std::string(request[http::field::sec_websocket_protocol]);
       const auto chosen = choose_subprotocol(offered);
       if (!chosen) {
-        HttpReply r{400, "text/plain",
-                    "WebSocket needs the subprotocol foxglove.websocket.v1 or foxglove.sdk.v1 (offered: '" + offered +
-                        "')\n"};
+        HttpReply r{
+            400, "text/plain",
+            "WebSocket needs the subprotocol foxglove.websocket.v1 or foxglove.sdk.v1 (offered: '" + offered + "')\n"};
         return respond(request, r, false);
       }
       stream_.expires_never();
@@ -320,14 +324,15 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   }
 
   void respond(const http::request<http::string_body>& request, const HttpReply& reply, bool keep_alive) {
-    auto res = std::make_shared<http::response<http::string_body>>(static_cast<http::status>(reply.status),
-                                                                   request.version());
+    auto res =
+        std::make_shared<http::response<http::string_body>>(static_cast<http::status>(reply.status), request.version());
     res->set(http::field::server, "odonav-ground");
     res->set(http::field::content_type, reply.content_type);
     res->set(http::field::cache_control, "no-store");
     // The page is served by this binary and fetches nothing else: a strict policy keeps it that way.
-    res->set("Content-Security-Policy",
-             "default-src 'self'; script-src 'self' 'unsafe-inline'; style-src 'self' 'unsafe-inline'; connect-src 'self'");
+    res->set(
+        "Content-Security-Policy",
+        "default-src 'self'; script-src 'self' 'unsafe-inline'; style-src 'self' 'unsafe-inline'; connect-src 'self'");
     res->keep_alive(keep_alive);
     if (request.method() != http::verb::head) res->body() = reply.body;
     res->prepare_payload();
@@ -368,7 +373,8 @@ WebServer::WebServer(WebServerOptions options, WebHandlers handlers, const Chann
   const std::string where = impl_->options_.bind_address + ":" + std::to_string(impl_->options_.port);
   beast::error_code ec;
   const auto address = net::ip::make_address(impl_->options_.bind_address, ec);
-  if (ec) throw std::runtime_error("--bind '" + impl_->options_.bind_address + "': not an IP address (" + ec.message() + ")");
+  if (ec)
+    throw std::runtime_error("--bind '" + impl_->options_.bind_address + "': not an IP address (" + ec.message() + ")");
   const tcp::endpoint endpoint(address, static_cast<unsigned short>(impl_->options_.port));
   auto& a = impl_->acceptor_;
   if (!a.open(endpoint.protocol(), ec) && !a.set_option(net::socket_base::reuse_address(true), ec) &&

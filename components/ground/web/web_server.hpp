@@ -27,7 +27,7 @@ struct WebServerOptions {
   std::string bind_address = "127.0.0.1";
   int port = 8765;  ///< 0: any free port (port() tells which)
   std::string name = "odonav-ground";
-  std::map<std::string, std::string> metadata;  ///< serverInfo metadata
+  std::map<std::string, std::string> metadata;         ///< serverInfo metadata
   std::size_t max_queued_bytes_per_client = 4u << 20;  ///< data frames past this are dropped
 };
 

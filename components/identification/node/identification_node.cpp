@@ -118,8 +118,7 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
   lifecycle_.start(core_, static_cast<int64_t>(std::time(nullptr)), dds::steady_now_s());
   scale_factor_ = std::make_unique<dds::EstimatePublisher<odonav::msg::ScaleFactor>>(
       runtime.participant(), topics::kScaleFactor.name, topics::kScaleFactor.writer_profile,
-      instance_.heartbeat_period_s,
-      scale_factor_writer_settings(instance_));
+      instance_.heartbeat_period_s, scale_factor_writer_settings(instance_));
   if (const auto restored = lifecycle_.take_restored_output()) {
     write_scale_factor(*restored, dds::steady_now_s());
     count_outputs(1);
@@ -144,26 +143,26 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
       [this](const odonav::msg::Odometer& m) { declare_gnss_published(gnss_, m); });
   gnss_reader_ = subscribe<odonav::msg::GnssFix>(
       topics::with_reader_profile(topics::kGnssFix, sensor_profile), gnss_, [this](const auto& m, double t_s) {
-    // After a restore, GNSS waits until the first odometer (and INS) sample of the handed-over
-    // history is known: epochs older than those histories cannot be processed and are lost.
-    if (lifecycle_.restored_t_s() && !sensor_history_start_known()) {
-      pending_gnss_.emplace_back(t_s, dds::gnss_sample_from(m));
-      return;
-    }
-    if (!lifecycle_.skip_sample(IdentificationInput::kGnss, t_s)) core_.add_gnss(dds::gnss_sample_from(m));
-  });
+        // After a restore, GNSS waits until the first odometer (and INS) sample of the handed-over
+        // history is known: epochs older than those histories cannot be processed and are lost.
+        if (lifecycle_.restored_t_s() && !sensor_history_start_known()) {
+          pending_gnss_.emplace_back(t_s, dds::gnss_sample_from(m));
+          return;
+        }
+        if (!lifecycle_.skip_sample(IdentificationInput::kGnss, t_s)) core_.add_gnss(dds::gnss_sample_from(m));
+      });
   if (ins_) {
     ins_reader_ = subscribe<odonav::msg::InsAttitude>(
         topics::with_reader_profile(topics::kInsAttitude, sensor_profile), *ins_, [this](const auto& m, double t_s) {
-      const bool skip = lifecycle_.skip_sample(IdentificationInput::kIns, t_s);
-      flush_pending_gnss();
-      if (skip) return;
-      if (!m.valid()) {
-        ++ins_->dropped_invalid;
-        return;
-      }
-      core_.add_ins(dds::ins_sample_from(m));
-    });
+          const bool skip = lifecycle_.skip_sample(IdentificationInput::kIns, t_s);
+          flush_pending_gnss();
+          if (skip) return;
+          if (!m.valid()) {
+            ++ins_->dropped_invalid;
+            return;
+          }
+          core_.add_ins(dds::ins_sample_from(m));
+        });
   }
   misalignment_reader_ = subscribe<odonav::msg::Misalignment>(
       topics::kMisalignment, misalignment_, [this](const auto& m, double t_s) { on_misalignment(m, t_s); });
@@ -200,8 +199,7 @@ void IdentificationNode::on_misalignment(const odonav::msg::Misalignment& m, dou
 
 void IdentificationNode::publish(const std::vector<IdentificationOutput>& outputs) {
   const double now = dds::steady_now_s();
-  const std::vector<IdentificationOutput> to_publish =
-      lifecycle_.outputs_to_publish(outputs, now);
+  const std::vector<IdentificationOutput> to_publish = lifecycle_.outputs_to_publish(outputs, now);
   for (const IdentificationOutput& o : to_publish) {
     write_scale_factor(o, now);
     log_turn_slip_change(o);
@@ -229,10 +227,9 @@ void IdentificationNode::finish() {
 }
 
 void IdentificationNode::write_scale_factor(const IdentificationOutput& o, double now_s) {
-  scale_factor_->publish(
-      scale_factor_message(o, core_.main_estimator_name(), runtime_.settings().vehicle_id, instance_.instance,
-                           instance_.ownership_strength),
-      now_s);
+  scale_factor_->publish(scale_factor_message(o, core_.main_estimator_name(), runtime_.settings().vehicle_id,
+                                              instance_.instance, instance_.ownership_strength),
+                         now_s);
 }
 
 void IdentificationNode::on_tick(double now_s) {

@@ -240,7 +240,8 @@ void DeadReckoningEvaluator::close_outages(const Probe& p) {
     const Eigen::Vector3d dr_delta = frame.to_enu(*p.dr) - frame.to_enu(*a.dr);
     const Eigen::Vector3d ref_delta = frame.to_enu(p.reference.position);
     st.error_m = (dr_delta - ref_delta).head<2>().norm();
-    st.error_percent = p.dr_distance_m > a.dr_distance_m ? 100.0 * st.error_m / (p.dr_distance_m - a.dr_distance_m) : kNaN;
+    st.error_percent =
+        p.dr_distance_m > a.dr_distance_m ? 100.0 * st.error_m / (p.dr_distance_m - a.dr_distance_m) : kNaN;
   }
 }
 
@@ -297,7 +298,8 @@ std::optional<std::string> truth_mismatch(Source<GnssSample>&& gnss, Source<Trut
     if (g->t_s < truth_first_s) continue;  // before the truth starts
     while (after && after->t_s < g->t_s) {
       before = after;
-      do after = truth(); while (after && !has_position(*after));
+      do after = truth();
+      while (after && !has_position(*after));
     }
     if (!after) break;  // the truth ended
     const double span = after->t_s - before->t_s;
@@ -319,8 +321,8 @@ std::optional<std::string> truth_mismatch(Source<GnssSample>&& gnss, Source<Trut
   std::vector<double>& d = moving_m.empty() ? resting_m : moving_m;
   if (d.empty()) {
     std::ostringstream m;
-    m << "truth.csv (from t = " << truth_first_s << " s) does not overlap the valid GNSS fixes in time (t = "
-      << *first_fix_s << " .. " << *last_fix_s << " s)";
+    m << "truth.csv (from t = " << truth_first_s
+      << " s) does not overlap the valid GNSS fixes in time (t = " << *first_fix_s << " .. " << *last_fix_s << " s)";
     return m.str();
   }
   std::sort(d.begin(), d.end());

@@ -48,8 +48,8 @@ SourceFactory<T> shared_source(SourceFactory<T> open, std::size_t window_items =
   struct Shared {
     SourceFactory<T> open;
     std::size_t max_items = 0;
-    Source<T> reader;               // this generation's reader, opened at its first read
-    std::deque<T> window;           // items [base, base + window.size())
+    Source<T> reader;      // this generation's reader, opened at its first read
+    std::deque<T> window;  // items [base, base + window.size())
     std::size_t base = 0;
     bool ended = false;
     std::shared_ptr<Shared> later;  // the next generation, made when a source falls behind
@@ -108,7 +108,7 @@ struct KStep {
 
 /// Scale-factor accuracy figures. Times in seconds, errors relative (0.001 = 0.1 %).
 struct KEvaluation {
-  std::size_t epochs = 0;                 ///< estimates compared (after convergence, outside settle windows).
+  std::size_t epochs = 0;  ///< estimates compared (after convergence, outside settle windows).
   double rms_rel_error = std::numeric_limits<double>::quiet_NaN();
   double max_rel_error = std::numeric_limits<double>::quiet_NaN();
   double final_rel_error = std::numeric_limits<double>::quiet_NaN();
@@ -121,8 +121,8 @@ struct KEvaluation {
 };
 
 struct KEvaluationParams {
-  double tolerance_rel = 0.005;       ///< "within 0.5 %".
-  double settle_window_s = 10.0;      ///< excluded from the RMS after each step (the allowed settle time).
+  double tolerance_rel = 0.005;   ///< "within 0.5 %".
+  double settle_window_s = 10.0;  ///< excluded from the RMS after each step (the allowed settle time).
 };
 
 /// evaluate_scale_factor one estimate at a time, in constant memory: estimates in time order, each
@@ -155,8 +155,8 @@ class ScaleFactorEvaluator {
   std::size_t segment_ = 0;  ///< 0: before the first step; s + 1: from step s to the next.
   double converge_candidate_s_ = std::numeric_limits<double>::quiet_NaN();
   std::vector<double> settle_candidate_s_;  ///< per step
-  Sums since_candidate_;  ///< estimates from the convergence candidate on
-  Sums after_window_;     ///< estimates from first motion + settle window on (never converged)
+  Sums since_candidate_;                    ///< estimates from the convergence candidate on
+  Sums after_window_;                       ///< estimates from first motion + settle window on (never converged)
   double last_rel_ = std::numeric_limits<double>::quiet_NaN();
   bool any_ = false;
 };
@@ -166,9 +166,8 @@ class ScaleFactorEvaluator {
 /// The RMS covers estimates after convergence (time_to_converge), outside [step, step + settle_window).
 /// ScaleFactorEvaluator over whole vectors.
 KEvaluation evaluate_scale_factor(const std::vector<TimedValue>& estimate_m_per_pulse,
-                                  const std::vector<TimedValue>& reference_m_per_pulse,
-                                  const std::vector<KStep>& steps, double first_motion_t_s,
-                                  const KEvaluationParams& params = {});
+                                  const std::vector<TimedValue>& reference_m_per_pulse, const std::vector<KStep>& steps,
+                                  double first_motion_t_s, const KEvaluationParams& params = {});
 
 /// A position at a time.
 struct TimedPosition {
@@ -185,7 +184,7 @@ struct Outage {
 /// Dead-reckoning accuracy figures: horizontal error in metres and in % of distance travelled (%D).
 struct DrEvaluation {
   std::size_t epochs = 0;
-  double distance_m = 0.0;                  ///< distance travelled at the last compared epoch.
+  double distance_m = 0.0;  ///< distance travelled at the last compared epoch.
   double final_error_m = std::numeric_limits<double>::quiet_NaN();
   double final_error_percent = std::numeric_limits<double>::quiet_NaN();
   double max_error_m = std::numeric_limits<double>::quiet_NaN();
@@ -276,8 +275,8 @@ class DeadReckoningEvaluator {
 /// min_distance_m: %D maxima ignore the first metres, where %D is meaningless.
 /// DeadReckoningEvaluator over whole vectors.
 DrEvaluation evaluate_dead_reckoning(const std::vector<TimedPosition>& dr, const std::vector<double>& distance_m,
-                                     const std::vector<TimedPosition>& reference,
-                                     const std::vector<Outage>& outages, double min_distance_m = 100.0);
+                                     const std::vector<TimedPosition>& reference, const std::vector<Outage>& outages,
+                                     double min_distance_m = 100.0);
 
 /// Whether a truth file describes the drive of the GNSS fixes: the horizontal distance between each
 /// of the first `fixes` valid moving fixes (GNSS speed >= min_speed_mps; the first valid fixes when
@@ -286,7 +285,8 @@ DrEvaluation evaluate_dead_reckoning(const std::vector<TimedPosition>& dr, const
 /// than max_median_m / speed, is refused. Returns why (naming the times and distances), or nullopt
 /// when it matches or there is nothing to compare (no valid fix, no truth position). Reads gnss until
 /// the fixes are found (and further while the truth starts later) and truth as far as they reach.
-std::optional<std::string> truth_mismatch(Source<GnssSample>&& gnss, Source<TruthSample>&& truth, std::size_t fixes = 20,
-                                          double min_speed_mps = 2.0, double max_median_m = 100.0);
+std::optional<std::string> truth_mismatch(Source<GnssSample>&& gnss, Source<TruthSample>&& truth,
+                                          std::size_t fixes = 20, double min_speed_mps = 2.0,
+                                          double max_median_m = 100.0);
 
 }  // namespace odonav::offline

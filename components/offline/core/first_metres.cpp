@@ -101,8 +101,10 @@ void FirstMetresAccumulator::add(const DeadReckoningOutput& o) {
 
 FirstMetres FirstMetresAccumulator::finish() {
   const std::optional<Eigen::Vector3d> standstill = standstill_.mean(), first_500m = first_500m_.mean();
-  if (standstill && std::isnan(f_.standstill_origin_max_after_500m_percent)) f_.standstill_origin_max_after_500m_percent = 0.0;
-  if (first_500m && std::isnan(f_.first_500m_origin_max_after_500m_percent)) f_.first_500m_origin_max_after_500m_percent = 0.0;
+  if (standstill && std::isnan(f_.standstill_origin_max_after_500m_percent))
+    f_.standstill_origin_max_after_500m_percent = 0.0;
+  if (first_500m && std::isnan(f_.first_500m_origin_max_after_500m_percent))
+    f_.first_500m_origin_max_after_500m_percent = 0.0;
   for (const Past500m& p : waiting_) count_past_500m(p);
   waiting_.clear();
   if (start_offset_) {

@@ -21,8 +21,8 @@ namespace odonav::offline {
 
 struct FirstMetres {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  double final_percent = kNaN;            ///< |DR - truth| horizontal / odometer distance, at the end (%D)
-  double max_after_500m_percent = kNaN;   ///< max over the drive once past 500 m (%D)
+  double final_percent = kNaN;           ///< |DR - truth| horizontal / odometer distance, at the end (%D)
+  double max_after_500m_percent = kNaN;  ///< max over the drive once past 500 m (%D)
   /// The same two with the start offset taken out.
   double drift_final_percent = kNaN;
   double drift_max_after_500m_percent = kNaN;

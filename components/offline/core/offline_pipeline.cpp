@@ -53,7 +53,8 @@ OfflinePipeline::OfflinePipeline(const PipelineConfig& config, PipelineSink& sin
     identification_inputs_ = std::make_unique<Consumer>(identification_inputs(*config_.identification), false);
   }
   if (config_.dead_reckoning) {
-    dead_reckoning_ = std::make_unique<DeadReckoningComponent>(*config_.dead_reckoning, config_.anchored, config_.navigation);
+    dead_reckoning_ =
+        std::make_unique<DeadReckoningComponent>(*config_.dead_reckoning, config_.anchored, config_.navigation);
     dead_reckoning_inputs_ =
         std::make_unique<Consumer>(dead_reckoning_inputs(*config_.dead_reckoning), identification_ != nullptr);
   }
@@ -91,10 +92,8 @@ void OfflinePipeline::add_gnss(const GnssSample& s) {
 void OfflinePipeline::add_ins(const InsSample& s) {
   advance_to(s.t_s);
   if (config_.calibration.use_ins) calibration_.add_ins(s);
-  if (identification_ && identification_inputs_->admit(identification_inputs_->ins, s.t_s))
-    identification_->add_ins(s);
-  if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->ins, s.t_s))
-    dead_reckoning_->add_ins(s);
+  if (identification_ && identification_inputs_->admit(identification_inputs_->ins, s.t_s)) identification_->add_ins(s);
+  if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->ins, s.t_s)) dead_reckoning_->add_ins(s);
 }
 
 void OfflinePipeline::process(double complete_through_s) {

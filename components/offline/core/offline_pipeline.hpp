@@ -90,7 +90,7 @@ class OfflinePipeline {
   std::unique_ptr<DeadReckoningComponent> dead_reckoning_;
   std::unique_ptr<Consumer> identification_inputs_;
   std::unique_ptr<Consumer> dead_reckoning_inputs_;
-  std::optional<double> pending_t_s_;     ///< stamp of the samples passed since the last processing
+  std::optional<double> pending_t_s_;  ///< stamp of the samples passed since the last processing
   std::optional<double> last_gnss_t_s_;
   bool finished_ = false;
 };

@@ -107,8 +107,8 @@ SampleStream samples_of(const Dataset& d) {
   };
 }
 
-OfflineRunTotals run_offline(const OpenSampleStream& open, bool has_ins, const OfflineParams& given,
-                             PipelineSink& sink, PipelineSink& coarse_sink) {
+OfflineRunTotals run_offline(const OpenSampleStream& open, bool has_ins, const OfflineParams& given, PipelineSink& sink,
+                             PipelineSink& coarse_sink) {
   const OfflineParams params = with_degraded_mode(has_ins, given);
   OfflineRunTotals r;
   {
@@ -186,7 +186,8 @@ results::OutputRows to_output_rows(const OfflineResult& result, const std::strin
   rows.misalignment.reserve(result.misalignment.size());
   for (const auto& m : result.misalignment) rows.misalignment.push_back(output_row(m));
   rows.scale_factor.reserve(result.identification.size());
-  for (const auto& k : result.identification) rows.scale_factor.push_back(output_row(k, main_estimator, result.estimator_names));
+  for (const auto& k : result.identification)
+    rows.scale_factor.push_back(output_row(k, main_estimator, result.estimator_names));
   rows.dead_reckoning.reserve(result.dr_online.size());
   for (const auto& o : result.dr_online) rows.dead_reckoning.push_back(output_row(o));
   rows.dead_reckoning_coarse.reserve(result.dr_coarse.size());

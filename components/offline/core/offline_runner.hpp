@@ -29,7 +29,6 @@ struct OfflineParams {
   std::string coarse_k_origin;  ///< where coarse_k_m_per_pulse came from, for the summary.
 };
 
-
 /// A dataset's sensor samples in event-time order, one per call; nullopt at the end.
 using SampleStream = std::function<std::optional<DatasetEvent>()>;
 /// Opens a fresh SampleStream over the same dataset (once per pass).
@@ -41,7 +40,7 @@ SampleStream samples_of(const Dataset& dataset);
 
 /// What a streaming run leaves besides the outputs it delivered.
 struct OfflineRunTotals {
-  std::vector<std::string> estimator_names;  ///< order of IdentificationOutput::all.
+  std::vector<std::string> estimator_names;                 ///< order of IdentificationOutput::all.
   std::optional<IdentificationOutput> last_identification;  ///< the final estimate (none without GNSS epochs)
   double coarse_k_m_per_pulse = 0.0;
   std::string coarse_k_origin;
@@ -57,11 +56,11 @@ struct OfflineRunTotals {
 
 /// A run over an in-memory dataset with every output kept (tests, benchmarks).
 struct OfflineResult : OfflineRunTotals {
-  std::vector<MisalignmentOutput> misalignment;      ///< one per GNSS epoch.
-  std::vector<IdentificationOutput> identification;  ///< one per GNSS epoch.
-  std::vector<DeadReckoningOutput> dr_online;        ///< DR with the identified K.
-  std::vector<AnchoredPosition> navigation_position; ///< dr_online anchored on GNSS, one per output.
-  std::vector<DeadReckoningOutput> dr_coarse;        ///< DR with the coarse K.
+  std::vector<MisalignmentOutput> misalignment;       ///< one per GNSS epoch.
+  std::vector<IdentificationOutput> identification;   ///< one per GNSS epoch.
+  std::vector<DeadReckoningOutput> dr_online;         ///< DR with the identified K.
+  std::vector<AnchoredPosition> navigation_position;  ///< dr_online anchored on GNSS, one per output.
+  std::vector<DeadReckoningOutput> dr_coarse;         ///< DR with the coarse K.
 };
 
 /// Runs the pipeline over open()'s samples, delivering every output to `sink` as it is made, then

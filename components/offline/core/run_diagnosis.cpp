@@ -21,9 +21,9 @@ std::string num(double v, int precision = 4) {
 std::string dominant_gate(double gnss_period_s, const OfflineParams& p, const SampleBuilderCounters& c) {
   const SampleBuilderParams& b = p.identification.builder;
   std::vector<std::pair<uint64_t, std::string>> gates = {
-      {c.gap, "as gaps > " + num(effective_max_interval_s(b, gnss_period_s)) +
-                  " s (--max-interval-s" + (b.max_interval_s > 0.0 ? "" : ", derived from the GNSS period") +
-                  "); the GNSS period is " + num(gnss_period_s) + " s"},
+      {c.gap, "as gaps > " + num(effective_max_interval_s(b, gnss_period_s)) + " s (--max-interval-s" +
+                  (b.max_interval_s > 0.0 ? "" : ", derived from the GNSS period") + "); the GNSS period is " +
+                  num(gnss_period_s) + " s"},
       {c.min_speed, "below the minimum speed " + num(b.min_speed_mps) + " m/s (--min-speed) or the minimum of " +
                         num(b.min_pulses) + " pulses per sample (--min-pulses)"},
       {c.yaw_rate, "in turns above " + num(rad_to_deg(b.max_yaw_rate_rad_s)) + " deg/s (--max-yaw-rate-deg-s)"},
@@ -37,7 +37,8 @@ std::string dominant_gate(double gnss_period_s, const OfflineParams& p, const Sa
       {c.no_pulses, "with no odometer pulses over the interval (constant counter?)"},
       {c.innovation, "by the innovation gate"},
       {c.cross_track, "with GNSS velocity across the odometer axis above " + num(b.cross_track_n_sigma) +
-                          " sigma + tan(" + num(rad_to_deg(b.cross_track_angle_rad)) + " deg) x speed (cross-track gate)"},
+                          " sigma + tan(" + num(rad_to_deg(b.cross_track_angle_rad)) +
+                          " deg) x speed (cross-track gate)"},
       {c.low_fix_quality, "below the minimum fix quality"},
   };
   std::stable_sort(gates.begin(), gates.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
@@ -109,12 +110,13 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
 void RunDiagnosisAccumulator::add_misalignment(const MisalignmentOutput& output) { last_misalignment_ = output; }
 
 RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const SampleBuilderCounters& c,
-                                             const MisalignmentCounters& m,
-                                             const DeadReckonerCounters& dr_counters,
+                                             const MisalignmentCounters& m, const DeadReckonerCounters& dr_counters,
                                              const std::vector<ConsistencyState>& consistency,
                                              const GnssJumpCounters& gnss_jumps) const {
   RunDiagnosis out;
-  auto warn = [&](std::string code, std::string message) { out.warnings.push_back({std::move(code), std::move(message)}); };
+  auto warn = [&](std::string code, std::string message) {
+    out.warnings.push_back({std::move(code), std::move(message)});
+  };
 
   if (gnss_jumps.jumps > 0)
     warn("gnss_position_jumps",
@@ -136,8 +138,8 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
     const double o0 = odometer_.first_s, o1 = odometer_.last_s;
     const double g0 = gnss_.first_s, g1 = gnss_.last_s;
     if (std::min(o1, g1) <= std::max(o0, g0))
-      warn("no_time_overlap", "GNSS (t = " + num(g0, 10) + " .. " + num(g1, 10) + " s) and odometer (t = " +
-                                  num(o0, 10) + " .. " + num(o1, 10) +
+      warn("no_time_overlap", "GNSS (t = " + num(g0, 10) + " .. " + num(g1, 10) +
+                                  " s) and odometer (t = " + num(o0, 10) + " .. " + num(o1, 10) +
                                   " s) do not overlap in time: both must use one time base in seconds");
   }
 
@@ -162,11 +164,10 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
       if (!(rel_percent < 100.0 * e.converged_rel_sigma))
         missing += (missing.empty() ? "" : "; ") + std::string("sigma ") + num(rel_percent, 3) + " % of K, " +
                    num(100.0 * e.converged_rel_sigma, 3) + " % needed (--converged-rel-sigma)";
-      warn("k_not_converged", "K did not converge: " + (missing.empty() ? std::string("estimator not converged") : missing) +
-                                  " (" + num(static_cast<double>(c.accepted), 12) + " of " +
-                                  num(static_cast<double>(c.epochs), 12) +
-                                  " GNSS epochs accepted); the last K " + num(k.k_m_per_pulse, 6) +
-                                  " m/pulse is provisional");
+      warn("k_not_converged",
+           "K did not converge: " + (missing.empty() ? std::string("estimator not converged") : missing) + " (" +
+               num(static_cast<double>(c.accepted), 12) + " of " + num(static_cast<double>(c.epochs), 12) +
+               " GNSS epochs accepted); the last K " + num(k.k_m_per_pulse, 6) + " m/pulse is provisional");
     }
     if (k.valid && std::isfinite(k.k_m_per_pulse) && nominal > 0.0) {
       const double ratio = k.k_m_per_pulse / nominal;
@@ -183,20 +184,20 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
     if (m.used == 0) {
       std::vector<std::pair<uint64_t, std::string>> why = {
           {m.low_speed, "below the minimum speed " + num(p.calibration.min_speed_mps) + " m/s (--cal-min-speed)"},
-          {m.turning, "in turns above " + num(rad_to_deg(p.calibration.max_yaw_rate_rad_s)) +
-                          " deg/s (--cal-max-yaw-rate-deg-s)"},
+          {m.turning,
+           "in turns above " + num(rad_to_deg(p.calibration.max_yaw_rate_rad_s)) + " deg/s (--cal-max-yaw-rate-deg-s)"},
           {m.invalid_fix, "with an invalid fix"},
           {m.reversing, "reversing"},
           {m.no_attitude, "with no INS attitude around the epoch"},
           {m.outlier, "as GNSS velocity outliers"},
       };
       std::stable_sort(why.begin(), why.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-      warn("no_misalignment", "no misalignment calibrated: 0 of " + num(static_cast<double>(m.epochs), 12) +
-                                  " GNSS epochs used" +
-                                  (why.front().first > 0 ? "; " + num(static_cast<double>(why.front().first), 12) +
-                                                               " " + why.front().second
-                                                         : std::string()) +
-                                  "; zero misalignment applied");
+      warn(
+          "no_misalignment",
+          "no misalignment calibrated: 0 of " + num(static_cast<double>(m.epochs), 12) + " GNSS epochs used" +
+              (why.front().first > 0 ? "; " + num(static_cast<double>(why.front().first), 12) + " " + why.front().second
+                                     : std::string()) +
+              "; zero misalignment applied");
     } else if (last_misalignment_ && !last_misalignment_->converged) {
       // Used, but not enough: say what is missing, epochs or precision.
       const MisalignmentOutput& o = *last_misalignment_;
@@ -211,7 +212,8 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
         missing += (missing.empty() ? "" : "; ") + std::string("sigma ") + num(worst_deg, 3) + " deg above the " +
                    num(limit_deg, 3) + " deg required (--cal-converged-sigma-deg)";
       warn("misalignment_not_converged",
-           "the misalignment did not converge: " + (missing.empty() ? std::string("state ") + to_string(o.state) : missing) +
+           "the misalignment did not converge: " +
+               (missing.empty() ? std::string("state ") + to_string(o.state) : missing) +
                "; the estimate is provisional (a longer drive with straight segments above " +
                num(p.calibration.min_speed_mps) + " m/s gives more epochs)");
     }
@@ -220,8 +222,9 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
   // Dead reckoning: present, and covering the odometer record.
   if (dead_reckoning_.n == 0) {
     out.usable = false;
-    warn("no_dead_reckoning", "no dead-reckoning output: DR starts at the first valid GNSS fix inside the odometer "
-                              "record, and none was found");
+    warn("no_dead_reckoning",
+         "no dead-reckoning output: DR starts at the first valid GNSS fix inside the odometer "
+         "record, and none was found");
   } else if (odometer_.n > 0) {
     const double span = odometer_.last_s - odometer_.first_s;
     const double dr_end = dead_reckoning_.last_s;
@@ -230,9 +233,9 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
       std::string cause;
       if (dr_counters.pulse_jumps_rejected > 0)
         cause = "; " + num(static_cast<double>(dr_counters.pulse_jumps_rejected), 12) +
-                " odometer samples rejected by the pulse-jump gate (max " +
-                num(p.dead_reckoning.max_speed_mps) + " m/s at the nominal K " +
-                num(p.dead_reckoning.nominal_k_m_per_pulse, 6) + " m/pulse): check --nominal-k";
+                " odometer samples rejected by the pulse-jump gate (max " + num(p.dead_reckoning.max_speed_mps) +
+                " m/s at the nominal K " + num(p.dead_reckoning.nominal_k_m_per_pulse, 6) +
+                " m/pulse): check --nominal-k";
       out.usable = false;  // most of the drive has no position
       warn("dead_reckoning_truncated", "dead reckoning ends at t = " + num(dr_end, 10) + " s, " + num(missing, 6) +
                                            " s before the odometer record" + cause);

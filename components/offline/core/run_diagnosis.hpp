@@ -59,12 +59,12 @@ double median_period_s(const std::vector<double>& times_s);
 /// and each output as it is produced, in constant memory (MedianPeriod aside).
 class RunDiagnosisAccumulator {
  public:
-  void add_odometer(double t_s);                          ///< each odometer sample's time (s)
-  void add_gnss(double t_s);                              ///< each GNSS epoch's time (s), valid or not
-  void add_ins(double t_s);                               ///< each INS sample's time (s)
+  void add_odometer(double t_s);                             ///< each odometer sample's time (s)
+  void add_gnss(double t_s);                                 ///< each GNSS epoch's time (s), valid or not
+  void add_ins(double t_s);                                  ///< each INS sample's time (s)
   void add_identification(const ScaleFactorEstimate& main);  ///< each identification output's main estimate
-  void add_misalignment(const MisalignmentOutput& output);    ///< each calibration output
-  void add_dead_reckoning(double t_s);                    ///< each online dead-reckoning output's time (s)
+  void add_misalignment(const MisalignmentOutput& output);   ///< each calibration output
+  void add_dead_reckoning(double t_s);                       ///< each online dead-reckoning output's time (s)
   /// The warnings, from the facts gathered and the run's final gate counters.
   /// consistency: the dead reckoning's checks at the end (OfflineRunTotals::consistency; each one
   /// raised during the run is a warning "inconsistent_<check>" with its finding).

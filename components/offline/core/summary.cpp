@@ -118,7 +118,9 @@ class Bracket {
   double last_query_s_ = 0.0;
 };
 
-double rms_of(double sum_sq, std::size_t n) { return n > 0 ? std::sqrt(sum_sq / static_cast<double>(n)) : std::nan(""); }
+double rms_of(double sum_sq, std::size_t n) {
+  return n > 0 ? std::sqrt(sum_sq / static_cast<double>(n)) : std::nan("");
+}
 
 // The anchored navigation position against GNSS while it is valid (the reference point from each
 // valid fix: antenna minus the lever arm turned by the INS attitude), beside the pure DR; and against
@@ -208,13 +210,15 @@ class NavigationEvaluator {
 
   // Whether the last navigation row at or before t_s is anchored.
   bool anchored_at(double t_s) const {
-    const auto it = std::upper_bound(nav_.begin(), nav_.end(), t_s, [](double t, const NavPoint& r) { return t < r.t_s; });
+    const auto it =
+        std::upper_bound(nav_.begin(), nav_.end(), t_s, [](double t, const NavPoint& r) { return t < r.t_s; });
     return it != nav_.begin() && std::prev(it)->anchored;
   }
 
   // The last navigation row before t_s.
   std::optional<NavPoint> row_before(double t_s) const {
-    const auto it = std::lower_bound(nav_.begin(), nav_.end(), t_s, [](const NavPoint& r, double x) { return r.t_s < x; });
+    const auto it =
+        std::lower_bound(nav_.begin(), nav_.end(), t_s, [](const NavPoint& r, double x) { return r.t_s < x; });
     if (it == nav_.begin()) return std::nullopt;
     return *std::prev(it);
   }
@@ -290,7 +294,10 @@ class NavigationEvaluator {
     if (!ta || !tb) return;
     const double ea = (frame_->to_enu(a->position) - ta->first).head<2>().norm();
     const double eb = (frame_->to_enu(b->position) - tb->first).head<2>().norm();
-    st.entry = json{{"start_s", out.start_s}, {"end_s", out.end_s}, {"error_at_start_m", ea}, {"error_at_end_m", eb},
+    st.entry = json{{"start_s", out.start_s},
+                    {"end_s", out.end_s},
+                    {"error_at_start_m", ea},
+                    {"error_at_end_m", eb},
                     {"distance_m", number_or_null(b->distance_since_fix_m - a->distance_since_fix_m)}};
   }
 
@@ -674,7 +681,8 @@ json SummaryAccumulator::finish() {
     if (m.sim.is_object() && m.sim.contains("gnss_latency_s") && m.sim["gnss_latency_s"].is_number())
       sf["gnss_latency_error_s"] = number_or_null(last.gnss_latency_s - m.sim["gnss_latency_s"].get<double>());
     sf["turn_slip_s_per_rad"] = number_or_null(last.turn_slip_s_per_rad);
-    sf["turn_slip_sigma_s_per_rad"] = last.turn_slip_sigma_s_per_rad ? number_or_null(*last.turn_slip_sigma_s_per_rad) : json();
+    sf["turn_slip_sigma_s_per_rad"] =
+        last.turn_slip_sigma_s_per_rad ? number_or_null(*last.turn_slip_sigma_s_per_rad) : json();
     sf["turn_slip_applies"] = last.turn_slip_applies;
   }
   if (m.k_reference != Impl::KReference::kNone) {
@@ -686,7 +694,8 @@ json SummaryAccumulator::finish() {
     }
     sf["true_k_final_m_per_pulse"] = k_final;
     json st = json::array();
-    for (const KStep& k : m.steps) st.push_back({{"t_s", k.t_s}, {"k_before", k.k_before_m_per_pulse}, {"k_after", k.k_after_m_per_pulse}});
+    for (const KStep& k : m.steps)
+      st.push_back({{"t_s", k.t_s}, {"k_before", k.k_before_m_per_pulse}, {"k_after", k.k_after_m_per_pulse}});
     sf["k_steps"] = st;
   }
   s["scale_factor"] = sf;
@@ -791,17 +800,21 @@ void print_summary(const json& s, std::ostream& out) {
       << sf.value("samples_accepted", 0) << ", rejected " << sf.value("samples_rejected", 0) << ")\n";
   out << "    estimator     final K [m/pulse]   RMS err %   converge s   settle s after each step\n";
   for (const auto& [name, e] : sf["estimators"].items()) {
-    out << "    " << std::left << std::setw(12) << name << std::right << std::setw(14) << fmt(e["final_k_m_per_pulse"], 7);
+    out << "    " << std::left << std::setw(12) << name << std::right << std::setw(14)
+        << fmt(e["final_k_m_per_pulse"], 7);
     out << std::setw(14) << fmt(e.value("rms_rel_error_percent", json()), 3) << std::setw(13)
         << fmt(e.value("time_to_converge_s", json()), 1) << "   ";
     if (e.contains("settle_times_s"))
       for (const json& t : e["settle_times_s"]) out << fmt(t, 1) << " ";
     out << "\n";
   }
-  if (sf.contains("true_k_final_m_per_pulse")) out << "    true K (final) " << fmt(sf["true_k_final_m_per_pulse"], 7) << "\n";
+  if (sf.contains("true_k_final_m_per_pulse"))
+    out << "    true K (final) " << fmt(sf["true_k_final_m_per_pulse"], 7) << "\n";
   if (sf.contains("gnss_latency_s")) {
-    out << "    GNSS latency  " << fmt(sf["gnss_latency_s"], 4, " s") << " +- " << fmt(sf.value("gnss_latency_sigma_s", json()), 4, " s");
-    if (sf.contains("gnss_latency_error_s")) out << "  (error vs simulation " << fmt(sf["gnss_latency_error_s"], 4, " s") << ")";
+    out << "    GNSS latency  " << fmt(sf["gnss_latency_s"], 4, " s") << " +- "
+        << fmt(sf.value("gnss_latency_sigma_s", json()), 4, " s");
+    if (sf.contains("gnss_latency_error_s"))
+      out << "  (error vs simulation " << fmt(sf["gnss_latency_error_s"], 4, " s") << ")";
     out << "\n";
   }
   if (sf.contains("turn_slip_s_per_rad")) {
@@ -836,8 +849,9 @@ void print_summary(const json& s, std::ostream& out) {
       out << "    vs truth while valid  " << fmt(t["horizontal_rms_m"], 2, " m") << " / "
           << fmt(t["pure_dr_horizontal_rms_m"], 2, " m") << " / " << fmt(t["gnss_horizontal_rms_m"], 2, " m") << "\n";
       for (const json& o : t["outages"])
-        out << "    outage " << fmt(o["start_s"], 0) << "-" << fmt(o["end_s"], 0) << " s: error " << fmt(o["error_at_start_m"], 2)
-            << " -> " << fmt(o["error_at_end_m"], 2, " m") << " over " << fmt(o["distance_m"], 0, " m") << "\n";
+        out << "    outage " << fmt(o["start_s"], 0) << "-" << fmt(o["end_s"], 0) << " s: error "
+            << fmt(o["error_at_start_m"], 2) << " -> " << fmt(o["error_at_end_m"], 2, " m") << " over "
+            << fmt(o["distance_m"], 0, " m") << "\n";
     }
   }
   if (s.contains("warnings") && s["warnings"].is_array() && !s["warnings"].empty()) {

@@ -19,9 +19,9 @@ namespace odonav::offline {
 
 struct SummaryOptions {
   std::string dataset_name;
-  std::string coarse_k_origin;                  ///< where the coarse K came from.
-  std::optional<double> elapsed_s;              ///< processing time, when measured.
-  double dr_min_distance_m = 100.0;             ///< %D maxima ignore the first metres.
+  std::string coarse_k_origin;       ///< where the coarse K came from.
+  std::optional<double> elapsed_s;   ///< processing time, when measured.
+  double dr_min_distance_m = 100.0;  ///< %D maxima ignore the first metres.
   KEvaluationParams k_evaluation;
 };
 

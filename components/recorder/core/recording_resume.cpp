@@ -91,8 +91,8 @@ AdoptedRows adopt_rows(const std::string& text, const std::vector<std::string>& 
     double t = 0.0;
     const auto [p, ec] = std::from_chars(text.data() + begin, text.data() + comma, t);
     if (ec != std::errc() || p != text.data() + comma || !std::isfinite(t))
-      throw ResumeError("'" + path + "' line " + std::to_string(line_no) + ": t \"" + text.substr(begin, comma - begin) +
-                        "\" is not a number");
+      throw ResumeError("'" + path + "' line " + std::to_string(line_no) + ": t \"" +
+                        text.substr(begin, comma - begin) + "\" is not a number");
     out.t_s.push_back(t);
     begin = end + 1;
     complete_end = begin;

@@ -46,9 +46,9 @@ RecordingMarker parse_marker(const std::string& text, const std::string& path);
 
 /// The complete rows of one file of an unfinished recording.
 struct AdoptedRows {
-  std::string text;              ///< the rows, each ending in '\n', without the header
-  std::vector<double> t_s;       ///< each row's stamp (first column), in file order
-  std::size_t torn_lines = 0;    ///< an incomplete last line dropped (0 or 1)
+  std::string text;            ///< the rows, each ending in '\n', without the header
+  std::vector<double> t_s;     ///< each row's stamp (first column), in file order
+  std::size_t torn_lines = 0;  ///< an incomplete last line dropped (0 or 1)
   std::size_t rows() const { return t_s.size(); }
   std::optional<double> last_t_s() const { return t_s.empty() ? std::nullopt : std::optional<double>(t_s.back()); }
 };

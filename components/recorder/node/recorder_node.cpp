@@ -75,7 +75,8 @@ void GapsCsv::write(const GapRow& r) {
 }
 
 void add_recorder_options(Options& o) {
-  o.add_string("out", "", "folder for misalignment.csv, scale_factor.csv, dead_reckoning.csv, navigation_position.csv "
+  o.add_string("out", "",
+               "folder for misalignment.csv, scale_factor.csv, dead_reckoning.csv, navigation_position.csv "
                "(created if missing); required");
   o.add_bool("force", false, "write into an existing non-empty directory that is not an odonav output directory");
   o.add_double("progress-every-s", 10.0, "a progress line every this much simulated (event) time, s", 0.1, 1e6);
@@ -185,7 +186,8 @@ RecorderNode::RecorderNode(dds::ComponentRuntime& runtime, const RecorderSetting
   // resumed recording also takes the gateway's history (the epochs of its downtime); a new one
   // counts from its start, as before.
   gnss_reader_ = std::make_unique<dds::Reader<odonav::msg::GnssFix>>(
-      p, topics::kGnssFix.name, resume_.resumed() ? topics::kSensorReplayReaderProfile : topics::kGnssFix.reader_profile,
+      p, topics::kGnssFix.name,
+      resume_.resumed() ? topics::kSensorReplayReaderProfile : topics::kGnssFix.reader_profile,
       [this, vehicle](const odonav::msg::GnssFix& m) {
         if (m.vehicle_id() == vehicle) runtime_.post([this, m] { on_gnss(m); });
       });
@@ -207,14 +209,16 @@ void RecorderNode::close_readers() {
 }
 
 void RecorderNode::adopt_resumed_rows() {
-  spdlog::info("resuming the unfinished recording of odonav-recorder pid {} in {} (it did not finish: killed or "
-               "crashed)",
-               resume_.previous->pid, settings_.out_dir);
+  spdlog::info(
+      "resuming the unfinished recording of odonav-recorder pid {} in {} (it did not finish: killed or "
+      "crashed)",
+      resume_.previous->pid, settings_.out_dir);
   std::string adopted;
   for (const AdoptedFile& f : resume_.files) {
-    if (!f.rows.t_s.empty()) resumed_from_s_ = std::min(resumed_from_s_.value_or(f.rows.t_s.front()), f.rows.t_s.front());
-    CsvWriter& csv = f.name == kMisalignmentFile   ? misalignment_csv_.csv()
-                     : f.name == kScaleFactorFile  ? scale_factor_csv_.csv()
+    if (!f.rows.t_s.empty())
+      resumed_from_s_ = std::min(resumed_from_s_.value_or(f.rows.t_s.front()), f.rows.t_s.front());
+    CsvWriter& csv = f.name == kMisalignmentFile    ? misalignment_csv_.csv()
+                     : f.name == kScaleFactorFile   ? scale_factor_csv_.csv()
                      : f.name == kDeadReckoningFile ? dead_reckoning_csv_.csv()
                                                     : navigation_position_csv_.csv();
     csv.append_rows(f.rows.text, f.rows.rows());
@@ -231,7 +235,8 @@ void RecorderNode::adopt_resumed_rows() {
                         : f.name == kDeadReckoningFile ? dead_reckoning_stamps_
                                                        : navigation_stamps_;
     for (const double t : f.rows.t_s) stamps.admit(t);
-    if (f.name == kMisalignmentFile) misalignment_s_.insert(misalignment_s_.end(), f.rows.t_s.begin(), f.rows.t_s.end());
+    if (f.name == kMisalignmentFile)
+      misalignment_s_.insert(misalignment_s_.end(), f.rows.t_s.begin(), f.rows.t_s.end());
     if (f.name == kScaleFactorFile) scale_factor_s_.insert(scale_factor_s_.end(), f.rows.t_s.begin(), f.rows.t_s.end());
     if (f.name == kDeadReckoningFile)
       for (const double t : f.rows.t_s) note_dead_reckoning_gap(t);
@@ -267,18 +272,20 @@ void RecorderNode::note_dead_reckoning_gap(double t_s) {
   if (const auto gap = dr_gaps_.offer(t_s)) {
     dr_gap_list_.push_back(*gap);
     last_gap_wall_s_ = dds::steady_now_s();
-    spdlog::warn("{} (no such rows were received: the producer or the link lost them, or the recorder was down "
-                 "longer than their history)",
-                 describe_gap(*gap, "dead-reckoning"));
+    spdlog::warn(
+        "{} (no such rows were received: the producer or the link lost them, or the recorder was down "
+        "longer than their history)",
+        describe_gap(*gap, "dead-reckoning"));
   }
 }
 
 void RecorderNode::note_navigation_gap(double t_s) {
   if (const auto gap = navigation_gaps_.offer(t_s)) {
     navigation_gap_list_.push_back(*gap);
-    spdlog::warn("{} (no such rows were received: the producer or the link lost them, or the recorder was down "
-                 "longer than their history)",
-                 describe_gap(*gap, "navigation-position"));
+    spdlog::warn(
+        "{} (no such rows were received: the producer or the link lost them, or the recorder was down "
+        "longer than their history)",
+        describe_gap(*gap, "navigation-position"));
   }
 }
 
@@ -291,9 +298,10 @@ void RecorderNode::on_misalignment(const odonav::msg::Misalignment& m) {
   if (!misalignment_stamps_.admit(r.t_s)) {
     if (r.t_s < *last && !misalignment_replay_logged_) {
       misalignment_replay_logged_ = true;
-      spdlog::info("misalignment: t={} s is before the last recorded {} s: a restarted calibration's catch-up "
-                   "or the history handed to a restarted recorder, recorded once (counted in the repeats)",
-                   r.t_s, *last);
+      spdlog::info(
+          "misalignment: t={} s is before the last recorded {} s: a restarted calibration's catch-up "
+          "or the history handed to a restarted recorder, recorded once (counted in the repeats)",
+          r.t_s, *last);
     }
     return;
   }
@@ -389,8 +397,8 @@ void RecorderNode::progress(double t_s, double distance_m) {
     spdlog::info("progress: t={:.1f} s distance {:.0f} m K=- (no identified K yet)", t_s, distance_m);
     return;
   }
-  spdlog::info("progress: t={:.1f} s distance {:.0f} m K={:.7g} ({}, {})", t_s, distance_m,
-               last_k_->k_m_per_pulse(), last_k_->estimator(), last_k_->converged() ? "converged" : "not converged");
+  spdlog::info("progress: t={:.1f} s distance {:.0f} m K={:.7g} ({}, {})", t_s, distance_m, last_k_->k_m_per_pulse(),
+               last_k_->estimator(), last_k_->converged() ? "converged" : "not converged");
 }
 
 void RecorderNode::on_health(const odonav::msg::Health& h) {
@@ -399,8 +407,10 @@ void RecorderNode::on_health(const odonav::msg::Health& h) {
   auto& last = component_health_[h.component()];
   if (last == text) return;
   last = text;
-  if (h.level() == odonav::msg::HEALTH_LEVEL_OK) spdlog::info("health {}: {}", h.component(), text);
-  else spdlog::warn("health {}: {}", h.component(), text);
+  if (h.level() == odonav::msg::HEALTH_LEVEL_OK)
+    spdlog::info("health {}: {}", h.component(), text);
+  else
+    spdlog::warn("health {}: {}", h.component(), text);
 }
 
 void RecorderNode::tick() {
@@ -433,7 +443,8 @@ void RecorderNode::tick() {
     level = odonav::msg::HEALTH_LEVEL_WARN;
     reason = describe_gap(*dr_gaps_.last_gap(), "dead-reckoning");
     if (dr_gaps_.gaps() > 1)
-      reason += " (" + std::to_string(dr_gaps_.gaps()) + " gaps, " + std::to_string(dr_gaps_.missed()) + " outputs in all)";
+      reason +=
+          " (" + std::to_string(dr_gaps_.gaps()) + " gaps, " + std::to_string(dr_gaps_.missed()) + " outputs in all)";
   }
   runtime_.publish_health(odonav::msg::HEALTH_STATE_RUNNING, level, reason, c);
 }
@@ -457,29 +468,34 @@ int RecorderNode::run() {
   provenance.dds_vehicle_id = runtime_.settings().vehicle_id;
   write_file_atomically(out_.file(kProvenanceFile), provenance_json(provenance));
   if (rows_[2] > 0) progress(*dead_reckoning_stamps_.last_t_s, last_distance_m_);
-  spdlog::info("wrote {} misalignment, {} scale-factor, {} dead-reckoning, {} navigation-position rows into {} "
-               "(repeats skipped: {}, {}, {}, {}{}); {}",
-               rows_[0], rows_[1], rows_[2], navigation_rows_, settings_.out_dir, misalignment_stamps_.repeats,
-               scale_factor_stamps_.repeats + k_arbiter_.counters().repeated, dead_reckoning_stamps_.repeats,
-               navigation_stamps_.repeats,
-               resume_.resumed() ? "; after " + std::to_string(adopted_rows_) + " rows adopted from the unfinished "
-                                   "recording of pid " + std::to_string(resume_.previous->pid)
-                                 : "",
-               gaps);
+  spdlog::info(
+      "wrote {} misalignment, {} scale-factor, {} dead-reckoning, {} navigation-position rows into {} "
+      "(repeats skipped: {}, {}, {}, {}{}); {}",
+      rows_[0], rows_[1], rows_[2], navigation_rows_, settings_.out_dir, misalignment_stamps_.repeats,
+      scale_factor_stamps_.repeats + k_arbiter_.counters().repeated, dead_reckoning_stamps_.repeats,
+      navigation_stamps_.repeats,
+      resume_.resumed() ? "; after " + std::to_string(adopted_rows_) +
+                              " rows adopted from the unfinished "
+                              "recording of pid " +
+                              std::to_string(resume_.previous->pid)
+                        : "",
+      gaps);
   if (dr_gaps_.gaps() > 0)
     spdlog::warn("dead_reckoning.csv has {} gaps, {} outputs missing in all; the last: {}", dr_gaps_.gaps(),
                  dr_gaps_.missed(), describe_gap(*dr_gaps_.last_gap(), "dead-reckoning"));
   if (k_arbiter_.counters().switches > 1 || k_arbiter_.counters().superseded > 0)
-    spdlog::info("scale factor sources: {} switches, {} rows of a source not followed skipped (epochs written by "
-                 "another), {} epochs filled from another source",
-                 k_arbiter_.counters().switches, k_arbiter_.counters().superseded, k_arbiter_.counters().filled);
+    spdlog::info(
+        "scale factor sources: {} switches, {} rows of a source not followed skipped (epochs written by "
+        "another), {} epochs filled from another source",
+        k_arbiter_.counters().switches, k_arbiter_.counters().superseded, k_arbiter_.counters().filled);
   // Last: the recording is finished (the next recorder into this folder starts a new one).
   std::error_code ec;
   std::filesystem::remove(out_.file(kRecordingMarker), ec);
-  if (ec) spdlog::warn("{}: not removed ({}): the next recorder into this folder would resume this recording",
-                       out_.file(kRecordingMarker), ec.message());
-  runtime_.publish_health(odonav::msg::HEALTH_STATE_STOPPING, odonav::msg::HEALTH_LEVEL_OK, "stopped: files closed",
-                          {}, true);
+  if (ec)
+    spdlog::warn("{}: not removed ({}): the next recorder into this folder would resume this recording",
+                 out_.file(kRecordingMarker), ec.message());
+  runtime_.publish_health(odonav::msg::HEALTH_STATE_STOPPING, odonav::msg::HEALTH_LEVEL_OK, "stopped: files closed", {},
+                          true);
   dds::wait_for_acknowledgments_logged(runtime_.health().writer(), std::chrono::seconds(1));
   return 0;
 }

@@ -35,11 +35,11 @@ namespace odonav::recorder {
 
 /// One row of gaps.csv: what the recording lacks on one topic, over one span (event time, s).
 struct GapRow {
-  std::string topic;            ///< the DDS topic name
+  std::string topic;  ///< the DDS topic name
   double first_missing_t_s = 0.0;
   double last_missing_t_s = 0.0;
-  std::uint64_t count = 0;      ///< GNSS epochs (estimates) or outputs (dead reckoning, navigation) missing
-  std::string reason;           ///< no ',' (a CSV field)
+  std::uint64_t count = 0;  ///< GNSS epochs (estimates) or outputs (dead reckoning, navigation) missing
+  std::string reason;       ///< no ',' (a CSV field)
 };
 
 /// What the recording lacks: the misalignment and scale-factor rows missing against the GNSS
@@ -73,9 +73,9 @@ using topics::kScaleFactorRecorderReaderProfile;
 
 /// The recorder's own flags.
 struct RecorderSettings {
-  std::string out_dir;              ///< created if missing; see OutputDirectory (odonav/safe_output.hpp).
-  bool force = false;               ///< use a non-empty directory that is not an odonav output directory.
-  double progress_every_s = 10.0;   ///< progress line every this much event (simulated) time, s.
+  std::string out_dir;             ///< created if missing; see OutputDirectory (odonav/safe_output.hpp).
+  bool force = false;              ///< use a non-empty directory that is not an odonav output directory.
+  double progress_every_s = 10.0;  ///< progress line every this much event (simulated) time, s.
   /// Period of the dead-reckoning outputs for the gap count (GapDetector), s; 0 = learned.
   double dead_reckoning_period_s = 0.0;
 };
@@ -131,7 +131,7 @@ class RecorderNode {
   // producer's catch-up, the producers' history handed again to a restarted recorder).
   RowStamps misalignment_stamps_, scale_factor_stamps_, dead_reckoning_stamps_, navigation_stamps_;
   std::uint64_t navigation_rows_ = 0;
-  std::uint64_t rows_[3] = {0, 0, 0};      // misalignment, scale factor, dead reckoning (this process)
+  std::uint64_t rows_[3] = {0, 0, 0};        // misalignment, scale factor, dead reckoning (this process)
   bool misalignment_replay_logged_ = false;  // a restarted calibration's catch-up was told once
   std::uint64_t adopted_rows_ = 0, adopted_torn_lines_ = 0;  // of the unfinished recording resumed
   std::string resumed_text_;                                 // what was adopted, for health
@@ -140,12 +140,12 @@ class RecorderNode {
   bool unflushed_ = false;                                   // rows written since the last flush
   std::optional<odonav::msg::ScaleFactor> last_k_;
   SourceArbiter<odonav::msg::ScaleFactor> k_arbiter_;
-  GapDetector dr_gaps_{settings_.dead_reckoning_period_s};  // holes in the dead-reckoning rows
+  GapDetector dr_gaps_{settings_.dead_reckoning_period_s};          // holes in the dead-reckoning rows
   GapDetector navigation_gaps_{settings_.dead_reckoning_period_s};  // and in the navigation positions
   std::vector<OutputGap> dr_gap_list_, navigation_gap_list_;
   // Stamps for gaps.csv (s): the GNSS epochs received and the estimate rows written.
   std::vector<double> gnss_epochs_s_, misalignment_s_, scale_factor_s_;
-  double last_gap_wall_s_ = 0.0;                            // steady clock, when the last was found
+  double last_gap_wall_s_ = 0.0;  // steady clock, when the last was found
   static constexpr double kGapReasonHold_s = 30.0;
   std::optional<double> next_progress_t_s_;
   double last_distance_m_ = 0.0;

@@ -122,22 +122,22 @@ Course Course::training_ground() {
   };
   auto straight = [](double length_m, double speed_mps) { return CourseSegment{length_m, 0.0, speed_mps}; };
   std::vector<CourseSegment> s = {
-      straight(600.0, 14.0),  // 0: north-bound main straight
-      arc(90.0, 60.0, 12.0),  // 1: -> east
-      straight(400.0, 12.0),  // 2
-      arc(-40.0, 50.0, 10.0), // 3: S-bend, left ...
-      arc(40.0, 50.0, 10.0),  // 4: ... and right again, -> east
-      straight(1.0, 14.6),    // 5: free length (east)
-      arc(90.0, 12.0, 5.0),   // 6: sharp turn -> south
-      straight(500.0, 5.0),   // 7: rough section, slow
-      straight(1.0, 14.0),    // 8: free length (south)
-      arc(45.0, 80.0, 12.0),  // 9: -> south-west
-      straight(350.0, 12.0),  // 10
-      arc(45.0, 80.0, 12.0),  // 11: -> west
-      straight(700.0, 14.6),  // 12
-      arc(60.0, 40.0, 10.0),  // 13: -> north-north-west
-      straight(300.0, 10.0),  // 14
-      arc(30.0, 15.0, 6.0),   // 15: sharp turn -> north, back to the start
+      straight(600.0, 14.0),   // 0: north-bound main straight
+      arc(90.0, 60.0, 12.0),   // 1: -> east
+      straight(400.0, 12.0),   // 2
+      arc(-40.0, 50.0, 10.0),  // 3: S-bend, left ...
+      arc(40.0, 50.0, 10.0),   // 4: ... and right again, -> east
+      straight(1.0, 14.6),     // 5: free length (east)
+      arc(90.0, 12.0, 5.0),    // 6: sharp turn -> south
+      straight(500.0, 5.0),    // 7: rough section, slow
+      straight(1.0, 14.0),     // 8: free length (south)
+      arc(45.0, 80.0, 12.0),   // 9: -> south-west
+      straight(350.0, 12.0),   // 10
+      arc(45.0, 80.0, 12.0),   // 11: -> west
+      straight(700.0, 14.6),   // 12
+      arc(60.0, 40.0, 10.0),   // 13: -> north-north-west
+      straight(300.0, 10.0),   // 14
+      arc(30.0, 15.0, 6.0),    // 15: sharp turn -> north, back to the start
   };
   return closed_loop(std::move(s), 0.0, 5, 8);
 }
@@ -150,8 +150,8 @@ CoursePoint Course::at(double s_m) const {
     s -= lap * lap_length_m_;
     heading_offset = lap * lap_turning_rad_;
   }
-  std::size_t i = static_cast<std::size_t>(std::upper_bound(start_s_m_.begin(), start_s_m_.end(), s) -
-                                           start_s_m_.begin()) - 1;
+  std::size_t i =
+      static_cast<std::size_t>(std::upper_bound(start_s_m_.begin(), start_s_m_.end(), s) - start_s_m_.begin()) - 1;
   const CourseSegment& seg = segments_[i];
   const double u = s - start_s_m_[i];  // for an open road may exceed the segment: runs on straight
   CoursePoint p;
@@ -288,7 +288,7 @@ class SpeedProfile::Nodes {
 
   const SpeedProfile& p_;
   const double accel_term_, decel_term_, time_step_;
-  std::deque<double> forward_;   // forward-pass speeds of nodes [settled_, forward_end_)
+  std::deque<double> forward_;  // forward-pass speeds of nodes [settled_, forward_end_)
   std::size_t forward_end_ = 0;
   double forward_last_ = 0.0;
   std::vector<double> backward_;  // scratch of settle_more
@@ -298,8 +298,7 @@ class SpeedProfile::Nodes {
   double speed_mps_ = 0.0, time_s_ = 0.0;  // node next_ - 1
 };
 
-SpeedProfile::SpeedProfile(const Course& course, double total_length_m, const DriverLimits& limits,
-                           double grid_step_m)
+SpeedProfile::SpeedProfile(const Course& course, double total_length_m, const DriverLimits& limits, double grid_step_m)
     : course_(course), limits_(limits), total_length_m_(total_length_m) {
   if (!(grid_step_m > 0.0) || !(total_length_m >= 4.0 * grid_step_m) || !std::isfinite(total_length_m)) {
     throw std::invalid_argument("SpeedProfile: total_length_m (" + std::to_string(total_length_m) +
@@ -307,8 +306,9 @@ SpeedProfile::SpeedProfile(const Course& course, double total_length_m, const Dr
   }
   if (!(limits.accel_mps2 > 0.0) || !(limits.decel_mps2 > 0.0) || !(limits.lateral_accel_mps2 > 0.0) ||
       !(limits.speed_variation_mps >= 0.0)) {
-    throw std::invalid_argument("SpeedProfile: accel_mps2, decel_mps2, lateral_accel_mps2 must be > 0, "
-                                "speed_variation_mps >= 0");
+    throw std::invalid_argument(
+        "SpeedProfile: accel_mps2, decel_mps2, lateral_accel_mps2 must be > 0, "
+        "speed_variation_mps >= 0");
   }
   n_ = static_cast<std::size_t>(std::ceil(total_length_m / grid_step_m)) + 1;
   step_m_ = total_length_m / static_cast<double>(n_ - 1);
@@ -420,8 +420,8 @@ void MotionPlan::dwell(double dwell_s) {
 MotionPlan::State MotionPlan::at(double time_s) const {
   if (phases_.empty() || time_s <= 0.0) return State{};
   if (time_s >= duration_s()) return State{end().s_m, 0.0};
-  const auto it = std::upper_bound(phases_.begin(), phases_.end(), time_s,
-                                   [](double t, const Phase& p) { return t < p.t0_s; });
+  const auto it =
+      std::upper_bound(phases_.begin(), phases_.end(), time_s, [](double t, const Phase& p) { return t < p.t0_s; });
   const Phase& p = *(it - 1);
   const double tau = time_s - p.t0_s;
   return State{p.s0_m + p.v0_mps * tau + 0.5 * p.accel_mps2 * tau * tau, p.v0_mps + p.accel_mps2 * tau};

@@ -23,9 +23,9 @@ struct CourseSegment {
 
 /// The road at one point.
 struct CoursePoint {
-  double heading_rad = 0.0;        ///< azimuth of the direction of travel, unwrapped.
-  double curvature_per_m = 0.0;    ///< see CourseSegment.
-  double target_speed_mps = 0.0;   ///< driver's aim before lateral-acceleration limits.
+  double heading_rad = 0.0;                              ///< azimuth of the direction of travel, unwrapped.
+  double curvature_per_m = 0.0;                          ///< see CourseSegment.
+  double target_speed_mps = 0.0;                         ///< driver's aim before lateral-acceleration limits.
   Eigen::Vector2d position_m = Eigen::Vector2d::Zero();  ///< (east, north) on a flat plane from the start, m.
 };
 
@@ -99,10 +99,10 @@ class TerrainProfile {
 
 /// Limits of the driver (all > 0).
 struct DriverLimits {
-  double accel_mps2 = 1.0;            ///< forward acceleration of a heavy tracked vehicle.
-  double decel_mps2 = 1.5;            ///< braking.
-  double lateral_accel_mps2 = 1.5;    ///< cornering: speed in an arc <= sqrt(a_lat * radius).
-  double speed_variation_mps = 0.4;   ///< amplitude of the slow speed wander on top of the target.
+  double accel_mps2 = 1.0;           ///< forward acceleration of a heavy tracked vehicle.
+  double decel_mps2 = 1.5;           ///< braking.
+  double lateral_accel_mps2 = 1.5;   ///< cornering: speed in an arc <= sqrt(a_lat * radius).
+  double speed_variation_mps = 0.4;  ///< amplitude of the slow speed wander on top of the target.
 };
 
 /// A drive along the road as phases of constant acceleration, forward AND backward (a signed speed
@@ -177,7 +177,7 @@ class SpeedProfile {
     void restart();
     const SpeedProfile* profile_;
     std::unique_ptr<Nodes> nodes_;
-    std::size_t index_ = 0;  // grid index of node a_
+    std::size_t index_ = 0;                                                           // grid index of node a_
     double a_speed_mps_ = 0.0, a_time_s_ = 0.0, b_speed_mps_ = 0.0, b_time_s_ = 0.0;  // nodes index_, index_ + 1
   };
 

@@ -84,7 +84,12 @@ std::vector<std::string> nmea_sentences(const GnssSample& fix, const NmeaSetting
   double track_deg = rad_to_deg(std::atan2(fix.vel_enu_mps.x(), fix.vel_enu_mps.y()));
   if (track_deg < 0.0) track_deg += 360.0;
   // FAA mode: A autonomous, D differential, R RTK fixed, F RTK float, E dead reckoning, N none.
-  const char mode = fix.fix == 0 ? 'N' : fix.fix == 2 ? 'D' : fix.fix == 4 ? 'R' : fix.fix == 5 ? 'F' : fix.fix == 6 ? 'E' : 'A';
+  const char mode = fix.fix == 0   ? 'N'
+                    : fix.fix == 2 ? 'D'
+                    : fix.fix == 4 ? 'R'
+                    : fix.fix == 5 ? 'F'
+                    : fix.fix == 6 ? 'E'
+                                   : 'A';
   const std::string& tk = settings.talker;
   char buf[256];
   std::vector<std::string> out;

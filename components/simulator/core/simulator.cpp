@@ -63,7 +63,7 @@ bool in_outage(const std::vector<GnssOutage>& outages, double t_rel_s) {
 struct TruthRow {
   double t_rel_s = 0.0;
   Geodetic position;
-  Attitude attitude;       // unwrapped heading
+  Attitude attitude;  // unwrapped heading
   Eigen::Vector3d vel_enu_mps = Eigen::Vector3d::Zero();
   double speed_mps = 0.0;  // along the track
   double k_base_m_per_pulse = 0.0;
@@ -161,7 +161,8 @@ void validate(const SimulationConfig& c) {
           "must be within +-89 deg");
   require(std::isfinite(c.start.lon_rad) && std::isfinite(c.start.height_m), "start", "lon and height must be finite");
   require(std::isfinite(c.start_time_s) && c.start_time_s >= 0.0, "start_time_s", "must be >= 0");
-  require(std::isfinite(c.k_nominal_m_per_pulse) && c.k_nominal_m_per_pulse > 0.0, "k_nominal_m_per_pulse", "must be > 0");
+  require(std::isfinite(c.k_nominal_m_per_pulse) && c.k_nominal_m_per_pulse > 0.0, "k_nominal_m_per_pulse",
+          "must be > 0");
   require(std::isfinite(c.k_true_m_per_pulse) && c.k_true_m_per_pulse > 0.0, "k_true_m_per_pulse", "must be > 0");
   for (std::size_t i = 0; i < c.k_steps.size(); ++i) {
     require(std::isfinite(c.k_steps[i].t_s) && c.k_steps[i].t_s >= 0.0 && std::isfinite(c.k_steps[i].factor) &&
@@ -213,7 +214,7 @@ struct Drive {
   TerrainProfile terrain;
   int laps;
   SpeedProfile profile;
-  double total_time_s;  ///< length of the simulated data, s.
+  double total_time_s;             ///< length of the simulated data, s.
   std::optional<MotionPlan> plan;  ///< DriveKind::kStopAndGo: replaces the profile.
 };
 
@@ -321,9 +322,7 @@ double roll_target_rad(const SimulationConfig& cfg, const Drive& drive, double s
 
 // Time of truth row k after the start, s. A division, so that row 4134 is at 413.4, not
 // 413.40000000000003; every use of a row's time goes through here.
-double row_time_rel_s(const SimulationConfig& cfg, std::size_t k) {
-  return static_cast<double>(k) / cfg.truth_rate_hz;
-}
+double row_time_rel_s(const SimulationConfig& cfg, std::size_t k) { return static_cast<double>(k) / cfg.truth_rate_hz; }
 
 // The vehicle's velocity, ENU m/s, moving at speed_mps along the road (azimuth heading_rad, slope
 // dh/ds): the truth rows and the choice of GNSS outlier epochs (which looks at the speed before the
@@ -406,7 +405,6 @@ class TruthIntegrator {
   double roll_rad_;
 };
 
-
 // ---- INS: true attitude + heading bias + white noise (random stream 2) ----
 
 class InsModel {
@@ -416,7 +414,8 @@ class InsModel {
     const double nh = normal_(rng_), np = normal_(rng_), nr = normal_(rng_);  // fixed draw order
     InsSample s;
     s.t_s = cfg_.start_time_s + r.t_rel_s;
-    s.attitude.heading_rad = wrap_two_pi(r.attitude.heading_rad + cfg_.ins_heading_bias_rad + cfg_.ins_heading_noise_rad * nh);
+    s.attitude.heading_rad =
+        wrap_two_pi(r.attitude.heading_rad + cfg_.ins_heading_bias_rad + cfg_.ins_heading_noise_rad * nh);
     s.attitude.pitch_rad = r.attitude.pitch_rad + cfg_.ins_tilt_noise_rad * np;
     s.attitude.roll_rad = r.attitude.roll_rad + cfg_.ins_tilt_noise_rad * nr;
     return s;
@@ -493,12 +492,13 @@ std::vector<Outlier> pick_velocity_outliers(const SimulationConfig& cfg, const D
   }
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const double min_gap = 5.0 * cfg.gnss_rate_hz;
-  for (int tries = 0; tries < 1000 && !candidates.empty() &&
-                      outliers.size() < static_cast<std::size_t>(cfg.gnss_velocity_outliers);
+  for (int tries = 0;
+       tries < 1000 && !candidates.empty() && outliers.size() < static_cast<std::size_t>(cfg.gnss_velocity_outliers);
        ++tries) {
-    const std::size_t pick = std::min(candidates.size() - 1,
-                                      static_cast<std::size_t>(unit(rng) * static_cast<double>(candidates.size())));
-    const double magnitude = cfg.gnss_outlier_min_mps + (cfg.gnss_outlier_max_mps - cfg.gnss_outlier_min_mps) * unit(rng);
+    const std::size_t pick =
+        std::min(candidates.size() - 1, static_cast<std::size_t>(unit(rng) * static_cast<double>(candidates.size())));
+    const double magnitude =
+        cfg.gnss_outlier_min_mps + (cfg.gnss_outlier_max_mps - cfg.gnss_outlier_min_mps) * unit(rng);
     const double angle = 2.0 * kPi * unit(rng);
     const std::size_t e = candidates[pick];
     const bool too_close = std::any_of(outliers.begin(), outliers.end(), [&](const Outlier& o) {
@@ -523,7 +523,8 @@ class GnssErrorModel {
         phi_(std::exp(-(1.0 / cfg.gnss_rate_hz) / cfg.gnss_pos_gm_tau_s)),
         drive_(std::sqrt(1.0 - phi_ * phi_)),
         gm_std_(cfg.gnss_pos_gm_std_m, cfg.gnss_pos_gm_std_m, cfg.gnss_pos_gm_std_m * cfg.gnss_vertical_factor),
-        white_std_(cfg.gnss_pos_white_std_m, cfg.gnss_pos_white_std_m, cfg.gnss_pos_white_std_m * cfg.gnss_vertical_factor),
+        white_std_(cfg.gnss_pos_white_std_m, cfg.gnss_pos_white_std_m,
+                   cfg.gnss_pos_white_std_m * cfg.gnss_vertical_factor),
         vel_std_(cfg.gnss_vel_std_mps, cfg.gnss_vel_std_mps, cfg.gnss_vel_up_std_mps) {
     // The correlated error starts in its stationary distribution (a receiver that has been on).
     for (int a = 0; a < 3; ++a) gm_[a] = gm_std_[a] * normal_(rng_);

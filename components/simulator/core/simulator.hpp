@@ -35,9 +35,9 @@ struct GnssOutage {
 
 /// How the vehicle moves along the road.
 enum class DriveKind {
-  kProfile,     ///< one way, the driver's SpeedProfile (start, drive, stop).
-  kStopAndGo,   ///< the slow robot: legs at 0.6-3 m/s, a stop after each, a reversing manoeuvre
-                ///< after every third (slow_robot_plan in simulator.cpp); repeated to fill duration_s.
+  kProfile,    ///< one way, the driver's SpeedProfile (start, drive, stop).
+  kStopAndGo,  ///< the slow robot: legs at 0.6-3 m/s, a stop after each, a reversing manoeuvre
+               ///< after every third (slow_robot_plan in simulator.cpp); repeated to fill duration_s.
 };
 
 enum class CourseKind {
@@ -54,36 +54,37 @@ struct SimulationConfig {
 
   // --- course and driving ---
   CourseKind course = CourseKind::kStraight;
-  double straight_length_m = 1800.0;   ///< straight road length (kStraight), m.
+  double straight_length_m = 1800.0;               ///< straight road length (kStraight), m.
   double straight_heading_rad = 30.0 * kDegToRad;  ///< azimuth of the straight road.
-  double straight_speed_mps = 10.0;    ///< target speed on the straight road, m/s.
-  int laps = 2;                        ///< laps of a closed course (>= 1).
+  double straight_speed_mps = 10.0;                ///< target speed on the straight road, m/s.
+  int laps = 2;                                    ///< laps of a closed course (>= 1).
   /// > 0: make the run this long (seconds): more laps (or a longer straight road) are driven and
   /// the data are cut at start_time_s + duration_s (the vehicle may still be moving). 0: natural
   /// length (laps or road, with the final stop).
   double duration_s = 0.0;
-  double standstill_start_s = 5.0;     ///< standing still before driving off, s.
-  double standstill_end_s = 5.0;       ///< standing still after the stop, s.
+  double standstill_start_s = 5.0;  ///< standing still before driving off, s.
+  double standstill_end_s = 5.0;    ///< standing still after the stop, s.
   DriverLimits driver;
   DriveKind drive = DriveKind::kProfile;
-  double road_grade = 0.01;            ///< constant slope of the straight road (dh/ds); 0 on laps.
-  std::vector<Undulation> hills;       ///< height undulations (amplitude in m).
+  double road_grade = 0.01;              ///< constant slope of the straight road (dh/ds); 0 on laps.
+  std::vector<Undulation> hills;         ///< height undulations (amplitude in m).
   std::vector<Undulation> cross_slopes;  ///< ground roll undulations (amplitude in rad).
   /// Body roll on the suspension in turns, rad per m/s^2 of lateral acceleration (outward roll).
   double roll_per_lateral_accel_rad = 0.6 * kDegToRad;
-  double roll_time_constant_s = 0.4;   ///< suspension lag of the roll, s.
+  double roll_time_constant_s = 0.4;  ///< suspension lag of the roll, s.
 
   // --- place and time ---
   Geodetic start{52.5 * kDegToRad, 13.4 * kDegToRad, 80.0};  ///< INS reference point at the start.
-  double start_time_s = 0.0;           ///< t of the first row (the dataset's time base), s.
-  double truth_rate_hz = 100.0;        ///< truth.csv rate; odometer/INS/GNSS rates must divide it.
-  int substeps = 10;                   ///< internal integration steps per truth step.
+  double start_time_s = 0.0;                                 ///< t of the first row (the dataset's time base), s.
+  double truth_rate_hz = 100.0;  ///< truth.csv rate; odometer/INS/GNSS rates must divide it.
+  int substeps = 10;             ///< internal integration steps per truth step.
 
   // --- odometer ---
   double odometer_rate_hz = 100.0;
   /// Nominal K of a sprocket pulse counter: pi * 0.6526 m pitch diameter / 164 pulses per rev.
   double k_nominal_m_per_pulse = kDefaultNominalK_m_per_pulse;
-  double k_true_m_per_pulse = kDefaultNominalK_m_per_pulse * 1.015;  ///< true K at the start (+1.5 %: worn, stretched track).
+  double k_true_m_per_pulse =
+      kDefaultNominalK_m_per_pulse * 1.015;  ///< true K at the start (+1.5 %: worn, stretched track).
   std::vector<KStep> k_steps;
   /// Counter value at the start; 2^32 - 10^5 so every default run crosses the wrap.
   std::uint32_t counter_start = 4294967296ull - 100000ull;
@@ -98,20 +99,20 @@ struct SimulationConfig {
 
   // --- GNSS ---
   double gnss_rate_hz = 10.0;
-  double gnss_latency_s = 0.0;          ///< stamp = measurement time + latency, s (>= 0).
-  double gnss_pos_gm_std_m = 1.4;       ///< Gauss-Markov (correlated) part, per horizontal axis, m.
-  double gnss_pos_gm_tau_s = 60.0;      ///< its correlation time, s.
-  double gnss_pos_white_std_m = 0.54;   ///< white part, per horizontal axis, m.
-  double gnss_vertical_factor = 1.5;    ///< vertical position noise = factor * horizontal.
-  double gnss_vel_std_mps = 0.05;       ///< white, per horizontal axis (ENU), m/s.
-  double gnss_vel_up_std_mps = 0.03;    ///< white, up axis, m/s.
+  double gnss_latency_s = 0.0;         ///< stamp = measurement time + latency, s (>= 0).
+  double gnss_pos_gm_std_m = 1.4;      ///< Gauss-Markov (correlated) part, per horizontal axis, m.
+  double gnss_pos_gm_tau_s = 60.0;     ///< its correlation time, s.
+  double gnss_pos_white_std_m = 0.54;  ///< white part, per horizontal axis, m.
+  double gnss_vertical_factor = 1.5;   ///< vertical position noise = factor * horizontal.
+  double gnss_vel_std_mps = 0.05;      ///< white, per horizontal axis (ENU), m/s.
+  double gnss_vel_up_std_mps = 0.03;   ///< white, up axis, m/s.
   std::vector<GnssOutage> gnss_outages;
-  int gnss_velocity_outliers = 0;       ///< isolated epochs with a large horizontal velocity error.
+  int gnss_velocity_outliers = 0;  ///< isolated epochs with a large horizontal velocity error.
   double gnss_outlier_min_mps = 3.0;
   double gnss_outlier_max_mps = 10.0;
 
   // --- INS ---
-  bool has_ins = true;                  ///< false: no ins.csv (a vehicle without INS).
+  bool has_ins = true;  ///< false: no ins.csv (a vehicle without INS).
   double ins_rate_hz = 100.0;
   double ins_heading_bias_rad = 0.02 * kDegToRad;
   double ins_heading_noise_rad = 0.01 * kDegToRad;  ///< white, one sigma.

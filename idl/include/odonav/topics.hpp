@@ -60,38 +60,34 @@ inline constexpr const char* kDeadReckoningRecorderReaderProfile = "odonav_dead_
 /// The participant profile of deploy/profiles/loopback.xml (tests, demo: all traffic on lo).
 inline constexpr const char* kLoopbackParticipantProfile = "loopback_only";
 
-inline constexpr TopicSpec kOdometer{"rt/odonav/odometer", "odonav::msg::dds_::Odometer_",
-                                     "odonav/msg/Odometer", kSensorWriterProfile, kSensorReaderProfile};
+inline constexpr TopicSpec kOdometer{"rt/odonav/odometer", "odonav::msg::dds_::Odometer_", "odonav/msg/Odometer",
+                                     kSensorWriterProfile, kSensorReaderProfile};
 inline constexpr TopicSpec kInsAttitude{"rt/odonav/ins/attitude", "odonav::msg::dds_::InsAttitude_",
-                                        "odonav/msg/InsAttitude", kSensorWriterProfile,
-                                        kSensorReaderProfile};
-inline constexpr TopicSpec kGnssFix{"rt/odonav/gnss/fix", "odonav::msg::dds_::GnssFix_",
-                                    "odonav/msg/GnssFix", kSensorWriterProfile, kSensorReaderProfile};
+                                        "odonav/msg/InsAttitude", kSensorWriterProfile, kSensorReaderProfile};
+inline constexpr TopicSpec kGnssFix{"rt/odonav/gnss/fix", "odonav::msg::dds_::GnssFix_", "odonav/msg/GnssFix",
+                                    kSensorWriterProfile, kSensorReaderProfile};
 inline constexpr TopicSpec kMisalignment{"rt/odonav/misalignment", "odonav::msg::dds_::Misalignment_",
-                                         "odonav/msg/Misalignment", kEstimateWriterProfile,
-                                         kEstimateReaderProfile};
+                                         "odonav/msg/Misalignment", kEstimateWriterProfile, kEstimateReaderProfile};
 /// Every instance of odonav-identification (primary, hot standby) writes here; consumers that want
 /// one stream put each vehicle's samples through an odonav::SourceArbiter (source, source_priority).
 inline constexpr TopicSpec kScaleFactor{"rt/odonav/scale_factor", "odonav::msg::dds_::ScaleFactor_",
-                                        "odonav/msg/ScaleFactor", kEstimateWriterProfile,
-                                        kEstimateReaderProfile};
-inline constexpr TopicSpec kDeadReckoning{"rt/odonav/dead_reckoning",
-                                          "odonav::msg::dds_::DeadReckoning_", "odonav/msg/DeadReckoning",
-                                          kDeadReckoningWriterProfile, kDeadReckoningReaderProfile};
+                                        "odonav/msg/ScaleFactor", kEstimateWriterProfile, kEstimateReaderProfile};
+inline constexpr TopicSpec kDeadReckoning{"rt/odonav/dead_reckoning", "odonav::msg::dds_::DeadReckoning_",
+                                          "odonav/msg/DeadReckoning", kDeadReckoningWriterProfile,
+                                          kDeadReckoningReaderProfile};
 /// The GNSS-anchored navigation position, one per DeadReckoning; the DR profiles (same rate and use).
-inline constexpr TopicSpec kNavigationPosition{"rt/odonav/navigation_position",
-                                               "odonav::msg::dds_::NavigationPosition_",
-                                               "odonav/msg/NavigationPosition", kDeadReckoningWriterProfile,
-                                               kDeadReckoningReaderProfile};
+inline constexpr TopicSpec kNavigationPosition{
+    "rt/odonav/navigation_position", "odonav::msg::dds_::NavigationPosition_", "odonav/msg/NavigationPosition",
+    kDeadReckoningWriterProfile, kDeadReckoningReaderProfile};
 inline constexpr TopicSpec kHealth{"rt/odonav/health", "odonav::msg::dds_::Health_", "odonav/msg/Health",
                                    kHealthWriterProfile, kHealthReaderProfile};
-inline constexpr TopicSpec kCommand{"rt/odonav/command", "odonav::msg::dds_::Command_",
-                                    "odonav/msg/Command", kCommandWriterProfile, kCommandReaderProfile};
+inline constexpr TopicSpec kCommand{"rt/odonav/command", "odonav::msg::dds_::Command_", "odonav/msg/Command",
+                                    kCommandWriterProfile, kCommandReaderProfile};
 
 /// Every topic, in the order of idl/README.md (the navigation position last: TopicIds stay stable).
-inline constexpr std::array<TopicSpec, 9> kAllTopics{kOdometer,     kInsAttitude,   kGnssFix,
-                                                     kMisalignment, kScaleFactor,   kDeadReckoning,
-                                                     kHealth,       kCommand,       kNavigationPosition};
+inline constexpr std::array<TopicSpec, 9> kAllTopics{kOdometer,     kInsAttitude, kGnssFix,
+                                                     kMisalignment, kScaleFactor, kDeadReckoning,
+                                                     kHealth,       kCommand,     kNavigationPosition};
 
 /// Every topic of the contract as an enumerator, in the order of kAllTopics (checked below). Code
 /// that handles topics by type (odonav-ground's recorder) defines the message type per TopicId, so a
@@ -110,9 +106,9 @@ enum class TopicId : std::size_t {
 
 /// The TopicId of each entry of kAllTopics, same order and size.
 inline constexpr std::array<TopicId, kAllTopics.size()> kAllTopicIds{
-    TopicId::kOdometer,     TopicId::kInsAttitude,   TopicId::kGnssFix, TopicId::kMisalignment,
-    TopicId::kScaleFactor,  TopicId::kDeadReckoning, TopicId::kHealth,  TopicId::kCommand,
-    TopicId::kNavigationPosition};
+    TopicId::kOdometer,     TopicId::kInsAttitude, TopicId::kGnssFix,
+    TopicId::kMisalignment, TopicId::kScaleFactor, TopicId::kDeadReckoning,
+    TopicId::kHealth,       TopicId::kCommand,     TopicId::kNavigationPosition};
 
 /// The contract entry of a topic.
 constexpr const TopicSpec& spec_of(TopicId id) { return kAllTopics[static_cast<std::size_t>(id)]; }
@@ -125,9 +121,8 @@ constexpr bool same_text(const char* a, const char* b) {
 // kAllTopicIds[i] is the i-th enumerator and names the topic kAllTopics[i] holds: a topic added to
 // kAllTopics without its TopicId (kAllTopicIds then ends in a value-initialised kOdometer) fails here.
 constexpr bool ids_match_topics() {
-  constexpr const TopicSpec* by_id[] = {&kOdometer, &kInsAttitude,  &kGnssFix, &kMisalignment,
-                                        &kScaleFactor, &kDeadReckoning, &kHealth, &kCommand,
-                                        &kNavigationPosition};
+  constexpr const TopicSpec* by_id[] = {&kOdometer,      &kInsAttitude, &kGnssFix, &kMisalignment,      &kScaleFactor,
+                                        &kDeadReckoning, &kHealth,      &kCommand, &kNavigationPosition};
   if (sizeof by_id / sizeof by_id[0] != kAllTopics.size()) return false;
   for (std::size_t i = 0; i < kAllTopics.size(); ++i) {
     if (static_cast<std::size_t>(kAllTopicIds[i]) != i) return false;

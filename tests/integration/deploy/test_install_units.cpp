@@ -48,9 +48,9 @@ class DeployInstall : public ::testing::Test {
     }
     const CommandResult pki = run(kDeploy.string() + "/security/make-pki --out " + (tmp_ / "pki").string());
     ASSERT_EQ(pki.status, 0) << pki.output;
-    const CommandResult install = run(kDeploy.string() + "/install --destdir " + root_.string() + " --build-dir " +
-                            (tmp_ / "build").string() + " --ecu-address 127.0.77.12 --security-dir " +
-                            (tmp_ / "pki").string() + " --no-user");
+    const CommandResult install =
+        run(kDeploy.string() + "/install --destdir " + root_.string() + " --build-dir " + (tmp_ / "build").string() +
+            " --ecu-address 127.0.77.12 --security-dir " + (tmp_ / "pki").string() + " --no-user");
     ASSERT_EQ(install.status, 0) << install.output;
   }
   void TearDown() override { fs::remove_all(tmp_); }
@@ -82,8 +82,8 @@ TEST_F(DeployInstall, SystemdAnalyzeVerifiesEveryUnit) {
                                 "(scripts/install-deps lists it); the units cannot be verified without it";
   fs::create_directories(root_ / "usr/lib/systemd");
   fs::create_directories(root_ / "usr/bin");
-  const fs::path host_units = fs::exists("/lib/systemd/system/multi-user.target") ? "/lib/systemd/system"
-                                                                                   : "/usr/lib/systemd/system";
+  const fs::path host_units =
+      fs::exists("/lib/systemd/system/multi-user.target") ? "/lib/systemd/system" : "/usr/lib/systemd/system";
   ASSERT_TRUE(fs::exists(host_units / "network-online.target"))
       << "the host has no systemd unit directory with network-online.target (" << host_units
       << "): verify needs the standard targets the units depend on";
@@ -102,7 +102,8 @@ TEST_F(DeployInstall, SystemdAnalyzeVerifiesEveryUnit) {
 
   // Control: verify does catch a broken unit (its binary missing).
   fs::remove(root_ / "usr/local/bin/odonav-gateway");
-  const CommandResult broken = run("systemd-analyze verify --root=" + root_.string() + " /etc/systemd/system/odonav-gateway.service");
+  const CommandResult broken =
+      run("systemd-analyze verify --root=" + root_.string() + " /etc/systemd/system/odonav-gateway.service");
   EXPECT_NE(broken.status, 0);
   EXPECT_NE(broken.output.find("odonav-gateway"), std::string::npos) << broken.output;
 }
@@ -131,8 +132,10 @@ TEST_F(DeployInstall, UninstallRemovesWhatInstallPut) {
   EXPECT_NE(read(root_ / "etc/odonav/vehicle.env").find("edited by the admin"), std::string::npos);
 
   // A second install keeps the admin's environment file; --purge removes it too.
-  ASSERT_EQ(run(kDeploy.string() + "/install --destdir " + root_.string() + " --build-dir " + (tmp_ / "build").string() +
-                " --no-user").status, 0);
+  ASSERT_EQ(run(kDeploy.string() + "/install --destdir " + root_.string() + " --build-dir " +
+                (tmp_ / "build").string() + " --no-user")
+                .status,
+            0);
   EXPECT_NE(read(root_ / "etc/odonav/vehicle.env").find("edited by the admin"), std::string::npos);
   const CommandResult purge = run(kDeploy.string() + "/uninstall --destdir " + root_.string() + " --purge");
   ASSERT_EQ(purge.status, 0) << purge.output;

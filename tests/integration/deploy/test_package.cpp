@@ -45,7 +45,8 @@ TEST(DeployPackage, InstallsRunsAndPurgesLeavingNothingBehind) {
   ASSERT_FALSE(deb.empty()) << pack.output;
   const CommandResult fields = run("dpkg-deb -f " + deb.string() + " Package Version Depends");
   EXPECT_NE(fields.output.find("Package: odonav"), std::string::npos) << fields.output;
-  EXPECT_NE(fields.output.find("libfastrtps"), std::string::npos) << "Depends from the shared libraries: " << fields.output;
+  EXPECT_NE(fields.output.find("libfastrtps"), std::string::npos)
+      << "Depends from the shared libraries: " << fields.output;
   EXPECT_NE(fields.output.find("adduser"), std::string::npos) << fields.output;
 
   const CommandResult install = run("DEBIAN_FRONTEND=noninteractive apt-get install -y -q " + deb.string());
@@ -59,8 +60,8 @@ TEST(DeployPackage, InstallsRunsAndPurgesLeavingNothingBehind) {
   EXPECT_NE(conffiles.output.find("/etc/odonav/profiles/vehicle.xml"), std::string::npos) << conffiles.output;
   // Nothing enabled or started.
   EXPECT_NE(run("systemctl is-enabled odonav-identification.service").output.find("enabled\n"), 0u);
-  const CommandResult verify = run(
-      "systemd-analyze verify /usr/lib/systemd/system/odonav-*.service /usr/lib/systemd/system/odonav.target");
+  const CommandResult verify =
+      run("systemd-analyze verify /usr/lib/systemd/system/odonav-*.service /usr/lib/systemd/system/odonav.target");
   EXPECT_EQ(verify.status, 0) << verify.output;
 
   // A short pipeline from the installed binaries and profile.

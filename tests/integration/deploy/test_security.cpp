@@ -290,12 +290,11 @@ TEST_F(DdsSecurity, PermissionsRefuseTopicsNotGranted) {
   constexpr int kDomain = 74;
   Participant calibration(secure_options(kDomain, "odonav-calibration", pki_a()));
   // Granted (positive control): its own estimate.
-  EXPECT_NO_THROW(Writer<msg::Misalignment>(calibration, topics::kMisalignment.name,
-                                            topics::kMisalignment.writer_profile));
+  EXPECT_NO_THROW(
+      Writer<msg::Misalignment>(calibration, topics::kMisalignment.name, topics::kMisalignment.writer_profile));
   // Not granted: another component's estimate.
-  const std::string writer_error = error_of([&] {
-    Writer<msg::ScaleFactor> w(calibration, topics::kScaleFactor.name, topics::kScaleFactor.writer_profile);
-  });
+  const std::string writer_error = error_of(
+      [&] { Writer<msg::ScaleFactor> w(calibration, topics::kScaleFactor.name, topics::kScaleFactor.writer_profile); });
   EXPECT_NE(writer_error.find("rt/odonav/scale_factor"), std::string::npos) << writer_error;
   EXPECT_NE(writer_error.find("permissions of identity 'odonav-calibration'"), std::string::npos) << writer_error;
   EXPECT_NE(writer_error.find("do not allow publishing"), std::string::npos) << writer_error;
@@ -310,9 +309,8 @@ TEST_F(DdsSecurity, PermissionsRefuseTopicsNotGranted) {
 
   // Readers too: the gateway has no business reading the scale factor.
   Participant gateway(secure_options(kDomain, "odonav-gateway", pki_a()));
-  const std::string reader_error = error_of([&] {
-    Reader<msg::ScaleFactor> r(gateway, topics::kScaleFactor.name, topics::kScaleFactor.reader_profile);
-  });
+  const std::string reader_error = error_of(
+      [&] { Reader<msg::ScaleFactor> r(gateway, topics::kScaleFactor.name, topics::kScaleFactor.reader_profile); });
   EXPECT_NE(reader_error.find("do not allow subscribing"), std::string::npos) << reader_error;
 }
 
@@ -328,8 +326,9 @@ TEST_F(DdsSecurity, MissingOrMixedMaterialIsNamed) {
   EXPECT_NE(missing.find((broken / "odonav-gateway/key.pem").string()), std::string::npos) << missing;
 
   // An identity that does not exist in the directory.
-  EXPECT_NE(error_of([&] { Participant p(secure_options(kDomain, "odonav-nobody", pki_a())); })
-                .find("odonav-nobody/cert.pem"),
+  EXPECT_NE(error_of([&] {
+              Participant p(secure_options(kDomain, "odonav-nobody", pki_a()));
+            }).find("odonav-nobody/cert.pem"),
             std::string::npos);
 
   // Permissions signed by another permissions CA: Fast DDS refuses; the layer says what to check.

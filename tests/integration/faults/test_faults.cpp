@@ -77,9 +77,7 @@ std::string profile_name() {
   return topics::kLoopbackParticipantProfile;
 }
 
-double steady_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+double steady_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 double stamp_s(const msg::ScaleFactor& m) { return odonav::dds::to_seconds(m.header().stamp()); }
 double stamp_s(const msg::DeadReckoning& m) { return odonav::dds::to_seconds(m.header().stamp()); }
 double stamp_s(const msg::Misalignment& m) { return odonav::dds::to_seconds(m.header().stamp()); }
@@ -128,9 +126,8 @@ odonav::dds::ParticipantOptions participant_options(int domain) {
 }
 
 std::vector<std::string> common_args(int domain, std::vector<std::string> extra) {
-  std::vector<std::string> a{"--domain",     std::to_string(domain), "--profile",    profile_file(),
-                             "--profile-name", profile_name(),      "--vehicle-id", kVehicle,
-                             "--log-level",  "warn"};
+  std::vector<std::string> a{"--domain",     std::to_string(domain), "--profile", profile_file(), "--profile-name",
+                             profile_name(), "--vehicle-id",         kVehicle,    "--log-level",  "warn"};
   a.insert(a.end(), extra.begin(), extra.end());
   return a;
 }
@@ -184,8 +181,7 @@ TEST_F(Faults, TwentyKillNineRestartsOfTheIdentificationAreEachHeardByDeadReckon
                                      common_args(kDomain, {"--max-wait-s", "2", "--lever-arm", arm}), dir + "/dr.log");
   // The calibration too, as in the pipeline: a restarted identification gets its misalignment at
   // once instead of waiting --max-wait-s for it.
-  auto calibration = start_logged("odonav-calibration",
-                                  common_args(kDomain, {"--max-wait-s", "2", "--lever-arm", arm}),
+  auto calibration = start_logged("odonav-calibration", common_args(kDomain, {"--max-wait-s", "2", "--lever-arm", arm}),
                                   dir + "/calibration.log");
   const std::vector<std::string> id_args =
       common_args(kDomain, {"--max-wait-s", "2", "--lever-arm", arm, "--state-dir", state, "--checkpoint-every-s", "1",
@@ -263,9 +259,9 @@ TEST_F(Faults, TwentyKillNineRestartsOfTheIdentificationAreEachHeardByDeadReckon
         ADD_FAILURE() << "restarted instance " << instance << " exited with status " << identification->exit_code();
       // What the unheard instance is doing: its threads' stacks, next to its log.
       const std::string stacks = dir + "/id-" + std::to_string(instance) + ".stacks";
-      [[maybe_unused]] const int rc = std::system(("gdb -p " + std::to_string(identification->pid()) +
-                                                   " -batch -ex 'thread apply all bt' >" + stacks + " 2>&1")
-                                                      .c_str());
+      [[maybe_unused]] const int rc = std::system(
+          ("gdb -p " + std::to_string(identification->pid()) + " -batch -ex 'thread apply all bt' >" + stacks + " 2>&1")
+              .c_str());
     }
     EXPECT_TRUE(recorder_ok && dr_ok) << "restarted instance " << instance << " not heard (recorder " << recorder_ok
                                       << ", DR " << dr_ok << ")\n"
@@ -396,8 +392,8 @@ void expect_rows_equal(const results::OutputRows& pipe, const results::OutputRow
   const std::string gaps_k = missing_rows(pipe.scale_factor, ref.scale_factor, lost_k);
   const std::string gaps_dr = missing_rows(pipe.dead_reckoning, ref.dead_reckoning, lost_dr);
   std::cerr << "rows missing against odonav-offline: misalignment " << lost_mis << "/" << ref.misalignment.size()
-            << gaps_mis << " scale factor " << lost_k << "/" << ref.scale_factor.size() << gaps_k
-            << " dead reckoning " << lost_dr << "/" << ref.dead_reckoning.size() << gaps_dr << "\n";
+            << gaps_mis << " scale factor " << lost_k << "/" << ref.scale_factor.size() << gaps_k << " dead reckoning "
+            << lost_dr << "/" << ref.dead_reckoning.size() << gaps_dr << "\n";
   EXPECT_EQ(lost_mis, 0u);
   EXPECT_EQ(lost_k, 0u);
   EXPECT_EQ(lost_dr, 0u);
@@ -424,19 +420,23 @@ void expect_rows_equal(const results::OutputRows& pipe, const results::OutputRow
     if (n) std::cerr << " (t=" << first_t << "-" << last_t << " s, max relative difference " << max_rel << ")";
     std::cerr << "\n";
   };
-  differing(pipe.misalignment, ref.misalignment,
-            [](const auto& r) { return std::optional<double>(r.heading_rad); }, "misalignment heading");
-  differing(pipe.scale_factor, ref.scale_factor, [](const auto& r) { return r.k_m_per_pulse; }, "scale factor");
-  differing(pipe.dead_reckoning, ref.dead_reckoning,
-            [](const auto& r) { return std::optional<double>(r.distance_m); }, "dead-reckoning distance");
+  differing(
+      pipe.misalignment, ref.misalignment, [](const auto& r) { return std::optional<double>(r.heading_rad); },
+      "misalignment heading");
+  differing(
+      pipe.scale_factor, ref.scale_factor, [](const auto& r) { return r.k_m_per_pulse; }, "scale factor");
+  differing(
+      pipe.dead_reckoning, ref.dead_reckoning, [](const auto& r) { return std::optional<double>(r.distance_m); },
+      "dead-reckoning distance");
   if (navigation) {
     std::size_t lost_nav = 0;
     const std::string gaps_nav = missing_rows(pipe.navigation_position, ref.navigation_position, lost_nav);
     std::cerr << "navigation position rows missing against odonav-offline: " << lost_nav << "/"
               << ref.navigation_position.size() << gaps_nav << "\n";
     EXPECT_EQ(lost_nav, 0u);
-    differing(pipe.navigation_position, ref.navigation_position,
-              [](const auto& r) { return std::optional<double>(r.east_m); }, "navigation position east");
+    differing(
+        pipe.navigation_position, ref.navigation_position,
+        [](const auto& r) { return std::optional<double>(r.east_m); }, "navigation position east");
   }
 
   // Equal to the offline tool row by row (its tolerance: the pipeline test's 1e-9).
@@ -508,11 +508,11 @@ TEST_F(Faults, FiveSecondStallsOfIdentificationDeadReckoningAndGatewayLoseNothin
   const int stall_s = std::stoi(env_or("ODONAV_FAULTS_STALL_S", "5"));
   const std::string speed = env_or("ODONAV_FAULTS_SPEED", "3");
   const std::string duration = env_or("ODONAV_FAULTS_DURATION_S", "150");
-  ChildProcess launcher("/bin/bash",
-                        {script, "--build-dir", ODONAV_BINARY_DIR, "--source", "sim:ring", "--duration-s", duration,
-                         "--seed", "4", "--speed", speed, "--domain", std::to_string(kDomain), "--profile",
-                         profile_file(), "--out", out},
-                        out + ".launch.log", out + ".launch.log");
+  ChildProcess launcher(
+      "/bin/bash",
+      {script, "--build-dir", ODONAV_BINARY_DIR, "--source", "sim:ring", "--duration-s", duration, "--seed", "4",
+       "--speed", speed, "--domain", std::to_string(kDomain), "--profile", profile_file(), "--out", out},
+      out + ".launch.log", out + ".launch.log");
   ASSERT_TRUE(launcher.started());
 
   odonav::dds::Participant participant(participant_options(kDomain));
@@ -559,16 +559,16 @@ TEST_F(Faults, FiveSecondStallsOfIdentificationDeadReckoningAndGatewayLoseNothin
   }
   // After the gateway's stall, dead reckoning (at the end of the chain) produced again.
   const auto dr_items = dr.items();
-  const std::size_t after_gateway = static_cast<std::size_t>(
-      std::count_if(dr_items.begin(), dr_items.end(), [&](const auto& i) { return i.received_s > stalls.back().cont_s; }));
+  const std::size_t after_gateway = static_cast<std::size_t>(std::count_if(
+      dr_items.begin(), dr_items.end(), [&](const auto& i) { return i.received_s > stalls.back().cont_s; }));
   std::cerr << "DR outputs received in the 4 s after the SIGCONT of " << stalls.back().component << ": "
             << after_gateway << "\n";
   // 4 s at 3x real time is 1 200 outputs at 100 Hz: most of them, if the flow resumed at once.
   EXPECT_GT(after_gateway, 600u);
 
   std::map<std::string, long> rss;
-  for (const char* c : {"odonav-gateway", "odonav-identification", "odonav-dead-reckoning", "odonav-calibration",
-                        "odonav-recorder"})
+  for (const char* c :
+       {"odonav-gateway", "odonav-identification", "odonav-dead-reckoning", "odonav-calibration", "odonav-recorder"})
     rss[c] = peak_rss_kb(read_pid(logs + "/" + c + ".pid"));
 
   std::cerr << "peak RSS (kB, VmHWM before the end):";
@@ -604,7 +604,9 @@ TEST_F(Faults, FiveSecondStallsOfIdentificationDeadReckoningAndGatewayLoseNothin
 
 // ---- 3. kill -9 + restart: the downtime is caught up ----------------------------------------------
 
-const char* health_level_name_of(const msg::Health& h) { return h.level() == 0 ? "OK" : h.level() == 1 ? "WARN" : "ERROR"; }
+const char* health_level_name_of(const msg::Health& h) {
+  return h.level() == 0 ? "OK" : h.level() == 1 ? "WARN" : "ERROR";
+}
 
 double health_counter(const msg::Health& h, const std::string& name) {
   for (const auto& c : h.counters())
@@ -632,11 +634,11 @@ void wait_for_producers(const std::string& recorder_log) {
 /// calibration, the identification, dead reckoning and the recorder.
 std::unique_ptr<ChildProcess> start_ring_gateway(int domain, const char* seed, const char* duration_s,
                                                  const std::string& dir) {
-  return start_logged("odonav-gateway",
-                      common_args(domain, {"--source", "sim:ring", "--seed", seed, "--duration-s", duration_s,
-                                           "--speed", "3", "--wait-for-readers", "4", "--wait-for-readers-timeout-s",
-                                           "60", "--tolerate-lost-readers"}),
-                      dir + "/gateway.log");
+  return start_logged(
+      "odonav-gateway",
+      common_args(domain, {"--source", "sim:ring", "--seed", seed, "--duration-s", duration_s, "--speed", "3",
+                           "--wait-for-readers", "4", "--wait-for-readers-timeout-s", "60", "--tolerate-lost-readers"}),
+      dir + "/gateway.log");
 }
 
 /// A kill -9 of one component once the K passes `at_t_s` (event time), restarted 2 s later.
@@ -684,7 +686,8 @@ void kill_nine_and_restart_catches_up(int domain, const std::vector<Kill>& kills
   auto killed = [&](const std::string& c) {
     return std::any_of(kills.begin(), kills.end(), [&](const Kill& x) { return x.component == c; });
   };
-  const std::vector<std::string> checkpoint = {"--state-dir", state, "--checkpoint-every-s", "5", "--log-level", "info"};
+  const std::vector<std::string> checkpoint = {"--state-dir", state,         "--checkpoint-every-s",
+                                               "5",           "--log-level", "info"};
   auto checkpoint_if = [&](bool on) { return on ? checkpoint : std::vector<std::string>{}; };
   std::map<std::string, std::vector<std::string>> args;
   args["odonav-dead-reckoning"] = with(node, checkpoint_if(checkpointed && killed("odonav-dead-reckoning")));
@@ -718,8 +721,8 @@ void kill_nine_and_restart_catches_up(int domain, const std::vector<Kill>& kills
   const int down_s = down_env && *down_env ? std::stoi(down_env) : 2;
   std::map<std::string, double> last_published_before_kill_s;
   for (const Kill& kill : kills) {
-    ASSERT_TRUE(k.wait_until([&](const auto& v) { return !v.empty() && stamp_s(v.back().sample) >= kill.at_t_s; },
-                             seconds(90)))
+    ASSERT_TRUE(
+        k.wait_until([&](const auto& v) { return !v.empty() && stamp_s(v.back().sample) >= kill.at_t_s; }, seconds(90)))
         << logs() << read_text(dir + "/gateway.log");
     const std::string& c = kill.component;
     proc[c]->signal(SIGKILL);
@@ -737,8 +740,9 @@ void kill_nine_and_restart_catches_up(int domain, const std::vector<Kill>& kills
       last_published_before_kill_s[c] = d.empty() ? 0.0 : stamp_s(d.back().sample);
     }
     ASSERT_TRUE(start(c));
-    std::cerr << "killed " << c << " at K t=" << kill.at_t_s << " s (its last output t="
-              << last_published_before_kill_s[c] << " s), restarted " << down_s << " s later\n";
+    std::cerr << "killed " << c << " at K t=" << kill.at_t_s
+              << " s (its last output t=" << last_published_before_kill_s[c] << " s), restarted " << down_s
+              << " s later\n";
   }
 
   ASSERT_TRUE(gateway->wait_exit(seconds(150))) << read_text(dir + "/gateway.log");
@@ -754,9 +758,8 @@ void kill_nine_and_restart_catches_up(int domain, const std::vector<Kill>& kills
   EXPECT_EQ(recorder->exit_code(), 0);
 
   const std::string offline_dir = dir + "/offline";
-  ASSERT_EQ(run(binary("odonav-offline") + " " + dir + "/dataset --out " + offline_dir + " >" + dir +
-                "/offline.log 2>&1"),
-            0)
+  ASSERT_EQ(
+      run(binary("odonav-offline") + " " + dir + "/dataset --out " + offline_dir + " >" + dir + "/offline.log 2>&1"), 0)
       << read_text(dir + "/offline.log");
   if (!checkpointed) {
     expect_rows_equal_offline(out, offline_dir, true);
@@ -807,7 +810,8 @@ TEST_F(Faults, KillNineAndRestartOfTheIdentificationAndDeadReckoningCatchesUpEve
 }
 
 TEST_F(Faults, KillNineAndRestartOfTheCalibrationAndDeadReckoningCatchesUpEveryRowEqualToOffline) {
-  if (std::getenv("ODONAV_FAULTS_RESTART") && *std::getenv("ODONAV_FAULTS_RESTART")) GTEST_SKIP() << "before figures: the other run";
+  if (std::getenv("ODONAV_FAULTS_RESTART") && *std::getenv("ODONAV_FAULTS_RESTART"))
+    GTEST_SKIP() << "before figures: the other run";
   kill_nine_and_restart_catches_up(196, {{"odonav-calibration", 52.5}, {"odonav-dead-reckoning", 95.0}}, true);
 }
 
@@ -864,8 +868,7 @@ TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHe
   auto dead_reckoning = start_logged("odonav-dead-reckoning", node, dir + "/dr.log");
   auto calibration = start_logged("odonav-calibration", node, dir + "/calibration.log");
   auto identification = start_logged("odonav-identification", node, dir + "/id.log");
-  ASSERT_TRUE(recorder->started() && dead_reckoning->started() && calibration->started() &&
-              identification->started());
+  ASSERT_TRUE(recorder->started() && dead_reckoning->started() && calibration->started() && identification->started());
   wait_for_producers(dir + "/recorder.log");
   auto gateway = start_ring_gateway(kDomain, kSeed, kDuration, dir);
   ASSERT_TRUE(gateway->started());
@@ -925,14 +928,14 @@ TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHe
   for (const char* file : {"misalignment.csv", "scale_factor.csv", "dead_reckoning.csv", "navigation_position.csv"})
     EXPECT_NE(restarted_log.find(std::string("rows of ") + file + " from " + out + "/" + file + ".tmp-"),
               std::string::npos)
-        << file << " not adopted:\n" << restarted_log;
+        << file << " not adopted:\n"
+        << restarted_log;
   for (const auto& entry : fs::directory_iterator(out))
     EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos) << entry.path() << " left over";
   EXPECT_FALSE(fs::exists(out + "/.odonav-recording")) << "the finished recording still has its marker";
   const std::string offline_dir = dir + "/offline";
-  ASSERT_EQ(run(binary("odonav-offline") + " " + dir + "/dataset --out " + offline_dir + " >" + dir +
-                "/offline.log 2>&1"),
-            0)
+  ASSERT_EQ(
+      run(binary("odonav-offline") + " " + dir + "/dataset --out " + offline_dir + " >" + dir + "/offline.log 2>&1"), 0)
       << read_text(dir + "/offline.log");
   results::OutputRows ref = results::read_output_rows(offline_dir);
   results::OutputRows got = rows;
@@ -956,11 +959,9 @@ TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHe
     if (r.t_s >= held_from_s) nav_after += got_nav_after.count(r.t_s) == 0 ? 1 : 0;
   EXPECT_EQ(dr_after, 0u) << "dead-reckoning rows missing after the K held";
   EXPECT_EQ(nav_after, 0u) << "navigation-position rows missing after the K held";
-  EXPECT_EQ(got_dr_after.size(), got.dead_reckoning.size() - std::count_if(got.dead_reckoning.begin(),
-                                                                          got.dead_reckoning.end(),
-                                                                          [&](const auto& r) {
-                                                                            return r.t_s < held_from_s;
-                                                                          }))
+  EXPECT_EQ(got_dr_after.size(),
+            got.dead_reckoning.size() - std::count_if(got.dead_reckoning.begin(), got.dead_reckoning.end(),
+                                                      [&](const auto& r) { return r.t_s < held_from_s; }))
       << "dead-reckoning rows not in time order or repeated";
   auto before_held = [&](auto& v) {
     v.erase(std::remove_if(v.begin(), v.end(), [&](const auto& r) { return r.t_s >= held_from_s; }), v.end());
@@ -986,9 +987,9 @@ TEST_F(Faults, AnIdentificationKilledForGoodIsNamedInGapsCsvAndInDeadReckoningHe
       last = &h.sample;
   ASSERT_NE(last, nullptr) << "no dead-reckoning health with a held K";
   const double first_s = health_counter(*last, "held_k_first_t_s"), last_s = health_counter(*last, "held_k_last_t_s");
-  std::cerr << "dead reckoning: " << health_counter(*last, "outputs_on_held_k") << " outputs on the K of t="
-            << health_counter(*last, "held_k_epoch_t_s") << " s held, t=" << first_s << "-" << last_s << " s; \""
-            << last->reason() << "\"\n";
+  std::cerr << "dead reckoning: " << health_counter(*last, "outputs_on_held_k")
+            << " outputs on the K of t=" << health_counter(*last, "held_k_epoch_t_s") << " s held, t=" << first_s << "-"
+            << last_s << " s; \"" << last->reason() << "\"\n";
   EXPECT_NEAR(health_counter(*last, "held_k_epoch_t_s"), last_k_s, 1e-6);
   // The first output at or after the first epoch without K + the hold-off (0.2 s - 1 us).
   const double applies_s = lost.front() + 0.2 - 1e-6;

@@ -70,10 +70,16 @@ constexpr int kPortBase = 7400, kDomainGain = 250, kParticipantGain = 2, kMetatr
 class Buffer {
  public:
   void u8(std::uint8_t v) { b_.push_back(v); }
-  void u16(std::uint16_t v) { for (int i = 0; i < 2; ++i) b_.push_back(static_cast<std::uint8_t>(v >> (8 * i))); }
-  void u32(std::uint32_t v) { for (int i = 0; i < 4; ++i) b_.push_back(static_cast<std::uint8_t>(v >> (8 * i))); }
+  void u16(std::uint16_t v) {
+    for (int i = 0; i < 2; ++i) b_.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+  }
+  void u32(std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) b_.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+  }
   void bytes(const std::uint8_t* p, std::size_t n) { b_.insert(b_.end(), p, p + n); }
-  void pad4() { while (b_.size() % 4 != 0) b_.push_back(0); }
+  void pad4() {
+    while (b_.size() % 4 != 0) b_.push_back(0);
+  }
   std::size_t size() const { return b_.size(); }
   void put_u16_at(std::size_t at, std::uint16_t v) {
     b_[at] = static_cast<std::uint8_t>(v);
@@ -140,7 +146,7 @@ std::vector<std::uint8_t> announcement(const FakeParticipant& p, const std::uint
   for (std::uint8_t v : {0x00, 0x01, 0x00, 0xc2}) b.u8(v);  // SPDP builtin participant writer
   b.u32(0);                                                 // sequence number, high
   b.u32(sequence);                                          // sequence number, low
-  b.u8(0x00);  // PL_CDR_LE encapsulation
+  b.u8(0x00);                                               // PL_CDR_LE encapsulation
   b.u8(0x03);
   b.u16(0);
   b.u16(kPidProtocolVersion);
@@ -201,9 +207,9 @@ int run(const odonav::Options& o) {
   const std::uint8_t vendor[2] = {static_cast<std::uint8_t>(vendor_id >> 8), static_cast<std::uint8_t>(vendor_id)};
 
   in_addr address{};
-  if (inet_pton(AF_INET, o.get_string("address").c_str(), &address) != 1 ||
-      (ntohl(address.s_addr) >> 24) != 127) {
-    throw odonav::ConfigError("--address: '" + o.get_string("address") + "' is not an IPv4 loopback address (127.x.y.z)");
+  if (inet_pton(AF_INET, o.get_string("address").c_str(), &address) != 1 || (ntohl(address.s_addr) >> 24) != 127) {
+    throw odonav::ConfigError("--address: '" + o.get_string("address") +
+                              "' is not an IPv4 loopback address (127.x.y.z)");
   }
   if (kPortBase + kDomainGain * domain + kMetatrafficUnicastOffset + kParticipantGain * (ports_of - 1) > 65535) {
     throw odonav::ConfigError("--domain " + std::to_string(domain) + " with --ports-of " + std::to_string(ports_of) +
@@ -289,8 +295,11 @@ int run(const odonav::Options& o) {
   g_stop.store(true);
   receiver.join();
   ::close(fd);
-  nlohmann::json j{{"participants", count},   {"rounds", rounds},     {"datagrams_sent", sent},
-                   {"send_errors", errors},   {"datagrams_received", received.load()},
+  nlohmann::json j{{"participants", count},
+                   {"rounds", rounds},
+                   {"datagrams_sent", sent},
+                   {"send_errors", errors},
+                   {"datagrams_received", received.load()},
                    {"responders", responders.size()}};
   std::cout << j.dump() << std::endl;
   return 0;

@@ -126,13 +126,12 @@ TEST(SecureStartUnderFlood, EveryProducerMatchedAndNoLegitimateLeaseLost) {
   // Let the flood's first round go out: the components start into a flood that is already on.
   std::this_thread::sleep_for(1500ms);
 
-  const std::vector<std::string> common = {
-      "--domain",       std::to_string(kDomain),
-      "--profile",      (kSource / "deploy/profiles/loopback-secure.xml").string(),
-      "--profile-name", "loopback_secure",
-      "--vehicle-id",   kVehicle,
-      "--security-dir", pki.string(),
-      "--log-level",    "info"};
+  const std::vector<std::string> common = {"--domain",       std::to_string(kDomain),
+                                           "--profile",      (kSource / "deploy/profiles/loopback-secure.xml").string(),
+                                           "--profile-name", "loopback_secure",
+                                           "--vehicle-id",   kVehicle,
+                                           "--security-dir", pki.string(),
+                                           "--log-level",    "info"};
   const auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> a = common;
     a.insert(a.end(), extra.begin(), extra.end());
@@ -175,8 +174,8 @@ TEST(SecureStartUnderFlood, EveryProducerMatchedAndNoLegitimateLeaseLost) {
     }
   }
   std::cerr << "[figure] flood participants " << flood_participants << (with_token ? " with identity tokens" : "")
-            << ": every producer matched (recorder) after " << recorder_matched_s
-            << " s, gateway readers matched " << gateway_matched_s << " s after its start\n";
+            << ": every producer matched (recorder) after " << recorder_matched_s << " s, gateway readers matched "
+            << gateway_matched_s << " s after its start\n";
   ASSERT_GE(recorder_matched_s, 0.0) << "the recorder never logged 'every producer matched'\n"
                                      << tail_of(log_of("odonav-recorder"));
   ASSERT_GE(gateway_matched_s, 0.0) << "the gateway never matched its readers\n" << tail_of(log_of("odonav-gateway"));
@@ -212,8 +211,8 @@ TEST(SecureStartUnderFlood, EveryProducerMatchedAndNoLegitimateLeaseLost) {
   // The gateway's writers matched every consumer before the first sample (odometer: identification
   // and DR; INS and GNSS: calibration too).
   std::smatch matched;
-  ASSERT_TRUE(std::regex_search(gateway_log, matched,
-                                std::regex("readers matched: odometer (\\d+), INS (\\d+), GNSS (\\d+)")))
+  ASSERT_TRUE(
+      std::regex_search(gateway_log, matched, std::regex("readers matched: odometer (\\d+), INS (\\d+), GNSS (\\d+)")))
       << gateway_log;
   EXPECT_EQ(matched.str(0), "readers matched: odometer 2, INS 3, GNSS 4");
   std::smatch published;

@@ -154,9 +154,9 @@ struct PipelineOptions {
   std::string scenario = "terrain";  ///< odonav-sim scenario of the gateway's sim: source
   std::string speed = "2";           ///< gateway --speed: 1 real time, N, or max
   int seed = 1;
-  double duration_s = 240.0;         ///< sim length (s); terrain's first K step is at 250 s
+  double duration_s = 240.0;  ///< sim length (s); terrain's first K step is at 250 s
   bool with_dead_reckoning = true;
-  bool with_recorder = false;        ///< odonav-recorder --out <dir>/recorder
+  bool with_recorder = false;  ///< odonav-recorder --out <dir>/recorder
 };
 
 /// One vehicle of a fleet: odonav-calibration, -identification, -dead-reckoning (and optionally
@@ -171,8 +171,8 @@ class VehiclePipeline {
   /// The flags every component gets: domain, loopback profile, vehicle, log level info (logs are
   /// read on failure).
   std::vector<std::string> common_args() const {
-    return {"--domain", std::to_string(domain_), "--profile", loopback_profile(), "--vehicle-id", vehicle_,
-            "--log-level", "info"};
+    return {"--domain", std::to_string(domain_), "--profile", loopback_profile(), "--vehicle-id",
+            vehicle_,   "--log-level",           "info"};
   }
   /// Starts the consumers (recorder, dead reckoning, identification, calibration), consumers first
   /// as deploy/launch does. Faster than real time their event-time queues may lag each other by
@@ -240,8 +240,8 @@ class VehiclePipeline {
 
 // ---- a real vehicle's expectations ----
 
-inline const std::vector<std::string> kVehicleComponents{"odonav-calibration", "odonav-dead-reckoning", "odonav-gateway",
-                                                  "odonav-identification"};
+inline const std::vector<std::string> kVehicleComponents{"odonav-calibration", "odonav-dead-reckoning",
+                                                         "odonav-gateway", "odonav-identification"};
 
 inline double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -254,9 +254,9 @@ struct ScenarioTruth {
   double heading_deg = 0.0, pitch_deg = 0.0;
 };
 inline ScenarioTruth scenario_truth(const std::string& scenario, int seed, const std::filesystem::path& dir) {
-  const RunResult r = run(binary("odonav-sim"),
-                          {scenario, "--seed", std::to_string(seed), "--duration-s", "10", "--out", dir.string()}, dir.parent_path(),
-                          "sim-" + scenario);
+  const RunResult r =
+      run(binary("odonav-sim"), {scenario, "--seed", std::to_string(seed), "--duration-s", "10", "--out", dir.string()},
+          dir.parent_path(), "sim-" + scenario);
   EXPECT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json meta = nlohmann::json::parse(read_text(dir / "meta.json"));
   ScenarioTruth t;
@@ -284,8 +284,9 @@ inline bool vehicle_ready(const nlohmann::json& snap, const std::string& vehicle
 }
 
 /// The common DDS flags of odonav-ground under test.
-inline std::vector<std::string> ground_args(const std::string& action, int domain, std::vector<std::string> extra = {}) {
-  std::vector<std::string> a{action, "--domain", std::to_string(domain), "--profile", loopback_profile(),
+inline std::vector<std::string> ground_args(const std::string& action, int domain,
+                                            std::vector<std::string> extra = {}) {
+  std::vector<std::string> a{action,        "--domain", std::to_string(domain), "--profile", loopback_profile(),
                              "--log-level", "warn"};
   a.insert(a.end(), extra.begin(), extra.end());
   return a;

@@ -76,8 +76,8 @@ TEST_F(GroundFleet, MonitorShowsTwoRealVehiclesAndMarksAKilledComponentStale) {
   std::cerr << "both vehicles complete and K converged after " << seconds_since(t0) << " s\n";
 
   // `monitor --once --json`: one document listing both vehicles with everything.
-  const RunResult once =
-      run(binary("odonav-ground"), ground_args("monitor", kDomain, {"--once", "--json", "--settle-s", "2"}), dir, "once");
+  const RunResult once = run(binary("odonav-ground"),
+                             ground_args("monitor", kDomain, {"--once", "--json", "--settle-s", "2"}), dir, "once");
   ASSERT_EQ(once.exit_code, 0) << once.err;
   const json snap = json::parse(once.out);
   ASSERT_EQ(snap.at("vehicles").size(), vehicles.size()) << once.out;
@@ -152,9 +152,8 @@ TEST_F(GroundFleet, MonitorShowsTwoRealVehiclesAndMarksAKilledComponentStale) {
   }
   ASSERT_TRUE(health_stale_s.has_value()) << "the killed identification never turned STALE";
   ASSERT_TRUE(k_stale_s.has_value()) << "the killed identification's K never turned STALE";
-  std::cerr << "SIGKILLed identification: Health STALE after " << *health_stale_s << " s (deadline "
-            << kHealthDeadlineS << " s), K STALE after " << *k_stale_s << " s (deadline " << kEstimateDeadlineS
-            << " s)\n";
+  std::cerr << "SIGKILLed identification: Health STALE after " << *health_stale_s << " s (deadline " << kHealthDeadlineS
+            << " s), K STALE after " << *k_stale_s << " s (deadline " << kEstimateDeadlineS << " s)\n";
   // 2 deadline periods, plus one refresh of the display (0.1 s) and the polling step (0.05 s).
   EXPECT_LE(*health_stale_s, 2 * kHealthDeadlineS + 0.15);
   EXPECT_LE(*k_stale_s, 2 * kEstimateDeadlineS + 0.15);
@@ -197,9 +196,10 @@ TEST_F(GroundFleet, RecordingsAtMaximumSpeedHoldEveryPublishedEstimate) {
   ASSERT_TRUE(npm_reader_modules().has_value());  // before the run: the install may take a while
 
   const fs::path mcap = dir / "estimates.mcap";
-  ChildProcess recorder(binary("odonav-ground"),
-                        ground_args("record", kDomain, {"--out", mcap.string(), "--topics", "misalignment,scale_factor"}),
-                        dir / "record.out", dir / "record.err");
+  ChildProcess recorder(
+      binary("odonav-ground"),
+      ground_args("record", kDomain, {"--out", mcap.string(), "--topics", "misalignment,scale_factor"}),
+      dir / "record.out", dir / "record.err");
   ASSERT_TRUE(recorder.started());
   std::this_thread::sleep_for(1s);  // its readers exist before any estimate: deploy/launch simulates first
 
@@ -314,8 +314,10 @@ TEST_F(GroundFleet, SetKOnARunningIdentificationIsAcknowledgedAndPublished) {
   VehiclePipeline pipeline(kDomain, vehicle, dir, o);
   pipeline.start_consumers();
   pipeline.start_gateway();
-  ASSERT_TRUE(wait_for(k_log, [](const msg::ScaleFactor& s) { return s.converged() && s.samples_accepted() > 100; }, 60s))
-      << "K never converged\n" << pipeline.logs_tail();
+  ASSERT_TRUE(wait_for(
+      k_log, [](const msg::ScaleFactor& s) { return s.converged() && s.samples_accepted() > 100; }, 60s))
+      << "K never converged\n"
+      << pipeline.logs_tail();
   const double k_identified = k_log.last()->k_m_per_pulse();
 
   auto command = [&](std::vector<std::string> what, const std::string& tag) {
@@ -328,7 +330,8 @@ TEST_F(GroundFleet, SetKOnARunningIdentificationIsAcknowledgedAndPublished) {
   const RunResult freeze = command({"freeze"}, "freeze");
   ASSERT_EQ(freeze.exit_code, 0) << freeze.out << freeze.err;
   EXPECT_NE(freeze.out.find("ACCEPTED"), std::string::npos) << freeze.out;
-  EXPECT_TRUE(wait_for(k_log, [](const msg::ScaleFactor& s) { return s.frozen(); }, 5s));
+  EXPECT_TRUE(wait_for(
+      k_log, [](const msg::ScaleFactor& s) { return s.frozen(); }, 5s));
 
   // set-k: 1.5 % above the identified K, written with every digit so the command carries it exactly.
   const double commanded = k_identified * 1.015;

@@ -48,13 +48,13 @@ class SyntheticFleet {
  public:
   explicit SyntheticFleet(int domain) : participant_(participant_options(domain, "synthetic-fleet")) {
     for (const auto& v : kVehicles)
-      for (const auto& c : kComponents)
-        health_[{v, c}] = std::make_unique<HealthPublisher>(participant_, v, c, 100.0);
+      for (const auto& c : kComponents) health_[{v, c}] = std::make_unique<HealthPublisher>(participant_, v, c, 100.0);
     scale_factor_ = std::make_unique<Writer<msg::ScaleFactor>>(participant_, topics::kScaleFactor.name,
                                                                topics::kScaleFactor.writer_profile);
     misalignment_ = std::make_unique<Writer<msg::Misalignment>>(participant_, topics::kMisalignment.name,
                                                                 topics::kMisalignment.writer_profile);
-    gnss_ = std::make_unique<Writer<msg::GnssFix>>(participant_, topics::kGnssFix.name, topics::kGnssFix.writer_profile);
+    gnss_ =
+        std::make_unique<Writer<msg::GnssFix>>(participant_, topics::kGnssFix.name, topics::kGnssFix.writer_profile);
     thread_ = std::thread([this] { loop(); });
   }
   ~SyntheticFleet() {
@@ -79,7 +79,7 @@ class SyntheticFleet {
             if (silenced_ && silenced_->first == kVehicles[v] && silenced_->second == kComponents[c]) continue;
           }
           health_[{kVehicles[v], kComponents[c]}]->publish_now(now, msg::HEALTH_STATE_RUNNING, level_of(c),
-                                                             reason_of(v, c), {{"tick", tick}});
+                                                               reason_of(v, c), {{"tick", tick}});
         }
         if (tick % 4 == 0) continue;  // estimates at ~3 Hz: inside their 1 s deadline
         msg::ScaleFactor k;
@@ -139,8 +139,8 @@ TEST_F(GroundProcesses, MonitorOnceJsonListsEveryVehicleAndComponentHealth) {
   constexpr int kDomain = 60;
   const auto dir = scratch_dir("monitor_once");
   SyntheticFleet fleet(kDomain);
-  const RunResult r = run(binary("odonav-ground"), ground_args("monitor", kDomain, {"--once", "--json", "--settle-s", "3"}),
-                          dir, "monitor");
+  const RunResult r = run(binary("odonav-ground"),
+                          ground_args("monitor", kDomain, {"--once", "--json", "--settle-s", "3"}), dir, "monitor");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);  // exactly one JSON document on stdout
   ASSERT_EQ(j.at("vehicles").size(), kVehicles.size()) << r.out;
@@ -234,7 +234,8 @@ TEST_F(GroundProcesses, MonitorPlainTextFitsEightyByTwentyFour) {
   constexpr int kDomain = 63;
   const auto dir = scratch_dir("monitor_text");
   SyntheticFleet fleet(kDomain);
-  const RunResult r = run(binary("odonav-ground"), ground_args("monitor", kDomain, {"--once", "--settle-s", "2"}), dir, "text");
+  const RunResult r =
+      run(binary("odonav-ground"), ground_args("monitor", kDomain, {"--once", "--settle-s", "2"}), dir, "text");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::istringstream lines(r.out);
   std::string line;
@@ -262,9 +263,9 @@ class FakeComponent {
         vehicle_(std::move(vehicle)),
         component_(std::move(component)),
         health_(participant_, vehicle_, component_, 100.0) {
-    commands_ = std::make_unique<Reader<msg::Command>>(participant_, topics::kCommand.name,
-                                                       topics::kCommand.reader_profile,
-                                                       [this](const msg::Command& c) { on_command(c); });
+    commands_ =
+        std::make_unique<Reader<msg::Command>>(participant_, topics::kCommand.name, topics::kCommand.reader_profile,
+                                               [this](const msg::Command& c) { on_command(c); });
     thread_ = std::thread([this] {
       while (!stop_) {
         publish();
@@ -319,46 +320,46 @@ TEST_F(GroundProcesses, CommandIsAcknowledgedRejectedOrTimesOut) {
   FakeComponent fake(kDomain, "veh-cmd", "odonav-fake");
   FakeComponent other(kDomain, "veh-other", "odonav-fake");  // same component name, other vehicle
 
-  const RunResult ok = run(binary("odonav-ground"),
-                           ground_args("command", kDomain,
-                                       {"--vehicle", "veh-cmd", "--component", "odonav-fake", "set-k", "0.0127125",
-                                        "--timeout-s", "15"}),
-                           dir, "set_k");
+  const RunResult ok = run(
+      binary("odonav-ground"),
+      ground_args("command", kDomain,
+                  {"--vehicle", "veh-cmd", "--component", "odonav-fake", "set-k", "0.0127125", "--timeout-s", "15"}),
+      dir, "set_k");
   EXPECT_EQ(ok.exit_code, 0) << ok.out << ok.err;
   EXPECT_NE(ok.out.find("ACCEPTED: K set"), std::string::npos) << ok.out;
   ASSERT_TRUE(fake.commanded_k().has_value());
-  EXPECT_EQ(*fake.commanded_k(), 0.0127125);         // the value crossed the wire exactly
-  EXPECT_FALSE(other.commanded_k().has_value());     // addressed to one vehicle only
+  EXPECT_EQ(*fake.commanded_k(), 0.0127125);      // the value crossed the wire exactly
+  EXPECT_FALSE(other.commanded_k().has_value());  // addressed to one vehicle only
 
-  const RunResult rejected = run(binary("odonav-ground"),
-                                 ground_args("command", kDomain,
-                                             {"--vehicle", "veh-cmd", "--component", "odonav-fake", "freeze",
-                                              "--timeout-s", "15"}),
-                                 dir, "freeze");
+  const RunResult rejected =
+      run(binary("odonav-ground"),
+          ground_args("command", kDomain,
+                      {"--vehicle", "veh-cmd", "--component", "odonav-fake", "freeze", "--timeout-s", "15"}),
+          dir, "freeze");
   EXPECT_EQ(rejected.exit_code, 1) << rejected.out << rejected.err;
   EXPECT_NE(rejected.out.find("REJECTED: only set-k is supported here"), std::string::npos) << rejected.out;
 
-  const RunResult timeout = run(binary("odonav-ground"),
-                                ground_args("command", kDomain,
-                                            {"--vehicle", "veh-cmd", "--component", "odonav-nobody", "reset",
-                                             "--timeout-s", "2"}),
-                                dir, "timeout");
+  const RunResult timeout =
+      run(binary("odonav-ground"),
+          ground_args("command", kDomain,
+                      {"--vehicle", "veh-cmd", "--component", "odonav-nobody", "reset", "--timeout-s", "2"}),
+          dir, "timeout");
   EXPECT_EQ(timeout.exit_code, 3) << timeout.out << timeout.err;
   EXPECT_NE(timeout.out.find("TIMEOUT"), std::string::npos) << timeout.out;
   EXPECT_NE(timeout.out.find("odonav-nobody"), std::string::npos) << timeout.out;
 
-  const RunResult bad = run(binary("odonav-ground"),
-                            ground_args("command", kDomain,
-                                        {"--vehicle", "veh-cmd", "--component", "odonav-fake", "set-k", "fast"}),
-                            dir, "bad");
+  const RunResult bad =
+      run(binary("odonav-ground"),
+          ground_args("command", kDomain, {"--vehicle", "veh-cmd", "--component", "odonav-fake", "set-k", "fast"}), dir,
+          "bad");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("'fast'"), std::string::npos) << bad.err;
 
   // The former name of wire value 0 is refused before anything is sent, naming the new ones.
-  const RunResult old_name = run(binary("odonav-ground"),
-                                 ground_args("command", kDomain,
-                                             {"--vehicle", "veh-cmd", "--component", "odonav-fake", "reset-calibration"}),
-                                 dir, "old_name");
+  const RunResult old_name =
+      run(binary("odonav-ground"),
+          ground_args("command", kDomain, {"--vehicle", "veh-cmd", "--component", "odonav-fake", "reset-calibration"}),
+          dir, "old_name");
   EXPECT_EQ(old_name.exit_code, 2) << old_name.out << old_name.err;
   EXPECT_NE(old_name.err.find("'reset-calibration' is no longer a command: use 'reset'"), std::string::npos)
       << old_name.err;

@@ -53,8 +53,8 @@ class KnownPublisher {
         command_(p, topics::kCommand.name, topics::kCommand.writer_profile) {}
 
   std::vector<odonav::dds::detail::WriterBase*> writers() {
-    return {&odometer_, &ins_, &gnss_, &misalignment_, &scale_factor_, &dead_reckoning_, &health_, &command_,
-            &navigation_};
+    return {&odometer_,       &ins_,    &gnss_,    &misalignment_, &scale_factor_,
+            &dead_reckoning_, &health_, &command_, &navigation_};
   }
   bool wait_matched(std::chrono::milliseconds timeout) {
     for (auto* w : writers())
@@ -274,8 +274,9 @@ class KnownPublisher {
       m.position_covariance_north_m2(var);
       m.position_covariance_up_m2(i == 0 ? -1.0 : 1.125);
       m.position_covariance_type(i == 0 ? 0 : 2);
-      m.status(i == 0 ? msg::NAVIGATION_STATUS_NOT_STARTED
-                      : i % 4 == 3 ? msg::NAVIGATION_STATUS_DEAD_RECKONING : msg::NAVIGATION_STATUS_ANCHORED);
+      m.status(i == 0       ? msg::NAVIGATION_STATUS_NOT_STARTED
+               : i % 4 == 3 ? msg::NAVIGATION_STATUS_DEAD_RECKONING
+                            : msg::NAVIGATION_STATUS_ANCHORED);
       m.last_fix_stamp_s(i == 0 ? -1.0 : t - 0.1);
       m.distance_since_fix_m(i == 0 ? -1.0 : 1.25);
       EXPECT_TRUE(navigation_.write(m));
@@ -297,10 +298,11 @@ class KnownPublisher {
     }
     {
       const odonav::dds::HealthCounters counters{{"queue_depth", static_cast<double>(i)}, {"odometer_in", 1e6 + i}};
-      odonav::dds::CommandAck ack{static_cast<uint32_t>(70000 + i), msg::COMMAND_RESULT_REJECTED, "nope " + std::to_string(i)};
-      const msg::Health m = odonav::dds::make_health(veh, "odonav-comp-" + std::to_string(i), t, msg::HEALTH_STATE_DEGRADED,
-                                                     msg::HEALTH_LEVEL_WARN, "no gnss for " + std::to_string(i) + " s",
-                                                     counters, ack);
+      odonav::dds::CommandAck ack{static_cast<uint32_t>(70000 + i), msg::COMMAND_RESULT_REJECTED,
+                                  "nope " + std::to_string(i)};
+      const msg::Health m =
+          odonav::dds::make_health(veh, "odonav-comp-" + std::to_string(i), t, msg::HEALTH_STATE_DEGRADED,
+                                   msg::HEALTH_LEVEL_WARN, "no gnss for " + std::to_string(i) + " s", counters, ack);
       EXPECT_TRUE(health_.write(m));
       json c = json::array();
       for (const auto& [name, value] : counters) c.push_back({{"name", name}, {"value", value}});
@@ -387,7 +389,8 @@ TEST_F(GroundRecord, McapOfEveryTopicDecodesToThePublishedValues) {
   recorder.signal(SIGINT);
   ASSERT_TRUE(recorder.wait_exit(20s));
   ASSERT_EQ(recorder.exit_code(), 0) << recorder.err();
-  EXPECT_NE(recorder.out().find("recorded " + std::to_string(9 * kSamples) + " messages on 9 topics"), std::string::npos)
+  EXPECT_NE(recorder.out().find("recorded " + std::to_string(9 * kSamples) + " messages on 9 topics"),
+            std::string::npos)
       << recorder.out();
 
   const McapRead read = read_mcap(file, "indexed");
@@ -416,7 +419,8 @@ TEST_F(GroundRecord, McapOfEveryTopicDecodesToThePublishedValues) {
       EXPECT_EQ(channel.at("metadata").at("odonav_vehicle_id"), "veh-rec");
       continue;
     }
-    EXPECT_EQ(channel.at("metadata").at("offered_qos_profiles").get<std::string>().rfind("- history: 1\n  depth: ", 0), 0u);
+    EXPECT_EQ(channel.at("metadata").at("offered_qos_profiles").get<std::string>().rfind("- history: 1\n  depth: ", 0),
+              0u);
     EXPECT_EQ(doc.at("statistics").at("channel_message_counts").at(std::to_string(channel.at("id").get<int>())),
               std::to_string(kSamples));
   }
@@ -426,9 +430,10 @@ TEST_F(GroundRecord, McapOfEveryTopicDecodesToThePublishedValues) {
   }
   // NavSatFix: the published dead reckoning and GNSS positions, sample for sample (decoded by
   // @foxglove/rosmsg2-serialization from the sensor_msgs schema).
-  for (const auto& [navsat, source] : {std::pair<std::string, std::string>{prefix + "navsat/dead_reckoning", "/odonav/dead_reckoning"},
-                                       {prefix + "navsat/navigation", "/odonav/navigation_position"},
-                                       {prefix + "navsat/gnss", "/odonav/gnss/fix"}}) {
+  for (const auto& [navsat, source] :
+       {std::pair<std::string, std::string>{prefix + "navsat/dead_reckoning", "/odonav/dead_reckoning"},
+        {prefix + "navsat/navigation", "/odonav/navigation_position"},
+        {prefix + "navsat/gnss", "/odonav/gnss/fix"}}) {
     SCOPED_TRACE(navsat);
     ASSERT_EQ(decoded.count(navsat), 1u);
     const auto& fixes = decoded.at(navsat);
@@ -453,7 +458,8 @@ TEST_F(GroundRecord, McapOfEveryTopicDecodesToThePublishedValues) {
   for (const auto& channel : doc.at("channels")) {
     if (channel.at("topic") != "/odonav/health") continue;
     const std::string qos = channel.at("metadata").at("offered_qos_profiles");
-    EXPECT_NE(qos.find("reliability: 1\n  durability: 1\n  deadline:\n    sec: 3\n    nsec: 0"), std::string::npos) << qos;
+    EXPECT_NE(qos.find("reliability: 1\n  durability: 1\n  deadline:\n    sec: 3\n    nsec: 0"), std::string::npos)
+        << qos;
   }
 
   ASSERT_EQ(decoded.size(), expected.size() + standard.size());

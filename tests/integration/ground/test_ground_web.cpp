@@ -44,12 +44,14 @@ std::optional<fs::path> npm_web_modules() {
   }
   const fs::path dir = fs::path(ODONAV_BINARY_DIR) / "tests" / "ground-web-npm";
   fs::create_directories(dir);
-  const std::string packages = "@foxglove/ws-protocol ws @foxglove/rosmsg @foxglove/rosmsg2-serialization puppeteer-core";
+  const std::string packages =
+      "@foxglove/ws-protocol ws @foxglove/rosmsg @foxglove/rosmsg2-serialization puppeteer-core";
   const std::string cmd = "cd '" + dir.string() +
                           "' && flock .lock sh -c 'test -d node_modules/@foxglove/ws-protocol -a -d node_modules/ws "
                           "-a -d node_modules/puppeteer-core -a -d node_modules/@foxglove/rosmsg2-serialization || "
-                          "npm install --no-audit --no-fund --silent " + packages +
-                          " || { sleep 5; npm install --no-audit --no-fund " + packages + "; }' >npm-install.log 2>&1";
+                          "npm install --no-audit --no-fund --silent " +
+                          packages + " || { sleep 5; npm install --no-audit --no-fund " + packages +
+                          "; }' >npm-install.log 2>&1";
   if (std::system(cmd.c_str()) != 0) {
     ADD_FAILURE() << "npm install of " << packages << " failed: " << read_text(dir / "npm-install.log");
     return std::nullopt;
@@ -149,12 +151,13 @@ TEST_F(GroundWeb, FoxgloveClientReadsTheVehicleAsStandardRosMessages) {
   // This test's own readers: the dead reckoning and K the pipeline publishes, by stamp.
   odonav::dds::Participant participant(participant_options(kDomain, "test-web-reference"));
   std::mutex mutex;
-  std::map<long long, std::pair<double, double>> dr_by_stamp_us;  // stamp (us) -> lat, lon
+  std::map<long long, std::pair<double, double>> dr_by_stamp_us;   // stamp (us) -> lat, lon
   std::map<long long, std::pair<double, double>> nav_by_stamp_us;  // the anchored position
   std::map<long long, double> k_by_stamp_us;
   auto us = [](const std_msgs::msg::Header& h) { return std::llround(odonav::dds::to_seconds(h.stamp()) * 1e6); };
   odonav::dds::Reader<msg::DeadReckoning> dr_reader(
-      participant, topics::kDeadReckoning.name, topics::kGroundBestEffortReaderProfile, [&](const msg::DeadReckoning& d) {
+      participant, topics::kDeadReckoning.name, topics::kGroundBestEffortReaderProfile,
+      [&](const msg::DeadReckoning& d) {
         if (d.vehicle_id() != vehicle) return;
         std::lock_guard<std::mutex> lock(mutex);
         dr_by_stamp_us[us(d.header())] = {d.latitude_deg(), d.longitude_deg()};
@@ -166,12 +169,12 @@ TEST_F(GroundWeb, FoxgloveClientReadsTheVehicleAsStandardRosMessages) {
         std::lock_guard<std::mutex> lock(mutex);
         nav_by_stamp_us[us(n.header())] = {n.latitude_deg(), n.longitude_deg()};
       });
-  odonav::dds::Reader<msg::ScaleFactor> k_reader(
-      participant, topics::kScaleFactor.name, topics::kEstimateReaderProfile, [&](const msg::ScaleFactor& k) {
-        if (k.vehicle_id() != vehicle) return;
-        std::lock_guard<std::mutex> lock(mutex);
-        k_by_stamp_us[us(k.header())] = k.k_m_per_pulse();
-      });
+  odonav::dds::Reader<msg::ScaleFactor> k_reader(participant, topics::kScaleFactor.name, topics::kEstimateReaderProfile,
+                                                 [&](const msg::ScaleFactor& k) {
+                                                   if (k.vehicle_id() != vehicle) return;
+                                                   std::lock_guard<std::mutex> lock(mutex);
+                                                   k_by_stamp_us[us(k.header())] = k.k_m_per_pulse();
+                                                 });
 
   PipelineOptions o;
   o.speed = "2";
@@ -199,9 +202,10 @@ TEST_F(GroundWeb, FoxgloveClientReadsTheVehicleAsStandardRosMessages) {
   // The documented channels of the vehicle: every odonav topic with a sample (the command topic
   // only once a command was sent), and the derived standard ones.
   const json ch = wait_event(out, err, "channels", 90);
-  const std::vector<std::string> documented{"odometer", "ins/attitude", "gnss/fix", "misalignment", "scale_factor",
-                                            "dead_reckoning", "navigation_position", "health", "navsat/navigation", "navsat/dead_reckoning",
-                                            "navsat/gnss", "diagnostics", "k"};
+  const std::vector<std::string> documented{
+      "odometer",       "ins/attitude",        "gnss/fix", "misalignment",      "scale_factor",
+      "dead_reckoning", "navigation_position", "health",   "navsat/navigation", "navsat/dead_reckoning",
+      "navsat/gnss",    "diagnostics",         "k"};
   std::set<std::string> topics_seen;
   for (const auto& t : ch["topics"]) topics_seen.insert(t.get<std::string>());
   for (const auto& t : documented) EXPECT_TRUE(topics_seen.count("/odonav/" + vehicle + "/" + t)) << t << ch.dump(1);
@@ -241,8 +245,10 @@ TEST_F(GroundWeb, FoxgloveClientReadsTheVehicleAsStandardRosMessages) {
         ASSERT_NEAR(f["lon"].get<double>(), it->second.second, 1e-9);
         EXPECT_EQ(f["frame_id"], "wgs84");
         // The navigation position is NO_FIX (-1) only in the 0.2 s before its first fix applies.
-        if (std::string(name) == "navsat/dead_reckoning") EXPECT_EQ(f["status"], 0);
-        else EXPECT_GE(f["status"].get<int>(), -1);
+        if (std::string(name) == "navsat/dead_reckoning")
+          EXPECT_EQ(f["status"], 0);
+        else
+          EXPECT_GE(f["status"].get<int>(), -1);
       }
       EXPECT_GT(compared, fixes.size() * 8 / 10) << "stamps not found in the DDS reader's " << name;
     }

@@ -16,14 +16,17 @@ namespace fs = std::filesystem;
 
 TEST(Report, HtmlWithEveryFigureFromAnOfflineRun) {
   const fs::path dir = scratch_dir("report");
-  const RunResult sim = run(binary("odonav-sim"), {"terrain", "--duration-s", "120", "--out", (dir / "data").string()}, dir, "sim");
+  const RunResult sim =
+      run(binary("odonav-sim"), {"terrain", "--duration-s", "120", "--out", (dir / "data").string()}, dir, "sim");
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
-  const RunResult off = run(binary("odonav-offline"), {(dir / "data").string(), "--out", (dir / "out").string()}, dir, "offline");
+  const RunResult off =
+      run(binary("odonav-offline"), {(dir / "data").string(), "--out", (dir / "out").string()}, dir, "offline");
   ASSERT_EQ(off.exit_code, 0) << off.err;
 
   const fs::path page = dir / "html" / "report.html";
-  const RunResult rep = run(binary("odonav-report"),
-                            {(dir / "out").string(), "--out", page.string(), "--dataset", (dir / "data").string()}, dir, "report");
+  const RunResult rep =
+      run(binary("odonav-report"),
+          {(dir / "out").string(), "--out", page.string(), "--dataset", (dir / "data").string()}, dir, "report");
   ASSERT_EQ(rep.exit_code, 0) << rep.err;
   const std::string html = read_text(page);
   ASSERT_FALSE(html.empty());
@@ -50,7 +53,8 @@ TEST(Report, HtmlWithEveryFigureFromAnOfflineRun) {
 
   // A folder with a missing file: exit 1, the message names it.
   fs::remove(dir / "out" / "scale_factor.csv");
-  const RunResult bad = run(binary("odonav-report"), {(dir / "out").string(), "--out", (dir / "bad.html").string()}, dir, "bad");
+  const RunResult bad =
+      run(binary("odonav-report"), {(dir / "out").string(), "--out", (dir / "bad.html").string()}, dir, "bad");
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_NE(bad.err.find((dir / "out" / "scale_factor.csv").string()), std::string::npos) << bad.err;
   EXPECT_FALSE(fs::exists(dir / "bad.html"));
@@ -60,7 +64,9 @@ TEST(Report, HtmlWithEveryFigureFromAnOfflineRun) {
 // or a file that is not its own, and refuses results of another vehicle or time span.
 TEST(Report, RefusesWhatItMustNotWriteAndNeverTracesBack) {
   const fs::path dir = scratch_dir("report-hostile");
-  ASSERT_EQ(run(binary("odonav-sim"), {"straight", "--duration-s", "60", "--out", (dir / "data").string()}, dir, "sim").exit_code, 0);
+  ASSERT_EQ(run(binary("odonav-sim"), {"straight", "--duration-s", "60", "--out", (dir / "data").string()}, dir, "sim")
+                .exit_code,
+            0);
   // A drive whose every fix is invalid: dead reckoning never starts (summary.json has nulls).
   {
     const std::string gnss = read_text(dir / "data" / "gnss.csv");
@@ -71,19 +77,22 @@ TEST(Report, RefusesWhatItMustNotWriteAndNeverTracesBack) {
     while (std::getline(in, line)) out << line.substr(0, line.rfind(',')) << ",0\n";  // fix is the last column
     std::ofstream(dir / "data" / "gnss.csv") << out.str();
   }
-  const RunResult off = run(binary("odonav-offline"), {(dir / "data").string(), "--out", (dir / "out").string()}, dir, "offline");
+  const RunResult off =
+      run(binary("odonav-offline"), {(dir / "data").string(), "--out", (dir / "out").string()}, dir, "offline");
   ASSERT_EQ(off.exit_code, 3) << off.err;  // no usable result
   const auto report = [&](std::vector<std::string> args, const std::string& name) {
     args.insert(args.begin(), (dir / "out").string());
     return run(binary("odonav-report"), args, dir, name);
   };
-  const RunResult never_started = report({"--out", (dir / "r.html").string(), "--dataset", (dir / "data").string()}, "ns");
+  const RunResult never_started =
+      report({"--out", (dir / "r.html").string(), "--dataset", (dir / "data").string()}, "ns");
   EXPECT_EQ(never_started.exit_code, 0) << never_started.err;
   EXPECT_NE(read_text(dir / "r.html").find("dead reckoning never started"), std::string::npos);
   EXPECT_NE(read_text(dir / "r.html").find("no_k"), std::string::npos) << "the run's warnings are on the page";
 
   const std::string gnss_before = read_text(dir / "data" / "gnss.csv");
-  const RunResult over_input = report({"--out", (dir / "data" / "gnss.csv").string(), "--dataset", (dir / "data").string()}, "oi");
+  const RunResult over_input =
+      report({"--out", (dir / "data" / "gnss.csv").string(), "--dataset", (dir / "data").string()}, "oi");
   EXPECT_EQ(over_input.exit_code, 1);
   EXPECT_NE(over_input.err.find("inside the dataset"), std::string::npos) << over_input.err;
   EXPECT_EQ(read_text(dir / "data" / "gnss.csv"), gnss_before);

@@ -129,9 +129,16 @@ TEST(Interop, EveryTopicIsReadByACycloneDdsReaderWithDefaultQosAndRosTypeNames) 
   Writer<msg::Command> command(participant, topics::kCommand.name, topics::kCommand.writer_profile);
 
   const std::vector<std::pair<const char*, odonav::dds::detail::WriterBase*>> writers{
-      {"odometer", &odometer}, {"ins", &ins},     {"gnss", &gnss},     {"misalignment", &misalignment},
-      {"primary", &primary},   {"standby", &standby}, {"dead_reckoning", &dead_reckoning},
-      {"health", &health},     {"command", &command}, {"navigation_position", &navigation}};
+      {"odometer", &odometer},
+      {"ins", &ins},
+      {"gnss", &gnss},
+      {"misalignment", &misalignment},
+      {"primary", &primary},
+      {"standby", &standby},
+      {"dead_reckoning", &dead_reckoning},
+      {"health", &health},
+      {"command", &command},
+      {"navigation_position", &navigation}};
   // Matching is where an incompatible QoS (EXCLUSIVE against the reader's SHARED) shows.
   for (const auto& [name, w] : writers)
     EXPECT_TRUE(w->wait_for_matched(1, seconds(30))) << name << " writer never matched the Cyclone DDS reader\n"

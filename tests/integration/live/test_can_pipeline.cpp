@@ -87,7 +87,6 @@ CanLog write_can_log(const Dataset& d, const fs::path& path) {
   return log;
 }
 
-
 fs::path simulate(const fs::path& dir, const std::string& scenario, const std::string& duration_s) {
   const fs::path data = dir / "sim";
   ChildProcess sim(binary("odonav-sim"), {scenario, "--seed", "2", "--duration-s", duration_s, "--out", data.string(),
@@ -173,9 +172,10 @@ TEST_F(CanPipeline, ReplayedCandumpLogEqualsTheOfflineToolOnTheEquivalentDataset
   write_dataset((dir / "companion").string(), companion);
 
   const int domain = 140;
-  const std::vector<std::string> common{"--domain", std::to_string(domain), "--profile",
-                                        std::string(ODONAV_SOURCE_DIR) + "/deploy/profiles/loopback.xml",
-                                        "--vehicle-id", kVehicle};
+  const std::vector<std::string> common{
+      "--domain",     std::to_string(domain),
+      "--profile",    std::string(ODONAV_SOURCE_DIR) + "/deploy/profiles/loopback.xml",
+      "--vehicle-id", kVehicle};
   std::vector<std::string> node = common;
   node.insert(node.end(), {"--max-wait-s", "30"});
   if (d.meta.gnss_lever_arm_m) {
@@ -214,11 +214,11 @@ TEST_F(CanPipeline, ReplayedCandumpLogEqualsTheOfflineToolOnTheEquivalentDataset
   for (int i = 0; i < 300 && !recorder_ready(); ++i) std::this_thread::sleep_for(200ms);
   ASSERT_TRUE(recorder_ready()) << read_text(dir / "odonav-recorder.log");
 
-  ChildProcess gw(binary("odonav-gateway"),
-                  with(common, {"--source", "candump:" + can_log.string(), "--candump-dataset",
-                                (dir / "companion").string(), "--can-odometer", kChannel, "--speed", "max",
-                                "--wait-for-readers", "4"}),
-                  dir / "gateway.log", dir / "gateway.log");
+  ChildProcess gw(
+      binary("odonav-gateway"),
+      with(common, {"--source", "candump:" + can_log.string(), "--candump-dataset", (dir / "companion").string(),
+                    "--can-odometer", kChannel, "--speed", "max", "--wait-for-readers", "4"}),
+      dir / "gateway.log", dir / "gateway.log");
   ASSERT_TRUE(gw.wait_exit(300s)) << "the gateway did not finish\n" << read_text(dir / "gateway.log");
   ASSERT_EQ(gw.exit_code(), 0) << read_text(dir / "gateway.log");
   // Data-flow order: each one's inputs are complete when it is told to stop.
@@ -296,8 +296,9 @@ TEST_F(CanPipeline, LiveCanOdometerWithInsLinesOverUdp) {
   // Standard input stays open 8 s after the log, while the INS lines come over UDP; its end ends the run.
   const std::string command = "sleep 2; cat '" + can_log.string() + "'; sleep 8";
   std::string gateway = binary("odonav-gateway");
-  for (const std::string& a : node_args(domain, 30.0, {"--source", "candump:-", "--can-odometer", kChannel,
-                                                       "--ins-source", "udp:127.0.0.1:" + std::to_string(port)}))
+  for (const std::string& a : node_args(domain, 30.0,
+                                        {"--source", "candump:-", "--can-odometer", kChannel, "--ins-source",
+                                         "udp:127.0.0.1:" + std::to_string(port)}))
     gateway += " '" + a + "'";
   ChildProcess gw("/bin/sh", {"-c", "(" + command + ") | " + gateway}, dir / "gateway.log", dir / "gateway.log");
   ASSERT_TRUE(ins.reader().wait_for_matched(1, 20s)) << read_text(dir / "gateway.log");

@@ -69,9 +69,9 @@ double stamp_s(const msg::GnssFix& m) { return dds::to_seconds(m.header().stamp(
 
 TEST(GpsdGateway, SimulatorNmeaThroughGpsdMatchesTheScenarioGnss) {
   const fs::path dir = fresh_live_dir("gpsd-sim");
-  ChildProcess sim(binary("odonav-sim"), {"straight", "--seed", "5", "--duration-s", "12", "--out",
-                                          (dir / "dataset").string(), "--nmea", (dir / "drive.nmea").string(),
-                                          "--log-level", "warn"});
+  ChildProcess sim(binary("odonav-sim"),
+                   {"straight", "--seed", "5", "--duration-s", "12", "--out", (dir / "dataset").string(), "--nmea",
+                    (dir / "drive.nmea").string(), "--log-level", "warn"});
   ASSERT_TRUE(sim.wait_exit(60s));
   ASSERT_EQ(sim.exit_code(), 0);
   const Dataset d = read_dataset((dir / "dataset").string(), BadRowPolicy::kFail);
@@ -140,7 +140,7 @@ TEST(GpsdGateway, SimulatorNmeaThroughGpsdMatchesTheScenarioGnss) {
 struct LogFix {
   int time_of_day_s = 0;  ///< hhmmss as seconds of the day (the logs have whole seconds)
   double lat_deg = 0, lon_deg = 0;
-  bool valid = false;     ///< RMC/GLL status A, GGA quality > 0
+  bool valid = false;                  ///< RMC/GLL status A, GGA quality > 0
   std::optional<double> msl_m, sep_m;  ///< GGA altitude and geoid separation when given
   /// RMC: a course, or a speed below the gateway's 1 m/s "standing" bound without one.
   bool has_velocity = false;
@@ -197,8 +197,8 @@ std::vector<LogFix> log_fixes(const fs::path& log) {
 }
 
 struct LogExpectation {
-  std::size_t epochs_in_order = 0;  ///< distinct epochs that move time forward
-  std::size_t epochs_backwards = 0; ///< epochs earlier than one already seen (the glitch)
+  std::size_t epochs_in_order = 0;   ///< distinct epochs that move time forward
+  std::size_t epochs_backwards = 0;  ///< epochs earlier than one already seen (the glitch)
 };
 LogExpectation expectation_of(const std::vector<LogFix>& fixes) {
   LogExpectation e;
@@ -287,10 +287,11 @@ void check_real_log(int domain, const std::string& name, std::size_t expected_ba
   EXPECT_LE(run.fixes.size(), expect.epochs_in_order);
   EXPECT_GE(run.fixes.size() + 4, expect.epochs_in_order) << "at most 4 epochs merged while gpsd learns the cycle";
   EXPECT_EQ(published_valid, expected_valid) << "complete epochs of the log";
-  std::printf("%s: %zu epochs in order, %zu backwards in the log; published %zu fixes (%zu with a position, %zu "
-              "valid), %.0f backward fixes dropped\n",
-              name.c_str(), expect.epochs_in_order, expect.epochs_backwards, run.fixes.size(), with_position,
-              published_valid, backwards);
+  std::printf(
+      "%s: %zu epochs in order, %zu backwards in the log; published %zu fixes (%zu with a position, %zu "
+      "valid), %.0f backward fixes dropped\n",
+      name.c_str(), expect.epochs_in_order, expect.epochs_backwards, run.fixes.size(), with_position, published_valid,
+      backwards);
 }
 
 TEST(GpsdGateway, HumminbirdLogWithTimeGoingBackward) { check_real_log(121, "humminbird-M37.log", 9, 0); }

@@ -33,8 +33,8 @@ fs::path fresh_dir(const std::string& name) {
 
 /// A 12 s straight drive written by odonav-sim and read back as the gateway's consumers see it.
 Dataset simulated_drive(const fs::path& dir) {
-  ChildProcess sim(binary("odonav-sim"), {"straight", "--seed", "5", "--duration-s", "12", "--out", dir.string(),
-                                          "--log-level", "warn"});
+  ChildProcess sim(binary("odonav-sim"),
+                   {"straight", "--seed", "5", "--duration-s", "12", "--out", dir.string(), "--log-level", "warn"});
   EXPECT_TRUE(sim.wait_exit(60s));
   EXPECT_EQ(sim.exit_code(), 0);
   return read_dataset(dir.string(), BadRowPolicy::kFail);
@@ -54,7 +54,9 @@ LineScript line_script(const Dataset& d) {
   for (const gateway::SensorEvent& e : gateway::interleave(d)) {
     std::string line;
     switch (e.stream) {
-      case gateway::SensorEvent::Stream::kOdometer: line = gateway::odometer_line(d.odometer[e.index], n % 2 == 0); break;
+      case gateway::SensorEvent::Stream::kOdometer:
+        line = gateway::odometer_line(d.odometer[e.index], n % 2 == 0);
+        break;
       case gateway::SensorEvent::Stream::kIns: line = gateway::ins_line(d.ins[e.index], n % 2 == 0); break;
       case gateway::SensorEvent::Stream::kGnss: line = gateway::gnss_line(d.gnss[e.index], n % 2 == 0); break;
     }
@@ -81,8 +83,9 @@ LineScript line_script(const Dataset& d) {
 /// every odometer sample sent so far: flow control, so a loaded machine cannot overflow a socket
 /// buffer. `write` sends some text.
 using WaitForOdometer = std::function<void(std::size_t)>;
-void send_paced(const LineScript& script, const std::string& line_end, const std::function<void(const std::string&)>& write,
-                const WaitForOdometer& wait_for_odometer, bool one_write_per_line) {
+void send_paced(const LineScript& script, const std::string& line_end,
+                const std::function<void(const std::string&)>& write, const WaitForOdometer& wait_for_odometer,
+                bool one_write_per_line) {
   std::string chunk;
   for (std::size_t i = 0; i < script.lines.size(); ++i) {
     chunk += script.lines[i] + line_end;
@@ -170,8 +173,7 @@ void run_and_compare(int domain, const std::string& source, const Dataset& d, co
   EXPECT_EQ(counter(*last, "lines_time_backwards"), 0.0);
   EXPECT_EQ(last->level(), msg::HEALTH_LEVEL_WARN);  // bad lines were seen
   std::printf("%s: %zu lines -> %zu odometer, %zu INS, %zu GNSS published; %zu malformed, %zu bad checksums counted\n",
-              source.c_str(), script.lines.size(), o.size(), a.size(), g.size(), script.malformed,
-              script.bad_checksum);
+              source.c_str(), script.lines.size(), o.size(), a.size(), g.size(), script.malformed, script.bad_checksum);
 }
 
 TEST(LiveGateway, UdpOnLoopbackCarriesASimulatedDrive) {
@@ -185,10 +187,13 @@ TEST(LiveGateway, UdpOnLoopbackCarriesASimulatedDrive) {
     to.sin_family = AF_INET;
     to.sin_port = htons(static_cast<uint16_t>(port));
     to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    send_paced(script, "\n", [&](const std::string& datagram) {
-      ASSERT_EQ(::sendto(s, datagram.data(), datagram.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof(to)),
-                static_cast<ssize_t>(datagram.size()));
-    }, wait, true);
+    send_paced(
+        script, "\n",
+        [&](const std::string& datagram) {
+          ASSERT_EQ(::sendto(s, datagram.data(), datagram.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof(to)),
+                    static_cast<ssize_t>(datagram.size()));
+        },
+        wait, true);
     ::close(s);
   });
 }
@@ -213,7 +218,8 @@ TEST(LiveGateway, SerialThroughASocatPtyPairCarriesASimulatedDrive) {
   PtyPair pty(socat, dir);
   ASSERT_TRUE(pty.ok()) << pty.error();
   run_and_compare(91, "serial:" + pty.gateway_end() + ":115200", d, script, [&](const WaitForOdometer& wait) {
-    send_paced(script, "\r\n", [&](const std::string& text) { ASSERT_TRUE(pty.write(text)); }, wait, false);
+    send_paced(
+        script, "\r\n", [&](const std::string& text) { ASSERT_TRUE(pty.write(text)); }, wait, false);
   });
 }
 

@@ -77,15 +77,16 @@ DriveAndReplay drive_and_replay(const std::string& name, int domain) {
   DriveAndReplay r;
   const fs::path dir = fresh_live_dir(name);
   const std::string data = (dir / "dataset").string();
-  ChildProcess sim(binary("odonav-sim"), {"straight", "--seed", "5", "--duration-s", "60", "--out", data,
-                                          "--log-level", "warn"});
+  ChildProcess sim(binary("odonav-sim"),
+                   {"straight", "--seed", "5", "--duration-s", "60", "--out", data, "--log-level", "warn"});
   EXPECT_TRUE(sim.wait_exit(60s));
   EXPECT_EQ(sim.exit_code(), 0);
   r.d = read_dataset(data, BadRowPolicy::kFail);
   // Replay: the gateway reads the directory and waits for the three consumers itself.
   r.replay = run_pipeline(domain, [&](dds::Participant&) {
-    ChildProcess gw(binary("odonav-gateway"), node_args(domain, 30.0, {"--source", "replay:" + data, "--speed", "max",
-                                                                        "--wait-for-readers", "3"}));
+    ChildProcess gw(
+        binary("odonav-gateway"),
+        node_args(domain, 30.0, {"--source", "replay:" + data, "--speed", "max", "--wait-for-readers", "3"}));
     EXPECT_TRUE(gw.wait_exit(120s)) << "replay gateway did not finish";
     EXPECT_EQ(gw.exit_code(), 0);
   });
@@ -143,10 +144,10 @@ void expect_same_k(const DriveAndReplay& r, const PipelineRun& live, const char*
   EXPECT_EQ(live.k.size(), r.replay.k.size()) << "the same number of distinct estimates";
   const double k_true = r.d.truth.back().k_true_m_per_pulse;
   EXPECT_NEAR(a.k_m_per_pulse(), k_true, 0.01 * k_true) << "the replay's K is the scenario's (within 1 %)";
-  std::printf("final K (%s): replay %.12g, live %.12g m/pulse (difference %.3g, %zu / %zu estimates, converged %d), "
-              "K_true %.12g\n",
-              what, a.k_m_per_pulse(), b.k_m_per_pulse(), dk, r.replay.k.size(), live.k.size(),
-              a.converged() ? 1 : 0, k_true);
+  std::printf(
+      "final K (%s): replay %.12g, live %.12g m/pulse (difference %.3g, %zu / %zu estimates, converged %d), "
+      "K_true %.12g\n",
+      what, a.k_m_per_pulse(), b.k_m_per_pulse(), dk, r.replay.k.size(), live.k.size(), a.converged() ? 1 : 0, k_true);
 }
 
 TEST(LivePipeline, UdpLinesReachTheSameKAsTheReplay) {

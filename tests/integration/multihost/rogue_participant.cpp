@@ -90,24 +90,31 @@ int run(const odonav::Options& o) {
       return decltype(make())();
     }
   };
-  auto k_reader = optional_reader([&] {
-    return std::make_unique<odonav::dds::Reader<msg::ScaleFactor>>(
-        participant, topics::kScaleFactor.name, topics::kGroundBestEffortReaderProfile,
-        [&](const msg::ScaleFactor& m) {
-          ++counts.scale_factor;
-          if (m.k_m_per_pulse() != fake_k) ++counts.scale_factor_not_fake;
-        });
-  }, "scale_factor");
-  auto dr_reader = optional_reader([&] {
-    return std::make_unique<odonav::dds::Reader<msg::DeadReckoning>>(
-        participant, topics::kDeadReckoning.name, topics::kGroundBestEffortReaderProfile,
-        [&](const msg::DeadReckoning&) { ++counts.dead_reckoning; });
-  }, "dead_reckoning");
-  auto odo_reader = optional_reader([&] {
-    return std::make_unique<odonav::dds::Reader<msg::Odometer>>(
-        participant, topics::kOdometer.name, topics::kGroundBestEffortReaderProfile,
-        [&](const msg::Odometer&) { ++counts.odometer; });
-  }, "odometer");
+  auto k_reader = optional_reader(
+      [&] {
+        return std::make_unique<odonav::dds::Reader<msg::ScaleFactor>>(participant, topics::kScaleFactor.name,
+                                                                       topics::kGroundBestEffortReaderProfile,
+                                                                       [&](const msg::ScaleFactor& m) {
+                                                                         ++counts.scale_factor;
+                                                                         if (m.k_m_per_pulse() != fake_k)
+                                                                           ++counts.scale_factor_not_fake;
+                                                                       });
+      },
+      "scale_factor");
+  auto dr_reader = optional_reader(
+      [&] {
+        return std::make_unique<odonav::dds::Reader<msg::DeadReckoning>>(
+            participant, topics::kDeadReckoning.name, topics::kGroundBestEffortReaderProfile,
+            [&](const msg::DeadReckoning&) { ++counts.dead_reckoning; });
+      },
+      "dead_reckoning");
+  auto odo_reader = optional_reader(
+      [&] {
+        return std::make_unique<odonav::dds::Reader<msg::Odometer>>(participant, topics::kOdometer.name,
+                                                                    topics::kGroundBestEffortReaderProfile,
+                                                                    [&](const msg::Odometer&) { ++counts.odometer; });
+      },
+      "odometer");
 
   const auto t0 = std::chrono::steady_clock::now();
   const auto end = t0 + std::chrono::microseconds(static_cast<std::int64_t>(o.get_double("duration-s") * 1e6));
@@ -132,7 +139,7 @@ int run(const odonav::Options& o) {
   }
   const auto count = [&](const char* topic, std::uint64_t n) {
     return std::find(refused.begin(), refused.end(), topic) != refused.end() ? nlohmann::json(nullptr)
-                                                                           : nlohmann::json(n);
+                                                                             : nlohmann::json(n);
   };
   nlohmann::json j{{"written", written},
                    {"fake_matched_readers_max", matched_max},
@@ -160,7 +167,8 @@ int main(int argc, char** argv) {
   o.add_double("stamp-start-s", 0.0, "event time (s) of the first fake sample; then + wall time", 0.0, 1e9);
   o.add_double("duration-s", 10.0, "how long to run (s)", 0.1, 3600.0);
   o.add_bool("listen-only", false, "only listen, write nothing");
-  o.add_int("ownership-strength", 1000, "priority (source_priority, ownership strength) of the fake writer (identification's: 10)", 0, 1000000);
+  o.add_int("ownership-strength", 1000,
+            "priority (source_priority, ownership strength) of the fake writer (identification's: 10)", 0, 1000000);
   odonav::dds::add_security_options(o);
   struct sigaction sa {};
   sa.sa_handler = on_signal;

@@ -91,7 +91,7 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 /// The live monitor's JSON lines (one snapshot per refresh), each stamped with the test's clock
 /// when it was read (polled every 100 ms, so the stamp is at most ~0.1 s late).
 struct Snapshot {
-  double read_s = 0.0;  // seconds since the rig started
+  double read_s = 0.0;     // seconds since the rig started
   nlohmann::json vehicle;  // the test vehicle's entry (null if absent)
 
   const nlohmann::json* component(const std::string& name) const {
@@ -179,8 +179,7 @@ class Rig {
   }
 
   /// Waits until `text` appears in the log of `name`; false on timeout or if any process died.
-  bool wait_for_log(const std::string& name, const std::string& text, std::chrono::seconds timeout,
-                    std::string& why) {
+  bool wait_for_log(const std::string& name, const std::string& text, std::chrono::seconds timeout, std::string& why) {
     const auto end = Clock::now() + timeout;
     while (Clock::now() < end) {
       if (read_text(log_file(name)).find(text) != std::string::npos) return true;
@@ -307,8 +306,8 @@ std::pair<double, double> check_final_accuracy(const Drive& drive, const odonav:
   EXPECT_NEAR(t_last.t_s, last.t_s, 1e-6);
   const double travelled = t_last.distance_m - truth_at(drive.data, first.t_s).distance_m;
   EXPECT_GT(travelled, 300.0);
-  const double error_m = odonav::horizontal_distance_m(
-      odonav::Geodetic{last.lat_rad, last.lon_rad, last.height_m}, t_last.position);
+  const double error_m =
+      odonav::horizontal_distance_m(odonav::Geodetic{last.lat_rad, last.lon_rad, last.height_m}, t_last.position);
   const double percent = 100.0 * error_m / travelled;
   EXPECT_LT(percent, 0.5) << error_m << " m over " << travelled << " m";
   std::cerr << "final K error " << k_error << " %, DR final error " << error_m << " m over " << travelled
@@ -320,7 +319,8 @@ std::pair<double, double> check_final_accuracy(const Drive& drive, const odonav:
 std::pair<double, double> dr_largest_gap(const std::vector<odonav::results::DeadReckoningRow>& dr,
                                          const odonav::Dataset& data) {
   std::vector<double> steps;
-  for (std::size_t i = 1; i < data.odometer.size(); ++i) steps.push_back(data.odometer[i].t_s - data.odometer[i - 1].t_s);
+  for (std::size_t i = 1; i < data.odometer.size(); ++i)
+    steps.push_back(data.odometer[i].t_s - data.odometer[i - 1].t_s);
   std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
   const double period = steps[steps.size() / 2];
   double gap = 0.0;
@@ -366,10 +366,12 @@ TEST_F(MultiHost, PipelineAcrossHostsSurvivesAFiveSecondLinkCutOfEcu2) {
   VirtualNetwork net(dir / "net", hosts());
   std::map<std::string, fs::path> profile;
   for (const auto& h : hosts())
-    profile[h.name] = instantiate_profile(kSource / "deploy/profiles/vehicle.xml", dir / "profiles" / h.name, h.address);
+    profile[h.name] =
+        instantiate_profile(kSource / "deploy/profiles/vehicle.xml", dir / "profiles" / h.name, h.address);
   const auto common = [&](const std::string& host) {
-    return std::vector<std::string>{"--domain",     std::to_string(kDomain), "--profile", profile[host].string(),
-                                    "--profile-name", "vehicle",             "--vehicle-id", kVehicle};
+    return std::vector<std::string>{
+        "--domain", std::to_string(kDomain), "--profile", profile[host].string(), "--profile-name",
+        "vehicle",  "--vehicle-id",          kVehicle};
   };
   const auto node = [&](const std::string& host) {
     auto a = common(host);
@@ -412,11 +414,12 @@ TEST_F(MultiHost, PipelineAcrossHostsSurvivesAFiveSecondLinkCutOfEcu2) {
   }());
 
   // Run until DR navigates on an identified K, well into the drive.
-  ASSERT_TRUE(rig.wait_snapshot("monitor",
-                                [&](const Snapshot& s) {
-                                  return s.dr_k_source() == "identified" && s.dr_stamp_s().value_or(0.0) >= t_first + kCutAfter_s;
-                                },
-                                kCutAfter_s + 60.0))
+  ASSERT_TRUE(rig.wait_snapshot(
+      "monitor",
+      [&](const Snapshot& s) {
+        return s.dr_k_source() == "identified" && s.dr_stamp_s().value_or(0.0) >= t_first + kCutAfter_s;
+      },
+      kCutAfter_s + 60.0))
       << "DR never used an identified K by t=" << kCutAfter_s << " s\n"
       << rig.log_tail("odonav-dead-reckoning") << rig.log_tail("odonav-identification") << rig.log_tail("monitor");
   // UDP only, also between the two components on one ECU: Fast DDS 2.9's shared-memory transport
@@ -473,7 +476,8 @@ TEST_F(MultiHost, PipelineAcrossHostsSurvivesAFiveSecondLinkCutOfEcu2) {
   // ---- the end of the data, then stop in data-flow order (each drains) ----
   ChildProcess& gateway = rig.child("odonav-gateway");
   ASSERT_TRUE(gateway.wait_exit(std::chrono::seconds(static_cast<int>(kDuration_s * 1.5 + 60))))
-      << "the gateway did not reach the end of the data\n" << rig.log_tail("odonav-gateway");
+      << "the gateway did not reach the end of the data\n"
+      << rig.log_tail("odonav-gateway");
   EXPECT_EQ(gateway.exit_code(), 0) << rig.log_tail("odonav-gateway");
   for (const char* c : {"odonav-calibration", "odonav-identification", "odonav-dead-reckoning", "odonav-recorder"})
     EXPECT_EQ(rig.stop(c, 60s), 0) << rig.log_tail(c);
@@ -556,9 +560,9 @@ TEST_F(MultiHost, SecurePipelineAcrossHostsKeepsIntrudersOut) {
   }
   const std::string pki = (dir / "pki").string();
   const auto common = [&](const std::string& host) {
-    return std::vector<std::string>{"--domain",     std::to_string(kDomain), "--profile",      secure[host].string(),
-                                    "--profile-name", "vehicle_secure",      "--vehicle-id",   kVehicle,
-                                    "--security-dir", pki};
+    return std::vector<std::string>{
+        "--domain",       std::to_string(kDomain), "--profile", secure[host].string(), "--profile-name",
+        "vehicle_secure", "--vehicle-id",          kVehicle,    "--security-dir",      pki};
   };
   const auto node = [&](const std::string& host, bool nominal_k) {
     auto a = common(host);
@@ -617,16 +621,17 @@ TEST_F(MultiHost, SecurePipelineAcrossHostsKeepsIntrudersOut) {
              "--duration-s", intrude_s});
   // Valid-looking material of another PKI with a legitimate identity name: it may publish the
   // scale factor by its (foreign) permissions, but the vehicle's CA does not authenticate it.
-  rig.start("foreign-ca", "gs", "odonav-multihost-rogue",
-            {"--domain", std::to_string(kDomain), "--profile", secure["gs"].string(), "--profile-name",
-             "vehicle_secure", "--name", "odonav-identification", "--security-dir", (dir / "pki_foreign").string(),
-             "--vehicle-id", kVehicle, "--fake-k", std::to_string(kFakeForeignCa), "--stamp-start-s", stamp.str(),
-             "--duration-s", intrude_s});
+  rig.start(
+      "foreign-ca", "gs", "odonav-multihost-rogue",
+      {"--domain", std::to_string(kDomain), "--profile", secure["gs"].string(), "--profile-name", "vehicle_secure",
+       "--name", "odonav-identification", "--security-dir", (dir / "pki_foreign").string(), "--vehicle-id", kVehicle,
+       "--fake-k", std::to_string(kFakeForeignCa), "--stamp-start-s", stamp.str(), "--duration-s", intrude_s});
 
   ChildProcess& gateway = rig.child("odonav-gateway");
   const auto gateway_end = Clock::now() + std::chrono::seconds(static_cast<int>(kDuration_s * 1.5 + 60));
   while (!gateway.wait_exit(100ms) && Clock::now() < gateway_end) rig.poll_monitor("monitor");
-  ASSERT_FALSE(gateway.running()) << "the gateway did not reach the end of the data\n" << rig.log_tail("odonav-gateway");
+  ASSERT_FALSE(gateway.running()) << "the gateway did not reach the end of the data\n"
+                                  << rig.log_tail("odonav-gateway");
   EXPECT_EQ(gateway.exit_code(), 0) << rig.log_tail("odonav-gateway");
   for (const char* c : {"odonav-calibration", "odonav-identification", "odonav-dead-reckoning", "odonav-recorder"})
     EXPECT_EQ(rig.stop(c, 60s), 0) << rig.log_tail(c);
@@ -669,8 +674,8 @@ TEST_F(MultiHost, SecurePipelineAcrossHostsKeepsIntrudersOut) {
   EXPECT_GT(snapshots_showing_intruders, 0u) << "no component's health ever showed the intruders";
 
   // The intruders received nothing of the vehicle, only (the control) their own fake samples.
-  for (const auto& [name, fake_k] : {std::pair<std::string, double>{"no-credentials", kFakeNoCredentials},
-                                     {"foreign-ca", kFakeForeignCa}}) {
+  for (const auto& [name, fake_k] :
+       {std::pair<std::string, double>{"no-credentials", kFakeNoCredentials}, {"foreign-ca", kFakeForeignCa}}) {
     const auto r = last_json_line(rig.out_file(name));
     ASSERT_FALSE(r.is_discarded()) << rig.log_tail(name);
     std::cerr << name << ": " << r.dump() << "\n";
@@ -697,10 +702,12 @@ TEST_F(MultiHost, SecurePipelineAcrossHostsKeepsIntrudersOut) {
   // the DDS layer's log lines "<me> discovered participant '<name>' (<guid>)" and "<me>
   // authenticated participant <guid>". (The foreign-CA intruder is also named
   // odonav-identification: a name counts as authenticated if one of its GUIDs is.)
-  const std::vector<std::pair<std::string, std::string>> legit = {
-      {"odonav-gateway", "odonav-gateway"},           {"odonav-calibration", "odonav-calibration"},
-      {"odonav-identification", "odonav-identification"}, {"odonav-dead-reckoning", "odonav-dead-reckoning"},
-      {"odonav-recorder", "odonav-recorder"},         {"monitor", "odonav-ground"}};
+  const std::vector<std::pair<std::string, std::string>> legit = {{"odonav-gateway", "odonav-gateway"},
+                                                                  {"odonav-calibration", "odonav-calibration"},
+                                                                  {"odonav-identification", "odonav-identification"},
+                                                                  {"odonav-dead-reckoning", "odonav-dead-reckoning"},
+                                                                  {"odonav-recorder", "odonav-recorder"},
+                                                                  {"monitor", "odonav-ground"}};
   const std::regex discovered_re("discovered participant '([^']+)' \\(([0-9a-f.]+)\\)");
   const std::regex authenticated_re("authenticated participant ([0-9a-f.]+)");
   for (const auto& [log_name, own_name] : legit) {
@@ -712,7 +719,7 @@ TEST_F(MultiHost, SecurePipelineAcrossHostsKeepsIntrudersOut) {
     for (std::sregex_iterator it(log.begin(), log.end(), authenticated_re), end; it != end; ++it)
       authenticated.insert((*it)[1].str());
     EXPECT_EQ(authenticated.size(), legit.size() - 1) << own_name << " authenticated " << authenticated.size()
-                                                       << " participants, not the " << legit.size() - 1 << " others";
+                                                      << " participants, not the " << legit.size() - 1 << " others";
     for (const auto& [other_log, other_name] : legit) {
       if (other_name == own_name) continue;
       const auto [first, last] = guids_by_name.equal_range(other_name);

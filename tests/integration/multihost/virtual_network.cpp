@@ -45,8 +45,10 @@ void on_fatal_signal(int sig) {
 std::string quoted(const std::string& s) {
   std::string q = "'";
   for (char c : s) {
-    if (c == '\'') q += "'\\''";
-    else q += c;
+    if (c == '\'')
+      q += "'\\''";
+    else
+      q += c;
   }
   return q + "'";
 }
@@ -67,8 +69,8 @@ void remove_stale_namespaces() {
   }
   ::pclose(list);
   for (const auto& ns : stale) {
-    const std::string cmd = "for p in $(ip netns pids " + ns + " 2>/dev/null); do kill -KILL $p; done; ip netns del " +
-                            ns + " 2>/dev/null";
+    const std::string cmd =
+        "for p in $(ip netns pids " + ns + " 2>/dev/null); do kill -KILL $p; done; ip netns del " + ns + " 2>/dev/null";
     [[maybe_unused]] int rc = std::system(cmd.c_str());
   }
 }
@@ -103,8 +105,7 @@ VirtualNetwork::VirtualNetwork(const fs::path& work_dir, const std::vector<Host>
     if (!s) throw std::runtime_error("VirtualNetwork: cannot write " + cleanup_script_.string());
   }
   const std::string script = cleanup_script_.string();
-  if (script.size() >= sizeof g_cleanup_script)
-    throw std::runtime_error("VirtualNetwork: path too long: " + script);
+  if (script.size() >= sizeof g_cleanup_script) throw std::runtime_error("VirtualNetwork: path too long: " + script);
   std::strncpy(g_cleanup_script, script.c_str(), sizeof g_cleanup_script - 1);
   struct sigaction sa {};
   sa.sa_handler = on_fatal_signal;
@@ -185,9 +186,17 @@ std::vector<std::string> VirtualNetwork::exec_argv(const std::string& name, cons
   // $0 = the host's shm directory, $1/$2 = output files, then the command. 97: the bind failed.
   static const char* kScript =
       "mount --bind \"$0\" /dev/shm || exit 97; out=$1; err=$2; shift 2; exec \"$@\" >\"$out\" 2>\"$err\"";
-  std::vector<std::string> argv{"/usr/bin/env",        "ip",      "netns",           "exec", namespace_of(name),
-                                "/bin/sh",             "-c",      kScript,           shm_dir(name).string(),
-                                out_file.string(),     err_file.string()};
+  std::vector<std::string> argv{"/usr/bin/env",
+                                "ip",
+                                "netns",
+                                "exec",
+                                namespace_of(name),
+                                "/bin/sh",
+                                "-c",
+                                kScript,
+                                shm_dir(name).string(),
+                                out_file.string(),
+                                err_file.string()};
   argv.insert(argv.end(), command.begin(), command.end());
   return argv;
 }

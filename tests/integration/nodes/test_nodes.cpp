@@ -70,7 +70,8 @@ std::optional<msg::Health> last_health(const Collector<msg::Health>& h, const st
   return found;
 }
 
-std::vector<TimedWrite> sensor_writes(const Dataset& d, odonav::dds::Writer<msg::Odometer>* odo, odonav::dds::Writer<msg::GnssFix>* gnss,
+std::vector<TimedWrite> sensor_writes(const Dataset& d, odonav::dds::Writer<msg::Odometer>* odo,
+                                      odonav::dds::Writer<msg::GnssFix>* gnss,
                                       odonav::dds::Writer<msg::InsAttitude>* ins) {
   std::vector<TimedWrite> w;
   if (odo)
@@ -114,21 +115,27 @@ std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d, cons
       dr.add_misalignment(estimate_applies_from_s(m.t_s, kDefaultEstimateHoldOff_s), m.misalignment);
   if (k)
     for (const auto& s : *k)
-      dr.add_gnss_latency(estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
-                          s.gnss_latency_s());
+      dr.add_gnss_latency(
+          estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
+          s.gnss_latency_s());
   ScaleFactorSelection selection(DeadReckonerParams{}.nominal_k_m_per_pulse);
   if (k)
     for (const auto& s : *k) {
       const IdentifiedScaleFactor in{
           estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
-          s.k_m_per_pulse(), s.converged(), s.source(), s.sigma_m_per_pulse(), s.samples_accepted()};
+          s.k_m_per_pulse(),
+          s.converged(),
+          s.source(),
+          s.sigma_m_per_pulse(),
+          s.samples_accepted()};
       if (const auto update = selection.on_identified(in, 0.0))
         dr.add_scale_factor(update->t_s, update->k_m_per_pulse, update->source);
     }
   return dr.finish();
 }
 
-void expect_same_dead_reckoning(const std::vector<msg::DeadReckoning>& got, const std::vector<DeadReckoningOutput>& want) {
+void expect_same_dead_reckoning(const std::vector<msg::DeadReckoning>& got,
+                                const std::vector<DeadReckoningOutput>& want) {
   ASSERT_EQ(got.size(), want.size());
   for (std::size_t i = 0; i < got.size(); ++i) {
     const auto& g = got[i];
@@ -201,8 +208,8 @@ TEST_F(NodeProcess, CalibrationNodePublishesWhatTheCalibratorComputesAndDrainsOn
   EXPECT_NEAR(rad_to_deg(got.back().heading_rad()), 0.8, 0.1);
   EXPECT_NEAR(rad_to_deg(got.back().pitch_rad()), -0.5, 0.1);
 
-  ASSERT_TRUE(health.wait_until(
-      [](const auto& v) { return !v.empty() && v.back().reason() == "stopped: drained"; }, 10s));
+  ASSERT_TRUE(
+      health.wait_until([](const auto& v) { return !v.empty() && v.back().reason() == "stopped: drained"; }, 10s));
   const auto h = last_health(health, "odonav-calibration");
   ASSERT_TRUE(h.has_value());
   EXPECT_EQ(counter(*h, "gnss_in"), static_cast<double>(d.gnss.size()));
@@ -224,21 +231,24 @@ TEST_F(NodeProcess, IdentificationNodeEqualsTheCoreFedTheSameMisalignments) {
   odonav::dds::Writer<msg::Odometer> odo(p, topics::kOdometer.name, topics::kOdometer.writer_profile);
   odonav::dds::Writer<msg::GnssFix> gnss(p, topics::kGnssFix.name, topics::kGnssFix.writer_profile);
   odonav::dds::Writer<msg::InsAttitude> ins(p, topics::kInsAttitude.name, topics::kInsAttitude.writer_profile);
-  odonav::dds::Writer<msg::Misalignment> mis_writer(p, topics::kMisalignment.name, topics::kMisalignment.writer_profile);
+  odonav::dds::Writer<msg::Misalignment> mis_writer(p, topics::kMisalignment.name,
+                                                    topics::kMisalignment.writer_profile);
   odonav::dds::Writer<msg::Command> command(p, topics::kCommand.name, topics::kCommand.writer_profile);
   Collector<msg::ScaleFactor> out(p, topics::kScaleFactor);
   Collector<msg::Health> health(p, topics::kHealth);
 
   ChildProcess node(binary("odonav-identification"), node_args(domain, 10.0));
   ASSERT_TRUE(node.started());
-  for (odonav::dds::detail::WriterBase* w : std::vector<odonav::dds::detail::WriterBase*>{&odo, &gnss, &ins, &mis_writer, &command})
+  for (odonav::dds::detail::WriterBase* w :
+       std::vector<odonav::dds::detail::WriterBase*>{&odo, &gnss, &ins, &mis_writer, &command})
     ASSERT_TRUE(w->wait_for_matched(1, 20s)) << w->topic_name();
   ASSERT_TRUE(out.reader().wait_for_matched(1, 20s));
   settle_discovery();
 
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   for (const auto& m : mis)  // as the calibration node publishes them: after the GNSS epoch
-    writes.push_back({m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+    writes.push_back(
+        {m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
   replay(writes, {&odo, &gnss, &ins, &mis_writer});
   wait_quiet(out);
 
@@ -300,20 +310,23 @@ TEST_F(NodeProcess, DeadReckoningNodeEqualsTheDeadReckonerFedTheSameEstimates) {
   odonav::dds::Writer<msg::Odometer> odo(p, topics::kOdometer.name, topics::kOdometer.writer_profile);
   odonav::dds::Writer<msg::GnssFix> gnss(p, topics::kGnssFix.name, topics::kGnssFix.writer_profile);
   odonav::dds::Writer<msg::InsAttitude> ins(p, topics::kInsAttitude.name, topics::kInsAttitude.writer_profile);
-  odonav::dds::Writer<msg::Misalignment> mis_writer(p, topics::kMisalignment.name, topics::kMisalignment.writer_profile);
+  odonav::dds::Writer<msg::Misalignment> mis_writer(p, topics::kMisalignment.name,
+                                                    topics::kMisalignment.writer_profile);
   odonav::dds::Writer<msg::ScaleFactor> k_writer(p, topics::kScaleFactor.name, topics::kScaleFactor.writer_profile);
   Collector<msg::DeadReckoning> out(p, topics::kDeadReckoning);
 
   ChildProcess node(binary("odonav-dead-reckoning"), node_args(domain, 10.0));
   ASSERT_TRUE(node.started());
-  for (odonav::dds::detail::WriterBase* w : std::vector<odonav::dds::detail::WriterBase*>{&odo, &gnss, &ins, &mis_writer, &k_writer})
+  for (odonav::dds::detail::WriterBase* w :
+       std::vector<odonav::dds::detail::WriterBase*>{&odo, &gnss, &ins, &mis_writer, &k_writer})
     ASSERT_TRUE(w->wait_for_matched(1, 20s)) << w->topic_name();
   ASSERT_TRUE(out.reader().wait_for_matched(1, 20s));
   settle_discovery();
 
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   for (const auto& m : mis)
-    writes.push_back({m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+    writes.push_back(
+        {m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
   for (const auto& k : k_messages)
     writes.push_back({odonav::dds::to_seconds(k.header().stamp()), 2, [&k_writer, k] { k_writer.write(k); }});
   replay(writes, {&odo, &gnss, &ins, &mis_writer, &k_writer});
@@ -339,19 +352,22 @@ TEST_F(NodeProcess, DeadReckoningWithoutIdentificationUsesTheNominalKAndSaysSo) 
   odonav::dds::Writer<msg::Odometer> odo(p, topics::kOdometer.name, topics::kOdometer.writer_profile);
   odonav::dds::Writer<msg::GnssFix> gnss(p, topics::kGnssFix.name, topics::kGnssFix.writer_profile);
   odonav::dds::Writer<msg::InsAttitude> ins(p, topics::kInsAttitude.name, topics::kInsAttitude.writer_profile);
-  odonav::dds::Writer<msg::Misalignment> mis_writer(p, topics::kMisalignment.name, topics::kMisalignment.writer_profile);
+  odonav::dds::Writer<msg::Misalignment> mis_writer(p, topics::kMisalignment.name,
+                                                    topics::kMisalignment.writer_profile);
   Collector<msg::DeadReckoning> out(p, topics::kDeadReckoning);
   Collector<msg::Health> health(p, topics::kHealth);
 
   ChildProcess node(binary("odonav-dead-reckoning"), node_args(domain, 0.5));
   ASSERT_TRUE(node.started());
-  for (odonav::dds::detail::WriterBase* w : std::vector<odonav::dds::detail::WriterBase*>{&odo, &gnss, &ins, &mis_writer})
+  for (odonav::dds::detail::WriterBase* w :
+       std::vector<odonav::dds::detail::WriterBase*>{&odo, &gnss, &ins, &mis_writer})
     ASSERT_TRUE(w->wait_for_matched(1, 20s)) << w->topic_name();
   ASSERT_TRUE(out.reader().wait_for_matched(1, 20s));
   settle_discovery();
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   for (const auto& m : mis)
-    writes.push_back({m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+    writes.push_back(
+        {m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
   replay(writes, {&odo, &gnss, &ins, &mis_writer});
 
   // No identification: after the maximum wait the scale-factor input is absent, counted and told.
@@ -414,8 +430,8 @@ TEST_F(NodeProcess, LateJoiningDeadReckoningGetsTheLastPublishedK) {
   ASSERT_TRUE(out.reader().wait_for_matched(1, 20s));
   settle_discovery();
   // The node tells in its Health (1 Hz) that it received the K published before it existed.
-  ASSERT_TRUE(health.wait_until(
-      [](const auto& v) { return !v.empty() && counter(v.back(), "scale_factor_in") >= 1.0; }, 5s));
+  ASSERT_TRUE(
+      health.wait_until([](const auto& v) { return !v.empty() && counter(v.back(), "scale_factor_in") >= 1.0; }, 5s));
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   for (std::size_t i = 1; i < d.gnss.size(); ++i)  // later epochs: a different K
     writes.push_back({d.gnss[i].t_s, 2, [&k_writer, m = k_message(d.gnss[i].t_s, 0.0132)] { k_writer.write(m); }});

@@ -142,8 +142,8 @@ class Pipeline : public ::testing::Test {
 
 /// Truth sample nearest in time (the simulator writes truth at the odometer's instants).
 const TruthSample& truth_at(const Dataset& d, double t_s) {
-  auto it = std::lower_bound(d.truth.begin(), d.truth.end(), t_s,
-                             [](const TruthSample& s, double t) { return s.t_s < t; });
+  auto it =
+      std::lower_bound(d.truth.begin(), d.truth.end(), t_s, [](const TruthSample& s, double t) { return s.t_s < t; });
   if (it == d.truth.end()) return d.truth.back();
   if (it != d.truth.begin() && std::abs((it - 1)->t_s - t_s) < std::abs(it->t_s - t_s)) --it;
   return *it;
@@ -227,8 +227,10 @@ void expect_close(const std::optional<double>& a, const std::optional<double>& b
                   std::size_t row, bool relative) {
   ASSERT_EQ(a.has_value(), b.has_value()) << what << " row " << row;
   if (!a) return;
-  if (relative) expect_close_rel(*a, *b, tol, what, row);
-  else expect_close(*a, *b, tol, what, row);
+  if (relative)
+    expect_close_rel(*a, *b, tol, what, row);
+  else
+    expect_close(*a, *b, tol, what, row);
 }
 
 // The GNSS-anchored navigation position, row by row (the DR node's filter against odonav-offline's).
@@ -267,8 +269,8 @@ TEST_F(Pipeline, EveryPublishedSampleEqualsTheOfflineTool) {
              "--estimator", estimator, "--out", out},
             out, 300);
   const std::string offline_dir = out + "/offline-check";
-  ASSERT_EQ(run(kBin + "/odonav-offline " + out + "/dataset --out " + offline_dir + " --estimator " + estimator +
-                " >" + out + "/offline-check.log 2>&1"),
+  ASSERT_EQ(run(kBin + "/odonav-offline " + out + "/dataset --out " + offline_dir + " --estimator " + estimator + " >" +
+                out + "/offline-check.log 2>&1"),
             0)
       << read_text(out + "/offline-check.log");
   const results::OutputRows pipe = results::read_output_rows(out);
@@ -301,7 +303,8 @@ TEST_F(Pipeline, EveryPublishedSampleEqualsTheOfflineTool) {
     expect_close(a.k_m_per_pulse, b.k_m_per_pulse, kTol, "k_m_per_pulse", i, true);
     expect_close(a.sigma_m_per_pulse, b.sigma_m_per_pulse, kTol, "sigma_m_per_pulse", i, true);
     // The offline tool runs every estimator, so its lambda_vff_lm_rls exists whatever the main one.
-    if (estimator == "vff_lm_rls") expect_close(a.lambda_vff_lm_rls, b.lambda_vff_lm_rls, kTol, "lambda_vff_lm_rls", i, false);
+    if (estimator == "vff_lm_rls")
+      expect_close(a.lambda_vff_lm_rls, b.lambda_vff_lm_rls, kTol, "lambda_vff_lm_rls", i, false);
     expect_close(a.forgetting_factor, b.forgetting_factor, kTol, "forgetting_factor", i);
     expect_close(a.window_fill, b.window_fill, kTol, "window_fill", i);
     EXPECT_EQ(a.converged, b.converged) << i;
@@ -474,9 +477,9 @@ TEST_F(Pipeline, EstimatesLaterThanTheirHoldOffAreWaitedForCountedAndStillEqualT
   const std::string data = dir + "/data";
   ASSERT_EQ(run(kBin + "/odonav-sim ring --duration-s 90 --seed 3 --out " + data + " >" + dir + "/sim.log 2>&1"), 0);
   const std::string out = dir + "/out";
-  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "222", "--estimate-hold-off-s", "0", "--out",
-             out},
-            out, 300);
+  launch_ok(
+      {"--source", "replay:" + data, "--speed", "max", "--domain", "222", "--estimate-hold-off-s", "0", "--out", out},
+      out, 300);
   expect_pipeline_equals_offline(data, out, "--estimate-hold-off-s 0");
   // The node's drain line: "scale_factor: N waits for estimates later than their 0 s hold-off".
   const std::string log = read_text(out + "/logs/odonav-dead-reckoning.log");
@@ -490,8 +493,8 @@ TEST_F(Pipeline, EstimatesLaterThanTheirHoldOffAreWaitedForCountedAndStillEqualT
 void expect_rate_equals_offline(const std::string& rate, const std::string& domain, std::size_t epochs_min) {
   const std::string dir = fresh_dir("terrain-" + rate + "hz");
   const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s 25 --seed 4 --gnss-rate " + rate + " --gnss-latency-s 0.05 --out " +
-                data + " >" + dir + "/sim.log 2>&1"),
+  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s 25 --seed 4 --gnss-rate " + rate +
+                " --gnss-latency-s 0.05 --out " + data + " >" + dir + "/sim.log 2>&1"),
             0);
   const std::string out = dir + "/out";
   shm_clean();
@@ -561,8 +564,8 @@ struct SpeedCase {
 // drive, they wait most of the time, so together they take as long as the longest one. The replays
 // at maximum speed, which use the processor fully, run one after another.
 TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFilesAtEveryGnssRate) {
-  std::vector<SpeedCase> cases{{"10", 25, "53", "54"}, {"1", 40, "223", "224"}, {"5", 25, "225", "226"},
-                               {"20", 25, "227", "228"}};
+  std::vector<SpeedCase> cases{
+      {"10", 25, "53", "54"}, {"1", 40, "223", "224"}, {"5", 25, "225", "226"}, {"20", 25, "227", "228"}};
   for (SpeedCase& c : cases) {
     c.dir = fresh_dir("speed-" + c.rate + "hz");
     c.data = c.dir + "/data";
@@ -577,20 +580,19 @@ TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFilesAtEveryGnssR
     const auto t0 = std::chrono::steady_clock::now();
     std::vector<std::unique_ptr<test::ChildProcess>> real_time;
     for (const SpeedCase& c : cases)
-      real_time.push_back(start_launch(
-          {"--source", "replay:" + c.data, "--speed", "1", "--domain", c.domain_real, "--out", c.real},
-          c.real + ".launch.log"));
+      real_time.push_back(
+          start_launch({"--source", "replay:" + c.data, "--speed", "1", "--domain", c.domain_real, "--out", c.real},
+                       c.real + ".launch.log"));
     for (std::size_t i = 0; i < cases.size(); ++i) {
       SCOPED_TRACE(cases[i].rate + " Hz");
-      ASSERT_NO_FATAL_FAILURE(expect_launch_ok(
-          launch_result(*real_time[i], cases[i].real + ".launch.log", 200, t0), "replay:" + cases[i].data, 200));
+      ASSERT_NO_FATAL_FAILURE(expect_launch_ok(launch_result(*real_time[i], cases[i].real + ".launch.log", 200, t0),
+                                               "replay:" + cases[i].data, 200));
     }
   }
   shm_clean();
   for (const SpeedCase& c : cases) {
-    ASSERT_NO_FATAL_FAILURE(
-        launch_ok({"--source", "replay:" + c.data, "--speed", "max", "--domain", c.domain_fast, "--out", c.fast}, c.fast,
-                  200));
+    ASSERT_NO_FATAL_FAILURE(launch_ok(
+        {"--source", "replay:" + c.data, "--speed", "max", "--domain", c.domain_fast, "--out", c.fast}, c.fast, 200));
     shm_clean();
   }
   for (const SpeedCase& c : cases) {
@@ -607,8 +609,10 @@ TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFilesAtEveryGnssR
     EXPECT_GT(rows.dead_reckoning.size(), static_cast<std::size_t>((c.duration_s - 1.0) * 100.0)) << c.rate << " Hz";
     EXPECT_GT(rows.navigation_position.size(), static_cast<std::size_t>((c.duration_s - 1.0) * 100.0))
         << c.rate << " Hz";
-    EXPECT_GT(rows.scale_factor.size(), static_cast<std::size_t>((c.duration_s - 5.0) * gnss_rate_hz)) << c.rate << " Hz";
-    EXPECT_GT(rows.misalignment.size(), static_cast<std::size_t>((c.duration_s - 5.0) * gnss_rate_hz)) << c.rate << " Hz";
+    EXPECT_GT(rows.scale_factor.size(), static_cast<std::size_t>((c.duration_s - 5.0) * gnss_rate_hz))
+        << c.rate << " Hz";
+    EXPECT_GT(rows.misalignment.size(), static_cast<std::size_t>((c.duration_s - 5.0) * gnss_rate_hz))
+        << c.rate << " Hz";
   }
 }
 
@@ -652,8 +656,8 @@ TEST_F(Pipeline, GnssRemovedMidRunIdentificationHoldsKAndDeadReckoningContinues)
       EXPECT_EQ(r.k_source, "identified");
     }
   }
-  EXPECT_GE(in_gap, 2990u);                 // 30 s at 100 Hz
-  EXPECT_LE(max_step_s, 2 * 0.01 + 1e-9);   // never a gap longer than two odometer periods
+  EXPECT_GE(in_gap, 2990u);                // 30 s at 100 Hz
+  EXPECT_LE(max_step_s, 2 * 0.01 + 1e-9);  // never a gap longer than two odometer periods
   EXPECT_GE(last_t, 149.0);
 }
 

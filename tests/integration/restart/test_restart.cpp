@@ -71,9 +71,9 @@ class IdentificationRestart : public ::testing::Test {
     return buf;
   }
   std::vector<std::string> identification_args(int domain, const std::string& state_dir) const {
-    return node_args(domain, 2.0,
-                     {"--state-dir", state_dir, "--checkpoint-every-s", "5", "--lever-arm", lever_arm(), "--log-level",
-                      "info"});
+    return node_args(
+        domain, 2.0,
+        {"--state-dir", state_dir, "--checkpoint-every-s", "5", "--lever-arm", lever_arm(), "--log-level", "info"});
   }
   std::vector<std::string> gateway_args(int domain, double duration_s, const std::string& speed) const {
     return node_args(domain, 2.0,
@@ -82,7 +82,6 @@ class IdentificationRestart : public ::testing::Test {
                       // The identification is killed on purpose while the gateway publishes.
                       "--tolerate-lost-readers"});
   }
-
 };
 
 TEST_F(IdentificationRestart, CorruptCheckpointsAreMovedAsideAndTheNodeStartsFromNominal) {
@@ -303,7 +302,8 @@ TEST_F(IdentificationRestart, LateReaderAfterARestartWithNoInputGetsTheRestoredK
   odonav::dds::Participant late(test_participant(kDomain));
   Collector<msg::ScaleFactor> k(late, topics::kScaleFactor);
   ASSERT_TRUE(k.wait_until([&](const std::vector<msg::ScaleFactor>& v) { return !v.empty(); }, seconds(20)))
-      << "no ScaleFactor for a late reader after the restart\n" << read_text(dir + "/id-2.log");
+      << "no ScaleFactor for a late reader after the restart\n"
+      << read_text(dir + "/id-2.log");
   std::this_thread::sleep_for(milliseconds(500));
   const msg::ScaleFactor got = k.samples().back();
   std::cerr << "checkpoint t=" << ckpt.last_sample_t_s << " s, K published for it " << published->k_m_per_pulse()

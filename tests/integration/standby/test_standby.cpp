@@ -50,7 +50,7 @@ using odonav::SourceSwitch;
 constexpr const char* kRawScaleFactorProfile = odonav::topics::kScaleFactorRecorderReaderProfile;
 constexpr const char* kPrimary = "identification";
 constexpr const char* kStandby = "identification/standby";
-constexpr double kDurationS = 40.0;    // event time = wall time (real-time pace)
+constexpr double kDurationS = 40.0;     // event time = wall time (real-time pace)
 constexpr double kKillAtEventS = 22.0;  // K converged by then; 18 s of data follow
 
 /// This suite's scratch folder for one test (as a string: the tests build paths with +).
@@ -58,9 +58,7 @@ std::string suite_dir(const std::string& name) { return fresh_dir("test-standby"
 
 double stamp_s(const msg::ScaleFactor& m) { return odonav::dds::to_seconds(m.header().stamp()); }
 double stamp_s(const msg::DeadReckoning& m) { return odonav::dds::to_seconds(m.header().stamp()); }
-double steady_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+double steady_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 std::string lever_arm() {
   const Eigen::Vector3d l = sim::scenario_config("ring").lever_arm_m;
@@ -97,7 +95,7 @@ struct RunResult {
   std::vector<msg::DeadReckoning> dr;
   std::vector<msg::Health> health;
   double kill_wall_s = 0.0;
-  double stop_wall_s = 0.0;  ///< when the shutdown began (the survivor takes over then: not a failover)
+  double stop_wall_s = 0.0;      ///< when the shutdown began (the survivor takes over then: not a failover)
   results::OutputRows recorded;  ///< odonav-recorder's files
 };
 
@@ -120,13 +118,16 @@ class HotStandby : public ::testing::Test {
 
     auto calibration = start_logged("odonav-calibration", node_args(domain, 2.0, {"--lever-arm", lever_arm()}),
                                     dir + "/calibration.log");
-    auto primary = start_logged("odonav-identification", identification_args(domain, kPrimary, 20), dir + "/primary.log");
-    auto standby = start_logged("odonav-identification", identification_args(domain, kStandby, 10), dir + "/standby.log");
+    auto primary =
+        start_logged("odonav-identification", identification_args(domain, kPrimary, 20), dir + "/primary.log");
+    auto standby =
+        start_logged("odonav-identification", identification_args(domain, kStandby, 10), dir + "/standby.log");
     auto dead_reckoning = start_logged("odonav-dead-reckoning",
                                        node_args(domain, 2.0, {"--lever-arm", lever_arm(), "--log-level", "info"}),
                                        dir + "/dead-reckoning.log");
-    auto recorder = start_logged("odonav-recorder", node_args(domain, 2.0, {"--out", dir + "/recorded", "--log-level", "info"}),
-                                 dir + "/recorder.log");
+    auto recorder =
+        start_logged("odonav-recorder", node_args(domain, 2.0, {"--out", dir + "/recorded", "--log-level", "info"}),
+                     dir + "/recorder.log");
     ASSERT_TRUE(calibration->started() && primary->started() && standby->started() && dead_reckoning->started() &&
                 recorder->started());
     // The recorder matched its producers before any estimate is published (its health says so).
@@ -138,14 +139,14 @@ class HotStandby : public ::testing::Test {
         },
         seconds(30));
     // Readers of GNSS: calibration, both identifications, dead reckoning.
-    auto gateway = start_logged("odonav-gateway",
-                                node_args(domain, 2.0,
-                                          {"--source", "sim:ring", "--seed", "3", "--duration-s",
-                                           std::to_string(kDurationS), "--speed", "1", "--wait-for-readers", "4",
-                                           "--wait-for-readers-timeout-s", "30",
-                                           // the primary is killed while it publishes
-                                           "--tolerate-lost-readers"}),
-                                dir + "/gateway.log");
+    auto gateway =
+        start_logged("odonav-gateway",
+                     node_args(domain, 2.0,
+                               {"--source", "sim:ring", "--seed", "3", "--duration-s", std::to_string(kDurationS),
+                                "--speed", "1", "--wait-for-readers", "4", "--wait-for-readers-timeout-s", "30",
+                                // the primary is killed while it publishes
+                                "--tolerate-lost-readers"}),
+                     dir + "/gateway.log");
     ASSERT_TRUE(gateway->started());
 
     if (kill) {
@@ -253,7 +254,8 @@ void expect_recording_exact(const RunResult& run, double from_s, double primary_
     const msg::ScaleFactor& want = from_standby ? standby.at(t) : primary.at(t);
     if (want.k_m_per_pulse() > 0.0) {
       ASSERT_TRUE(rows[i]->k_m_per_pulse.has_value()) << "t=" << t;
-      EXPECT_DOUBLE_EQ(*rows[i]->k_m_per_pulse, want.k_m_per_pulse()) << "t=" << t << (from_standby ? " (standby)" : "");
+      EXPECT_DOUBLE_EQ(*rows[i]->k_m_per_pulse, want.k_m_per_pulse())
+          << "t=" << t << (from_standby ? " (standby)" : "");
     }
     EXPECT_EQ(rows[i]->samples_accepted, want.samples_accepted()) << "t=" << t;
   }
@@ -323,9 +325,9 @@ TEST_F(HotStandby, PrimaryKilledStandbyTakesOverWithinOneSecondExactlyForEveryRe
   std::cerr << "switch (" << sw.reason << ") at the standby's t=" << sw.at_stamp_s << " s, "
             << sw.at_stamp_s - primary_last_s << " s of event time after the primary's last t=" << primary_last_s
             << " s; on the wall clock " << (first_standby->wall_s - failover.kill_wall_s) * 1000
-            << " ms after the kill; first standby estimate t=" << stamp_s(first_standby->message)
-            << " s, K " << first_standby->message.k_m_per_pulse() << " (last primary K "
-            << last_primary->message.k_m_per_pulse() << ")\n";
+            << " ms after the kill; first standby estimate t=" << stamp_s(first_standby->message) << " s, K "
+            << first_standby->message.k_m_per_pulse() << " (last primary K " << last_primary->message.k_m_per_pulse()
+            << ")\n";
   // Within 1 s, in event time; and the first standby estimate followed is the epoch right after the
   // primary's last (nothing skipped).
   EXPECT_LE(sw.at_stamp_s - primary_last_s, 1.0);
@@ -372,9 +374,8 @@ TEST_F(HotStandby, PrimaryKilledStandbyTakesOverWithinOneSecondExactlyForEveryRe
   const auto ref_end = last_with_error(reference.dr);
   const auto end = last_with_error(failover.dr);
   ASSERT_TRUE(ref_end && end);
-  std::cerr << "final DR error: uninterrupted " << ref_end->error_percent_distance() << " %D at t="
-            << stamp_s(*ref_end) << " s, with failover " << end->error_percent_distance() << " %D at t=" << stamp_s(*end)
-            << " s\n";
+  std::cerr << "final DR error: uninterrupted " << ref_end->error_percent_distance() << " %D at t=" << stamp_s(*ref_end)
+            << " s, with failover " << end->error_percent_distance() << " %D at t=" << stamp_s(*end) << " s\n";
   EXPECT_NEAR(end->error_percent_distance(), ref_end->error_percent_distance(), 0.1);
   EXPECT_GT(end->distance_m(), 100.0);
 }

@@ -67,7 +67,8 @@ struct Remote {
     for (auto& b : data.m_guid.guidPrefix.value) b = id;
     if (credentials) data.identity_token_.class_id("DDS:Auth:PKI-DH:1.0");
   }
-  Remote(const std::string& name, unsigned id, bool credentials) : Remote(name, static_cast<unsigned char>(0), credentials) {
+  Remote(const std::string& name, unsigned id, bool credentials)
+      : Remote(name, static_cast<unsigned char>(0), credentials) {
     for (int i = 0; i < 4; ++i) data.m_guid.guidPrefix.value[8 + i] = static_cast<unsigned char>(id >> (8 * i));
   }
   ParticipantProxyData data;
@@ -79,7 +80,8 @@ void discover(ParticipantEventLog& log, const Remote& r, ParticipantDiscoveryInf
   log.on_participant_discovery(nullptr, std::move(info));
 }
 
-void authenticate(ParticipantEventLog& log, const Remote& r, ParticipantAuthenticationInfo::AUTHENTICATION_STATUS status) {
+void authenticate(ParticipantEventLog& log, const Remote& r,
+                  ParticipantAuthenticationInfo::AUTHENTICATION_STATUS status) {
   ParticipantAuthenticationInfo info;
   info.status = status;
   info.guid = r.data.m_guid;
@@ -95,14 +97,17 @@ TEST(ParticipantEvents, DiscoveryLeavingAndLossAreLoggedWithNameAndGuid) {
   discover(log, dr, ParticipantDiscoveryInfo::REMOVED_PARTICIPANT);
   const auto lines = capture.lines();
   ASSERT_EQ(lines.size(), 3u);
-  EXPECT_EQ(lines[0], "info odonav::dds: odonav-recorder discovered participant 'odonav-dead-reckoning' "
-                      "(0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a)");
+  EXPECT_EQ(lines[0],
+            "info odonav::dds: odonav-recorder discovered participant 'odonav-dead-reckoning' "
+            "(0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a)");
   EXPECT_EQ(lines[1].rfind("warning odonav::dds: odonav-recorder: participant 'odonav-dead-reckoning' "
-                           "(0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a) lost: its lease expired", 0),
+                           "(0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a) lost: its lease expired",
+                           0),
             0u)
       << lines[1];
-  EXPECT_EQ(lines[2], "info odonav::dds: odonav-recorder: participant 'odonav-dead-reckoning' "
-                      "(0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a) left");
+  EXPECT_EQ(lines[2],
+            "info odonav::dds: odonav-recorder: participant 'odonav-dead-reckoning' "
+            "(0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a.0a) left");
 }
 
 TEST(ParticipantEvents, ARefusedParticipantIsWarnedAboutOnceUntilItLeaves) {
@@ -133,7 +138,8 @@ TEST(ParticipantEvents, RefusedAndIncompleteHandshakesAreListedUntilTheParticipa
   ParticipantEventLog log("odonav-recorder", true);
   const Remote dr("odonav-dead-reckoning", 0x0b), cal("odonav-calibration", 0x0c), rogue("odonav-rogue", 0x0d),
       gone("odonav-gateway", 0x0e);
-  for (const Remote* r : {&dr, &cal, &rogue, &gone}) discover(log, *r, ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT);
+  for (const Remote* r : {&dr, &cal, &rogue, &gone})
+    discover(log, *r, ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT);
   authenticate(log, dr, ParticipantAuthenticationInfo::AUTHORIZED_PARTICIPANT);
   authenticate(log, rogue, ParticipantAuthenticationInfo::UNAUTHORIZED_PARTICIPANT);
   discover(log, gone, ParticipantDiscoveryInfo::DROPPED_PARTICIPANT);

@@ -76,7 +76,8 @@ const std::map<std::string, ExpectedQos>& expected_qos() {
       {topics::kHealthReaderProfile, {RELIABLE_RELIABILITY_QOS, TRANSIENT_LOCAL_DURABILITY_QOS, 1, 3.0}},
       {topics::kCommandWriterProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 10, kNoDeadline}},
       {topics::kCommandReaderProfile, {RELIABLE_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 10, kNoDeadline}},
-      {topics::kGroundBestEffortReaderProfile, {BEST_EFFORT_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 100, kNoDeadline}},
+      {topics::kGroundBestEffortReaderProfile,
+       {BEST_EFFORT_RELIABILITY_QOS, VOLATILE_DURABILITY_QOS, 100, kNoDeadline}},
   };
   return table;
 }
@@ -162,10 +163,11 @@ TEST(QosProfiles, EveryProfileHasTheDocumentedQosAndTopicsMatchTheirReaders) {
 TEST(QosProfiles, GroundStationReadersHoldAFleetOf1024Vehicles) {
   odonav::dds::Participant participant(loopback_options());
   auto& subscriber = participant.core()->subscriber();
-  const std::map<std::string, int> min_instances{
-      {topics::kGroundEstimateReaderProfile, 1024},      {topics::kGroundBestEffortReaderProfile, 1024},
-      {topics::kMisalignmentRecorderReaderProfile, 1024}, {topics::kScaleFactorRecorderReaderProfile, 1024},
-      {topics::kHealthReaderProfile, 8192}};
+  const std::map<std::string, int> min_instances{{topics::kGroundEstimateReaderProfile, 1024},
+                                                 {topics::kGroundBestEffortReaderProfile, 1024},
+                                                 {topics::kMisalignmentRecorderReaderProfile, 1024},
+                                                 {topics::kScaleFactorRecorderReaderProfile, 1024},
+                                                 {topics::kHealthReaderProfile, 8192}};
   for (const auto& [profile, instances] : min_instances) {
     DataReaderQos r;
     ASSERT_EQ(subscriber.get_datareader_qos_from_profile(profile, r), ReturnCode_t::RETCODE_OK) << profile;
@@ -346,8 +348,10 @@ class CdrReader {
   }
   std::string read_string() {
     const auto length = read<std::uint32_t>();  // including the terminating NUL
-    if (length == 0 || pos_ + length > size_) throw std::runtime_error("bad string length at byte " + std::to_string(pos_));
-    if (data_[pos_ + length - 1] != 0) throw std::runtime_error("string not NUL terminated at byte " + std::to_string(pos_));
+    if (length == 0 || pos_ + length > size_)
+      throw std::runtime_error("bad string length at byte " + std::to_string(pos_));
+    if (data_[pos_ + length - 1] != 0)
+      throw std::runtime_error("string not NUL terminated at byte " + std::to_string(pos_));
     std::string s(reinterpret_cast<const char*>(data_ + pos_), length - 1);
     pos_ += length;
     return s;

@@ -137,7 +137,9 @@ TEST_F(DdsTopics, DeadReckoningRoundTripsEveryField) {
 TEST_F(DdsTopics, NavigationPositionRoundTripsEveryField) {
   expect_round_trip(topics::kNavigationPosition, odonav::test::make_navigation_position());
 }
-TEST_F(DdsTopics, HealthRoundTripsEveryField) { expect_round_trip(topics::kHealth, odonav::test::make_health_sample()); }
+TEST_F(DdsTopics, HealthRoundTripsEveryField) {
+  expect_round_trip(topics::kHealth, odonav::test::make_health_sample());
+}
 TEST_F(DdsTopics, CommandRoundTripsEveryField) { expect_round_trip(topics::kCommand, odonav::test::make_command()); }
 
 TEST_F(DdsTopics, GroundBestEffortReaderReceivesFromAReliableSensorWriter) {
@@ -285,15 +287,13 @@ TEST_F(DdsTopics, HealthPublisherWritesAtMostOncePerPeriodOfTheCallersClock) {
 // ---- errors ----
 
 TEST_F(DdsTopics, UnknownWriterOrReaderProfileNamesProfileAndTopic) {
-  const std::string w = error_of([] {
-    Writer<msg::Odometer> writer(*writer_side_, "rt/odonav/odometer/error_test", "no_such_writer_profile");
-  });
+  const std::string w = error_of(
+      [] { Writer<msg::Odometer> writer(*writer_side_, "rt/odonav/odometer/error_test", "no_such_writer_profile"); });
   EXPECT_NE(w.find("no data_writer QoS profile named 'no_such_writer_profile'"), std::string::npos) << w;
   EXPECT_NE(w.find("rt/odonav/odometer/error_test"), std::string::npos) << w;
   EXPECT_NE(w.find("qos.xml"), std::string::npos) << w;
-  const std::string r = error_of([] {
-    Reader<msg::Odometer> reader(*reader_side_, "rt/odonav/odometer/error_test", "no_such_reader_profile");
-  });
+  const std::string r = error_of(
+      [] { Reader<msg::Odometer> reader(*reader_side_, "rt/odonav/odometer/error_test", "no_such_reader_profile"); });
   EXPECT_NE(r.find("no data_reader QoS profile named 'no_such_reader_profile'"), std::string::npos) << r;
   EXPECT_NE(r.find("rt/odonav/odometer/error_test"), std::string::npos) << r;
 }
@@ -301,11 +301,10 @@ TEST_F(DdsTopics, UnknownWriterOrReaderProfileNamesProfileAndTopic) {
 TEST_F(DdsTopics, TopicReusedWithAnotherTypeIsAClearError) {
   const std::string topic_name = "rt/odonav/type_clash_test";
   Writer<msg::Odometer> writer(*writer_side_, topic_name, topics::kSensorWriterProfile);
-  const std::string e = error_of([&] {
-    Writer<msg::GnssFix> other(*writer_side_, topic_name, topics::kSensorWriterProfile);
-  });
-  EXPECT_NE(e.find("'" + topic_name + "' already exists with type 'odonav::msg::dds_::Odometer_'"),
-            std::string::npos) << e;
+  const std::string e =
+      error_of([&] { Writer<msg::GnssFix> other(*writer_side_, topic_name, topics::kSensorWriterProfile); });
+  EXPECT_NE(e.find("'" + topic_name + "' already exists with type 'odonav::msg::dds_::Odometer_'"), std::string::npos)
+      << e;
   EXPECT_NE(e.find("odonav::msg::dds_::GnssFix_"), std::string::npos) << e;
 }
 
@@ -313,8 +312,8 @@ TEST(DdsParticipantErrors, MissingProfilesFileIsNamed) {
   ParticipantOptions options = loopback_options("missing-file");
   options.profiles_file = "/nonexistent/odonav/profiles.xml";
   const std::string e = error_of([&] { Participant p(options); });
-  EXPECT_NE(e.find("cannot read the participant profiles file '/nonexistent/odonav/profiles.xml'"),
-            std::string::npos) << e;
+  EXPECT_NE(e.find("cannot read the participant profiles file '/nonexistent/odonav/profiles.xml'"), std::string::npos)
+      << e;
 }
 
 TEST(DdsParticipantErrors, MissingQosFileIsNamed) {

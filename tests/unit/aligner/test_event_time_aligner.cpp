@@ -95,7 +95,7 @@ TEST(EventTimeAligner, BackwardsAndRepeatedStampsAreNotAccepted) {
   EventTimeAligner a(2.0, 0.0);
   const auto k = a.add_stream("scale_factor");
   EXPECT_EQ(a.on_sample(k, 5.0, 0.0), SampleAdmission::kAccepted);
-  EXPECT_EQ(a.on_sample(k, 5.0, 0.5), SampleAdmission::kRepeated);   // a heartbeat
+  EXPECT_EQ(a.on_sample(k, 5.0, 0.5), SampleAdmission::kRepeated);  // a heartbeat
   EXPECT_EQ(a.on_sample(k, 4.0, 0.6), SampleAdmission::kBackwards);
   EXPECT_EQ(a.on_sample(k, std::nan(""), 0.7), SampleAdmission::kInvalid);
   EXPECT_EQ(a.on_sample(k, 5.1, 0.8), SampleAdmission::kAccepted);

@@ -148,10 +148,12 @@ TEST(BadInput, GnssVelocitySpikesOfTenMetresPerSecondAreRejectedAndKStaysWithinP
       run.counters.speed_jump + run.counters.innovation + run.counters.negative_speed + run.counters.cross_track;
   const uint64_t rejected_ref =
       ref.counters.speed_jump + ref.counters.innovation + ref.counters.negative_speed + ref.counters.cross_track;
-  std::printf("spikes: 60 (%d with a forward component > 1.6 m/s, %d > 2.2 m/s); rejected %llu (clean run %llu); "
-              "accepted %llu (clean %llu)\n", along_track, beyond_bound, static_cast<unsigned long long>(rejected),
-              static_cast<unsigned long long>(rejected_ref), static_cast<unsigned long long>(run.counters.accepted),
-              static_cast<unsigned long long>(ref.counters.accepted));
+  std::printf(
+      "spikes: 60 (%d with a forward component > 1.6 m/s, %d > 2.2 m/s); rejected %llu (clean run %llu); "
+      "accepted %llu (clean %llu)\n",
+      along_track, beyond_bound, static_cast<unsigned long long>(rejected),
+      static_cast<unsigned long long>(rejected_ref), static_cast<unsigned long long>(run.counters.accepted),
+      static_cast<unsigned long long>(ref.counters.accepted));
   std::printf("lambda: min %.5f with spikes, %.5f clean, lambda_min %.3f; epochs at lambda_min %d (clean %d)\n",
               run.min_lambda, ref.min_lambda, run.lambda_min, run.epochs_at_lambda_min, ref.epochs_at_lambda_min);
   std::printf("K: %.4f %% from truth with spikes, %.4f %% clean\n", 100.0 * (run.final_k / k_true - 1.0),
@@ -176,7 +178,8 @@ TEST(BadInput, WithoutInsTheDegradedModeIdentifiesKAndDeadReckons) {
   Dataset d = sim::simulate(cfg);
   d.ins.clear();
   const IdentificationRun run = identify(d, cfg, false);
-  std::printf("degraded: K %.4f %% from truth, %llu samples accepted\n", 100.0 * (run.final_k / cfg.k_true_m_per_pulse - 1.0),
+  std::printf("degraded: K %.4f %% from truth, %llu samples accepted\n",
+              100.0 * (run.final_k / cfg.k_true_m_per_pulse - 1.0),
               static_cast<unsigned long long>(run.counters.accepted));
   EXPECT_EQ(run.counters.no_attitude, 0u);
   // Fewer than with INS (1851 on this run): the yaw-rate gate works on the GNSS course here, whose
@@ -194,7 +197,8 @@ TEST(BadInput, WithoutInsTheDegradedModeIdentifiesKAndDeadReckons) {
   ASSERT_GT(out.size(), 10000u);
   EXPECT_TRUE(std::all_of(out.begin(), out.end(), [](const DeadReckoningOutput& o) { return o.degraded; }));
   // The last output with a GNSS reference (the odometer runs on after the last GNSS epoch).
-  const auto last = std::find_if(out.rbegin(), out.rend(), [](const DeadReckoningOutput& o) { return o.gnss_reference; });
+  const auto last =
+      std::find_if(out.rbegin(), out.rend(), [](const DeadReckoningOutput& o) { return o.gnss_reference; });
   ASSERT_NE(last, out.rend());
   std::printf("degraded DR: %.1f m travelled, final error %.2f m\n", last->distance_m, last->horizontal_error_m);
   // GNSS positions carry metres of correlated noise: the end is within 10 m after about 1.8 km.
@@ -212,7 +216,8 @@ TEST(BadInput, NanAndInfinityInEveryFieldOfEveryFileAreBadRows) {
   };
   const File files[] = {
       {"odometer.csv", "t,pulses,direction", "{t},{n},1"},
-      {"gnss.csv", "t,lat_deg,lon_deg,height_m,ve,vn,vu,pos_std_m,vel_std_mps,fix", "{t},52.5,13.4,40,1,2,0,0.5,0.05,4"},
+      {"gnss.csv", "t,lat_deg,lon_deg,height_m,ve,vn,vu,pos_std_m,vel_std_mps,fix",
+       "{t},52.5,13.4,40,1,2,0,0.5,0.05,4"},
       {"ins.csv", "t,heading_deg,pitch_deg,roll_deg,ve,vn,vu", "{t},30,1,-1,1,2,0"},
       {"truth.csv", "t,lat_deg,lon_deg,height_m,heading_deg,pitch_deg,roll_deg,k_true,distance_m",
        "{t},52.5,13.4,40,30,1,-1,0.0125,{n}"},
@@ -369,8 +374,9 @@ TEST(BadInput, OneWrongGnssVelocityRowDoesNotMoveTheMisalignment) {
   replace_ve(302, "1e6");
   const RunResult strict = run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("strict"));
   EXPECT_EQ(strict.exit_code, 1);
-  EXPECT_NE(strict.output.find("gnss.csv:302: column 've': velocity (m/s) of a land vehicle outside [-500, 500]: '1e6'"),
-            std::string::npos)
+  EXPECT_NE(
+      strict.output.find("gnss.csv:302: column 've': velocity (m/s) of a land vehicle outside [-500, 500]: '1e6'"),
+      std::string::npos)
       << strict.output;
   EXPECT_NEAR(heading_error_deg(dir.file("skipped"), "--on-bad-row=skip"), clean, 0.01);
 }
@@ -380,7 +386,8 @@ TEST(BadInput, OneWrongGnssVelocityRowDoesNotMoveTheMisalignment) {
 TEST(BadInput, AHeadingOfTheOtherConventionAndAForeignTruthAreNamedAndNothingGoodIsLost) {
   ScratchDir dir;
   const std::string dataset = dir.file("terrain");
-  ASSERT_EQ(run(binary("odonav-sim") + " terrain --duration-s 200 --out " + dataset + " --log-level error").exit_code, 0);
+  ASSERT_EQ(run(binary("odonav-sim") + " terrain --duration-s 200 --out " + dataset + " --log-level error").exit_code,
+            0);
   const auto lines_of = [](const std::string& file) {
     std::ifstream in(file);
     std::size_t n = 0;
@@ -414,13 +421,15 @@ TEST(BadInput, AHeadingOfTheOtherConventionAndAForeignTruthAreNamedAndNothingGoo
       out << '\n';
     }
   };
-  const RunResult clean = run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("clean") + " --log-level warn");
+  const RunResult clean =
+      run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("clean") + " --log-level warn");
   ASSERT_EQ(clean.exit_code, 0) << clean.output;
   EXPECT_EQ(clean.output.find("inconsistent"), std::string::npos) << clean.output;
 
   rewrite("ins.csv", "heading_deg", [](double h) { return std::fmod(360.0 - h, 360.0); });
   rewrite("truth.csv", "lat_deg", [](double lat) { return lat + 5.0; });
-  const RunResult bad = run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("bad") + " --log-level warn");
+  const RunResult bad =
+      run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("bad") + " --log-level warn");
   EXPECT_EQ(bad.exit_code, 0) << bad.output;
   EXPECT_NE(bad.output.find("INS heading turns opposite to the GNSS course"), std::string::npos) << bad.output;
   EXPECT_NE(bad.output.find("heading sign convention?"), std::string::npos) << bad.output;

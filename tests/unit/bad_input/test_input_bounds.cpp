@@ -27,7 +27,8 @@ class Dir {
     fs::remove_all(path_);
     fs::create_directories(path_);
     put("odometer.csv", "t,pulses,direction\n0,0,1\n0.01,1,1\n0.02,2,1\n");
-    put("gnss.csv", "t,lat_deg,lon_deg,height_m,ve,vn,vu,fix\n0,52.5,13.4,80,0,1,0,1\n0.1,52.5000009,13.4,80,0,1,0,1\n");
+    put("gnss.csv",
+        "t,lat_deg,lon_deg,height_m,ve,vn,vu,fix\n0,52.5,13.4,80,0,1,0,1\n0.1,52.5000009,13.4,80,0,1,0,1\n");
   }
   ~Dir() { fs::remove_all(path_); }
   void put(const std::string& name, const std::string& text) const {
@@ -104,7 +105,9 @@ TEST(InputBounds, AHugeLineIsABadRowQuotedInEightyCharactersAndTheRestIsKept) {
 
 TEST(InputBounds, BinaryBytesInAFieldReachTheMessageEscaped) {
   Dir d;
-  d.put("odometer.csv", std::string("t,pulses,direction\n0,0,1\n0.01,\x1b[31m\x00" "7,1\n", 44));
+  d.put("odometer.csv", std::string("t,pulses,direction\n0,0,1\n0.01,\x1b[31m\x00"
+                                    "7,1\n",
+                                    44));
   const std::string why = read_error(d.str());
   EXPECT_NE(why.find("odometer.csv:3: column 'pulses'"), std::string::npos) << why;
   EXPECT_NE(why.find("\\x1b[31m\\x007"), std::string::npos) << why;
@@ -158,7 +161,8 @@ TEST(PhysicalLimits, ImpossibleValuesAreBadRowsNamingFileLineAndColumn) {
        "gnss.csv:3: column 'height_m': height (m) of a land vehicle outside [-1000, 10000]: '1e300'"},
       {"gnss.csv", "t,lat_deg,lon_deg,height_m,ve,vn,vu,fix\n0,52.5,13.4,80,0,1,0,1\n0.1,52.5,13.4,80,1e6,1,0,1\n",
        "gnss.csv:3: column 've': velocity (m/s) of a land vehicle outside [-500, 500]: '1e6'"},
-      {"ins.csv", ins_header + "0,10,0,0\n0.01,1e300,0,0\n", "ins.csv:3: column 'heading_deg': heading outside [-720, 720]"},
+      {"ins.csv", ins_header + "0,10,0,0\n0.01,1e300,0,0\n",
+       "ins.csv:3: column 'heading_deg': heading outside [-720, 720]"},
       {"ins.csv", ins_header + "0,10,0,0\n0.01,10,0,270\n", "ins.csv:3: column 'roll_deg': roll outside [-180, 180]"},
   };
   for (const Case& c : cases) {

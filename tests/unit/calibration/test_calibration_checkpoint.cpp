@@ -60,8 +60,9 @@ SyntheticData gated_drive() {
   };
   for (std::size_t i = 0; i < 25; ++i) d.gnss[i].vel_enu_mps += std::tan(deg_to_rad(10.0)) * 10.0 * left(i);
   for (std::size_t i : {300u, 420u, 610u}) d.gnss.at(i).vel_enu_mps += 3.0 * left(i);
-  d.ins.erase(std::remove_if(d.ins.begin(), d.ins.end(), [](const InsSample& s) { return s.t_s > 40.1 && s.t_s < 40.9; }),
-              d.ins.end());
+  d.ins.erase(
+      std::remove_if(d.ins.begin(), d.ins.end(), [](const InsSample& s) { return s.t_s > 40.1 && s.t_s < 40.9; }),
+      d.ins.end());
   return d;
 }
 
@@ -155,7 +156,8 @@ void write_text(const fs::path& path, const std::string& text) { std::ofstream(p
 
 // ---- exact resume ----
 
-TEST_F(CalibrationCheckpointTest, KilledAnywhereAndRestartedFromTheCheckpointItPublishesExactlyTheUninterruptedOutputs) {
+TEST_F(CalibrationCheckpointTest,
+       KilledAnywhereAndRestartedFromTheCheckpointItPublishesExactlyTheUninterruptedOutputs) {
   const SyntheticData d = gated_drive();
   const std::vector<Event> ev = events_of(d);
   Run reference(CheckpointSettings{});
@@ -252,7 +254,8 @@ TEST_F(CalibrationCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideNamedA
   for (const auto& s : d.ins) a.add_ins(s);
   for (const auto& s : d.gnss) a.add_gnss(s);
   a.process_until(30.0);
-  const std::string good = serialize_calibration_checkpoint(CalibrationCheckpoint{kVehicle, kHash, a.current().t_s, a.save_state()});
+  const std::string good =
+      serialize_calibration_checkpoint(CalibrationCheckpoint{kVehicle, kHash, a.current().t_s, a.save_state()});
   std::string flipped = good;
   flipped[good.size() / 2] ^= 0x01;
   std::string bad_state = a.save_state();
@@ -264,7 +267,8 @@ TEST_F(CalibrationCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideNamedA
       {"truncated", good.substr(0, good.size() / 2), "truncated"},
       {"flipped byte", flipped, "checksum mismatch: the file is corrupt"},
       {"garbage", "not a checkpoint\n", "truncated: no checksum line"},
-      {"other vehicle", serialize_calibration_checkpoint(CalibrationCheckpoint{"vehicle-99", kHash, 1.0, a.save_state()}),
+      {"other vehicle",
+       serialize_calibration_checkpoint(CalibrationCheckpoint{"vehicle-99", kHash, 1.0, a.save_state()}),
        "made for vehicle 'vehicle-99', this is 'vehicle-07'"},
       {"other configuration",
        serialize_calibration_checkpoint(CalibrationCheckpoint{kVehicle, "fedcba9876543210", 1.0, a.save_state()}),

@@ -215,8 +215,14 @@ TEST(MisalignmentCalibrator, DifferentInterleavingsGiveBitIdenticalOutputs) {
     const int burst = std::uniform_int_distribution<int>(1, 60)(rng);
     const bool gnss = std::uniform_int_distribution<int>(0, 1)(rng) == 0;
     for (int k = 0; k < burst; ++k) {
-      if (gnss && ig < d.gnss.size()) { b.add_gnss(d.gnss[ig]); wg = d.gnss[ig++].t_s; }
-      if (!gnss && ii < d.ins.size()) { b.add_ins(d.ins[ii]); wi = d.ins[ii++].t_s; }
+      if (gnss && ig < d.gnss.size()) {
+        b.add_gnss(d.gnss[ig]);
+        wg = d.gnss[ig++].t_s;
+      }
+      if (!gnss && ii < d.ins.size()) {
+        b.add_ins(d.ins[ii]);
+        wi = d.ins[ii++].t_s;
+      }
     }
     const double inf = std::numeric_limits<double>::infinity();
     for (const auto& o : b.process_until(std::min(ig < d.gnss.size() ? wg : inf, ii < d.ins.size() ? wi : inf)))
@@ -268,8 +274,8 @@ Eigen::Vector3d left_of_drive() {
 
 TEST(MisalignmentCalibratorOutlierGate, OneRowOfAMillionMetresPerSecondIsRejectedAndChangesNothing) {
   const MisalignmentOutput clean = run_all(simulate(drive(), noisy_config(3))).back();
-  for (const Eigen::Vector3d& bad : {Eigen::Vector3d(1e6, 0.0, 0.0), Eigen::Vector3d(0.0, 1e6, 0.0),
-                                    Eigen::Vector3d(1e308, 1e308, 0.0)}) {
+  for (const Eigen::Vector3d& bad :
+       {Eigen::Vector3d(1e6, 0.0, 0.0), Eigen::Vector3d(0.0, 1e6, 0.0), Eigen::Vector3d(1e308, 1e308, 0.0)}) {
     MisalignmentCounters c;
     const auto out = run_all(with_bad_velocity(300, bad), {}, &c);
     EXPECT_EQ(out[300].epoch_status, CalibrationEpochStatus::kOutlier);

@@ -65,9 +65,8 @@ void write_text(const std::string& path, const std::string& text) {
 class Checkpoint : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("odonav-checkpoint-" + std::to_string(::getpid()) + "-" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / ("odonav-checkpoint-" + std::to_string(::getpid()) + "-" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     path_ = checkpoint_path(dir_.string(), kVehicle);
@@ -194,10 +193,12 @@ Drive drive() {
           g.end());
   for (const GnssSample& x : g) {
     const double f = std::exp(-x.t_s / 15.0);
-    r.misalignment.emplace_back(x.t_s, Misalignment{c.misalignment.heading_rad * (1.0 - f), c.misalignment.pitch_rad * (1.0 - f)});
+    r.misalignment.emplace_back(
+        x.t_s, Misalignment{c.misalignment.heading_rad * (1.0 - f), c.misalignment.pitch_rad * (1.0 - f)});
   }
   auto& e = r.events;
-  for (std::size_t i = 0; i < r.d.odometer.size(); ++i) e.push_back({r.d.odometer[i].t_s, r.d.odometer[i].t_s, Kind::kOdometer, i});
+  for (std::size_t i = 0; i < r.d.odometer.size(); ++i)
+    e.push_back({r.d.odometer[i].t_s, r.d.odometer[i].t_s, Kind::kOdometer, i});
   for (std::size_t i = 0; i < g.size(); ++i) e.push_back({g[i].t_s, g[i].t_s, Kind::kGnss, i});
   for (std::size_t i = 0; i < r.d.ins.size(); ++i) e.push_back({r.d.ins[i].t_s, r.d.ins[i].t_s, Kind::kIns, i});
   for (std::size_t i = 0; i < r.misalignment.size(); ++i)
@@ -255,14 +256,14 @@ bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; 
 void expect_identical(const IdentificationOutput& a, const IdentificationOutput& b, const std::string& where) {
   EXPECT_TRUE(same_bits(a.t_s, b.t_s)) << where;
   EXPECT_EQ(a.epoch_status, b.epoch_status) << where;
-  EXPECT_TRUE(same_bits(a.main.k_m_per_pulse, b.main.k_m_per_pulse)) << where << ": K " << a.main.k_m_per_pulse
-                                                                      << " vs " << b.main.k_m_per_pulse;
+  EXPECT_TRUE(same_bits(a.main.k_m_per_pulse, b.main.k_m_per_pulse))
+      << where << ": K " << a.main.k_m_per_pulse << " vs " << b.main.k_m_per_pulse;
   EXPECT_TRUE(same_bits(a.main.sigma_m_per_pulse, b.main.sigma_m_per_pulse)) << where;
   EXPECT_EQ(a.main.converged, b.main.converged) << where;
   EXPECT_EQ(a.samples_accepted, b.samples_accepted) << where;
   EXPECT_EQ(a.samples_rejected, b.samples_rejected) << where;
-  EXPECT_TRUE(same_bits(a.latency.applied_s, b.latency.applied_s)) << where << ": latency " << a.latency.applied_s
-                                                                   << " vs " << b.latency.applied_s;
+  EXPECT_TRUE(same_bits(a.latency.applied_s, b.latency.applied_s))
+      << where << ": latency " << a.latency.applied_s << " vs " << b.latency.applied_s;
   EXPECT_TRUE(same_bits(a.latency.estimate_s, b.latency.estimate_s)) << where;
   EXPECT_TRUE(same_bits(a.latency.sigma_s, b.latency.sigma_s)) << where;
   EXPECT_EQ(a.latency.samples, b.latency.samples) << where;

@@ -39,9 +39,9 @@ TEST(DdsTime, KnownValuesFollowTheRosConvention) {
   EXPECT_EQ(to_time_msg(-0.25), make_time(-1, 750000000));  // sec negative, nanosec positive
   EXPECT_EQ(to_time_msg(-1.0), make_time(-1, 0));
   EXPECT_EQ(to_time_msg(604799.123456789), make_time(604799, 123456789));  // end of a GNSS week
-  EXPECT_EQ(to_time_msg(12.0000000004), make_time(12, 0));                  // rounds down
-  EXPECT_EQ(to_time_msg(12.0000000006), make_time(12, 1));                  // rounds up
-  EXPECT_EQ(to_time_msg(12.9999999996), make_time(13, 0));                  // carries into sec
+  EXPECT_EQ(to_time_msg(12.0000000004), make_time(12, 0));                 // rounds down
+  EXPECT_EQ(to_time_msg(12.0000000006), make_time(12, 1));                 // rounds up
+  EXPECT_EQ(to_time_msg(12.9999999996), make_time(13, 0));                 // carries into sec
   EXPECT_EQ(to_time_msg(2147483647.0), make_time(2147483647, 0));
   EXPECT_EQ(to_time_msg(-2147483648.0), make_time(-2147483648, 0));
   EXPECT_DOUBLE_EQ(to_seconds(make_time(-1, 750000000)), -0.25);
@@ -57,8 +57,9 @@ TEST(DdsTime, RoundTripIsExactToTheNanosecondBelow2Pow22Seconds) {
     const auto t = make_time(sec(rng), nanosec(rng));
     const auto back = to_time_msg(to_seconds(t));
     if (!(back == t)) {
-      if (++mismatches < 5) ADD_FAILURE() << t.sec() << " s " << t.nanosec() << " ns came back as " << back.sec()
-                                          << " s " << back.nanosec() << " ns";
+      if (++mismatches < 5)
+        ADD_FAILURE() << t.sec() << " s " << t.nanosec() << " ns came back as " << back.sec() << " s " << back.nanosec()
+                      << " ns";
     }
   }
   EXPECT_EQ(mismatches, 0);
@@ -100,15 +101,15 @@ TEST(DdsTime, MakeHeaderSetsStampAndFrame) {
 
 TEST(RateLimiter, PassesAtMostOncePerPeriod) {
   odonav::dds::RateLimiter limiter(1.0);
-  EXPECT_TRUE(limiter.due(10.0));   // first call
+  EXPECT_TRUE(limiter.due(10.0));  // first call
   EXPECT_FALSE(limiter.due(10.5));
   EXPECT_FALSE(limiter.due(10.999999));
-  EXPECT_TRUE(limiter.due(11.0));   // exactly one period later
+  EXPECT_TRUE(limiter.due(11.0));  // exactly one period later
   EXPECT_FALSE(limiter.due(11.7));
-  EXPECT_TRUE(limiter.due(13.2));   // a gap: passes, and the period restarts at 13.2
+  EXPECT_TRUE(limiter.due(13.2));  // a gap: passes, and the period restarts at 13.2
   EXPECT_FALSE(limiter.due(14.1));
   EXPECT_TRUE(limiter.due(14.2));
-  EXPECT_TRUE(limiter.due(3.0));    // clock reset (replay restarted)
+  EXPECT_TRUE(limiter.due(3.0));  // clock reset (replay restarted)
   EXPECT_FALSE(limiter.due(3.5));
   EXPECT_FALSE(limiter.due(std::nan("")));
   limiter.reset();
@@ -126,25 +127,24 @@ TEST(RateLimiter, ZeroPeriodPassesEverythingAndBadPeriodsAreRefused) {
 
 TEST(SilenceTracker, ReportsOnlyTheEdgesPerInstance) {
   odonav::dds::SilenceTracker<int> tracker;
-  EXPECT_FALSE(tracker.on_data(1));           // data while not silent: no edge
-  EXPECT_TRUE(tracker.on_deadline_missed(1)); // goes silent
-  EXPECT_FALSE(tracker.on_deadline_missed(1));// every further period: no new edge
+  EXPECT_FALSE(tracker.on_data(1));             // data while not silent: no edge
+  EXPECT_TRUE(tracker.on_deadline_missed(1));   // goes silent
+  EXPECT_FALSE(tracker.on_deadline_missed(1));  // every further period: no new edge
   EXPECT_FALSE(tracker.on_deadline_missed(1));
   EXPECT_TRUE(tracker.is_silent(1));
   EXPECT_FALSE(tracker.is_silent(2));
-  EXPECT_TRUE(tracker.on_deadline_missed(2)); // instances are independent
-  EXPECT_TRUE(tracker.on_data(1));            // data returns: one edge
+  EXPECT_TRUE(tracker.on_deadline_missed(2));  // instances are independent
+  EXPECT_TRUE(tracker.on_data(1));             // data returns: one edge
   EXPECT_FALSE(tracker.on_data(1));
   EXPECT_FALSE(tracker.is_silent(1));
   EXPECT_TRUE(tracker.is_silent(2));
-  EXPECT_TRUE(tracker.on_deadline_missed(1)); // silent again later: a new edge
+  EXPECT_TRUE(tracker.on_deadline_missed(1));  // silent again later: a new edge
 }
 
 TEST(MakeHealth, FillsEveryField) {
   odonav::dds::CommandAck ack{99, odonav::msg::COMMAND_RESULT_REJECTED, "K must be > 0"};
-  const auto h = odonav::dds::make_health("vehicle-02", "odonav-identification", 12.25,
-                                          odonav::msg::HEALTH_STATE_ERROR, odonav::msg::HEALTH_LEVEL_ERROR,
-                                          "no GNSS", {{"a", 1.5}, {"b", -2.0}}, ack);
+  const auto h = odonav::dds::make_health("vehicle-02", "odonav-identification", 12.25, odonav::msg::HEALTH_STATE_ERROR,
+                                          odonav::msg::HEALTH_LEVEL_ERROR, "no GNSS", {{"a", 1.5}, {"b", -2.0}}, ack);
   EXPECT_EQ(h.header().stamp(), make_time(12, 250000000));
   EXPECT_EQ(h.vehicle_id(), "vehicle-02");
   EXPECT_EQ(h.component(), "odonav-identification");

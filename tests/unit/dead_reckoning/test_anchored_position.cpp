@@ -184,7 +184,8 @@ namespace {
 constexpr double kScaleError = 0.02, kHeadingError_rad = 1.0 * kDegToRad;
 Eigen::Vector3d truth_of(const Eigen::Vector3d& dr_enu_m) {
   const double c = std::cos(kHeadingError_rad), s = std::sin(kHeadingError_rad);
-  return (1.0 + kScaleError) * Eigen::Vector3d(c * dr_enu_m.x() - s * dr_enu_m.y(), s * dr_enu_m.x() + c * dr_enu_m.y(), 0.0);
+  return (1.0 + kScaleError) *
+         Eigen::Vector3d(c * dr_enu_m.x() - s * dr_enu_m.y(), s * dr_enu_m.x() + c * dr_enu_m.y(), 0.0);
 }
 }  // namespace
 

@@ -28,7 +28,7 @@ TEST(ConsistencyFindings, EachCauseIsNamedWithItsNumbers) {
   ASSERT_TRUE(other);
   EXPECT_NE(other->find("0.50 times as much"), std::string::npos) << *other;
 
-  EXPECT_FALSE(drift_growth_finding(9.0, 1.0, 10.0));   // below the floor
+  EXPECT_FALSE(drift_growth_finding(9.0, 1.0, 10.0));    // below the floor
   EXPECT_FALSE(drift_growth_finding(14.0, 15.0, 10.0));  // within what the sigmas allow
   const auto drift = drift_growth_finding(180.0, 1.0, 10.0);
   ASSERT_TRUE(drift);
@@ -46,9 +46,9 @@ namespace {
 // A vehicle circling at 8 m/s with a 100 m radius (0.08 rad/s), counter-clockwise from above, for
 // duration_s; GNSS at 10 Hz, outputs at 100 Hz whose heading is heading_of(true heading).
 struct Drive {
-  double heading_scale = 1.0;  // the heading the DR uses: scale * true (mod 2 pi)
-  bool radians = false;        // the heading the DR uses: the true heading in degrees read as radians / 57.3
-  double dr_error_per_m = 0.0; // the DR drifts from GNSS by this per metre driven (east)
+  double heading_scale = 1.0;   // the heading the DR uses: scale * true (mod 2 pi)
+  bool radians = false;         // the heading the DR uses: the true heading in degrees read as radians / 57.3
+  double dr_error_per_m = 0.0;  // the DR drifts from GNSS by this per metre driven (east)
 };
 
 ConsistencyMonitor run(const Drive& drive, double duration_s, ConsistencyParams params = {}) {

@@ -61,8 +61,8 @@ TEST(DeadReckoner, CircleWithExactKAndAttitudeClosesWithinMillimetres) {
   const DeadReckoningOutput& end = out.back();
   EXPECT_NEAR(end.t_s, 32.0, 1e-9);
   EXPECT_NEAR(end.distance_m, 320.0, 1e-9);
-  EXPECT_LT(end.enu_m.norm(), 2e-3);                 // back at the start
-  EXPECT_LT(end.horizontal_error_m, 2e-3);           // and on the GNSS fix there
+  EXPECT_LT(end.enu_m.norm(), 2e-3);        // back at the start
+  EXPECT_LT(end.horizontal_error_m, 2e-3);  // and on the GNSS fix there
   double max_err = 0.0;
   for (const auto& o : out) max_err = std::max(max_err, o.horizontal_error_m);
   // Between 10 Hz fixes the GNSS reference is a chord: up to 1 m^2 / (8 R) = 2.5 mm off the arc.
@@ -205,7 +205,9 @@ namespace {
 SyntheticData reversing_crawl() {
   const double az = deg_to_rad(30.0);
   const Eigen::Vector3d u(std::sin(az), std::cos(az), 0.0);
-  auto along_m = [](double t) { return t <= 10.0 ? 2.0 * t : t <= 12.0 ? 20.0 : 20.0 - 0.5 * (std::min(t, 22.0) - 12.0); };
+  auto along_m = [](double t) {
+    return t <= 10.0 ? 2.0 * t : t <= 12.0 ? 20.0 : 20.0 - 0.5 * (std::min(t, 22.0) - 12.0);
+  };
   auto speed_mps = [](double t) { return t < 10.0 ? 2.0 : t < 12.0 ? 0.0 : t < 22.0 ? -0.5 : 0.0; };
   auto path_m = [&](double t) { return t <= 12.0 ? along_m(t) : 20.0 + (20.0 - along_m(t)); };
   SyntheticData d;
@@ -241,7 +243,7 @@ TEST(DeadReckoner, WithoutInsAReversingCrawlAtOneHertzIsDeadReckonedExactly) {
   EXPECT_NEAR(end.distance_m, 25.0, 0.03);
   EXPECT_LT(end.horizontal_error_m, 0.03);
   EXPECT_GT(n.reversing, 490u);
-  EXPECT_GT(n.heading_held, 490u);   // the reverse leg is below the course's minimum speed
+  EXPECT_GT(n.heading_held, 490u);  // the reverse leg is below the course's minimum speed
   EXPECT_EQ(n.distance_lost, 0u);
   // The 1 s GNSS interval is bridged (the gap follows the observed period): a reference at 5.5 s.
   const auto mid = std::find_if(out.begin(), out.end(), [](const auto& o) { return std::abs(o.t_s - 5.5) < 1e-9; });
@@ -255,16 +257,16 @@ TEST(DeadReckoner, GnssGapFollowsTheObservedPeriod) {
   EXPECT_DOUBLE_EQ(dead_reckoning_gnss_max_gap_s(p, std::nan("")), 0.5);  // nothing observed yet
   EXPECT_DOUBLE_EQ(dead_reckoning_gnss_max_gap_s(p, 0.1), 0.5);           // 10 Hz: the floor
   EXPECT_DOUBLE_EQ(dead_reckoning_gnss_max_gap_s(p, 1.0), 2.5);           // 1 Hz: 2.5 periods
-  p.gnss_max_gap_s = 0.7;                                                  // fixed by the user
+  p.gnss_max_gap_s = 0.7;                                                 // fixed by the user
   EXPECT_DOUBLE_EQ(dead_reckoning_gnss_max_gap_s(p, 1.0), 0.7);
   // At 10 Hz a 1 s hole in the fixes is not bridged: the error of the epoch 5.0 s (evaluated at
   // 5.2 s, after the hold-off) is carried for the 0.5 s gap, not to 5.8 s.
   SensorConfig c;
   c.duration_s = 10.0;
   SyntheticData d = simulate(straight(0.0, 0.0, 5.0, 0.0), c);
-  d.gnss.erase(std::remove_if(d.gnss.begin(), d.gnss.end(),
-                              [](const GnssSample& g) { return g.t_s > 5.05 && g.t_s < 5.95; }),
-               d.gnss.end());
+  d.gnss.erase(
+      std::remove_if(d.gnss.begin(), d.gnss.end(), [](const GnssSample& g) { return g.t_s > 5.05 && g.t_s < 5.95; }),
+      d.gnss.end());
   const auto out = run_all(d, exact_k());
   const auto hole = std::find_if(out.begin(), out.end(), [](const auto& o) { return std::abs(o.t_s - 5.8) < 1e-9; });
   ASSERT_NE(hole, out.end());
@@ -346,13 +348,22 @@ TEST(DeadReckoner, DifferentInterleavingsGiveBitIdenticalOutputs) {
     const int which = std::uniform_int_distribution<int>(0, 2)(rng);
     const int burst = std::uniform_int_distribution<int>(1, 50)(rng);
     for (int k = 0; k < burst; ++k) {
-      if (which == 0 && io < d.odometer.size()) { b.add_odometer(d.odometer[io]); wo = d.odometer[io++].t_s; }
-      if (which == 1 && ig < d.gnss.size()) { b.add_gnss(d.gnss[ig]); wg = d.gnss[ig++].t_s; }
-      if (which == 2 && ii < d.ins.size()) { b.add_ins(d.ins[ii]); wi = d.ins[ii++].t_s; }
+      if (which == 0 && io < d.odometer.size()) {
+        b.add_odometer(d.odometer[io]);
+        wo = d.odometer[io++].t_s;
+      }
+      if (which == 1 && ig < d.gnss.size()) {
+        b.add_gnss(d.gnss[ig]);
+        wg = d.gnss[ig++].t_s;
+      }
+      if (which == 2 && ii < d.ins.size()) {
+        b.add_ins(d.ins[ii]);
+        wi = d.ins[ii++].t_s;
+      }
     }
     const double inf = std::numeric_limits<double>::infinity();
-    for (const auto& o : b.process_until(std::min({io < d.odometer.size() ? wo : inf,
-                                                   ig < d.gnss.size() ? wg : inf, ii < d.ins.size() ? wi : inf})))
+    for (const auto& o : b.process_until(std::min(
+             {io < d.odometer.size() ? wo : inf, ig < d.gnss.size() ? wg : inf, ii < d.ins.size() ? wi : inf})))
       ob.push_back(o);
   }
   for (const auto& o : b.finish()) ob.push_back(o);
@@ -367,17 +378,17 @@ TEST(DeadReckoner, DifferentInterleavingsGiveBitIdenticalOutputs) {
                 (std::isnan(oa[i].horizontal_error_m) && std::isnan(ob[i].horizontal_error_m)))
         << i;
   }
-  EXPECT_EQ(oa[100].k_source, ScaleFactorSource::kNominal);      // 2 s
-  EXPECT_EQ(oa[500].k_source, ScaleFactorSource::kIdentified);   // 10 s
+  EXPECT_EQ(oa[100].k_source, ScaleFactorSource::kNominal);     // 2 s
+  EXPECT_EQ(oa[500].k_source, ScaleFactorSource::kIdentified);  // 10 s
   EXPECT_EQ(oa.back().k_source, ScaleFactorSource::kCommanded);
 }
 
 TEST(DriftEvaluator, FinalAndMaximumPercentAboveTheMinimumDistance) {
   DriftEvaluator e(100.0);
-  e.add(50.0, 5.0);   // below 100 m: ignored
-  e.add(200.0, 2.0);  // 1 %
+  e.add(50.0, 5.0);                                        // below 100 m: ignored
+  e.add(200.0, 2.0);                                       // 1 %
   e.add(300.0, std::numeric_limits<double>::quiet_NaN());  // no reference
-  e.add(400.0, 2.0);  // 0.5 %
+  e.add(400.0, 2.0);                                       // 0.5 %
   const DriftSummary s = e.summary();
   EXPECT_EQ(s.points, 2u);
   EXPECT_DOUBLE_EQ(s.final_percent, 0.5);

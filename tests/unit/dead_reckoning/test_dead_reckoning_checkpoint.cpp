@@ -28,7 +28,7 @@ namespace fs = std::filesystem;
 constexpr const char* kVehicle = "vehicle-07";
 constexpr const char* kHash = "0123456789abcdef";
 constexpr int64_t kUnixTime_s = 1700000000;
-constexpr double kHistory_s = 30.0;   // the producers' history handed to a restarted reader
+constexpr double kHistory_s = 30.0;      // the producers' history handed to a restarted reader
 constexpr double kEstimateLag_s = 0.05;  // estimates arrive this long after their GNSS epoch
 constexpr double kK = 0.0125;
 const Misalignment kTrueMis{deg_to_rad(0.8), deg_to_rad(-0.5)};
@@ -59,7 +59,8 @@ Drive drive() {
   c.lever_arm_body_m = kLeverArm_m;
   Drive r{simulate(circle(250.0, 10.0, deg_to_rad(30.0)), c), {}, {}};
   auto& g = r.d.gnss;
-  g.erase(std::remove_if(g.begin(), g.end(), [](const GnssSample& s) { return s.t_s > 25.0 && s.t_s < 33.0; }), g.end());
+  g.erase(std::remove_if(g.begin(), g.end(), [](const GnssSample& s) { return s.t_s > 25.0 && s.t_s < 33.0; }),
+          g.end());
   auto& ins = r.d.ins;
   ins.erase(std::remove_if(ins.begin(), ins.end(), [](const InsSample& s) { return s.t_s > 40.1 && s.t_s < 40.7; }),
             ins.end());
@@ -83,12 +84,14 @@ struct Event {
 };
 std::vector<Event> events_of(const Drive& r) {
   std::vector<Event> e;
-  for (std::size_t i = 0; i < r.d.odometer.size(); ++i) e.push_back({r.d.odometer[i].t_s, r.d.odometer[i].t_s, Kind::kOdometer, i});
+  for (std::size_t i = 0; i < r.d.odometer.size(); ++i)
+    e.push_back({r.d.odometer[i].t_s, r.d.odometer[i].t_s, Kind::kOdometer, i});
   for (std::size_t i = 0; i < r.d.gnss.size(); ++i) e.push_back({r.d.gnss[i].t_s, r.d.gnss[i].t_s, Kind::kGnss, i});
   for (std::size_t i = 0; i < r.d.ins.size(); ++i) e.push_back({r.d.ins[i].t_s, r.d.ins[i].t_s, Kind::kIns, i});
   for (std::size_t i = 0; i < r.misalignment.size(); ++i)
     e.push_back({r.misalignment[i].first + kEstimateLag_s, r.misalignment[i].first, Kind::kMisalignment, i});
-  for (std::size_t i = 0; i < r.k.size(); ++i) e.push_back({r.k[i].first + kEstimateLag_s, r.k[i].first, Kind::kScaleFactor, i});
+  for (std::size_t i = 0; i < r.k.size(); ++i)
+    e.push_back({r.k[i].first + kEstimateLag_s, r.k[i].first, Kind::kScaleFactor, i});
   std::stable_sort(e.begin(), e.end(), [](const Event& a, const Event& b) { return a.arrival_s < b.arrival_s; });
   return e;
 }
@@ -127,7 +130,8 @@ void expect_identical(const Published& a, const Published& b, const std::string&
   EXPECT_TRUE(same_bits(a.anchored.position.lat_rad, b.anchored.position.lat_rad)) << where;
   EXPECT_TRUE(same_bits(a.anchored.position.lon_rad, b.anchored.position.lon_rad)) << where;
   EXPECT_TRUE(same_bits(a.anchored.enu_m, b.anchored.enu_m)) << where;
-  EXPECT_EQ(std::memcmp(a.anchored.covariance_enu_m2.data(), b.anchored.covariance_enu_m2.data(), 9 * sizeof(double)), 0)
+  EXPECT_EQ(std::memcmp(a.anchored.covariance_enu_m2.data(), b.anchored.covariance_enu_m2.data(), 9 * sizeof(double)),
+            0)
       << where;
   EXPECT_EQ(a.anchored.status, b.anchored.status) << where;
   EXPECT_TRUE(same_bits(a.anchored.last_fix_t_s, b.anchored.last_fix_t_s)) << where;
@@ -178,7 +182,8 @@ class DeadReckoningCheckpointTest : public ::testing::Test {
       switch (e.kind) {
         case Kind::kOdometer:
           r.lifecycle.note_live_sample(e.t_s, steady_s);
-          if (r.lifecycle.take_sample(DeadReckoningInput::kOdometer, e.t_s)) r.core.add_odometer(dv.d.odometer[e.index]);
+          if (r.lifecycle.take_sample(DeadReckoningInput::kOdometer, e.t_s))
+            r.core.add_odometer(dv.d.odometer[e.index]);
           break;
         case Kind::kGnss:
           if (r.lifecycle.take_sample(DeadReckoningInput::kGnss, e.t_s)) r.core.add_gnss(dv.d.gnss[e.index]);
@@ -199,8 +204,8 @@ class DeadReckoningCheckpointTest : public ::testing::Test {
         case Kind::kScaleFactor:
           if (r.lifecycle.take_sample(DeadReckoningInput::kScaleFactor, e.t_s)) {
             r.core.add_estimate_received(HeldEstimate::kScaleFactor, e.t_s);
-            const IdentifiedScaleFactor k{estimate_applies_from_s(e.t_s, hold_off), dv.k[e.index].second, true,
-                                          "identification", 1e-6, 500};
+            const IdentifiedScaleFactor k{
+                estimate_applies_from_s(e.t_s, hold_off), dv.k[e.index].second, true, "identification", 1e-6, 500};
             if (const auto u = r.consumer.k_selection.on_identified(k, steady_s))
               r.core.add_scale_factor(u->t_s, u->k_m_per_pulse, u->source);
           }
@@ -228,12 +233,14 @@ void write_text(const fs::path& path, const std::string& text) { std::ofstream(p
 
 std::size_t index_at(const std::vector<Event>& ev, double t_s) {
   return static_cast<std::size_t>(
-      std::lower_bound(ev.begin(), ev.end(), t_s, [](const Event& e, double t) { return e.arrival_s < t; }) - ev.begin());
+      std::lower_bound(ev.begin(), ev.end(), t_s, [](const Event& e, double t) { return e.arrival_s < t; }) -
+      ev.begin());
 }
 
 }  // namespace
 
-TEST_F(DeadReckoningCheckpointTest, KilledAnywhereAndRestartedFromTheCheckpointItPublishesExactlyTheUninterruptedOutputs) {
+TEST_F(DeadReckoningCheckpointTest,
+       KilledAnywhereAndRestartedFromTheCheckpointItPublishesExactlyTheUninterruptedOutputs) {
   const Drive dv = drive();
   const std::vector<Event> ev = events_of(dv);
   Run reference(CheckpointSettings{});

@@ -149,7 +149,7 @@ TEST(CommandedKProblem, AcceptsTheTenthToTenTimesTheNominalBoundsIncluded) {
   EXPECT_FALSE(commanded_k_problem(0.0126, kNominalK));
   EXPECT_FALSE(commanded_k_problem(0.125, kNominalK));    // exactly 10x
   EXPECT_FALSE(commanded_k_problem(0.00125, kNominalK));  // exactly 0.1x (0.1 has no exact binary form)
-  EXPECT_FALSE(commanded_k_problem(0.25, 0.025));          // the range follows the nominal given
+  EXPECT_FALSE(commanded_k_problem(0.25, 0.025));         // the range follows the nominal given
 }
 
 TEST(CommandedKProblem, NamesTheValueAndTheRange) {
@@ -264,7 +264,7 @@ TEST(DeadReckoningScaleFactorSelection, StampsHandedOutAreStrictlyIncreasing) {
 TEST(DeadReckoningScaleFactorSelection, InapplicableIdentifiedKIsNeitherAppliedNorCountedAsIgnored) {
   ScaleFactorSelection s(kNominalK);
   EXPECT_FALSE(s.on_identified(identified(1.0, 0.0126, /*converged=*/false), 1.0));
-  EXPECT_FALSE(s.on_identified(identified(1.1, 0.0, true), 1.1));         // K = 0: no value yet
+  EXPECT_FALSE(s.on_identified(identified(1.1, 0.0, true), 1.1));  // K = 0: no value yet
   EXPECT_FALSE(s.on_identified(identified(1.2, std::nan(""), true), 1.2));
   EXPECT_FALSE(s.on_identified(identified(1.3, -0.0126, true), 1.3));
   EXPECT_EQ(s.counters().k_applied, 0u);

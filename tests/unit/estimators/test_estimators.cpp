@@ -40,8 +40,8 @@ struct Drive {
   std::vector<double> k_true;
 };
 
-Drive simulate_drive(std::size_t n, double k0, std::size_t step_at, double step_rel, double sigma_y_m,
-                     unsigned seed, bool quantise = true) {
+Drive simulate_drive(std::size_t n, double k0, std::size_t step_at, double step_rel, double sigma_y_m, unsigned seed,
+                     bool quantise = true) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> noise(0.0, sigma_y_m);
   std::uniform_real_distribution<double> speed_jitter(-0.5, 0.5);
@@ -94,8 +94,8 @@ std::vector<ScaleFactorSample> random_regression_data(std::size_t n, unsigned se
 }
 
 // Weights of each estimator over samples 0..k (inclusive), product-wise from the applied lambdas.
-std::vector<double> brute_force_weights(const std::string& name, std::size_t k, std::size_t window,
-                                        double ff_lambda, const std::vector<double>& applied_lambda) {
+std::vector<double> brute_force_weights(const std::string& name, std::size_t k, std::size_t window, double ff_lambda,
+                                        const std::vector<double>& applied_lambda) {
   std::vector<double> w(k + 1, 0.0);
   for (std::size_t i = 0; i <= k; ++i) {
     if (name == "rls") {
@@ -143,8 +143,8 @@ TEST_P(BatchEquivalence, EqualsWeightedBatchLeastSquaresAfterEveryUpdate) {
     const ScaleFactorEstimate e = estimator->estimate();
     applied_lambda.push_back(e.forgetting_factor);
     const std::vector<ScaleFactorSample> seen(data.begin(), data.begin() + static_cast<long>(k) + 1);
-    const BatchSums b = batch_sums(seen, brute_force_weights(name, k, params.window_length,
-                                                             params.forgetting_factor, applied_lambda));
+    const BatchSums b =
+        batch_sums(seen, brute_force_weights(name, k, params.window_length, params.forgetting_factor, applied_lambda));
     const double k_batch = (w0 * k0 + b.s_py) / (w0 + b.s_pp);
     ASSERT_TRUE(e.valid) << name << " sample " << k;
     ASSERT_LT(relative_error(e.k_m_per_pulse, k_batch), 1e-9) << name << " sample " << k;
@@ -158,7 +158,8 @@ TEST_P(BatchEquivalence, EqualsWeightedBatchLeastSquaresAfterEveryUpdate) {
   if (name == "vff_lm_rls") {
     // The brute force above is only meaningful if lambda really varied.
     const double smallest = *std::min_element(applied_lambda.begin(), applied_lambda.end());
-    const auto below_one = std::count_if(applied_lambda.begin(), applied_lambda.end(), [](double l) { return l < 1.0; });
+    const auto below_one =
+        std::count_if(applied_lambda.begin(), applied_lambda.end(), [](double l) { return l < 1.0; });
     EXPECT_LE(smallest, params.lambda_min + 1e-15);
     EXPECT_GT(below_one, 100);
   }
@@ -266,7 +267,7 @@ TEST(Tracking, WindowsRecoverFromA3PercentStepWithinLSamplesGrowingRlsDoesNot) {
   const std::size_t step_at = 3000;  // 300 s of steady driving first: RLS is saturated by then
   const double k0 = 0.01;
   const Drive drive = simulate_drive(step_at + 1000, k0, step_at, 0.03, 0.005, 77);
-  ScaleFactorEstimatorParams params;  // L = 100
+  ScaleFactorEstimatorParams params;                                // L = 100
   const std::size_t check_at = step_at + params.window_length - 1;  // the L-th sample after the step
   std::vector<std::string> names = {"rls", "lm_rls", "vff_lm_rls", "kf_rw"};
   for (const std::string& name : names) {
@@ -279,7 +280,8 @@ TEST(Tracking, WindowsRecoverFromA3PercentStepWithinLSamplesGrowingRlsDoesNot) {
       const ScaleFactorEstimate e = estimator->estimate();
       lambda_min_seen = std::min(lambda_min_seen, e.forgetting_factor);
       if (i >= step_at && i <= check_at) lambda_min_after_step = std::min(lambda_min_after_step, e.forgetting_factor);
-      if (e.forgetting_factor < 1.0 && first_lambda_below_one_at < 0.0) first_lambda_below_one_at = static_cast<double>(i);
+      if (e.forgetting_factor < 1.0 && first_lambda_below_one_at < 0.0)
+        first_lambda_below_one_at = static_cast<double>(i);
       if (i >= step_at && relative_error(e.k_m_per_pulse, drive.k_true[i]) >= 0.005) settled_at = i + 1;
       if (i == step_at - 1) {
         EXPECT_LT(relative_error(e.k_m_per_pulse, k0), 0.004) << name << " before the step";
@@ -441,10 +443,11 @@ TEST(Tracking, VffChangeDetectorRemovesTheStepTailAtOneHertzAndLeavesTenHertzAlo
     const double tail_cut = rms_between(cut, 1.0, 310.0, 340.0), tail_law = rms_between(law_only, 1.0, 310.0, 340.0);
     const double steady_cut = rms_between(cut, 1.0, 100.0, 300.0);
     const double steady_law = rms_between(law_only, 1.0, 100.0, 300.0);
-    std::printf("[ info ] seed %u at 1 Hz: tail RMS %.3f %% with the detector, %.3f %% without; steady %.3f / %.3f %%; "
-                "%llu change(s)\n",
-                seed, 100 * tail_cut, 100 * tail_law, 100 * steady_cut, 100 * steady_law,
-                static_cast<unsigned long long>(changes));
+    std::printf(
+        "[ info ] seed %u at 1 Hz: tail RMS %.3f %% with the detector, %.3f %% without; steady %.3f / %.3f %%; "
+        "%llu change(s)\n",
+        seed, 100 * tail_cut, 100 * tail_law, 100 * steady_cut, 100 * steady_law,
+        static_cast<unsigned long long>(changes));
     EXPECT_EQ(changes, 1u) << "seed " << seed << ": the step, and no false alarm in 600 s";
     EXPECT_LT(tail_cut, 0.5 * tail_law) << "seed " << seed;
     EXPECT_EQ(steady_cut, steady_law) << "seed " << seed << ": nothing changes before the step";
@@ -536,8 +539,10 @@ TEST(Sigma, ReportedSigmaMatchesTheScatterOverIndependentRuns) {
     }
     const double scatter = std::sqrt(sum_sq_error / runs);
     const double mean_sigma = sum_sigma / runs;
-    std::printf("[ info ] RLS over 150 samples, quantised %d: K scatter %.3g, mean reported sigma %.3g m/pulse, "
-                "mean sigma_y %.4g m\n", quantise, scatter, mean_sigma, sum_sigma_y / runs);
+    std::printf(
+        "[ info ] RLS over 150 samples, quantised %d: K scatter %.3g, mean reported sigma %.3g m/pulse, "
+        "mean sigma_y %.4g m\n",
+        quantise, scatter, mean_sigma, sum_sigma_y / runs);
     EXPECT_NEAR(sum_sigma_y / runs, expected_sigma_y, 0.05 * expected_sigma_y) << quantise;
     if (quantise) {
       EXPECT_GT(mean_sigma / scatter, 1.0);
@@ -865,10 +870,11 @@ TEST(Estimators, RegressionNoiseVarianceIsVelocityNoisePlusPulseQuantisation) {
   // sigma_v 0.05 m/s over T = 0.1 s: (0.005 m)^2 / 2 = 1.25e-5 m^2; K = 0.0125 m/pulse: K^2 / 6.
   EXPECT_NEAR(regression_noise_variance_m2(0.05, 0.1, 0.0125), 1.25e-5 + 0.0125 * 0.0125 / 6.0, 1e-20);
   EXPECT_NEAR(regression_noise_variance_m2(0.05, 0.1, 0.0125), 3.854166666666668e-05, 1e-19);
-  EXPECT_DOUBLE_EQ(regression_noise_variance_m2(0.0, 0.1, 0.06), 0.0006);   // quantisation only
-  EXPECT_DOUBLE_EQ(regression_noise_variance_m2(0.2, 0.5, 0.0), 0.005);     // velocity only
+  EXPECT_DOUBLE_EQ(regression_noise_variance_m2(0.0, 0.1, 0.06), 0.0006);  // quantisation only
+  EXPECT_DOUBLE_EQ(regression_noise_variance_m2(0.2, 0.5, 0.0), 0.005);    // velocity only
   // The estimators' model (automatic VFF C) is this variance floored by sigma_y_floor_m^2.
   ScaleFactorEstimatorParams p;
   p.sigma_y_floor_m = 1e-3;
-  EXPECT_GT(regression_noise_variance_m2(p.sigma_v_mps, p.sample_interval_s, 0.0125), p.sigma_y_floor_m * p.sigma_y_floor_m);
+  EXPECT_GT(regression_noise_variance_m2(p.sigma_v_mps, p.sample_interval_s, 0.0125),
+            p.sigma_y_floor_m * p.sigma_y_floor_m);
 }

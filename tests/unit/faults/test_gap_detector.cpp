@@ -60,8 +60,8 @@ TEST(MissingEpochs, RunsOfGnssEpochsWithoutAnEstimateRow) {
   for (int i = 0; i <= 300; ++i) epochs.push_back(i * 0.1);
   for (int i = 1; i <= 280; ++i)
     if (i < 101 || i > 150) rows.push_back(i * 0.1 + (i % 2 ? 3e-9 : -3e-9));
-  rows.push_back(5.0);    // a repeat (heartbeat)
-  rows.push_back(12.05);  // at no epoch
+  rows.push_back(5.0);     // a repeat (heartbeat)
+  rows.push_back(12.05);   // at no epoch
   epochs.push_back(20.0);  // an epoch seen twice
   const auto runs = odonav::missing_epochs(epochs, rows);
   ASSERT_EQ(runs.size(), 3u);
@@ -78,4 +78,3 @@ TEST(MissingEpochs, RunsOfGnssEpochsWithoutAnEstimateRow) {
 }
 
 }  // namespace
-

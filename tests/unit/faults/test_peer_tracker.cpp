@@ -56,7 +56,7 @@ TEST(PeerTracker, AnUnmatchedWriterIsForgottenAndTheLongestSilenceComesFirst) {
   for (double now = 0.0; now <= 8.0; now += 0.1) t.heard("c", now);
   auto s = t.silent(8.0);
   ASSERT_EQ(s.size(), 2u);
-  EXPECT_EQ(s[0].peer, "odonav-gateway");  // 7 s
+  EXPECT_EQ(s[0].peer, "odonav-gateway");      // 7 s
   EXPECT_EQ(s[1].peer, "odonav-calibration");  // 5 s
   EXPECT_EQ(t.reason(8.0).value_or(""), "no odometer from odonav-gateway for 7.0 s, and 1 more silent");
   t.unmatched("a");

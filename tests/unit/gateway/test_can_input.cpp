@@ -91,25 +91,26 @@ TEST(CandumpParser, WritesWhatItReads) {
 TEST(CandumpParser, RejectsMalformedLinesWithAReason) {
   for (const char* bad : {
            "garbage",
-           "(1700000000.1) can0",                       // no frame
-           "1700000000.1 can0 123#00",                  // stamp without parentheses
-           "(17000000x0.1) can0 123#00",                // stamp not a number
-           "(1.0.0) can0 123#00",                       // two points
-           "() can0 123#00",                            // empty stamp
-           "(1.0) can0 12300",                          // no '#'
-           "(1.0) can0 1234#00",                        // 4-digit identifier
-           "(1.0) can0 800#00",                         // 11-bit above 7FF
-           "(1.0) can0 4FFFFFFF#00",                    // 29-bit above 1FFFFFFF, not an error frame
-           "(1.0) can0 12G#00",                         // not hex
-           "(1.0) can0 123#001",                        // odd digit count
-           "(1.0) can0 123#0011223344556677AA",         // 9 bytes classic
-           "(1.0) can0 123#ZZ",                         // not hex data
-           "(1.0) can0 123##",                          // FD without flags
-           "(1.0) can0 123##0" "00112233445566778899",  // FD length 10 does not exist
-           "(1.0) can0 123#RR",                         // remote with a bad DLC
-           "(1.0) can0 123#00 X",                       // unknown trailing field
-           "(1.0) can0 123#00 R extra",                 // too many fields
-           "(1.0) can0 123#00_3",                       // '_dlc' below 9
+           "(1700000000.1) can0",                // no frame
+           "1700000000.1 can0 123#00",           // stamp without parentheses
+           "(17000000x0.1) can0 123#00",         // stamp not a number
+           "(1.0.0) can0 123#00",                // two points
+           "() can0 123#00",                     // empty stamp
+           "(1.0) can0 12300",                   // no '#'
+           "(1.0) can0 1234#00",                 // 4-digit identifier
+           "(1.0) can0 800#00",                  // 11-bit above 7FF
+           "(1.0) can0 4FFFFFFF#00",             // 29-bit above 1FFFFFFF, not an error frame
+           "(1.0) can0 12G#00",                  // not hex
+           "(1.0) can0 123#001",                 // odd digit count
+           "(1.0) can0 123#0011223344556677AA",  // 9 bytes classic
+           "(1.0) can0 123#ZZ",                  // not hex data
+           "(1.0) can0 123##",                   // FD without flags
+           "(1.0) can0 123##0"
+           "00112233445566778899",       // FD length 10 does not exist
+           "(1.0) can0 123#RR",          // remote with a bad DLC
+           "(1.0) can0 123#00 X",        // unknown trailing field
+           "(1.0) can0 123#00 R extra",  // too many fields
+           "(1.0) can0 123#00_3",        // '_dlc' below 9
        }) {
     const CandumpLine l = parse_candump_line(bad);
     EXPECT_EQ(l.kind, CandumpLine::Kind::kMalformed) << bad;
@@ -133,12 +134,12 @@ TEST(CandumpParser, SourceNamesALogOrStandardInput) {
 // ---- J1939 ------------------------------------------------------------------------------------
 
 TEST(J1939, PgnOfPdu1AndPdu2Identifiers) {
-  EXPECT_EQ(j1939_pgn(0x18FEF100), 0xFEF1u);  // CCVS1, priority 6, SA 0
-  EXPECT_EQ(j1939_pgn(0x0CF00203), 0xF002u);  // ETC1, priority 3, SA 3
-  EXPECT_EQ(j1939_pgn(0x18EA0017), 0xEA00u);  // request, PDU1: DA 0x00 is not part of the PGN
-  EXPECT_EQ(j1939_pgn(0x18EAFF17), 0xEA00u);  // the same to the global address
-  EXPECT_EQ(j1939_pgn(0x1CEF2A31), 0xEF00u);  // proprietary A, PDU1
-  EXPECT_EQ(j1939_pgn(0x19FEF100), 0x1FEF1u); // data page 1
+  EXPECT_EQ(j1939_pgn(0x18FEF100), 0xFEF1u);   // CCVS1, priority 6, SA 0
+  EXPECT_EQ(j1939_pgn(0x0CF00203), 0xF002u);   // ETC1, priority 3, SA 3
+  EXPECT_EQ(j1939_pgn(0x18EA0017), 0xEA00u);   // request, PDU1: DA 0x00 is not part of the PGN
+  EXPECT_EQ(j1939_pgn(0x18EAFF17), 0xEA00u);   // the same to the global address
+  EXPECT_EQ(j1939_pgn(0x1CEF2A31), 0xEF00u);   // proprietary A, PDU1
+  EXPECT_EQ(j1939_pgn(0x19FEF100), 0x1FEF1u);  // data page 1
   EXPECT_EQ(j1939_source_address(0x0CF00203), 3u);
 }
 
@@ -338,11 +339,13 @@ TEST(CanOdometer, CounterSignalWrapsAndSignedSpeedReverses) {
 TEST(CanOdometer, TwoTracksAreAveraged) {
   // Left and right track counters in one frame (bytes 0-1 and 2-3, Intel): the odometer counts
   // the mean, whole pulses.
-  CanOdometer odo(config("signal:id=18FF0A21,start=0,length=16,as=counter;signal:id=18FF0A21,start=16,length=16,as=counter"));
-  EXPECT_EQ(odo.parse_line("(1.00) can0 18FF0A21#E8030000")->pulses, 500u);   // 1000 and 0
-  EXPECT_EQ(odo.parse_line("(1.01) can0 18FF0A21#EB030500")->pulses, 504u);   // 1003 and 5: 504
+  CanOdometer odo(
+      config("signal:id=18FF0A21,start=0,length=16,as=counter;signal:id=18FF0A21,start=16,length=16,as=counter"));
+  EXPECT_EQ(odo.parse_line("(1.00) can0 18FF0A21#E8030000")->pulses, 500u);  // 1000 and 0
+  EXPECT_EQ(odo.parse_line("(1.01) can0 18FF0A21#EB030500")->pulses, 504u);  // 1003 and 5: 504
   // Left and right speeds in two frames: a sample at each frame of the first, once both have a value.
-  CanOdometer two(config("signal:id=101,start=0,length=16,scale=0.01,as=speed;signal:id=102,start=0,length=16,scale=0.01,as=speed"));
+  CanOdometer two(config(
+      "signal:id=101,start=0,length=16,scale=0.01,as=speed;signal:id=102,start=0,length=16,scale=0.01,as=speed"));
   EXPECT_FALSE(two.parse_line("(2.000) can0 101#E803"));  // 10 m/s left; no right value yet
   EXPECT_FALSE(two.parse_line("(2.005) can0 102#D007"));  // 20 m/s right: not the first channel
   // At 2.1 s: left 0.1 s x 10 m/s = 100 pulses... x 100 pulses/m = 100; right extrapolated 0.095 s x 20 m/s x 100 = 190.
@@ -355,16 +358,16 @@ TEST(CanOdometer, TwoTracksAreAveraged) {
 TEST(CanOdometer, BadFramesAreCountedNeverFatal) {
   CanOdometer odo(config("ccvs1"));
   std::vector<std::string> lines{
-      "(10.0) can0 18FEF100#FF0024FFFFFFFFFF",  // good: sample
-      "(10.1) can0 123#00",                     // unknown id
-      "(10.1) can0 18FEF100#FF0024FFFFFFFFFF",  // good
-      "(10.1) can0 18FEF100#FF0024FFFFFFFFFF",  // same stamp: stale
-      "(10.05) can0 18FEF100#FF0024FFFFFFFFFF", // back in time: out of order
-      "(10.2) can0 18FEF100#FFFFFFFFFFFFFFFF",  // not available: undecodable
-      "(10.3) can0 18FEF100#FF00",              // too short: undecodable
-      "this is not candump",                    // malformed
-      "",                                       // ignored
-      "(10.4) can0 18FEF100#FF0024FFFFFFFFFF",  // good again
+      "(10.0) can0 18FEF100#FF0024FFFFFFFFFF",   // good: sample
+      "(10.1) can0 123#00",                      // unknown id
+      "(10.1) can0 18FEF100#FF0024FFFFFFFFFF",   // good
+      "(10.1) can0 18FEF100#FF0024FFFFFFFFFF",   // same stamp: stale
+      "(10.05) can0 18FEF100#FF0024FFFFFFFFFF",  // back in time: out of order
+      "(10.2) can0 18FEF100#FFFFFFFFFFFFFFFF",   // not available: undecodable
+      "(10.3) can0 18FEF100#FF00",               // too short: undecodable
+      "this is not candump",                     // malformed
+      "",                                        // ignored
+      "(10.4) can0 18FEF100#FF0024FFFFFFFFFF",   // good again
   };
   std::size_t samples = 0;
   for (const auto& l : lines) samples += odo.parse_line(l).has_value();

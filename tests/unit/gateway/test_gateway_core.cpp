@@ -96,10 +96,9 @@ TEST(GatewaySource, InterleavesInTimeOrderWithFixedTieOrder) {
   ASSERT_EQ(events.size(), 10u);
   using S = SensorEvent::Stream;
   // t: 0 odo, 0 ins, 0.5 odo, 1 odo, 1 ins, 1 gnss, 1.5 odo, 1.75 gnss, 2 odo, 2 ins
-  const std::vector<std::pair<double, S>> expected{{0, S::kOdometer}, {0, S::kIns},     {0.5, S::kOdometer},
-                                                   {1, S::kOdometer}, {1, S::kIns},     {1, S::kGnss},
-                                                   {1.5, S::kOdometer}, {1.75, S::kGnss}, {2, S::kOdometer},
-                                                   {2, S::kIns}};
+  const std::vector<std::pair<double, S>> expected{
+      {0, S::kOdometer}, {0, S::kIns},        {0.5, S::kOdometer}, {1, S::kOdometer}, {1, S::kIns},
+      {1, S::kGnss},     {1.5, S::kOdometer}, {1.75, S::kGnss},    {2, S::kOdometer}, {2, S::kIns}};
   for (std::size_t i = 0; i < events.size(); ++i) {
     EXPECT_EQ(events[i].t_s, expected[i].first) << i;
     EXPECT_EQ(events[i].stream, expected[i].second) << i;

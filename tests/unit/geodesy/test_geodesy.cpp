@@ -35,15 +35,15 @@ static double representation_limit_m(const Geodetic& p) {
 
 TEST(Geodesy, EnuGeodeticRoundTripTo1e9Metres) {
   std::mt19937 rng(42);
-  std::uniform_real_distribution<double> lat(-80.0, 80.0), lon(-180.0, 180.0), h(-100.0, 3000.0),
-      d(-20000.0, 20000.0);
+  std::uniform_real_distribution<double> lat(-80.0, 80.0), lon(-180.0, 180.0), h(-100.0, 3000.0), d(-20000.0, 20000.0);
   for (int i = 0; i < 500; ++i) {
     const Geodetic origin{deg_to_rad(lat(rng)), deg_to_rad(lon(rng)), h(rng)};
     const LocalEnuFrame frame(origin);
     const Eigen::Vector3d enu(d(rng), d(rng), d(rng) / 20.0);
     const Geodetic p = frame.to_geodetic(enu);
     const Eigen::Vector3d back = frame.to_enu(p);
-    EXPECT_LT((back - enu).norm(), 1e-9 + representation_limit_m(p)) << "origin " << origin.lat_rad << " " << origin.lon_rad;
+    EXPECT_LT((back - enu).norm(), 1e-9 + representation_limit_m(p))
+        << "origin " << origin.lat_rad << " " << origin.lon_rad;
     const Geodetic p2 = frame.to_geodetic(back);
     EXPECT_LT(std::abs(p2.lat_rad - p.lat_rad) * 6.4e6, 1e-9 + representation_limit_m(p));
     EXPECT_LT(std::abs(p2.height_m - p.height_m), 1e-9 + representation_limit_m(p));
@@ -62,8 +62,7 @@ TEST(Geodesy, EnuGeodeticRoundTripTo1e9Metres) {
 TEST(Geodesy, LocalFrameAgreesWithGeographicLib) {
   // GeographicLib's LocalCartesian is the independent reference (double precision: ~1e-8 m).
   std::mt19937 rng(7);
-  std::uniform_real_distribution<double> lat(-85.0, 85.0), lon(-180.0, 180.0), h(-100.0, 3000.0),
-      d(-50000.0, 50000.0);
+  std::uniform_real_distribution<double> lat(-85.0, 85.0), lon(-180.0, 180.0), h(-100.0, 3000.0), d(-50000.0, 50000.0);
   for (int i = 0; i < 200; ++i) {
     const double lat0 = lat(rng), lon0 = lon(rng), h0 = h(rng);
     const LocalEnuFrame frame(Geodetic{deg_to_rad(lat0), deg_to_rad(lon0), h0});

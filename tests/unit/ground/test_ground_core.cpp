@@ -216,8 +216,9 @@ TEST(Ros2MsgSchema, HealthCarriesItsDependenciesOnceInRos2Order) {
   EXPECT_LT(time, counter);
   EXPECT_EQ(schema.find("MSG: std_msgs/Header", header + sep.size() + 5), std::string::npos);  // once
   // Every type of the contract has a schema; Time only once even when reached twice.
-  for (const char* t : {"odonav/msg/Odometer", "odonav/msg/InsAttitude", "odonav/msg/GnssFix", "odonav/msg/Misalignment",
-                        "odonav/msg/ScaleFactor", "odonav/msg/DeadReckoning", "odonav/msg/Command"}) {
+  for (const char* t :
+       {"odonav/msg/Odometer", "odonav/msg/InsAttitude", "odonav/msg/GnssFix", "odonav/msg/Misalignment",
+        "odonav/msg/ScaleFactor", "odonav/msg/DeadReckoning", "odonav/msg/Command"}) {
     const std::string s = ros2msg_schema(library, t);
     EXPECT_NE(s.find("MSG: builtin_interfaces/Time"), std::string::npos) << t;
     EXPECT_EQ(s.find("MSG: odonav/Counter"), std::string::npos) << t;
@@ -394,8 +395,10 @@ TEST(Recording, TopicSelectionAndQosMetadata) {
   EXPECT_STREQ(recording_reader_profile(odonav::topics::kScaleFactor), "odonav_scale_factor_recorder_reader");
   EXPECT_STREQ(recording_reader_profile(odonav::topics::kMisalignment), "odonav_misalignment_recorder_reader");
   EXPECT_STREQ(recording_reader_profile(odonav::topics::kGnssFix), odonav::topics::kGnssFix.reader_profile);
-  EXPECT_STREQ(recording_reader_profile(odonav::topics::kScaleFactor, true), odonav::topics::kGroundBestEffortReaderProfile);
-  EXPECT_STREQ(recording_reader_profile(odonav::topics::kOdometer, true), odonav::topics::kGroundBestEffortReaderProfile);
+  EXPECT_STREQ(recording_reader_profile(odonav::topics::kScaleFactor, true),
+               odonav::topics::kGroundBestEffortReaderProfile);
+  EXPECT_STREQ(recording_reader_profile(odonav::topics::kOdometer, true),
+               odonav::topics::kGroundBestEffortReaderProfile);
   try {
     select_topics("odometer,bogus");
     ADD_FAILURE() << "no error";
@@ -408,7 +411,9 @@ TEST(Recording, TopicSelectionAndQosMetadata) {
   q.depth = 7;
   q.deadline_s = 1.5;
   const std::string y = offered_qos_profiles_yaml(q);
-  EXPECT_NE(y.find("- history: 1\n  depth: 7\n  reliability: 2\n  durability: 1\n  deadline:\n    sec: 1\n    nsec: 500000000\n"),
-            std::string::npos)
+  EXPECT_NE(
+      y.find(
+          "- history: 1\n  depth: 7\n  reliability: 2\n  durability: 1\n  deadline:\n    sec: 1\n    nsec: 500000000\n"),
+      std::string::npos)
       << y;
 }

@@ -163,9 +163,12 @@ TEST(FoxgloveProtocol, MessageFrame) {
 TEST(FoxgloveProtocol, Subscriptions) {
   ClientSubscriptions c;
   auto exists = [](std::uint32_t id) { return id == 1 || id == 2; };
-  EXPECT_TRUE(c.handle_text(R"({"op":"subscribe","subscriptions":[{"id":0,"channelId":1},{"id":1,"channelId":2}]})", exists).empty());
+  EXPECT_TRUE(
+      c.handle_text(R"({"op":"subscribe","subscriptions":[{"id":0,"channelId":1},{"id":1,"channelId":2}]})", exists)
+          .empty());
   EXPECT_EQ(c.subscriptions_of(1), std::vector<std::uint32_t>{0});
-  auto r = c.handle_text(R"({"op":"subscribe","subscriptions":[{"id":0,"channelId":2},{"id":5,"channelId":7}]})", exists);
+  auto r =
+      c.handle_text(R"({"op":"subscribe","subscriptions":[{"id":0,"channelId":2},{"id":5,"channelId":7}]})", exists);
   ASSERT_EQ(r.size(), 2u);
   EXPECT_NE(r[0]["message"].get<std::string>().find("already in use"), std::string::npos);
   EXPECT_NE(r[1]["message"].get<std::string>().find("channel 7 is not advertised"), std::string::npos);
@@ -197,8 +200,9 @@ TEST(FoxgloveProtocol, SubscriptionsByChannelStayConsistent) {
   EXPECT_EQ(c.channels(), (std::set<std::uint32_t>{1, 3}));
   EXPECT_EQ(c.size(), 2u);
   // The id of a removed channel's subscription is free again; the unsubscribed one too.
-  EXPECT_TRUE(c.handle_text(R"({"op":"subscribe","subscriptions":[{"id":5,"channelId":3},{"id":9,"channelId":3}]})", exists)
-                  .empty());
+  EXPECT_TRUE(
+      c.handle_text(R"({"op":"subscribe","subscriptions":[{"id":5,"channelId":3},{"id":9,"channelId":3}]})", exists)
+          .empty());
   EXPECT_EQ(c.subscriptions_of(3), (std::vector<std::uint32_t>{5, 6, 9}));
   EXPECT_TRUE(c.handle_text(R"({"op":"unsubscribe","subscriptionIds":[4]})", exists).empty());
   EXPECT_TRUE(c.subscriptions_of(1).empty());
@@ -234,7 +238,8 @@ TEST(WebApi, Token) {
 }
 
 TEST(WebApi, CommandBody) {
-  const WebCommand c = parse_web_command(R"({"vehicle":"v1","component":"odonav-dead-reckoning","command":"set-k","value":0.0127})");
+  const WebCommand c =
+      parse_web_command(R"({"vehicle":"v1","component":"odonav-dead-reckoning","command":"set-k","value":0.0127})");
   EXPECT_EQ(c.vehicle, "v1");
   EXPECT_DOUBLE_EQ(c.value, 0.0127);
   auto message = [](const std::string& body) {
@@ -248,8 +253,10 @@ TEST(WebApi, CommandBody) {
   EXPECT_NE(message("{").find("not JSON"), std::string::npos);
   EXPECT_NE(message(R"({"component":"x","command":"reset"})").find("'vehicle'"), std::string::npos);
   EXPECT_NE(message(R"({"vehicle":"v","component":"x","command":"set-k"})").find("'value'"), std::string::npos);
-  EXPECT_NE(message(R"({"vehicle":"v","component":"x","command":"set-k","value":-1})").find("'value'"), std::string::npos);
-  EXPECT_NE(message(R"({"vehicle":"v","component":"x","command":"reset","value":1})").find("takes no"), std::string::npos);
+  EXPECT_NE(message(R"({"vehicle":"v","component":"x","command":"set-k","value":-1})").find("'value'"),
+            std::string::npos);
+  EXPECT_NE(message(R"({"vehicle":"v","component":"x","command":"reset","value":1})").find("takes no"),
+            std::string::npos);
   EXPECT_EQ(message(R"({"vehicle":"v","component":"x","command":"reset"})"), "accepted");
   EXPECT_EQ(query_parameter("/api/fleet?a=1&history=vehicle%2D01", "history"), "vehicle-01");
   EXPECT_EQ(query_parameter("/api/fleet", "history"), "");

@@ -48,7 +48,9 @@ std::unique_ptr<IdentificationCore> fed_core(std::size_t n) {
   core->finish();
   return core;
 }
-std::unique_ptr<IdentificationCore> fresh_core() { return std::make_unique<IdentificationCore>(IdentificationParams{}); }
+std::unique_ptr<IdentificationCore> fresh_core() {
+  return std::make_unique<IdentificationCore>(IdentificationParams{});
+}
 
 /// An output at t_s (s) with these counters and, when given, the core's estimate.
 IdentificationOutput output_at(double t_s, uint64_t accepted, uint64_t rejected,
@@ -93,8 +95,10 @@ class IdentificationLifecycleTest : public ::testing::Test {
     auto e = fed_core(300);
     IdentificationLifecycle run(settings(hash), kVehicle);
     run.start(*e, kUnixTime_s, 0.0);
-    for (const auto& [input, t] : {std::pair{IdentificationInput::kOdometer, 30.3}, {IdentificationInput::kGnss, 30.1},
-                                   {IdentificationInput::kIns, 30.25}, {IdentificationInput::kMisalignment, 29.9}})
+    for (const auto& [input, t] : {std::pair{IdentificationInput::kOdometer, 30.3},
+                                   {IdentificationInput::kGnss, 30.1},
+                                   {IdentificationInput::kIns, 30.25},
+                                   {IdentificationInput::kMisalignment, 29.9}})
       EXPECT_FALSE(run.skip_sample(input, t));
     run.outputs_to_publish({output_at(30.1, 300, 17, e.get())});
     run.checkpoint_if_due(*e);
@@ -154,7 +158,8 @@ TEST_F(IdentificationLifecycleTest, RestoredCheckpointCarriesStateTimeAndCounter
   l.start(*e, kUnixTime_s, 1000.0);
   ASSERT_TRUE(l.restored_t_s());
   EXPECT_EQ(*l.restored_t_s(), 30.1);
-  EXPECT_EQ(e->main_estimator().estimate().k_m_per_pulse, before->main_estimator().estimate().k_m_per_pulse) << "bit-identical K";
+  EXPECT_EQ(e->main_estimator().estimate().k_m_per_pulse, before->main_estimator().estimate().k_m_per_pulse)
+      << "bit-identical K";
   EXPECT_EQ(e->save_state(), before->save_state()) << "the whole core: builder, estimator, counters";
   EXPECT_EQ(e->builder_counters().epochs, before->builder_counters().epochs);
 
@@ -371,9 +376,8 @@ TEST_F(IdentificationLifecycleTest, OutputsUpToTheCheckpointAreDroppedAndTheRest
   auto e = fresh_core();
   IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
-  const auto out =
-      l.outputs_to_publish({output_at(30.0, 299, 17), output_at(30.1, 300, 17), output_at(30.2, 301, 17),
-                            output_at(30.3, 302, 18)});
+  const auto out = l.outputs_to_publish(
+      {output_at(30.0, 299, 17), output_at(30.1, 300, 17), output_at(30.2, 301, 17), output_at(30.3, 302, 18)});
   ASSERT_EQ(out.size(), 2u) << "30.0 and 30.1 were published by the previous run";
   EXPECT_EQ(out[0].t_s, 30.2);
   EXPECT_EQ(out[0].samples_accepted, 301u) << "the restored core counts on: nothing is added";

@@ -55,10 +55,9 @@ TEST(Options, DefaultsWhenNothingIsGiven) {
 TEST(Options, EveryFlagSyntax) {
   Options opts = offline_options();
   std::ostringstream help;
-  ASSERT_EQ(opts.parse({"--vff-c=2.5", "--window", "250", "run1", "--out", "/tmp/o", "--freeze",
-                        "--on-bad-row=skip"},
-                       help),
-            ParseResult::kRun);
+  ASSERT_EQ(
+      opts.parse({"--vff-c=2.5", "--window", "250", "run1", "--out", "/tmp/o", "--freeze", "--on-bad-row=skip"}, help),
+      ParseResult::kRun);
   EXPECT_EQ(opts.get_double("vff-c"), 2.5);
   EXPECT_EQ(opts.get_int("window"), 250);
   EXPECT_EQ(opts.get_string("out"), "/tmp/o");
@@ -69,7 +68,8 @@ TEST(Options, EveryFlagSyntax) {
 
   Options negated = offline_options();
   negated.add_bool("ins", true, "use ins.csv");
-  ASSERT_EQ(negated.parse({"run", "--no-ins", "--freeze=true", "--vff-c", "-0", "--window=+7"}, help), ParseResult::kRun);
+  ASSERT_EQ(negated.parse({"run", "--no-ins", "--freeze=true", "--vff-c", "-0", "--window=+7"}, help),
+            ParseResult::kRun);
   EXPECT_FALSE(negated.get_bool("ins"));
   EXPECT_TRUE(negated.was_set("ins"));
   EXPECT_TRUE(negated.get_bool("freeze"));
@@ -141,7 +141,8 @@ TEST(Options, UnparsableValues) {
   EXPECT_EQ(parse_error({"run", "--no-freeze=true"}), "--no-freeze takes no value");
   ScratchDir dir;
   dir.write("a.conf", "\nwindow = ten\n");
-  EXPECT_EQ(parse_error({"run", "--config", dir.file("a.conf")}), dir.file("a.conf") + ":2: window = ten: not an integer");
+  EXPECT_EQ(parse_error({"run", "--config", dir.file("a.conf")}),
+            dir.file("a.conf") + ":2: window = ten: not an integer");
 }
 
 TEST(Options, OutOfRange) {
@@ -195,13 +196,16 @@ TEST(Options, HelpListsEveryOption) {
   // --help wins over an error elsewhere on the line.
   ASSERT_EQ(opts.parse({"--window=bad", "--help"}, help), ParseResult::kHelp);
   const std::string text = help.str();
-  EXPECT_EQ(text.rfind("Usage: odonav-offline [options] <dataset>\n\nRuns calibration, identification and DR over a dataset.\n", 0), 0u) << text;
-  for (const char* expected :
-       {"<dataset>", "dataset directory", "--out <string>", "output directory (default: \"\")",
-        "--vff-c <number>", "VFF residual scale (default: 4, range: [0, 1e6])", "--window <integer>",
-        "window length in samples (default: 100, range: [1, 100000])", "--[no-]freeze",
-        "freeze K during GNSS loss (default: false)", "--on-bad-row <choice>",
-        "(default: fail, choices: fail, skip)", "--config <file>", "--help, -h"}) {
+  EXPECT_EQ(
+      text.rfind(
+          "Usage: odonav-offline [options] <dataset>\n\nRuns calibration, identification and DR over a dataset.\n", 0),
+      0u)
+      << text;
+  for (const char* expected : {"<dataset>", "dataset directory", "--out <string>", "output directory (default: \"\")",
+                               "--vff-c <number>", "VFF residual scale (default: 4, range: [0, 1e6])",
+                               "--window <integer>", "window length in samples (default: 100, range: [1, 100000])",
+                               "--[no-]freeze", "freeze K during GNSS loss (default: false)", "--on-bad-row <choice>",
+                               "(default: fail, choices: fail, skip)", "--config <file>", "--help, -h"}) {
     EXPECT_NE(text.find(expected), std::string::npos) << expected << "\n" << text;
   }
   EXPECT_EQ(text, opts.usage());

@@ -38,7 +38,7 @@ Dataset random_dataset(uint32_t seed) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * unit(rng); };
   Dataset d;
-  double t = uniform(1.0e5, 6.0e5);  // GNSS time of week, arbitrary fractional digits
+  double t = uniform(1.0e5, 6.0e5);      // GNSS time of week, arbitrary fractional digits
   uint32_t pulses = 4294967295u - 700u;  // the counter wraps during the drive
   for (int i = 0; i < 400; ++i) {
     t += uniform(0.001, 0.02);
@@ -62,7 +62,8 @@ Dataset random_dataset(uint32_t seed) {
     t += uniform(0.005, 0.02);
     InsSample s;
     s.t_s = t;
-    s.attitude = Attitude{deg_to_rad(uniform(0.0, 360.0)), deg_to_rad(uniform(-90.0, 90.0)), deg_to_rad(uniform(-180.0, 180.0))};
+    s.attitude =
+        Attitude{deg_to_rad(uniform(0.0, 360.0)), deg_to_rad(uniform(-90.0, 90.0)), deg_to_rad(uniform(-180.0, 180.0))};
     if (i % 5 != 0) s.vel_enu_mps = Eigen::Vector3d(uniform(-30, 30), uniform(-30, 30), uniform(-2, 2));
     d.ins.push_back(s);
   }
@@ -72,7 +73,8 @@ Dataset random_dataset(uint32_t seed) {
     TruthSample s;
     s.t_s = t;
     s.position = Geodetic{deg_to_rad(uniform(-90.0, 90.0)), deg_to_rad(uniform(-180.0, 180.0)), uniform(0.0, 100.0)};
-    s.attitude = Attitude{deg_to_rad(uniform(0.0, 360.0)), deg_to_rad(uniform(-10.0, 10.0)), deg_to_rad(uniform(-5.0, 5.0))};
+    s.attitude =
+        Attitude{deg_to_rad(uniform(0.0, 360.0)), deg_to_rad(uniform(-10.0, 10.0)), deg_to_rad(uniform(-5.0, 5.0))};
     if (i % 7 != 3) s.k_true_m_per_pulse = uniform(0.01, 0.02);  // some rows without a value
     s.distance_m = uniform(0.0, 1e4);
     d.truth.push_back(s);
@@ -260,7 +262,8 @@ TEST(DatasetRoundTrip, WrappedCounterGivesTheDistanceAcrossTheWrap) {
   EXPECT_EQ(pulse_increment(d.odometer[0].pulses, d.odometer[1].pulses), 5u);
   EXPECT_EQ(pulse_increment(d.odometer[1].pulses, d.odometer[2].pulses), 4u);  // 4294967295 -> 0 -> 3
   uint32_t total = 0;
-  for (std::size_t i = 1; i < d.odometer.size(); ++i) total += pulse_increment(d.odometer[i - 1].pulses, d.odometer[i].pulses);
+  for (std::size_t i = 1; i < d.odometer.size(); ++i)
+    total += pulse_increment(d.odometer[i - 1].pulses, d.odometer[i].pulses);
   const double k_m_per_pulse = 0.0125;
   EXPECT_DOUBLE_EQ(k_m_per_pulse * total, 0.0125 * 16);  // 5 + 4 + 7 pulses, not 4294967276
 }
@@ -285,6 +288,7 @@ TEST(DatasetRoundTrip, WriterWrapsLongitudeAndRefusesImpossibleLatitude) {
     write_dataset(dir.str(), d);
     FAIL() << "no error";
   } catch (const DatasetError& e) {
-    EXPECT_EQ(std::string(e.what()), dir.file("gnss.csv") + ": cannot write row 2: column 'lat_deg' is outside [-90, 90] deg");
+    EXPECT_EQ(std::string(e.what()),
+              dir.file("gnss.csv") + ": cannot write row 2: column 'lat_deg' is outside [-90, 90] deg");
   }
 }

@@ -61,12 +61,9 @@ void expect_same_rows(const std::vector<Sample>& streamed, const std::vector<Sam
 
 int tie_rank(DatasetStreamKind kind) {
   switch (kind) {
-    case DatasetStreamKind::kGnss:
-      return 0;
-    case DatasetStreamKind::kIns:
-      return 1;
-    case DatasetStreamKind::kOdometer:
-      return 2;
+    case DatasetStreamKind::kGnss: return 0;
+    case DatasetStreamKind::kIns: return 1;
+    case DatasetStreamKind::kOdometer: return 2;
   }
   return 3;
 }
@@ -266,7 +263,8 @@ TEST(DatasetStream, BadRowsInTheMiddleFailOrAreSkippedAsReadDatasetDoes) {
   EXPECT_EQ(stream_messages, whole_messages);
 
   // fail: with one bad row at a time, the same message; what the stream gave before it was good.
-  const std::string odometer_bad = dir.file("odometer.csv") + ":5: column 'pulses': must be an integer in [0, 4294967295]: 'x'";
+  const std::string odometer_bad =
+      dir.file("odometer.csv") + ":5: column 'pulses': must be an integer in [0, 4294967295]: 'x'";
   EXPECT_EQ(error_of([&] { read_dataset(dir.str(), BadRowPolicy::kFail); }), odometer_bad);
   // The first bad row in event time is the INS one (t 0.25).
   const std::string ins_bad = dir.file("ins.csv") + ":3: column 'pitch_deg': pitch outside [-90, 90]: '95'";
@@ -282,10 +280,12 @@ TEST(DatasetStream, BadRowsInTheMiddleFailOrAreSkippedAsReadDatasetDoes) {
   EXPECT_EQ(why, odometer_bad);
   EXPECT_EQ(odometer_t, (std::vector<double>{0.0, 0.5})) << "the rows before the bad one, and no other";
   dir.write("odometer.csv", kGoodOdometer);
-  EXPECT_EQ(stream_error(dir.str(), BadRowPolicy::kFail), error_of([&] { read_dataset(dir.str(), BadRowPolicy::kFail); }));
+  EXPECT_EQ(stream_error(dir.str(), BadRowPolicy::kFail),
+            error_of([&] { read_dataset(dir.str(), BadRowPolicy::kFail); }));
   EXPECT_NE(stream_error(dir.str(), BadRowPolicy::kFail).find("gnss.csv:4: column 've'"), std::string::npos);
   dir.write("gnss.csv", kGoodGnss);
-  EXPECT_EQ(stream_error(dir.str(), BadRowPolicy::kFail), dir.file("truth.csv") + ":3: column 'k_true': NaN or infinity is not allowed: 'nan'");
+  EXPECT_EQ(stream_error(dir.str(), BadRowPolicy::kFail),
+            dir.file("truth.csv") + ":3: column 'k_true': NaN or infinity is not allowed: 'nan'");
 }
 
 TEST(DatasetStream, TwoMillionOdometerRowsStreamWithBoundedBuffers) {
@@ -298,8 +298,9 @@ TEST(DatasetStream, TwoMillionOdometerRowsStreamWithBoundedBuffers) {
     for (std::size_t i = 0; i < kRows; ++i) std::fprintf(out, "%zu.%02zu,%zu,1\n", i / 100, i % 100, i);
     std::fclose(out);
   }
-  dir.write("gnss.csv", "t,lat_deg,lon_deg,height_m,ve,vn,vu\n0.005,52.5,13.4,40,1,2,0\n10000.005,52.5,13.4,40,1,2,0\n"
-                        "19999.995,52.5,13.4,40,1,2,0\n");
+  dir.write("gnss.csv",
+            "t,lat_deg,lon_deg,height_m,ve,vn,vu\n0.005,52.5,13.4,40,1,2,0\n10000.005,52.5,13.4,40,1,2,0\n"
+            "19999.995,52.5,13.4,40,1,2,0\n");
 
   DatasetStream stream(dir.str(), BadRowPolicy::kFail);
   const std::size_t at_open = stream.buffered_bytes();

@@ -121,7 +121,8 @@ TEST(DatasetTimeUnit, StampsSinceTheStartAreJudgedByTheirMedianStep) {
                                   ":2: column 't': 0 then steps of 1000 (the median of the first 8 rows) look like "
                                   "milliseconds; odonav expects seconds (docs/DATASET.md)");
   // 100 Hz odometer in us since the start, one gap among the first rows: the median ignores it.
-  Dataset20s o("odometer.csv", odometer(200, [](int i) { return std::to_string(5000000LL + i * 10000LL + (i >= 3 ? 7000000LL : 0)); }));
+  Dataset20s o("odometer.csv",
+               odometer(200, [](int i) { return std::to_string(5000000LL + i * 10000LL + (i >= 3 ? 7000000LL : 0)); }));
   expect_refused(o.dir.str(), o.dir.file("odometer.csv") +
                                   ":2: column 't': 5000000 then steps of 10000 (the median of the first 8 rows) "
                                   "look like microseconds; odonav expects seconds (docs/DATASET.md)");

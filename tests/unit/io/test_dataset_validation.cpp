@@ -90,8 +90,8 @@ const std::string kFullGnssHeader = "t,lat_deg,lon_deg,height_m,ve,vn,vu,pos_std
 
 TEST(DatasetValidation, MissingRequiredColumnIsAFileErrorUnderEitherPolicy) {
   DatasetDir d("gnss.csv", "t,lat_deg,height_m,ve,vn,vu\n0,52,40,1,2,0\n1,52,40,1,2,0\n");
-  const std::string expected = d.dir.file("gnss.csv") +
-                               ":1: required column 'lon_deg' is missing (header: t,lat_deg,height_m,ve,vn,vu)";
+  const std::string expected =
+      d.dir.file("gnss.csv") + ":1: required column 'lon_deg' is missing (header: t,lat_deg,height_m,ve,vn,vu)";
   EXPECT_EQ(fail_message(d.dir), expected);
   try {
     read_dataset(d.dir.str(), BadRowPolicy::kSkip);
@@ -213,12 +213,16 @@ TEST(DatasetValidation, BadDirection) {
 }
 
 TEST(DatasetValidation, GnssRangesFixAndStandardDeviations) {
-  expect_bad_gnss_row(kFullGnssHeader, "0.5,90.001,13.4,40,1,2,0,0.5,0.05,4", "lat_deg", "latitude outside [-90, 90]: '90.001'");
-  expect_bad_gnss_row(kFullGnssHeader, "0.5,52.5,-180.5,40,1,2,0,0.5,0.05,4", "lon_deg", "longitude outside [-180, 180]: '-180.5'");
+  expect_bad_gnss_row(kFullGnssHeader, "0.5,90.001,13.4,40,1,2,0,0.5,0.05,4", "lat_deg",
+                      "latitude outside [-90, 90]: '90.001'");
+  expect_bad_gnss_row(kFullGnssHeader, "0.5,52.5,-180.5,40,1,2,0,0.5,0.05,4", "lon_deg",
+                      "longitude outside [-180, 180]: '-180.5'");
   expect_bad_gnss_row(kFullGnssHeader, "0.5,52.5,13.4,40,1,2,0,0.5,0.05,10", "fix", "must be an integer 0..9: '10'");
   expect_bad_gnss_row(kFullGnssHeader, "0.5,52.5,13.4,40,1,2,0,0.5,0.05,-1", "fix", "must be an integer 0..9: '-1'");
-  expect_bad_gnss_row(kFullGnssHeader, "0.5,52.5,13.4,40,1,2,0,-0.5,0.05,4", "pos_std_m", "negative standard deviation: '-0.5'");
-  expect_bad_gnss_row(kFullGnssHeader, "0.5,52.5,13.4,40,1,2,0,0.5,-0.01,4", "vel_std_mps", "negative standard deviation: '-0.01'");
+  expect_bad_gnss_row(kFullGnssHeader, "0.5,52.5,13.4,40,1,2,0,-0.5,0.05,4", "pos_std_m",
+                      "negative standard deviation: '-0.5'");
+  expect_bad_gnss_row(kFullGnssHeader, "0.5,52.5,13.4,40,1,2,0,0.5,-0.01,4", "vel_std_mps",
+                      "negative standard deviation: '-0.01'");
   // The limits themselves are valid, and empty optional fields read as absent / default.
   DatasetDir d("gnss.csv", kFullGnssHeader + "\n0,90,180,0,0,0,0,,,\n1,-90,-180,0,0,0,0,0,0,0\n");
   const Dataset ds = read_dataset(d.dir.str(), BadRowPolicy::kFail);
@@ -234,7 +238,9 @@ TEST(DatasetValidation, InsRowsAndVelocityGroup) {
   ScratchDir dir;
   dir.write("odometer.csv", kGoodOdometer);
   dir.write("gnss.csv", kGoodGnss);
-  dir.write("ins.csv", "t,heading_deg,pitch_deg,roll_deg,ve,vn,vu\n0,10,1,2,,,\n0.1,10,91,2,,,\n0.2,10,1,2,1,,3\n0.3,350,-2,-3,1,2,3\n");
+  dir.write(
+      "ins.csv",
+      "t,heading_deg,pitch_deg,roll_deg,ve,vn,vu\n0,10,1,2,,,\n0.1,10,91,2,,,\n0.2,10,1,2,1,,3\n0.3,350,-2,-3,1,2,3\n");
   EXPECT_EQ(fail_message(dir), dir.file("ins.csv") + ":3: column 'pitch_deg': pitch outside [-90, 90]: '91'");
   DatasetReadReport report;
   const Dataset ds = read_dataset(dir.str(), BadRowPolicy::kSkip, &report);
@@ -246,7 +252,8 @@ TEST(DatasetValidation, InsRowsAndVelocityGroup) {
   EXPECT_EQ(report.bad_rows[1].message(), dir.file("ins.csv") + ":4: column 'vn': missing value");
   // Only some of the velocity columns in the header: a file error.
   dir.write("ins.csv", "t,heading_deg,pitch_deg,roll_deg,ve\n0,10,1,2,1\n");
-  EXPECT_EQ(fail_message(dir), dir.file("ins.csv") + ": the velocity columns ve, vn, vu must be all present or all absent");
+  EXPECT_EQ(fail_message(dir),
+            dir.file("ins.csv") + ": the velocity columns ve, vn, vu must be all present or all absent");
 }
 
 TEST(DatasetValidation, MalformedMetaJson) {
@@ -293,7 +300,8 @@ TEST(DatasetValidation, HeaderOnlyFiles) {
     EXPECT_EQ(std::string(e.what()), d.dir.file("odometer.csv") + ": 1 good row(s), at least 2 are needed");
   }
   d.dir.write("odometer.csv", "");
-  EXPECT_EQ(fail_message(d.dir), d.dir.file("odometer.csv") + ": no header line (the file is empty or holds only comments)");
+  EXPECT_EQ(fail_message(d.dir),
+            d.dir.file("odometer.csv") + ": no header line (the file is empty or holds only comments)");
 }
 
 TEST(DatasetValidation, HeaderProblems) {
@@ -307,9 +315,11 @@ TEST(DatasetValidation, CommentsBlankLinesCrlfAndBom) {
   // Line numbers count comment and blank lines; CRLF and a byte-order mark are tolerated.
   ScratchDir dir;
   dir.write("gnss.csv", kGoodGnss);
-  dir.write("odometer.csv",
-            "\xEF\xBB\xBF# recorded 2024-06-11\r\nt,pulses,direction\r\n\r\n0.0,100,1\r\n# pause\r\n   \r\n0.5,180,-1\r\n1.0,abc,1\r\n");
-  EXPECT_EQ(fail_message(dir), dir.file("odometer.csv") + ":8: column 'pulses': must be an integer in [0, 4294967295]: 'abc'");
+  dir.write(
+      "odometer.csv",
+      "\xEF\xBB\xBF# recorded 2024-06-11\r\nt,pulses,direction\r\n\r\n0.0,100,1\r\n# pause\r\n   \r\n0.5,180,-1\r\n1.0,abc,1\r\n");
+  EXPECT_EQ(fail_message(dir),
+            dir.file("odometer.csv") + ":8: column 'pulses': must be an integer in [0, 4294967295]: 'abc'");
   const Dataset ds = read_dataset(dir.str(), BadRowPolicy::kSkip);
   ASSERT_EQ(ds.odometer.size(), 2u);
   EXPECT_EQ(ds.odometer[1].direction, -1);
@@ -344,8 +354,9 @@ TEST(DatasetValidation, ReorderedColumnsReadTheSame) {
   a.write("odometer.csv", kGoodOdometer);
   a.write("gnss.csv", kFullGnssHeader + "\n0,52.5,13.4,40,1,2,0.1,0.5,0.05,4\n1,52.6,13.5,41,3,4,0.2,,0.06,5\n");
   b.write("odometer.csv", "direction,pulses,t\n1,100,0.0\n1,180,0.5\n1,260,1.0\n");
-  b.write("gnss.csv", "fix,vu,vn,ve,vel_std_mps,pos_std_m,height_m,lon_deg,lat_deg,t\n"
-                      "4,0.1,2,1,0.05,0.5,40,13.4,52.5,0\n5,0.2,4,3,0.06,,41,13.5,52.6,1\n");
+  b.write("gnss.csv",
+          "fix,vu,vn,ve,vel_std_mps,pos_std_m,height_m,lon_deg,lat_deg,t\n"
+          "4,0.1,2,1,0.05,0.5,40,13.4,52.5,0\n5,0.2,4,3,0.06,,41,13.5,52.6,1\n");
   const Dataset x = read_dataset(a.str(), BadRowPolicy::kFail), y = read_dataset(b.str(), BadRowPolicy::kFail);
   ASSERT_EQ(x.odometer.size(), y.odometer.size());
   for (std::size_t i = 0; i < x.odometer.size(); ++i) {
@@ -373,16 +384,16 @@ TEST(DatasetValidation, SkipCountsEveryKindAndKeepsEveryGoodRow) {
   dir.write("gnss.csv", kGoodGnss);
   dir.write("odometer.csv",
             "t,pulses,direction\n"
-            "0.0,100,1\n"       // good
-            "0.1,,1\n"          // missing value
-            "0.2,x,1\n"         // non-numeric
-            "nan,120,1\n"       // NaN
-            "0.3,130,1\n"       // good
-            "0.3,140,1\n"       // t equal
-            "0.4,-5,1\n"        // negative pulses
-            "0.5,150,7\n"       // bad direction
-            "0.6,160,1\n"       // good
-            "0.7,170,1\n");     // good
+            "0.0,100,1\n"    // good
+            "0.1,,1\n"       // missing value
+            "0.2,x,1\n"      // non-numeric
+            "nan,120,1\n"    // NaN
+            "0.3,130,1\n"    // good
+            "0.3,140,1\n"    // t equal
+            "0.4,-5,1\n"     // negative pulses
+            "0.5,150,7\n"    // bad direction
+            "0.6,160,1\n"    // good
+            "0.7,170,1\n");  // good
   DatasetReadReport report;
   const Dataset ds = read_dataset(dir.str(), BadRowPolicy::kSkip, &report);
   ASSERT_EQ(ds.odometer.size(), 4u);

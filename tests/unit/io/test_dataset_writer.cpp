@@ -103,7 +103,8 @@ TEST(DatasetWriter, BadValueNamesFileRowAndColumnAndLeavesNoDatasetFile) {
     writer.add(nan_height);
     FAIL() << "no error";
   } catch (const DatasetError& e) {
-    EXPECT_EQ(std::string(e.what()), dir.file("truth.csv") + ": cannot write row 2: column 'k_true' is not finite (inf)");
+    EXPECT_EQ(std::string(e.what()),
+              dir.file("truth.csv") + ": cannot write row 2: column 'k_true' is not finite (inf)");
   }
 }
 

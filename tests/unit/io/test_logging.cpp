@@ -16,12 +16,16 @@ class LogLevelEnv {
  public:
   explicit LogLevelEnv(const char* value) {
     if (const char* old = std::getenv("ODONAV_LOG_LEVEL")) saved_ = old;
-    if (value) setenv("ODONAV_LOG_LEVEL", value, 1);
-    else unsetenv("ODONAV_LOG_LEVEL");
+    if (value)
+      setenv("ODONAV_LOG_LEVEL", value, 1);
+    else
+      unsetenv("ODONAV_LOG_LEVEL");
   }
   ~LogLevelEnv() {
-    if (saved_) setenv("ODONAV_LOG_LEVEL", saved_->c_str(), 1);
-    else unsetenv("ODONAV_LOG_LEVEL");
+    if (saved_)
+      setenv("ODONAV_LOG_LEVEL", saved_->c_str(), 1);
+    else
+      unsetenv("ODONAV_LOG_LEVEL");
   }
 
  private:
@@ -60,8 +64,9 @@ TEST(Logging, InvalidLevelNamesTheValidOnes) {
     setup_logging("odonav-test");
     FAIL() << "no error";
   } catch (const ConfigError& e) {
-    EXPECT_EQ(std::string(e.what()), "log level (from ODONAV_LOG_LEVEL) 'INFO' is not valid: use one of trace, "
-                                     "debug, info, warn, error, critical, off");
+    EXPECT_EQ(std::string(e.what()),
+              "log level (from ODONAV_LOG_LEVEL) 'INFO' is not valid: use one of trace, "
+              "debug, info, warn, error, critical, off");
   }
 }
 

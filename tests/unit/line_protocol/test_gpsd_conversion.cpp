@@ -34,7 +34,7 @@ TEST(GpsdConversion, ThreeDimensionalFixFromSpeedTrackAndMslPlusSeparation) {
   EXPECT_DOUBLE_EQ(s->position.height_m, 79.5);  // MSL + separation
   EXPECT_NEAR(s->vel_enu_mps.x(), 5.0, 1e-12);   // 10 sin 30
   EXPECT_NEAR(s->vel_enu_mps.y(), 10.0 * std::sqrt(3.0) / 2.0, 1e-12);
-  EXPECT_EQ(s->vel_enu_mps.z(), 0.0);  // no climb reported
+  EXPECT_EQ(s->vel_enu_mps.z(), 0.0);    // no climb reported
   EXPECT_DOUBLE_EQ(*s->pos_std_m, 3.0);  // eph / 2
   EXPECT_DOUBLE_EQ(*s->vel_std_mps, 0.2);
 }

@@ -228,9 +228,12 @@ TEST(LineProtocol, GarbageStreamIsSurvivedAndGoodLinesStillFlow) {
   std::vector<OdometerSample> accepted;
   std::size_t errors = 0, ignored = 0;
   for (const ParsedLine& p : out) {
-    if (p.kind == ParsedLine::Kind::kOdometer) accepted.push_back(p.odometer);
-    else if (p.kind == ParsedLine::Kind::kError) ++errors;
-    else if (p.kind == ParsedLine::Kind::kIgnored) ++ignored;
+    if (p.kind == ParsedLine::Kind::kOdometer)
+      accepted.push_back(p.odometer);
+    else if (p.kind == ParsedLine::Kind::kError)
+      ++errors;
+    else if (p.kind == ParsedLine::Kind::kIgnored)
+      ++ignored;
   }
   ASSERT_EQ(accepted.size(), good);
   for (std::size_t i = 0; i < good; ++i) {

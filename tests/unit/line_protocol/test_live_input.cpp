@@ -122,7 +122,7 @@ void run_until(std::unique_ptr<ByteSource> source, LineDecoder& d, VectorSink& s
   run_live_input(
       std::move(source), d, counting,
       [&] { return received >= expected || std::chrono::steady_clock::now() > deadline; }, [] {},
-      [] () -> std::unique_ptr<ByteSource> { throw std::runtime_error("no reopen in this test"); }, stats);
+      []() -> std::unique_ptr<ByteSource> { throw std::runtime_error("no reopen in this test"); }, stats);
   sender.join();
   EXPECT_EQ(stats.source_failures, 0u) << stats.last_failure;
 }

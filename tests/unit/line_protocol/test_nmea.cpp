@@ -24,8 +24,10 @@ std::vector<std::string> fields_of(const std::string& sentence) {
   std::vector<std::string> f;
   std::string body = sentence.substr(1, star - 1), cur;
   for (char c : body) {
-    if (c == ',') f.push_back(cur), cur.clear();
-    else cur += c;
+    if (c == ',')
+      f.push_back(cur), cur.clear();
+    else
+      cur += c;
   }
   f.push_back(cur);
   return f;

@@ -50,7 +50,8 @@ TEST(GatewayHealth, ReplayCountersInOrderAndAckTimeoutsWarn) {
   EXPECT_FALSE(ok.warn);
   EXPECT_EQ(ok.reason, "");
 
-  const GatewayHealth late = gateway_health(some_published(), replay_source_health({3, 3, 3}, 2), "waiting for readers");
+  const GatewayHealth late =
+      gateway_health(some_published(), replay_source_health({3, 3, 3}, 2), "waiting for readers");
   EXPECT_EQ(value(late.counters, "ack_timeouts"), 2.0);
   EXPECT_TRUE(late.warn);
   EXPECT_EQ(late.reason, "waiting for readers");
@@ -62,7 +63,8 @@ TEST(GatewayHealth, AWriteFailureWarnsWhateverTheSource) {
   const GatewayHealth h = gateway_health(p, replay_source_health({1, 1, 1}, 0), "");
   EXPECT_EQ(value(h.counters, "write_failures"), 1.0);
   EXPECT_TRUE(h.warn);
-  const GatewayHealth live = gateway_health(p, live_source_health(LineCounters{}, LiveInputStats{}, std::nullopt, 0), "");
+  const GatewayHealth live =
+      gateway_health(p, live_source_health(LineCounters{}, LiveInputStats{}, std::nullopt, 0), "");
   EXPECT_TRUE(live.warn);
 }
 
@@ -83,7 +85,8 @@ TEST(GatewayHealth, LineSourceCountersInOrderAndEveryErrorWarns) {
   for (std::size_t i = 0; i < kLineErrorCount; ++i) {
     LineCounters bad = lines;
     bad.errors[i] = 3;
-    const GatewayHealth w = gateway_health(some_published(), live_source_health(bad, LiveInputStats{}, std::nullopt, 0), "");
+    const GatewayHealth w =
+        gateway_health(some_published(), live_source_health(bad, LiveInputStats{}, std::nullopt, 0), "");
     EXPECT_TRUE(w.warn) << to_string(static_cast<LineError>(i));
     EXPECT_EQ(value(w.counters, std::string("lines_") + to_string(static_cast<LineError>(i))), 3.0);
   }
@@ -106,7 +109,8 @@ TEST(GatewayHealth, GpsdCountersFollowWriteFailuresAndNotConnectedWarns) {
   g.connected = true;
   g.reports = 120;
   g.repeated = 4;  // gpsd may report one epoch twice: counted, not a reason to look
-  const GatewayHealth h = gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, g, 0), "");
+  const GatewayHealth h =
+      gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, g, 0), "");
   const std::vector<std::string> n = names(h.counters);
   const std::vector<std::string> tail(n.end() - 8, n.end());
   EXPECT_EQ(tail, (std::vector<std::string>{"write_failures", "gnss_lines_ignored", "gpsd_connected", "gpsd_reports",
@@ -118,23 +122,28 @@ TEST(GatewayHealth, GpsdCountersFollowWriteFailuresAndNotConnectedWarns) {
   EXPECT_FALSE(h.warn);
 
   GpsdCounters down;
-  const GatewayHealth first = gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, down, 0), "");
+  const GatewayHealth first =
+      gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, down, 0), "");
   EXPECT_TRUE(first.warn);
   EXPECT_EQ(first.reason, "gpsd: not connected yet");
   down.connection_failures = 1;
   down.last_failure = "gpsd:127.0.0.1:2947: connect failed: Connection refused";
-  const GatewayHealth lost = gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, down, 0), "");
+  const GatewayHealth lost =
+      gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, down, 0), "");
   EXPECT_EQ(lost.reason, "gpsd:127.0.0.1:2947: connect failed: Connection refused");
   EXPECT_EQ(value(lost.counters, "gpsd_connection_failures"), 1.0);
 
   GpsdCounters backwards = g;
   backwards.time_backwards = 1;
-  EXPECT_TRUE(gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, backwards, 0), "").warn);
+  EXPECT_TRUE(
+      gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, backwards, 0), "").warn);
   GpsdCounters no_time = g;
   no_time.no_time = 1;
-  EXPECT_TRUE(gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, no_time, 0), "").warn);
+  EXPECT_TRUE(
+      gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, no_time, 0), "").warn);
   // GNSS lines dropped because gpsd gives the GNSS: counted and a reason to look.
-  const GatewayHealth ignored = gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, g, 9), "");
+  const GatewayHealth ignored =
+      gateway_health(some_published(), live_source_health(LineCounters{}, LiveInputStats{}, g, 9), "");
   EXPECT_EQ(value(ignored.counters, "gnss_lines_ignored"), 9.0);
   EXPECT_TRUE(ignored.warn);
 }

@@ -48,9 +48,9 @@ class Truth {
 double horizontal(const Eigen::Vector3d& v) { return v.head<2>().norm(); }
 
 struct Figures {
-  double nav_rms_valid_m = 0.0;   ///< anchored position vs truth while GNSS valid (after the first 60 s)
-  double gnss_rms_m = 0.0;        ///< GNSS fixes (antenna) vs truth antenna, same span
-  double dr_rms_valid_m = 0.0;    ///< pure DR, same span
+  double nav_rms_valid_m = 0.0;  ///< anchored position vs truth while GNSS valid (after the first 60 s)
+  double gnss_rms_m = 0.0;       ///< GNSS fixes (antenna) vs truth antenna, same span
+  double dr_rms_valid_m = 0.0;   ///< pure DR, same span
   double outage_start_error_m = 0.0, outage_end_error_m = 0.0;
   double outage_dr_growth_m = 0.0, outage_distance_m = 0.0;
   double sigma_start_m = 0.0, sigma_end_m = 0.0;  ///< reported horizontal one-sigma across the outage
@@ -84,7 +84,8 @@ Figures figures(uint64_t seed, double gnss_rate_hz = 10.0, double latency_s = 0.
     const double t = p.t_s - t0;
     if (t < outage.start_s) i_start = i;
     if (t < outage.end_s + 0.2) i_end = i;
-    if (t < settle_s || (t >= outage.start_s && t < outage.end_s + 1.0) || p.status != AnchorStatus::kAnchored) continue;
+    if (t < settle_s || (t >= outage.start_s && t < outage.end_s + 1.0) || p.status != AnchorStatus::kAnchored)
+      continue;
     const Eigen::Vector3d tr = truth.at(p.t_s).enu_m;
     nav2 += std::pow(horizontal(frame.to_enu(p.position) - tr), 2);
     dr2 += std::pow(horizontal(frame.to_enu(dr.position) - tr), 2);
@@ -113,7 +114,8 @@ Figures figures(uint64_t seed, double gnss_rate_hz = 10.0, double latency_s = 0.
   };
   f.outage_start_error_m = horizontal(err(i_start));
   f.outage_end_error_m = horizontal(err(i_end));
-  const Eigen::Vector3d dr_move = frame.to_enu(r.dr_online[i_end].position) - frame.to_enu(r.dr_online[i_start].position);
+  const Eigen::Vector3d dr_move =
+      frame.to_enu(r.dr_online[i_end].position) - frame.to_enu(r.dr_online[i_start].position);
   const Eigen::Vector3d true_move = truth.at(r.dr_online[i_end].t_s).enu_m - truth.at(r.dr_online[i_start].t_s).enu_m;
   f.outage_dr_growth_m = horizontal(dr_move - true_move);
   f.outage_distance_m = r.dr_online[i_end].distance_m - r.dr_online[i_start].distance_m;
@@ -128,13 +130,14 @@ Figures figures(uint64_t seed, double gnss_rate_hz = 10.0, double latency_s = 0.
 }
 
 void print(const char* what, uint64_t seed, const Figures& f) {
-  std::printf("%s seed %llu: anchored RMS %.3f m, GNSS RMS %.3f m (ratio %.2f), pure DR RMS %.3f m (GNSS valid, after "
-              "60 s); outage %.1f m: error %.3f -> %.3f m (goal <= %.3f; sigma %.3f -> %.3f m), pure DR growth %.3f m; "
-              "fixes applied %zu, rejected %zu\n",
-              what, static_cast<unsigned long long>(seed), f.nav_rms_valid_m, f.gnss_rms_m, f.nav_rms_valid_m / f.gnss_rms_m,
-              f.dr_rms_valid_m, f.outage_distance_m, f.outage_start_error_m, f.outage_end_error_m,
-              f.outage_start_error_m + 0.001 * f.outage_distance_m, f.sigma_start_m, f.sigma_end_m,
-              f.outage_dr_growth_m, f.applied, f.rejected);
+  std::printf(
+      "%s seed %llu: anchored RMS %.3f m, GNSS RMS %.3f m (ratio %.2f), pure DR RMS %.3f m (GNSS valid, after "
+      "60 s); outage %.1f m: error %.3f -> %.3f m (goal <= %.3f; sigma %.3f -> %.3f m), pure DR growth %.3f m; "
+      "fixes applied %zu, rejected %zu\n",
+      what, static_cast<unsigned long long>(seed), f.nav_rms_valid_m, f.gnss_rms_m, f.nav_rms_valid_m / f.gnss_rms_m,
+      f.dr_rms_valid_m, f.outage_distance_m, f.outage_start_error_m, f.outage_end_error_m,
+      f.outage_start_error_m + 0.001 * f.outage_distance_m, f.sigma_start_m, f.sigma_end_m, f.outage_dr_growth_m,
+      f.applied, f.rejected);
 }
 
 // The covariance is honest: the RMS error is within a factor 2 of the reported sigma, and the sigma
@@ -246,10 +249,10 @@ TEST(NavigationPosition, MinutesWithoutGnssGrowTheSigmaSayDeadReckoningAndReturn
   const AnchoredPosition& after = r.navigation_position[a];
   const Eigen::Vector3d dr_move = frame.to_enu(r.dr_online[a].position) - frame.to_enu(r.dr_online[b].position);
   const double jump_m = horizontal(frame.to_enu(after.position) - frame.to_enu(before.position) - dr_move);
-  std::printf("200 s without GNSS (%.0f m): error %.3f m (sigma %.3f m) before GNSS returns, %.3f m after its first "
-              "fix (jump %.3f m, sigma %.3f m)\n",
-              before.distance_since_fix_m, error(b), before.horizontal_sigma_m(), error(a), jump_m,
-              after.horizontal_sigma_m());
+  std::printf(
+      "200 s without GNSS (%.0f m): error %.3f m (sigma %.3f m) before GNSS returns, %.3f m after its first "
+      "fix (jump %.3f m, sigma %.3f m)\n",
+      before.distance_since_fix_m, error(b), before.horizontal_sigma_m(), error(a), jump_m, after.horizontal_sigma_m());
   EXPECT_EQ(after.status, AnchorStatus::kAnchored);
   EXPECT_GT(before.horizontal_sigma_m(), 1.2 * r.navigation_position[b - 19000].horizontal_sigma_m());
   // The jump is a fraction of the discrepancy the fix shows (error before + the fix's own error).

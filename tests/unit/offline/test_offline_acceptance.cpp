@@ -102,7 +102,8 @@ TEST(OfflineAcceptance, VffLmRlsTracksKOnTerrain) {
   // Not worse than the best of RLS / FF-RLS / LM-RLS on tracking error (RMS), nor slower to settle
   // than the bare window.
   double best_rms = 1e9;
-  for (const char* other : {"rls", "ff_rls", "lm_rls"}) best_rms = std::min(best_rms, est[other]["rms_rel_error_percent"].get<double>());
+  for (const char* other : {"rls", "ff_rls", "lm_rls"})
+    best_rms = std::min(best_rms, est[other]["rms_rel_error_percent"].get<double>());
   EXPECT_LE(vff["rms_rel_error_percent"].get<double>(), best_rms);
   for (std::size_t i = 0; i < 2; ++i)
     EXPECT_LE(vff["settle_times_s"][i].get<double>(), est["lm_rls"]["settle_times_s"][i].get<double>());

@@ -32,9 +32,12 @@ void for_each_sensor_sample(const Dataset& d, F&& f) {
     const double to = o < d.odometer.size() ? d.odometer[o].t_s : end;
     const double tg = g < d.gnss.size() ? d.gnss[g].t_s : end;
     const double ti = i < d.ins.size() ? d.ins[i].t_s : end;
-    if (tg <= ti && tg <= to) f(d.gnss[g++]);
-    else if (ti <= to) f(d.ins[i++]);
-    else f(d.odometer[o++]);
+    if (tg <= ti && tg <= to)
+      f(d.gnss[g++]);
+    else if (ti <= to)
+      f(d.ins[i++]);
+    else
+      f(d.odometer[o++]);
   }
 }
 
@@ -145,9 +148,12 @@ TEST(OfflinePipeline, EveryEstimateArrivesBeforeTheOutputsItAppliesToSoTheRunEqu
   OfflinePipeline pipeline(config, run);
   for_each_sensor_sample(d, [&](const auto& s) {
     using T = std::decay_t<decltype(s)>;
-    if constexpr (std::is_same_v<T, OdometerSample>) pipeline.add_odometer(s);
-    else if constexpr (std::is_same_v<T, GnssSample>) pipeline.add_gnss(s);
-    else pipeline.add_ins(s);
+    if constexpr (std::is_same_v<T, OdometerSample>)
+      pipeline.add_odometer(s);
+    else if constexpr (std::is_same_v<T, GnssSample>)
+      pipeline.add_gnss(s);
+    else
+      pipeline.add_ins(s);
   });
   pipeline.finish();
   ASSERT_GT(run.steps.size(), 10000u);
@@ -160,8 +166,10 @@ TEST(OfflinePipeline, EveryEstimateArrivesBeforeTheOutputsItAppliesToSoTheRunEqu
   for (std::size_t i = 0; i < run.steps.size(); ++i) {
     const double t = run.steps[i].output.t_s;
     std::size_t due_k = 0, due_m = 0;
-    while (due_k < run.scale_factor.size() && estimate_applies_from_s(run.scale_factor[due_k].t_s, hold_off_s) <= t) ++due_k;
-    while (due_m < run.misalignment.size() && estimate_applies_from_s(run.misalignment[due_m].t_s, hold_off_s) <= t) ++due_m;
+    while (due_k < run.scale_factor.size() && estimate_applies_from_s(run.scale_factor[due_k].t_s, hold_off_s) <= t)
+      ++due_k;
+    while (due_m < run.misalignment.size() && estimate_applies_from_s(run.misalignment[due_m].t_s, hold_off_s) <= t)
+      ++due_m;
     ASSERT_GE(run.scale_factors_before[i], due_k) << "output at t=" << t;
     ASSERT_GE(run.misalignments_before[i], due_m) << "output at t=" << t;
     if (run.scale_factors_before[i] < run.scale_factor.size()) ++interleaved;

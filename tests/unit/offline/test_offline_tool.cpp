@@ -63,8 +63,12 @@ TEST_F(OfflineTool, WritesEveryFileWithItsColumnsAndASummary) {
   const RunResult r = run((dir_ / "straight").string() + " --out " + (dir_ / "out").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("odonav summary"), std::string::npos) << r.output;
-  EXPECT_EQ(header_of(dir_ / "out/misalignment.csv").rfind("t,heading_deg,pitch_deg,heading_std_deg,pitch_std_deg,converged", 0), 0u);
-  EXPECT_EQ(header_of(dir_ / "out/scale_factor.csv").rfind("t,k_rls,k_ff_rls,k_lm_rls,k_vff_lm_rls,k_coarse,k_kf_rw,lambda_vff_lm_rls", 0), 0u);
+  EXPECT_EQ(header_of(dir_ / "out/misalignment.csv")
+                .rfind("t,heading_deg,pitch_deg,heading_std_deg,pitch_std_deg,converged", 0),
+            0u);
+  EXPECT_EQ(header_of(dir_ / "out/scale_factor.csv")
+                .rfind("t,k_rls,k_ff_rls,k_lm_rls,k_vff_lm_rls,k_coarse,k_kf_rw,lambda_vff_lm_rls", 0),
+            0u);
   for (const char* f : {"dead_reckoning.csv", "dead_reckoning_coarse.csv"})
     EXPECT_EQ(header_of(dir_ / "out" / f).rfind("t,lat_deg,lon_deg,height_m,distance_m,k_m_per_pulse", 0), 0u) << f;
   EXPECT_EQ(header_of(dir_ / "out/navigation_position.csv"),
@@ -109,7 +113,8 @@ TEST_F(OfflineTool, BadRowFailsNamingFileLineAndColumnOrIsSkippedAndCounted) {
   std::ifstream in(odo);
   std::stringstream text;
   std::string line;
-  for (int n = 1; std::getline(in, line); ++n) text << (n == 101 ? line.substr(0, line.find(',')) + ",nan,1" : line) << "\n";
+  for (int n = 1; std::getline(in, line); ++n)
+    text << (n == 101 ? line.substr(0, line.find(',')) + ",nan,1" : line) << "\n";
   in.close();
   std::ofstream(odo) << text.str();
 

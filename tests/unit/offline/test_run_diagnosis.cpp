@@ -57,8 +57,7 @@ TEST(RunDiagnosis, OneHertzGnssWithTheTenHertzGapGateNamesTheGateThePeriodAndThe
   ASSERT_NE(w, nullptr);
   EXPECT_NE(w->message.find("as gaps > 0.5 s (--max-interval-s); the GNSS period is 1 s"), std::string::npos)
       << w->message;
-  EXPECT_NE(w->message.find("0 of " + std::to_string(result.builder_counters.epochs)), std::string::npos)
-      << w->message;
+  EXPECT_NE(w->message.find("0 of " + std::to_string(result.builder_counters.epochs)), std::string::npos) << w->message;
 }
 
 TEST(RunDiagnosis, AWrongNominalKThatTruncatesTheDeadReckoningIsNamed) {
@@ -106,7 +105,7 @@ TEST(RunDiagnosis, NegatedGnssVelocityIsNamed) {
 TEST(RunDiagnosis, AKFarFromTheNominalIsCalledImplausible) {
   const Dataset d = sim::simulate(straight());
   OfflineParams p = params_for(d);
-  p.dead_reckoning.nominal_k_m_per_pulse = 0.0125 / 3.6;  // the encoder is said to be 3.6x finer
+  p.dead_reckoning.nominal_k_m_per_pulse = 0.0125 / 3.6;               // the encoder is said to be 3.6x finer
   p.identification.builder.odometer_jump_gate.k_m_per_pulse = 0.0125;  // gate kept at the real encoder
   p.dead_reckoning.max_speed_mps = 1000.0;
   const RunDiagnosis r = diagnose_run(d, p, run_offline(d, p));
@@ -170,8 +169,10 @@ TEST(Consistency, AHeadingOfTheOtherSignOrInRadiansIsNamedAndConvergedWithdrawn)
     const ConsistencyState& s = result.consistency[static_cast<int>(ConsistencyCheck::kHeadingRate)];
     EXPECT_TRUE(s.raised) << c.name;
     EXPECT_NE(s.text.find(c.words), std::string::npos) << c.name << ": " << s.text;
-    if (std::string(c.name) == "negated") EXPECT_NEAR(s.last_value, -1.0, 0.1);
-    else EXPECT_NEAR(1.0 / s.last_value, 57.3, 10.0);
+    if (std::string(c.name) == "negated")
+      EXPECT_NEAR(s.last_value, -1.0, 0.1);
+    else
+      EXPECT_NEAR(1.0 / s.last_value, 57.3, 10.0);
     const RunDiagnosis r = diagnose_run(d, p, result);
     const RunWarning* w = find(r, "inconsistent_heading_rate");
     ASSERT_NE(w, nullptr) << c.name;
@@ -208,7 +209,8 @@ TEST(Consistency, AGnssFixAThousandKilometresAwayIsCountedReportedAndKeptOutOfTh
   ASSERT_EQ(result.navigation_position.size(), good_result.navigation_position.size());
   double worst_m = 0.0;
   for (std::size_t i = 0; i < result.navigation_position.size(); ++i)
-    worst_m = std::max(worst_m, (result.navigation_position[i].enu_m - good_result.navigation_position[i].enu_m).norm());
+    worst_m =
+        std::max(worst_m, (result.navigation_position[i].enu_m - good_result.navigation_position[i].enu_m).norm());
   EXPECT_LT(worst_m, 0.2);
   EXPECT_NEAR(result.identification.back().main.k_m_per_pulse, good_result.identification.back().main.k_m_per_pulse,
               1e-4 * good_result.identification.back().main.k_m_per_pulse);
@@ -254,7 +256,9 @@ TEST(RunDiagnosis, AShortOneHertzDriveSaysTheMisalignmentDidNotConvergeAndWhatIs
   const RunDiagnosis r = diagnose_run(d, p, result);
   const RunWarning* w = find(r, "misalignment_not_converged");
   ASSERT_NE(w, nullptr);
-  EXPECT_NE(w->message.find("GNSS epochs used while moving (straight, above 3 m/s) of the 100 required (--cal-min-samples)"), std::string::npos)
+  EXPECT_NE(
+      w->message.find("GNSS epochs used while moving (straight, above 3 m/s) of the 100 required (--cal-min-samples)"),
+      std::string::npos)
       << w->message;
   // The same drive for 120 s at 10 Hz converges: no such warning.
   const Dataset ok = sim::simulate(straight(120.0));

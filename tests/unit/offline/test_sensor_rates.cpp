@@ -180,7 +180,8 @@ TEST(SensorRates, AtOneHertzASidewaysVelocityErrorInTheFirstHalfMinuteCostsTheCa
   // within 0.25 deg (armed at 20, the estimate at 60 s was not).
   for (const MisalignmentOutput& m : r.misalignment) {
     if (m.t_s >= d.odometer.front().t_s + 60.0) {
-      ASSERT_NEAR(rad_to_deg(m.misalignment.heading_rad), *d.meta.truth_misalignment_heading_deg, 0.25) << "t " << m.t_s;
+      ASSERT_NEAR(rad_to_deg(m.misalignment.heading_rad), *d.meta.truth_misalignment_heading_deg, 0.25)
+          << "t " << m.t_s;
     }
   }
   const FirstMetres f = evaluate_first_metres(d, r.dr_online);

@@ -30,13 +30,16 @@ namespace {
 // the odometer times lagging the outputs by odometer_lag_s (so that scale-factor rows past a K step
 // wait for it), the navigation rows 30 ms behind the DR rows, the coarse DR rows in a second pass.
 // Returns the largest footprint seen.
-SummaryAccumulator::Footprint feed_streaming(SummaryAccumulator& acc, const Dataset& d,
-                                             const results::OutputRows& rows, double odometer_lag_s) {
+SummaryAccumulator::Footprint feed_streaming(SummaryAccumulator& acc, const Dataset& d, const results::OutputRows& rows,
+                                             double odometer_lag_s) {
   enum Kind { kOdometer, kMisalignment, kScaleFactor, kDeadReckoning, kNavigation };
   std::vector<std::tuple<double, int, std::size_t>> events;  // (time fed, kind, index)
-  for (std::size_t i = 0; i < d.odometer.size(); ++i) events.emplace_back(d.odometer[i].t_s + odometer_lag_s, kOdometer, i);
-  for (std::size_t i = 0; i < rows.misalignment.size(); ++i) events.emplace_back(rows.misalignment[i].t_s, kMisalignment, i);
-  for (std::size_t i = 0; i < rows.scale_factor.size(); ++i) events.emplace_back(rows.scale_factor[i].t_s, kScaleFactor, i);
+  for (std::size_t i = 0; i < d.odometer.size(); ++i)
+    events.emplace_back(d.odometer[i].t_s + odometer_lag_s, kOdometer, i);
+  for (std::size_t i = 0; i < rows.misalignment.size(); ++i)
+    events.emplace_back(rows.misalignment[i].t_s, kMisalignment, i);
+  for (std::size_t i = 0; i < rows.scale_factor.size(); ++i)
+    events.emplace_back(rows.scale_factor[i].t_s, kScaleFactor, i);
   for (std::size_t i = 0; i < rows.dead_reckoning.size(); ++i)
     events.emplace_back(rows.dead_reckoning[i].t_s, kDeadReckoning, i);
   for (std::size_t i = 0; i < rows.navigation_position.size(); ++i)
@@ -118,7 +121,7 @@ TEST(StreamingSummary, ADeadReckoningTrackOffsetFromTheReferenceHasThatError) {
   EXPECT_NEAR(r.max_error_m, 7.0, 1e-4);
   EXPECT_NEAR(r.max_error_percent, 3.0, 1e-4);  // 3 m at 100 m
   ASSERT_EQ(r.outage_error_m.size(), 1u);
-  EXPECT_NEAR(r.outage_error_m[0], 4.0, 1e-3);                      // what the outage added
+  EXPECT_NEAR(r.outage_error_m[0], 4.0, 1e-3);                        // what the outage added
   EXPECT_NEAR(r.outage_error_percent[0], 100.0 * 4.0 / 500.0, 1e-3);  // over its 500 m
 }
 

@@ -15,7 +15,9 @@
 namespace odonav {
 namespace {
 
-bool same_bits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return std::memcmp(a.data(), b.data(), sizeof(double) * 3) == 0; }
+bool same_bits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::memcmp(a.data(), b.data(), sizeof(double) * 3) == 0;
+}
 
 // The answer without any memo: a fresh frame has a new identity, so its first call computes.
 Eigen::Vector3d fresh_to_enu(const Geodetic& origin, const Geodetic& p) { return LocalEnuFrame(origin).to_enu(p); }

@@ -21,9 +21,8 @@ namespace {
 class Scratch {
  public:
   Scratch() {
-    root_ = fs::temp_directory_path() /
-            ("odonav-safe-output-" + std::to_string(::getpid()) + "-" +
-             ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    root_ = fs::temp_directory_path() / ("odonav-safe-output-" + std::to_string(::getpid()) + "-" +
+                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(root_);
     fs::create_directories(root_);
   }
@@ -224,8 +223,7 @@ TEST(AtomicFile, RefusesToWriteThroughALinkPlantedAtTheRealName) {
   Scratch s;
   put(s / "victim", "precious");
   fs::create_symlink(s / "victim", s / "summary.json");
-  EXPECT_NE(refusal([&] { write_file_atomically(s / "summary.json", "{}"); }).find("symbolic link"),
-            std::string::npos);
+  EXPECT_NE(refusal([&] { write_file_atomically(s / "summary.json", "{}"); }).find("symbolic link"), std::string::npos);
   EXPECT_EQ(read(s / "victim"), "precious");
 }
 

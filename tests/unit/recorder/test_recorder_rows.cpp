@@ -74,8 +74,10 @@ TEST(RecorderRows, MisalignmentUnknownSigmaIsEmptyAndStateIsNamed) {
   const std::string row = text.substr(text.find('\n') + 1);
   std::vector<std::string> f(1);
   for (char c : row) {
-    if (c == ',') f.emplace_back();
-    else if (c != '\n') f.back() += c;
+    if (c == ',')
+      f.emplace_back();
+    else if (c != '\n')
+      f.back() += c;
   }
   ASSERT_EQ(f.size(), 8u) << text;
   EXPECT_EQ(f[0], "12.3");

@@ -89,12 +89,12 @@ struct SensorConfig {
   double gnss_period_s = 0.1;
   double ins_period_s = 0.01;
   uint32_t pulse_offset = 1000;
-  double velocity_noise_mps = 0.0;   ///< white noise on each ENU velocity component.
+  double velocity_noise_mps = 0.0;  ///< white noise on each ENU velocity component.
   uint32_t seed = 1;
   Misalignment misalignment;
   Geodetic origin{deg_to_rad(52.5), deg_to_rad(13.4), 50.0};
   Eigen::Vector3d lever_arm_body_m = Eigen::Vector3d::Zero();  ///< antenna in body FLU.
-  double gnss_latency_s = 0.0;  ///< GNSS stamp = measurement time + this (s).
+  double gnss_latency_s = 0.0;                                 ///< GNSS stamp = measurement time + this (s).
 };
 
 struct SyntheticData {

@@ -13,14 +13,14 @@ using namespace odonav;
 TEST(BrakingStop, ClassifyMotionByTheSpeedAndItsFallOverTheBaseline) {
   const BrakingStopParams p;  // 0.3 m/s^2, 0.3 m/s
   EXPECT_EQ(classify_motion(10.0, 10.0, 1.0, p), MotionPhase::kDriving);
-  EXPECT_EQ(classify_motion(10.0, 10.25, 1.0, p), MotionPhase::kDriving);   // accelerating
-  EXPECT_EQ(classify_motion(10.0, 9.75, 1.0, p), MotionPhase::kDriving);    // 0.25 m/s^2: a cruise's wander
-  EXPECT_EQ(classify_motion(10.0, 8.5, 1.0, p), MotionPhase::kBraking);     // 1.5 m/s^2
-  EXPECT_EQ(classify_motion(10.0, 9.35, 2.0, p), MotionPhase::kBraking);    // 0.325 m/s^2 over 2 s
-  EXPECT_EQ(classify_motion(-2.0, -1.0, 1.0, p), MotionPhase::kBraking);    // reversing, slowing down
-  EXPECT_EQ(classify_motion(-1.0, -2.0, 1.0, p), MotionPhase::kDriving);    // reversing, speeding up
-  EXPECT_EQ(classify_motion(1.5, 0.29, 1.0, p), MotionPhase::kStandstill);  // below 0.3 m/s
-  EXPECT_EQ(classify_motion(0.0, -0.2, 1.0, p), MotionPhase::kStandstill);  // GNSS noise at rest
+  EXPECT_EQ(classify_motion(10.0, 10.25, 1.0, p), MotionPhase::kDriving);           // accelerating
+  EXPECT_EQ(classify_motion(10.0, 9.75, 1.0, p), MotionPhase::kDriving);            // 0.25 m/s^2: a cruise's wander
+  EXPECT_EQ(classify_motion(10.0, 8.5, 1.0, p), MotionPhase::kBraking);             // 1.5 m/s^2
+  EXPECT_EQ(classify_motion(10.0, 9.35, 2.0, p), MotionPhase::kBraking);            // 0.325 m/s^2 over 2 s
+  EXPECT_EQ(classify_motion(-2.0, -1.0, 1.0, p), MotionPhase::kBraking);            // reversing, slowing down
+  EXPECT_EQ(classify_motion(-1.0, -2.0, 1.0, p), MotionPhase::kDriving);            // reversing, speeding up
+  EXPECT_EQ(classify_motion(1.5, 0.29, 1.0, p), MotionPhase::kStandstill);          // below 0.3 m/s
+  EXPECT_EQ(classify_motion(0.0, -0.2, 1.0, p), MotionPhase::kStandstill);          // GNSS noise at rest
   EXPECT_EQ(classify_motion(std::nan(""), 0.1, 0.0, p), MotionPhase::kStandstill);  // no reference needed
   EXPECT_EQ(classify_motion(std::nan(""), 5.0, 1.0, p), MotionPhase::kUnknown);
   EXPECT_EQ(classify_motion(5.0, std::nan(""), 1.0, p), MotionPhase::kUnknown);

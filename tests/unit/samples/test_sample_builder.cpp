@@ -252,8 +252,8 @@ TEST(SampleBuilder, MissingOdometerOrAttitudeIsCounted) {
   auto cut_odo = std::remove_if(d.odometer.begin(), d.odometer.end(),
                                 [](const OdometerSample& s) { return s.t_s > 10.05 && s.t_s < 11.45; });
   d.odometer.erase(cut_odo, d.odometer.end());
-  auto cut_ins = std::remove_if(d.ins.begin(), d.ins.end(),
-                                [](const InsSample& s) { return s.t_s > 15.05 && s.t_s < 16.45; });
+  auto cut_ins =
+      std::remove_if(d.ins.begin(), d.ins.end(), [](const InsSample& s) { return s.t_s > 15.05 && s.t_s < 16.45; });
   d.ins.erase(cut_ins, d.ins.end());
   SampleBuilderCounters c;
   const auto e = run_all(d, {}, false, &c);
@@ -297,8 +297,8 @@ TEST(SampleBuilder, InnovationGateRejectsAnOutlierTheSpeedJumpGateLetsThrough) {
   const Eigen::Vector3d u = accel_drive().direction(0.0);
   d.gnss[150].vel_enu_mps += 2.5 * u;  // at 20 m/s: y off by 0.125 m of 2 m
   SampleBuilderParams p;
-  p.speed_jump_margin_mps = 3.0;           // 2.5 m/s passes the jump gate (bound 3.6 m/s)
-  p.innovation_k_change_fraction = 0.02;   // bound 5 * 0.0087 + 0.04 = 0.084 m
+  p.speed_jump_margin_mps = 3.0;          // 2.5 m/s passes the jump gate (bound 3.6 m/s)
+  p.innovation_k_change_fraction = 0.02;  // bound 5 * 0.0087 + 0.04 = 0.084 m
   SampleBuilderCounters c;
   const auto e = run_all(d, p, true, &c);
   EXPECT_EQ(c.speed_jump, 0u);
@@ -427,13 +427,23 @@ TEST(SampleBuilder, DifferentInterleavingsGiveBitIdenticalSamples) {
     const int which = std::uniform_int_distribution<int>(0, 2)(rng);
     const int burst = std::uniform_int_distribution<int>(1, 40)(rng);
     for (int k = 0; k < burst; ++k) {
-      if (which == 0 && io < d.odometer.size()) { b.add_odometer(d.odometer[io]); wo = d.odometer[io++].t_s; }
-      if (which == 1 && ig < d.gnss.size()) { b.add_gnss(d.gnss[ig]); wg = d.gnss[ig++].t_s; }
-      if (which == 2 && ii < d.ins.size()) { b.add_ins(d.ins[ii]); wi = d.ins[ii++].t_s; }
+      if (which == 0 && io < d.odometer.size()) {
+        b.add_odometer(d.odometer[io]);
+        wo = d.odometer[io++].t_s;
+      }
+      if (which == 1 && ig < d.gnss.size()) {
+        b.add_gnss(d.gnss[ig]);
+        wg = d.gnss[ig++].t_s;
+      }
+      if (which == 2 && ii < d.ins.size()) {
+        b.add_ins(d.ins[ii]);
+        wi = d.ins[ii++].t_s;
+      }
     }
     const double inf = std::numeric_limits<double>::infinity();
-    b.process_until(std::min({io < d.odometer.size() ? wo : inf, ig < d.gnss.size() ? wg : inf,
-                              ii < d.ins.size() ? wi : inf}), sink);
+    b.process_until(
+        std::min({io < d.odometer.size() ? wo : inf, ig < d.gnss.size() ? wg : inf, ii < d.ins.size() ? wi : inf}),
+        sink);
   }
   b.finish(sink);
 
@@ -539,14 +549,16 @@ TEST(SampleBuilder, JumpGateUsesTheConfiguredNominalKAndMaximumSpeed) {
 }
 
 TEST(SampleBuilder, EpochStatusTableNamesAndCountsEveryStatus) {
-  const char* const names[] = {"accepted", "chain_start",    "invalid_fix", "low_fix_quality", "no_odometer",
-                               "no_attitude", "negative_speed", "speed_jump", "gap",          "min_speed",
-                               "reversing", "yaw_rate",        "no_pulses",  "innovation", "cross_track"};
+  const char* const names[] = {"accepted",    "chain_start", "invalid_fix",    "low_fix_quality",
+                               "no_odometer", "no_attitude", "negative_speed", "speed_jump",
+                               "gap",         "min_speed",   "reversing",      "yaw_rate",
+                               "no_pulses",   "innovation",  "cross_track"};
   ASSERT_EQ(std::size(names), static_cast<std::size_t>(kLastEpochStatus) + 1);
   SampleBuilderCounters c;
-  uint64_t* const fields[] = {&c.accepted,   &c.chain_starts,   &c.invalid_fix, &c.low_fix_quality, &c.no_odometer,
-                              &c.no_attitude, &c.negative_speed, &c.speed_jump,  &c.gap,             &c.min_speed,
-                              &c.reversing,  &c.yaw_rate,       &c.no_pulses,   &c.innovation, &c.cross_track};
+  uint64_t* const fields[] = {&c.accepted,    &c.chain_starts, &c.invalid_fix,    &c.low_fix_quality,
+                              &c.no_odometer, &c.no_attitude,  &c.negative_speed, &c.speed_jump,
+                              &c.gap,         &c.min_speed,    &c.reversing,      &c.yaw_rate,
+                              &c.no_pulses,   &c.innovation,   &c.cross_track};
   for (std::size_t i = 0; i < std::size(fields); ++i) *fields[i] = 100 + i;
   c.epochs = 7;
   c.innovation_suspended = 9;
@@ -562,8 +574,8 @@ TEST(SampleBuilder, EpochStatusTableNamesAndCountsEveryStatus) {
 TEST(SampleBuilder, EveryEpochIsCountedOnceUnderItsStatus) {
   SyntheticData d = simulate(accel_drive(), accel_config());
   ASSERT_EQ(d.gnss.size(), 201u);
-  d.gnss[50].fix = 0;                // invalid fix, then a chain start
-  d.gnss[100].vel_enu_mps *= 3.0;    // speed jump (15 -> 45 m/s in 0.1 s), then a chain start
+  d.gnss[50].fix = 0;              // invalid fix, then a chain start
+  d.gnss[100].vel_enu_mps *= 3.0;  // speed jump (15 -> 45 m/s in 0.1 s), then a chain start
   SampleBuilderCounters c;
   const auto e = run_all(d, {}, true, &c);
   std::map<EpochStatus, uint64_t> seen;

@@ -22,8 +22,8 @@ TEST(OdometerBuffer, BracketIsPendingUntilASampleAfterOrTheWatermarkExcludesOne)
   OdometerBuffer b(0.5);
   EXPECT_EQ(b.state_at(1.0, 1.0), BracketState::kPending);
   b.add({0.9, 100u, 1});
-  EXPECT_EQ(b.state_at(1.0, 1.2), BracketState::kPending);   // a sample in (1.0, 1.4] may still come
-  EXPECT_EQ(b.state_at(1.0, 1.5), BracketState::kMissing);   // none can: the gap would exceed 0.5 s
+  EXPECT_EQ(b.state_at(1.0, 1.2), BracketState::kPending);  // a sample in (1.0, 1.4] may still come
+  EXPECT_EQ(b.state_at(1.0, 1.5), BracketState::kMissing);  // none can: the gap would exceed 0.5 s
   b.add({1.1, 120u, 1});
   EXPECT_EQ(b.state_at(1.0, 1.2), BracketState::kReady);
   EXPECT_DOUBLE_EQ(*b.count_at(1.0, 1.2), 10.0);

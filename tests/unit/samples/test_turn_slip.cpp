@@ -45,8 +45,8 @@ std::vector<TurnSlipSample> turn_samples(double g, double threshold, int n, doub
 TEST(TurnSlip, FractionIsTheGainTimesTheRateBeyondTheThresholdWithinItsGuards) {
   EXPECT_DOUBLE_EQ(turn_slip_fraction(0.05, 0.05, 0.45), 0.05 * 0.4);
   EXPECT_DOUBLE_EQ(turn_slip_fraction(0.05, 0.05, -0.45), 0.05 * 0.4);  // either direction of turn
-  EXPECT_EQ(turn_slip_fraction(0.05, 0.05, 0.04), 0.0);                // below the yaw-rate gate: inside K
-  EXPECT_EQ(turn_slip_fraction(0.05, 0.05, 1e6), 0.5);                 // a wild rate is capped
+  EXPECT_EQ(turn_slip_fraction(0.05, 0.05, 0.04), 0.0);                 // below the yaw-rate gate: inside K
+  EXPECT_EQ(turn_slip_fraction(0.05, 0.05, 1e6), 0.5);                  // a wild rate is capped
   EXPECT_EQ(turn_slip_fraction(0.05, 0.05, std::nan("")), 0.0);
   EXPECT_EQ(turn_slip_gain_to_apply(true, 0.05), 0.05);
   EXPECT_EQ(turn_slip_gain_to_apply(false, 0.05), 0.0);

@@ -83,15 +83,18 @@ TEST(Simulator, SameSeedIsIdenticalOtherSeedChangesOnlyNoise) {
     ASSERT_EQ(a.gnss[i].position.height_m, b.gnss[i].position.height_m);
     ASSERT_EQ(a.gnss[i].vel_enu_mps, b.gnss[i].vel_enu_mps);
   }
-  for (std::size_t i = 0; i < a.ins.size(); ++i) ASSERT_EQ(a.ins[i].attitude.heading_rad, b.ins[i].attitude.heading_rad);
+  for (std::size_t i = 0; i < a.ins.size(); ++i)
+    ASSERT_EQ(a.ins[i].attitude.heading_rad, b.ins[i].attitude.heading_rad);
   for (std::size_t i = 0; i < a.odometer.size(); ++i) {
     ASSERT_EQ(a.odometer[i].pulses, b.odometer[i].pulses);
     ASSERT_EQ(a.odometer[i].pulses, c.odometer[i].pulses);  // the drive does not depend on the seed
   }
   EXPECT_EQ(a.meta.raw_json, b.meta.raw_json);
   std::size_t differing_pos = 0, differing_ins = 0;
-  for (std::size_t i = 0; i < a.gnss.size(); ++i) differing_pos += a.gnss[i].position.lat_rad != c.gnss[i].position.lat_rad;
-  for (std::size_t i = 0; i < a.ins.size(); ++i) differing_ins += a.ins[i].attitude.pitch_rad != c.ins[i].attitude.pitch_rad;
+  for (std::size_t i = 0; i < a.gnss.size(); ++i)
+    differing_pos += a.gnss[i].position.lat_rad != c.gnss[i].position.lat_rad;
+  for (std::size_t i = 0; i < a.ins.size(); ++i)
+    differing_ins += a.ins[i].attitude.pitch_rad != c.ins[i].attitude.pitch_rad;
   // Outage rows repeat the last fix, so all but those differ.
   EXPECT_GT(differing_pos, a.gnss.size() * 8 / 10);
   EXPECT_EQ(differing_ins, a.ins.size());
@@ -243,17 +246,18 @@ TEST(Simulator, TerrainVelocityOutliersAreWhereMetaSays) {
   ASSERT_EQ(list.size(), 6u);
   std::map<long, Eigen::Vector2d> expected;
   for (const auto& o : list) {
-    expected[std::lround(o["t_s"].get<double>() * 10.0)] = {o["error_ve_mps"].get<double>(), o["error_vn_mps"].get<double>()};
+    expected[std::lround(o["t_s"].get<double>() * 10.0)] = {o["error_ve_mps"].get<double>(),
+                                                            o["error_vn_mps"].get<double>()};
   }
   std::size_t found = 0;
   double worst_normal = 0.0;
   for (std::size_t e = 1; e + 1 < ds.gnss.size(); ++e) {
     if (!ds.gnss[e].valid()) continue;
     const std::size_t k = e * 10;
-    const Eigen::Vector3d truth = (body_to_enu(ds.truth[k].attitude) *
-                                   odometer_to_body(cfg.misalignment) * Eigen::Vector3d::UnitX()) *
-                                      ((ds.truth[k + 1].distance_m - ds.truth[k - 1].distance_m) / 0.02) +
-                                  lever_velocity(ds, k, cfg.lever_arm_m);
+    const Eigen::Vector3d truth =
+        (body_to_enu(ds.truth[k].attitude) * odometer_to_body(cfg.misalignment) * Eigen::Vector3d::UnitX()) *
+            ((ds.truth[k + 1].distance_m - ds.truth[k - 1].distance_m) / 0.02) +
+        lever_velocity(ds, k, cfg.lever_arm_m);
     const Eigen::Vector3d err = ds.gnss[e].vel_enu_mps - truth;
     auto it = expected.find(std::lround(ds.gnss[e].t_s * 10.0));
     if (it != expected.end()) {
@@ -497,8 +501,9 @@ TEST(Simulator, ExecutableWritesReadableDatasetAndRejectsBadArguments) {
   EXPECT_TRUE(std::filesystem::exists(dir / "meta.json"));
   std::filesystem::remove_all(dir);
   // Bad arguments: exit code 2, nothing written.
-  for (const std::string& args : std::vector<std::string>{"moon --out " + dir.string(), "ring", "ring --out " + dir.string() + " --seed x",
-                                 "ring --out " + dir.string() + " --gnss-rate 3"}) {
+  for (const std::string& args :
+       std::vector<std::string>{"moon --out " + dir.string(), "ring", "ring --out " + dir.string() + " --seed x",
+                                "ring --out " + dir.string() + " --gnss-rate 3"}) {
     const int rc = std::system((exe + " " + args + " > /dev/null 2>&1").c_str());
     EXPECT_TRUE(WIFEXITED(rc) && WEXITSTATUS(rc) == 2) << args;
   }

@@ -237,7 +237,7 @@ struct OutputRows {
   std::vector<MisalignmentRow> misalignment;
   std::vector<ScaleFactorRow> scale_factor;
   std::vector<DeadReckoningRow> dead_reckoning;
-  std::vector<DeadReckoningRow> dead_reckoning_coarse;  ///< empty when the file is absent.
+  std::vector<DeadReckoningRow> dead_reckoning_coarse;     ///< empty when the file is absent.
   std::vector<NavigationPositionRow> navigation_position;  ///< empty when the file is absent.
 };
 
@@ -252,10 +252,10 @@ class OutputFileReader {
   ~OutputFileReader();
   OutputFileReader(OutputFileReader&&) noexcept;
   OutputFileReader& operator=(OutputFileReader&&) noexcept;
-  bool next(MisalignmentRow& row);         ///< misalignment.csv
-  bool next(ScaleFactorRow& row);          ///< scale_factor.csv
-  bool next(DeadReckoningRow& row);        ///< dead_reckoning.csv, dead_reckoning_coarse.csv
-  bool next(NavigationPositionRow& row);   ///< navigation_position.csv
+  bool next(MisalignmentRow& row);        ///< misalignment.csv
+  bool next(ScaleFactorRow& row);         ///< scale_factor.csv
+  bool next(DeadReckoningRow& row);       ///< dead_reckoning.csv, dead_reckoning_coarse.csv
+  bool next(NavigationPositionRow& row);  ///< navigation_position.csv
 
  private:
   template <class Row>

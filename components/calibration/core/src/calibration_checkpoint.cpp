@@ -67,8 +67,8 @@ CalibrationLifecycle::CalibrationLifecycle(CheckpointSettings settings, std::str
 
 void CalibrationLifecycle::start(MisalignmentCalibrator& calibrator, int64_t unix_time_s, double steady_now_s) {
   if (restart_.settings().state_dir.empty()) return;
-  const std::string& file = restart_.open_state_dir(
-      [&](const std::string& dir) { return calibration_checkpoint_path(dir, vehicle_id_); });
+  const std::string& file =
+      restart_.open_state_dir([&](const std::string& dir) { return calibration_checkpoint_path(dir, vehicle_id_); });
   const CalibrationCheckpointLoad r =
       load_calibration_checkpoint(file, vehicle_id_, restart_.settings().config_hash, calibrator, unix_time_s);
   if (!restart_.note_load(r, "starting from nothing", steady_now_s)) return;
@@ -83,14 +83,16 @@ void CalibrationLifecycle::start(MisalignmentCalibrator& calibrator, int64_t uni
   restart_.note_restored(line, *r.restored_t_s, steady_now_s);
 }
 
-std::optional<MisalignmentOutput> CalibrationLifecycle::take_restored_output() { return std::exchange(restored_output_, std::nullopt); }
+std::optional<MisalignmentOutput> CalibrationLifecycle::take_restored_output() {
+  return std::exchange(restored_output_, std::nullopt);
+}
 
 bool CalibrationLifecycle::skip_sample(CalibrationInput input, double t_s) {
   return restart_.skip_sample(static_cast<std::size_t>(input), t_s);
 }
 
 std::vector<MisalignmentOutput> CalibrationLifecycle::outputs_to_publish(std::vector<MisalignmentOutput> outputs,
-                                                                          double steady_now_s) {
+                                                                         double steady_now_s) {
   return restart_.keep_outputs(std::move(outputs), steady_now_s);
 }
 

@@ -13,8 +13,8 @@ void add_calibration_options(Options& o) {
                "calibration gate: maximum |yaw rate| (deg/s): straight segments only", 0.01, 1000.0);
   o.add_double("cal-converged-sigma-deg", rad_to_deg(d.converged_sigma_rad),
                "misalignment converged when both sigmas are below this (deg)", 1e-5, 10.0);
-  o.add_int("cal-min-samples", static_cast<int64_t>(d.min_samples), "misalignment converged only after this many epochs",
-            1, 100000000);
+  o.add_int("cal-min-samples", static_cast<int64_t>(d.min_samples),
+            "misalignment converged only after this many epochs", 1, 100000000);
   o.add_bool("cal-braking-stop", d.braking_stop.enabled,
              "a braking that ends in a standstill leaves the misalignment as it was before the braking");
 }

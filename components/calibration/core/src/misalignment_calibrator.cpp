@@ -65,7 +65,6 @@ const char* to_string(CalibrationEpochStatus status) {
   return "unknown";
 }
 
-
 double MisalignmentCalibrator::Regression::residual_sum_squares() const {
   if (!(sum_phi2 > 0.0)) return 0.0;
   // sum (y - theta phi)^2 at the least-squares theta; clamp the rounding of the difference.
@@ -153,8 +152,8 @@ void MisalignmentCalibrator::track_braking_stop(double t_s, double speed_mps) {
     case MotionPhase::kDriving: braking_snapshot_.reset(); return;
     case MotionPhase::kBraking:
       if (!braking_snapshot_)
-        braking_snapshot_ = BrakingSnapshot{heading_, pitch_, samples_used_, last_used_forward_,
-                                            consecutive_innovation_rejections_, 0};
+        braking_snapshot_ =
+            BrakingSnapshot{heading_, pitch_, samples_used_, last_used_forward_, consecutive_innovation_rejections_, 0};
       return;
     case MotionPhase::kStandstill:
       if (!braking_snapshot_) return;
@@ -259,8 +258,8 @@ MisalignmentOutput MisalignmentCalibrator::current() const {
       o.reason = "collecting samples: " + std::to_string(samples_used_) + " GNSS epochs used (straight, above " +
                  t.str() + " m/s), " + std::to_string(params_.min_samples) + " needed";
     } else {
-      o.reason = "sigma above the threshold: " + deg(std::max(o.sigma_heading_rad, o.sigma_pitch_rad)) +
-                 " deg, " + deg(params_.converged_sigma_rad) + " deg needed";
+      o.reason = "sigma above the threshold: " + deg(std::max(o.sigma_heading_rad, o.sigma_pitch_rad)) + " deg, " +
+                 deg(params_.converged_sigma_rad) + " deg needed";
     }
   }
   return o;
@@ -315,8 +314,7 @@ MisalignmentOutput MisalignmentCalibrator::process_epoch(const GnssSample& g) {
 
   // 1. Physical limit, before the sign and speed tests so a spike is not counted as reversing (also
   // catches 1e308 and its overflow to inf in the rotation).
-  if (!v_b.allFinite() ||
-      (params_.outlier_gate_enabled && g.vel_enu_mps.head<2>().norm() > params_.max_speed_mps))
+  if (!v_b.allFinite() || (params_.outlier_gate_enabled && g.vel_enu_mps.head<2>().norm() > params_.max_speed_mps))
     return finish_epoch(CalibrationEpochStatus::kOutlier, counters_.outlier);
   if (v_b.x() < 0.0) return finish_epoch(CalibrationEpochStatus::kReversing, counters_.reversing);
   if (v_b.x() < params_.min_speed_mps) return finish_epoch(CalibrationEpochStatus::kLowSpeed, counters_.low_speed);

@@ -51,10 +51,12 @@ AnchoredPositionFilter::AnchoredPositionFilter(const AnchoredPositionParams& p) 
   require(non_negative(p.scale_random_walk_percent_per_sqrt_km),
           "scale_random_walk_percent_per_sqrt_km must be finite and >= 0");
   require(non_negative(p.heading_sigma_deg), "heading_sigma_deg must be finite and >= 0");
-  require(non_negative(p.heading_random_walk_deg_per_sqrt_s), "heading_random_walk_deg_per_sqrt_s must be finite and >= 0");
+  require(non_negative(p.heading_random_walk_deg_per_sqrt_s),
+          "heading_random_walk_deg_per_sqrt_s must be finite and >= 0");
   require(positive(p.fix_correlation_time_s), "fix_correlation_time_s must be finite and > 0");
-  require(std::isfinite(p.fix_correlated_fraction) && p.fix_correlated_fraction >= 0.0 && p.fix_correlated_fraction < 1.0,
-          "fix_correlated_fraction must be in [0, 1)");
+  require(
+      std::isfinite(p.fix_correlated_fraction) && p.fix_correlated_fraction >= 0.0 && p.fix_correlated_fraction < 1.0,
+      "fix_correlated_fraction must be in [0, 1)");
   require(positive(p.default_fix_sigma_m), "default_fix_sigma_m must be finite and > 0");
   require(positive(p.min_fix_sigma_m), "min_fix_sigma_m must be finite and > 0");
   require(positive(p.vertical_sigma_factor), "vertical_sigma_factor must be finite and > 0");
@@ -128,9 +130,9 @@ void AnchoredPositionFilter::propagate(const Eigen::Vector3d& d, double dd_m, do
 }
 
 void AnchoredPositionFilter::apply(const AnchorFix& fix, const AnchorDrStep& now) {
-  const double sigma_h = std::max(
-      params_.min_fix_sigma_m,
-      std::isfinite(fix.sigma_m) && fix.sigma_m > 0.0 ? fix.sigma_m : params_.default_fix_sigma_m);
+  const double sigma_h =
+      std::max(params_.min_fix_sigma_m,
+               std::isfinite(fix.sigma_m) && fix.sigma_m > 0.0 ? fix.sigma_m : params_.default_fix_sigma_m);
   const double sigma_v = params_.vertical_sigma_factor * sigma_h;
   // The DR where the fix measured (at its epoch minus the GNSS latency: the DeadReckoner's).
   const Eigen::Vector3d& dr_meas = fix.dr_enu_m;
@@ -187,7 +189,8 @@ AnchoredPosition AnchoredPositionFilter::step(const AnchorDrStep& s) {
   }
   // Propagation over the DR increment of the step (the odometer's distance, not time, drives the
   // offset's and the scale's noise: a vehicle standing still does not drift).
-  if (initialised_) propagate(s.enu_m - last_enu_m_, std::abs(s.distance_m - last_distance_m_), s.t_s - *last_step_t_s_);
+  if (initialised_)
+    propagate(s.enu_m - last_enu_m_, std::abs(s.distance_m - last_distance_m_), s.t_s - *last_step_t_s_);
   last_step_t_s_ = s.t_s;
   last_enu_m_ = s.enu_m;
   last_distance_m_ = s.distance_m;
@@ -212,8 +215,8 @@ AnchoredPosition AnchoredPositionFilter::step(const AnchorDrStep& s) {
   out.heading_error_rad = x_[4];
   out.last_fix_t_s = last_fix_t_s_;
   out.distance_since_fix_m = std::max(0.0, s.distance_m - last_fix_distance_m_);
-  out.status = s.t_s - last_fix_t_s_ <= params_.anchored_max_age_s ? AnchorStatus::kAnchored
-                                                                    : AnchorStatus::kDeadReckoning;
+  out.status =
+      s.t_s - last_fix_t_s_ <= params_.anchored_max_age_s ? AnchorStatus::kAnchored : AnchorStatus::kDeadReckoning;
   return out;
 }
 

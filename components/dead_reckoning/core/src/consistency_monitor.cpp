@@ -35,44 +35,55 @@ std::optional<std::string> heading_rate_finding(double ratio, double turned_rad,
   if (!std::isfinite(ratio) || std::abs(ratio - 1.0) <= tolerance) return std::nullopt;
   const double turned_deg = rad_to_deg(turned_rad);
   if (ratio < 0.0)
-    return format("INS heading turns opposite to the GNSS course (ratio %.2f over %.0f deg of turns): heading "
-                  "sign convention?",
-                  ratio, turned_deg);
+    return format(
+        "INS heading turns opposite to the GNSS course (ratio %.2f over %.0f deg of turns): heading "
+        "sign convention?",
+        ratio, turned_deg);
   if (ratio > 0.0 && std::abs(1.0 / ratio - kRadiansFactor) <= 0.25 * kRadiansFactor)
     return format("INS heading moves %.0f times less than the GNSS course (over %.0f deg of turns): radians?",
                   1.0 / ratio, turned_deg);
-  return format("INS heading moves %.2f times as much as the GNSS course (over %.0f deg of turns): heading unit "
-                "or another heading signal?",
-                ratio, turned_deg);
+  return format(
+      "INS heading moves %.2f times as much as the GNSS course (over %.0f deg of turns): heading unit "
+      "or another heading signal?",
+      ratio, turned_deg);
 }
 
 std::optional<std::string> drift_growth_finding(double growth_percent, double allowed_percent, double floor_percent) {
   const double limit = std::max(allowed_percent, floor_percent);
   if (!std::isfinite(growth_percent) || growth_percent <= limit) return std::nullopt;
-  return format("dead reckoning drifts from valid GNSS at %.1f %%D while K and the misalignment say converged "
-                "(%.1f %%D allowed): heading or odometer input wrong?",
-                growth_percent, limit);
+  return format(
+      "dead reckoning drifts from valid GNSS at %.1f %%D while K and the misalignment say converged "
+      "(%.1f %%D allowed): heading or odometer input wrong?",
+      growth_percent, limit);
 }
 
 std::optional<std::string> odometer_speed_finding(double ratio, double tolerance) {
   if (!std::isfinite(ratio) || std::abs(ratio - 1.0) <= tolerance) return std::nullopt;
-  return format("the odometer distance is %.3f times the GNSS distance with the K in force: the nominal K, the "
-                "pulse counter's unit or the GNSS speed?",
-                ratio);
+  return format(
+      "the odometer distance is %.3f times the GNSS distance with the K in force: the nominal K, the "
+      "pulse counter's unit or the GNSS speed?",
+      ratio);
 }
 
 ConsistencyMonitor::ConsistencyMonitor(const ConsistencyParams& p) : params_(p) {
-  const std::pair<const char*, double> positive[] = {
-      {"min_speed_mps", p.min_speed_mps},       {"rate_interval_s", p.rate_interval_s},
-      {"max_rate_radps", p.max_rate_radps},     {"window_s", p.window_s},
-      {"min_interval_turn_rad", p.min_interval_turn_rad}, {"min_intervals", p.min_intervals},
-      {"spike_turn_rad", p.spike_turn_rad},
-      {"min_turn_rad", p.min_turn_rad},         {"rate_ratio_tolerance", p.rate_ratio_tolerance},
-      {"growth_window_m", p.growth_window_m},   {"growth_floor_percent", p.growth_floor_percent},
-      {"sigma_factor", p.sigma_factor},         {"gnss_position_sigma_m", p.gnss_position_sigma_m},
-      {"speed_ratio_tolerance", p.speed_ratio_tolerance}, {"persist_s", p.persist_s},
-      {"jump_speed_mps", p.jump_speed_mps},     {"jump_margin_m", p.jump_margin_m},
-      {"jump_max_consecutive", p.jump_max_consecutive}};
+  const std::pair<const char*, double> positive[] = {{"min_speed_mps", p.min_speed_mps},
+                                                     {"rate_interval_s", p.rate_interval_s},
+                                                     {"max_rate_radps", p.max_rate_radps},
+                                                     {"window_s", p.window_s},
+                                                     {"min_interval_turn_rad", p.min_interval_turn_rad},
+                                                     {"min_intervals", p.min_intervals},
+                                                     {"spike_turn_rad", p.spike_turn_rad},
+                                                     {"min_turn_rad", p.min_turn_rad},
+                                                     {"rate_ratio_tolerance", p.rate_ratio_tolerance},
+                                                     {"growth_window_m", p.growth_window_m},
+                                                     {"growth_floor_percent", p.growth_floor_percent},
+                                                     {"sigma_factor", p.sigma_factor},
+                                                     {"gnss_position_sigma_m", p.gnss_position_sigma_m},
+                                                     {"speed_ratio_tolerance", p.speed_ratio_tolerance},
+                                                     {"persist_s", p.persist_s},
+                                                     {"jump_speed_mps", p.jump_speed_mps},
+                                                     {"jump_margin_m", p.jump_margin_m},
+                                                     {"jump_max_consecutive", p.jump_max_consecutive}};
   for (const auto& [name, v] : positive)
     if (!(std::isfinite(v) && v > 0.0))
       throw std::invalid_argument(std::string("consistency monitor: ") + name + " must be finite and > 0");
@@ -91,8 +102,9 @@ void ConsistencyMonitor::count_jump(const GnssSample& g) {
   const GnssSample& a = *last_accepted_fix_;
   const double dlat = g.position.lat_rad - a.position.lat_rad;
   const double dlon = g.position.lon_rad - a.position.lon_rad;
-  const double h = std::sin(dlat / 2) * std::sin(dlat / 2) +
-                   std::cos(a.position.lat_rad) * std::cos(g.position.lat_rad) * std::sin(dlon / 2) * std::sin(dlon / 2);
+  const double h = std::sin(dlat / 2) * std::sin(dlat / 2) + std::cos(a.position.lat_rad) *
+                                                                 std::cos(g.position.lat_rad) * std::sin(dlon / 2) *
+                                                                 std::sin(dlon / 2);
   const double distance_m = 2.0 * 6371008.8 * std::asin(std::min(1.0, std::sqrt(h)));
   const double allowed_m = params_.jump_speed_mps * std::abs(g.t_s - a.t_s) + params_.jump_margin_m;
   if (!(distance_m > allowed_m)) {
@@ -191,12 +203,11 @@ void ConsistencyMonitor::add_pair(const Pair& p) {
   }
 
   // Odometer speed: distances over the last growth_window_m of GNSS distance.
-  if (!speed_pairs_.empty() && (p.segment != speed_pairs_.back().segment ||
-                                p.odometer_distance_m < speed_pairs_.back().odometer_distance_m))
+  if (!speed_pairs_.empty() &&
+      (p.segment != speed_pairs_.back().segment || p.odometer_distance_m < speed_pairs_.back().odometer_distance_m))
     speed_pairs_.clear();  // a GNSS gap: the GNSS distance compares from here
   speed_pairs_.push_back(p);
-  while (speed_pairs_.size() >= 2 &&
-         p.gnss_distance_m - speed_pairs_[1].gnss_distance_m >= params_.growth_window_m)
+  while (speed_pairs_.size() >= 2 && p.gnss_distance_m - speed_pairs_[1].gnss_distance_m >= params_.growth_window_m)
     speed_pairs_.pop_front();
   const Pair& first = speed_pairs_.front();
   const double gnss_m = p.gnss_distance_m - first.gnss_distance_m;
@@ -226,10 +237,9 @@ void ConsistencyMonitor::add_fix(const AnchorFix& f) {
   // holds then).
   const double k_rel = k_sigma_rel_ > 0.0 ? k_sigma_rel_ : 0.0;
   const double heading = heading_std_rad_ > 0.0 ? heading_std_rad_ : 0.0;
-  const double allowed = 100.0 * params_.sigma_factor *
-                         (std::hypot(k_rel, heading) + std::hypot(sigma, a.sigma_m) / d);
-  evidence(ConsistencyCheck::kDriftGrowth, f.t_s,
-           drift_growth_finding(growth, allowed, params_.growth_floor_percent), growth);
+  const double allowed = 100.0 * params_.sigma_factor * (std::hypot(k_rel, heading) + std::hypot(sigma, a.sigma_m) / d);
+  evidence(ConsistencyCheck::kDriftGrowth, f.t_s, drift_growth_finding(growth, allowed, params_.growth_floor_percent),
+           growth);
 }
 
 void ConsistencyMonitor::evidence(ConsistencyCheck c, double t_s, const std::optional<std::string>& finding,

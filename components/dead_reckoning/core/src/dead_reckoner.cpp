@@ -37,9 +37,7 @@ const char* to_string(ScaleFactorSource source) {
   return "unknown";
 }
 
-const char* to_string(HeldEstimate estimate) {
-  return estimate == HeldEstimate::kScaleFactor ? "K" : "misalignment";
-}
+const char* to_string(HeldEstimate estimate) { return estimate == HeldEstimate::kScaleFactor ? "K" : "misalignment"; }
 
 namespace {
 // The pulse-jump gate from the DR's own nominal K and maximum speed. Invalid values keep the gate's
@@ -47,7 +45,8 @@ namespace {
 OdometerJumpGate jump_gate_of(const DeadReckonerParams& p) {
   OdometerJumpGate gate;
   if (std::isfinite(p.max_speed_mps) && p.max_speed_mps > 0.0) gate.max_speed_mps = p.max_speed_mps;
-  if (std::isfinite(p.nominal_k_m_per_pulse) && p.nominal_k_m_per_pulse > 0.0) gate.k_m_per_pulse = p.nominal_k_m_per_pulse;
+  if (std::isfinite(p.nominal_k_m_per_pulse) && p.nominal_k_m_per_pulse > 0.0)
+    gate.k_m_per_pulse = p.nominal_k_m_per_pulse;
   return gate;
 }
 }  // namespace
@@ -186,8 +185,8 @@ bool DeadReckoner::HeldTracker::decide(double t_s, const std::optional<double>& 
       received_s.pop_front();
     }
   }
-  const bool held = !exempt && epoch_s && last_applicable_s &&
-                    *last_applicable_s < *epoch_s - kEstimateApplicationGuard_s;
+  const bool held =
+      !exempt && epoch_s && last_applicable_s && *last_applicable_s < *epoch_s - kEstimateApplicationGuard_s;
   if (!held) {
     if (span) span->open = false;
     return false;
@@ -327,8 +326,9 @@ DeadReckoner::Readiness DeadReckoner::try_start(double t_j) {
     start_t_s_ = g.t_s;
     past_.clear();
     past_.push_back(Past{g.t_s, Eigen::Vector3d::Zero(), 0.0,
-                         params_.lever_arm_body_m ? std::optional<Eigen::Vector3d>(att ? lever_arm_enu(*att) : Eigen::Vector3d::Zero())
-                                                  : std::optional<Eigen::Vector3d>(Eigen::Vector3d::Zero())});
+                         params_.lever_arm_body_m
+                             ? std::optional<Eigen::Vector3d>(att ? lever_arm_enu(*att) : Eigen::Vector3d::Zero())
+                             : std::optional<Eigen::Vector3d>(Eigen::Vector3d::Zero())});
     last_t_s_ = g.t_s;
     last_count_ = *count;
     distance_m_ = 0.0;
@@ -426,7 +426,8 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
   } else if (direction < 0) {
     ++counters_.reversing;
   }
-  const KInForce k = k_history_.at_or_before(t_j).value_or(KInForce{params_.nominal_k_m_per_pulse, ScaleFactorSource::kNominal});
+  const KInForce k =
+      k_history_.at_or_before(t_j).value_or(KInForce{params_.nominal_k_m_per_pulse, ScaleFactorSource::kNominal});
   o.k_m_per_pulse = k.k_m_per_pulse;
   o.k_source = k.source;
   const Misalignment mis = misalignment_.at_or_before(t_j).value_or(Misalignment{});
@@ -438,7 +439,8 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
   }
   o.k_held = held_[static_cast<int>(HeldEstimate::kScaleFactor)].decide(t_j, latest_applicable_epoch_s_,
                                                                         k.source == ScaleFactorSource::kCommanded);
-  o.misalignment_held = held_[static_cast<int>(HeldEstimate::kMisalignment)].decide(t_j, latest_applicable_epoch_s_, false);
+  o.misalignment_held =
+      held_[static_cast<int>(HeldEstimate::kMisalignment)].decide(t_j, latest_applicable_epoch_s_, false);
   if (o.k_held) ++counters_.outputs_on_held_k;
   if (o.misalignment_held) ++counters_.outputs_on_held_misalignment;
   o.turn_slip_fraction = turn_slip_fraction_at(t_j, mid);
@@ -573,7 +575,8 @@ void DeadReckoner::evaluate_errors(DeadReckoningOutput& o) {
   // needed. A later epoch's latency may be one not added yet: the margin is the one in force now
   // and at least kLatencyKeepMarginS (the online estimate searches up to 0.5 s), the same whatever
   // was added beyond the watermark, so the pipeline keeps what odonav-offline keeps.
-  const double next_applies_s = error_epochs_.empty() ? t_j : estimate_applies_from_s(error_epochs_.front().first.t_s, d);
+  const double next_applies_s =
+      error_epochs_.empty() ? t_j : estimate_applies_from_s(error_epochs_.front().first.t_s, d);
   constexpr double kLatencyKeepMarginS = 1.0;
   const double latency_margin_s =
       std::max(kLatencyKeepMarginS, gnss_latency_.at_or_before(std::min(t_j, next_applies_s)).value_or(0.0));

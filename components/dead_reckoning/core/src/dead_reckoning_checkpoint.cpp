@@ -30,17 +30,19 @@ std::string serialize_dead_reckoning_checkpoint(const DeadReckoningCheckpoint& c
   for (const auto& f : c.fed_until_s) fed.push_back(or_none(f));
   const ScaleFactorSelection::State& k = c.k_selection;
   std::vector<double> applied;
-  for (const auto& [t, m] : c.applied_misalignment.entries) applied.insert(applied.end(), {t, m.heading_rad, m.pitch_rad});
+  for (const auto& [t, m] : c.applied_misalignment.entries)
+    applied.insert(applied.end(), {t, m.heading_rad, m.pitch_rad});
   if (k.k_source.find('\n') != std::string::npos || k.in_force_source.find('\n') != std::string::npos)
     throw std::invalid_argument("dead-reckoning checkpoint: the K source holds a line break");
   return seal_checkpoint(
       checkpoint_head(kMagic, kVersion, c.vehicle_id, c.config_hash) +
       checkpoint_time_line("last_output_t_s", c.last_output_t_s) + checkpoint_value_list("inputs_fed_until_s", fed) +
-      checkpoint_value_list("k_selection", {k.commanded ? 1.0 : 0.0, or_none(k.last_k_stamp_s),
-                                            static_cast<double>(k.counters.k_applied),
-                                            static_cast<double>(k.counters.k_ignored),
-                                            static_cast<double>(k.counters.k_source_changes)}) +
-      "k_source " + k.k_source + "\n" + "k_in_force_source " + k.in_force_source + "\n" + checkpoint_value_list("applied_misalignment", applied) +
+      checkpoint_value_list(
+          "k_selection",
+          {k.commanded ? 1.0 : 0.0, or_none(k.last_k_stamp_s), static_cast<double>(k.counters.k_applied),
+           static_cast<double>(k.counters.k_ignored), static_cast<double>(k.counters.k_source_changes)}) +
+      "k_source " + k.k_source + "\n" + "k_in_force_source " + k.in_force_source + "\n" +
+      checkpoint_value_list("applied_misalignment", applied) +
       checkpoint_value_list("applied_misalignment_last_t_s", {or_none(c.applied_misalignment.last_t_s)}) +
       "misalignments_applied " + std::to_string(c.misalignments_applied) + "\n" +
       checkpoint_value_list("held_misalignment_t_s", {or_none(c.held_misalignment_t_s)}) +
@@ -123,13 +125,14 @@ DeadReckoningLifecycle::DeadReckoningLifecycle(CheckpointSettings settings, std:
 
 void DeadReckoningLifecycle::start(const DeadReckoningStateRefs& state, int64_t unix_time_s, double steady_now_s) {
   if (restart_.settings().state_dir.empty()) return;
-  const std::string& file = restart_.open_state_dir(
-      [&](const std::string& dir) { return dead_reckoning_checkpoint_path(dir, vehicle_id_); });
+  const std::string& file =
+      restart_.open_state_dir([&](const std::string& dir) { return dead_reckoning_checkpoint_path(dir, vehicle_id_); });
   const DeadReckoningCheckpointLoad r =
       load_dead_reckoning_checkpoint(file, vehicle_id_, restart_.settings().config_hash, state, unix_time_s);
-  if (!restart_.note_load(r, r.status == CheckpointLoadStatus::kNone ? "starting at the first GNSS fix"
-                                                                      : "starting at the next GNSS fix",
-                          steady_now_s))
+  if (!restart_.note_load(
+          r,
+          r.status == CheckpointLoadStatus::kNone ? "starting at the first GNSS fix" : "starting at the next GNSS fix",
+          steady_now_s))
     return;
   const DeadReckoningCheckpoint& c = *r.checkpoint;
   char line[300];
@@ -152,7 +155,7 @@ bool DeadReckoningLifecycle::take_sample(DeadReckoningInput input, double t_s) {
 }
 
 std::vector<DeadReckoningOutput> DeadReckoningLifecycle::outputs_to_publish(std::vector<DeadReckoningOutput> outputs,
-                                                                           double steady_now_s) {
+                                                                            double steady_now_s) {
   return restart_.keep_outputs(std::move(outputs), steady_now_s);
 }
 

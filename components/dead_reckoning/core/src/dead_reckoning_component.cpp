@@ -35,14 +35,15 @@ void DeadReckoningComponent::on_scale_factor(const PublishedScaleFactor& k, doub
   const double from_s = estimate_applies_from_s(k.t_s, hold_off_s_);
   // The error against GNSS and the anchor fixes compare each fix with the DR at its stamp minus the
   // latency in force.
-  if (std::isfinite(k.gnss_latency_s) && std::abs(k.gnss_latency_s) < 10.0) core_.add_gnss_latency(from_s, k.gnss_latency_s);
+  if (std::isfinite(k.gnss_latency_s) && std::abs(k.gnss_latency_s) < 10.0)
+    core_.add_gnss_latency(from_s, k.gnss_latency_s);
   // A gain not applied (or not a positive number) is 0; a threshold that is not a rate carries no slip.
   if (std::isfinite(k.turn_slip_threshold_radps) && k.turn_slip_threshold_radps >= 0.0)
     core_.add_turn_slip(from_s, turn_slip_gain_to_apply(k.turn_slip_applies, k.turn_slip_s_per_rad),
                         k.turn_slip_threshold_radps);
   monitor_.set_scale_factor(k.k_m_per_pulse, k.sigma_m_per_pulse, k.converged);
-  const IdentifiedScaleFactor identified{from_s, k.k_m_per_pulse, k.converged, k.source, k.sigma_m_per_pulse,
-                                         k.samples_accepted};
+  const IdentifiedScaleFactor identified{from_s,   k.k_m_per_pulse,     k.converged,
+                                         k.source, k.sigma_m_per_pulse, k.samples_accepted};
   if (const auto update = consumer_.k_selection.on_identified(identified, now_s))
     core_.add_scale_factor(update->t_s, update->k_m_per_pulse, update->source);
 }

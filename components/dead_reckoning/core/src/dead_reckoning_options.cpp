@@ -25,18 +25,17 @@ void add_dead_reckoning_options(Options& o) {
   o.add_double("anchor-scale-walk-percent-per-sqrt-km", a.scale_random_walk_percent_per_sqrt_km,
                "navigation position: random walk of that scale error, % per sqrt(km)", 0.0, 100.0);
   o.add_double("anchor-heading-sigma-deg", a.heading_sigma_deg,
-               "navigation position: prior one-sigma of the DR increments' heading error, deg (0: taken as right)",
-               0.0, 90.0);
+               "navigation position: prior one-sigma of the DR increments' heading error, deg (0: taken as right)", 0.0,
+               90.0);
   o.add_double("anchor-heading-walk-deg-per-sqrt-s", a.heading_random_walk_deg_per_sqrt_s,
                "navigation position: random walk of that heading error, deg per sqrt(s)", 0.0, 10.0);
   o.add_double("anchor-gnss-correlation-s", a.fix_correlation_time_s,
                "navigation position: correlation time of the GNSS position error (Gauss-Markov), s", 1e-3, 1e5);
   o.add_double("anchor-gnss-correlated-fraction", a.fix_correlated_fraction,
-               "navigation position: share of a fix's variance (pos_std_m^2) that is correlated, the rest white",
-               0.0, 0.999);
+               "navigation position: share of a fix's variance (pos_std_m^2) that is correlated, the rest white", 0.0,
+               0.999);
   o.add_double("anchor-gate-sigma", a.gate_sigma,
-               "navigation position: a fix whose innovation exceeds this many predicted sigmas is rejected", 1e-3,
-               1e6);
+               "navigation position: a fix whose innovation exceeds this many predicted sigmas is rejected", 1e-3, 1e6);
 }
 
 DeadReckonerParams dead_reckoning_params_from(const Options& o) {

@@ -18,17 +18,15 @@ constexpr int kStateVersion = 2;
 using Values = std::vector<double>;
 
 Values optional_values(const std::optional<double>& v) { return optional_state_values(v); }
-std::optional<double> optional_of(const Values& v) {
-  return v.empty() ? std::nullopt : std::optional<double>(v[0]);
-}
+std::optional<double> optional_of(const Values& v) { return v.empty() ? std::nullopt : std::optional<double>(v[0]); }
 constexpr std::size_t kGnssValues = kGnssStateValues;
 void append(Values& out, std::initializer_list<double> v) { out.insert(out.end(), v.begin(), v.end()); }
 
 // Anchor fix: t, fix ENU (3), DR ENU (3), distance, sigma.
 constexpr std::size_t kFixValues = 9;
 void append_fix(Values& out, const AnchorFix& f) {
-  append(out, {f.t_s, f.fix_enu_m.x(), f.fix_enu_m.y(), f.fix_enu_m.z(), f.dr_enu_m.x(), f.dr_enu_m.y(),
-               f.dr_enu_m.z(), f.dr_distance_m, f.sigma_m});
+  append(out, {f.t_s, f.fix_enu_m.x(), f.fix_enu_m.y(), f.fix_enu_m.z(), f.dr_enu_m.x(), f.dr_enu_m.y(), f.dr_enu_m.z(),
+               f.dr_distance_m, f.sigma_m});
 }
 AnchorFix fix_of(const double* v) {
   return AnchorFix{v[0], Eigen::Vector3d(v[1], v[2], v[3]), Eigen::Vector3d(v[4], v[5], v[6]), v[7], v[8]};
@@ -116,9 +114,10 @@ std::string DeadReckoner::save_state() const {
   line("start_fix", v);
   const DeadReckonerCounters& c = counters_;
   s += "counters";
-  for (uint64_t x : {c.odometer_samples, c.outputs, c.before_start, c.unknown_direction, c.reversing, c.heading_held,
-                     c.distance_lost, c.pulse_jumps_rejected, c.pulse_rebases, c.anchor_fixes, c.anchor_fixes_no_attitude,
-                     c.gnss_latency_stale, c.outputs_on_held_k, c.outputs_on_held_misalignment, c.turn_slip_stale})
+  for (uint64_t x :
+       {c.odometer_samples, c.outputs, c.before_start, c.unknown_direction, c.reversing, c.heading_held,
+        c.distance_lost, c.pulse_jumps_rejected, c.pulse_rebases, c.anchor_fixes, c.anchor_fixes_no_attitude,
+        c.gnss_latency_stale, c.outputs_on_held_k, c.outputs_on_held_misalignment, c.turn_slip_stale})
     s += " " + std::to_string(x);
   s += "\n";
   line("epochs_to_apply_s", Values(epochs_to_apply_s_.begin(), epochs_to_apply_s_.end()));
@@ -174,8 +173,9 @@ void DeadReckoner::restore_state(const std::string& text) {
   v = records("past_outputs", 9, kMany);
   for (std::size_t i = 0; i < v.size(); i += 9)
     d.past_.push_back(Past{v[i], Eigen::Vector3d(v[i + 1], v[i + 2], v[i + 3]), v[i + 4],
-                           v[i + 5] != 0.0 ? std::optional<Eigen::Vector3d>(Eigen::Vector3d(v[i + 6], v[i + 7], v[i + 8]))
-                                           : std::nullopt});
+                           v[i + 5] != 0.0
+                               ? std::optional<Eigen::Vector3d>(Eigen::Vector3d(v[i + 6], v[i + 7], v[i + 8]))
+                               : std::nullopt});
   v = records("last_error", 5, 1);
   if (!v.empty()) d.last_error_ = EpochError{v[0], v[1], v[2], v[3], v[4]};
   d.start_t_s_ = opt("start_t_s");
@@ -225,8 +225,8 @@ void DeadReckoner::restore_state(const std::string& text) {
   v = records("start_fix", kFixValues, 1);
   if (!v.empty()) d.start_fix_ = fix_of(v.data());
   const std::vector<uint64_t> c = r.unsigned_list("counters", 15);
-  d.counters_ =
-      DeadReckonerCounters{c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13], c[14]};
+  d.counters_ = DeadReckonerCounters{c[0], c[1], c[2],  c[3],  c[4],  c[5],  c[6], c[7],
+                                     c[8], c[9], c[10], c[11], c[12], c[13], c[14]};
   v = r.value_list("epochs_to_apply_s");
   d.epochs_to_apply_s_.assign(v.begin(), v.end());
   d.latest_applicable_epoch_s_ = opt("latest_applicable_epoch_s");
@@ -260,8 +260,8 @@ std::string AnchoredPositionFilter::save_state() const {
   s += checkpoint_value_list("last_enu_m", {last_enu_m_.x(), last_enu_m_.y(), last_enu_m_.z()});
   s += checkpoint_value_list("x", Values(x_.data(), x_.data() + kN));
   s += checkpoint_value_list("p", Values(p_.data(), p_.data() + kN * kN));
-  s += checkpoint_value_list("scalars", {initialised_ ? 1.0 : 0.0, correlated_sigma_h_m_, last_distance_m_, last_fix_t_s_,
-                                         last_fix_distance_m_, static_cast<double>(consecutive_gated_),
+  s += checkpoint_value_list("scalars", {initialised_ ? 1.0 : 0.0, correlated_sigma_h_m_, last_distance_m_,
+                                         last_fix_t_s_, last_fix_distance_m_, static_cast<double>(consecutive_gated_),
                                          counters_.last_rejected_innovation_m, counters_.last_rejected_gate_m});
   s += "counters " + std::to_string(counters_.steps) + " " + std::to_string(counters_.fixes_added) + " " +
        std::to_string(counters_.fixes_applied) + " " + std::to_string(counters_.fixes_rejected_gate) + " " +

@@ -30,11 +30,9 @@ std::string serialize_checkpoint(const IdentificationCheckpoint& c) {
   for (const auto& f : c.fed_until_s) fed.push_back(f.value_or(kNone));
   std::ostringstream s;
   s << checkpoint_head(kMagic, kVersion, c.vehicle_id, c.config_hash) << "estimator " << c.estimator_name << '\n'
-    << checkpoint_time_line("last_sample_t_s", c.last_sample_t_s) << "samples_accepted " << c.samples_accepted
-    << '\n'
+    << checkpoint_time_line("last_sample_t_s", c.last_sample_t_s) << "samples_accepted " << c.samples_accepted << '\n'
     << "samples_rejected " << c.samples_rejected << '\n'
-    << checkpoint_value_list("inputs_fed_until_s", fed) << "misalignments_applied " << c.misalignments_applied
-    << '\n'
+    << checkpoint_value_list("inputs_fed_until_s", fed) << "misalignments_applied " << c.misalignments_applied << '\n'
     << checkpoint_value_list("held_misalignment_t_s", c.held_misalignment_t_s
                                                           ? std::vector<double>{*c.held_misalignment_t_s}
                                                           : std::vector<double>{})
@@ -96,8 +94,7 @@ CheckpointLoadResult load_identification_checkpoint(const std::string& path, con
 
 std::string describe(const CheckpointLoadResult& r, const ScaleFactorEstimator& estimator) {
   switch (r.status) {
-    case CheckpointLoadStatus::kNone:
-      return "no checkpoint " + r.path + ": starting from nominal K";
+    case CheckpointLoadStatus::kNone: return "no checkpoint " + r.path + ": starting from nominal K";
     case CheckpointLoadStatus::kRestored: {
       const ScaleFactorEstimate e = estimator.estimate();
       char buf[160];

@@ -96,7 +96,8 @@ void IdentificationCore::feed_gate(double t_s, const ScaleFactorEstimate& est) {
   if (!est.valid) return;
   // Strictly after the last one (the builder's history needs increasing stamps); a commanded K at
   // the time of the last processed epoch then applies from the next epoch on.
-  if (last_gate_t_s_ && !(t_s > *last_gate_t_s_)) t_s = std::nextafter(*last_gate_t_s_, std::numeric_limits<double>::infinity());
+  if (last_gate_t_s_ && !(t_s > *last_gate_t_s_))
+    t_s = std::nextafter(*last_gate_t_s_, std::numeric_limits<double>::infinity());
   builder_.add_scale_factor_estimate(t_s, est.k_m_per_pulse, est.sigma_m_per_pulse);
   last_gate_t_s_ = t_s;
 }
@@ -218,7 +219,8 @@ std::string IdentificationCore::save_state() const {
   s += "braking_stop " + std::to_string(braking_stop_counters_.stops) + " " +
        std::to_string(braking_stop_counters_.samples_withdrawn) + "\n";
   s += checkpoint_value_list("motion_epochs", motion_.state());
-  s += "braking_snapshot " + (braking_snapshot_ ? std::to_string(braking_snapshot_->samples) : std::string("none")) + "\n";
+  s += "braking_snapshot " + (braking_snapshot_ ? std::to_string(braking_snapshot_->samples) : std::string("none")) +
+       "\n";
   if (braking_snapshot_) {
     s += checkpoint_state_block(braking_snapshot_->main);
     for (const std::string& a : braking_snapshot_->all) s += checkpoint_state_block(a);
@@ -286,7 +288,8 @@ bool IdentificationCore::apply_misalignment(const PublishedMisalignment& m) {
     return false;
   if (!std::isfinite(m.heading_rad) || !std::isfinite(m.pitch_rad))
     throw StreamInputError("misalignment: angles are not finite");
-  add_misalignment(estimate_applies_from_s(m.t_s, params_.estimate_hold_off_s), Misalignment{m.heading_rad, m.pitch_rad});
+  add_misalignment(estimate_applies_from_s(m.t_s, params_.estimate_hold_off_s),
+                   Misalignment{m.heading_rad, m.pitch_rad});
   return true;
 }
 
@@ -312,7 +315,9 @@ results::ScaleFactorRow output_row(const IdentificationOutput& k, const std::str
                                    const std::vector<std::string>& names) {
   results::ScaleFactorRow r;
   r.t_s = k.t_s;
-  auto value_of = [](const ScaleFactorEstimate& e) { return e.valid ? std::optional<double>(e.k_m_per_pulse) : std::nullopt; };
+  auto value_of = [](const ScaleFactorEstimate& e) {
+    return e.valid ? std::optional<double>(e.k_m_per_pulse) : std::nullopt;
+  };
   for (std::size_t i = 0; i < names.size() && i < k.all.size(); ++i) {
     r.k_by_estimator.emplace_back(names[i], value_of(k.all[i]));
     if (names[i] == "vff_lm_rls" && k.all[i].valid) r.lambda_vff_lm_rls = k.all[i].forgetting_factor;
@@ -340,9 +345,8 @@ results::ScaleFactorRow output_row(const IdentificationOutput& k, const std::str
 }
 
 std::vector<ComponentInput> identification_inputs(const IdentificationParams& p) {
-  std::vector<ComponentInput> in{{"odometer", true, "", 0.0},
-                                 {"gnss", true, "", 0.0},
-                                 {"misalignment", false, "gnss", p.estimate_hold_off_s}};
+  std::vector<ComponentInput> in{
+      {"odometer", true, "", 0.0}, {"gnss", true, "", 0.0}, {"misalignment", false, "gnss", p.estimate_hold_off_s}};
   if (p.builder.use_ins) in.push_back({"ins", true, "", 0.0});
   return in;
 }

@@ -70,16 +70,13 @@ void IdentificationLifecycle::restore(IdentificationCore& core, int64_t unix_tim
       load_identification_checkpoint(file, vehicle_id_, restart_.settings().config_hash, core, unix_time_s);
   const std::string line = describe(r, core.main_estimator());
   switch (r.status) {
-    case CheckpointLoadStatus::kNone:
-      restart_.note_fresh_start(line, steady_now_s);
-      return;
+    case CheckpointLoadStatus::kNone: restart_.note_fresh_start(line, steady_now_s); return;
     case CheckpointLoadStatus::kMovedAside:
       // Shorter than the log line (no reason, no new name): the health reason is a summary.
       restart_.note_moved_aside(line, "checkpoint " + file + " was corrupt: moved aside; starting from nominal K",
                                 steady_now_s);
       return;
-    case CheckpointLoadStatus::kRestored:
-      break;
+    case CheckpointLoadStatus::kRestored: break;
   }
   const IdentificationCheckpoint& c = *r.checkpoint;
   misalignments_applied_ = c.misalignments_applied;
@@ -113,8 +110,8 @@ void IdentificationLifecycle::note_misalignment_applied(double t_s) {
   held_misalignment_t_s_ = t_s;
 }
 
-std::vector<IdentificationOutput> IdentificationLifecycle::outputs_to_publish(
-    std::vector<IdentificationOutput> outputs, double steady_now_s) {
+std::vector<IdentificationOutput> IdentificationLifecycle::outputs_to_publish(std::vector<IdentificationOutput> outputs,
+                                                                              double steady_now_s) {
   std::vector<IdentificationOutput> kept;
   kept.reserve(outputs.size());
   for (IdentificationOutput& o : outputs) {

@@ -36,7 +36,8 @@ void add_identification_options(Options& o) {
                "one-sigma GNSS velocity noise assumed by the outlier gate (m/s)", 1e-4, 10.0);
   o.add_double("max-interval-s", d.builder.max_interval_s,
                "gate: longest GNSS interval a sample may span (s); 0 = from the observed GNSS period P: "
-               "max(0.5 s, 2.5 P)", 0.0, 100.0);
+               "max(0.5 s, 2.5 P)",
+               0.0, 100.0);
   o.add_double("min-pulses", d.builder.min_pulses, "gate: minimum pulses counted over a sample (quantisation)", 0.0,
                1e9);
   o.add_bool("turn-slip", d.turn_slip_enabled,

@@ -34,11 +34,11 @@ namespace odonav::dds {
 
 /// Settings every component takes from its flags.
 struct ComponentSettings {
-  std::string component;     ///< e.g. "odonav-calibration": health key, command target, logger name.
-  std::string vehicle_id;    ///< key of everything published; only this vehicle's inputs are used.
+  std::string component;   ///< e.g. "odonav-calibration": health key, command target, logger name.
+  std::string vehicle_id;  ///< key of everything published; only this vehicle's inputs are used.
   ParticipantOptions participant;
-  double max_wait_s = 2.0;   ///< event-time alignment: how long an input may lag silently (s).
-  std::string log_level;     ///< empty: ODONAV_LOG_LEVEL or info.
+  double max_wait_s = 2.0;  ///< event-time alignment: how long an input may lag silently (s).
+  std::string log_level;    ///< empty: ODONAV_LOG_LEVEL or info.
 };
 
 /// The participant options of every odonav program: --domain (0..232, default 0; domain_help says

@@ -64,19 +64,19 @@ PublishedScaleFactor published_scale_factor_from(const odonav::msg::ScaleFactor&
 
 /// One input stream of a node. Not thread-safe: the node runs it one task at a time.
 struct NodeInput {
-  std::string name;                        ///< stream name in counters and reasons ("gnss", ...).
-  EventTimeAligner::StreamId id = 0;       ///< its stream in the node's aligner.
-  bool estimate = false;                   ///< an estimate topic: repeated stamps are heartbeats.
+  std::string name;                   ///< stream name in counters and reasons ("gnss", ...).
+  EventTimeAligner::StreamId id = 0;  ///< its stream in the node's aligner.
+  bool estimate = false;              ///< an estimate topic: repeated stamps are heartbeats.
   /// Estimate input only: samples stamped before the last one taken. A producer restarted from its
   /// checkpoint republishes the epochs between the checkpoint and its last output before the
   /// restart, with the same values (it resumes exactly): they were applied already and are dropped
   /// as repeats, counted here, not as problems.
   uint64_t republished = 0;
-  uint64_t refused = 0;                    ///< refused by the core or with a bad stamp.
-  uint64_t dropped_invalid = 0;            ///< dropped by the node before the aligner (e.g. INS not valid).
-  std::string last_problem;                ///< why the last sample was not fed, in words.
+  uint64_t refused = 0;                       ///< refused by the core or with a bad stamp.
+  uint64_t dropped_invalid = 0;               ///< dropped by the node before the aligner (e.g. INS not valid).
+  std::string last_problem;                   ///< why the last sample was not fed, in words.
   std::optional<double> last_problem_wall_s;  ///< when (steady clock, s).
-  uint64_t problems = 0;                   ///< samples not fed for any reason but heartbeats.
+  uint64_t problems = 0;                      ///< samples not fed for any reason but heartbeats.
 
   /// Records a sample that was not fed, with the reason (logged, rate-limited).
   void note_problem(const std::string& why, double now_s);
@@ -100,9 +100,7 @@ SampleAdmission admit_sample(EventTimeAligner& aligner, NodeInput& in, const bui
   std::ostringstream why;
   why.precision(15);
   switch (a) {
-    case SampleAdmission::kAccepted:
-      try {
-        feed(t_s);
+    case SampleAdmission::kAccepted: try { feed(t_s);
       } catch (const std::invalid_argument& e) {  // StreamInputError and parameter checks
         ++in.refused;
         in.note_problem(e.what(), now_s);
@@ -116,20 +114,18 @@ SampleAdmission admit_sample(EventTimeAligner& aligner, NodeInput& in, const bui
       if (in.estimate) {
         ++in.republished;
         if (in.republished == 1 || in.republished % 1000 == 0)
-          spdlog::info("{}: estimate of t={:.3f} s is older than the last one taken: republished by a producer "
-                       "resuming from its checkpoint, already applied ({} so far)",
-                       in.name, t_s, in.republished);
+          spdlog::info(
+              "{}: estimate of t={:.3f} s is older than the last one taken: republished by a producer "
+              "resuming from its checkpoint, already applied ({} so far)",
+              in.name, t_s, in.republished);
         return a;
       }
       why << "time went backwards (t=" << t_s << " s)";
       break;
     case SampleAdmission::kLate:
-      why << "late: t=" << t_s << " s is not after what was already processed (" << aligner.processed_s()
-          << " s)";
+      why << "late: t=" << t_s << " s is not after what was already processed (" << aligner.processed_s() << " s)";
       break;
-    case SampleAdmission::kInvalid:
-      why << "time stamp is not finite";
-      break;
+    case SampleAdmission::kInvalid: why << "time stamp is not finite"; break;
   }
   in.note_problem(why.str(), now_s);
   return a;
@@ -138,21 +134,20 @@ SampleAdmission admit_sample(EventTimeAligner& aligner, NodeInput& in, const bui
 /// Appends "<name>_in", "<name>_late", "<name>_rejected", "<name>_absent_events",
 /// "<name>_silent_s" for one input (and "<name>_in_flight_waits" when the component waits longer for
 /// samples in flight).
-void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, const NodeInput& in,
-                                  double now_s);
+void append_input_counters(HealthCounters& c, const EventTimeAligner& aligner, const NodeInput& in, double now_s);
 
 /// "no gnss for 12 s" for the first of `inputs` that is absent now, else nullopt.
-std::optional<std::string> absent_reason(const EventTimeAligner& aligner,
-                                                const std::vector<const NodeInput*>& inputs, double now_s);
+std::optional<std::string> absent_reason(const EventTimeAligner& aligner, const std::vector<const NodeInput*>& inputs,
+                                         double now_s);
 
 /// "waiting for gnss" for the first of `inputs` that never delivered a sample, else nullopt.
-std::optional<std::string> waiting_reason(const EventTimeAligner& aligner,
-                                                 const std::vector<const NodeInput*>& inputs, double now_s);
+std::optional<std::string> waiting_reason(const EventTimeAligner& aligner, const std::vector<const NodeInput*>& inputs,
+                                          double now_s);
 
 /// "rejected 12 ins samples: time went backwards ..." when one of `inputs` had a sample not fed
 /// within the last recent_s seconds (steady clock), else nullopt.
 std::optional<std::string> rejection_reason(const std::vector<const NodeInput*>& inputs, double now_s,
-                                                   double recent_s = 10.0);
+                                            double recent_s = 10.0);
 
 // ---- outputs ----
 

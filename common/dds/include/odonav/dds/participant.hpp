@@ -99,14 +99,14 @@ class ParticipantEventLog : public eprosima::fastdds::dds::DomainParticipantList
 
   /// What this participant saw since it was created (all zero without DDS Security).
   struct Counts {
-    std::uint64_t discovered = 0;             ///< participants discovered
-    std::uint64_t without_credentials = 0;    ///< of them, announced no DDS Security identity
-    std::uint64_t refused = 0;                ///< authentication refusals (first one per participant)
-    std::uint64_t authenticated = 0;          ///< authentications that succeeded
-    std::uint64_t setups_spaced = 0;          ///< handshake set-ups passed through SetupSpacing
-    std::uint64_t setups_delayed = 0;         ///< of them, held back (another thread's was < 100 ms ago)
-    double setup_wait_s = 0.0;                ///< total time they were held back (steady clock)
-    std::uint64_t untracked = 0;              ///< strangers beyond kMaxTrackedStrangers, not kept
+    std::uint64_t discovered = 0;           ///< participants discovered
+    std::uint64_t without_credentials = 0;  ///< of them, announced no DDS Security identity
+    std::uint64_t refused = 0;              ///< authentication refusals (first one per participant)
+    std::uint64_t authenticated = 0;        ///< authentications that succeeded
+    std::uint64_t setups_spaced = 0;        ///< handshake set-ups passed through SetupSpacing
+    std::uint64_t setups_delayed = 0;       ///< of them, held back (another thread's was < 100 ms ago)
+    double setup_wait_s = 0.0;              ///< total time they were held back (steady clock)
+    std::uint64_t untracked = 0;            ///< strangers beyond kMaxTrackedStrangers, not kept
   };
   Counts counts() const;
 
@@ -116,10 +116,10 @@ class ParticipantEventLog : public eprosima::fastdds::dds::DomainParticipantList
   /// that refused OUR certificate, i.e. one of another PKI, or the Fast DDS race of the class
   /// comment, or a network path that drops one direction). Kept until it leaves.
   struct UnauthenticatedParticipant {
-    std::string name;     ///< the name it announced
-    std::string guid;     ///< its GUID prefix
-    bool refused = false; ///< refused (true) or handshake incomplete (false)
-    double age_s = 0.0;   ///< seconds since it was discovered (steady clock)
+    std::string name;      ///< the name it announced
+    std::string guid;      ///< its GUID prefix
+    bool refused = false;  ///< refused (true) or handshake incomplete (false)
+    double age_s = 0.0;    ///< seconds since it was discovered (steady clock)
   };
   /// The refused ones, and those with a handshake pending for at least pending_for; the longest
   /// known first. Always empty without DDS Security.
@@ -164,8 +164,8 @@ class ParticipantEventLog : public eprosima::fastdds::dds::DomainParticipantList
   bool remember(const std::string& guid, const std::string& name, bool credentials);
   void on_discovered_secure(const std::string& name, const std::string& guid, bool credentials);
   void on_left(const std::string& name, const std::string& guid, bool lease_expired);
-  mutable std::mutex mutex_;           // peers_, counts_, the budgets, names_
-  std::map<std::string, std::string> names_;  // GUID prefix -> announced name, until it leaves
+  mutable std::mutex mutex_;                                          // peers_, counts_, the budgets, names_
+  std::map<std::string, std::string> names_;                          // GUID prefix -> announced name, until it leaves
   std::map<eprosima::fastrtps::rtps::GUID_t, bool> reader_reliable_;  // remote readers, until removed
   std::map<std::string, Peer> peers_;  // GUID prefix -> peer, secure participants only, until it leaves
   Counts counts_;
@@ -205,8 +205,7 @@ class ParticipantCore {
 
   /// The topic `topic_name` of `type`, registering the type and creating the topic on first use.
   /// Throws if registration or creation fails, or if the topic exists with another type.
-  eprosima::fastdds::dds::Topic& topic(const std::string& topic_name,
-                                       eprosima::fastdds::dds::TypeSupport type);
+  eprosima::fastdds::dds::Topic& topic(const std::string& topic_name, eprosima::fastdds::dds::TypeSupport type);
 
  private:
   eprosima::fastdds::dds::DomainParticipant* participant_;

@@ -63,8 +63,8 @@ class LogBudget {
   LogBudget(std::size_t burst, Clock::duration window) : burst_(burst), window_(window) {}
 
   struct Grant {
-    bool log = false;             ///< write this event's line
-    std::uint64_t left_out = 0;   ///< events not logged since the last line written (when log)
+    bool log = false;            ///< write this event's line
+    std::uint64_t left_out = 0;  ///< events not logged since the last line written (when log)
   };
   /// One event at `now`.
   Grant take(Clock::time_point now);

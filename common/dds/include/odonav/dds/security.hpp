@@ -44,14 +44,14 @@ inline constexpr const char* kSecurityIdentityEnv = "ODONAV_SECURITY_IDENTITY";
 
 /// The files of one secure participant (paths as given, not canonicalised).
 struct SecurityMaterial {
-  std::string directory;                 ///< the security directory
-  std::string identity;                  ///< the identity name (subdirectory)
-  std::string identity_ca_file;          ///< <dir>/identity_ca.cert.pem
-  std::string permissions_ca_file;       ///< <dir>/permissions_ca.cert.pem
-  std::string governance_file;           ///< <dir>/governance.p7s
-  std::string certificate_file;          ///< <dir>/<identity>/cert.pem
-  std::string private_key_file;          ///< <dir>/<identity>/key.pem
-  std::string permissions_file;          ///< <dir>/<identity>/permissions.p7s
+  std::string directory;            ///< the security directory
+  std::string identity;             ///< the identity name (subdirectory)
+  std::string identity_ca_file;     ///< <dir>/identity_ca.cert.pem
+  std::string permissions_ca_file;  ///< <dir>/permissions_ca.cert.pem
+  std::string governance_file;      ///< <dir>/governance.p7s
+  std::string certificate_file;     ///< <dir>/<identity>/cert.pem
+  std::string private_key_file;     ///< <dir>/<identity>/key.pem
+  std::string permissions_file;     ///< <dir>/<identity>/permissions.p7s
 
   /// "DDS Security identity 'odonav-gateway' from '/etc/odonav/security'", for messages.
   std::string describe() const;

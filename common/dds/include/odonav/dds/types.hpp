@@ -26,16 +26,41 @@ namespace odonav::dds {
 template <class Message>
 struct DdsType;  // Only the specializations below exist.
 
-template <> struct DdsType<odonav::msg::Odometer> { using PubSubType = odonav::msg::OdometerPubSubType; };
-template <> struct DdsType<odonav::msg::InsAttitude> { using PubSubType = odonav::msg::InsAttitudePubSubType; };
-template <> struct DdsType<odonav::msg::GnssFix> { using PubSubType = odonav::msg::GnssFixPubSubType; };
-template <> struct DdsType<odonav::msg::Misalignment> { using PubSubType = odonav::msg::MisalignmentPubSubType; };
-template <> struct DdsType<odonav::msg::ScaleFactor> { using PubSubType = odonav::msg::ScaleFactorPubSubType; };
-template <> struct DdsType<odonav::msg::DeadReckoning> { using PubSubType = odonav::msg::DeadReckoningPubSubType; };
-template <> struct DdsType<odonav::msg::NavigationPosition> {
+template <>
+struct DdsType<odonav::msg::Odometer> {
+  using PubSubType = odonav::msg::OdometerPubSubType;
+};
+template <>
+struct DdsType<odonav::msg::InsAttitude> {
+  using PubSubType = odonav::msg::InsAttitudePubSubType;
+};
+template <>
+struct DdsType<odonav::msg::GnssFix> {
+  using PubSubType = odonav::msg::GnssFixPubSubType;
+};
+template <>
+struct DdsType<odonav::msg::Misalignment> {
+  using PubSubType = odonav::msg::MisalignmentPubSubType;
+};
+template <>
+struct DdsType<odonav::msg::ScaleFactor> {
+  using PubSubType = odonav::msg::ScaleFactorPubSubType;
+};
+template <>
+struct DdsType<odonav::msg::DeadReckoning> {
+  using PubSubType = odonav::msg::DeadReckoningPubSubType;
+};
+template <>
+struct DdsType<odonav::msg::NavigationPosition> {
   using PubSubType = odonav::msg::NavigationPositionPubSubType;
 };
-template <> struct DdsType<odonav::msg::Health> { using PubSubType = odonav::msg::HealthPubSubType; };
-template <> struct DdsType<odonav::msg::Command> { using PubSubType = odonav::msg::CommandPubSubType; };
+template <>
+struct DdsType<odonav::msg::Health> {
+  using PubSubType = odonav::msg::HealthPubSubType;
+};
+template <>
+struct DdsType<odonav::msg::Command> {
+  using PubSubType = odonav::msg::CommandPubSubType;
+};
 
 }  // namespace odonav::dds

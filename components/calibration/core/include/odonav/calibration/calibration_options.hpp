@@ -16,5 +16,4 @@ namespace odonav {
 void add_calibration_options(Options& options);
 MisalignmentCalibratorParams calibration_params_from(const Options& options);
 
-
 }  // namespace odonav

@@ -150,7 +150,7 @@ struct MisalignmentOutput {
   double t_s = 0.0;
   CalibrationState state = CalibrationState::kWaiting;
   CalibrationEpochStatus epoch_status = CalibrationEpochStatus::kUsed;
-  Misalignment misalignment;         ///< current estimate (rad); zero until an epoch is used.
+  Misalignment misalignment;  ///< current estimate (rad); zero until an epoch is used.
   double sigma_heading_rad = std::numeric_limits<double>::infinity();  ///< one-sigma of a_h.
   double sigma_pitch_rad = std::numeric_limits<double>::infinity();    ///< one-sigma of a_p.
   uint64_t samples_used = 0;

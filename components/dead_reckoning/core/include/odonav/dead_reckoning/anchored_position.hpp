@@ -62,7 +62,6 @@ namespace odonav {
 
 struct DeadReckoningOutput;
 
-
 struct AnchoredPositionParams {
   /// A fix of epoch g applies from odometer time estimate_applies_from_s(g, hold_off_s) on (s,
   /// >= 0): the DR's --estimate-hold-off-s, which the DR itself waits for before it reports the fix.
@@ -111,19 +110,19 @@ struct AnchoredPositionParams {
 
 /// A GNSS fix seen in the DR's frame: what DeadReckoner reports for each valid epoch it passes.
 struct AnchorFix {
-  double t_s = 0.0;                                      ///< GNSS epoch (s).
-  Eigen::Vector3d fix_enu_m = Eigen::Vector3d::Zero();   ///< reference point from the fix (local ENU, m).
-  Eigen::Vector3d dr_enu_m = Eigen::Vector3d::Zero();    ///< DR position at t_s (local ENU, m).
-  double dr_distance_m = 0.0;                            ///< DR distance driven at t_s (m).
+  double t_s = 0.0;                                           ///< GNSS epoch (s).
+  Eigen::Vector3d fix_enu_m = Eigen::Vector3d::Zero();        ///< reference point from the fix (local ENU, m).
+  Eigen::Vector3d dr_enu_m = Eigen::Vector3d::Zero();         ///< DR position at t_s (local ENU, m).
+  double dr_distance_m = 0.0;                                 ///< DR distance driven at t_s (m).
   double sigma_m = std::numeric_limits<double>::quiet_NaN();  ///< horizontal one-sigma (m); NaN = unknown.
 };
 
 /// One DR step: the DR output at an odometer sample.
 struct AnchorDrStep {
   double t_s = 0.0;
-  Geodetic position;                                 ///< DR position, WGS-84 (rad, rad, m).
-  Eigen::Vector3d enu_m = Eigen::Vector3d::Zero();   ///< DR position, local ENU of the DR origin (m).
-  double distance_m = 0.0;                           ///< DR distance driven since its start (m).
+  Geodetic position;                                ///< DR position, WGS-84 (rad, rad, m).
+  Eigen::Vector3d enu_m = Eigen::Vector3d::Zero();  ///< DR position, local ENU of the DR origin (m).
+  double distance_m = 0.0;                          ///< DR distance driven since its start (m).
 };
 
 enum class AnchorStatus {
@@ -135,12 +134,12 @@ const char* to_string(AnchorStatus status);
 
 struct AnchoredPosition {
   double t_s = 0.0;
-  Geodetic position;                                 ///< WGS-84 (rad, rad, m).
-  Eigen::Vector3d enu_m = Eigen::Vector3d::Zero();   ///< local ENU of the DR origin (m).
+  Geodetic position;                                ///< WGS-84 (rad, rad, m).
+  Eigen::Vector3d enu_m = Eigen::Vector3d::Zero();  ///< local ENU of the DR origin (m).
   /// Position covariance in ENU (m^2); NaN while kNotStarted.
   Eigen::Matrix3d covariance_enu_m2 = Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
   AnchorStatus status = AnchorStatus::kNotStarted;
-  double last_fix_t_s = std::numeric_limits<double>::quiet_NaN();  ///< epoch of the last applied fix.
+  double last_fix_t_s = std::numeric_limits<double>::quiet_NaN();          ///< epoch of the last applied fix.
   double distance_since_fix_m = std::numeric_limits<double>::quiet_NaN();  ///< DR distance since it (m).
   /// Estimated residual scale error of the DR increments (-) and heading error (rad, counter-clockwise
   /// from above); NaN while kNotStarted.

@@ -44,32 +44,32 @@
 namespace odonav {
 
 struct ConsistencyParams {
-  double min_speed_mps = 3.0;            ///< course and heading compared above this GNSS speed (m/s)
-  double rate_interval_s = 1.0;          ///< heading and course changes taken over this interval (s)
-  double max_rate_radps = 1.0;           ///< a course change faster than this is a jump, not a turn (rad/s)
-  double window_s = 120.0;               ///< evidence of the heading-rate check kept this long (s)
-  double min_interval_turn_rad = 0.05;   ///< an interval counts when the course turns this much (rad)
-  double spike_turn_rad = 0.15;          ///< a turn and back this large in two intervals is an outlier (rad)
-  double min_turn_rad = 1.0;             ///< course turned within the window before the check decides (rad)
-  double min_intervals = 10;             ///< turning intervals within the window before the check decides
-  double rate_ratio_tolerance = 0.3;     ///< |ratio - 1| beyond this is a violation (-)
-  double growth_window_m = 300.0;        ///< drift growth and odometer speed measured over this distance (m)
-  double growth_floor_percent = 10.0;    ///< drift growth below this (%D) is never a violation
-  double sigma_factor = 3.0;             ///< sigmas allowed for the growth (-)
-  double gnss_position_sigma_m = 3.0;    ///< GNSS position one-sigma when a fix has none (m)
-  double speed_ratio_tolerance = 0.2;    ///< |odometer / GNSS distance - 1| beyond this is a violation (-)
-  double persist_s = 5.0;                ///< evidence needed this long to raise or clear a finding (s)
-  double jump_speed_mps = 100.0;         ///< a fix farther than this speed allows from the last one is a jump (m/s)
-  double jump_margin_m = 100.0;          ///< plus this (m): GNSS noise and a receiver's reacquisition
-  double jump_max_consecutive = 10;      ///< this many jumps in a row: the receiver is elsewhere, take it
+  double min_speed_mps = 3.0;           ///< course and heading compared above this GNSS speed (m/s)
+  double rate_interval_s = 1.0;         ///< heading and course changes taken over this interval (s)
+  double max_rate_radps = 1.0;          ///< a course change faster than this is a jump, not a turn (rad/s)
+  double window_s = 120.0;              ///< evidence of the heading-rate check kept this long (s)
+  double min_interval_turn_rad = 0.05;  ///< an interval counts when the course turns this much (rad)
+  double spike_turn_rad = 0.15;         ///< a turn and back this large in two intervals is an outlier (rad)
+  double min_turn_rad = 1.0;            ///< course turned within the window before the check decides (rad)
+  double min_intervals = 10;            ///< turning intervals within the window before the check decides
+  double rate_ratio_tolerance = 0.3;    ///< |ratio - 1| beyond this is a violation (-)
+  double growth_window_m = 300.0;       ///< drift growth and odometer speed measured over this distance (m)
+  double growth_floor_percent = 10.0;   ///< drift growth below this (%D) is never a violation
+  double sigma_factor = 3.0;            ///< sigmas allowed for the growth (-)
+  double gnss_position_sigma_m = 3.0;   ///< GNSS position one-sigma when a fix has none (m)
+  double speed_ratio_tolerance = 0.2;   ///< |odometer / GNSS distance - 1| beyond this is a violation (-)
+  double persist_s = 5.0;               ///< evidence needed this long to raise or clear a finding (s)
+  double jump_speed_mps = 100.0;        ///< a fix farther than this speed allows from the last one is a jump (m/s)
+  double jump_margin_m = 100.0;         ///< plus this (m): GNSS noise and a receiver's reacquisition
+  double jump_max_consecutive = 10;     ///< this many jumps in a row: the receiver is elsewhere, take it
 };
 
 /// GNSS position jumps (see the file comment).
 struct GnssJumpCounters {
   uint64_t jumps = 0;
-  double first_t_s = 0.0;      ///< event time of the first (s)
-  double largest_m = 0.0;      ///< the largest distance from the track (m)
-  uint64_t relocations = 0;    ///< jump_max_consecutive jumps in a row, taken as the new track
+  double first_t_s = 0.0;    ///< event time of the first (s)
+  double largest_m = 0.0;    ///< the largest distance from the track (m)
+  uint64_t relocations = 0;  ///< jump_max_consecutive jumps in a row, taken as the new track
 };
 
 /// The checks, in the order of the file comment.
@@ -91,8 +91,8 @@ std::optional<std::string> odometer_speed_finding(double ratio, double tolerance
 /// often it was raised.
 struct ConsistencyState {
   bool raised = false;
-  std::string text;              ///< the finding in force, or the last one (raised == false)
-  double raised_at_s = 0.0;      ///< event time it was last raised (s)
+  std::string text;          ///< the finding in force, or the last one (raised == false)
+  double raised_at_s = 0.0;  ///< event time it was last raised (s)
   uint64_t times_raised = 0;
   /// The latest evidence: the ratio or growth measured (NaN before any).
   double last_value = 0.0;
@@ -120,20 +120,20 @@ class ConsistencyMonitor {
   const GnssJumpCounters& gnss_jumps() const { return jumps_; }
 
  private:
-  struct Epoch {                 // a valid GNSS epoch waiting for the output that reaches it
+  struct Epoch {  // a valid GNSS epoch waiting for the output that reaches it
     double t_s;
-    double course_rad;           // NaN below min_speed_mps
-    double gnss_distance_m;      // GNSS distance integrated up to this epoch
-    uint64_t segment;            // run of valid epochs without a gap it belongs to
+    double course_rad;       // NaN below min_speed_mps
+    double gnss_distance_m;  // GNSS distance integrated up to this epoch
+    uint64_t segment;        // run of valid epochs without a gap it belongs to
   };
-  struct Pair {                  // an epoch with the output at or just after it
+  struct Pair {  // an epoch with the output at or just after it
     double t_s, course_rad, heading_rad, gnss_distance_m, odometer_distance_m;
     uint64_t segment;
   };
-  struct Change {                // a turning interval: its heading / course change ratio
+  struct Change {  // a turning interval: its heading / course change ratio
     double t_s, ratio, dchi_rad;
   };
-  struct Fix {                   // DR-minus-GNSS error at an anchor fix
+  struct Fix {  // DR-minus-GNSS error at an anchor fix
     double t_s, distance_m, east_m, north_m, sigma_m;
   };
   void add_pair(const Pair& p);

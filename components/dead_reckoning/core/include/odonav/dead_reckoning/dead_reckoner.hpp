@@ -134,19 +134,19 @@ struct DeadReckonerParams {
 /// One output per odometer sample after the start.
 struct DeadReckoningOutput {
   double t_s = 0.0;
-  Geodetic position;                                 ///< WGS-84 (rad, rad, m) of the reference point.
-  Eigen::Vector3d enu_m = Eigen::Vector3d::Zero();   ///< local ENU (m) w.r.t. the DR origin.
-  double heading_rad = 0.0;        ///< body heading (INS) or GNSS course (degraded) used, [0, 2 pi).
-  double distance_m = 0.0;         ///< odometer distance travelled since the start, sum |dS| (m).
-  double k_m_per_pulse = 0.0;      ///< K used for the interval ending here.
+  Geodetic position;                                ///< WGS-84 (rad, rad, m) of the reference point.
+  Eigen::Vector3d enu_m = Eigen::Vector3d::Zero();  ///< local ENU (m) w.r.t. the DR origin.
+  double heading_rad = 0.0;                         ///< body heading (INS) or GNSS course (degraded) used, [0, 2 pi).
+  double distance_m = 0.0;                          ///< odometer distance travelled since the start, sum |dS| (m).
+  double k_m_per_pulse = 0.0;                       ///< K used for the interval ending here.
   ScaleFactorSource k_source = ScaleFactorSource::kNominal;
   /// Track slip s removed from the interval ending here: its distance is K pulses / (1 + s)
   /// (turn_slip.hpp; 0 on a straight, without INS or before any slip gain applies).
   double turn_slip_fraction = 0.0;
-  bool degraded = false;           ///< no INS: heading from the GNSS course.
-  bool heading_held = false;       ///< the heading was not measured for this interval (held).
-  bool gnss_reference = false;     ///< a GNSS reference existed at t_s.
-  double horizontal_error_m = std::numeric_limits<double>::quiet_NaN();   ///< |DR - GNSS| horizontal.
+  bool degraded = false;        ///< no INS: heading from the GNSS course.
+  bool heading_held = false;    ///< the heading was not measured for this interval (held).
+  bool gnss_reference = false;  ///< a GNSS reference existed at t_s.
+  double horizontal_error_m = std::numeric_limits<double>::quiet_NaN();      ///< |DR - GNSS| horizontal.
   double error_percent_distance = std::numeric_limits<double>::quiet_NaN();  ///< 100 error / distance.
   /// Valid GNSS epochs evaluated at this output, seen in the DR frame (for AnchoredPositionFilter).
   std::vector<AnchorFix> gnss_fixes;
@@ -169,29 +169,29 @@ const char* to_string(HeldEstimate estimate);
 
 /// Consecutive outputs computed on a held estimate (event time, s).
 struct HeldSpan {
-  double first_t_s = 0.0;   ///< the first output on the held estimate
-  double last_t_s = 0.0;    ///< the last one so far
-  uint64_t outputs = 0;     ///< outputs in the span
+  double first_t_s = 0.0;         ///< the first output on the held estimate
+  double last_t_s = 0.0;          ///< the last one so far
+  uint64_t outputs = 0;           ///< outputs in the span
   double estimate_epoch_s = 0.0;  ///< GNSS epoch of the latest estimate received (the one held)
-  bool open = false;        ///< the last output so far was held: the span goes on
+  bool open = false;              ///< the last output so far was held: the span goes on
 };
 
 struct DeadReckonerCounters {
-  uint64_t odometer_samples = 0;       ///< processed (including those before the start).
+  uint64_t odometer_samples = 0;  ///< processed (including those before the start).
   uint64_t outputs = 0;
-  uint64_t before_start = 0;           ///< odometer samples before the DR start, not output.
-  uint64_t unknown_direction = 0;      ///< intervals with direction 0, taken as forward.
-  uint64_t reversing = 0;              ///< intervals with direction -1.
-  uint64_t heading_held = 0;           ///< intervals without a measured heading (held).
-  uint64_t distance_lost = 0;          ///< intervals with no heading at all yet: not integrated.
-  uint64_t pulse_jumps_rejected = 0;   ///< odometer samples dropped by the pulse-jump gate.
-  uint64_t pulse_rebases = 0;          ///< counter steps re-based on (one interval's pulses estimated).
-  uint64_t anchor_fixes = 0;           ///< valid GNSS epochs reported in gnss_fixes.
-  uint64_t anchor_fixes_no_attitude = 0;  ///< valid epochs left out: no attitude for the lever arm.
-  uint64_t gnss_latency_stale = 0;     ///< add_gnss_latency calls not later than the previous one.
-  uint64_t outputs_on_held_k = 0;            ///< outputs whose K was held (DeadReckoningOutput::k_held)
-  uint64_t outputs_on_held_misalignment = 0; ///< outputs whose misalignment was held
-  uint64_t turn_slip_stale = 0;        ///< add_turn_slip calls not later than the previous one.
+  uint64_t before_start = 0;                  ///< odometer samples before the DR start, not output.
+  uint64_t unknown_direction = 0;             ///< intervals with direction 0, taken as forward.
+  uint64_t reversing = 0;                     ///< intervals with direction -1.
+  uint64_t heading_held = 0;                  ///< intervals without a measured heading (held).
+  uint64_t distance_lost = 0;                 ///< intervals with no heading at all yet: not integrated.
+  uint64_t pulse_jumps_rejected = 0;          ///< odometer samples dropped by the pulse-jump gate.
+  uint64_t pulse_rebases = 0;                 ///< counter steps re-based on (one interval's pulses estimated).
+  uint64_t anchor_fixes = 0;                  ///< valid GNSS epochs reported in gnss_fixes.
+  uint64_t anchor_fixes_no_attitude = 0;      ///< valid epochs left out: no attitude for the lever arm.
+  uint64_t gnss_latency_stale = 0;            ///< add_gnss_latency calls not later than the previous one.
+  uint64_t outputs_on_held_k = 0;             ///< outputs whose K was held (DeadReckoningOutput::k_held)
+  uint64_t outputs_on_held_misalignment = 0;  ///< outputs whose misalignment was held
+  uint64_t turn_slip_stale = 0;               ///< add_turn_slip calls not later than the previous one.
 };
 
 /// The GNSS gap in force for an observed GNSS period (s; NaN: fewer than two rows seen):
@@ -308,9 +308,9 @@ class DeadReckoner {
   std::optional<double> last_gnss_t_s_;
   /// GNSS epochs whose error is not evaluated yet, with the GNSS gap in force after each.
   std::deque<std::pair<GnssSample, double>> error_epochs_;
-  std::deque<Past> past_;                ///< outputs (and the start) the next errors may need.
+  std::deque<Past> past_;  ///< outputs (and the start) the next errors may need.
   std::optional<EpochError> last_error_;
-  std::optional<double> start_t_s_;      ///< epoch of the start fix.
+  std::optional<double> start_t_s_;  ///< epoch of the start fix.
   StepHistory<KInForce> k_history_{"scale_factor"};
   StepHistory<Misalignment> misalignment_{"misalignment"};
   struct TurnSlipInForce {
@@ -339,7 +339,7 @@ class DeadReckoner {
   std::deque<double> epochs_to_apply_s_;
   std::optional<double> latest_applicable_epoch_s_;  ///< latest GNSS epoch applicable at the last output
   struct HeldTracker {
-    std::deque<double> received_s;         ///< epochs received (sorted) not yet applicable
+    std::deque<double> received_s;            ///< epochs received (sorted) not yet applicable
     std::optional<double> last_applicable_s;  ///< latest received epoch applicable at the last output
     std::optional<HeldSpan> span;
     void receive(double epoch_s);

@@ -20,21 +20,21 @@ inline constexpr double kDeadReckoningNoticeDuration_s = 30.0;
 
 /// What the dead-reckoning node knows when it publishes Health (past its required inputs' checks).
 struct DeadReckoningHealthFacts : RestartHealthNotes {
-  double now_s = 0.0;                   ///< wall clock (s)
-  bool started = false;                 ///< DeadReckoner::started(): a start fix was found
-  bool k_commanded = false;             ///< ScaleFactorSelection::commanded()
-  bool scale_factor_absent = false;     ///< the scale-factor input is declared absent
-  bool scale_factor_heard = false;      ///< a ScaleFactor was received
-  uint64_t k_applied = 0;               ///< identified K given to the DR
-  std::string k_source_note;            ///< last K source change note ("" none)
-  double k_source_changed_at_s = -std::numeric_limits<double>::infinity();   ///< wall clock (s)
-  uint64_t pulse_jumps_rejected = 0;    ///< DeadReckonerCounters::pulse_jumps_rejected
+  double now_s = 0.0;                ///< wall clock (s)
+  bool started = false;              ///< DeadReckoner::started(): a start fix was found
+  bool k_commanded = false;          ///< ScaleFactorSelection::commanded()
+  bool scale_factor_absent = false;  ///< the scale-factor input is declared absent
+  bool scale_factor_heard = false;   ///< a ScaleFactor was received
+  uint64_t k_applied = 0;            ///< identified K given to the DR
+  std::string k_source_note;         ///< last K source change note ("" none)
+  double k_source_changed_at_s = -std::numeric_limits<double>::infinity();  ///< wall clock (s)
+  uint64_t pulse_jumps_rejected = 0;  ///< DeadReckonerCounters::pulse_jumps_rejected
   double pulse_jumps_changed_at_s = -std::numeric_limits<double>::infinity();  ///< wall clock (s)
-  bool misalignment_absent = false;     ///< the misalignment input is declared absent
-  bool misalignment_heard = false;      ///< a Misalignment was received
-  uint64_t misalignments_applied = 0;   ///< misalignments given to the DR
+  bool misalignment_absent = false;             ///< the misalignment input is declared absent
+  bool misalignment_heard = false;              ///< a Misalignment was received
+  uint64_t misalignments_applied = 0;           ///< misalignments given to the DR
   std::optional<double> held_misalignment_t_s;  ///< stamp of the last one given (event time, s)
-  double misalignment_silent_s = 0.0;   ///< wall time since the calibration was last heard (s)
+  double misalignment_silent_s = 0.0;           ///< wall time since the calibration was last heard (s)
   /// DeadReckoner::last_held_span: the last outputs on a held K / misalignment, and when (wall
   /// clock, s) a held output was last made (the notice lasts kDeadReckoningNoticeDuration_s after).
   std::optional<HeldSpan> held_k_span;

@@ -12,7 +12,6 @@
 
 namespace odonav {
 
-
 /// Offset random walk (%D) of the navigation position at least, without INS: the DR heading is then
 /// the GNSS course held through stops and turns.
 inline constexpr double kDegradedAnchorDriftPercent = 1.0;

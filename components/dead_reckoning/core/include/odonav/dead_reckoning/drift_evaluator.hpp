@@ -12,11 +12,11 @@
 namespace odonav {
 
 struct DriftSummary {
-  uint64_t points = 0;            ///< points with distance >= min_distance_m.
+  uint64_t points = 0;  ///< points with distance >= min_distance_m.
   double final_distance_m = std::numeric_limits<double>::quiet_NaN();
   double final_error_m = std::numeric_limits<double>::quiet_NaN();
-  double final_percent = std::numeric_limits<double>::quiet_NaN();  ///< 100 final error / final distance.
-  double max_percent = std::numeric_limits<double>::quiet_NaN();    ///< max of 100 error / distance.
+  double final_percent = std::numeric_limits<double>::quiet_NaN();           ///< 100 final error / final distance.
+  double max_percent = std::numeric_limits<double>::quiet_NaN();             ///< max of 100 error / distance.
   double max_percent_distance_m = std::numeric_limits<double>::quiet_NaN();  ///< where the max was.
 };
 

@@ -37,7 +37,7 @@ struct IdentifiedScaleFactor {
   double t_s = 0.0;            ///< event time of the estimate (its stamp, s)
   double k_m_per_pulse = 0.0;  ///< 0 or not finite: no value yet (the message has no "valid" flag)
   bool converged = false;
-  std::string source;          ///< publishing identification instance (ScaleFactor.source)
+  std::string source;               ///< publishing identification instance (ScaleFactor.source)
   double sigma_m_per_pulse = -1.0;  ///< one-sigma of K (m/pulse); -1 = unknown
   uint64_t samples_accepted = 0;    ///< samples the identification accepted so far
 };

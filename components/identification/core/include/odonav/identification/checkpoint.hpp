@@ -45,17 +45,17 @@ enum class IdentificationInput { kOdometer, kGnss, kIns, kMisalignment };
 inline constexpr std::size_t kIdentificationInputs = 4;
 
 struct IdentificationCheckpoint {
-  std::string vehicle_id;             ///< the vehicle whose data made the state (no line breaks).
-  std::string config_hash;            ///< config_hash_of() of the run that wrote it.
-  std::string estimator_name;         ///< the main estimator's name() (e.g. "vff_lm_rls").
-  double last_sample_t_s = 0.0;       ///< event time of the last processed GNSS epoch (s, finite).
-  uint64_t samples_accepted = 0;      ///< accepted regression samples up to last_sample_t_s.
-  uint64_t samples_rejected = 0;      ///< gated-out epochs up to last_sample_t_s.
+  std::string vehicle_id;         ///< the vehicle whose data made the state (no line breaks).
+  std::string config_hash;        ///< config_hash_of() of the run that wrote it.
+  std::string estimator_name;     ///< the main estimator's name() (e.g. "vff_lm_rls").
+  double last_sample_t_s = 0.0;   ///< event time of the last processed GNSS epoch (s, finite).
+  uint64_t samples_accepted = 0;  ///< accepted regression samples up to last_sample_t_s.
+  uint64_t samples_rejected = 0;  ///< gated-out epochs up to last_sample_t_s.
   /// Per IdentificationInput, the stamp of the last sample taken in (event time, s).
   std::array<std::optional<double>, kIdentificationInputs> fed_until_s;
-  uint64_t misalignments_applied = 0;            ///< converged misalignments given to the core.
-  std::optional<double> held_misalignment_t_s;   ///< stamp of the last one (s).
-  std::string core_state;             ///< IdentificationCore::save_state() text.
+  uint64_t misalignments_applied = 0;           ///< converged misalignments given to the core.
+  std::optional<double> held_misalignment_t_s;  ///< stamp of the last one (s).
+  std::string core_state;                       ///< IdentificationCore::save_state() text.
 };
 
 // checkpoint_neutral_options() and config_hash_of() (the configuration hash) are shared with the
@@ -78,10 +78,10 @@ IdentificationCheckpoint parse_checkpoint(const std::string& text);
 
 struct CheckpointLoadResult {
   CheckpointLoadStatus status = CheckpointLoadStatus::kNone;
-  std::string path;                                ///< the checkpoint file looked at.
+  std::string path;                                    ///< the checkpoint file looked at.
   std::optional<IdentificationCheckpoint> checkpoint;  ///< present iff kRestored.
-  std::string reason;                              ///< why it was moved aside (kMovedAside).
-  std::string moved_to;                            ///< its new name (kMovedAside; empty if the move failed).
+  std::string reason;                                  ///< why it was moved aside (kMovedAside).
+  std::string moved_to;                                ///< its new name (kMovedAside; empty if the move failed).
 };
 
 /// Loads `path` and restores `core` from it when it is intact and made by this vehicle, this

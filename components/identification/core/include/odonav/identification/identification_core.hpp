@@ -56,14 +56,14 @@ struct BrakingStopCounters {
 struct IdentificationOutput {
   double t_s = 0.0;
   EpochStatus epoch_status = EpochStatus::kInvalidFix;
-  ScaleFactorEstimate main;                ///< the main estimator's estimate.
+  ScaleFactorEstimate main;  ///< the main estimator's estimate.
   /// Side-by-side estimates, in the order of IdentificationCore::estimator_names(); empty unless
   /// run_all_estimators.
   std::vector<ScaleFactorEstimate> all;
-  uint64_t samples_accepted = 0;           ///< accepted regression samples so far.
-  uint64_t samples_rejected = 0;           ///< gated-out epochs so far (not counting chain starts).
-  bool frozen = false;                     ///< identification frozen by command: K held.
-  GnssLatencyEstimate latency;             ///< the GNSS latency in force after this epoch.
+  uint64_t samples_accepted = 0;  ///< accepted regression samples so far.
+  uint64_t samples_rejected = 0;  ///< gated-out epochs so far (not counting chain starts).
+  bool frozen = false;            ///< identification frozen by command: K held.
+  GnssLatencyEstimate latency;    ///< the GNSS latency in force after this epoch.
   /// main.k_m_per_pulse is the latency search's K of the drive's start (SampleBuilder::
   /// start_latency_k), not the estimator's: before the estimator converges and before any latency
   /// is decided, while the data show a latency clearly off the one in force.
