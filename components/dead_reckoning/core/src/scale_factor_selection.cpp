@@ -129,6 +129,10 @@ DeadReckoningHealth dead_reckoning_health(const DeadReckoningHealthFacts& f) {
     s.level = Level::kWarn;
     add("inconsistent: " + f.inconsistency);
   }
+  if (f.pole_distance_m) {
+    s.level = Level::kWarn;
+    add(polar_heading_text(*f.pole_distance_m, f.pole_north));
+  }
   return s;
 }
 
