@@ -296,12 +296,15 @@ Geodetic LocalEnuFrame::to_geodetic(const Eigen::Vector3d& enu_m) const {
 }
 
 Eigen::Matrix3d LocalEnuFrame::rotation_from_local(const Geodetic& at) const {
-  long double ra[3][3];
-  enu_axes_ld(at.lat_rad, at.lon_rad, ra);
+  // In double: it turns vectors of metres (an offset, a lever arm), where 1e-16 relative is far
+  // below anything measured, and the dead reckoning asks for it at every odometer sample.
+  const double sp = std::sin(at.lat_rad), cp = std::cos(at.lat_rad), sl = std::sin(at.lon_rad), cl = std::cos(at.lon_rad);
+  const double ra[3][3] = {{-sl, cl, 0.0}, {-sp * cl, -sp * sl, cp}, {cp * cl, cp * sl, sp}};
   Eigen::Matrix3d m;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
-      m(i, j) = static_cast<double>(impl_->r[i][0] * ra[j][0] + impl_->r[i][1] * ra[j][1] + impl_->r[i][2] * ra[j][2]);
+      m(i, j) = static_cast<double>(impl_->r[i][0]) * ra[j][0] + static_cast<double>(impl_->r[i][1]) * ra[j][1] +
+                static_cast<double>(impl_->r[i][2]) * ra[j][2];
   return m;
 }
 
