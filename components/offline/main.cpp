@@ -199,7 +199,7 @@ class OutputFiles : public odonav::offline::PipelineSink {
     const odonav::results::DeadReckoningRow dr = odonav::output_row(step.output);
     dead_reckoning_.write(dr);
     summary_.add_dead_reckoning(dr);
-    diagnosis_.add_dead_reckoning(step.output.t_s);
+    diagnosis_.add_dead_reckoning(step.output.t_s, step.output.position);
     const odonav::results::NavigationPositionRow nav = odonav::output_row(step.navigation);
     navigation_.write(nav);
     summary_.add(nav);

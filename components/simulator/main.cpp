@@ -1,6 +1,6 @@
 // odonav-sim: writes a simulated dataset directory (docs/DATASET.md) for a named scenario.
 //
-//   odonav-sim <straight|ring|terrain|slow_robot> --out DIR [--seed N] [--gnss-rate 1|2|5|10|20] [--duration-s S] ...
+//   odonav-sim <straight|ring|terrain|slow_robot|polar_north|south_pole|antimeridian> --out DIR [--seed N] [--gnss-rate 1|2|5|10|20] [--duration-s S] ...
 //   odonav-sim <scenario> --nmea FILE [--nmea-utc-epoch-s S] ...   the GNSS as NMEA 0183 (core/nmea.hpp)
 //   (odonav-sim --help lists every option; --config FILE reads `name = value` lines.)
 //
@@ -50,7 +50,7 @@ int main(int argc, char** argv) {
   odonav::Options opts("odonav-sim",
                        "Simulates a tracked vehicle (odometer, GNSS, INS, truth) on a named scenario and "
                        "writes a dataset directory (docs/DATASET.md). Deterministic for a given seed.");
-  opts.add_positional("scenario", "straight, ring, terrain or slow_robot");
+  opts.add_positional("scenario", "straight, ring, terrain, slow_robot, polar_north, south_pole or antimeridian");
   opts.add_string("out", "",
                   "dataset directory to write (created if missing; never an existing dataset or a "
                   "non-empty foreign directory, see --force); required unless --nmea is given");

@@ -2,6 +2,7 @@
 
 #include <GeographicLib/Constants.hpp>
 #include <GeographicLib/Geodesic.hpp>
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -27,19 +28,166 @@ CurvatureRadii wgs84_radii(double lat_rad) {
   return r;
 }
 
-Geodetic move_geodetic(const Geodetic& start, const Eigen::Vector3d& delta_enu_m) {
-  const CurvatureRadii r = wgs84_radii(start.lat_rad);
-  Geodetic out;
-  out.lat_rad = start.lat_rad + delta_enu_m.y() / (r.meridian_m + start.height_m);
-  out.lon_rad = start.lon_rad + delta_enu_m.x() / ((r.prime_vertical_m + start.height_m) * std::cos(start.lat_rad));
-  out.height_m = start.height_m + delta_enu_m.z();
+namespace {
+
+// Geodetic (radians, metres) to ECEF (metres), long double.
+void geodetic_to_ecef_ld(long double lat, long double lon, long double h, long double& x, long double& y,
+                         long double& z) {
+  const long double a = kWgs84A, e2 = kWgs84E2;
+  const long double s = std::sin(lat), c = std::cos(lat);
+  const long double n = a / std::sqrt(1.0L - e2 * s * s);
+  x = (n + h) * c * std::cos(lon);
+  y = (n + h) * c * std::sin(lon);
+  z = (n * (1.0L - e2) + h) * s;
+}
+
+// Within this distance (m) of the polar axis a point's longitude is taken from the caller: the
+// ECEF x and y there are rounding noise, and any longitude describes the point.
+constexpr long double kOnAxisM = 1e-9L;
+
+// ECEF (metres) to geodetic, long double: fixed-point iteration on latitude (converges to long-double
+// precision in a few steps for points within a few hundred km of the surface, the poles included:
+// on the axis it starts and stays at +-pi/2); the height formula is stable at the poles.
+void ecef_to_geodetic_ld(long double x, long double y, long double z, long double lon_on_axis, long double& lat,
+                         long double& lon, long double& h) {
+  const long double a = kWgs84A, e2 = kWgs84E2;
+  const long double p = std::sqrt(x * x + y * y);
+  lat = std::atan2(z, p * (1.0L - e2));
+  for (int i = 0; i < 8; ++i) {
+    const long double s = std::sin(lat);
+    const long double n = a / std::sqrt(1.0L - e2 * s * s);
+    lat = std::atan2(z + e2 * n * s, p);
+  }
+  const long double s = std::sin(lat), c = std::cos(lat);
+  h = p * c + z * s - a * std::sqrt(1.0L - e2 * s * s);
+  lon = p < kOnAxisM ? lon_on_axis : std::atan2(y, x);
+}
+
+// Rows: east, north, up unit vectors in ECEF at (lat, lon).
+void enu_axes_ld(long double lat, long double lon, long double r[3][3]) {
+  const long double sp = std::sin(lat), cp = std::cos(lat), sl = std::sin(lon), cl = std::cos(lon);
+  const long double rows[3][3] = {{-sl, cl, 0.0L}, {-sp * cl, -sp * sl, cp}, {cp * cl, cp * sl, sp}};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r[i][j] = rows[i][j];
+}
+
+}  // namespace
+
+double normalize_lon_rad(double lon_rad) {
+  if (!std::isfinite(lon_rad) || (lon_rad >= -kPi && lon_rad < kPi)) return lon_rad;
+  double a = std::fmod(lon_rad + kPi, 2.0 * kPi);
+  if (a < 0.0) a += 2.0 * kPi;
+  const double out = a - kPi;
+  return out >= kPi ? -kPi : out;
+}
+
+double normalize_lon_deg(double lon_deg) {
+  if (!std::isfinite(lon_deg) || (lon_deg >= -180.0 && lon_deg < 180.0)) return lon_deg;
+  double a = std::fmod(lon_deg + 180.0, 360.0);
+  if (a < 0.0) a += 360.0;
+  const double out = a - 180.0;
+  return out >= 180.0 ? -180.0 : out;
+}
+
+Geodetic normalized(const Geodetic& p) {
+  Geodetic out = p;
+  out.lon_rad = normalize_lon_rad(p.lon_rad);
+  if (out.lat_rad > 0.5 * kPi) out.lat_rad = 0.5 * kPi;
+  if (out.lat_rad < -0.5 * kPi) out.lat_rad = -0.5 * kPi;
   return out;
 }
 
+Eigen::Vector3d to_ecef_m(const Geodetic& p) {
+  long double x, y, z;
+  geodetic_to_ecef_ld(p.lat_rad, p.lon_rad, p.height_m, x, y, z);
+  return Eigen::Vector3d(static_cast<double>(x), static_cast<double>(y), static_cast<double>(z));
+}
+
+Geodetic from_ecef_m(const Eigen::Vector3d& ecef_m, double lon_on_axis_rad) {
+  long double lat, lon, h;
+  ecef_to_geodetic_ld(ecef_m.x(), ecef_m.y(), ecef_m.z(), lon_on_axis_rad, lat, lon, h);
+  return normalized(Geodetic{static_cast<double>(lat), static_cast<double>(lon), static_cast<double>(h)});
+}
+
+Eigen::Matrix3d enu_from_ecef(const Geodetic& p) {
+  long double r[3][3];
+  enu_axes_ld(p.lat_rad, p.lon_rad, r);
+  Eigen::Matrix3d m;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) m(i, j) = static_cast<double>(r[i][j]);
+  return m;
+}
+
+Eigen::Matrix3d enu_rotation(const Geodetic& from, const Geodetic& to) {
+  long double rf[3][3], rt[3][3];
+  enu_axes_ld(from.lat_rad, from.lon_rad, rf);
+  enu_axes_ld(to.lat_rad, to.lon_rad, rt);
+  Eigen::Matrix3d m;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      m(i, j) = static_cast<double>(rt[i][0] * rf[j][0] + rt[i][1] * rf[j][1] + rt[i][2] * rf[j][2]);
+  return m;
+}
+
+Geodetic move_geodetic(const Geodetic& start, const Eigen::Vector3d& delta_enu_m) {
+  if (std::abs(start.lat_rad) < kPolarCapLatRad) {
+    const CurvatureRadii r = wgs84_radii(start.lat_rad);
+    Geodetic out;
+    out.lat_rad = start.lat_rad + delta_enu_m.y() / (r.meridian_m + start.height_m);
+    out.lon_rad = start.lon_rad + delta_enu_m.x() / ((r.prime_vertical_m + start.height_m) * std::cos(start.lat_rad));
+    out.height_m = start.height_m + delta_enu_m.z();
+    out.lon_rad = normalize_lon_rad(out.lon_rad);
+    return out;
+  }
+  // Near a pole the longitude formula divides by cos lat: the step is taken in ECEF instead.
+  long double x, y, z, r[3][3];
+  geodetic_to_ecef_ld(start.lat_rad, start.lon_rad, start.height_m, x, y, z);
+  enu_axes_ld(start.lat_rad, start.lon_rad, r);
+  const long double d[3] = {delta_enu_m.x(), delta_enu_m.y(), delta_enu_m.z()};
+  x += r[0][0] * d[0] + r[1][0] * d[1] + r[2][0] * d[2];
+  y += r[0][1] * d[0] + r[1][1] * d[1] + r[2][1] * d[2];
+  z += r[0][2] * d[0] + r[1][2] * d[1] + r[2][2] * d[2];
+  long double lat, lon, h;
+  ecef_to_geodetic_ld(x, y, z, start.lon_rad, lat, lon, h);
+  return normalized(Geodetic{static_cast<double>(lat), static_cast<double>(lon), start.height_m + delta_enu_m.z()});
+}
+
+Geodetic interpolate_geodetic(const Geodetic& a, const Geodetic& b, double f) {
+  const double height_m = a.height_m + f * (b.height_m - a.height_m);
+  if (std::abs(a.lat_rad) < kPolarCapLatRad && std::abs(b.lat_rad) < kPolarCapLatRad) {
+    double dlon = b.lon_rad - a.lon_rad;
+    if (dlon > kPi)
+      dlon -= 2.0 * kPi;
+    else if (dlon < -kPi)
+      dlon += 2.0 * kPi;
+    return Geodetic{a.lat_rad + f * (b.lat_rad - a.lat_rad), normalize_lon_rad(a.lon_rad + f * dlon), height_m};
+  }
+  long double xa, ya, za, xb, yb, zb;
+  geodetic_to_ecef_ld(a.lat_rad, a.lon_rad, a.height_m, xa, ya, za);
+  geodetic_to_ecef_ld(b.lat_rad, b.lon_rad, b.height_m, xb, yb, zb);
+  const long double fl = f;
+  long double lat, lon, h;
+  ecef_to_geodetic_ld(xa + fl * (xb - xa), ya + fl * (yb - ya), za + fl * (zb - za), a.lon_rad, lat, lon, h);
+  return normalized(Geodetic{static_cast<double>(lat), static_cast<double>(lon), height_m});
+}
+
+namespace {
+// Latitude in degrees for GeographicLib, which refuses (NaN) anything beyond +-90: pi/2 in radians
+// can come back as 90.00000000000001 deg.
+double lat_deg_for_geodesic(double lat_rad) { return std::max(-90.0, std::min(90.0, rad_to_deg(lat_rad))); }
+}  // namespace
+
 double horizontal_distance_m(const Geodetic& a, const Geodetic& b) {
   double s12 = 0.0;
-  GeographicLib::Geodesic::WGS84().Inverse(rad_to_deg(a.lat_rad), rad_to_deg(a.lon_rad), rad_to_deg(b.lat_rad),
-                                           rad_to_deg(b.lon_rad), s12);
+  GeographicLib::Geodesic::WGS84().Inverse(lat_deg_for_geodesic(a.lat_rad), rad_to_deg(a.lon_rad),
+                                           lat_deg_for_geodesic(b.lat_rad), rad_to_deg(b.lon_rad), s12);
+  return s12;
+}
+
+double distance_to_pole_m(const Geodetic& p) {
+  double s12 = 0.0;
+  const double lat_deg = lat_deg_for_geodesic(p.lat_rad);
+  GeographicLib::Geodesic::WGS84().Inverse(lat_deg, 0.0, lat_deg >= 0.0 ? 90.0 : -90.0, 0.0, s12);
   return s12;
 }
 
@@ -58,12 +206,7 @@ struct LocalEnuFrame::Impl {
 
   static void geodetic_to_ecef(long double lat, long double lon, long double h, long double& x, long double& y,
                                long double& z) {
-    const long double a = kWgs84A, e2 = kWgs84E2;
-    const long double s = std::sin(lat), c = std::cos(lat);
-    const long double n = a / std::sqrt(1.0L - e2 * s * s);
-    x = (n + h) * c * std::cos(lon);
-    y = (n + h) * c * std::sin(lon);
-    z = (n * (1.0L - e2) + h) * s;
+    geodetic_to_ecef_ld(lat, lon, h, x, y, z);
   }
 };
 
@@ -148,19 +291,23 @@ Geodetic LocalEnuFrame::to_geodetic(const Eigen::Vector3d& enu_m) const {
   const long double x = impl_->x0 + impl_->r[0][0] * e[0] + impl_->r[1][0] * e[1] + impl_->r[2][0] * e[2];
   const long double y = impl_->y0 + impl_->r[0][1] * e[0] + impl_->r[1][1] * e[1] + impl_->r[2][1] * e[2];
   const long double z = impl_->z0 + impl_->r[0][2] * e[0] + impl_->r[1][2] * e[1] + impl_->r[2][2] * e[2];
-  // Fixed-point iteration on latitude (converges to long-double precision in a few steps for
-  // points within a few hundred km of the surface); the height formula is stable at the poles.
-  const long double a = kWgs84A, e2 = kWgs84E2;
-  const long double p = std::sqrt(x * x + y * y);
-  long double lat = std::atan2(z, p * (1.0L - e2));
-  for (int i = 0; i < 8; ++i) {
-    const long double s = std::sin(lat);
-    const long double n = a / std::sqrt(1.0L - e2 * s * s);
-    lat = std::atan2(z + e2 * n * s, p);
-  }
-  const long double s = std::sin(lat), c = std::cos(lat);
-  const long double h = p * c + z * s - a * std::sqrt(1.0L - e2 * s * s);
-  return {static_cast<double>(lat), static_cast<double>(std::atan2(y, x)), static_cast<double>(h)};
+  long double lat, lon, h;
+  ecef_to_geodetic_ld(x, y, z, origin_.lon_rad, lat, lon, h);
+  return normalized(Geodetic{static_cast<double>(lat), static_cast<double>(lon), static_cast<double>(h)});
+}
+
+Eigen::Matrix3d LocalEnuFrame::rotation_from_local(const Geodetic& at) const {
+  // In double: it turns vectors of metres (an offset, a lever arm), where 1e-16 relative is far
+  // below anything measured, and the dead reckoning asks for it at every odometer sample.
+  const double sp = std::sin(at.lat_rad), cp = std::cos(at.lat_rad), sl = std::sin(at.lon_rad),
+               cl = std::cos(at.lon_rad);
+  const double ra[3][3] = {{-sl, cl, 0.0}, {-sp * cl, -sp * sl, cp}, {cp * cl, cp * sl, sp}};
+  Eigen::Matrix3d m;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      m(i, j) = static_cast<double>(impl_->r[i][0]) * ra[j][0] + static_cast<double>(impl_->r[i][1]) * ra[j][1] +
+                static_cast<double>(impl_->r[i][2]) * ra[j][2];
+  return m;
 }
 
 }  // namespace odonav

@@ -16,6 +16,7 @@
 #include <limits>
 
 #include "dataset_internal.hpp"
+#include "odonav/geodesy.hpp"
 #include "text_util.hpp"
 
 namespace odonav::dataset_detail {
@@ -207,7 +208,8 @@ GnssSample parse_gnss_row(RowFields& row) {
   row.check_range(gnss::kLon, lon_deg, -180.0, 180.0, "longitude");
   const double height_m = row.required_double(gnss::kHeight);
   row.check_range(gnss::kHeight, height_m, kMinHeight_m, kMaxHeight_m, "height (m) of a land vehicle");
-  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(lon_deg), height_m};
+  // Longitude 180 is read as -180 (the same meridian): every position odonav holds is in [-180, 180).
+  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(normalize_lon_deg(lon_deg)), height_m};
   s.vel_enu_mps.x() = row.required_double(gnss::kVe);
   s.vel_enu_mps.y() = row.required_double(gnss::kVn);
   s.vel_enu_mps.z() = row.required_double(gnss::kVu);
@@ -269,7 +271,7 @@ TruthSample parse_truth_row(RowFields& row) {
   const double height_m = value_or_nan(truth::kHeight);
   if (!std::isnan(height_m))
     row.check_range(truth::kHeight, height_m, kMinHeight_m, kMaxHeight_m, "height (m) of a land vehicle");
-  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(lon_deg), height_m};
+  s.position = Geodetic{deg_to_rad(lat_deg), deg_to_rad(normalize_lon_deg(lon_deg)), height_m};
   const double heading_deg = value_or_nan(truth::kHeading);
   if (!std::isnan(heading_deg))
     row.check_range(truth::kHeading, heading_deg, -kMaxHeadingMagnitude_deg, kMaxHeadingMagnitude_deg, "heading");

@@ -53,9 +53,10 @@ odonav::msg::DeadReckoning dead_reckoning_message(const DeadReckoningOutput& o, 
                                                   const Misalignment& mis, const std::string& vehicle_id) {
   odonav::msg::DeadReckoning m = dds::message_of(output_row(o));  // the field table
   m.vehicle_id(vehicle_id);
-  m.origin_latitude_deg(rad_to_deg(origin.lat_rad));
-  m.origin_longitude_deg(rad_to_deg(origin.lon_rad));
-  m.origin_height_m(origin.height_m);
+  const Geodetic in_range = normalized(origin);  // lat [-90, 90], lon [-180, 180)
+  m.origin_latitude_deg(rad_to_deg(in_range.lat_rad));
+  m.origin_longitude_deg(rad_to_deg(in_range.lon_rad));
+  m.origin_height_m(in_range.height_m);
   m.misalignment_heading_rad(mis.heading_rad);
   m.misalignment_pitch_rad(mis.pitch_rad);
   m.gnss_valid(o.gnss_reference);
@@ -237,6 +238,8 @@ dds::EventTimeNode::Status DeadReckoningNode::node_status(double now_s) {
   f.held_misalignment_span = core.last_held_span(HeldEstimate::kMisalignment);
   f.held_misalignment_changed_at_s = held_misalignment_outputs_.changed_at_s();
   f.inconsistency = component_.monitor().reason();
+  f.pole_distance_m = core.pole_distance_m();
+  f.pole_north = core.position().lat_rad >= 0.0;
   return status_of(dead_reckoning_health(f));
 }
 

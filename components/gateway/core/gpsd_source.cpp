@@ -11,6 +11,7 @@
 
 #include "odonav/config.hpp"
 #include "odonav/frames.hpp"
+#include "odonav/geodesy.hpp"
 
 namespace odonav::gateway {
 
@@ -88,7 +89,7 @@ std::optional<GnssSample> gnss_sample_from(const GpsdReport& r, double utc_origi
   }
   s.fix = fix_quality_of(r.status);
   s.position.lat_rad = deg_to_rad(r.lat_deg);
-  s.position.lon_rad = deg_to_rad(r.lon_deg);
+  s.position.lon_rad = deg_to_rad(normalize_lon_deg(r.lon_deg));  // 180 as -180: positions in [-180, 180)
   s.position.height_m = nan;
   if (r.mode >= MODE_3D) {
     if (known(r.alt_hae_m))

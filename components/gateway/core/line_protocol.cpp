@@ -201,7 +201,8 @@ ParsedLine LineDecoder::parse_line(std::string_view line) {
         return reject(LineError::kMalformed, "GNSS accuracies must not be negative");
       p.kind = ParsedLine::Kind::kGnss;
       p.gnss.t_s = t_s;
-      p.gnss.position = Geodetic{deg_to_rad(v[2]), deg_to_rad(v[3]), v[4]};
+      // Any longitude is the meridian it names: held in [-180, 180) as every position odonav holds.
+      p.gnss.position = Geodetic{deg_to_rad(v[2]), deg_to_rad(normalize_lon_deg(v[3])), v[4]};
       p.gnss.vel_enu_mps = Eigen::Vector3d(v[5], v[6], v[7]);
       p.gnss.fix = static_cast<int>(fix);
       if (f.size() == 11) {

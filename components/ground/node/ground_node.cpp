@@ -21,6 +21,7 @@
 #include "odonav/dds/component.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/dds/types.hpp"
+#include "odonav/geodesy.hpp"
 #include "odonav/source_arbiter.hpp"
 
 namespace odonav::ground {
@@ -87,12 +88,12 @@ DeadReckoningView view_of(const msg::DeadReckoning& d) {
   v.vehicle_id = d.vehicle_id();
   v.stamp_s = stamp_of(d.header());
   v.latitude_deg = d.latitude_deg();
-  v.longitude_deg = d.longitude_deg();
+  v.longitude_deg = normalize_lon_deg(d.longitude_deg());  // shown in [-180, 180) whoever sent it
   v.height_m = d.height_m();
   v.enu_east_m = d.enu_east_m();
   v.enu_north_m = d.enu_north_m();
   v.origin_latitude_deg = d.origin_latitude_deg();
-  v.origin_longitude_deg = d.origin_longitude_deg();
+  v.origin_longitude_deg = normalize_lon_deg(d.origin_longitude_deg());
   v.origin_height_m = d.origin_height_m();
   v.distance_m = d.distance_m();
   v.k_m_per_pulse = d.k_m_per_pulse();
@@ -108,7 +109,7 @@ NavigationPositionView view_of(const msg::NavigationPosition& n) {
   v.vehicle_id = n.vehicle_id();
   v.stamp_s = stamp_of(n.header());
   v.latitude_deg = n.latitude_deg();
-  v.longitude_deg = n.longitude_deg();
+  v.longitude_deg = normalize_lon_deg(n.longitude_deg());
   v.height_m = n.height_m();
   v.covariance_east_m2 = n.position_covariance_east_m2();
   v.covariance_north_m2 = n.position_covariance_north_m2();
@@ -126,7 +127,7 @@ GnssView view_of(const msg::GnssFix& g) {
   v.fix_quality = g.fix_quality();
   v.speed_mps = std::hypot(g.velocity_east_mps(), g.velocity_north_mps());
   v.latitude_deg = g.latitude_deg();
-  v.longitude_deg = g.longitude_deg();
+  v.longitude_deg = normalize_lon_deg(g.longitude_deg());
   v.height_m = g.height_m();
   v.position_std_m = g.position_std_m();
   return v;

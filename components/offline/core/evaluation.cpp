@@ -19,11 +19,9 @@ double reference_at(const std::vector<TimedValue>& ref, double t_s) {
   return std::prev(it)->value;
 }
 
-// Linear interpolation between two positions at fraction f of the way from a to b.
-Geodetic interpolate(const Geodetic& a, const Geodetic& b, double f) {
-  return Geodetic{a.lat_rad + f * (b.lat_rad - a.lat_rad), a.lon_rad + f * (b.lon_rad - a.lon_rad),
-                  a.height_m + f * (b.height_m - a.height_m)};
-}
+// The position at fraction f of the way from a to b (interpolate_geodetic: across longitude 180
+// the shorter way round, near a pole along the ECEF chord).
+Geodetic interpolate(const Geodetic& a, const Geodetic& b, double f) { return interpolate_geodetic(a, b, f); }
 
 // Largest time gap (s) across which a track is interpolated.
 constexpr double kMaxTrackGapS = 1.5;
@@ -37,7 +35,7 @@ constexpr double kMaxTrackGapS = 1.5;
 // kNearbyLimitM, or at |lat| >= 80 deg where the formula degrades, the geodesic is used.
 double horizontal_error_m(const Geodetic& a, const Geodetic& b) {
   constexpr double kNearbyLimitM = 10000.0;
-  constexpr double kPolarLatRad = 80.0 * kDegToRad;
+  constexpr double kPolarLatRad = kPolarCapLatRad;
   const double lat_mid = 0.5 * (a.lat_rad + b.lat_rad);
   if (std::abs(a.lat_rad) < kPolarLatRad && std::abs(b.lat_rad) < kPolarLatRad) {
     const CurvatureRadii r = wgs84_radii(lat_mid);

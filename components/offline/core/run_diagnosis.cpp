@@ -94,7 +94,16 @@ void RunDiagnosisAccumulator::add_gnss(double t_s) {
 }
 void RunDiagnosisAccumulator::add_ins(double) { has_ins_ = true; }
 void RunDiagnosisAccumulator::add_identification(const ScaleFactorEstimate& main) { last_main_ = main; }
-void RunDiagnosisAccumulator::add_dead_reckoning(double t_s) { dead_reckoning_.add(t_s); }
+void RunDiagnosisAccumulator::add_dead_reckoning(double t_s, const Geodetic& position) {
+  dead_reckoning_.add(t_s);
+  const std::optional<double> pole_m = polar_heading_distance_m(position);
+  if (!pole_m) return;
+  if (near_pole_.n++ == 0 || *pole_m < near_pole_.closest_m) {
+    if (near_pole_.n == 1) near_pole_.first_s = t_s;
+    near_pole_.closest_m = *pole_m;
+    near_pole_.north = position.lat_rad >= 0.0;
+  }
+}
 
 RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const OfflineResult& r) {
   RunDiagnosisAccumulator acc;
@@ -103,7 +112,7 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
   for (const InsSample& i : d.ins) acc.add_ins(i.t_s);
   for (const IdentificationOutput& k : r.identification) acc.add_identification(k.main);
   for (const MisalignmentOutput& m : r.misalignment) acc.add_misalignment(m);
-  for (const DeadReckoningOutput& o : r.dr_online) acc.add_dead_reckoning(o.t_s);
+  for (const DeadReckoningOutput& o : r.dr_online) acc.add_dead_reckoning(o.t_s, o.position);
   return acc.finish(p, r.builder_counters, r.calibration_counters, r.dr_counters, r.consistency, r.gnss_jumps);
 }
 
@@ -132,6 +141,12 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
          s.text + " (from t = " + num(s.raised_at_s, 10) + " s" +
              (s.raised ? ", to the end: converged withdrawn)" : ", later cleared)"));
   }
+
+  // Dead reckoning near a pole, where the INS heading is ill-defined (dead_reckoner.hpp).
+  if (near_pole_.n > 0)
+    warn("near_pole", "dead reckoning " + polar_heading_text(near_pole_.closest_m, near_pole_.north) + " (" +
+                          num(static_cast<double>(near_pole_.n), 12) +
+                          " outputs from t = " + num(near_pole_.first_s, 10) + " s)");
 
   // Time overlap of the two streams every result needs.
   if (odometer_.n > 0 && gnss_.n > 0) {

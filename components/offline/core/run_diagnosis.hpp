@@ -64,7 +64,8 @@ class RunDiagnosisAccumulator {
   void add_ins(double t_s);                                  ///< each INS sample's time (s)
   void add_identification(const ScaleFactorEstimate& main);  ///< each identification output's main estimate
   void add_misalignment(const MisalignmentOutput& output);   ///< each calibration output
-  void add_dead_reckoning(double t_s);                       ///< each online dead-reckoning output's time (s)
+  /// Each online dead-reckoning output's time (s) and position (for the warning near a pole).
+  void add_dead_reckoning(double t_s, const Geodetic& position);
   /// The warnings, from the facts gathered and the run's final gate counters.
   /// consistency: the dead reckoning's checks at the end (OfflineRunTotals::consistency; each one
   /// raised during the run is a warning "inconsistent_<check>" with its finding).
@@ -80,6 +81,12 @@ class RunDiagnosisAccumulator {
     void add(double t_s);
   };
   Span odometer_, gnss_, dead_reckoning_;
+  // Outputs within kPolarHeadingRadiusM of a pole: the first one's time, the closest distance.
+  struct NearPole {
+    std::size_t n = 0;
+    double first_s = 0.0, closest_m = 0.0;
+    bool north = true;
+  } near_pole_;
   MedianPeriod gnss_period_;
   bool has_ins_ = false;
   std::optional<ScaleFactorEstimate> last_main_;

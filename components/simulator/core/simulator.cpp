@@ -64,6 +64,9 @@ struct TruthRow {
   double t_rel_s = 0.0;
   Geodetic position;
   Attitude attitude;  // unwrapped heading
+  // geodesic_course: azimuth of the carried reference direction from true north (rad, unwrapped),
+  // already in attitude.heading_rad; 0 otherwise.
+  double heading_offset_rad = 0.0;
   Eigen::Vector3d vel_enu_mps = Eigen::Vector3d::Zero();
   double speed_mps = 0.0;  // along the track
   double k_base_m_per_pulse = 0.0;
@@ -75,7 +78,21 @@ struct TruthRow {
 
 }  // namespace
 
-std::vector<std::string> scenario_names() { return {"straight", "ring", "terrain", "slow_robot"}; }
+std::vector<std::string> scenario_names() {
+  return {"straight", "ring", "terrain", "slow_robot", "polar_north", "south_pole", "antimeridian"};
+}
+
+namespace {
+// The antimeridian scenario's start: the training-ground lap reaches 1214 m east of its start, so
+// 600 m west of 180 at 65 N puts longitude 180 across the middle of the ring.
+constexpr double kAntimeridianStartLonDeg = 180.0 - 0.0127;
+
+// The point `distance_m` from the North (south = false) or South Pole along the meridian lon_rad.
+Geodetic near_pole(bool north, double distance_m, double lon_rad, double height_m) {
+  const double dlat = distance_m / wgs84_radii(0.5 * kPi).meridian_m;  // R_M at the pole, exact to 1e-6
+  return Geodetic{north ? 0.5 * kPi - dlat : -0.5 * kPi + dlat, lon_rad, height_m};
+}
+}  // namespace
 
 SimulationConfig scenario_config(const std::string& name) {
   SimulationConfig c;
@@ -107,6 +124,36 @@ SimulationConfig scenario_config(const std::string& name) {
     c.turn_slip_max = 0.03;
     c.gnss_outages = {GnssOutage{560.0, 680.0}};
     c.gnss_velocity_outliers = 6;
+    return c;
+  }
+  if (name == "polar_north" || name == "south_pole") {
+    // A straight road of 3 km passing the pole at the closest distance near its middle: it starts
+    // 1500 m from the pole, aimed off the meridian by asin(closest / 1500 m), so true north (and
+    // the INS heading) turns by nearly 180 deg along it although the vehicle never turns.
+    const bool north = name == "polar_north";
+    const double closest_m = north ? 300.0 : 50.0;
+    c.course = CourseKind::kStraight;
+    c.geodesic_course = true;
+    c.straight_length_m = 3000.0;
+    c.straight_speed_mps = 10.0;
+    c.road_grade = 0.0;
+    c.hills = {Undulation{1.5, 400.0, 0.0}};
+    c.cross_slopes = {Undulation{0.5 * kDegToRad, 300.0, 0.0}};
+    c.start = near_pole(north, 1500.0, (north ? 30.0 : -60.0) * kDegToRad, north ? 20.0 : 2800.0);
+    c.straight_heading_rad = (north ? 0.0 : kPi) + std::asin(closest_m / 1500.0);
+    c.description = north ? "polar_north: a straight 3 km pass 300 m from the North Pole at 10 m/s"
+                          : "south_pole: a straight 3 km traverse arriving 50 m from the South Pole and leaving "
+                            "along the opposite meridian, at 10 m/s";
+    return c;
+  }
+  if (name == "antimeridian") {
+    c = scenario_config("terrain");
+    c.scenario = name;
+    c.geodesic_course = true;
+    c.start = Geodetic{65.0 * kDegToRad, kAntimeridianStartLonDeg * kDegToRad, 40.0};
+    c.description =
+        "antimeridian: the terrain drive (K steps, slip, outage, outliers) at 65 N on a ring that "
+        "crosses longitude 180 several times";
     return c;
   }
   if (name == "slow_robot") {
@@ -157,8 +204,10 @@ void validate(const SimulationConfig& c) {
   require(std::isfinite(c.road_grade) && std::abs(c.road_grade) < 0.3, "road_grade", "must be in (-0.3, 0.3)");
   require(std::isfinite(c.roll_per_lateral_accel_rad), "roll_per_lateral_accel_rad", "must be finite");
   require(std::isfinite(c.roll_time_constant_s) && c.roll_time_constant_s > 0.0, "roll_time_constant_s", "must be > 0");
-  require(std::isfinite(c.start.lat_rad) && std::abs(c.start.lat_rad) < 89.0 * kDegToRad, "start.lat_rad",
-          "must be within +-89 deg");
+  // Without geodesic_course the course's headings are rhumb lines, which spiral into a pole.
+  require(
+      std::isfinite(c.start.lat_rad) && std::abs(c.start.lat_rad) <= (c.geodesic_course ? 0.5 * kPi : 89.0 * kDegToRad),
+      "start.lat_rad", "must be within +-89 deg (+-90 deg with geodesic_course)");
   require(std::isfinite(c.start.lon_rad) && std::isfinite(c.start.height_m), "start", "lon and height must be finite");
   require(std::isfinite(c.start_time_s) && c.start_time_s >= 0.0, "start_time_s", "must be >= 0");
   require(std::isfinite(c.k_nominal_m_per_pulse) && c.k_nominal_m_per_pulse > 0.0, "k_nominal_m_per_pulse",
@@ -341,7 +390,9 @@ class TruthIntegrator {
         roll_blend_(1.0 - std::exp(-sub_dt_s_ / cfg.roll_time_constant_s)),
         drive_at_(cfg, drive),
         pos_(cfg.start),
-        roll_rad_(roll_target_rad(cfg, drive, 0.0, 0.0)) {}
+        roll_rad_(roll_target_rad(cfg, drive, 0.0, 0.0)) {
+    if (cfg.geodesic_course) reference_north_ecef_ = enu_from_ecef(pos_).row(1).transpose();
+  }
 
   // Truth row k (at k / truth_rate_hz), after integrating from row k - 1.
   TruthRow row(std::size_t k) {
@@ -363,7 +414,12 @@ class TruthIntegrator {
     const double ds_h = now.s_m - s_prev_;
     const CoursePoint mid = drive_.course.at(0.5 * (s_prev_ + now.s_m));
     const double dh = drive_.terrain.height_m(now.s_m) - drive_.terrain.height_m(s_prev_);
-    pos_ = move_geodetic(pos_, Eigen::Vector3d(ds_h * std::sin(mid.heading_rad), ds_h * std::cos(mid.heading_rad), dh));
+    if (cfg_.geodesic_course) {
+      geodesic_step(mid.heading_rad, ds_h);
+    } else {
+      pos_ =
+          move_geodetic(pos_, Eigen::Vector3d(ds_h * std::sin(mid.heading_rad), ds_h * std::cos(mid.heading_rad), dh));
+    }
     pos_.height_m = cfg_.start.height_m + drive_.terrain.height_m(now.s_m);  // exact, no accumulation
     const double dd = std::hypot(ds_h, dh);
     distance_m_ += dd;
@@ -374,8 +430,25 @@ class TruthIntegrator {
     v_prev_ = now.speed_mps;
   }
 
+  // geodesic_course: moves ds_h metres along the tangent plane in the direction course_heading_rad
+  // from the carried reference direction (ECEF), then carries that direction into the new tangent
+  // plane (parallel transport: no turn about the vertical) and measures its azimuth from true north.
+  void geodesic_step(double course_heading_rad, double ds_h) {
+    const Eigen::Vector3d up = enu_from_ecef(pos_).row(2).transpose();
+    const Eigen::Vector3d reference_east = reference_north_ecef_.cross(up);
+    const Eigen::Vector3d along =
+        std::cos(course_heading_rad) * reference_north_ecef_ + std::sin(course_heading_rad) * reference_east;
+    pos_ = from_ecef_m(to_ecef_m(pos_) + ds_h * along, pos_.lon_rad);
+    const Eigen::Matrix3d enu = enu_from_ecef(pos_);
+    const Eigen::Vector3d up_new = enu.row(2).transpose();
+    reference_north_ecef_ = (reference_north_ecef_ - reference_north_ecef_.dot(up_new) * up_new).normalized();
+    const double azimuth = std::atan2(reference_north_ecef_.dot(enu.row(0)), reference_north_ecef_.dot(enu.row(1)));
+    heading_offset_rad_ += wrap_pi(azimuth - heading_offset_rad_);
+  }
+
   TruthRow row_at(double t_rel, const SpeedProfile::State& st) const {
-    const CoursePoint cp = drive_.course.at(st.s_m);
+    CoursePoint cp = drive_.course.at(st.s_m);
+    if (cfg_.geodesic_course) cp.heading_rad += heading_offset_rad_;
     const double slope = drive_.terrain.slope(st.s_m);
     TruthRow r;
     r.t_rel_s = t_rel;
@@ -383,6 +456,7 @@ class TruthIntegrator {
     r.attitude = body_attitude_for_motion(cp.heading_rad, std::atan(slope), roll_rad_, cfg_.misalignment);
     r.vel_enu_mps = velocity_enu_mps(st.speed_mps, cp.heading_rad, slope);
     r.speed_mps = r.vel_enu_mps.norm();
+    r.heading_offset_rad = heading_offset_rad_;
     r.k_base_m_per_pulse = k_base_at(cfg_, t_rel);
     r.k_true_m_per_pulse = r.k_base_m_per_pulse / (1.0 + slip_at(cfg_, st.speed_mps * cp.curvature_per_m));
     r.distance_m = distance_m_;
@@ -400,6 +474,8 @@ class TruthIntegrator {
   const double roll_blend_;
   DriveCursor drive_at_;
   Geodetic pos_;
+  Eigen::Vector3d reference_north_ecef_ = Eigen::Vector3d::Zero();  // geodesic_course: unit, tangent
+  double heading_offset_rad_ = 0.0;  // geodesic_course: its azimuth from true north, unwrapped
   double distance_m_ = 0.0, pulse_phase_ = 0.0;
   double s_prev_ = 0.0, v_prev_ = 0.0;
   double roll_rad_;
@@ -563,7 +639,7 @@ class GnssModel {
   GnssSample sample(std::size_t epoch, const TruthRow& before, const TruthRow& r, const TruthRow& after) {
     errors_.next_epoch(epoch == 0);
     const Eigen::Vector3d lever_enu = body_to_enu(r.attitude) * cfg_.lever_arm_m;
-    const Eigen::Vector3d lever_vel = lever_arm_velocity_enu_mps(before, after);
+    const Eigen::Vector3d lever_vel = lever_arm_velocity_enu_mps(before, r, after);
     GnssSample g;
     g.t_s = cfg_.start_time_s + r.t_rel_s + cfg_.gnss_latency_s;
     if (in_outage(cfg_.gnss_outages, r.t_rel_s)) {
@@ -592,12 +668,20 @@ class GnssModel {
 
  private:
   // Lever-arm velocity d(C_b^n l)/dt, ENU m/s, by central difference over the neighbouring truth
-  // rows (10 ms): the truncation error is ~ (omega dt)^2 / 6 relative, far below the noise.
-  Eigen::Vector3d lever_arm_velocity_enu_mps(const TruthRow& before, const TruthRow& after) const {
+  // rows (10 ms): the truncation error is ~ (omega dt)^2 / 6 relative, far below the noise. With
+  // geodesic_course only the body's own turning counts: the neighbours' headings are taken against
+  // the reference direction of row r, since the turn of true north between the rows (the meridian
+  // convergence, fast near a pole) moves no antenna.
+  Eigen::Vector3d lever_arm_velocity_enu_mps(const TruthRow& before, const TruthRow& r, const TruthRow& after) const {
     Eigen::Vector3d lever_vel = Eigen::Vector3d::Zero();
     if (after.t_rel_s > before.t_rel_s) {
-      lever_vel = (body_to_enu(after.attitude) * cfg_.lever_arm_m - body_to_enu(before.attitude) * cfg_.lever_arm_m) /
-                  ((after.t_rel_s - before.t_rel_s));
+      Attitude a = after.attitude, b = before.attitude;
+      if (cfg_.geodesic_course) {
+        a.heading_rad -= after.heading_offset_rad - r.heading_offset_rad;
+        b.heading_rad -= before.heading_offset_rad - r.heading_offset_rad;
+      }
+      lever_vel =
+          (body_to_enu(a) * cfg_.lever_arm_m - body_to_enu(b) * cfg_.lever_arm_m) / ((after.t_rel_s - before.t_rel_s));
     }
     return lever_vel;
   }
@@ -672,6 +756,7 @@ nlohmann::json simulation_meta(const SimulationConfig& cfg, const Drive& drive, 
   sim["ins_heading_noise_deg"] = rad_to_deg(cfg.ins_heading_noise_rad);
   sim["ins_tilt_noise_deg"] = rad_to_deg(cfg.ins_tilt_noise_rad);
   sim["counter_start"] = cfg.counter_start;
+  if (cfg.geodesic_course) sim["geodesic_course"] = true;  // absent: headings from local north
   return sim;
 }
 

@@ -66,6 +66,13 @@ struct SimulationConfig {
   double standstill_end_s = 5.0;    ///< standing still after the stop, s.
   DriverLimits driver;
   DriveKind drive = DriveKind::kProfile;
+  /// false: the course's headings are azimuths from the local north at the vehicle, integrated on
+  /// latitude and longitude (a straight road keeps its azimuth: a rhumb line, which spirals into a
+  /// pole). true: they are taken from a reference direction carried along the road (parallel
+  /// transport, true north at the start), so a straight road is a geodesic wherever it runs, across
+  /// longitude 180 and past a pole; the truth is integrated in ECEF, and the INS heading, the
+  /// velocity and the lever arm use the azimuth from true north at the vehicle's position.
+  bool geodesic_course = false;
   double road_grade = 0.01;              ///< constant slope of the straight road (dh/ds); 0 on laps.
   std::vector<Undulation> hills;         ///< height undulations (amplitude in m).
   std::vector<Undulation> cross_slopes;  ///< ground roll undulations (amplitude in rad).
@@ -119,7 +126,8 @@ struct SimulationConfig {
   double ins_tilt_noise_rad = 0.005 * kDegToRad;    ///< white, pitch and roll, one sigma.
 };
 
-/// Names of the built-in scenarios: "straight", "ring", "terrain", "slow_robot".
+/// Names of the built-in scenarios: "straight", "ring", "terrain", "slow_robot", "polar_north",
+/// "south_pole", "antimeridian".
 std::vector<std::string> scenario_names();
 
 /// The configuration of a named scenario (see README.md). Throws std::invalid_argument listing the

@@ -258,3 +258,37 @@ TEST(AnchoredPosition, ParametersComeFromTheDrOptionsAndTheHoldOffIsTheDrs) {
   EXPECT_EQ(d.fix_correlated_fraction, defaults.fix_correlated_fraction);
   EXPECT_EQ(d.scale_sigma_percent, 0.0);
 }
+
+TEST(AnchoredPosition, TheOffsetKeepsItsDirectionAcrossAPole) {
+  // The filter works in the ENU frame of the DR origin, 1500 m from the North Pole on meridian 0;
+  // the DR has driven across the pole to 300 m beyond it, where east and north point the other way
+  // round. The anchored position is the DR plus the offset in the origin's frame wherever that is
+  // (laid out in the local frame, the offset would land 2 |offset| away: 7.2 m here).
+  const Geodetic origin{0.5 * kPi - 1500.0 / wgs84_radii(0.5 * kPi).meridian_m, 0.0, 10.0};
+  const LocalEnuFrame frame(origin);
+  const Geodetic beyond{0.5 * kPi - 300.0 / wgs84_radii(0.5 * kPi).meridian_m, kPi * 0.999, 10.0};
+  AnchoredPositionFilter filter;
+  const Eigen::Vector3d offset(3.0, -2.0, 0.0);
+  AnchorFix fix;
+  fix.t_s = 1.0;
+  fix.dr_enu_m = frame.to_enu(beyond);
+  fix.fix_enu_m = fix.dr_enu_m + offset;
+  fix.sigma_m = 1.0;
+  fix.dr_distance_m = 1800.0;
+  filter.add_fix(fix);
+  AnchorDrStep s;
+  s.t_s = 1.2;
+  s.position = beyond;
+  s.enu_m = fix.dr_enu_m;
+  s.distance_m = 1800.0;
+  s.origin_to_local = frame.rotation_to_local(beyond);
+  const AnchoredPosition p = filter.step(s);
+  ASSERT_EQ(p.status, AnchorStatus::kAnchored);
+  // (The step's height follows the surface, the frame's plane does not: d^2 / 2R = 1e-6 m up.)
+  EXPECT_LT((frame.to_enu(p.position) - (s.enu_m + offset)).head<2>().norm(), 1e-6);
+  // The published variances are those of the local axes: the same here (east and north equal; the
+  // two up axes differ by 1800 m / R, which moves 1e-7 m^2 between vertical and horizontal).
+  EXPECT_NEAR(p.covariance_enu_m2(0, 0), 1.0, 1e-6);
+  EXPECT_NEAR(p.covariance_enu_m2(1, 1), 1.0, 1e-6);
+  EXPECT_NEAR(p.covariance_enu_m2(2, 2), 2.25, 1e-6);
+}

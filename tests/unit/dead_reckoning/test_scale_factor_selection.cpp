@@ -526,3 +526,19 @@ TEST(DeadReckoningParams, ThePulseJumpGateUsesTheNominalKOfTheFunction) {
     EXPECT_EQ(r, nominal == 0.0125 ? OdometerAddResult::kAccepted : OdometerAddResult::kJumpRejected) << nominal;
   }
 }
+
+TEST(DeadReckoningHealthDecision, WithinAKilometreOfAPoleItWarnsWithTheDistance) {
+  DeadReckoningHealthFacts f = running_facts();
+  f.pole_distance_m = 311.2;
+  f.pole_north = false;
+  const ComponentHealth h = dead_reckoning_health(f);
+  EXPECT_EQ(h.state, ComponentHealth::State::kRunning);
+  EXPECT_EQ(h.level, ComponentHealth::Level::kWarn);
+  EXPECT_EQ(h.reason,
+            "within 312 m of the South Pole: true north turns by 1/312 rad per metre across the meridian there, so "
+            "each metre of position error is that much heading error (the heading is ill-defined inside 1000 m)");
+  // Where the DR core says so: from 1000 m of the pole inwards, never at mid-latitudes.
+  EXPECT_FALSE(polar_heading_distance_m(Geodetic{deg_to_rad(52.5), 0.0, 0.0}));
+  EXPECT_FALSE(polar_heading_distance_m(Geodetic{0.5 * kPi - 1001.0 / 6399593.6, 0.0, 0.0}));
+  EXPECT_NEAR(*polar_heading_distance_m(Geodetic{-0.5 * kPi + 999.0 / 6399593.6, 2.0, 0.0}), 999.0, 0.01);
+}

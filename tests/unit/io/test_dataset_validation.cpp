@@ -228,6 +228,7 @@ TEST(DatasetValidation, GnssRangesFixAndStandardDeviations) {
   const Dataset ds = read_dataset(d.dir.str(), BadRowPolicy::kFail);
   EXPECT_EQ(ds.gnss[0].position.lat_rad, deg_to_rad(90.0));
   EXPECT_EQ(ds.gnss[1].position.lon_rad, deg_to_rad(-180.0));
+  EXPECT_EQ(ds.gnss[0].position.lon_rad, deg_to_rad(-180.0));  // 180 is the same meridian: read as -180
   EXPECT_FALSE(ds.gnss[0].pos_std_m.has_value());
   EXPECT_EQ(ds.gnss[0].fix, 1);
   EXPECT_EQ(ds.gnss[1].fix, 0);

@@ -262,5 +262,18 @@ TEST(LineProtocol, WritersRefuseNonFiniteValues) {
   EXPECT_THROW(gnss_line(g, true), std::invalid_argument);
 }
 
+TEST(LineProtocol, AnyLongitudeIsHeldInMinus180To180) {
+  LineDecoder d;
+  ParsedLine p = d.parse_line("GNSS,1.0,65,180,100,0,0,0,1");
+  ASSERT_EQ(p.kind, ParsedLine::Kind::kGnss) << p.detail;
+  EXPECT_EQ(p.gnss.position.lon_rad, deg_to_rad(-180.0));
+  p = d.parse_line("GNSS,2.0,65,190.5,100,0,0,0,1");
+  ASSERT_EQ(p.kind, ParsedLine::Kind::kGnss) << p.detail;
+  EXPECT_EQ(p.gnss.position.lon_rad, deg_to_rad(-169.5));
+  p = d.parse_line("GNSS,3.0,90,-179.25,100,0,0,0,1");  // on the pole: kept as given
+  ASSERT_EQ(p.kind, ParsedLine::Kind::kGnss) << p.detail;
+  EXPECT_EQ(p.gnss.position.lon_rad, deg_to_rad(-179.25));
+}
+
 }  // namespace
 }  // namespace odonav::gateway

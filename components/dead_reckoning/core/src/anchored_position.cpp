@@ -14,9 +14,10 @@ namespace odonav {
 results::NavigationPositionRow output_row(const AnchoredPosition& p) {
   results::NavigationPositionRow r;
   r.t_s = p.t_s;
-  r.lat_rad = p.position.lat_rad;
-  r.lon_rad = p.position.lon_rad;
-  r.height_m = p.position.height_m;
+  const Geodetic position = normalized(p.position);  // lat [-90, 90], lon [-180, 180)
+  r.lat_rad = position.lat_rad;
+  r.lon_rad = position.lon_rad;
+  r.height_m = position.height_m;
   r.east_m = p.enu_m.x();
   r.north_m = p.enu_m.y();
   r.up_m = p.enu_m.z();
@@ -207,10 +208,13 @@ AnchoredPosition AnchoredPositionFilter::step(const AnchorDrStep& s) {
     out.enu_m = s.enu_m;
     return out;
   }
+  // The filter works in the DR origin's ENU frame; the offset moves the DR position along the
+  // same vector in the ENU frame at that position (the two frames differ by the meridian
+  // convergence: near a pole by up to 180 deg), and the covariance is turned with it.
   const Eigen::Vector3d offset = x_.head<3>();
   out.enu_m = s.enu_m + offset;
-  out.position = move_geodetic(s.position, offset);
-  out.covariance_enu_m2 = p_.block<3, 3>(0, 0);
+  out.position = move_geodetic(s.position, s.origin_to_local * offset);
+  out.covariance_enu_m2 = s.origin_to_local * p_.block<3, 3>(0, 0) * s.origin_to_local.transpose();
   out.scale_error = x_[3];
   out.heading_error_rad = x_[4];
   out.last_fix_t_s = last_fix_t_s_;
@@ -222,7 +226,7 @@ AnchoredPosition AnchoredPositionFilter::step(const AnchorDrStep& s) {
 
 AnchoredPosition AnchoredPositionFilter::step(const DeadReckoningOutput& dr) {
   for (const AnchorFix& f : dr.gnss_fixes) add_fix(f);
-  return step(AnchorDrStep{dr.t_s, dr.position, dr.enu_m, dr.distance_m});
+  return step(AnchorDrStep{dr.t_s, dr.position, dr.enu_m, dr.distance_m, dr.origin_to_local});
 }
 
 }  // namespace odonav

@@ -9,12 +9,38 @@
 
 namespace odonav {
 
+std::optional<double> polar_heading_distance_m(const Geodetic& p) {
+  // |lat| below 89 deg is more than 100 km from a pole: no geodesic needed to know.
+  if (!(std::abs(p.lat_rad) >= 89.0 * kDegToRad)) return std::nullopt;
+  const double d = distance_to_pole_m(p);
+  if (!(d <= kPolarHeadingRadiusM)) return std::nullopt;
+  return d;
+}
+
+std::string polar_heading_text(double distance_m, bool north) {
+  std::ostringstream m;
+  const long long d = static_cast<long long>(std::ceil(distance_m));
+  m << "within " << d << " m of the " << (north ? "North" : "South") << " Pole: true north turns by 1/" << d
+    << " rad per metre across the meridian there, so each metre of position error is that much heading error "
+       "(the heading is ill-defined inside "
+    << static_cast<long long>(kPolarHeadingRadiusM) << " m)";
+  return m.str();
+}
+
+std::optional<double> DeadReckoner::pole_distance_m() const {
+  if (!frame_) return std::nullopt;
+  return polar_heading_distance_m(position_);
+}
+
 results::DeadReckoningRow output_row(const DeadReckoningOutput& o) {
   results::DeadReckoningRow r;
   r.t_s = o.t_s;
-  r.lat_rad = o.position.lat_rad;
-  r.lon_rad = o.position.lon_rad;
-  r.height_m = o.position.height_m;
+  // Written and published in range (lat [-90, 90], lon [-180, 180)): a start fix at longitude 180
+  // is the same place as -180.
+  const Geodetic position = normalized(o.position);
+  r.lat_rad = position.lat_rad;
+  r.lon_rad = position.lon_rad;
+  r.height_m = position.height_m;
   r.distance_m = o.distance_m;
   r.k_m_per_pulse = o.k_m_per_pulse;
   r.k_source = to_string(o.k_source);
@@ -285,7 +311,8 @@ std::optional<Eigen::Vector3d> DeadReckoner::gnss_reference_enu(double t_s, cons
     const double f = (t_s - gnss_[lo].t_s) / (gnss_[hi].t_s - gnss_[lo].t_s);
     p += f * (frame_->to_enu(gnss_[hi].position) - p);
   }
-  if (att) p -= lever_arm_enu(*att);
+  // The lever arm is turned by the attitude in the ENU frame at the fix, not at the origin.
+  if (att) p -= frame_->rotation_from_local(gnss_[lo].position) * lever_arm_enu(*att);
   return p;
 }
 
@@ -492,6 +519,13 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
     }
   }
   if (!have_heading) ++counters_.distance_lost;
+  if (std::abs(position_.lat_rad) >= kPolarCapLatRad && heading_position_offset_enu_m_) {
+    // The heading is clockwise from north at the vehicle, and near a pole north depends on where
+    // exactly that is: take it where GNSS last put the DR (a constant offset of the DR position, so
+    // its error stays a GNSS error), and lay the step out in the DR position's own frame.
+    const Geodetic heading_at = frame_->to_geodetic(frame_->to_enu(position_) + *heading_position_offset_enu_m_);
+    ds_n = enu_rotation(heading_at, position_) * ds_n;
+  }
   position_ = move_geodetic(position_, ds_n);
   distance_m_ += std::abs(ds);
   last_t_s_ = t_j;
@@ -499,6 +533,7 @@ DeadReckoningOutput DeadReckoner::step(const OdometerBuffer::Entry& sample) {
 
   o.position = position_;
   o.enu_m = frame_->to_enu(position_);
+  o.origin_to_local = frame_->rotation_to_local(position_);
   o.distance_m = distance_m_;
   if (start_fix_) {
     o.gnss_fixes.push_back(*start_fix_);
@@ -554,7 +589,10 @@ void DeadReckoner::evaluate_errors(DeadReckoningOutput& o) {
         const Eigen::Vector3d dr = a.enu_m + f * (b.enu_m - a.enu_m);
         const Eigen::Vector3d lever = *a.lever_arm_enu_m + f * (*b.lever_arm_enu_m - *a.lever_arm_enu_m);
         const double dist = a.distance_m + f * (b.distance_m - a.distance_m);
-        const Eigen::Vector3d ref = frame_->to_enu(g.position) - lever;
+        // The lever arm is in the ENU frame at the fix (the attitude's north is the local one
+        // there); near a pole, or kilometres from the origin, that frame is turned against the
+        // origin's by the meridian convergence.
+        const Eigen::Vector3d ref = frame_->to_enu(g.position) - frame_->rotation_from_local(g.position) * lever;
         e.horizontal_error_m = std::hypot(dr.x() - ref.x(), dr.y() - ref.y());
         if (dist >= params_.percent_min_distance_m && dist > 0.0)
           e.error_percent_distance = 100.0 * e.horizontal_error_m / dist;
@@ -564,6 +602,7 @@ void DeadReckoner::evaluate_errors(DeadReckoningOutput& o) {
         fix.dr_enu_m = dr;
         fix.dr_distance_m = dist;
         fix.sigma_m = g.pos_std_m.value_or(std::numeric_limits<double>::quiet_NaN());
+        heading_position_offset_enu_m_ = ref - dr;
         o.gnss_fixes.push_back(fix);
         ++counters_.anchor_fixes;
       }

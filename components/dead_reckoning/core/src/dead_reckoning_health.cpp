@@ -68,6 +68,10 @@ ComponentHealth dead_reckoning_health(const DeadReckoningHealthFacts& f) {
     s.level = Level::kWarn;
     add("inconsistent: " + f.inconsistency);
   }
+  if (f.pole_distance_m) {
+    s.level = Level::kWarn;
+    add(polar_heading_text(*f.pole_distance_m, f.pole_north));
+  }
   // After a restart: what the restore did, the catch-up of the downtime, failed checkpoint writes.
   bool warn = s.level == Level::kWarn;
   apply_restart_notes(f, f.now_s, s.reason, warn);

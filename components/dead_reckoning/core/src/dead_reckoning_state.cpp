@@ -133,6 +133,11 @@ std::string DeadReckoner::save_state() const {
                  h.span->open ? 1.0 : 0.0});
     line((name + "_span").c_str(), v);
   }
+  v.clear();
+  if (heading_position_offset_enu_m_)
+    append(v, {heading_position_offset_enu_m_->x(), heading_position_offset_enu_m_->y(),
+               heading_position_offset_enu_m_->z()});
+  line("heading_position_offset_enu_m", v);
   return s;
 }
 
@@ -238,6 +243,11 @@ void DeadReckoner::restore_state(const std::string& text) {
     h.last_applicable_s = opt((name + "_last_applicable_s").c_str());
     v = records((name + "_span").c_str(), 5, 1);
     if (!v.empty()) h.span = HeldSpan{v[0], v[1], static_cast<uint64_t>(v[2]), v[3], v[4] != 0.0};
+  }
+  // Absent from checkpoints written before it existed (it only matters in the polar cap).
+  if (!r.at_end()) {
+    v = records("heading_position_offset_enu_m", 3, 1);
+    if (!v.empty()) d.heading_position_offset_enu_m_ = Eigen::Vector3d(v[0], v[1], v[2]);
   }
   if (!r.at_end()) throw CheckpointError("unexpected text after the dead reckoner state");
   if (d.frame_.has_value() != d.start_t_s_.has_value())

@@ -123,6 +123,9 @@ struct AnchorDrStep {
   Geodetic position;                                ///< DR position, WGS-84 (rad, rad, m).
   Eigen::Vector3d enu_m = Eigen::Vector3d::Zero();  ///< DR position, local ENU of the DR origin (m).
   double distance_m = 0.0;                          ///< DR distance driven since its start (m).
+  /// Rotation taking vectors of the DR origin's ENU frame into the ENU frame at `position`
+  /// (DeadReckoningOutput::origin_to_local); the identity when the two frames coincide.
+  Eigen::Matrix3d origin_to_local = Eigen::Matrix3d::Identity();
 };
 
 enum class AnchorStatus {
@@ -136,7 +139,8 @@ struct AnchoredPosition {
   double t_s = 0.0;
   Geodetic position;                                ///< WGS-84 (rad, rad, m).
   Eigen::Vector3d enu_m = Eigen::Vector3d::Zero();  ///< local ENU of the DR origin (m).
-  /// Position covariance in ENU (m^2); NaN while kNotStarted.
+  /// Position covariance (m^2) in the ENU frame at `position` (the filter's, in the origin's frame,
+  /// turned with AnchorDrStep::origin_to_local); NaN while kNotStarted.
   Eigen::Matrix3d covariance_enu_m2 = Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
   AnchorStatus status = AnchorStatus::kNotStarted;
   double last_fix_t_s = std::numeric_limits<double>::quiet_NaN();          ///< epoch of the last applied fix.

@@ -9,7 +9,12 @@
 //          height ignored, so the whole odometer distance is laid on the horizontal; on a slope of
 //          angle p the 2-D track is longer than the true horizontal track by 1/cos p, and the height
 //          stays at the start height, while the 3-D mode follows the slope)
-//   position = move_geodetic(position, dS_n)  (WGS-84 radii of curvature)
+//   position = move_geodetic(position, dS_n)  (WGS-84; in ECEF near the poles: valid everywhere)
+//   In the polar cap (|lat| >= kPolarCapLatRad) dS_n is laid out from north at the DR position
+//   corrected by the DR's error at the latest GNSS epoch evaluated (the INS heading is relative to
+//   north at the vehicle's true position; near a pole north turns by 1 rad per ρ metres across the
+//   meridian, so a DR whose own position error chose north would turn its track by error / ρ and
+//   carry that angle away from the pole: docs/ALGORITHM.md §4c).
 // K in force at t_j: the latest add_scale_factor() stamped <= t_j, else params.nominal_k.
 // Start: the first valid GNSS fix (fix not 0/6) at which the odometer count can be interpolated;
 // the antenna position is moved to the INS reference point when a lever arm is configured (INS
@@ -56,6 +61,7 @@
 #include <deque>
 #include <limits>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -136,9 +142,12 @@ struct DeadReckoningOutput {
   double t_s = 0.0;
   Geodetic position;                                ///< WGS-84 (rad, rad, m) of the reference point.
   Eigen::Vector3d enu_m = Eigen::Vector3d::Zero();  ///< local ENU (m) w.r.t. the DR origin.
-  double heading_rad = 0.0;                         ///< body heading (INS) or GNSS course (degraded) used, [0, 2 pi).
-  double distance_m = 0.0;                          ///< odometer distance travelled since the start, sum |dS| (m).
-  double k_m_per_pulse = 0.0;                       ///< K used for the interval ending here.
+  /// Rotation taking vectors of the DR origin's ENU frame (enu_m's axes) into the ENU frame at
+  /// `position`: the two differ by the meridian convergence (near a pole by up to 180 deg).
+  Eigen::Matrix3d origin_to_local = Eigen::Matrix3d::Identity();
+  double heading_rad = 0.0;    ///< body heading (INS) or GNSS course (degraded) used, [0, 2 pi).
+  double distance_m = 0.0;     ///< odometer distance travelled since the start, sum |dS| (m).
+  double k_m_per_pulse = 0.0;  ///< K used for the interval ending here.
   ScaleFactorSource k_source = ScaleFactorSource::kNominal;
   /// Track slip s removed from the interval ending here: its distance is K pulses / (1 + s)
   /// (turn_slip.hpp; 0 on a straight, without INS or before any slip gain applies).
@@ -157,6 +166,22 @@ struct DeadReckoningOutput {
   bool k_held = false;
   bool misalignment_held = false;
 };
+
+/// Within this distance (m) of a pole the INS heading is a poor direction for dead reckoning:
+/// "clockwise from true north" depends on where the vehicle is, and north at a position known to
+/// within e metres across the meridian is turned by e / (distance to the pole) rad against north
+/// at the true position, so inside 1000 m every metre of position error is more than 1 mrad
+/// (0.057 deg) of heading, and at the pole itself north is only the meridian of the longitude
+/// carried. The DR keeps integrating there (in ECEF, north taken where GNSS last put it:
+/// docs/ALGORITHM.md §4c); health and the offline summary warn while it is inside.
+constexpr double kPolarHeadingRadiusM = 1000.0;
+
+/// Distance (m) of p to the nearer pole when it is within kPolarHeadingRadiusM, else nullopt.
+std::optional<double> polar_heading_distance_m(const Geodetic& p);
+
+/// The warning for a DR position distance_m (m) from the North (north) or South Pole: "within
+/// 312 m of the North Pole: true north turns by 1/312 rad per metre across the meridian there, ...".
+std::string polar_heading_text(double distance_m, bool north);
 
 /// The dead_reckoning.csv row of an output (odonav/results/output_files.hpp): what odonav-offline
 /// writes, and what the dead-reckoning node publishes through the topic's field table
@@ -204,6 +229,11 @@ class DeadReckoner {
  public:
   /// Throws std::invalid_argument naming the parameter when params are out of range.
   explicit DeadReckoner(const DeadReckonerParams& params = {});
+
+  /// polar_heading_distance_m of the current DR position (nullopt before the start).
+  std::optional<double> pole_distance_m() const;
+  /// The current DR position (WGS-84); meaningful once started().
+  const Geodetic& position() const { return position_; }
 
   /// Streams, each in strictly increasing time; throw StreamInputError on bad input.
   /// An odometer sample with an implausible pulse jump is dropped and counted (returns kJumpRejected).
@@ -333,6 +363,10 @@ class DeadReckoner {
   /// Degraded mode: the course's minimum speed in force at t_s (course_min_speed_mps).
   double course_min_speed_at(double t_s) const;
   std::optional<Attitude> last_attitude_;
+  // The DR's error at the latest GNSS epoch evaluated (fix minus DR, ENU of the origin, m): in the
+  // polar cap the INS heading is taken from north at the DR position plus this (where the INS, and
+  // the truth, are to GNSS accuracy), not at the DR position alone (see step()).
+  std::optional<Eigen::Vector3d> heading_position_offset_enu_m_;
   std::optional<AnchorFix> start_fix_;  ///< reported with the first output
   DeadReckonerCounters counters_;
   /// GNSS epochs not yet applicable at the last output (for the held-estimate decision).

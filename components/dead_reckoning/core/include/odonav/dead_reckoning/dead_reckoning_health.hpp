@@ -43,6 +43,10 @@ struct DeadReckoningHealthFacts : RestartHealthNotes {
   double held_misalignment_changed_at_s = -std::numeric_limits<double>::infinity();
   /// ConsistencyMonitor::reason(): the findings in force ("" none).
   std::string inconsistency;
+  /// DeadReckoner::pole_distance_m() (m) and the pole's hemisphere: the DR is within
+  /// kPolarHeadingRadiusM of a pole, where its heading is ill-defined (WARN while inside).
+  std::optional<double> pole_distance_m;
+  bool pole_north = true;
 };
 
 /// "outputs t=52.5-54.6 s used the K of t=52.4 s held: identification silent" (span closed), or
