@@ -7,8 +7,7 @@
 // reference distance to pulses, the position against the reference fixes it has not used yet).
 // Also, as a diagnosis: K without the estimates of the 20 s after each simulated K step (the lag of
 // a tracking estimator, which its sigma does not describe), and the GNSS latency's online estimate
-// against its own sigma (the published latency is the one in force, which can differ from it), and
-// the latency in force against the sigma it was applied with.
+// against its own sigma (the published latency is the one in force, which lags it).
 //
 // It is a benchmark, not a test: it prints figures (Markdown tables, BENCHMARKS.md §12) and gates
 // nothing. One process, one thread. Options: --seeds N, --first-seed S, --scenarios, --real DIR.
@@ -88,18 +87,6 @@ QuantityCoverage latency_estimate_coverage(const odonav::offline::OfflineResult&
   return q;
 }
 
-// The diagnosis: the latency in force against the sigma it had when it was applied (unknown before
-// the first application: not counted).
-QuantityCoverage latency_applied_coverage(const odonav::offline::OfflineResult& r, double latency_true_s) {
-  QuantityCoverage q{"GNSS latency in force, sigma when applied", {}, {}};
-  for (const odonav::IdentificationOutput& o : r.identification) {
-    if (o.latency.applied_sigma_s < 0.0) continue;
-    q.all.add(o.latency.applied_s - latency_true_s, o.latency.applied_sigma_s);
-    if (o.main.converged) q.converged.add(o.latency.applied_s - latency_true_s, o.latency.applied_sigma_s);
-  }
-  return q;
-}
-
 // K without the rows of the settle_s after each K step of the simulation.
 QuantityCoverage k_outside_steps(const odonav::Dataset& d, const odonav::results::OutputRows& rows,
                                  const odonav::sim::SimulationConfig& cfg, double settle_s) {
@@ -140,7 +127,7 @@ int main(int argc, char** argv) {
                        "a real recording. Prints Markdown tables. Not a test.");
   opts.add_int("seeds", 10, "seeds per scenario", 1, 1000);
   opts.add_int("first-seed", 1, "first seed", 0, std::numeric_limits<int64_t>::max() / 2);
-  opts.add_string("scenarios", "terrain,terrain+1hz,terrain+lat100,slow_robot,straight",
+  opts.add_string("scenarios", "terrain,terrain+1hz,terrain+lat100,terrain+1hz+lat100,slow_robot,straight",
                   "comma-separated scenarios; variants: +<N>hz (GNSS rate), +lat<ms> (GNSS latency)");
   opts.add_string("real", ODONAV_SOURCE_DIR "/tests/data/smartloc-berlin",
                   "a recorded dataset without truth.csv to evaluate too (empty: none)");
@@ -190,7 +177,6 @@ int main(int argc, char** argv) {
         const odonav::sim::SimulationConfig cfg = odonav::bench::scenario_variant(scenario);
         if (!cfg.k_steps.empty()) add(k_outside_steps(d, rows, cfg, 20.0), scenario);
         add(latency_estimate_coverage(r, cfg.gnss_latency_s), scenario);
-        add(latency_applied_coverage(r, cfg.gnss_latency_s), scenario);
       }
       std::cerr << "seed " << seed << " done ("
                 << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s)\n";

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <limits>
 #include <string>
 #include <utility>
@@ -10,7 +12,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/simulator.hpp"
 #include "coverage.hpp"
+#include "offline_runner.hpp"
+#include "offline_test_params.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
 
@@ -264,6 +269,35 @@ TEST(Coverage, ARecordingWithoutTruthUsesTheKReferenceAndTheFixesNotYetApplied) 
   EXPECT_NEAR(east.all.mean_nees(), (0.25 + 2.25) / 2.0, 1e-6);
   EXPECT_EQ(find(all, "position up").all.within_1_sigma, 2u);
   EXPECT_NEAR(find(all, "position up").all.max_abs_z, 0.0, 1e-6);
+}
+
+
+// The published GNSS latency is the one in force; its sigma is the one it was applied with. The
+// online estimate's sigma, published before, described another value: until the first application
+// 0 was in force with a sigma of a few ms against a true 100 ms (up to 8 sigmas at 1 Hz).
+TEST(Coverage, PublishedGnssLatencySigmaIsTheOneOfTheValueInForce) {
+  for (const auto& [scenario_name, rate_hz] : {std::pair{"terrain", 10.0}, std::pair{"terrain", 1.0}}) {
+    SCOPED_TRACE(rate_hz);
+    std::map<std::string, QuantityCoverage> pooled;
+    for (uint64_t seed = 1; seed <= 3; ++seed) {
+      sim::SimulationConfig cfg = sim::scenario_config(scenario_name);
+      cfg.seed = seed;
+      cfg.gnss_rate_hz = rate_hz;
+      cfg.gnss_latency_s = 0.1;
+      const Dataset d = sim::simulate(cfg);
+      const OfflineParams p = test::user_params(d);
+      const OfflineResult r = run_offline(d, p);
+      for (const QuantityCoverage& q : evaluate_coverage(d, to_output_rows(r, p.identification.estimator_name)))
+        pooled[q.quantity].all.merge(q.all);
+    }
+    const Coverage& latency = pooled.at("GNSS latency").all;
+    std::printf("%.0f Hz, 100 ms: n %zu, within 3 sigma %.1f %%, largest |error| / sigma %.2f\n", rate_hz, latency.n,
+                100.0 * latency.fraction_within(3), latency.max_abs_z);
+    // Measured: every row within 3 sigmas (largest 2.3 at 10 Hz, 2.9 at 1 Hz); with the online
+    // estimate's sigma 68 % at 1 Hz.
+    EXPECT_GT(latency.n, rate_hz > 5.0 ? 20000u : 2000u);
+    EXPECT_GE(latency.fraction_within(3), 0.99);
+  }
 }
 
 }  // namespace
