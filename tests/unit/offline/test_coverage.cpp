@@ -272,6 +272,59 @@ TEST(Coverage, ARecordingWithoutTruthUsesTheKReferenceAndTheFixesNotYetApplied) 
 }
 
 
+// The published sigmas on the simulator, seeds 1-3, run as a user runs odonav-offline: only the
+// quantities whose sigmas meet a bound with a clear margin today (odonav-bench-coverage, BENCHMARKS.md
+// §12, has every quantity; the misalignment pitch, the GNSS latency at 1 Hz, K at 1 Hz and on the slow
+// robot, and the slow robot's position do not meet one yet).
+std::map<std::string, QuantityCoverage> pooled_over_seeds(const std::string& scenario_name) {
+  std::map<std::string, QuantityCoverage> pooled;
+  for (uint64_t seed = 1; seed <= 3; ++seed) {
+    sim::SimulationConfig cfg = sim::scenario_config(scenario_name);
+    cfg.seed = seed;
+    const Dataset d = sim::simulate(cfg);
+    const OfflineParams p = test::user_params(d);
+    const OfflineResult r = run_offline(d, p);
+    for (const QuantityCoverage& q : evaluate_coverage(d, to_output_rows(r, p.identification.estimator_name))) {
+      QuantityCoverage& sum = pooled[q.quantity];
+      sum.quantity = q.quantity;
+      sum.all.merge(q.all);
+      sum.converged.merge(q.converged);
+    }
+  }
+  for (const auto& [name, q] : pooled)
+    std::printf("%s %s: n %zu, within 2 / 3 sigma %.1f / %.1f %%, mean NEES %.2f\n", scenario_name.c_str(), name.c_str(),
+                q.all.n, 100.0 * q.all.fraction_within(2), 100.0 * q.all.fraction_within(3), q.all.mean_nees());
+  return pooled;
+}
+
+TEST(Coverage, PublishedSigmasOnTerrainSeedsOneToThree) {
+  const std::map<std::string, QuantityCoverage> c = pooled_over_seeds("terrain");
+  // Measured: K 96 % within 2 sigma (the lag after the two K steps makes most of the rest; 3 sigma
+  // is at 98 %, short of 99.7 %), misalignment heading 98 %, position 96-100 % and 100 % within 3.
+  for (const char* name : {"K", "misalignment heading", "position east", "position north", "position up"}) {
+    ASSERT_TRUE(c.count(name)) << name;
+    const Coverage& q = c.at(name).all;
+    EXPECT_GT(q.n, 20000u) << name;
+    EXPECT_GE(q.fraction_within(2), 0.90) << name;
+  }
+  for (const char* name : {"position east", "position north", "position up"}) {
+    EXPECT_GE(c.at(name).all.fraction_within(3), 0.99) << name;
+    EXPECT_LT(c.at(name).all.mean_nees(), 1.5) << name;
+  }
+}
+
+TEST(Coverage, PublishedKSigmaOnStraightSeedsOneToThree) {
+  const std::map<std::string, QuantityCoverage> c = pooled_over_seeds("straight");
+  // Measured: 99 % within 2 sigma, 99.9 % within 3, mean NEES 0.65.
+  ASSERT_TRUE(c.count("K"));
+  const Coverage& k = c.at("K").all;
+  EXPECT_GT(k.n, 5000u);
+  EXPECT_GE(k.fraction_within(2), 0.95);
+  EXPECT_GE(k.fraction_within(3), 0.99);
+  EXPECT_LT(k.mean_nees(), 1.5);
+}
+
+
 // The published GNSS latency is the one in force; its sigma is the one it was applied with. The
 // online estimate's sigma, published before, described another value: until the first application
 // 0 was in force with a sigma of a few ms against a true 100 ms (up to 8 sigmas at 1 Hz).
