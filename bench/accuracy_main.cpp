@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_scenarios.hpp"
 #include "core/simulator.hpp"
 #include "odonav/calibration/calibration_options.hpp"
 #include "odonav/config.hpp"
@@ -90,54 +91,8 @@ std::size_t count_never(const Figure& f) {
 
 // ---- one run ---------------------------------------------------------------------------------------
 
-// A scenario with variants: "terrain", "terrain+1hz" (GNSS rate), "terrain+lat50" (GNSS latency in
-// ms), combinable ("ring+1hz+lat100"). Throws std::invalid_argument naming an unknown modifier.
-odonav::sim::SimulationConfig scenario_variant(const std::string& spec) {
-  std::stringstream parts(spec);
-  std::string name;
-  std::getline(parts, name, '+');
-  odonav::sim::SimulationConfig cfg = odonav::sim::scenario_config(name);
-  for (std::string m; std::getline(parts, m, '+');) {
-    if (m.size() > 2 && m.compare(m.size() - 2, 2, "hz") == 0) {
-      cfg.gnss_rate_hz = std::stod(m.substr(0, m.size() - 2));
-    } else if (m.rfind("lat", 0) == 0) {
-      cfg.gnss_latency_s = std::stod(m.substr(3)) / 1000.0;
-    } else {
-      throw std::invalid_argument("scenario '" + spec + "': unknown modifier '" + m + "' (<N>hz or lat<ms>)");
-    }
-  }
-  return cfg;
-}
-
-odonav::Dataset simulate(const std::string& scenario, uint64_t seed) {
-  odonav::sim::SimulationConfig cfg = scenario_variant(scenario);
-  cfg.seed = seed;
-  return odonav::sim::simulate(cfg);
-}
-
-// What odonav-offline's main does with a dataset before running (apply_dataset_defaults): the
-// lever arm and nominal K from meta.json unless given, dead_reckoner_params for DR and
-// identification_params_for with the same vehicle facts, so the bench measures the defaults a user
-// gets.
-odonav::offline::OfflineParams params_for(const odonav::Dataset& d, odonav::offline::OfflineParams p,
-                                          const odonav::Options& opts) {
-  odonav::DeadReckoningFacts facts = odonav::dead_reckoning_facts_from(opts);
-  if (!facts.lever_arm_body_m && d.meta.gnss_lever_arm_m) {
-    facts.lever_arm_body_m = d.meta.gnss_lever_arm_m;
-    p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
-  }
-  facts.use_ins = d.has_ins();
-  facts.dataset_nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse;
-  p.dead_reckoning = odonav::dead_reckoner_params(facts);
-  odonav::IdentificationVehicleFacts vehicle;
-  vehicle.use_ins = d.has_ins();
-  vehicle.lever_arm_body_m = p.dead_reckoning.lever_arm_body_m;
-  vehicle.nominal_k_m_per_pulse = p.dead_reckoning.nominal_k_m_per_pulse;
-  vehicle.run_all_estimators = true;
-  p.identification = odonav::identification_params_for(opts, vehicle);
-  p.calibration.use_ins = d.has_ins();
-  return p;
-}
+using odonav::bench::params_for;
+using odonav::bench::simulate;
 
 json summary_of(const odonav::Dataset& d, const odonav::results::OutputRows& rows, const std::string& name) {
   odonav::offline::SummaryOptions options;

@@ -298,10 +298,11 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
   // Brakings that ended in a standstill and the samples they withdrew from K (braking_stop.hpp).
   c.emplace_back("braking_stops", static_cast<double>(core_.braking_stop_counters().stops));
   c.emplace_back("braking_samples_withdrawn", static_cast<double>(core_.braking_stop_counters().samples_withdrawn));
-  // The GNSS latency in force and its online one-sigma (0 when fixed, -1 while there is none).
+  // The GNSS latency in force and its one-sigma when it was applied (0 when fixed, -1 while none
+  // was applied).
   const GnssLatencyEstimate& latency = core_.latency();
   c.emplace_back("gnss_latency_s", latency.applied_s);
-  c.emplace_back("gnss_latency_sigma_s", latency.sigma_s >= 0.0 ? latency.sigma_s : -1.0);
+  c.emplace_back("gnss_latency_sigma_s", latency.applied_sigma_s >= 0.0 ? latency.applied_sigma_s : -1.0);
   c.emplace_back("rejected_min_speed", static_cast<double>(b.min_speed));
   c.emplace_back("rejected_invalid_fix", static_cast<double>(b.invalid_fix));
   c.emplace_back("rejected_yaw_rate", static_cast<double>(b.yaw_rate));

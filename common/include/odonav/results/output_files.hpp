@@ -71,7 +71,8 @@ struct ScaleFactorRow {
   uint64_t samples_accepted = 0;
   uint64_t samples_rejected = 0;
   std::string epoch_status;
-  /// GNSS latency in force [s] and the online estimate's one-sigma [s] (nullopt = unknown).
+  /// GNSS latency in force [s] and its one-sigma [s]: the online estimate's when it was applied (0
+  /// when fixed; nullopt while none was applied).
   double gnss_latency_s = 0.0;
   std::optional<double> gnss_latency_sigma_s;
   /// Track slip in turns (turn_slip.hpp): the gain g [s/rad] (0 without an estimate), its

@@ -433,7 +433,9 @@ std::vector<DeadReckoningOutput> DeadReckoner::finish() {
 
 std::optional<Attitude> DeadReckoner::lever_arm_attitude_at(double t_s) const {
   if (params_.use_ins) return attitude_.attitude_at(t_s, watermark_s_);
-  if (held_heading_rad_) return Attitude{*held_heading_rad_, 0.0, 0.0};
+  // The held course is the direction of motion: the body faces the other way when it was measured
+  // reversing.
+  if (held_heading_rad_) return Attitude{wrap_two_pi(*held_heading_rad_ + (held_direction_ < 0 ? kPi : 0.0)), 0.0, 0.0};
   return std::nullopt;
 }
 

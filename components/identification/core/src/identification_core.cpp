@@ -337,7 +337,10 @@ results::ScaleFactorRow output_row(const IdentificationOutput& k, const std::str
   r.samples_rejected = k.samples_rejected;
   r.epoch_status = to_string(k.epoch_status);
   r.gnss_latency_s = k.latency.applied_s;
-  if (k.latency.sigma_s >= 0.0) r.gnss_latency_sigma_s = k.latency.sigma_s;
+  // The sigma of the value in force, not of the online estimate: the two differ until the
+  // estimate is applied, and before the first application the value in force (0) is not the
+  // estimate at all.
+  if (k.latency.applied_sigma_s >= 0.0) r.gnss_latency_sigma_s = k.latency.applied_sigma_s;
   r.turn_slip_s_per_rad = k.turn_slip.g_s_per_rad;
   if (k.turn_slip.sigma_s_per_rad >= 0.0) r.turn_slip_sigma_s_per_rad = k.turn_slip.sigma_s_per_rad;
   r.turn_slip_applies = k.turn_slip.applies;

@@ -1,0 +1,371 @@
+// Sigma coverage (coverage.hpp): the arithmetic on synthetic errors with exact expected fractions,
+// and which reference each published quantity is compared with.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/simulator.hpp"
+#include "coverage.hpp"
+#include "offline_runner.hpp"
+#include "offline_test_params.hpp"
+#include "odonav/frames.hpp"
+#include "odonav/geodesy.hpp"
+
+namespace odonav::offline {
+namespace {
+
+const QuantityCoverage& find(const std::vector<QuantityCoverage>& all, const std::string& quantity) {
+  for (const QuantityCoverage& q : all)
+    if (q.quantity == quantity) return q;
+  ADD_FAILURE() << "no quantity " << quantity;
+  static const QuantityCoverage none;
+  return none;
+}
+
+TEST(Coverage, CountsWithinOneTwoThreeSigmaAndTheMeanNees) {
+  Coverage c;
+  // |z| = 0.5, 1 (on the bound: within), 1.5, 2.5, 3, 4: sigmas of 2 m, errors of either sign.
+  for (const double error_m : {1.0, -2.0, 3.0, -5.0, 6.0, 8.0}) c.add(error_m, 2.0);
+  EXPECT_EQ(c.n, 6u);
+  EXPECT_EQ(c.within_1_sigma, 2u);
+  EXPECT_EQ(c.within_2_sigma, 3u);
+  EXPECT_EQ(c.within_3_sigma, 5u);
+  EXPECT_DOUBLE_EQ(c.fraction_within(1), 2.0 / 6.0);
+  EXPECT_DOUBLE_EQ(c.fraction_within(2), 3.0 / 6.0);
+  EXPECT_DOUBLE_EQ(c.fraction_within(3), 5.0 / 6.0);
+  EXPECT_DOUBLE_EQ(c.mean_nees(), (0.25 + 1.0 + 2.25 + 6.25 + 9.0 + 16.0) / 6.0);
+  EXPECT_DOUBLE_EQ(c.max_abs_z, 4.0);
+}
+
+TEST(Coverage, AZeroSigmaClaimsAnExactValueAndNoSigmaIsNoClaim) {
+  Coverage c;
+  c.add(0.0, 0.0);                                       // exact and right: z = 0
+  c.add(1e-9, 0.0);                                      // exact and wrong: outside every bound
+  c.add(1.0, std::numeric_limits<double>::quiet_NaN());  // no sigma: not counted
+  c.add(1.0, -1.0);
+  c.add(std::numeric_limits<double>::infinity(), 1.0);
+  EXPECT_EQ(c.n, 2u);
+  EXPECT_EQ(c.within_1_sigma, 1u);
+  EXPECT_EQ(c.within_3_sigma, 1u);
+  EXPECT_TRUE(std::isinf(c.mean_nees()));
+  EXPECT_TRUE(std::isnan(Coverage{}.fraction_within(2)));
+  EXPECT_TRUE(std::isnan(Coverage{}.mean_nees()));
+}
+
+TEST(Coverage, MergeAddsTheCounts) {
+  Coverage a, b;
+  a.add(0.5, 1.0);
+  b.add(2.5, 1.0);
+  b.add(-3.5, 1.0);
+  a.merge(b);
+  EXPECT_EQ(a.n, 3u);
+  EXPECT_EQ(a.within_1_sigma, 1u);
+  EXPECT_EQ(a.within_2_sigma, 1u);
+  EXPECT_EQ(a.within_3_sigma, 2u);
+  EXPECT_DOUBLE_EQ(a.mean_nees(), (0.25 + 6.25 + 12.25) / 3.0);
+  EXPECT_DOUBLE_EQ(a.max_abs_z, 3.5);
+}
+
+// A simulated dataset in miniature: truth with a K step at 5 s, the true misalignment, a simulated
+// INS heading bias and GNSS latency; and outputs whose errors are known multiples of their sigmas.
+TEST(Coverage, EachQuantityAgainstItsReference) {
+  Dataset d;
+  const Geodetic origin{deg_to_rad(52.5), deg_to_rad(13.4), 80.0};
+  const LocalEnuFrame frame(origin);
+  for (int i = 0; i <= 100; ++i) {
+    TruthSample t;
+    t.t_s = 0.1 * i;
+    t.position = frame.to_geodetic(Eigen::Vector3d(2.0 * t.t_s, 0.0, 0.0));
+    t.k_true_m_per_pulse = t.t_s < 5.0 ? 0.0125 : 0.0125 * 1.03;
+    d.truth.push_back(t);
+  }
+  d.meta.truth_misalignment_heading_deg = 0.8;
+  d.meta.truth_misalignment_pitch_deg = -0.5;
+  d.meta.raw_json = nlohmann::json{{"simulation", {{"ins_heading_bias_deg", 0.2}, {"gnss_latency_s", 0.1}}}}.dump();
+
+  results::OutputRows rows;
+  // K: no sigma yet (not counted), then |z| 0.5 (converged), 2.5 against the K before the step,
+  // 1.5 against the K after it (converged).
+  const auto k_row = [&](double t_s, double k, std::optional<double> sigma, bool converged, double latency_s,
+                         std::optional<double> latency_sigma_s) {
+    results::ScaleFactorRow r;
+    r.t_s = t_s;
+    r.k_m_per_pulse = k;
+    r.sigma_m_per_pulse = sigma;
+    r.converged = converged;
+    r.gnss_latency_s = latency_s;
+    r.gnss_latency_sigma_s = latency_sigma_s;
+    rows.scale_factor.push_back(r);
+  };
+  k_row(1.0, 0.02, std::nullopt, false, 0.0, std::nullopt);
+  k_row(2.0, 0.0125 + 0.5e-5, 1e-5, true, 0.0, 0.01);                 // latency |z| 10, K converged
+  k_row(3.0, 0.0125 - 2.5e-5, 1e-5, false, 0.1 + 0.005, 0.01);        // latency |z| 0.5
+  k_row(6.0, 0.0125 * 1.03 + 1.5e-5, 1e-5, true, 0.1 - 0.025, 0.01);  // latency |z| 2.5, K converged
+  // Misalignment: heading against 0.8 + 0.2 deg, pitch against -0.5 deg.
+  const auto m_row = [&](double t_s, double heading_deg, double pitch_deg, double std_deg, bool converged) {
+    results::MisalignmentRow r;
+    r.t_s = t_s;
+    r.heading_rad = deg_to_rad(heading_deg);
+    r.pitch_rad = deg_to_rad(pitch_deg);
+    r.heading_std_rad = r.pitch_std_rad = deg_to_rad(std_deg);
+    r.converged = converged;
+    rows.misalignment.push_back(r);
+  };
+  m_row(1.0, 0.0, 0.0, std::numeric_limits<double>::quiet_NaN(), false);  // no sigma yet
+  m_row(2.0, 1.0 + 0.35, -0.5 - 0.05, 0.1, false);                        // |z| 3.5 and 0.5
+  m_row(3.0, 1.0 - 0.15, -0.5 + 0.25, 0.1, true);                         // |z| 1.5 and 2.5
+  // Position: not started (no variance), then anchored rows off the truth by 0.5 / -1.5 / 2.5
+  // sigmas (east / north / up; sigma 2 m), one bridging row at |z| 0.5 on every axis.
+  const auto nav_row = [&](double t_s, const Eigen::Vector3d& error_m, double var_m2, const char* status) {
+    results::NavigationPositionRow r;
+    r.t_s = t_s;
+    const Geodetic p = frame.to_geodetic(Eigen::Vector3d(2.0 * t_s, 0.0, 0.0) + error_m);
+    r.lat_rad = p.lat_rad;
+    r.lon_rad = p.lon_rad;
+    r.height_m = p.height_m;
+    r.var_east_m2 = r.var_north_m2 = r.var_up_m2 = var_m2;
+    r.status = status;
+    rows.navigation_position.push_back(r);
+  };
+  nav_row(0.5, Eigen::Vector3d(9.0, 9.0, 9.0), std::numeric_limits<double>::quiet_NaN(), "not_started");
+  nav_row(1.0, Eigen::Vector3d(1.0, -3.0, 5.0), 4.0, "anchored");
+  nav_row(1.05, Eigen::Vector3d(1.0, -3.0, 5.0), 4.0, "anchored");  // between two truth rows
+  nav_row(2.0, Eigen::Vector3d(-1.0, 1.0, -1.0), 4.0, "dead_reckoning");
+
+  const std::vector<QuantityCoverage> all = evaluate_coverage(d, rows);
+  ASSERT_EQ(all.size(), 7u);
+
+  const QuantityCoverage& k = find(all, "K");
+  EXPECT_EQ(k.all.n, 3u);
+  EXPECT_EQ(k.all.within_1_sigma, 1u);
+  EXPECT_EQ(k.all.within_2_sigma, 2u);
+  EXPECT_EQ(k.all.within_3_sigma, 3u);
+  EXPECT_EQ(k.converged.n, 2u);
+  EXPECT_EQ(k.converged.within_1_sigma, 1u);
+  EXPECT_EQ(k.converged.within_2_sigma, 2u);
+
+  const QuantityCoverage& heading = find(all, "misalignment heading");
+  EXPECT_EQ(heading.all.n, 2u);
+  EXPECT_EQ(heading.all.within_2_sigma, 1u);
+  EXPECT_EQ(heading.all.within_3_sigma, 1u);
+  EXPECT_EQ(heading.converged.n, 1u);
+  EXPECT_EQ(heading.converged.within_1_sigma, 0u);
+  EXPECT_EQ(heading.converged.within_2_sigma, 1u);
+  const QuantityCoverage& pitch = find(all, "misalignment pitch");
+  EXPECT_EQ(pitch.all.n, 2u);
+  EXPECT_EQ(pitch.all.within_1_sigma, 1u);
+  EXPECT_EQ(pitch.all.within_2_sigma, 1u);
+  EXPECT_EQ(pitch.all.within_3_sigma, 2u);
+  EXPECT_NEAR(pitch.all.mean_nees(), (0.25 + 6.25) / 2.0, 1e-9);
+
+  const QuantityCoverage& latency = find(all, "GNSS latency");
+  EXPECT_EQ(latency.all.n, 3u);
+  EXPECT_EQ(latency.all.within_1_sigma, 1u);
+  EXPECT_EQ(latency.all.within_3_sigma, 2u);
+  EXPECT_EQ(latency.converged.n, 2u);  // the rows whose K is converged
+  EXPECT_EQ(latency.converged.within_3_sigma, 1u);
+
+  const QuantityCoverage& east = find(all, "position east");
+  const QuantityCoverage& north = find(all, "position north");
+  const QuantityCoverage& up = find(all, "position up");
+  for (const QuantityCoverage* q : {&east, &north, &up}) {
+    EXPECT_EQ(q->all.n, 3u) << q->quantity;
+    EXPECT_EQ(q->converged.n, 2u) << q->quantity;  // anchored
+  }
+  EXPECT_EQ(east.all.within_1_sigma, 3u);
+  EXPECT_EQ(north.all.within_1_sigma, 1u);
+  EXPECT_EQ(north.all.within_2_sigma, 3u);
+  EXPECT_EQ(up.all.within_2_sigma, 1u);
+  EXPECT_EQ(up.all.within_3_sigma, 3u);
+  EXPECT_NEAR(up.converged.mean_nees(), 6.25, 1e-6);
+}
+
+// A simulation's K timeline comes before truth.csv's k_true, which also holds the turn slip (fewer
+// metres per pulse in every turn): the published K is the straight-line K.
+TEST(Coverage, KAgainstTheSimulatedTimelineNotTheTurnSlip) {
+  Dataset d;
+  for (int i = 0; i <= 100; ++i) {
+    TruthSample t;
+    t.t_s = 0.1 * i;
+    const double k_m_per_pulse = t.t_s < 5.0 ? 0.0125 : 0.0125 * 1.03;
+    t.k_true_m_per_pulse = t.t_s >= 2.0 && t.t_s < 3.0 ? 0.99 * k_m_per_pulse : k_m_per_pulse;  // a turn
+    d.truth.push_back(t);
+  }
+  d.meta.raw_json = nlohmann::json{{"simulation",
+                                    {{"k_true_initial_m_per_pulse", 0.0125},
+                                     {"k_steps", {{{"t_s", 5.0}, {"k_before", 0.0125}, {"k_after", 0.0125 * 1.03}}}}}}}
+                        .dump();
+  results::OutputRows rows;
+  for (const auto& [t_s, k] : {std::pair{2.5, 0.0125 + 0.5e-5}, std::pair{6.0, 0.0125 * 1.03 - 0.5e-5}}) {
+    results::ScaleFactorRow r;
+    r.t_s = t_s;
+    r.k_m_per_pulse = k;
+    r.sigma_m_per_pulse = 1e-5;
+    rows.scale_factor.push_back(r);
+  }
+  const QuantityCoverage& k = find(evaluate_coverage(d, rows), "K");
+  EXPECT_EQ(k.all.n, 2u);
+  EXPECT_EQ(k.all.within_1_sigma, 2u);  // against k_true in the turn, the first would be 13 sigmas off
+}
+
+// Without truth.csv, K against the given reference and the position against each fix from the rows
+// the fix has not acted on (stamped before its epoch + hold-off), the fix's variance added.
+TEST(Coverage, ARecordingWithoutTruthUsesTheKReferenceAndTheFixesNotYetApplied) {
+  Dataset d;
+  const Geodetic origin{deg_to_rad(52.5), deg_to_rad(13.4), 80.0};
+  const LocalEnuFrame frame(origin);
+  const auto fix = [&](double t_s, double east_m) {
+    GnssSample g;
+    g.t_s = t_s;
+    g.position = frame.to_geodetic(Eigen::Vector3d(east_m, 0.0, 0.0));
+    g.pos_std_m = 1.0;
+    g.fix = 1;
+    d.gnss.push_back(g);
+  };
+  fix(0.0, 0.0);
+  fix(1.0, 10.0);
+  fix(2.0, 20.0);
+  results::OutputRows rows;
+  const auto nav_row = [&](double t_s, double east_m) {
+    results::NavigationPositionRow r;
+    r.t_s = t_s;
+    const Geodetic p = frame.to_geodetic(Eigen::Vector3d(east_m, 0.0, 0.0));
+    r.lat_rad = p.lat_rad;
+    r.lon_rad = p.lon_rad;
+    r.height_m = p.height_m;
+    r.var_east_m2 = r.var_north_m2 = 3.0;  // + the fix's 1 m^2: sigma 2 m
+    r.var_up_m2 = 4.0 - 2.25;              // + (1.5 x 1 m)^2
+    r.status = "anchored";
+    rows.navigation_position.push_back(r);
+  };
+  nav_row(0.0, 1.0);   // at the first fix: |z| east 0.5
+  nav_row(0.9, 12.0);  // with the row at 1.1 brackets the fix at 1.0: east 13 against 10, |z| 1.5
+  nav_row(1.1, 14.0);
+  nav_row(2.3, 29.0);  // the fix at 2.0 already applies at 2.2: not compared
+  results::ScaleFactorRow k;
+  k.t_s = 1.0;
+  k.k_m_per_pulse = 0.0201;
+  k.sigma_m_per_pulse = 0.0002;
+  rows.scale_factor.push_back(k);
+
+  CoverageOptions options;
+  options.k_reference_m_per_pulse = 0.02;
+  const std::vector<QuantityCoverage> all = evaluate_coverage(d, rows, options);
+  ASSERT_EQ(all.size(), 4u);  // K and the position; no misalignment or latency reference
+  EXPECT_EQ(find(all, "K").all.n, 1u);
+  EXPECT_EQ(find(all, "K").all.within_1_sigma, 1u);
+  const QuantityCoverage& east = find(all, "position east");
+  EXPECT_EQ(east.all.n, 2u);
+  EXPECT_EQ(east.all.within_1_sigma, 1u);
+  EXPECT_EQ(east.all.within_2_sigma, 2u);
+  EXPECT_NEAR(east.all.mean_nees(), (0.25 + 2.25) / 2.0, 1e-6);
+  EXPECT_EQ(find(all, "position up").all.within_1_sigma, 2u);
+  EXPECT_NEAR(find(all, "position up").all.max_abs_z, 0.0, 1e-6);
+}
+
+// The published sigmas on the simulator, seeds 1-3, run as a user runs odonav-offline: only the
+// quantities whose sigmas meet a bound with a clear margin today (odonav-bench-coverage, BENCHMARKS.md
+// §12, has every quantity; the misalignment pitch, the GNSS latency at 1 Hz, K at 1 Hz and on the slow
+// robot, and the slow robot's height do not meet one yet).
+std::map<std::string, QuantityCoverage> pooled_over_seeds(const std::string& scenario_name) {
+  std::map<std::string, QuantityCoverage> pooled;
+  for (uint64_t seed = 1; seed <= 3; ++seed) {
+    sim::SimulationConfig cfg = sim::scenario_config(scenario_name);
+    cfg.seed = seed;
+    const Dataset d = sim::simulate(cfg);
+    const OfflineParams p = test::user_params(d);
+    const OfflineResult r = run_offline(d, p);
+    for (const QuantityCoverage& q : evaluate_coverage(d, to_output_rows(r, p.identification.estimator_name))) {
+      QuantityCoverage& sum = pooled[q.quantity];
+      sum.quantity = q.quantity;
+      sum.all.merge(q.all);
+      sum.converged.merge(q.converged);
+    }
+  }
+  for (const auto& [name, q] : pooled)
+    std::printf("%s %s: n %zu, within 2 / 3 sigma %.1f / %.1f %%, mean NEES %.2f\n", scenario_name.c_str(),
+                name.c_str(), q.all.n, 100.0 * q.all.fraction_within(2), 100.0 * q.all.fraction_within(3),
+                q.all.mean_nees());
+  return pooled;
+}
+
+TEST(Coverage, PublishedSigmasOnTerrainSeedsOneToThree) {
+  const std::map<std::string, QuantityCoverage> c = pooled_over_seeds("terrain");
+  // Measured: K 96 % within 2 sigma (the lag after the two K steps makes most of the rest; 3 sigma
+  // is at 98 %, short of 99.7 %), misalignment heading 98 %, position 96-100 % and 100 % within 3.
+  for (const char* name : {"K", "misalignment heading", "position east", "position north", "position up"}) {
+    ASSERT_TRUE(c.count(name)) << name;
+    const Coverage& q = c.at(name).all;
+    EXPECT_GT(q.n, 20000u) << name;
+    EXPECT_GE(q.fraction_within(2), 0.90) << name;
+  }
+  for (const char* name : {"position east", "position north", "position up"}) {
+    EXPECT_GE(c.at(name).all.fraction_within(3), 0.99) << name;
+    EXPECT_LT(c.at(name).all.mean_nees(), 1.5) << name;
+  }
+}
+
+TEST(Coverage, PublishedKSigmaOnStraightSeedsOneToThree) {
+  const std::map<std::string, QuantityCoverage> c = pooled_over_seeds("straight");
+  // Measured: 99 % within 2 sigma, 99.9 % within 3, mean NEES 0.65.
+  ASSERT_TRUE(c.count("K"));
+  const Coverage& k = c.at("K").all;
+  EXPECT_GT(k.n, 5000u);
+  EXPECT_GE(k.fraction_within(2), 0.95);
+  EXPECT_GE(k.fraction_within(3), 0.99);
+  EXPECT_LT(k.mean_nees(), 1.5);
+}
+
+// The slow robot (no INS, 2 cm fixes, reversing manoeuvres): the lever arm of each fix is turned by
+// the held course, which points backwards while reversing. Taken as the body heading, it put the
+// anchored position 2 x 0.1 m off along the track (11 sigmas) for every reversing stretch.
+TEST(Coverage, SlowRobotPositionHonestWhileReversing) {
+  const std::map<std::string, QuantityCoverage> c = pooled_over_seeds("slow_robot");
+  // Measured: east 99.8 / 100 %, north 98.6 / 98.9 % (93 / 94 % before the reversed course was turned).
+  for (const char* name : {"position east", "position north"}) {
+    ASSERT_TRUE(c.count(name)) << name;
+    const Coverage& q = c.at(name).all;
+    EXPECT_GT(q.n, 50000u) << name;
+    EXPECT_GE(q.fraction_within(2), 0.95) << name;
+    EXPECT_GE(q.fraction_within(3), 0.97) << name;
+  }
+}
+
+// The published GNSS latency is the one in force; its sigma is the one it was applied with. The
+// online estimate's sigma, published before, described another value: until the first application
+// 0 was in force with a sigma of a few ms against a true 100 ms (up to 8 sigmas at 1 Hz).
+TEST(Coverage, PublishedGnssLatencySigmaIsTheOneOfTheValueInForce) {
+  for (const auto& [scenario_name, rate_hz] : {std::pair{"terrain", 10.0}, std::pair{"terrain", 1.0}}) {
+    SCOPED_TRACE(rate_hz);
+    std::map<std::string, QuantityCoverage> pooled;
+    for (uint64_t seed = 1; seed <= 3; ++seed) {
+      sim::SimulationConfig cfg = sim::scenario_config(scenario_name);
+      cfg.seed = seed;
+      cfg.gnss_rate_hz = rate_hz;
+      cfg.gnss_latency_s = 0.1;
+      const Dataset d = sim::simulate(cfg);
+      const OfflineParams p = test::user_params(d);
+      const OfflineResult r = run_offline(d, p);
+      for (const QuantityCoverage& q : evaluate_coverage(d, to_output_rows(r, p.identification.estimator_name)))
+        pooled[q.quantity].all.merge(q.all);
+    }
+    const Coverage& latency = pooled.at("GNSS latency").all;
+    std::printf("%.0f Hz, 100 ms: n %zu, within 3 sigma %.1f %%, largest |error| / sigma %.2f\n", rate_hz, latency.n,
+                100.0 * latency.fraction_within(3), latency.max_abs_z);
+    // Measured: every row within 3 sigmas (largest 2.3 at 10 Hz, 2.9 at 1 Hz); with the online
+    // estimate's sigma 68 % at 1 Hz.
+    EXPECT_GT(latency.n, rate_hz > 5.0 ? 20000u : 2000u);
+    EXPECT_GE(latency.fraction_within(3), 0.99);
+  }
+}
+
+}  // namespace
+}  // namespace odonav::offline
