@@ -310,37 +310,16 @@ int main(int argc, char** argv) {
                        "Accuracy benchmark: every estimator on every simulated scenario over several "
                        "seeds (median and range), DR %D with the online and the coarse K, and the sensitivity of "
                        "VFF-LM-RLS to L, C and lambda_min. Prints Markdown tables. Not a test.");
-  opts.add_int("seeds", 10, "seeds per scenario", 1, 1000);
-  opts.add_int("first-seed", 1, "first seed", 0, std::numeric_limits<int64_t>::max() / 2);
+  odonav::bench::add_scenario_bench_options(
+      opts, "straight,ring,terrain",
+      "comma-separated scenarios to compare; variants: +<N>hz (GNSS rate), +lat<ms> (GNSS latency), e.g. "
+      "terrain+1hz,terrain+lat100,slow_robot");
   opts.add_int("sensitivity-seeds", 3, "seeds of the sensitivity table on terrain (0: skip it)", 0, 1000);
-  opts.add_string("scenarios", "straight,ring,terrain",
-                  "comma-separated scenarios to compare; variants: +<N>hz (GNSS rate), +lat<ms> (GNSS latency), e.g. "
-                  "terrain+1hz,terrain+lat100,slow_robot");
-  opts.add_string("log-level", "warn", "trace, debug, info, warn, error, critical, off");
-  odonav::add_identification_options(opts);
-  odonav::add_calibration_options(opts);
-  odonav::add_dead_reckoning_options(opts);
-  odonav::add_lever_arm_option(opts);
   odonav::offline::OfflineParams base;
-  try {
-    if (opts.parse(argc, argv) == odonav::ParseResult::kHelp) return 0;
-    odonav::setup_logging("bench-accuracy", opts.get_string("log-level"));
-    base.identification = odonav::identification_params_from(opts);
-    base.calibration = odonav::calibration_params_from(opts);
-    base.dead_reckoning = odonav::dead_reckoner_params(odonav::dead_reckoning_facts_from(opts));
-    base.calibration.lever_arm_body_m = base.dead_reckoning.lever_arm_body_m;
-  } catch (const odonav::ConfigError& e) {
-    std::cerr << "odonav-bench-accuracy: " << e.what() << "\n";
-    return 2;
-  }
+  if (const auto status = odonav::bench::parse_scenario_bench(opts, argc, argv, "bench-accuracy", base)) return *status;
   const auto seeds = static_cast<std::size_t>(opts.get_int("seeds"));
   const auto first_seed = static_cast<uint64_t>(opts.get_int("first-seed"));
-  std::vector<std::string> scenarios;
-  {
-    std::stringstream list(opts.get_string("scenarios"));
-    for (std::string s; std::getline(list, s, ',');)
-      if (!s.empty()) scenarios.push_back(s);
-  }
+  const std::vector<std::string> scenarios = odonav::bench::scenario_list(opts);
 
   try {
     const auto t0 = std::chrono::steady_clock::now();

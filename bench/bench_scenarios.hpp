@@ -3,15 +3,22 @@
 // odonav-bench-coverage): one definition, so both measure the same drives with the defaults a user
 // gets.
 #include <cstdint>
+#include <iostream>
+#include <optional>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "core/simulator.hpp"
+#include "odonav/calibration/calibration_options.hpp"
 #include "odonav/config.hpp"
 #include "odonav/consumer_rules.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 #include "odonav/identification/identification_options.hpp"
+#include "odonav/lever_arm_option.hpp"
+#include "odonav/logging.hpp"
 #include "offline_runner.hpp"
 
 namespace odonav::bench {
@@ -62,6 +69,49 @@ inline offline::OfflineParams params_for(const Dataset& d, offline::OfflineParam
   p.identification = identification_params_for(opts, vehicle);
   p.calibration.use_ins = d.has_ins();
   return p;
+}
+
+// The options every benchmark over scenarios takes besides its own: --seeds, --first-seed,
+// --scenarios (default_scenarios; help names the variants), --log-level and the estimators' flags
+// (identification, calibration, dead reckoning, lever arm), as odonav-offline has them.
+inline void add_scenario_bench_options(Options& opts, const std::string& default_scenarios,
+                                       const std::string& scenarios_help) {
+  opts.add_int("seeds", 10, "seeds per scenario", 1, 1000);
+  opts.add_int("first-seed", 1, "first seed", 0, std::numeric_limits<int64_t>::max() / 2);
+  opts.add_string("scenarios", default_scenarios, scenarios_help);
+  opts.add_string("log-level", "warn", "trace, debug, info, warn, error, critical, off");
+  add_identification_options(opts);
+  add_calibration_options(opts);
+  add_dead_reckoning_options(opts);
+  add_lever_arm_option(opts);
+}
+
+// Parses the command line: nullopt with `base` set to the OfflineParams of the flags (before any
+// dataset's defaults: params_for) and logging set up as `tool`; or the exit status, 0 after --help,
+// 2 after a bad flag (named on standard error after "<tool>: ").
+inline std::optional<int> parse_scenario_bench(Options& opts, int argc, char** argv, const std::string& tool,
+                                               offline::OfflineParams& base) {
+  try {
+    if (opts.parse(argc, argv) == ParseResult::kHelp) return 0;
+    setup_logging(tool, opts.get_string("log-level"));
+    base.identification = identification_params_from(opts);
+    base.calibration = calibration_params_from(opts);
+    base.dead_reckoning = dead_reckoner_params(dead_reckoning_facts_from(opts));
+    base.calibration.lever_arm_body_m = base.dead_reckoning.lever_arm_body_m;
+  } catch (const ConfigError& e) {
+    std::cerr << "odonav-" << tool << ": " << e.what() << "\n";
+    return 2;
+  }
+  return std::nullopt;
+}
+
+// --scenarios as a list (empty items skipped).
+inline std::vector<std::string> scenario_list(const Options& opts) {
+  std::vector<std::string> scenarios;
+  std::stringstream list(opts.get_string("scenarios"));
+  for (std::string s; std::getline(list, s, ',');)
+    if (!s.empty()) scenarios.push_back(s);
+  return scenarios;
 }
 
 }  // namespace odonav::bench

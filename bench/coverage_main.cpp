@@ -125,37 +125,16 @@ int main(int argc, char** argv) {
                        "Sigma coverage benchmark: per published quantity and scenario, the fraction of estimates "
                        "within 1, 2, 3 published sigmas of the truth and the mean NEES, over several seeds and on "
                        "a real recording. Prints Markdown tables. Not a test.");
-  opts.add_int("seeds", 10, "seeds per scenario", 1, 1000);
-  opts.add_int("first-seed", 1, "first seed", 0, std::numeric_limits<int64_t>::max() / 2);
-  opts.add_string("scenarios", "terrain,terrain+1hz,terrain+lat100,terrain+1hz+lat100,slow_robot,straight",
-                  "comma-separated scenarios; variants: +<N>hz (GNSS rate), +lat<ms> (GNSS latency)");
+  odonav::bench::add_scenario_bench_options(
+      opts, "terrain,terrain+1hz,terrain+lat100,terrain+1hz+lat100,slow_robot,straight",
+      "comma-separated scenarios; variants: +<N>hz (GNSS rate), +lat<ms> (GNSS latency)");
   opts.add_string("real", ODONAV_SOURCE_DIR "/tests/data/smartloc-berlin",
                   "a recorded dataset without truth.csv to evaluate too (empty: none)");
-  opts.add_string("log-level", "warn", "trace, debug, info, warn, error, critical, off");
-  odonav::add_identification_options(opts);
-  odonav::add_calibration_options(opts);
-  odonav::add_dead_reckoning_options(opts);
-  odonav::add_lever_arm_option(opts);
   odonav::offline::OfflineParams base;
-  try {
-    if (opts.parse(argc, argv) == odonav::ParseResult::kHelp) return 0;
-    odonav::setup_logging("bench-coverage", opts.get_string("log-level"));
-    base.identification = odonav::identification_params_from(opts);
-    base.calibration = odonav::calibration_params_from(opts);
-    base.dead_reckoning = odonav::dead_reckoner_params(odonav::dead_reckoning_facts_from(opts));
-    base.calibration.lever_arm_body_m = base.dead_reckoning.lever_arm_body_m;
-  } catch (const odonav::ConfigError& e) {
-    std::cerr << "odonav-bench-coverage: " << e.what() << "\n";
-    return 2;
-  }
+  if (const auto status = odonav::bench::parse_scenario_bench(opts, argc, argv, "bench-coverage", base)) return *status;
   const auto seeds = static_cast<std::size_t>(opts.get_int("seeds"));
   const auto first_seed = static_cast<uint64_t>(opts.get_int("first-seed"));
-  std::vector<std::string> scenarios;
-  {
-    std::stringstream list(opts.get_string("scenarios"));
-    for (std::string s; std::getline(list, s, ',');)
-      if (!s.empty()) scenarios.push_back(s);
-  }
+  const std::vector<std::string> scenarios = odonav::bench::scenario_list(opts);
 
   try {
     const auto t0 = std::chrono::steady_clock::now();
