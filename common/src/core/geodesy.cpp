@@ -73,21 +73,21 @@ void enu_axes_ld(long double lat, long double lon, long double r[3][3]) {
 
 }  // namespace
 
-double normalize_lon_rad(double lon_rad) {
-  if (!std::isfinite(lon_rad) || (lon_rad >= -kPi && lon_rad < kPi)) return lon_rad;
-  double a = std::fmod(lon_rad + kPi, 2.0 * kPi);
-  if (a < 0.0) a += 2.0 * kPi;
-  const double out = a - kPi;
-  return out >= kPi ? -kPi : out;
+namespace {
+// value brought to [-half_turn, half_turn) by whole turns; unchanged (bit for bit) when already
+// there or not finite.
+double wrap_half_open(double value, double half_turn) {
+  if (!std::isfinite(value) || (value >= -half_turn && value < half_turn)) return value;
+  double a = std::fmod(value + half_turn, 2.0 * half_turn);
+  if (a < 0.0) a += 2.0 * half_turn;
+  const double out = a - half_turn;
+  return out >= half_turn ? -half_turn : out;
 }
+}  // namespace
 
-double normalize_lon_deg(double lon_deg) {
-  if (!std::isfinite(lon_deg) || (lon_deg >= -180.0 && lon_deg < 180.0)) return lon_deg;
-  double a = std::fmod(lon_deg + 180.0, 360.0);
-  if (a < 0.0) a += 360.0;
-  const double out = a - 180.0;
-  return out >= 180.0 ? -180.0 : out;
-}
+double normalize_lon_rad(double lon_rad) { return wrap_half_open(lon_rad, kPi); }
+
+double normalize_lon_deg(double lon_deg) { return wrap_half_open(lon_deg, 180.0); }
 
 Geodetic normalized(const Geodetic& p) {
   Geodetic out = p;
@@ -203,11 +203,6 @@ struct LocalEnuFrame::Impl {
 
   /// The computation behind to_enu (no memo).
   Eigen::Vector3d compute_enu(const Geodetic& p) const;
-
-  static void geodetic_to_ecef(long double lat, long double lon, long double h, long double& x, long double& y,
-                               long double& z) {
-    geodetic_to_ecef_ld(lat, lon, h, x, y, z);
-  }
 };
 
 namespace {
@@ -241,14 +236,8 @@ uint64_t bits_of(double v) {
 
 LocalEnuFrame::LocalEnuFrame(const Geodetic& origin) : origin_(origin), impl_(new Impl) {
   impl_->memo_id = next_frame_memo_id.fetch_add(1, std::memory_order_relaxed);
-  Impl::geodetic_to_ecef(origin.lat_rad, origin.lon_rad, origin.height_m, impl_->x0, impl_->y0, impl_->z0);
-  const long double sp = std::sin(static_cast<long double>(origin.lat_rad));
-  const long double cp = std::cos(static_cast<long double>(origin.lat_rad));
-  const long double sl = std::sin(static_cast<long double>(origin.lon_rad));
-  const long double cl = std::cos(static_cast<long double>(origin.lon_rad));
-  const long double rows[3][3] = {{-sl, cl, 0.0L}, {-sp * cl, -sp * sl, cp}, {cp * cl, cp * sl, sp}};
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) impl_->r[i][j] = rows[i][j];
+  geodetic_to_ecef_ld(origin.lat_rad, origin.lon_rad, origin.height_m, impl_->x0, impl_->y0, impl_->z0);
+  enu_axes_ld(origin.lat_rad, origin.lon_rad, impl_->r);
 }
 LocalEnuFrame::~LocalEnuFrame() = default;
 LocalEnuFrame::LocalEnuFrame(const LocalEnuFrame& other) : origin_(other.origin_), impl_(new Impl(*other.impl_)) {}
@@ -278,7 +267,7 @@ Eigen::Vector3d LocalEnuFrame::to_enu(const Geodetic& p) const {
 
 Eigen::Vector3d LocalEnuFrame::Impl::compute_enu(const Geodetic& p) const {
   long double x, y, z;
-  Impl::geodetic_to_ecef(p.lat_rad, p.lon_rad, p.height_m, x, y, z);
+  geodetic_to_ecef_ld(p.lat_rad, p.lon_rad, p.height_m, x, y, z);
   const long double d[3] = {x - x0, y - y0, z - z0};
   Eigen::Vector3d out;
   for (int i = 0; i < 3; ++i) out[i] = static_cast<double>(r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);

@@ -19,10 +19,6 @@ double reference_at(const std::vector<TimedValue>& ref, double t_s) {
   return std::prev(it)->value;
 }
 
-// The position at fraction f of the way from a to b (interpolate_geodetic: across longitude 180
-// the shorter way round, near a pole along the ECEF chord).
-Geodetic interpolate(const Geodetic& a, const Geodetic& b, double f) { return interpolate_geodetic(a, b, f); }
-
 // Largest time gap (s) across which a track is interpolated.
 constexpr double kMaxTrackGapS = 1.5;
 
@@ -169,8 +165,8 @@ void DeadReckoningEvaluator::add(double t_s, const Geodetic& position, double di
   if (ref_next_ && ref_next_->t_s == t_s)
     ref = ref_next_->position;
   else if (ref_next_ && ref_prev_ && !(ref_next_->t_s - ref_prev_->t_s > kMaxTrackGapS))
-    ref = interpolate(ref_prev_->position, ref_next_->position,
-                      (t_s - ref_prev_->t_s) / (ref_next_->t_s - ref_prev_->t_s));
+    ref = interpolate_geodetic(ref_prev_->position, ref_next_->position,
+                               (t_s - ref_prev_->t_s) / (ref_next_->t_s - ref_prev_->t_s));
   if (ref) {
     const double err = horizontal_error_m(position, *ref);
     ++out_.epochs;
@@ -210,7 +206,7 @@ void DeadReckoningEvaluator::resolve(const TimedPosition& q, const Epoch* next) 
     p.dr_distance_m = last_->distance_m;
   } else if (last_) {
     if (next && !(next->t_s - last_->t_s > kMaxTrackGapS))
-      p.dr = interpolate(last_->position, next->position, (q.t_s - last_->t_s) / (next->t_s - last_->t_s));
+      p.dr = interpolate_geodetic(last_->position, next->position, (q.t_s - last_->t_s) / (next->t_s - last_->t_s));
     p.dr_distance_m = last_->distance_m;
   } else if (next) {
     p.dr_distance_m = next->distance_m;
