@@ -87,6 +87,36 @@ struct WriteVisitor {
   }
 };
 
+// One row into a JSON object, field by field in the table's order; empty fields are null.
+struct JsonVisitor {
+  nlohmann::json& j;
+  static nlohmann::json known(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+  static nlohmann::json known(const std::optional<double>& v) { return v ? known(*v) : nlohmann::json(); }
+  void number(const char* n, double v, double, Since = Since::kFirst) { j[n] = known(v); }
+  void finite(const char* n, double v, Since = Since::kFirst) { j[n] = known(v); }
+  void degrees(const char* n, double rad) { j[n] = known(rad_to_deg(rad)); }
+  void finite_degrees(const char* n, double rad) { j[n] = known(rad_to_deg(rad)); }
+  void optional(const char* n, const std::optional<double>& v, Since = Since::kFirst) { j[n] = known(v); }
+  void text(const char* n, const std::string& v) { j[n] = v; }
+  void flag(const char* n, bool v) { j[n] = v; }
+  void count(const char* n, uint64_t v) { j[n] = v; }
+  void estimators(const std::vector<std::pair<std::string, std::optional<double>>>& k_by_estimator) {
+    for (const std::string& column : scale_factor_estimator_columns()) {
+      std::optional<double> k;
+      for (const auto& [name, value] : k_by_estimator)
+        if (column == "k_" + name) k = value;
+      j[column] = known(k);
+    }
+  }
+};
+
+template <class Row>
+nlohmann::json json_of(const Row& row) {
+  nlohmann::json j = nlohmann::json::object();
+  visit_columns(row, JsonVisitor{j});
+  return j;
+}
+
 template <class Row>
 void write_row(CsvWriter& csv, const Row& row) {
   visit_columns(row, WriteVisitor{csv});
@@ -94,6 +124,11 @@ void write_row(CsvWriter& csv, const Row& row) {
 }
 
 }  // namespace
+
+nlohmann::json row_json(const MisalignmentRow& row) { return json_of(row); }
+nlohmann::json row_json(const ScaleFactorRow& row) { return json_of(row); }
+nlohmann::json row_json(const DeadReckoningRow& row) { return json_of(row); }
+nlohmann::json row_json(const NavigationPositionRow& row) { return json_of(row); }
 
 const std::vector<std::string>& scale_factor_estimator_columns() {
   static const std::vector<std::string> columns{"k_rls", "k_ff_rls", "k_lm_rls", "k_vff_lm_rls", "k_coarse", "k_kf_rw"};

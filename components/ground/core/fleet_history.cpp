@@ -44,7 +44,7 @@ void FleetHistory::on_dead_reckoning(const DeadReckoningView& d) {
     v.dr.clear();
     v.gnss.clear();
   }
-  add_track_point(v.dr, d.enu_east_m, d.enu_north_m);
+  add_track_point(v.dr, d.row.east_m, d.row.north_m);
 }
 
 void FleetHistory::on_gnss(const GnssView& g) {
@@ -57,15 +57,17 @@ void FleetHistory::on_gnss(const GnssView& g) {
   add_track_point(it->second.gnss, enu.x(), enu.y());
 }
 
-void FleetHistory::on_scale_factor(const ScaleFactorView& k) {
-  // K is 0 while the identification has none yet: not a value to plot.
-  if (!std::isfinite(k.stamp_s) || !std::isfinite(k.k_m_per_pulse) || k.k_m_per_pulse <= 0.0) return;
+void FleetHistory::on_scale_factor(const ScaleFactorView& view) {
+  const results::ScaleFactorRow& k = view.row;
+  // No K yet (0 on the topic): not a value to plot.
+  if (!std::isfinite(k.t_s) || !k.k_m_per_pulse || !std::isfinite(*k.k_m_per_pulse)) return;
+  const double sigma_m_per_pulse = k.sigma_m_per_pulse.value_or(-1.0);  // -1: unknown, as the plot takes it
   std::lock_guard<std::mutex> lock(mutex_);
-  auto& series = vehicles_[k.vehicle_id].k;
-  if (!series.empty() && k.stamp_s < series.back().a) series.clear();  // time went back: a new run
-  series.push_back({k.stamp_s, k.k_m_per_pulse, k.sigma_m_per_pulse});
+  auto& series = vehicles_[view.vehicle_id].k;
+  if (!series.empty() && k.t_s < series.back().a) series.clear();  // time went back: a new run
+  series.push_back({k.t_s, *k.k_m_per_pulse, sigma_m_per_pulse});
   std::size_t drop = 0;
-  while (drop < series.size() && series[drop].a < k.stamp_s - config_.k_window_s) ++drop;
+  while (drop < series.size() && series[drop].a < k.t_s - config_.k_window_s) ++drop;
   if (drop > 0) series.erase(series.begin(), series.begin() + static_cast<std::ptrdiff_t>(drop));
 }
 

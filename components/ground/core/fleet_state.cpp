@@ -6,18 +6,12 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "odonav/frames.hpp"
+
 namespace odonav::ground {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
-double rad_to_deg(double r) { return r * 180.0 / kPi; }
 int index(Stream s) { return static_cast<int>(s); }
-
-/// -1 (the topics' "unknown") and non-finite values become JSON null.
-nlohmann::json known_or_null(double v) {
-  if (!std::isfinite(v) || v < 0.0) return nullptr;
-  return v;
-}
 
 std::string format(const char* fmt, double a) {
   char buf[64];
@@ -62,15 +56,6 @@ std::string fix_quality_name(std::uint8_t q) {
   }
   return "fix" + std::to_string(q);
 }
-std::string k_source_name(std::uint32_t source) {
-  static const char* names[] = {"nominal", "identified", "commanded"};
-  return source < 3 ? names[source] : "source" + std::to_string(source);
-}
-std::string misalignment_state_name(std::uint32_t state) {
-  static const char* names[] = {"waiting", "calibrating", "converged", "frozen"};
-  return state < 4 ? names[state] : "state" + std::to_string(state);
-}
-
 FleetState::FleetState(FleetStateConfig config) : config_(config) {
   if (!(config_.rate_window_s > 0.0)) throw std::invalid_argument("FleetState: rate_window_s must be > 0");
   for (double s : config_.stale_after_s)
@@ -118,7 +103,7 @@ void FleetState::on_dead_reckoning(const DeadReckoningView& d, double now_s) {
   Vehicle& v = vehicle(d.vehicle_id);
   v.dead_reckoning = std::make_pair(d, Timed{now_s, false});
   count(v, Stream::kDeadReckoning, now_s);
-  v.dead_reckoning_gaps.offer(d.stamp_s);
+  v.dead_reckoning_gaps.offer(d.row.t_s);
 }
 
 void FleetState::on_navigation(const NavigationPositionView& n, double now_s) {
@@ -230,76 +215,40 @@ nlohmann::json snapshot_json(const FleetSnapshot& snap) {
                             {"counters", counters}});
     }
     jv["components"] = components;
+    // The estimates: the output file's row (its column names and units) plus what only the topic has.
+    const auto item = [](const auto& snapshot, nlohmann::json j) {
+      j["age_s"] = snapshot.age_s;
+      j["stale"] = snapshot.stale;
+      return j;
+    };
+    jv["scale_factor"] = nullptr;
     if (v.scale_factor) {
-      const auto& s = v.scale_factor->view;
-      jv["scale_factor"] = {{"k_m_per_pulse", s.k_m_per_pulse},
-                            {"sigma_m_per_pulse", known_or_null(s.sigma_m_per_pulse)},
-                            {"forgetting_factor", s.forgetting_factor},
-                            {"window_fill", s.window_fill},
-                            {"estimator", s.estimator},
-                            {"converged", s.converged},
-                            {"frozen", s.frozen},
-                            {"samples_accepted", s.samples_accepted},
-                            {"samples_rejected", s.samples_rejected},
-                            {"source", s.source},
-                            {"stamp_s", s.stamp_s},
-                            {"age_s", v.scale_factor->age_s},
-                            {"stale", v.scale_factor->stale}};
-    } else {
-      jv["scale_factor"] = nullptr;
+      const ScaleFactorView& k = v.scale_factor->view;
+      nlohmann::json j = results::row_json(k.row);
+      j["frozen"] = k.frozen;
+      j["source"] = k.source;
+      jv["scale_factor"] = item(*v.scale_factor, std::move(j));
     }
-    if (v.misalignment) {
-      const auto& m = v.misalignment->view;
-      const auto std_deg = [](double r) {
-        return r < 0.0 || !std::isfinite(r) ? nlohmann::json(nullptr) : nlohmann::json(rad_to_deg(r));
-      };
-      jv["misalignment"] = {{"heading_rad", m.heading_rad},
-                            {"pitch_rad", m.pitch_rad},
-                            {"heading_deg", rad_to_deg(m.heading_rad)},
-                            {"pitch_deg", rad_to_deg(m.pitch_rad)},
-                            {"heading_std_deg", std_deg(m.heading_std_rad)},
-                            {"pitch_std_deg", std_deg(m.pitch_std_rad)},
-                            {"samples_used", m.samples_used},
-                            {"converged", m.converged},
-                            {"state", misalignment_state_name(m.state)},
-                            {"stamp_s", m.stamp_s},
-                            {"age_s", v.misalignment->age_s},
-                            {"stale", v.misalignment->stale}};
-    } else {
-      jv["misalignment"] = nullptr;
-    }
+    jv["misalignment"] = v.misalignment ? item(*v.misalignment, results::row_json(v.misalignment->view.row)) : nullptr;
+    jv["dead_reckoning"] = nullptr;
     if (v.dead_reckoning) {
-      const auto& d = v.dead_reckoning->view;
-      jv["dead_reckoning"] = {{"latitude_deg", d.latitude_deg},
-                              {"longitude_deg", d.longitude_deg},
-                              {"distance_m", d.distance_m},
-                              {"k_m_per_pulse", d.k_m_per_pulse},
-                              {"k_source", k_source_name(d.k_source)},
-                              {"gnss_valid", d.gnss_valid},
-                              {"horizontal_error_m", known_or_null(d.horizontal_error_m)},
-                              {"error_percent_distance", known_or_null(d.error_percent_distance)},
-                              {"stamp_s", d.stamp_s},
-                              {"age_s", v.dead_reckoning->age_s},
-                              {"stale", v.dead_reckoning->stale}};
-    } else {
-      jv["dead_reckoning"] = nullptr;
+      const DeadReckoningView& d = v.dead_reckoning->view;
+      nlohmann::json j = results::row_json(d.row);
+      j["origin_lat_deg"] = d.origin_latitude_deg;
+      j["origin_lon_deg"] = d.origin_longitude_deg;
+      j["origin_height_m"] = d.origin_height_m;
+      j["gnss_valid"] = d.gnss_valid;
+      jv["dead_reckoning"] = item(*v.dead_reckoning, std::move(j));
     }
+    jv["navigation"] = nullptr;
     if (v.navigation) {
-      const auto& n = v.navigation->view;
-      const char* status = n.status == 1 ? "anchored" : n.status == 2 ? "dead_reckoning" : "not_started";
-      const bool known = n.covariance_east_m2 >= 0.0 && n.covariance_north_m2 >= 0.0;
-      jv["navigation"] = {
-          {"status", status},
-          {"latitude_deg", n.latitude_deg},
-          {"longitude_deg", n.longitude_deg},
-          {"horizontal_sigma_m",
-           known ? nlohmann::json(std::sqrt(n.covariance_east_m2 + n.covariance_north_m2)) : nlohmann::json(nullptr)},
-          {"distance_since_fix_m", known_or_null(n.distance_since_fix_m)},
-          {"stamp_s", n.stamp_s},
-          {"age_s", v.navigation->age_s},
-          {"stale", v.navigation->stale}};
-    } else {
-      jv["navigation"] = nullptr;
+      const results::NavigationPositionRow& n = v.navigation->view.row;
+      nlohmann::json j = results::row_json(n);
+      const double horizontal_var_m2 = n.var_east_m2 + n.var_north_m2;  // NaN when either is unknown
+      j["horizontal_sigma_m"] = std::isfinite(horizontal_var_m2) && horizontal_var_m2 >= 0.0
+                                    ? nlohmann::json(std::sqrt(horizontal_var_m2))
+                                    : nlohmann::json();
+      jv["navigation"] = item(*v.navigation, std::move(j));
     }
     if (v.gnss) {
       const auto& g = v.gnss->view;
@@ -358,10 +307,10 @@ std::vector<Line> vehicle_block(const VehicleSnapshot& v) {
 
   std::ostringstream k;
   if (v.scale_factor) {
-    const auto& s = v.scale_factor->view;
-    k << " K " << format("%.7f", s.k_m_per_pulse);
-    if (s.sigma_m_per_pulse >= 0.0) k << " +-" << format("%.7f", s.sigma_m_per_pulse);
-    k << " m/p " << s.estimator << (s.converged ? " conv" : " -") << (s.frozen ? " FROZEN" : "")
+    const results::ScaleFactorRow& s = v.scale_factor->view.row;
+    k << " K " << format("%.7f", s.k_m_per_pulse.value_or(0.0));
+    if (s.sigma_m_per_pulse) k << " +-" << format("%.7f", *s.sigma_m_per_pulse);
+    k << " m/p " << s.estimator << (s.converged ? " conv" : " -") << (v.scale_factor->view.frozen ? " FROZEN" : "")
       << format(" lambda %.4f", s.forgetting_factor) << format(" fill %.0f%%", 100.0 * s.window_fill)
       << (v.scale_factor->stale ? " STALE" : "");
   } else {
@@ -371,12 +320,12 @@ std::vector<Line> vehicle_block(const VehicleSnapshot& v) {
 
   std::ostringstream m;
   if (v.misalignment) {
-    const auto& a = v.misalignment->view;
+    const results::MisalignmentRow& a = v.misalignment->view.row;
     m << " misalign hdg " << format("%+.3f", rad_to_deg(a.heading_rad));
-    if (a.heading_std_rad >= 0.0) m << " +-" << format("%.3f", rad_to_deg(a.heading_std_rad));
+    if (std::isfinite(a.heading_std_rad)) m << " +-" << format("%.3f", rad_to_deg(a.heading_std_rad));
     m << " pitch " << format("%+.3f", rad_to_deg(a.pitch_rad));
-    if (a.pitch_std_rad >= 0.0) m << " +-" << format("%.3f", rad_to_deg(a.pitch_std_rad));
-    m << " deg " << misalignment_state_name(a.state) << (v.misalignment->stale ? " STALE" : "");
+    if (std::isfinite(a.pitch_std_rad)) m << " +-" << format("%.3f", rad_to_deg(a.pitch_std_rad));
+    m << " deg " << a.state << (v.misalignment->stale ? " STALE" : "");
   } else {
     m << " misalign -";
   }
@@ -384,11 +333,11 @@ std::vector<Line> vehicle_block(const VehicleSnapshot& v) {
 
   std::ostringstream d;
   if (v.dead_reckoning) {
-    const auto& r = v.dead_reckoning->view;
+    const results::DeadReckoningRow& r = v.dead_reckoning->view.row;
     d << " DR err ";
-    d << (r.horizontal_error_m >= 0.0 ? format("%.1f m", r.horizontal_error_m) : std::string("- m"));
-    d << " " << (r.error_percent_distance >= 0.0 ? format("%.2f %%D", r.error_percent_distance) : std::string("- %D"));
-    d << format(" dist %.0f m", r.distance_m) << " K " << k_source_name(r.k_source);
+    d << (std::isfinite(r.horizontal_error_m) ? format("%.1f m", r.horizontal_error_m) : std::string("- m"));
+    d << " " << (std::isfinite(r.error_percent) ? format("%.2f %%D", r.error_percent) : std::string("- %D"));
+    d << format(" dist %.0f m", r.distance_m) << " K " << r.k_source;
     // Which identification instance the K comes from (a hot standby publishes under its own name).
     if (v.scale_factor && !v.scale_factor->view.source.empty()) d << " from " << v.scale_factor->view.source;
     d << (v.dead_reckoning->stale ? " STALE" : "");

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "odonav/gap_detector.hpp"
+#include "odonav/results/output_files.hpp"
 
 namespace odonav::ground {
 
@@ -40,54 +41,34 @@ struct HealthView {
   std::string last_command_detail;
 };
 
+// The estimate views hold the estimate as the row its output file has (odonav/results/
+// output_files.hpp: radians, SI, unknown = NaN or nullopt), made from the message by the one field
+// table of odonav/dds/output_messages.hpp, plus what only the topic carries. So a field added to a
+// topic and its table reaches the ground's JSON and page without a line here.
+
 struct ScaleFactorView {
   std::string vehicle_id;
-  double stamp_s = 0.0;
-  double k_m_per_pulse = 0.0;
-  double sigma_m_per_pulse = -1.0;  ///< -1: unknown
-  double forgetting_factor = 1.0;   ///< (0, 1]
-  double window_fill = 0.0;         ///< [0, 1]
-  std::string estimator;
-  bool converged = false;
+  results::ScaleFactorRow row;  ///< t_s the message stamp (NaN when a peer's stamp is invalid)
   bool frozen = false;
-  std::uint32_t samples_accepted = 0, samples_rejected = 0;
   std::string source;  ///< the publishing identification instance ("identification", "identification/standby")
 };
 
 struct MisalignmentView {
   std::string vehicle_id;
-  double stamp_s = 0.0;
-  double heading_rad = 0.0, pitch_rad = 0.0;
-  double heading_std_rad = -1.0, pitch_std_rad = -1.0;  ///< -1: unknown
-  std::uint32_t samples_used = 0;
-  bool converged = false;
-  std::uint32_t state = 0;  ///< Misalignment.STATE_* (0 waiting, 1 calibrating, 2 converged, 3 frozen)
+  results::MisalignmentRow row;  ///< state "waiting" | "calibrating" | "converged" | "frozen"
 };
 
 struct DeadReckoningView {
   std::string vehicle_id;
-  double stamp_s = 0.0;
-  double latitude_deg = 0.0, longitude_deg = 0.0;
-  double height_m = 0.0;                       ///< ellipsoidal [m]
-  double enu_east_m = 0.0, enu_north_m = 0.0;  ///< local ENU of the DR origin [m]
-  double origin_latitude_deg = 0.0, origin_longitude_deg = 0.0, origin_height_m = 0.0;
-  double distance_m = 0.0;
-  double k_m_per_pulse = 0.0;
-  std::uint32_t k_source = 0;  ///< 0 nominal, 1 identified, 2 commanded
+  results::DeadReckoningRow row;  ///< east/north/up_m in the local ENU of the DR origin; lon in [-pi, pi)
+  double origin_latitude_deg = 0.0, origin_longitude_deg = 0.0, origin_height_m = 0.0;  ///< WGS-84
   bool gnss_valid = false;
-  double horizontal_error_m = -1.0;      ///< -1: no reference
-  double error_percent_distance = -1.0;  ///< %D; -1: no reference
 };
 
 /// The GNSS-anchored navigation position (NavigationPosition).
 struct NavigationPositionView {
   std::string vehicle_id;
-  double stamp_s = 0.0;
-  double latitude_deg = 0.0, longitude_deg = 0.0;
-  double height_m = 0.0;                                                                  ///< ellipsoidal [m]
-  double covariance_east_m2 = -1.0, covariance_north_m2 = -1.0, covariance_up_m2 = -1.0;  ///< -1 unknown
-  std::uint32_t status = 0;  ///< 0 not started, 1 anchored, 2 dead reckoning
-  double distance_since_fix_m = -1.0;
+  results::NavigationPositionRow row;  ///< status "not_started" | "anchored" | "dead_reckoning"
 };
 
 struct GnssView {
@@ -101,12 +82,10 @@ struct GnssView {
 };
 
 /// Names for the numeric enumerations of the topics.
-std::string health_state_name(std::uint32_t state);        ///< "STARTING" .. "STOPPING", else "STATE<n>"
-std::string health_level_name(std::uint32_t level);        ///< "OK", "WARN", "ERROR", "STALE", else "LEVEL<n>"
-std::string command_result_name(std::uint32_t result);     ///< "none", "accepted", "rejected"
-std::string fix_quality_name(std::uint8_t quality);        ///< "invalid", "single", "dgps", "rtk-fixed", ...
-std::string k_source_name(std::uint32_t source);           ///< "nominal", "identified", "commanded"
-std::string misalignment_state_name(std::uint32_t state);  ///< "waiting" .. "frozen"
+std::string health_state_name(std::uint32_t state);     ///< "STARTING" .. "STOPPING", else "STATE<n>"
+std::string health_level_name(std::uint32_t level);     ///< "OK", "WARN", "ERROR", "STALE", else "LEVEL<n>"
+std::string command_result_name(std::uint32_t result);  ///< "none", "accepted", "rejected"
+std::string fix_quality_name(std::uint8_t quality);     ///< "invalid", "single", "dgps", "rtk-fixed", ...
 
 /// When an item counts as STALE: silent by the reader's deadline (edge reported through
 /// on_silence), or not heard of for longer than stale_after_s of its stream. The defaults are 1.5
@@ -203,13 +182,15 @@ class FleetState {
 };
 
 /// The snapshot as JSON (for --once --json): {"vehicles": [{"vehicle_id", "stale", "components":
-/// [{"component", "state", "level", "reason", "stale", "age_s", "last_command": {...}, "counters":
-/// {...}}], "scale_factor" (with "source": the instance K comes from), "misalignment" (degrees
-/// added), "dead_reckoning", "navigation" ("status" not_started | anchored | dead_reckoning,
-/// "horizontal_sigma_m", "distance_since_fix_m"), "gnss": objects or null, "rates_hz": {stream: Hz}}]}. Unknown
-/// sigmas/errors (-1) are null. "gaps": {"dead_reckoning": {"missed", "gaps", "last": "missed 522
-/// dead-reckoning outputs t=40.010-45.220 s" or null, "last_first_missing_t_s", "last_last_missing_t_s"
-/// (null without a gap)}}.
+/// [{"component", "state", "level", "reason", "stale", "age_s", "stamp_s", "last_command": {...},
+/// "counters": {...}}], "scale_factor", "misalignment", "dead_reckoning", "navigation": each the row
+/// of its output file with the file's column names and units (results::row_json: "t", degrees,
+/// unknown = null) plus "age_s", "stale" and what only the topic carries ("frozen", "source";
+/// "origin_lat_deg", "origin_lon_deg", "origin_height_m", "gnss_valid"; navigation adds
+/// "horizontal_sigma_m"), "gnss": {"valid", "fix_quality", "fix", "speed_mps", "stamp_s", "age_s",
+/// "stale"}; each null while not heard, "rates_hz": {stream: Hz}}]}. "gaps": {"dead_reckoning":
+/// {"missed", "gaps", "last": "missed 522 dead-reckoning outputs t=40.010-45.220 s" or null,
+/// "last_first_missing_t_s", "last_last_missing_t_s" (null without a gap)}}.
 nlohmann::json snapshot_json(const FleetSnapshot& snapshot);
 
 /// The dashboard text: at most `height` lines of at most `width` characters (>= 40 x 8), one block

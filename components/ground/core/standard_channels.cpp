@@ -7,6 +7,7 @@
 
 #include "core/cdr_writer.hpp"
 #include "core/ros2msg_schema.hpp"
+#include "odonav/frames.hpp"
 
 namespace odonav::ground {
 
@@ -37,11 +38,6 @@ std::string number(double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.9g", v);
   return buf;
-}
-
-nlohmann::json known_or_null(double v) {
-  if (!std::isfinite(v) || v < 0.0) return nullptr;
-  return v;
 }
 
 }  // namespace
@@ -102,28 +98,29 @@ std::string derived_schema(DerivedChannel channel) {
 
 NavSatFixMsg navsat_from_dead_reckoning(const DeadReckoningView& dr) {
   NavSatFixMsg m;
-  m.stamp_s = dr.stamp_s;
+  m.stamp_s = dr.row.t_s;
   m.frame_id = "wgs84";
   m.status = 0;
   m.service = 0;
-  m.latitude_deg = dr.latitude_deg;
-  m.longitude_deg = dr.longitude_deg;
-  m.altitude_m = dr.height_m;
+  m.latitude_deg = rad_to_deg(dr.row.lat_rad);
+  m.longitude_deg = rad_to_deg(dr.row.lon_rad);
+  m.altitude_m = dr.row.height_m;
   m.position_covariance_type = 0;
   return m;
 }
 
-NavSatFixMsg navsat_from_navigation(const NavigationPositionView& n) {
+NavSatFixMsg navsat_from_navigation(const NavigationPositionView& nav) {
+  const results::NavigationPositionRow& n = nav.row;
   NavSatFixMsg m;
-  m.stamp_s = n.stamp_s;
+  m.stamp_s = n.t_s;
   m.frame_id = "wgs84";
-  m.status = n.status == 0 ? -1 : 0;
-  m.service = n.status == 1 ? 1 : 0;
-  m.latitude_deg = n.latitude_deg;
-  m.longitude_deg = n.longitude_deg;
+  m.status = n.status == "not_started" ? -1 : 0;
+  m.service = n.status == "anchored" ? 1 : 0;
+  m.latitude_deg = rad_to_deg(n.lat_rad);
+  m.longitude_deg = rad_to_deg(n.lon_rad);
   m.altitude_m = n.height_m;
-  if (n.covariance_east_m2 >= 0.0 && n.covariance_north_m2 >= 0.0 && n.covariance_up_m2 >= 0.0) {
-    m.position_covariance_m2 = {n.covariance_east_m2, 0, 0, 0, n.covariance_north_m2, 0, 0, 0, n.covariance_up_m2};
+  if (std::isfinite(n.var_east_m2) && std::isfinite(n.var_north_m2) && std::isfinite(n.var_up_m2)) {
+    m.position_covariance_m2 = {n.var_east_m2, 0, 0, 0, n.var_north_m2, 0, 0, 0, n.var_up_m2};
     m.position_covariance_type = 2;
   }
   return m;
@@ -180,18 +177,20 @@ DiagnosticArrayMsg diagnostics_from(const VehicleSnapshot& v) {
   return a;
 }
 
-nlohmann::json scale_factor_plot(const ScaleFactorView& k) {
-  const bool sigma_known = std::isfinite(k.sigma_m_per_pulse) && k.sigma_m_per_pulse >= 0.0;
-  return {{"stamp_s", k.stamp_s},
-          {"vehicle_id", k.vehicle_id},
-          {"k_m_per_pulse", k.k_m_per_pulse},
-          {"sigma_m_per_pulse", known_or_null(k.sigma_m_per_pulse)},
-          {"k_minus_sigma", sigma_known ? nlohmann::json(k.k_m_per_pulse - k.sigma_m_per_pulse) : nlohmann::json()},
-          {"k_plus_sigma", sigma_known ? nlohmann::json(k.k_m_per_pulse + k.sigma_m_per_pulse) : nlohmann::json()},
+nlohmann::json scale_factor_plot(const ScaleFactorView& view) {
+  const results::ScaleFactorRow& k = view.row;
+  const double k_m_per_pulse = k.k_m_per_pulse.value_or(0.0);  // 0 on the topic while there is none
+  const auto sigma = k.sigma_m_per_pulse;
+  return {{"stamp_s", k.t_s},
+          {"vehicle_id", view.vehicle_id},
+          {"k_m_per_pulse", k_m_per_pulse},
+          {"sigma_m_per_pulse", sigma ? nlohmann::json(*sigma) : nlohmann::json()},
+          {"k_minus_sigma", sigma ? nlohmann::json(k_m_per_pulse - *sigma) : nlohmann::json()},
+          {"k_plus_sigma", sigma ? nlohmann::json(k_m_per_pulse + *sigma) : nlohmann::json()},
           {"estimator", k.estimator},
           {"converged", k.converged},
-          {"frozen", k.frozen},
-          {"source", k.source}};
+          {"frozen", view.frozen},
+          {"source", view.source}};
 }
 
 std::vector<std::uint8_t> encode_cdr(const NavSatFixMsg& m) {

@@ -19,6 +19,7 @@
 #include "core/standard_channels.hpp"
 #include "node/topic_types.hpp"
 #include "odonav/dds/component.hpp"
+#include "odonav/dds/output_messages.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/dds/types.hpp"
 #include "odonav/geodesy.hpp"
@@ -52,70 +53,44 @@ HealthView view_of(const msg::Health& h) {
   return v;
 }
 
+namespace {
+/// The row of an estimate message by the one field table (odonav/dds/output_messages.hpp); a bad
+/// peer's stamp gives t_s NaN (shown as unknown, never a crash) and keeps the rest of the message.
+template <class Msg>
+auto row_of_any_stamp(const Msg& m) {
+  try {
+    return dds::row_of(m);
+  } catch (const std::invalid_argument&) {
+    Msg without_stamp = m;
+    without_stamp.header().stamp(builtin_interfaces::msg::Time());
+    auto row = dds::row_of(without_stamp);
+    row.t_s = std::nan("");
+    return row;
+  }
+}
+}  // namespace
+
 ScaleFactorView view_of(const msg::ScaleFactor& s) {
-  ScaleFactorView v;
-  v.vehicle_id = s.vehicle_id();
-  v.stamp_s = stamp_of(s.header());
-  v.k_m_per_pulse = s.k_m_per_pulse();
-  v.sigma_m_per_pulse = s.sigma_m_per_pulse();
-  v.forgetting_factor = s.forgetting_factor();
-  v.window_fill = s.window_fill();
-  v.estimator = s.estimator();
-  v.converged = s.converged();
-  v.frozen = s.frozen();
-  v.samples_accepted = s.samples_accepted();
-  v.samples_rejected = s.samples_rejected();
-  v.source = s.source();
-  return v;
+  return {s.vehicle_id(), row_of_any_stamp(s), s.frozen(), s.source()};
 }
 
-MisalignmentView view_of(const msg::Misalignment& m) {
-  MisalignmentView v;
-  v.vehicle_id = m.vehicle_id();
-  v.stamp_s = stamp_of(m.header());
-  v.heading_rad = m.heading_rad();
-  v.pitch_rad = m.pitch_rad();
-  v.heading_std_rad = m.heading_std_rad();
-  v.pitch_std_rad = m.pitch_std_rad();
-  v.samples_used = m.samples_used();
-  v.converged = m.converged();
-  v.state = static_cast<std::uint32_t>(m.state());
-  return v;
-}
+MisalignmentView view_of(const msg::Misalignment& m) { return {m.vehicle_id(), row_of_any_stamp(m)}; }
 
 DeadReckoningView view_of(const msg::DeadReckoning& d) {
   DeadReckoningView v;
   v.vehicle_id = d.vehicle_id();
-  v.stamp_s = stamp_of(d.header());
-  v.latitude_deg = d.latitude_deg();
-  v.longitude_deg = normalize_lon_deg(d.longitude_deg());  // shown in [-180, 180) whoever sent it
-  v.height_m = d.height_m();
-  v.enu_east_m = d.enu_east_m();
-  v.enu_north_m = d.enu_north_m();
+  v.row = row_of_any_stamp(d);
+  v.row.lon_rad = normalize_lon_rad(v.row.lon_rad);  // shown in [-180, 180) whoever sent it
   v.origin_latitude_deg = d.origin_latitude_deg();
   v.origin_longitude_deg = normalize_lon_deg(d.origin_longitude_deg());
   v.origin_height_m = d.origin_height_m();
-  v.distance_m = d.distance_m();
-  v.k_m_per_pulse = d.k_m_per_pulse();
-  v.k_source = static_cast<std::uint32_t>(d.k_source());
   v.gnss_valid = d.gnss_valid();
-  v.horizontal_error_m = d.horizontal_error_m();
-  v.error_percent_distance = d.error_percent_distance();
   return v;
 }
 
 NavigationPositionView view_of(const msg::NavigationPosition& n) {
-  NavigationPositionView v;
-  v.vehicle_id = n.vehicle_id();
-  v.stamp_s = stamp_of(n.header());
-  v.latitude_deg = n.latitude_deg();
-  v.longitude_deg = normalize_lon_deg(n.longitude_deg());
-  v.height_m = n.height_m();
-  v.covariance_east_m2 = n.position_covariance_east_m2();
-  v.covariance_north_m2 = n.position_covariance_north_m2();
-  v.covariance_up_m2 = n.position_covariance_up_m2();
-  v.status = static_cast<std::uint32_t>(n.status());
-  v.distance_since_fix_m = n.distance_since_fix_m();
+  NavigationPositionView v{n.vehicle_id(), row_of_any_stamp(n)};
+  v.row.lon_rad = normalize_lon_rad(v.row.lon_rad);
   return v;
 }
 

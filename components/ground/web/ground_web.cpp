@@ -109,7 +109,7 @@ void GroundWeb::on_sample(topics::TopicId topic, AnySample sample) {
           const std::uint32_t c = channel(vehicle, derived_key(kind), [&] { return derived_info(vehicle, kind); });
           if (server_->subscribed(c)) {
             const auto bytes = encode_cdr(navsat_from_dead_reckoning(v));
-            server_->publish(c, stamp_ns(v.stamp_s), bytes.data(), bytes.size());
+            server_->publish(c, stamp_ns(stamp_s), bytes.data(), bytes.size());
           }
         } else if constexpr (std::is_same_v<T, odonav::msg::NavigationPosition>) {
           // The "navigation" NavSatFix: the GNSS-anchored position, not the pure DR.
@@ -118,7 +118,7 @@ void GroundWeb::on_sample(topics::TopicId topic, AnySample sample) {
           const std::uint32_t c = channel(vehicle, derived_key(kind), [&] { return derived_info(vehicle, kind); });
           if (server_->subscribed(c)) {
             const auto bytes = encode_cdr(navsat_from_navigation(v));
-            server_->publish(c, stamp_ns(v.stamp_s), bytes.data(), bytes.size());
+            server_->publish(c, stamp_ns(stamp_s), bytes.data(), bytes.size());
           }
         } else if constexpr (std::is_same_v<T, odonav::msg::GnssFix>) {
           const GnssView v = view_of(*m);
@@ -127,14 +127,14 @@ void GroundWeb::on_sample(topics::TopicId topic, AnySample sample) {
                                           [&] { return derived_info(vehicle, DerivedChannel::kNavSatGnss); });
           if (server_->subscribed(c)) {
             const auto bytes = encode_cdr(navsat_from_gnss(v));
-            server_->publish(c, stamp_ns(v.stamp_s), bytes.data(), bytes.size());
+            server_->publish(c, stamp_ns(stamp_s), bytes.data(), bytes.size());
           }
         } else if constexpr (std::is_same_v<T, odonav::msg::ScaleFactor>) {
           const ScaleFactorView v = view_of(*m);
           history_.on_scale_factor(v);
           const std::uint32_t c = channel(vehicle, derived_key(DerivedChannel::kScaleFactorPlot),
                                           [&] { return derived_info(vehicle, DerivedChannel::kScaleFactorPlot); });
-          if (server_->subscribed(c)) publish_json(c, v.stamp_s, scale_factor_plot(v).dump());
+          if (server_->subscribed(c)) publish_json(c, stamp_s, scale_factor_plot(v).dump());
         } else if constexpr (std::is_same_v<T, odonav::msg::Health>) {
           // The diagnostics channel lives while some component of the vehicle speaks; tick() fills it.
           channel(vehicle, derived_key(DerivedChannel::kDiagnostics),

@@ -280,7 +280,7 @@ inline bool vehicle_ready(const nlohmann::json& snap, const std::string& vehicle
   const nlohmann::json& d = v->at("dead_reckoning");
   return !k.is_null() && k.at("converged").get<bool>() && !k.at("sigma_m_per_pulse").is_null() && !m.is_null() &&
          !m.at("heading_std_deg").is_null() && !d.is_null() && !d.at("horizontal_error_m").is_null() &&
-         !d.at("error_percent_distance").is_null() && !k.at("stale").get<bool>();
+         !d.at("error_percent").is_null() && !k.at("stale").get<bool>();
 }
 
 /// The common DDS flags of odonav-ground under test.

@@ -115,7 +115,7 @@ TEST_F(GroundFleet, MonitorShowsTwoRealVehiclesAndMarksAKilledComponentStale) {
     EXPECT_GT(d.at("distance_m").get<double>(), 20.0) << d.dump();
     EXPECT_GE(d.at("horizontal_error_m").get<double>(), 0.0);
     EXPECT_LT(d.at("horizontal_error_m").get<double>(), 0.05 * d.at("distance_m").get<double>() + 5.0);
-    EXPECT_LT(d.at("error_percent_distance").get<double>(), 5.0);
+    EXPECT_LT(d.at("error_percent").get<double>(), 5.0);
     EXPECT_TRUE(v->at("gnss").at("valid").get<bool>());
     // Rates: odometer at 100 Hz and GNSS at 10 Hz of simulated time, at 2x real time.
     EXPECT_GT(v->at("rates_hz").at("odometer").get<double>(), 100.0);

@@ -3,6 +3,7 @@
 // rates on a synthetic clock, topic selection, QoS metadata, dashboard size.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -289,22 +290,23 @@ TEST(FleetState, JsonAndDashboardOfManyVehiclesFitEightyByTwentyFour) {
     }
     ScaleFactorView k;
     k.vehicle_id = id;
-    k.k_m_per_pulse = 0.0126875;
-    k.sigma_m_per_pulse = -1.0;
+    k.row.k_m_per_pulse = 0.0126875;
+    k.row.sigma_m_per_pulse = std::nullopt;  // unknown (-1 on the wire)
     k.source = v == 0 ? "identification/standby" : "identification";
     fleet.on_scale_factor(k, 1.0);
     DeadReckoningView d;
     d.vehicle_id = id;
-    d.k_source = 1;
-    d.distance_m = 1234.0;
+    d.row.k_source = "identified";
+    d.row.distance_m = 1234.0;
     fleet.on_dead_reckoning(d, 1.0);
     if (v == 0) {
       NavigationPositionView n;
       n.vehicle_id = id;
-      n.status = 2;  // bridging an outage
-      n.covariance_east_m2 = 2.25;
-      n.covariance_north_m2 = 1.75;
-      n.distance_since_fix_m = 412.5;
+      n.row.status = "dead_reckoning";  // bridging an outage
+      n.row.var_east_m2 = 2.25;
+      n.row.var_north_m2 = 1.75;
+      n.row.var_up_m2 = std::nan("");  // unknown
+      n.row.distance_since_fix_m = 412.5;
       fleet.on_navigation(n, 1.0);
     }
   }
@@ -330,6 +332,17 @@ TEST(FleetState, JsonAndDashboardOfManyVehiclesFitEightyByTwentyFour) {
   EXPECT_DOUBLE_EQ(j["vehicles"][0]["navigation"]["horizontal_sigma_m"].get<double>(), 2.0);
   EXPECT_DOUBLE_EQ(j["vehicles"][0]["navigation"]["distance_since_fix_m"].get<double>(), 412.5);
   EXPECT_TRUE(j["vehicles"][1]["navigation"].is_null());
+  // Every column of the output files is in the JSON, by the file's name: the one field table.
+  for (const std::string& column : odonav::results::scale_factor_columns())
+    EXPECT_TRUE(j["vehicles"][0]["scale_factor"].contains(column)) << column;
+  for (const std::string& column : odonav::results::dead_reckoning_columns())
+    EXPECT_TRUE(j["vehicles"][0]["dead_reckoning"].contains(column)) << column;
+  for (const std::string& column : odonav::results::navigation_position_columns())
+    EXPECT_TRUE(j["vehicles"][0]["navigation"].contains(column)) << column;
+  EXPECT_DOUBLE_EQ(j["vehicles"][0]["scale_factor"]["k_m_per_pulse"].get<double>(), 0.0126875);
+  EXPECT_EQ(j["vehicles"][0]["dead_reckoning"]["k_source"], "identified");
+  EXPECT_DOUBLE_EQ(j["vehicles"][0]["navigation"]["var_east_m2"].get<double>(), 2.25);
+  EXPECT_TRUE(j["vehicles"][0]["navigation"]["var_up_m2"].is_null());  // unknown: empty in the file
   // Which instance publishes K: in the JSON and on the DR line of the dashboard.
   EXPECT_EQ(j["vehicles"][0]["scale_factor"]["source"], "identification/standby");
   EXPECT_EQ(j["vehicles"][1]["scale_factor"]["source"], "identification");
@@ -339,23 +352,23 @@ TEST(FleetState, JsonAndDashboardOfManyVehiclesFitEightyByTwentyFour) {
 TEST(FleetState, GapsInTheDeadReckoningOutputsArePerVehicleInTheJsonAndOnTheDashboard) {
   FleetState fleet;
   DeadReckoningView d;
-  d.k_source = 1;
+  d.row.k_source = "identified";
   // v1: 100 Hz from t = 40.00 s, then nothing from 45.23 to 50.00 s (a stalled dead reckoning:
   // 477 outputs t=45.230-49.990 s never arrived), then on again; repeats are not gaps.
   d.vehicle_id = "v1";
   for (int i = 0; i <= 522; ++i) {
-    d.stamp_s = 40.0 + 0.01 * i;
+    d.row.t_s = 40.0 + 0.01 * i;
     fleet.on_dead_reckoning(d, 1.0);
   }
   fleet.on_dead_reckoning(d, 1.0);  // a repeat of t = 45.22 s
   for (int i = 0; i <= 100; ++i) {
-    d.stamp_s = 50.0 + 0.01 * i;
+    d.row.t_s = 50.0 + 0.01 * i;
     fleet.on_dead_reckoning(d, 2.0);
   }
   // v2: continuous.
   d.vehicle_id = "v2";
   for (int i = 0; i <= 300; ++i) {
-    d.stamp_s = 10.0 + 0.01 * i;
+    d.row.t_s = 10.0 + 0.01 * i;
     fleet.on_dead_reckoning(d, 2.0);
   }
   const FleetSnapshot snap = fleet.snapshot(2.0);

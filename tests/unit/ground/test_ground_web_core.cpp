@@ -11,6 +11,7 @@
 #include "core/foxglove_protocol.hpp"
 #include "core/standard_channels.hpp"
 #include "core/web_api.hpp"
+#include "odonav/frames.hpp"
 
 using namespace odonav::ground;
 
@@ -33,10 +34,11 @@ std::string str_at(const std::vector<std::uint8_t>& b, std::size_t payload_offse
 TEST(StandardChannels, NavSatFixCdrLayout) {
   DeadReckoningView dr;
   dr.vehicle_id = "v1";
-  dr.stamp_s = 1234.25;
-  dr.latitude_deg = 52.5123456789;
-  dr.longitude_deg = 13.3987654321;
-  dr.height_m = 41.5;
+  dr.row.t_s = 1234.25;
+  // As the ground node reads them: the message's degrees to the row's radians, exactly back.
+  dr.row.lat_rad = odonav::exact_radians_of(52.5123456789);
+  dr.row.lon_rad = odonav::exact_radians_of(13.3987654321);
+  dr.row.height_m = 41.5;
   const auto b = encode_cdr(navsat_from_dead_reckoning(dr));
   // Encapsulation CDR_LE, then: sec, nanosec, frame_id "wgs84" (len 6), status int8 at 18, service
   // uint16 at 20, latitude at 24 (8-aligned), longitude 32, altitude 40, covariance 48..119, type 120.
@@ -130,10 +132,10 @@ TEST(StandardChannels, SchemasAndTopics) {
   EXPECT_EQ(derived_encoding(DerivedChannel::kScaleFactorPlot), "json");
   EXPECT_NO_THROW(nlohmann::json::parse(derived_schema(DerivedChannel::kScaleFactorPlot)));
   ScaleFactorView k;
-  k.k_m_per_pulse = 0.0125;
-  k.sigma_m_per_pulse = -1.0;
+  k.row.k_m_per_pulse = 0.0125;
+  k.row.sigma_m_per_pulse = std::nullopt;
   EXPECT_TRUE(scale_factor_plot(k)["k_plus_sigma"].is_null());
-  k.sigma_m_per_pulse = 0.0001;
+  k.row.sigma_m_per_pulse = 0.0001;
   EXPECT_DOUBLE_EQ(scale_factor_plot(k)["k_plus_sigma"].get<double>(), 0.0126);
 }
 
@@ -273,7 +275,7 @@ TEST(FleetHistory, TrackAndK) {
   dr.origin_latitude_deg = 52.0;
   dr.origin_longitude_deg = 13.0;
   for (int i = 0; i < 100; ++i) {
-    dr.enu_east_m = i * 1.0;
+    dr.row.east_m = i * 1.0;
     h.on_dead_reckoning(dr);
   }
   GnssView g;
@@ -285,9 +287,9 @@ TEST(FleetHistory, TrackAndK) {
   for (int i = 0; i < 300; ++i) {
     ScaleFactorView k;
     k.vehicle_id = "v1";
-    k.stamp_s = i;
-    k.k_m_per_pulse = 0.01;
-    k.sigma_m_per_pulse = i < 150 ? -1.0 : 1e-4;
+    k.row.t_s = i;
+    k.row.k_m_per_pulse = 0.01;
+    if (i >= 150) k.row.sigma_m_per_pulse = 1e-4;
     h.on_scale_factor(k);
   }
   const auto j = h.json(8)["v1"];

@@ -32,6 +32,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "odonav/csv_writer.hpp"
 
 namespace odonav::results {
@@ -191,6 +193,14 @@ void visit_columns(Row& r, V&& v) {
     v.finite("distance_since_fix_m", r.distance_since_fix_m);
   }
 }
+
+/// A row as a JSON object with the file's column names and units (degrees where the file has
+/// them): what the ground station serves, so a column added to the table reaches its JSON too.
+/// An empty field of the file (NaN, nullopt, a k_<name> of an estimator that did not run) is null.
+nlohmann::json row_json(const MisalignmentRow& row);
+nlohmann::json row_json(const ScaleFactorRow& row);
+nlohmann::json row_json(const DeadReckoningRow& row);
+nlohmann::json row_json(const NavigationPositionRow& row);
 
 /// Writers; each constructor creates the file with its header (throws std::runtime_error naming it).
 class MisalignmentCsv {
