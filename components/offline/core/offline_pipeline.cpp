@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "odonav/stream_buffers.hpp"
+#include "odonav/wire_time.hpp"
 
 namespace odonav::offline {
 namespace {
@@ -71,7 +72,22 @@ void OfflinePipeline::advance_to(double t_s) {
   pending_t_s_ = t_s;
 }
 
-void OfflinePipeline::add_odometer(const OdometerSample& s) {
+namespace {
+// A sensor sample as the nodes receive it: its stamp as the gateway's message carries it.
+template <class Sample>
+Sample as_on_the_wire(const Sample& sample) {
+  Sample s = sample;
+  try {
+    s.t_s = wire_time_s(sample.t_s);
+  } catch (const std::invalid_argument& e) {
+    throw StreamInputError(std::string("offline pipeline: sample stamp: ") + e.what());
+  }
+  return s;
+}
+}  // namespace
+
+void OfflinePipeline::add_odometer(const OdometerSample& sample) {
+  const OdometerSample s = as_on_the_wire(sample);
   advance_to(s.t_s);
   if (identification_ && identification_inputs_->admit(identification_inputs_->odometer, s.t_s))
     identification_->add_odometer(s);
@@ -79,7 +95,8 @@ void OfflinePipeline::add_odometer(const OdometerSample& s) {
     dead_reckoning_->add_odometer(s);
 }
 
-void OfflinePipeline::add_gnss(const GnssSample& s) {
+void OfflinePipeline::add_gnss(const GnssSample& sample) {
+  const GnssSample s = as_on_the_wire(sample);
   advance_to(s.t_s);
   last_gnss_t_s_ = s.t_s;
   calibration_.add_gnss(s);
@@ -89,7 +106,8 @@ void OfflinePipeline::add_gnss(const GnssSample& s) {
     dead_reckoning_->add_gnss(s);
 }
 
-void OfflinePipeline::add_ins(const InsSample& s) {
+void OfflinePipeline::add_ins(const InsSample& sample) {
+  const InsSample s = as_on_the_wire(sample);
   advance_to(s.t_s);
   if (config_.calibration.use_ins) calibration_.add_ins(s);
   if (identification_ && identification_inputs_->admit(identification_inputs_->ins, s.t_s)) identification_->add_ins(s);

@@ -62,7 +62,9 @@ class OfflinePipeline {
   OfflinePipeline(const OfflinePipeline&) = delete;
   OfflinePipeline& operator=(const OfflinePipeline&) = delete;
 
-  /// Sensor samples in event-time order across the three kinds (stamps, s, non-decreasing).
+  /// Sensor samples in event-time order across the three kinds (stamps, s, non-decreasing). Each
+  /// stamp is taken as the pipeline's nodes read it from the gateway's message (wire_time_s: rounded
+  /// to the nanosecond), so samples that share a stamp on the bus share it here.
   /// StreamInputError from a component on bad input (as the cores throw it).
   void add_odometer(const OdometerSample& sample);
   void add_gnss(const GnssSample& sample);

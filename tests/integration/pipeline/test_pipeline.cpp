@@ -488,12 +488,16 @@ TEST_F(Pipeline, EstimatesLaterThanTheirHoldOffAreWaitedForCountedAndStillEqualT
   EXPECT_GT(std::stoul(m[1].str()), 0u) << log;
 }
 
-// Any GNSS rate: 5 Hz and 20 Hz receivers (short drives: the rule is the same, only the epoch
-// spacing changes). Every GNSS epoch gives one estimate, and the files equal odonav-offline's.
-void expect_rate_equals_offline(const std::string& rate, const std::string& domain, std::size_t epochs_min) {
-  const std::string dir = fresh_dir("terrain-" + rate + "hz");
+// Any GNSS rate, anywhere on Earth: a 5 Hz receiver on the antimeridian ring (65 N; it crosses
+// longitude 180 at 113.6 s) and a 20 Hz one on the pass towards the North Pole (within 1 km of it
+// from 62 s). Every GNSS epoch gives one estimate, the files equal odonav-offline's, every position
+// published is in range (latitude [-90, 90], longitude [-180, 180)), the ring's track is on both
+// sides of 180, and near the pole the dead reckoning says in its health that the heading degrades.
+void expect_rate_equals_offline(const std::string& scenario, const std::string& rate, const std::string& duration_s,
+                                const std::string& domain, std::size_t epochs_min) {
+  const std::string dir = fresh_dir(scenario + "-" + rate + "hz");
   const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s 25 --seed 4 --gnss-rate " + rate +
+  ASSERT_EQ(run(kBin + "/odonav-sim " + scenario + " --duration-s " + duration_s + " --seed 4 --gnss-rate " + rate +
                 " --gnss-latency-s 0.05 --out " + data + " >" + dir + "/sim.log 2>&1"),
             0);
   const std::string out = dir + "/out";
@@ -506,11 +510,36 @@ void expect_rate_equals_offline(const std::string& rate, const std::string& doma
   const results::OutputRows rows = results::read_output_rows(out);
   EXPECT_GE(rows.scale_factor.size(), epochs_min) << rate << " Hz";
   EXPECT_GE(rows.misalignment.size(), epochs_min) << rate << " Hz";
-  EXPECT_GT(rows.dead_reckoning.size(), 2400u);  // 25 s at 100 Hz
+  EXPECT_GT(rows.dead_reckoning.size(), 100 * std::stoul(duration_s) - 100);  // 100 Hz odometer
+  constexpr double kHalfTurn = 3.14159265358979323846;
+  std::size_t east_of_180 = 0, west_of_180 = 0;
+  const auto expect_in_range = [&](double lat_rad, double lon_rad, double t_s, const char* file) {
+    EXPECT_TRUE(lat_rad >= -0.5 * kHalfTurn && lat_rad <= 0.5 * kHalfTurn) << file << " t=" << t_s;
+    EXPECT_TRUE(lon_rad >= -kHalfTurn && lon_rad < kHalfTurn) << file << " t=" << t_s;
+  };
+  for (const results::DeadReckoningRow& d : rows.dead_reckoning) {
+    expect_in_range(d.lat_rad, d.lon_rad, d.t_s, "dead_reckoning.csv");
+    east_of_180 += d.lon_rad < -kHalfTurn + 1e-3;
+    west_of_180 += d.lon_rad > kHalfTurn - 1e-3;
+  }
+  for (const results::NavigationPositionRow& n : rows.navigation_position)
+    if (n.status != "not_started") expect_in_range(n.lat_rad, n.lon_rad, n.t_s, "navigation_position.csv");
+  const std::string dr_log = read_text(out + "/logs/odonav-dead-reckoning.log");
+  if (scenario == "antimeridian") {
+    EXPECT_GT(east_of_180, 100u);
+    EXPECT_GT(west_of_180, 100u);
+    EXPECT_EQ(dr_log.find("of the North Pole"), std::string::npos) << dr_log;
+  } else {
+    EXPECT_NE(dr_log.find("m of the North Pole: true north turns"), std::string::npos) << dr_log;
+  }
 }
 
-TEST_F(Pipeline, FiveHertzGnssEqualsTheOfflineTool) { expect_rate_equals_offline("5", "165", 120); }
-TEST_F(Pipeline, TwentyHertzGnssEqualsTheOfflineTool) { expect_rate_equals_offline("20", "166", 480); }
+TEST_F(Pipeline, FiveHertzGnssAcrossLongitude180EqualsTheOfflineTool) {
+  expect_rate_equals_offline("antimeridian", "5", "125", "165", 600);
+}
+TEST_F(Pipeline, TwentyHertzGnssNearTheNorthPoleEqualsTheOfflineTool) {
+  expect_rate_equals_offline("polar_north", "20", "80", "166", 1500);
+}
 
 // GNSS absent for 135 s, replayed at 10x real time with a 5 s maximum wait: dead reckoning keeps
 // publishing at the odometer rate on the estimates held from before the outage. The odometer and

@@ -12,6 +12,7 @@
 #include "odonav/dds/health.hpp"
 #include "odonav/dds/silence_tracker.hpp"
 #include "odonav/dds/time.hpp"
+#include "odonav/wire_time.hpp"
 
 using odonav::dds::to_seconds;
 using odonav::dds::to_time_msg;
@@ -91,6 +92,22 @@ TEST(DdsTime, BadInputIsRefusedWithTheValue) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("nanosec 1000000000} is not normalized"), std::string::npos) << e.what();
   }
+}
+
+// odonav-offline reads each stamp as the nodes read it from a message: one rounding for both.
+TEST(DdsTime, WireTimeIsTheStampAConsumerReadsAndIsIdempotent) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> seconds(-1.0e6, 1.0e6);
+  for (int i = 0; i < 100000; ++i) {
+    const double t = seconds(rng);
+    const double wire = odonav::wire_time_s(t);
+    ASSERT_EQ(wire, to_seconds(to_time_msg(t))) << t;
+    ASSERT_EQ(odonav::wire_time_s(wire), wire) << t;
+  }
+  // A 20 Hz epoch stamped 323 x 0.05 s = 16.150000000000002 reads 16.15, the odometer's stamp.
+  EXPECT_NE(323 * 0.05, 16.15);
+  EXPECT_EQ(odonav::wire_time_s(323 * 0.05), 16.15);
+  EXPECT_THROW(odonav::wire_time_s(std::nan("")), std::invalid_argument);
 }
 
 TEST(DdsTime, MakeHeaderSetsStampAndFrame) {

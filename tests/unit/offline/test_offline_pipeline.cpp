@@ -10,6 +10,7 @@
 #include "core/simulator.hpp"
 #include "odonav/consumer_rules.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_component.hpp"
+#include "odonav/wire_time.hpp"
 #include "offline_pipeline.hpp"
 #include "offline_test_params.hpp"
 
@@ -46,6 +47,20 @@ struct Feeder {
   void operator()(const OdometerSample& s) { c.add_odometer(s); }
   void operator()(const GnssSample& s) { c.add_gnss(s); }
   void operator()(const InsSample& s) { c.add_ins(s); }
+};
+
+// The same, with each stamp as the pipeline's nodes (and OfflinePipeline) read it from the
+// gateway's message: rounded to the nanosecond.
+struct WireFeeder {
+  DeadReckoningComponent& c;
+  template <class Sample>
+  static Sample wired(Sample s) {
+    s.t_s = wire_time_s(s.t_s);
+    return s;
+  }
+  void operator()(const OdometerSample& s) { c.add_odometer(wired(s)); }
+  void operator()(const GnssSample& s) { c.add_gnss(wired(s)); }
+  void operator()(const InsSample& s) { c.add_ins(wired(s)); }
 };
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
@@ -178,7 +193,7 @@ TEST(OfflinePipeline, EveryEstimateArrivesBeforeTheOutputsItAppliesToSoTheRunEqu
 
   // The oracle.
   DeadReckoningComponent oracle(params.dead_reckoning, params.anchored);
-  for_each_sensor_sample(d, Feeder{oracle});
+  for_each_sensor_sample(d, WireFeeder{oracle});
   for (const MisalignmentOutput& m : run.misalignment) oracle.on_misalignment(published_misalignment(m));
   for (const IdentificationOutput& k : run.scale_factor)
     oracle.on_scale_factor(published_scale_factor(k, "identification"), 0.0);

@@ -7,9 +7,9 @@
 
 namespace odonav::dds {
 
-/// Converts a time in seconds to a ROS Time {sec, nanosec} with nanosec in [0, 1e9): sec is
-/// floor(seconds) and nanosec the fraction rounded to the nearest nanosecond (a fraction that rounds
-/// up to 1 s carries into sec). So -0.25 s is {-1, 750000000}.
+/// Converts a time in seconds to a ROS Time {sec, nanosec}: odonav::to_wire_time (odonav/wire_time.hpp),
+/// the one rounding odonav-offline applies too. sec is floor(seconds) and nanosec the fraction rounded
+/// to the nearest nanosecond, in [0, 1e9). So -0.25 s is {-1, 750000000}.
 /// Exactness: a double holds a nanosecond exactly only while its ulp is below 1 ns, i.e. for
 /// |seconds| < 2^22 s (48 days: GNSS time of week, seconds since start). There
 /// to_time_msg(to_seconds(t)) == t for every t. UNIX times (~1.7e9 s) carry ~0.24 us resolution.
