@@ -655,6 +655,7 @@ EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs
   sample.phi_pulses = phi;
   sample.dt_s = dt;
   sample.y_m = 0.5 * (v_start + v) * dt;
+  sample.speed_change_mps = v - v_start;
   speed_trapezoid_m = sample.y_m;
   if (dt >= params_.trapezoid_correction_min_interval_s) {
     // Long intervals: the trapezoid of the two speeds misses the speed's curvature in between
