@@ -225,6 +225,7 @@ std::string WindowRlsEstimator::save_state() const {
   out.put_params(params_);
   out.put("s_pp", s_pp_);
   out.put("s_py", s_py_);
+  out.put("s_pdv", s_pdv_);
   out.put("log_weight", log_weight_);
   out.put("last_lambda", last_lambda_);
   out.put_u64("since_resum", since_resum_);
@@ -232,15 +233,17 @@ std::string WindowRlsEstimator::save_state() const {
   out.put_u64("residual_count", residual_scale_.count());
   out.put("residual_variance", residual_scale_.variance_m2());
   put_change_detector(out, change_);
+  if (change_began_) out.put_row("change_began", {static_cast<double>(*change_began_)});
   out.put_u64("held", held_);
-  for (std::size_t i = 0; i < held_; ++i) out.put_row("row", {entry(i).phi, entry(i).y, entry(i).log_weight});
+  for (std::size_t i = 0; i < held_; ++i)
+    out.put_row("row", {entry(i).phi, entry(i).y, entry(i).log_weight, entry(i).dv});
   return out.finish();
 }
 
 void WindowRlsEstimator::restore_state(const std::string& state) {
   const StateReader in(state, name());
   in.check_params(params_);
-  const auto rows = in.rows("row", 3);
+  const auto rows = in.rows("row", 4);
   const uint64_t held = in.get_u64("held");
   const std::string where = "estimator state for '" + name() + "': ";
   if (held != rows.size())
@@ -252,27 +255,39 @@ void WindowRlsEstimator::restore_state(const std::string& state) {
   const double residual_variance = in.get("residual_variance");
   if (!(residual_variance >= 0.0)) throw std::runtime_error(where + "negative residual variance");
   for (const auto& r : rows)
-    if (!std::isfinite(r[0]) || !std::isfinite(r[1]) || !std::isfinite(r[2]))
+    if (!std::isfinite(r[0]) || !std::isfinite(r[1]) || !std::isfinite(r[2]) || !std::isfinite(r[3]))
       throw std::runtime_error(where + "non-finite buffer value");
   const double s_pp = in.get("s_pp");
   const double s_py = in.get("s_py");
+  const double s_pdv = in.get("s_pdv");
   const double log_weight = in.get("log_weight");
   const double last_lambda = in.get("last_lambda");
   const uint64_t samples_used = in.get_u64("samples_used");
   const uint64_t residual_count = in.get_u64("residual_count");
   const CusumChangeDetector::State change = get_change_detector(in);
+  std::optional<uint64_t> change_began;
+  const auto began_rows = in.rows("change_began", 1);
+  if (began_rows.size() > 1) throw std::runtime_error(where + "field 'change_began' appears twice");
+  if (!began_rows.empty()) {
+    const double v = began_rows[0][0];
+    if (!(v >= 0.0) || v > static_cast<double>(samples_used) || v != std::floor(v))
+      throw std::runtime_error(where + "change_began out of range");
+    change_began = static_cast<uint64_t>(v);
+  }
   // All read and checked: commit.
   s_pp_ = s_pp;
   s_py_ = s_py;
+  s_pdv_ = s_pdv;
   log_weight_ = log_weight;
   last_lambda_ = last_lambda;
   since_resum_ = since_resum;
   samples_used_ = samples_used;
   residual_scale_.set_state(residual_count, residual_variance);
   change_.set_state(change);
+  change_began_ = change_began;
   oldest_ = 0;
   held_ = held;
-  for (std::size_t i = 0; i < held; ++i) buffer_[i] = Entry{rows[i][0], rows[i][1], rows[i][2]};
+  for (std::size_t i = 0; i < held; ++i) buffer_[i] = Entry{rows[i][0], rows[i][1], rows[i][2], rows[i][3]};
 }
 
 }  // namespace odonav

@@ -937,3 +937,36 @@ TEST(HonestSigma, LagSigmaCoversTheLagAfterAStepUntilTheOldSamplesHaveLeft) {
     EXPECT_LE(*last_lag_sample, step_at + static_cast<std::size_t>(std::lround(110.0 / interval_s)));
   }
 }
+
+TEST(HonestSigma, SaveRestoreKeepsTheSpeedChangesAndTheChangeStart) {
+  ScaleFactorEstimatorParams params;
+  std::unique_ptr<VffLmRlsEstimator> restored;
+  vff_step_drive(0.1, params, 2, nullptr, [&](std::size_t i, const ScaleFactorSample& sample, VffLmRlsEstimator& e) {
+    ScaleFactorSample s = sample;
+    if (i == 3010) {  // just after the step, its lag still in the window
+      ASSERT_TRUE(e.last_change_began());
+      restored = std::make_unique<VffLmRlsEstimator>(params);
+      restored->restore_state(e.save_state());
+      EXPECT_EQ(restored->save_state(), e.save_state());
+      EXPECT_EQ(restored->last_change_began(), e.last_change_began());
+      EXPECT_EQ(restored->estimate().lag_sigma_m_per_pulse, e.estimate().lag_sigma_m_per_pulse);
+      EXPECT_GT(e.estimate().lag_sigma_m_per_pulse, 0.0);
+    } else if (i > 3010 && i < 3100) {
+      restored->update(s);
+      EXPECT_EQ(restored->estimate().lag_sigma_m_per_pulse, e.estimate().lag_sigma_m_per_pulse) << i;
+    }
+  });
+  // A state with a speed change in its rows keeps it.
+  VffLmRlsEstimator a(params), b(params);
+  for (int i = 0; i < 20; ++i) {
+    ScaleFactorSample s = make_sample(0.1 * (i + 1), 80.0, 1.0 + 0.01 * i);
+    s.speed_change_mps = 0.1;
+    a.update(s);
+  }
+  b.restore_state(a.save_state());
+  EXPECT_EQ(b.estimate().dk_dlatency_m_per_pulse_per_s, a.estimate().dk_dlatency_m_per_pulse_per_s);
+  EXPECT_LT(a.estimate().dk_dlatency_m_per_pulse_per_s, 0.0);
+  EXPECT_EQ(b.window_sums().s_pdv, a.window_sums().s_pdv);
+  EXPECT_NEAR(a.window_sums().s_pdv, a.exact_window_sums().s_pdv, 1e-9);
+  EXPECT_NEAR(a.window_sums().s_pdv, 20 * 80.0 * 0.1, 1e-9);
+}
