@@ -193,7 +193,7 @@ class OutputFiles : public odonav::offline::PipelineSink {
     const odonav::results::ScaleFactorRow row = odonav::output_row(k, main_estimator_, estimators_);
     scale_factor_.write(row);
     summary_.add(row);
-    diagnosis_.add_identification(k.main);
+    diagnosis_.add_identification(k.main, k.latency, k.latency_decided);
   }
   void on_dead_reckoning(odonav::DeadReckoningStep step) override {
     const odonav::results::DeadReckoningRow dr = odonav::output_row(step.output);

@@ -153,6 +153,8 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
   require(std::isfinite(p.latency_min_sample_time_s) && p.latency_min_sample_time_s >= 0.0,
           "latency_min_sample_time_s must be >= 0");
   require(p.latency_block_s > 0.0, "latency_block_s must be > 0");
+  require(std::isfinite(p.latency_prior_sigma_s) && p.latency_prior_sigma_s >= 0.0,
+          "latency_prior_sigma_s must be finite and >= 0");
   if (p.gnss_latency_fixed_s) {
     latency_.fixed = true;
     latency_.applied_s = latency_.estimate_s = *p.gnss_latency_fixed_s;
@@ -336,6 +338,25 @@ std::optional<SampleBuilder::StartLatencyK> SampleBuilder::start_latency_k() con
   const double k0 = latency_block_yphi_[i] / latency_block_phiphi_[i];
   const double k1 = latency_block_yphi_[i + 1] / latency_block_phiphi_[i + 1];
   return StartLatencyK{k0 + f * (k1 - k0), own.estimate_s, own.sigma_s};
+}
+
+double SampleBuilder::latency_in_force_uncertainty_s() const {
+  if (latency_.fixed || latency_candidates_s_.empty()) return 0.0;
+  if (latency_.sigma_s >= 0.0) return std::hypot(latency_.estimate_s - latency_.applied_s, latency_.sigma_s);
+  // Sums restarted after an application: what was known when the value in force was applied.
+  if (latency_.applied_sigma_s >= 0.0) return latency_.applied_sigma_s;
+  // No estimate over the sums yet: the open block's own (coarser) fit, as start_latency_k uses.
+  std::vector<double> block(latency_candidates_s_.size());
+  GnssLatencyEstimate own;
+  if (weighted_block_residuals(block) && fit_latency(block, latency_block_samples_, 1, own, kLatencyBlockMinSamples))
+    return std::hypot(own.estimate_s - latency_.applied_s, own.sigma_s);
+  return params_.latency_prior_sigma_s;
+}
+
+bool SampleBuilder::latency_decided() const {
+  if (latency_.fixed || latency_candidates_s_.empty() || latency_.applied_sigma_s >= 0.0) return true;
+  return latency_.sigma_s >= 0.0 && latency_.sigma_s <= params_.latency_apply_coarse_sigma_s &&
+         std::abs(latency_.estimate_s - latency_.applied_s) <= 2.0 * latency_.sigma_s;
 }
 
 void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {
