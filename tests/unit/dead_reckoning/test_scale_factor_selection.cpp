@@ -56,6 +56,26 @@ TEST(ScaleFactorApplicable, ProvisionalKNeedsFiveSamplesAndAKnownSigma) {
   EXPECT_FALSE(scale_factor_applicable(true, false, std::nan(""), 0.0001, 50, kNominalK));
 }
 
+TEST(ScaleFactorApplicable, ProvisionalKWhoseSigmaIsBelowTheNominalsIsAppliedWhateverTheirDifference) {
+  const double nominal_sigma = kDefaultNominalKRelSigma * kNominalK;  // 2 %
+  // 0.5 % from the nominal with sigma 1 %: not 3 sigma away, but known better than the nominal.
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.01, 20, kNominalK));
+  EXPECT_TRUE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.01, 20, kNominalK, false, nominal_sigma));
+  // Sigma 2.5 %: the nominal is the better known; and five samples first, a sigma known.
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.025, 20, kNominalK, false, nominal_sigma));
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.01, 4, kNominalK, false, nominal_sigma));
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, -1.0, 20, kNominalK, false, nominal_sigma));
+  // The selection weighs with the nominal's sigma it was given (default 2 %; 0: the 3 sigma test alone).
+  EXPECT_TRUE(ScaleFactorSelection(kNominalK).on_identified(
+      IdentifiedScaleFactor{1.0, 0.0125625, false, "identification", 0.0125 * 0.01, 20}, 0.0));
+  EXPECT_FALSE(
+      ScaleFactorSelection(kNominalK, 0.0)
+          .on_identified(IdentifiedScaleFactor{1.0, 0.0125625, false, "identification", 0.0125 * 0.01, 20}, 0.0));
+  EXPECT_FALSE(
+      ScaleFactorSelection(kNominalK, 0.005)
+          .on_identified(IdentifiedScaleFactor{1.0, 0.0125625, false, "identification", 0.0125 * 0.01, 20}, 0.0));
+}
+
 TEST(MisalignmentApplicable, ConvergedOrHundredEpochsAsBefore) {
   EXPECT_TRUE(misalignment_applicable(true, 3, 0.0, 0.0, 1.0, 1.0));
   EXPECT_TRUE(misalignment_applicable(false, 100, 0.0, 0.0, 1.0, 1.0));
@@ -451,6 +471,13 @@ TEST(DeadReckoningParams, NominalKIsTheOptionElseTheDatasetsElseTheDefault) {
   EXPECT_EQ(dead_reckoner_params(f).nominal_k_m_per_pulse, 0.0122);
   f.nominal_k_option_m_per_pulse = 0.0131;
   EXPECT_EQ(dead_reckoner_params(f).nominal_k_m_per_pulse, 0.0131);
+  // Its sigma likewise: the option, else the dataset's, else 2 %.
+  EXPECT_EQ(p.nominal_k_rel_sigma, kDefaultNominalKRelSigma);
+  EXPECT_EQ(kDefaultNominalKRelSigma, 0.02);
+  f.dataset_nominal_k_sigma_percent = 1.0;
+  EXPECT_EQ(dead_reckoner_params(f).nominal_k_rel_sigma, 0.01);
+  f.nominal_k_sigma_option_percent = 5.0;
+  EXPECT_EQ(dead_reckoner_params(f).nominal_k_rel_sigma, 0.05);
 
   f.use_ins = false;
   f.mode = DeadReckoningMode::k2D;
@@ -470,9 +497,14 @@ TEST(DeadReckoningParams, FactsFromOptions) {
   add_dead_reckoning_options(o);
   add_lever_arm_option(o);
   std::ostringstream help;
-  ASSERT_EQ(o.parse({"--nominal-k", "0.0131", "--dr-mode", "2d", "--lever-arm", "0.5,0,1.5"}, help), ParseResult::kRun);
+  ASSERT_EQ(o.parse({"--nominal-k", "0.0131", "--dr-mode", "2d", "--lever-arm", "0.5,0,1.5",
+                     "--nominal-k-sigma-percent", "3"},
+                    help),
+            ParseResult::kRun);
   const DeadReckoningFacts f = dead_reckoning_facts_from(o);
   EXPECT_EQ(f.nominal_k_option_m_per_pulse, 0.0131);
+  EXPECT_EQ(f.nominal_k_sigma_option_percent, 3.0);
+  EXPECT_EQ(dead_reckoner_params(f).nominal_k_rel_sigma, 0.03);
   EXPECT_EQ(f.mode, DeadReckoningMode::k2D);
   ASSERT_TRUE(f.lever_arm_body_m);
   EXPECT_EQ(*f.lever_arm_body_m, Eigen::Vector3d(0.5, 0.0, 1.5));
