@@ -233,7 +233,7 @@ std::string WindowRlsEstimator::save_state() const {
   out.put_u64("residual_count", residual_scale_.count());
   out.put("residual_variance", residual_scale_.variance_m2());
   put_change_detector(out, change_);
-  if (change_began_) out.put_row("change_began", {static_cast<double>(*change_began_)});
+  if (change_began_) out.put_u64("change_began", *change_began_);
   out.put_u64("held", held_);
   for (std::size_t i = 0; i < held_; ++i)
     out.put_row("row", {entry(i).phi, entry(i).y, entry(i).log_weight, entry(i).dv});
@@ -265,14 +265,10 @@ void WindowRlsEstimator::restore_state(const std::string& state) {
   const uint64_t samples_used = in.get_u64("samples_used");
   const uint64_t residual_count = in.get_u64("residual_count");
   const CusumChangeDetector::State change = get_change_detector(in);
-  std::optional<uint64_t> change_began;
-  const auto began_rows = in.rows("change_began", 1);
-  if (began_rows.size() > 1) throw std::runtime_error(where + "field 'change_began' appears twice");
-  if (!began_rows.empty()) {
-    const double v = began_rows[0][0];
-    if (!(v >= 0.0) || v > static_cast<double>(samples_used) || v != std::floor(v))
-      throw std::runtime_error(where + "change_began out of range");
-    change_began = static_cast<uint64_t>(v);
+  std::optional<uint64_t> change_began;  // absent before any detected change
+  if (in.has("change_began")) {
+    change_began = in.get_u64("change_began");
+    if (*change_began > samples_used) throw std::runtime_error(where + "change_began out of range");
   }
   // All read and checked: commit.
   s_pp_ = s_pp;

@@ -900,7 +900,7 @@ TEST(HonestSigma, LatencySensitivityIsHowTheWindowKMovesWithALatencyError) {
     EXPECT_NEAR(c.k_m_per_pulse, k, 1e-12);
     EXPECT_LT(c.dk_dlatency_m_per_pulse_per_s, 0.0);  // accelerating: a late GNSS reads K low
     EXPECT_NEAR(l.k_m_per_pulse, k + d_s * c.dk_dlatency_m_per_pulse_per_s, 1e-12);
-    EXPECT_GT(std::abs(l.k_m_per_pulse / k - 1.0), 0.01);  // 1.5 % low: 40 x the scatter's sigma
+    EXPECT_GT(std::abs(l.k_m_per_pulse / k - 1.0), 0.005);  // 0.9 % low: many times the scatter's sigma
     EXPECT_LT(l.sigma_m_per_pulse / k, 0.001);
   }
   // Estimators without the sums report no sensitivity.
@@ -917,7 +917,7 @@ TEST(HonestSigma, LagSigmaCoversTheLagAfterAStepUntilTheOldSamplesHaveLeft) {
     ScaleFactorEstimatorParams params;
     const auto step_at = static_cast<std::size_t>(std::lround(300.0 / interval_s));
     std::size_t covered_by_lag = 0, lagging = 0;
-    std::optional<std::size_t> last_lag_sample;
+    std::optional<std::size_t> detected_at, last_lag_sample;
     vff_step_drive(interval_s, params, 1, nullptr, [&](std::size_t i, const ScaleFactorSample&, VffLmRlsEstimator& e) {
       const ScaleFactorEstimate est = e.estimate();
       if (est.lag_sigma_m_per_pulse > 0.0) last_lag_sample = i;
@@ -925,14 +925,18 @@ TEST(HonestSigma, LagSigmaCoversTheLagAfterAStepUntilTheOldSamplesHaveLeft) {
         EXPECT_EQ(est.lag_sigma_m_per_pulse, 0.0) << i;  // no change detected before the step
         return;
       }
+      if (!detected_at && e.last_change_began() && *e.last_change_began() + 5 >= step_at) detected_at = i;
+      if (!detected_at) return;  // nothing tells the step yet: the samples after it are the only witness
       const double error = std::abs(est.k_m_per_pulse - 0.0103);
       if (error <= 3.0 * est.sigma_m_per_pulse) return;
       ++lagging;  // the scatter's sigma alone does not cover it
       if (error <= 3.0 * std::max(est.sigma_m_per_pulse, est.lag_sigma_m_per_pulse)) ++covered_by_lag;
     });
+    ASSERT_TRUE(detected_at);
     ASSERT_TRUE(last_lag_sample);
-    EXPECT_GT(lagging, 3u);              // the step's lag is outside 3 of the scatter's sigmas ...
-    EXPECT_EQ(covered_by_lag, lagging);  // ... and inside 3 of the lag's, on every sample
+    EXPECT_LE(*detected_at, step_at + 10);         // the detector fires within a few samples of the step
+    if (interval_s < 0.5) EXPECT_GT(lagging, 3u);  // the step's lag is outside 3 of the scatter's sigmas ...
+    EXPECT_EQ(covered_by_lag, lagging);            // ... and inside 3 of the lag's, on every sample
     // The window holds 100 samples (10 s at 10 Hz; at 1 Hz cut back to the run, never below 10 s).
     EXPECT_LE(*last_lag_sample, step_at + static_cast<std::size_t>(std::lround(110.0 / interval_s)));
   }
