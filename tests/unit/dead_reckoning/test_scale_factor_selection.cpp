@@ -129,8 +129,9 @@ TEST(ScaleFactorApplicable, ALaterEstimateOfTheStreamInForceNeedsNotBeatTheNomin
 TEST(DeadReckoningScaleFactorSelection, LaterEstimatesOfTheSourceInForceReplaceItWithoutBeatingTheNominal) {
   // Before, the first provisional K (-3.5 %, 3.5 sigma from the nominal) stayed in force for 15 s
   // while the same identification's estimates moved to -2.5 ... -0.3 %, each under 3 sigma from
-  // the nominal: the DR laid out 15 m of error in the first minute.
-  ScaleFactorSelection sel(kNominalK);
+  // the nominal: the DR laid out 15 m of error in the first minute. (The nominal K's own sigma is
+  // left out, 0: the 3 sigma test alone, which these estimates of 0.56 % would otherwise pass.)
+  ScaleFactorSelection sel(kNominalK, 0.0);
   IdentifiedScaleFactor k = identified(14.2, 0.0122496, false, "id-a");
   k.sigma_m_per_pulse = 7.23e-5;
   k.samples_accepted = 8;
@@ -149,7 +150,7 @@ TEST(DeadReckoningScaleFactorSelection, LaterEstimatesOfTheSourceInForceReplaceI
   other.source = "id-b";
   EXPECT_FALSE(sel.on_identified(other, 0.0));
   // A checkpoint keeps which source is in force: a restored selection takes the next estimate too.
-  ScaleFactorSelection restored(kNominalK);
+  ScaleFactorSelection restored(kNominalK, 0.0);
   restored.restore_state(sel.state());
   EXPECT_EQ(restored.in_force_source(), "id-a");
   k.t_s = 17.2;
