@@ -401,8 +401,8 @@ class SampleBuilder {
   double latency_in_force_uncertainty_s() const;
   /// Whether the latency in force is decided (docs/ALGORITHM.md "Honest sigma of K"): fixed or
   /// estimation off, or an estimate was applied, or the online estimate confirms the value in
-  /// force (its sigma at most latency_apply_coarse_sigma_s and the value in force within 2 of its
-  /// sigmas). K is not published as converged before (IdentificationCore).
+  /// force (its sigma at most latency_apply_coarse_sigma_s and the value in force within 3 of its
+  /// sigmas: beats_nominal false). K is not published as converged before (IdentificationCore).
   bool latency_decided() const;
 
   /// Everything the builder holds besides its parameters, as text (every double exact): the

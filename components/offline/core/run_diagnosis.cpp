@@ -213,7 +213,7 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
       missing = "its estimate " + num(1000.0 * l.estimate_s) + " +- " + num(1000.0 * l.sigma_s) + " ms (" +
                 num(static_cast<double>(l.samples), 12) + " samples) neither met the apply rule nor confirmed the " +
                 num(1000.0 * l.applied_s) + " ms in force (sigma at most " +
-                num(1000.0 * builder_params.latency_apply_coarse_sigma_s) + " ms and within 2 sigma)";
+                num(1000.0 * builder_params.latency_apply_coarse_sigma_s) + " ms and within 3 sigma)";
     else
       missing = "no estimate: " + (l.reason.empty() ? std::string("no accepted sample") : l.reason);
     warn("latency_not_decided",
