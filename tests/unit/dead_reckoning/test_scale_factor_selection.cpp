@@ -57,7 +57,7 @@ TEST(ScaleFactorApplicable, ProvisionalKNeedsFiveSamplesAndAKnownSigma) {
 }
 
 TEST(ScaleFactorApplicable, ProvisionalKWhoseSigmaIsBelowTheNominalsIsAppliedWhateverTheirDifference) {
-  const double nominal_sigma = kDefaultNominalKRelSigma * kNominalK;  // 2 %
+  const double nominal_sigma = 0.02 * kNominalK;  // 2 %
   // 0.5 % from the nominal with sigma 1 %: not 3 sigma away, but known better than the nominal.
   EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.01, 20, kNominalK));
   EXPECT_TRUE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.01, 20, kNominalK, false, nominal_sigma));
@@ -65,7 +65,7 @@ TEST(ScaleFactorApplicable, ProvisionalKWhoseSigmaIsBelowTheNominalsIsAppliedWha
   EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.025, 20, kNominalK, false, nominal_sigma));
   EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.01, 4, kNominalK, false, nominal_sigma));
   EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, -1.0, 20, kNominalK, false, nominal_sigma));
-  // The selection weighs with the nominal's sigma it was given (default 2 %; 0: the 3 sigma test alone).
+  // The selection weighs with the nominal's sigma it was given (default 3 %; 0: the 3 sigma test alone).
   EXPECT_TRUE(ScaleFactorSelection(kNominalK).on_identified(
       IdentifiedScaleFactor{1.0, 0.0125625, false, "identification", 0.0125 * 0.01, 20}, 0.0));
   EXPECT_FALSE(
@@ -472,9 +472,9 @@ TEST(DeadReckoningParams, NominalKIsTheOptionElseTheDatasetsElseTheDefault) {
   EXPECT_EQ(dead_reckoner_params(f).nominal_k_m_per_pulse, 0.0122);
   f.nominal_k_option_m_per_pulse = 0.0131;
   EXPECT_EQ(dead_reckoner_params(f).nominal_k_m_per_pulse, 0.0131);
-  // Its sigma likewise: the option, else the dataset's, else 2 %.
+  // Its sigma likewise: the option, else the dataset's, else 3 %.
   EXPECT_EQ(p.nominal_k_rel_sigma, kDefaultNominalKRelSigma);
-  EXPECT_EQ(kDefaultNominalKRelSigma, 0.02);
+  EXPECT_EQ(kDefaultNominalKRelSigma, 0.03);
   f.dataset_nominal_k_sigma_percent = 1.0;
   EXPECT_EQ(dead_reckoner_params(f).nominal_k_rel_sigma, 0.01);
   f.nominal_k_sigma_option_percent = 5.0;

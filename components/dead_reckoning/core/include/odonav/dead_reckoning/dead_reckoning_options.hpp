@@ -17,7 +17,7 @@ namespace odonav {
 inline constexpr double kDegradedAnchorDriftPercent = 1.0;
 
 /// Declares --nominal-k (m/pulse; 0 = from the dataset's meta.json or 0.0125), --nominal-k-sigma-percent
-/// (%; 0 = from meta.json or 2), --dr-mode 3d|2d and
+/// (%; 0 = from meta.json or 3), --dr-mode 3d|2d and
 /// the navigation position's --anchor-* flags.
 /// The lever arm is --lever-arm (lever_arm_option.hpp), declared once by the program.
 void add_dead_reckoning_options(Options& options);
