@@ -60,6 +60,7 @@ inline offline::OfflineParams params_for(const Dataset& d, offline::OfflineParam
   }
   facts.use_ins = d.has_ins();
   facts.dataset_nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse;
+  facts.dataset_nominal_k_sigma_percent = d.meta.k_nominal_sigma_percent;
   p.dead_reckoning = dead_reckoner_params(facts);
   IdentificationVehicleFacts vehicle;
   vehicle.use_ins = d.has_ins();

@@ -101,6 +101,7 @@ void apply_dataset_defaults(const odonav::DatasetMeta& meta, bool has_ins, const
   }
   dr_facts.use_ins = has_ins;
   dr_facts.dataset_nominal_k_m_per_pulse = meta.k_nominal_m_per_pulse;
+  dr_facts.dataset_nominal_k_sigma_percent = meta.k_nominal_sigma_percent;
   params.dead_reckoning = odonav::dead_reckoner_params(dr_facts);  // as odonav-dead-reckoning's
   params.anchored = odonav::anchored_position_params(dr_facts);    // likewise
   // The same function as odonav-identification, with the same vehicle facts the launcher gives
@@ -193,7 +194,7 @@ class OutputFiles : public odonav::offline::PipelineSink {
     const odonav::results::ScaleFactorRow row = odonav::output_row(k, main_estimator_, estimators_);
     scale_factor_.write(row);
     summary_.add(row);
-    diagnosis_.add_identification(k.main);
+    diagnosis_.add_identification(k.main, k.latency, k.latency_decided);
   }
   void on_dead_reckoning(odonav::DeadReckoningStep step) override {
     const odonav::results::DeadReckoningRow dr = odonav::output_row(step.output);

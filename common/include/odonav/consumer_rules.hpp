@@ -98,13 +98,21 @@ inline std::string held_misalignment_text(double held_t_s, double silent_s) {
 /// against the nominal, an estimate moving back towards a nominal that was nearly right fell under
 /// 3 sigma and the older, worse K stayed in force (terrain at 1 Hz with a 200 ms receiver latency:
 /// -3.5 % kept for 15 s while the estimates went -2.5 % ... -0.3 %).
+/// Or, provisionally too, once its sigma is below the nominal K's own one-sigma
+/// (nominal_sigma_m_per_pulse, m/pulse; 0 = unknown: the rule off): the estimate is then the better
+/// known of the two whatever their difference. Why: the published sigma is honest (it counts the
+/// latency not yet known and the lag after a change, docs/ALGORITHM.md "Honest sigma of K"), so it
+/// stays larger than the scatter of the residuals for tens of seconds after the start, and a
+/// nominal that is 1-2 % off would be kept for all that time by the 3 sigma test alone.
 inline bool scale_factor_applicable(bool valid, bool converged, double k_m_per_pulse, double sigma_m_per_pulse,
                                     uint64_t samples_accepted, double nominal_k_m_per_pulse,
-                                    bool stream_in_force = false) {
+                                    bool stream_in_force = false, double nominal_sigma_m_per_pulse = 0.0) {
   if (!valid) return false;
   if (converged) return true;
   if (samples_accepted < kProvisionalMinSamples) return false;
-  return stream_in_force || beats_nominal(k_m_per_pulse, nominal_k_m_per_pulse, sigma_m_per_pulse);
+  const bool better_known =
+      std::isfinite(sigma_m_per_pulse) && sigma_m_per_pulse > 0.0 && sigma_m_per_pulse < nominal_sigma_m_per_pulse;
+  return stream_in_force || better_known || beats_nominal(k_m_per_pulse, nominal_k_m_per_pulse, sigma_m_per_pulse);
 }
 
 /// Why a commanded K (COMMAND_SET_K's value, m/pulse) is refused, or nothing when it is acceptable.

@@ -22,6 +22,9 @@ struct DatasetMeta {
   std::string vehicle_id;
   std::string description;
   std::optional<double> k_nominal_m_per_pulse;
+  /// "odometer": {"k_nominal_sigma_percent": s}: the nominal K's one-sigma, % of it, (0, 100]
+  /// (kDefaultNominalKRelSigma when absent; --nominal-k-sigma-percent overrides it).
+  std::optional<double> k_nominal_sigma_percent;
   std::optional<double> truth_misalignment_heading_deg;
   std::optional<double> truth_misalignment_pitch_deg;
   /// "gnss": {"lever_arm_m": [x, y, z]}: the GNSS antenna in the INS body frame (forward-left-up, m)

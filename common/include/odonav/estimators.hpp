@@ -238,6 +238,8 @@ struct WindowSums {
   double s_pp = 0.0;     ///< sum of w_i phi_i^2 over the window, prior excluded [pulse^2].
   double s_py = 0.0;     ///< sum of w_i phi_i y_i over the window, prior excluded [pulse m].
   std::size_t held = 0;  ///< samples in the window.
+  /// sum of w_i phi_i speed_change_i over the window [pulse m/s] (ScaleFactorSample::speed_change_mps).
+  double s_pdv = 0.0;
 };
 
 /// Sliding-window RLS: LM-RLS ("lm_rls", lambda = 1) and VFF-LM-RLS ("vff_lm_rls"), exact and O(1)
@@ -263,6 +265,10 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
   double vff_c_m2(double k_m_per_pulse, double interval_s = 0.0) const;
   /// vff_lm_rls: changes of K its detector found since reset (each cut the window back).
   uint64_t changes_detected() const { return change_.changes_detected(); }
+  /// vff_lm_rls: index (0 = the first sample since reset) of the first sample of the last detected
+  /// change, nothing before any; the estimate's lag_sigma_m_per_pulse while samples from before it
+  /// are still in the window.
+  std::optional<uint64_t> last_change_began() const { return change_began_; }
 
  protected:
   WindowRlsEstimator(const ScaleFactorEstimatorParams& params, bool variable_forgetting);
@@ -272,7 +278,11 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
     double phi = 0.0;
     double y = 0.0;
     double log_weight = 0.0;  // Lambda when the sample entered (after its own lambda)
+    double dv = 0.0;          // speed_change_mps
   };
+  // sqrt(sigma_since^2 + (K - K_since)^2) over the samples since change_began_ (see
+  // ScaleFactorEstimate::lag_sigma_m_per_pulse), 0 when every held sample is from after it.
+  double lag_sigma(double k_m_per_pulse, double sigma_y_m) const;
   void resum();
   // Drops the samples before index first_kept (samples_used_ counting), keeping at least
   // window_length reference intervals at the newest sample's interval_s, and re-sums. Returns
@@ -289,12 +299,14 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
   std::size_t held_ = 0;
   double s_pp_ = 0.0;
   double s_py_ = 0.0;
+  double s_pdv_ = 0.0;
   double log_weight_ = 0.0;
   double last_lambda_ = 1.0;
   std::size_t since_resum_ = 0;
   uint64_t samples_used_ = 0;
   ResidualScaleTracker residual_scale_;
   CusumChangeDetector change_;
+  std::optional<uint64_t> change_began_;  // first sample of the last detected change (samples_used_ index)
 };
 
 /// LM-RLS: the last window_length samples with equal weights ("lm_rls").

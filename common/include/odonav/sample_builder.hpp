@@ -215,6 +215,11 @@ struct SampleBuilderParams {
   /// wear, load) hardly moves within one. Against the running K estimate instead, the estimate lag
   /// after a change of K times the speed profile biased the latency by +1 to +2.5 ms.
   double latency_block_s = 30.0;
+  /// One-sigma (s, >= 0) of the GNSS latency before the data say anything about it (estimated
+  /// online, no estimate yet; default 0.1 s: receivers stamp tens to a few hundred ms late, and
+  /// one that is known to be later should be given --gnss-latency-s). Enters K's published sigma
+  /// only (latency_in_force_uncertainty_s), never a gate or an estimate.
+  double latency_prior_sigma_s = 0.1;
 };
 
 /// The max interval in force for an observed GNSS period (s; NaN: not yet observed):
@@ -388,6 +393,17 @@ class SampleBuilder {
     double latency_sigma_s = 0.0;  ///< ... and its one-sigma (s).
   };
   std::optional<StartLatencyK> start_latency_k() const;
+  /// How far (one-sigma, s) the true latency may lie from the one in force, as the latency search
+  /// knows it now (docs/ALGORITHM.md "Honest sigma of K"): 0 with a fixed latency or estimation
+  /// off; else hypot(estimate - applied, sigma) of the online estimate when it has one, else the
+  /// sigma the value in force was applied with, else hypot(...) of the open block's own fit (as
+  /// start_latency_k, from 10 samples on), else latency_prior_sigma_s. What K's published sigma adds as |dK/dlatency| times it.
+  double latency_in_force_uncertainty_s() const;
+  /// Whether the latency in force is decided (docs/ALGORITHM.md "Honest sigma of K"): fixed or
+  /// estimation off, or an estimate was applied, or the online estimate confirms the value in
+  /// force (its sigma at most latency_apply_coarse_sigma_s and the value in force within 3 of its
+  /// sigmas: beats_nominal false). K is not published as converged before (IdentificationCore).
+  bool latency_decided() const;
 
   /// Everything the builder holds besides its parameters, as text (every double exact): the
   /// buffered inputs not processed yet, the sample chain, the gates' references, the observed GNSS

@@ -23,6 +23,11 @@ struct ScaleFactorSample {
   /// GNSS position at t_s in a local ENU frame (metres); used by the coarse S/N calibration only.
   Eigen::Vector3d gnss_position_enu_m = Eigen::Vector3d::Zero();
   bool straight = true;  ///< the yaw-rate gate says this interval was on a straight line.
+  /// GNSS speed along the direction of travel at t_s minus at t_s - dt_s (m/s). An error d of the
+  /// GNSS latency in force (true minus applied, s) shifts the odometer's interval against the
+  /// GNSS's and puts -d * speed_change_mps into y_m - K phi_pulses: what the estimators report as
+  /// the sensitivity of K to the latency (ScaleFactorEstimate::dk_dlatency_m_per_pulse_per_s).
+  double speed_change_mps = 0.0;
 };
 
 /// The sensor noise model of the regression (docs/ALGORITHM.md, "Estimators": sigma_y^2): the
@@ -50,6 +55,15 @@ struct ScaleFactorEstimate {
   double window_fill = 0.0;        ///< held samples / window capacity, 0..1 (1 for growing memory).
   bool converged = false;          ///< sigma below the convergence threshold.
   uint64_t samples_used = 0;       ///< samples given to update() since reset.
+  /// dK/dd: how K moves with an error d of the GNSS latency in force (true minus applied, s),
+  /// -sum w phi speed_change / sum w phi^2 over the samples behind K (m/pulse per s); 0 when the
+  /// estimator does not report it (only lm_rls and vff_lm_rls do). docs/ALGORITHM.md "Honest sigma".
+  double dk_dlatency_m_per_pulse_per_s = 0.0;
+  /// After a detected change of K whose earlier samples are still in the window (vff_lm_rls): the
+  /// one-sigma of K including the lag, sqrt(sigma_since^2 + (K - K_since)^2), K_since and
+  /// sigma_since the least-squares K and its sigma over the samples since the change began
+  /// (m/pulse); 0 otherwise. docs/ALGORITHM.md "Honest sigma".
+  double lag_sigma_m_per_pulse = 0.0;
 };
 
 class ScaleFactorEstimator {

@@ -86,6 +86,8 @@ class StateReader {
   /// Parses and checks header, version, checksum and estimator name; throws std::runtime_error.
   StateReader(const std::string& text, const std::string& estimator_name);
   double get(const std::string& key) const;
+  /// Whether a single-valued field is present (fields added in a later build are optional).
+  bool has(const std::string& key) const { return single_.count(key) > 0; }
   uint64_t get_u64(const std::string& key) const;
   /// All rows stored under key, in order; each must have `width` values.
   std::vector<std::vector<double>> rows(const std::string& key, std::size_t width) const;

@@ -59,6 +59,7 @@ void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
   if (!sample_is_valid(sample)) check_sample(name(), sample);  // throws, naming the field
   const double phi = sample.phi_pulses;
   const double y = sample.y_m;
+  const double dv = std::isfinite(sample.speed_change_mps) ? sample.speed_change_mps : 0.0;
   const double w0 = params_.prior_weight_pulses2;
   const double s_pp_total = s_pp_ + w0;
 
@@ -88,16 +89,19 @@ void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
     log_weight_ += std::log(lambda);
     s_pp_ *= lambda;
     s_py_ *= lambda;
+    s_pdv_ *= lambda;
   }
   s_pp_ += phi * phi;
   s_py_ += phi * y;
+  s_pdv_ += phi * dv;
 
-  const Entry newest{phi, y, log_weight_};
+  const Entry newest{phi, y, log_weight_, dv};
   if (held_ == capacity_) {
     const Entry& old = buffer_[oldest_];
     const double beta = variable_forgetting_ ? std::exp(log_weight_ - old.log_weight) : 1.0;
     s_pp_ -= beta * old.phi * old.phi;
     s_py_ -= beta * old.phi * old.y;
+    s_pdv_ -= beta * old.phi * old.dv;
     buffer_[oldest_] = newest;
     if (++oldest_ == capacity_) oldest_ = 0;
   } else {
@@ -106,6 +110,7 @@ void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
   }
   last_lambda_ = lambda;
   ++samples_used_;
+  if (change_began) change_began_ = *change_began;
   const bool cut = change_began && cut_window(*change_began, sample.dt_s);
   if (!cut && ++since_resum_ >= resum_interval_) resum();
 }
@@ -133,6 +138,7 @@ void WindowRlsEstimator::resum() {
   const double base = log_weight_;
   double s_pp = 0.0;
   double s_py = 0.0;
+  double s_pdv = 0.0;
   for (std::size_t i = 0, index = oldest_; i < held_; ++i) {
     Entry& e = buffer_[index];
     if (++index == capacity_) index = 0;
@@ -140,14 +146,16 @@ void WindowRlsEstimator::resum() {
     const double w = variable_forgetting_ ? std::exp(-e.log_weight) : 1.0;
     s_pp += w * e.phi * e.phi;
     s_py += w * e.phi * e.y;
+    s_pdv += w * e.phi * e.dv;
   }
   log_weight_ = 0.0;
   s_pp_ = s_pp;
   s_py_ = s_py;
+  s_pdv_ = s_pdv;
   since_resum_ = 0;
 }
 
-WindowSums WindowRlsEstimator::window_sums() const { return WindowSums{s_pp_, s_py_, held_}; }
+WindowSums WindowRlsEstimator::window_sums() const { return WindowSums{s_pp_, s_py_, held_, s_pdv_}; }
 
 WindowSums WindowRlsEstimator::exact_window_sums() const {
   WindowSums sums;
@@ -157,15 +165,44 @@ WindowSums WindowRlsEstimator::exact_window_sums() const {
     const double w = variable_forgetting_ ? std::exp(log_weight_ - e.log_weight) : 1.0;
     sums.s_pp += w * e.phi * e.phi;
     sums.s_py += w * e.phi * e.y;
+    sums.s_pdv += w * e.phi * e.dv;
   }
   return sums;
 }
 
+double WindowRlsEstimator::lag_sigma(double k_m_per_pulse, double sigma_y_m) const {
+  // The samples since the change began are the index range [change_began_, samples_used_); the
+  // window holds [samples_used_ - held_, samples_used_). Nothing to say unless the change began
+  // inside the window (older samples from before it still weigh on K).
+  if (!change_began_ || held_ == 0) return 0.0;
+  const uint64_t first_held = samples_used_ - held_;
+  if (*change_began_ <= first_held || *change_began_ >= samples_used_) return 0.0;
+  const auto since = static_cast<std::size_t>(samples_used_ - *change_began_);
+  double s_pp = 0.0;
+  double s_py = 0.0;
+  for (std::size_t i = held_ - since; i < held_; ++i) {
+    const Entry& e = entry(i);
+    const double w = variable_forgetting_ ? std::exp(log_weight_ - e.log_weight) : 1.0;
+    s_pp += w * e.phi * e.phi;
+    s_py += w * e.phi * e.y;
+  }
+  if (!(s_pp > 0.0)) return 0.0;
+  const double k_since = s_py / s_pp;
+  const double sigma_since = sigma_y_m / std::sqrt(s_pp);
+  return std::hypot(sigma_since, k_m_per_pulse - k_since);
+}
+
 ScaleFactorEstimate WindowRlsEstimator::estimate() const {
   const double w0 = params_.prior_weight_pulses2;
-  return least_squares_estimate(params_, held_ > 0, s_pp_ + w0, s_py_ + w0 * params_.k_prior_m_per_pulse,
-                                residual_scale_.sigma_m(), samples_used_, last_lambda_,
-                                static_cast<double>(held_) / static_cast<double>(capacity_));
+  ScaleFactorEstimate e = least_squares_estimate(
+      params_, held_ > 0, s_pp_ + w0, s_py_ + w0 * params_.k_prior_m_per_pulse, residual_scale_.sigma_m(),
+      samples_used_, last_lambda_, static_cast<double>(held_) / static_cast<double>(capacity_));
+  if (!e.valid) return e;
+  // y - K phi = -d speed_change for a latency error d (scale_factor_estimator.hpp), so the
+  // least-squares K moves by -d sum w phi dv / sum w phi^2 (the prior does not move).
+  e.dk_dlatency_m_per_pulse_per_s = -s_pdv_ / (s_pp_ + w0);
+  e.lag_sigma_m_per_pulse = lag_sigma(e.k_m_per_pulse, residual_scale_.sigma_m());
+  return e;
 }
 
 void WindowRlsEstimator::reset() {
@@ -173,12 +210,14 @@ void WindowRlsEstimator::reset() {
   held_ = 0;
   s_pp_ = 0.0;
   s_py_ = 0.0;
+  s_pdv_ = 0.0;
   log_weight_ = 0.0;
   last_lambda_ = 1.0;
   since_resum_ = 0;
   samples_used_ = 0;
   residual_scale_.reset();
   change_.reset();
+  change_began_.reset();
 }
 
 std::string WindowRlsEstimator::save_state() const {
@@ -186,6 +225,7 @@ std::string WindowRlsEstimator::save_state() const {
   out.put_params(params_);
   out.put("s_pp", s_pp_);
   out.put("s_py", s_py_);
+  out.put("s_pdv", s_pdv_);
   out.put("log_weight", log_weight_);
   out.put("last_lambda", last_lambda_);
   out.put_u64("since_resum", since_resum_);
@@ -193,15 +233,17 @@ std::string WindowRlsEstimator::save_state() const {
   out.put_u64("residual_count", residual_scale_.count());
   out.put("residual_variance", residual_scale_.variance_m2());
   put_change_detector(out, change_);
+  if (change_began_) out.put_u64("change_began", *change_began_);
   out.put_u64("held", held_);
-  for (std::size_t i = 0; i < held_; ++i) out.put_row("row", {entry(i).phi, entry(i).y, entry(i).log_weight});
+  for (std::size_t i = 0; i < held_; ++i)
+    out.put_row("row", {entry(i).phi, entry(i).y, entry(i).log_weight, entry(i).dv});
   return out.finish();
 }
 
 void WindowRlsEstimator::restore_state(const std::string& state) {
   const StateReader in(state, name());
   in.check_params(params_);
-  const auto rows = in.rows("row", 3);
+  const auto rows = in.rows("row", 4);
   const uint64_t held = in.get_u64("held");
   const std::string where = "estimator state for '" + name() + "': ";
   if (held != rows.size())
@@ -213,27 +255,35 @@ void WindowRlsEstimator::restore_state(const std::string& state) {
   const double residual_variance = in.get("residual_variance");
   if (!(residual_variance >= 0.0)) throw std::runtime_error(where + "negative residual variance");
   for (const auto& r : rows)
-    if (!std::isfinite(r[0]) || !std::isfinite(r[1]) || !std::isfinite(r[2]))
+    if (!std::isfinite(r[0]) || !std::isfinite(r[1]) || !std::isfinite(r[2]) || !std::isfinite(r[3]))
       throw std::runtime_error(where + "non-finite buffer value");
   const double s_pp = in.get("s_pp");
   const double s_py = in.get("s_py");
+  const double s_pdv = in.get("s_pdv");
   const double log_weight = in.get("log_weight");
   const double last_lambda = in.get("last_lambda");
   const uint64_t samples_used = in.get_u64("samples_used");
   const uint64_t residual_count = in.get_u64("residual_count");
   const CusumChangeDetector::State change = get_change_detector(in);
+  std::optional<uint64_t> change_began;  // absent before any detected change
+  if (in.has("change_began")) {
+    change_began = in.get_u64("change_began");
+    if (*change_began > samples_used) throw std::runtime_error(where + "change_began out of range");
+  }
   // All read and checked: commit.
   s_pp_ = s_pp;
   s_py_ = s_py;
+  s_pdv_ = s_pdv;
   log_weight_ = log_weight;
   last_lambda_ = last_lambda;
   since_resum_ = since_resum;
   samples_used_ = samples_used;
   residual_scale_.set_state(residual_count, residual_variance);
   change_.set_state(change);
+  change_began_ = change_began;
   oldest_ = 0;
   held_ = held;
-  for (std::size_t i = 0; i < held; ++i) buffer_[i] = Entry{rows[i][0], rows[i][1], rows[i][2]};
+  for (std::size_t i = 0; i < held; ++i) buffer_[i] = Entry{rows[i][0], rows[i][1], rows[i][2], rows[i][3]};
 }
 
 }  // namespace odonav

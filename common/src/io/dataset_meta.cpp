@@ -55,6 +55,10 @@ DatasetMeta read_meta(const std::string& path) {
   if (meta.k_nominal_m_per_pulse && !(*meta.k_nominal_m_per_pulse > 0.0 && *meta.k_nominal_m_per_pulse <= 10.0))
     throw DatasetError(path + ": key 'odometer.k_nominal_m_per_pulse' = " +
                        std::to_string(*meta.k_nominal_m_per_pulse) + ": the nominal K must be in (0, 10] m/pulse");
+  meta.k_nominal_sigma_percent = read_meta_number(root, "odometer", "k_nominal_sigma_percent", path);
+  if (meta.k_nominal_sigma_percent && !(*meta.k_nominal_sigma_percent > 0.0 && *meta.k_nominal_sigma_percent <= 100.0))
+    throw DatasetError(path + ": key 'odometer.k_nominal_sigma_percent' = " +
+                       std::to_string(*meta.k_nominal_sigma_percent) + ": must be in (0, 100] %");
   meta.truth_misalignment_heading_deg = read_meta_number(root, "truth", "misalignment_heading_deg", path);
   meta.truth_misalignment_pitch_deg = read_meta_number(root, "truth", "misalignment_pitch_deg", path);
   if (root.contains("gnss") && root["gnss"].is_object() && root["gnss"].contains("lever_arm_m")) {
@@ -111,14 +115,15 @@ std::string meta_json(const std::string& path, const DatasetMeta& meta) {
   set_string("vehicle_id", meta.vehicle_id);
   set_string("description", meta.description);
   set_meta_number(root, "odometer", "k_nominal_m_per_pulse", meta.k_nominal_m_per_pulse);
+  set_meta_number(root, "odometer", "k_nominal_sigma_percent", meta.k_nominal_sigma_percent);
   set_meta_number(root, "truth", "misalignment_heading_deg", meta.truth_misalignment_heading_deg);
   set_meta_number(root, "truth", "misalignment_pitch_deg", meta.truth_misalignment_pitch_deg);
   if (meta.gnss_lever_arm_m) {
     if (!meta.gnss_lever_arm_m->allFinite()) throw DatasetError(path + ": cannot write a non-finite lever arm");
     root["gnss"]["lever_arm_m"] = {meta.gnss_lever_arm_m->x(), meta.gnss_lever_arm_m->y(), meta.gnss_lever_arm_m->z()};
   }
-  for (const auto* value :
-       {&meta.k_nominal_m_per_pulse, &meta.truth_misalignment_heading_deg, &meta.truth_misalignment_pitch_deg}) {
+  for (const auto* value : {&meta.k_nominal_m_per_pulse, &meta.k_nominal_sigma_percent,
+                            &meta.truth_misalignment_heading_deg, &meta.truth_misalignment_pitch_deg}) {
     if (*value && !std::isfinite(**value)) throw DatasetError(path + ": cannot write a non-finite number");
   }
   return root.dump(2) + "\n";

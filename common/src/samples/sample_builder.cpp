@@ -153,6 +153,8 @@ SampleBuilder::SampleBuilder(const SampleBuilderParams& p)
   require(std::isfinite(p.latency_min_sample_time_s) && p.latency_min_sample_time_s >= 0.0,
           "latency_min_sample_time_s must be >= 0");
   require(p.latency_block_s > 0.0, "latency_block_s must be > 0");
+  require(std::isfinite(p.latency_prior_sigma_s) && p.latency_prior_sigma_s >= 0.0,
+          "latency_prior_sigma_s must be finite and >= 0");
   if (p.gnss_latency_fixed_s) {
     latency_.fixed = true;
     latency_.applied_s = latency_.estimate_s = *p.gnss_latency_fixed_s;
@@ -336,6 +338,28 @@ std::optional<SampleBuilder::StartLatencyK> SampleBuilder::start_latency_k() con
   const double k0 = latency_block_yphi_[i] / latency_block_phiphi_[i];
   const double k1 = latency_block_yphi_[i + 1] / latency_block_phiphi_[i + 1];
   return StartLatencyK{k0 + f * (k1 - k0), own.estimate_s, own.sigma_s};
+}
+
+double SampleBuilder::latency_in_force_uncertainty_s() const {
+  if (latency_.fixed || latency_candidates_s_.empty()) return 0.0;
+  if (latency_.sigma_s >= 0.0) return std::hypot(latency_.estimate_s - latency_.applied_s, latency_.sigma_s);
+  // Sums restarted after an application: what was known when the value in force was applied.
+  if (latency_.applied_sigma_s >= 0.0) return latency_.applied_sigma_s;
+  // No estimate over the sums yet: the open block's own (coarser) fit, as start_latency_k uses.
+  std::vector<double> block(latency_candidates_s_.size());
+  GnssLatencyEstimate own;
+  if (weighted_block_residuals(block) && fit_latency(block, latency_block_samples_, 1, own, kLatencyBlockMinSamples))
+    return std::hypot(own.estimate_s - latency_.applied_s, own.sigma_s);
+  return params_.latency_prior_sigma_s;
+}
+
+bool SampleBuilder::latency_decided() const {
+  if (latency_.fixed || latency_candidates_s_.empty() || latency_.applied_sigma_s >= 0.0) return true;
+  // Confirmed: a sigma the apply rule would act on, and the estimate does not beat the value in
+  // force (beats_nominal, 3 sigma: the test a provisional estimate passes). Within 2 sigma the
+  // estimate's own wandering at 1 Hz (sigma 5-10 ms) left drives unconverged at their end.
+  return latency_.sigma_s >= 0.0 && latency_.sigma_s <= params_.latency_apply_coarse_sigma_s &&
+         !beats_nominal(latency_.estimate_s, latency_.applied_s, latency_.sigma_s);
 }
 
 void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {
@@ -655,6 +679,7 @@ EpochStatus SampleBuilder::check_interval(const GnssSample& g, const EpochInputs
   sample.phi_pulses = phi;
   sample.dt_s = dt;
   sample.y_m = 0.5 * (v_start + v) * dt;
+  sample.speed_change_mps = v - v_start;
   speed_trapezoid_m = sample.y_m;
   if (dt >= params_.trapezoid_correction_min_interval_s) {
     // Long intervals: the trapezoid of the two speeds misses the speed's curvature in between

@@ -93,7 +93,13 @@ void RunDiagnosisAccumulator::add_gnss(double t_s) {
   gnss_period_.add(t_s);
 }
 void RunDiagnosisAccumulator::add_ins(double) { has_ins_ = true; }
-void RunDiagnosisAccumulator::add_identification(const ScaleFactorEstimate& main) { last_main_ = main; }
+void RunDiagnosisAccumulator::add_identification(const ScaleFactorEstimate& main, const GnssLatencyEstimate& latency,
+                                                 bool latency_decided) {
+  last_main_ = main;
+  last_latency_ = latency;
+  last_latency_decided_ = latency_decided;
+  latency_ever_decided_ = latency_ever_decided_ || latency_decided;
+}
 void RunDiagnosisAccumulator::add_dead_reckoning(double t_s, const Geodetic& position) {
   dead_reckoning_.add(t_s);
   const std::optional<double> pole_m = polar_heading_distance_m(position);
@@ -110,7 +116,7 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
   for (const OdometerSample& o : d.odometer) acc.add_odometer(o.t_s);
   for (const GnssSample& g : d.gnss) acc.add_gnss(g.t_s);
   for (const InsSample& i : d.ins) acc.add_ins(i.t_s);
-  for (const IdentificationOutput& k : r.identification) acc.add_identification(k.main);
+  for (const IdentificationOutput& k : r.identification) acc.add_identification(k.main, k.latency, k.latency_decided);
   for (const MisalignmentOutput& m : r.misalignment) acc.add_misalignment(m);
   for (const DeadReckoningOutput& o : r.dr_online) acc.add_dead_reckoning(o.t_s, o.position);
   return acc.finish(p, r.builder_counters, r.calibration_counters, r.dr_counters, r.consistency, r.gnss_jumps);
@@ -179,6 +185,8 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
       if (!(rel_percent < 100.0 * e.converged_rel_sigma))
         missing += (missing.empty() ? "" : "; ") + std::string("sigma ") + num(rel_percent, 3) + " % of K, " +
                    num(100.0 * e.converged_rel_sigma, 3) + " % needed (--converged-rel-sigma)";
+      if (last_latency_ && !last_latency_decided_)
+        missing += (missing.empty() ? "" : "; ") + std::string("the GNSS latency not decided");
       warn("k_not_converged",
            "K did not converge: " + (missing.empty() ? std::string("estimator not converged") : missing) + " (" +
                num(static_cast<double>(c.accepted), 12) + " of " + num(static_cast<double>(c.epochs), 12) +
@@ -192,6 +200,25 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
                                   " m/pulse (plausible: 0.5 .. 2 x): check the nominal K, the pulse counter and "
                                   "the GNSS velocity units");
     }
+  }
+
+  // GNSS latency estimated online but never decided: K was never published as converged, and its
+  // sigma carries the latency's uncertainty to the end (docs/ALGORITHM.md "Honest sigma of K").
+  const SampleBuilderParams& builder_params = p.identification.builder;
+  if (last_latency_ && !latency_ever_decided_ && builder_params.latency_estimation_enabled &&
+      !builder_params.gnss_latency_fixed_s) {
+    const GnssLatencyEstimate& l = *last_latency_;
+    std::string missing;
+    if (l.sigma_s >= 0.0)
+      missing = "its estimate " + num(1000.0 * l.estimate_s) + " +- " + num(1000.0 * l.sigma_s) + " ms (" +
+                num(static_cast<double>(l.samples), 12) + " samples) neither met the apply rule nor confirmed the " +
+                num(1000.0 * l.applied_s) + " ms in force (sigma at most " +
+                num(1000.0 * builder_params.latency_apply_coarse_sigma_s) + " ms and within 3 sigma)";
+    else
+      missing = "no estimate: " + (l.reason.empty() ? std::string("no accepted sample") : l.reason);
+    warn("latency_not_decided",
+         "the GNSS latency was never decided: " + missing + "; K was never published as converged and its sigma " +
+             "includes the latency's uncertainty (give --gnss-latency-s when the receiver's latency is known)");
   }
 
   // Misalignment (only with an INS: without one, degraded mode is announced when reading).

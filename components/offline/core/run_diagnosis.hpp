@@ -59,11 +59,14 @@ double median_period_s(const std::vector<double>& times_s);
 /// and each output as it is produced, in constant memory (MedianPeriod aside).
 class RunDiagnosisAccumulator {
  public:
-  void add_odometer(double t_s);                             ///< each odometer sample's time (s)
-  void add_gnss(double t_s);                                 ///< each GNSS epoch's time (s), valid or not
-  void add_ins(double t_s);                                  ///< each INS sample's time (s)
-  void add_identification(const ScaleFactorEstimate& main);  ///< each identification output's main estimate
-  void add_misalignment(const MisalignmentOutput& output);   ///< each calibration output
+  void add_odometer(double t_s);  ///< each odometer sample's time (s)
+  void add_gnss(double t_s);      ///< each GNSS epoch's time (s), valid or not
+  void add_ins(double t_s);       ///< each INS sample's time (s)
+  /// Each identification output: its main estimate, the GNSS latency after it and whether that
+  /// latency was decided (IdentificationOutput::latency_decided).
+  void add_identification(const ScaleFactorEstimate& main, const GnssLatencyEstimate& latency = {},
+                          bool latency_decided = true);
+  void add_misalignment(const MisalignmentOutput& output);  ///< each calibration output
   /// Each online dead-reckoning output's time (s) and position (for the warning near a pole).
   void add_dead_reckoning(double t_s, const Geodetic& position);
   /// The warnings, from the facts gathered and the run's final gate counters.
@@ -90,6 +93,9 @@ class RunDiagnosisAccumulator {
   MedianPeriod gnss_period_;
   bool has_ins_ = false;
   std::optional<ScaleFactorEstimate> last_main_;
+  std::optional<GnssLatencyEstimate> last_latency_;
+  bool latency_ever_decided_ = false;
+  bool last_latency_decided_ = true;
   std::optional<MisalignmentOutput> last_misalignment_;
 };
 

@@ -56,6 +56,26 @@ TEST(ScaleFactorApplicable, ProvisionalKNeedsFiveSamplesAndAKnownSigma) {
   EXPECT_FALSE(scale_factor_applicable(true, false, std::nan(""), 0.0001, 50, kNominalK));
 }
 
+TEST(ScaleFactorApplicable, ProvisionalKWhoseSigmaIsBelowTheNominalsIsAppliedWhateverTheirDifference) {
+  const double nominal_sigma = 0.02 * kNominalK;  // 2 %
+  // 0.5 % from the nominal with sigma 1 %: not 3 sigma away, but known better than the nominal.
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.01, 20, kNominalK));
+  EXPECT_TRUE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.01, 20, kNominalK, false, nominal_sigma));
+  // Sigma 2.5 %: the nominal is the better known; and five samples first, a sigma known.
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.025, 20, kNominalK, false, nominal_sigma));
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, 0.0125 * 0.01, 4, kNominalK, false, nominal_sigma));
+  EXPECT_FALSE(scale_factor_applicable(true, false, 0.0125625, -1.0, 20, kNominalK, false, nominal_sigma));
+  // The selection weighs with the nominal's sigma it was given (default 3 %; 0: the 3 sigma test alone).
+  EXPECT_TRUE(ScaleFactorSelection(kNominalK).on_identified(
+      IdentifiedScaleFactor{1.0, 0.0125625, false, "identification", 0.0125 * 0.01, 20}, 0.0));
+  EXPECT_FALSE(
+      ScaleFactorSelection(kNominalK, 0.0)
+          .on_identified(IdentifiedScaleFactor{1.0, 0.0125625, false, "identification", 0.0125 * 0.01, 20}, 0.0));
+  EXPECT_FALSE(
+      ScaleFactorSelection(kNominalK, 0.005)
+          .on_identified(IdentifiedScaleFactor{1.0, 0.0125625, false, "identification", 0.0125 * 0.01, 20}, 0.0));
+}
+
 TEST(MisalignmentApplicable, ConvergedOrHundredEpochsAsBefore) {
   EXPECT_TRUE(misalignment_applicable(true, 3, 0.0, 0.0, 1.0, 1.0));
   EXPECT_TRUE(misalignment_applicable(false, 100, 0.0, 0.0, 1.0, 1.0));
@@ -109,8 +129,9 @@ TEST(ScaleFactorApplicable, ALaterEstimateOfTheStreamInForceNeedsNotBeatTheNomin
 TEST(DeadReckoningScaleFactorSelection, LaterEstimatesOfTheSourceInForceReplaceItWithoutBeatingTheNominal) {
   // Before, the first provisional K (-3.5 %, 3.5 sigma from the nominal) stayed in force for 15 s
   // while the same identification's estimates moved to -2.5 ... -0.3 %, each under 3 sigma from
-  // the nominal: the DR laid out 15 m of error in the first minute.
-  ScaleFactorSelection sel(kNominalK);
+  // the nominal: the DR laid out 15 m of error in the first minute. (The nominal K's own sigma is
+  // left out, 0: the 3 sigma test alone, which these estimates of 0.56 % would otherwise pass.)
+  ScaleFactorSelection sel(kNominalK, 0.0);
   IdentifiedScaleFactor k = identified(14.2, 0.0122496, false, "id-a");
   k.sigma_m_per_pulse = 7.23e-5;
   k.samples_accepted = 8;
@@ -129,7 +150,7 @@ TEST(DeadReckoningScaleFactorSelection, LaterEstimatesOfTheSourceInForceReplaceI
   other.source = "id-b";
   EXPECT_FALSE(sel.on_identified(other, 0.0));
   // A checkpoint keeps which source is in force: a restored selection takes the next estimate too.
-  ScaleFactorSelection restored(kNominalK);
+  ScaleFactorSelection restored(kNominalK, 0.0);
   restored.restore_state(sel.state());
   EXPECT_EQ(restored.in_force_source(), "id-a");
   k.t_s = 17.2;
@@ -451,6 +472,13 @@ TEST(DeadReckoningParams, NominalKIsTheOptionElseTheDatasetsElseTheDefault) {
   EXPECT_EQ(dead_reckoner_params(f).nominal_k_m_per_pulse, 0.0122);
   f.nominal_k_option_m_per_pulse = 0.0131;
   EXPECT_EQ(dead_reckoner_params(f).nominal_k_m_per_pulse, 0.0131);
+  // Its sigma likewise: the option, else the dataset's, else 3 %.
+  EXPECT_EQ(p.nominal_k_rel_sigma, kDefaultNominalKRelSigma);
+  EXPECT_EQ(kDefaultNominalKRelSigma, 0.03);
+  f.dataset_nominal_k_sigma_percent = 1.0;
+  EXPECT_EQ(dead_reckoner_params(f).nominal_k_rel_sigma, 0.01);
+  f.nominal_k_sigma_option_percent = 5.0;
+  EXPECT_EQ(dead_reckoner_params(f).nominal_k_rel_sigma, 0.05);
 
   f.use_ins = false;
   f.mode = DeadReckoningMode::k2D;
@@ -470,9 +498,14 @@ TEST(DeadReckoningParams, FactsFromOptions) {
   add_dead_reckoning_options(o);
   add_lever_arm_option(o);
   std::ostringstream help;
-  ASSERT_EQ(o.parse({"--nominal-k", "0.0131", "--dr-mode", "2d", "--lever-arm", "0.5,0,1.5"}, help), ParseResult::kRun);
+  ASSERT_EQ(o.parse({"--nominal-k", "0.0131", "--dr-mode", "2d", "--lever-arm", "0.5,0,1.5",
+                     "--nominal-k-sigma-percent", "3"},
+                    help),
+            ParseResult::kRun);
   const DeadReckoningFacts f = dead_reckoning_facts_from(o);
   EXPECT_EQ(f.nominal_k_option_m_per_pulse, 0.0131);
+  EXPECT_EQ(f.nominal_k_sigma_option_percent, 3.0);
+  EXPECT_EQ(dead_reckoner_params(f).nominal_k_rel_sigma, 0.03);
   EXPECT_EQ(f.mode, DeadReckoningMode::k2D);
   ASSERT_TRUE(f.lever_arm_body_m);
   EXPECT_EQ(*f.lever_arm_body_m, Eigen::Vector3d(0.5, 0.0, 1.5));

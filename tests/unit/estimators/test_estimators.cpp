@@ -878,3 +878,99 @@ TEST(Estimators, RegressionNoiseVarianceIsVelocityNoisePlusPulseQuantisation) {
   EXPECT_GT(regression_noise_variance_m2(p.sigma_v_mps, p.sample_interval_s, 0.0125),
             p.sigma_y_floor_m * p.sigma_y_floor_m);
 }
+
+// A latency error d moves every sample by -d * speed_change (y = K phi - d dv): the window's K moves
+// by exactly d * dk_dlatency, the sensitivity the estimate reports.
+TEST(HonestSigma, LatencySensitivityIsHowTheWindowKMovesWithALatencyError) {
+  for (const char* name : {"lm_rls", "vff_lm_rls"}) {
+    SCOPED_TRACE(name);
+    ScaleFactorEstimatorParams params;
+    const double k = 0.0125, d_s = 0.1;
+    auto clean = make_scale_factor_estimator(name, params);
+    auto late = make_scale_factor_estimator(name, params);
+    for (int i = 0; i < 60; ++i) {  // accelerating from 4 m/s at 1 m/s^2, then 2 s at a steady speed
+      const double v0 = 4.0 + 0.1 * std::min(i, 40), v1 = 4.0 + 0.1 * std::min(i + 1, 40);
+      ScaleFactorSample s = make_sample(0.1 * (i + 1), 0.5 * (v0 + v1) * 0.1 / k, 0.5 * (v0 + v1) * 0.1);
+      s.speed_change_mps = v1 - v0;
+      clean->update(s);
+      s.y_m -= d_s * s.speed_change_mps;
+      late->update(s);
+    }
+    const ScaleFactorEstimate c = clean->estimate(), l = late->estimate();
+    EXPECT_NEAR(c.k_m_per_pulse, k, 1e-12);
+    EXPECT_LT(c.dk_dlatency_m_per_pulse_per_s, 0.0);  // accelerating: a late GNSS reads K low
+    EXPECT_NEAR(l.k_m_per_pulse, k + d_s * c.dk_dlatency_m_per_pulse_per_s, 1e-12);
+    EXPECT_GT(std::abs(l.k_m_per_pulse / k - 1.0), 0.005);  // 0.9 % low: many times the scatter's sigma
+    EXPECT_LT(l.sigma_m_per_pulse / k, 0.001);
+  }
+  // Estimators without the sums report no sensitivity.
+  auto rls = make_scale_factor_estimator("rls", ScaleFactorEstimatorParams{});
+  rls->update(make_sample(0.1, 80.0, 1.0));
+  EXPECT_EQ(rls->estimate().dk_dlatency_m_per_pulse_per_s, 0.0);
+}
+
+// After a detected change the window's K lags; the lag sigma covers it, and is 0 once the samples
+// from before the change have left the window.
+TEST(HonestSigma, LagSigmaCoversTheLagAfterAStepUntilTheOldSamplesHaveLeft) {
+  for (const double interval_s : {0.1, 1.0}) {
+    SCOPED_TRACE(interval_s);
+    ScaleFactorEstimatorParams params;
+    const auto step_at = static_cast<std::size_t>(std::lround(300.0 / interval_s));
+    std::size_t covered_by_lag = 0, lagging = 0;
+    std::optional<std::size_t> detected_at, last_lag_sample;
+    vff_step_drive(interval_s, params, 1, nullptr, [&](std::size_t i, const ScaleFactorSample&, VffLmRlsEstimator& e) {
+      const ScaleFactorEstimate est = e.estimate();
+      if (est.lag_sigma_m_per_pulse > 0.0) last_lag_sample = i;
+      if (i < step_at) {
+        EXPECT_EQ(est.lag_sigma_m_per_pulse, 0.0) << i;  // no change detected before the step
+        return;
+      }
+      if (!detected_at && e.last_change_began() && *e.last_change_began() + 5 >= step_at) detected_at = i;
+      if (!detected_at) return;  // nothing tells the step yet: the samples after it are the only witness
+      const double error = std::abs(est.k_m_per_pulse - 0.0103);
+      if (error <= 3.0 * est.sigma_m_per_pulse) return;
+      ++lagging;  // the scatter's sigma alone does not cover it
+      if (error <= 3.0 * std::max(est.sigma_m_per_pulse, est.lag_sigma_m_per_pulse)) ++covered_by_lag;
+    });
+    ASSERT_TRUE(detected_at);
+    ASSERT_TRUE(last_lag_sample);
+    EXPECT_LE(*detected_at, step_at + 10);         // the detector fires within a few samples of the step
+    if (interval_s < 0.5) EXPECT_GT(lagging, 3u);  // the step's lag is outside 3 of the scatter's sigmas ...
+    EXPECT_EQ(covered_by_lag, lagging);            // ... and inside 3 of the lag's, on every sample
+    // The window holds 100 samples (10 s at 10 Hz; at 1 Hz cut back to the run, never below 10 s).
+    EXPECT_LE(*last_lag_sample, step_at + static_cast<std::size_t>(std::lround(110.0 / interval_s)));
+  }
+}
+
+TEST(HonestSigma, SaveRestoreKeepsTheSpeedChangesAndTheChangeStart) {
+  ScaleFactorEstimatorParams params;
+  std::unique_ptr<VffLmRlsEstimator> restored;
+  vff_step_drive(0.1, params, 2, nullptr, [&](std::size_t i, const ScaleFactorSample& sample, VffLmRlsEstimator& e) {
+    ScaleFactorSample s = sample;
+    if (i == 3010) {  // just after the step, its lag still in the window
+      ASSERT_TRUE(e.last_change_began());
+      restored = std::make_unique<VffLmRlsEstimator>(params);
+      restored->restore_state(e.save_state());
+      EXPECT_EQ(restored->save_state(), e.save_state());
+      EXPECT_EQ(restored->last_change_began(), e.last_change_began());
+      EXPECT_EQ(restored->estimate().lag_sigma_m_per_pulse, e.estimate().lag_sigma_m_per_pulse);
+      EXPECT_GT(e.estimate().lag_sigma_m_per_pulse, 0.0);
+    } else if (i > 3010 && i < 3100) {
+      restored->update(s);
+      EXPECT_EQ(restored->estimate().lag_sigma_m_per_pulse, e.estimate().lag_sigma_m_per_pulse) << i;
+    }
+  });
+  // A state with a speed change in its rows keeps it.
+  VffLmRlsEstimator a(params), b(params);
+  for (int i = 0; i < 20; ++i) {
+    ScaleFactorSample s = make_sample(0.1 * (i + 1), 80.0, 1.0 + 0.01 * i);
+    s.speed_change_mps = 0.1;
+    a.update(s);
+  }
+  b.restore_state(a.save_state());
+  EXPECT_EQ(b.estimate().dk_dlatency_m_per_pulse_per_s, a.estimate().dk_dlatency_m_per_pulse_per_s);
+  EXPECT_LT(a.estimate().dk_dlatency_m_per_pulse_per_s, 0.0);
+  EXPECT_EQ(b.window_sums().s_pdv, a.window_sums().s_pdv);
+  EXPECT_NEAR(a.window_sums().s_pdv, a.exact_window_sums().s_pdv, 1e-9);
+  EXPECT_NEAR(a.window_sums().s_pdv, 20 * 80.0 * 0.1, 1e-9);
+}

@@ -82,6 +82,7 @@ Dataset random_dataset(uint32_t seed) {
   d.meta.vehicle_id = "vehicle-42";
   d.meta.description = "random, seed " + std::to_string(seed) + ", comma, \"quote\" and ü";
   d.meta.k_nominal_m_per_pulse = uniform(0.01, 0.02);
+  d.meta.k_nominal_sigma_percent = uniform(0.5, 3.0);
   d.meta.truth_misalignment_heading_deg = uniform(-1.0, 1.0);
   d.meta.truth_misalignment_pitch_deg = uniform(-1.0, 1.0);
   d.meta.raw_json = R"({"operator": "test bench", "odometer": {"sprocket_teeth": 13}, "format": "x"})";
@@ -136,6 +137,7 @@ void expect_equal(const Dataset& a, const Dataset& b) {
   EXPECT_EQ(a.meta.vehicle_id, b.meta.vehicle_id);
   EXPECT_EQ(a.meta.description, b.meta.description);
   EXPECT_EQ(a.meta.k_nominal_m_per_pulse, b.meta.k_nominal_m_per_pulse);
+  EXPECT_EQ(a.meta.k_nominal_sigma_percent, b.meta.k_nominal_sigma_percent);
   EXPECT_EQ(a.meta.truth_misalignment_heading_deg, b.meta.truth_misalignment_heading_deg);
   EXPECT_EQ(a.meta.truth_misalignment_pitch_deg, b.meta.truth_misalignment_pitch_deg);
 }

@@ -222,11 +222,14 @@ TEST(DatasetStream, FileChecksAtOpenGiveReadDatasetsMessages) {
   dir.write("truth.csv", "t,k_true\n0,0.0125\n");
   dir.write("meta.json", "[1, 2]");
   both("meta.json not an object");
-  dir.write("meta.json", "{\"odometer\": {\"k_nominal_m_per_pulse\": 0.0126}}");
+  dir.write("meta.json", "{\"odometer\": {\"k_nominal_m_per_pulse\": 0.0126, \"k_nominal_sigma_percent\": 0}}");
+  both("k_nominal_sigma_percent");  // (0, 100] %
+  dir.write("meta.json", "{\"odometer\": {\"k_nominal_m_per_pulse\": 0.0126, \"k_nominal_sigma_percent\": 1.5}}");
   DatasetStream stream(dir.str(), BadRowPolicy::kFail);
   EXPECT_FALSE(stream.has_ins()) << "an ins.csv without a data row is absent";
   EXPECT_TRUE(stream.has_truth());
   EXPECT_EQ(stream.meta().k_nominal_m_per_pulse, 0.0126);
+  EXPECT_EQ(stream.meta().k_nominal_sigma_percent, 1.5);
   expect_stream_equals_read_dataset(dir.str());
 }
 

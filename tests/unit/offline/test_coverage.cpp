@@ -299,18 +299,45 @@ std::map<std::string, QuantityCoverage> pooled_over_seeds(const std::string& sce
 
 TEST(Coverage, PublishedSigmasOnTerrainSeedsOneToThree) {
   const std::map<std::string, QuantityCoverage> c = pooled_over_seeds("terrain");
-  // Measured: K 96 % within 2 sigma (the lag after the two K steps makes most of the rest; 3 sigma
-  // is at 98 %, short of 99.7 %), misalignment heading 98 %, position 96-100 % and 100 % within 3.
+  // Measured: K 98.0 / 99.4 % within 2 / 3 sigma (96.3 / 97.9 % before K's sigma counted the lag
+  // after a change and the latency not yet known; most of the rest are the rows of a K step before
+  // its first samples), misalignment heading 98 %, position 96-100 % and 100 % within 3.
   for (const char* name : {"K", "misalignment heading", "position east", "position north", "position up"}) {
     ASSERT_TRUE(c.count(name)) << name;
     const Coverage& q = c.at(name).all;
     EXPECT_GT(q.n, 20000u) << name;
     EXPECT_GE(q.fraction_within(2), 0.90) << name;
   }
+  EXPECT_GE(c.at("K").all.fraction_within(2), 0.95);
+  EXPECT_GE(c.at("K").all.fraction_within(3), 0.985);
   for (const char* name : {"position east", "position north", "position up"}) {
     EXPECT_GE(c.at(name).all.fraction_within(3), 0.99) << name;
     EXPECT_LT(c.at(name).all.mean_nees(), 1.5) << name;
   }
+}
+
+// A receiver 100 ms late: until the latency is decided every accelerating sample reads K low by the
+// latency times its speed change, all alike, so the residuals' scatter cannot show it (the first
+// estimates were 5-11 % low with a sigma of 0.5 %). K's sigma counts the latency not yet known.
+TEST(Coverage, PublishedKSigmaHonestBeforeTheLatencyIsKnown) {
+  std::map<std::string, QuantityCoverage> pooled;
+  for (uint64_t seed = 1; seed <= 3; ++seed) {
+    sim::SimulationConfig cfg = sim::scenario_config("terrain");
+    cfg.seed = seed;
+    cfg.gnss_latency_s = 0.1;
+    const Dataset d = sim::simulate(cfg);
+    const OfflineParams p = test::user_params(d);
+    const OfflineResult r = run_offline(d, p);
+    for (const QuantityCoverage& q : evaluate_coverage(d, to_output_rows(r, p.identification.estimator_name)))
+      pooled[q.quantity].all.merge(q.all);
+  }
+  const Coverage& k = pooled.at("K").all;
+  std::printf("terrain, 100 ms: K n %zu, within 2 / 3 sigma %.1f / %.1f %%\n", k.n, 100.0 * k.fraction_within(2),
+              100.0 * k.fraction_within(3));
+  // Measured: 97.5 / 99.3 % (93.9 / 96.1 % with the scatter's sigma).
+  EXPECT_GT(k.n, 20000u);
+  EXPECT_GE(k.fraction_within(2), 0.95);
+  EXPECT_GE(k.fraction_within(3), 0.985);
 }
 
 TEST(Coverage, PublishedKSigmaOnStraightSeedsOneToThree) {

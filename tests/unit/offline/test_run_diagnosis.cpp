@@ -286,6 +286,34 @@ TEST(RunDiagnosis, AShortOneHertzDriveSaysKDidNotConvergeAndWhatIsMissing) {
   // The 120 s drive at 10 Hz converges: no such warning (ACleanDriveHasNoWarning).
 }
 
+TEST(RunDiagnosis, AShortDriveSaysTheGnssLatencyWasNeverDecidedAndWhy) {
+  sim::SimulationConfig cfg = straight(20.0);
+  cfg.gnss_rate_hz = 1.0;
+  const Dataset d = sim::simulate(cfg);
+  OfflineParams p = params_for(d);
+  const OfflineResult result = run_offline(d, p);
+  for (const IdentificationOutput& o : result.identification) {
+    EXPECT_FALSE(o.latency_decided) << o.t_s;
+    EXPECT_FALSE(o.main.converged) << o.t_s;
+  }
+  const RunDiagnosis r = diagnose_run(d, p, result);
+  const RunWarning* w = find(r, "latency_not_decided");
+  ASSERT_NE(w, nullptr);
+  // "the GNSS latency was never decided: no estimate: too few samples (13 of 20); K was never
+  // published as converged and its sigma includes the latency's uncertainty (give --gnss-latency-s
+  // when the receiver's latency is known)"
+  EXPECT_NE(w->message.find("the GNSS latency was never decided: no estimate: too few samples ("), std::string::npos)
+      << w->message;
+  EXPECT_NE(w->message.find("(give --gnss-latency-s when the receiver's latency is known)"), std::string::npos)
+      << w->message;
+  const RunWarning* k = find(r, "k_not_converged");
+  ASSERT_NE(k, nullptr);
+  EXPECT_NE(k->message.find("the GNSS latency not decided"), std::string::npos) << k->message;
+  // A latency given: nothing to decide.
+  p.identification.builder.gnss_latency_fixed_s = 0.0;
+  EXPECT_EQ(find(diagnose_run(d, p, run_offline(d, p)), "latency_not_decided"), nullptr);
+}
+
 // Braking to a standstill at the end of a drive (docs/ALGORITHM.md §2, "Braking to a standstill"):
 // the straight road at 1 Hz GNSS with a 100 ms receiver latency that a 3-minute drive cannot decide
 // yet, braking at 1.5 m/s^2 and standing 20 s. Every braking sample reads K high by the latency

@@ -13,7 +13,7 @@ DeadReckoningComponent::DeadReckoningComponent(const DeadReckonerParams& params,
       navigation_(navigation),
       core_(params),
       anchor_(anchored),
-      consumer_(params.nominal_k_m_per_pulse),
+      consumer_(params.nominal_k_m_per_pulse, params.nominal_k_rel_sigma),
       monitor_(consistency) {}
 
 void DeadReckoningComponent::on_misalignment(const PublishedMisalignment& m) {

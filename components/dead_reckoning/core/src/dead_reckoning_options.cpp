@@ -1,6 +1,7 @@
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 
 #include <algorithm>
+#include <string>
 
 #include "odonav/hold_off_option.hpp"
 #include "odonav/lever_arm_option.hpp"
@@ -11,6 +12,11 @@ namespace odonav {
 void add_dead_reckoning_options(Options& o) {
   add_nominal_k_option(o);
   add_estimate_hold_off_option(o);
+  o.add_double("nominal-k-sigma-percent", 0.0,
+               "one-sigma of the nominal K, % of it (0: meta.json's odometer.k_nominal_sigma_percent, else " +
+                   std::to_string(static_cast<int>(100.0 * kDefaultNominalKRelSigma)) +
+                   "); an identified K whose sigma is below it replaces the nominal K",
+               0.0, 100.0);
   o.add_choice("dr-mode", "3d", {"3d", "2d"}, "3d: full attitude and height; 2d: heading only, height held");
   // The GNSS-anchored navigation position (anchored_position.hpp); its hold-off is
   // --estimate-hold-off-s, the DR's.
@@ -50,6 +56,7 @@ DeadReckoningFacts dead_reckoning_facts_from(const Options& o) {
   DeadReckoningFacts f;
   f.mode = p.mode;
   f.nominal_k_option_m_per_pulse = p.nominal_k_m_per_pulse;
+  f.nominal_k_sigma_option_percent = o.get_double("nominal-k-sigma-percent");
   f.lever_arm_body_m = lever_arm_from(o);
   f.estimate_hold_off_s = estimate_hold_off_from(o);
   AnchoredPositionParams& a = f.anchored;
@@ -71,6 +78,10 @@ DeadReckonerParams dead_reckoner_params(const DeadReckoningFacts& f) {
   p.lever_arm_body_m = f.lever_arm_body_m;
   p.estimate_hold_off_s = f.estimate_hold_off_s;
   p.nominal_k_m_per_pulse = resolve_nominal_k(f.nominal_k_option_m_per_pulse, f.dataset_nominal_k_m_per_pulse);
+  if (f.nominal_k_sigma_option_percent > 0.0)
+    p.nominal_k_rel_sigma = f.nominal_k_sigma_option_percent / 100.0;
+  else if (f.dataset_nominal_k_sigma_percent)
+    p.nominal_k_rel_sigma = *f.dataset_nominal_k_sigma_percent / 100.0;
   return p;
 }
 

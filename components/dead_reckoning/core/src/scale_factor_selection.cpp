@@ -34,7 +34,8 @@ std::optional<ScaleFactorUpdate> ScaleFactorSelection::on_identified(const Ident
   track_source(k.source, k.t_s, now_s);
   const bool valid = std::isfinite(k.k_m_per_pulse) && k.k_m_per_pulse > 0.0;
   if (!scale_factor_applicable(valid, k.converged, k.k_m_per_pulse, k.sigma_m_per_pulse, k.samples_accepted,
-                               nominal_k_m_per_pulse_, !in_force_source_.empty() && k.source == in_force_source_))
+                               nominal_k_m_per_pulse_, !in_force_source_.empty() && k.source == in_force_source_,
+                               nominal_k_rel_sigma_ * nominal_k_m_per_pulse_))
     return std::nullopt;  // as odonav-offline
   if (commanded_ || (last_k_stamp_s_ && k.t_s <= *last_k_stamp_s_)) {
     ++counters_.k_ignored;

@@ -174,15 +174,37 @@ IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoc
   out.turn_slip_threshold_radps = turn_slip_threshold_radps();
   out.motion_phase = phase;
   out.braking_stop = braking_stop_counters_;
+  out.latency_decided = builder_.latency_decided();
   // Only what is published changes: the estimators and the builder's innovation gate keep the
-  // estimator's own K (feed_gate above), and a commanded or frozen K is never replaced.
+  // estimator's own K and sigma (feed_gate above), and a commanded or frozen K is never replaced.
+  const ScaleFactorEstimate own = out.main;
+  out.main = honest_estimate(own, builder_.latency_in_force_uncertainty_s(), out.latency_decided);
   if (out.main.valid && !out.main.converged && !frozen_ && !seed_k_m_per_pulse_) {
     if (const auto start = builder_.start_latency_k()) {
+      // K at the block's own latency estimate: off by its sigma times K's sensitivity at most.
+      out.main = honest_estimate(own, start->latency_sigma_s, false);
       out.main.k_m_per_pulse = start->k_m_per_pulse;
       out.k_from_start_latency = true;
     }
   }
   return out;
+}
+
+ScaleFactorEstimate honest_estimate(const ScaleFactorEstimate& own, double latency_uncertainty_s, bool latency_decided,
+                                    double converged_rel_sigma) {
+  ScaleFactorEstimate e = own;
+  if (!e.valid || !std::isfinite(e.k_m_per_pulse) || !(e.sigma_m_per_pulse > 0.0)) return e;
+  const double scatter = std::max(e.sigma_m_per_pulse, e.lag_sigma_m_per_pulse);
+  const double latency_part = e.dk_dlatency_m_per_pulse_per_s * latency_uncertainty_s;
+  e.sigma_m_per_pulse = std::hypot(scatter, latency_part);
+  e.converged = own.converged && latency_decided && e.k_m_per_pulse != 0.0 &&
+                e.sigma_m_per_pulse / std::abs(e.k_m_per_pulse) < converged_rel_sigma;
+  return e;
+}
+
+ScaleFactorEstimate IdentificationCore::honest_estimate(const ScaleFactorEstimate& own, double latency_uncertainty_s,
+                                                        bool latency_decided) const {
+  return odonav::honest_estimate(own, latency_uncertainty_s, latency_decided, params_.estimator.converged_rel_sigma);
 }
 
 std::vector<IdentificationOutput> IdentificationCore::process_until(double watermark_s) {

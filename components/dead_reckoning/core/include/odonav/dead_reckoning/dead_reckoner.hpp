@@ -90,6 +90,9 @@ enum class DeadReckoningMode { k3D, k2D };
 struct DeadReckonerParams {
   /// K used before any add_scale_factor() (m/pulse, > 0).
   double nominal_k_m_per_pulse = kDefaultNominalK_m_per_pulse;
+  /// One-sigma of the nominal K relative to it (>= 0; 0 = unknown): an identified K whose sigma is
+  /// below it replaces the nominal (consumer_rules.hpp scale_factor_applicable).
+  double nominal_k_rel_sigma = kDefaultNominalKRelSigma;
   DeadReckoningMode mode = DeadReckoningMode::k3D;
   /// False without INS: degraded mode (GNSS course, horizontal only).
   bool use_ins = true;

@@ -50,7 +50,9 @@ inline constexpr std::size_t kDeadReckoningInputs = 5;
 /// What the dead-reckoning node keeps besides the cores, in event time: the K policy, the
 /// misalignments given to the core (to report the one applied in each output) and their count.
 struct DeadReckoningConsumerState {
-  explicit DeadReckoningConsumerState(double nominal_k_m_per_pulse) : k_selection(nominal_k_m_per_pulse) {}
+  explicit DeadReckoningConsumerState(double nominal_k_m_per_pulse,
+                                      double nominal_k_rel_sigma = kDefaultNominalKRelSigma)
+      : k_selection(nominal_k_m_per_pulse, nominal_k_rel_sigma) {}
   ScaleFactorSelection k_selection;
   StepHistory<Misalignment> applied_misalignment{"misalignment"};
   uint64_t misalignments_applied = 0;

@@ -16,7 +16,8 @@ namespace odonav {
 /// the GNSS course held through stops and turns.
 inline constexpr double kDegradedAnchorDriftPercent = 1.0;
 
-/// Declares --nominal-k (m/pulse; 0 = from the dataset's meta.json or 0.0125), --dr-mode 3d|2d and
+/// Declares --nominal-k (m/pulse; 0 = from the dataset's meta.json or 0.0125), --nominal-k-sigma-percent
+/// (%; 0 = from meta.json or 3), --dr-mode 3d|2d and
 /// the navigation position's --anchor-* flags.
 /// The lever arm is --lever-arm (lever_arm_option.hpp), declared once by the program.
 void add_dead_reckoning_options(Options& options);
@@ -35,6 +36,10 @@ struct DeadReckoningFacts {
   double nominal_k_option_m_per_pulse = 0.0;
   /// The dataset's meta.json nominal K (m/pulse), if any (odonav-offline; none on a vehicle).
   std::optional<double> dataset_nominal_k_m_per_pulse;
+  /// --nominal-k-sigma-percent (%); <= 0 = not given.
+  double nominal_k_sigma_option_percent = 0.0;
+  /// The dataset's meta.json odometer.k_nominal_sigma_percent (%), if any.
+  std::optional<double> dataset_nominal_k_sigma_percent;
   /// --estimate-hold-off-s (s): hold_off_option.hpp.
   double estimate_hold_off_s = kDefaultEstimateHoldOff_s;
   /// The navigation position's --anchor-* flags (hold_off_s is set from estimate_hold_off_s by
@@ -47,7 +52,8 @@ struct DeadReckoningFacts {
 DeadReckoningFacts dead_reckoning_facts_from(const Options& options);
 
 /// The one DeadReckonerParams of dead reckoning (defaults of DeadReckonerParams for the rest):
-/// nominal K = --nominal-k when > 0, else the dataset's, else kDefaultNominalK_m_per_pulse. That
+/// nominal K = --nominal-k when > 0, else the dataset's, else kDefaultNominalK_m_per_pulse; its
+/// relative sigma likewise from --nominal-k-sigma-percent, meta.json, kDefaultNominalKRelSigma. That
 /// nominal K is also the K of the pulse-jump gate (DeadReckonerParams::max_speed_mps / nominal K:
 /// DeadReckoner derives the gate from it) and the reference of the commanded-K range
 /// (consumer_rules.hpp commanded_k_problem), so both programs gate and accept alike.

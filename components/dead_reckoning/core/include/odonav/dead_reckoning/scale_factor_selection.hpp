@@ -8,8 +8,9 @@
 //              until release_commanded_k() (COMMAND_RELEASE_K), after which the next applicable
 //              identified K is used again;
 //   identified a ScaleFactor that consumer_rules.hpp says is applicable (valid, and converged or
-//              provisionally better than the nominal K, or of the same source as the identified K
-//              in force: a later estimate of the same instance replaces it),
+//              provisionally better than the nominal K: 3 sigma away from it, or its sigma below
+//              the nominal's; or of the same source as the identified K in force: a later
+//              estimate of the same instance replaces it),
 //              stamped after every K already given to the DR (event time, s);
 //   nominal    DeadReckonerParams::nominal_k_m_per_pulse until one of the above arrives.
 // Every K handed out is stamped strictly after the previous one, so DeadReckoner::add_scale_factor
@@ -59,7 +60,10 @@ class ScaleFactorSelection {
  public:
   /// nominal_k_m_per_pulse: the DR's nominal K (m/pulse), the reference of the commanded-K range
   /// (consumer_rules.hpp commanded_k_problem; an invalid nominal makes every set_k rejected).
-  explicit ScaleFactorSelection(double nominal_k_m_per_pulse) : nominal_k_m_per_pulse_(nominal_k_m_per_pulse) {}
+  /// nominal_k_rel_sigma: the nominal K's one-sigma relative to it (kDefaultNominalKRelSigma; 0 = unknown),
+  /// against which an identified K's sigma is weighed (scale_factor_applicable).
+  explicit ScaleFactorSelection(double nominal_k_m_per_pulse, double nominal_k_rel_sigma = kDefaultNominalKRelSigma)
+      : nominal_k_m_per_pulse_(nominal_k_m_per_pulse), nominal_k_rel_sigma_(nominal_k_rel_sigma) {}
 
   /// A received ScaleFactor (now_s: wall clock, s). Tracks its source (logged; a change is counted
   /// and noted for kDeadReckoningNoticeDuration_s). Returns the K to give the DR when it is
@@ -110,6 +114,7 @@ class ScaleFactorSelection {
   void track_source(const std::string& source, double t_s, double now_s);
 
   double nominal_k_m_per_pulse_;
+  double nominal_k_rel_sigma_;
   bool commanded_ = false;
   std::optional<double> last_k_stamp_s_;
   std::string k_source_;

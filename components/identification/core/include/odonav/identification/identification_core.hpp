@@ -56,7 +56,9 @@ struct BrakingStopCounters {
 struct IdentificationOutput {
   double t_s = 0.0;
   EpochStatus epoch_status = EpochStatus::kInvalidFix;
-  ScaleFactorEstimate main;  ///< the main estimator's estimate.
+  /// The main estimator's estimate as published: sigma and converged are honest_estimate's (below);
+  /// the estimator and the innovation gate keep its own.
+  ScaleFactorEstimate main;
   /// Side-by-side estimates, in the order of IdentificationCore::estimator_names(); empty unless
   /// run_all_estimators.
   std::vector<ScaleFactorEstimate> all;
@@ -65,7 +67,7 @@ struct IdentificationOutput {
   bool frozen = false;            ///< identification frozen by command: K held.
   GnssLatencyEstimate latency;    ///< the GNSS latency in force after this epoch.
   /// main.k_m_per_pulse is the latency search's K of the drive's start (SampleBuilder::
-  /// start_latency_k), not the estimator's: before the estimator converges and before any latency
+  /// start_latency_k), not the estimator's: before the estimate converges and before any latency
   /// is decided, while the data show a latency clearly off the one in force.
   bool k_from_start_latency = false;
   /// Track slip in turns after this epoch (turn_slip.hpp) and the yaw rate (rad/s) above which it
@@ -75,7 +77,21 @@ struct IdentificationOutput {
   /// The epoch's motion phase (braking_stop.hpp) and the withdrawals so far.
   MotionPhase motion_phase = MotionPhase::kUnknown;
   BrakingStopCounters braking_stop;
+  /// The GNSS latency in force is decided (SampleBuilder::latency_decided): before, main is never
+  /// converged.
+  bool latency_decided = false;
 };
+
+/// What K's published sigma and converged say (docs/ALGORITHM.md "Honest sigma of K"): the
+/// estimator's own sigma (the scatter of its residuals) says nothing of what all its samples share,
+/// so the published one-sigma is
+///   sigma = sqrt(max(sigma_own, sigma_lag)^2 + (dK/dlatency * u_latency)^2)
+/// with sigma_lag the lag after a detected change (own.lag_sigma_m_per_pulse), dK/dlatency
+/// (own.dk_dlatency_m_per_pulse_per_s) and u_latency the uncertainty (s) of the latency in force
+/// (SampleBuilder::latency_in_force_uncertainty_s); converged = own.converged and the latency
+/// decided and sigma / |K| < converged_rel_sigma. Unchanged when own has no value or no sigma.
+ScaleFactorEstimate honest_estimate(const ScaleFactorEstimate& own, double latency_uncertainty_s, bool latency_decided,
+                                    double converged_rel_sigma);
 
 /// What the ScaleFactor topic carries of an output for its consumers (the identification node
 /// publishes it, odonav-offline hands it to dead reckoning): the main estimate (K 0 and sigma -1
@@ -174,6 +190,9 @@ class IdentificationCore {
   /// no value of its own since set_k().
   ScaleFactorEstimate main_estimate() const;
   void feed_gate(double t_s, const ScaleFactorEstimate& estimate);
+  /// odonav::honest_estimate with the params' converged_rel_sigma.
+  ScaleFactorEstimate honest_estimate(const ScaleFactorEstimate& own, double latency_uncertainty_s,
+                                      bool latency_decided) const;
   /// The braking-to-a-standstill rule for one epoch (braking_stop.hpp), before its sample is fed.
   void track_braking_stop(const SampleBuilderEpoch& epoch, MotionPhase phase);
 
