@@ -206,8 +206,8 @@ class RlsEstimator : public ScaleFactorEstimator {
   void update(const ScaleFactorSample& sample) override;
   ScaleFactorEstimate estimate() const override;
   void reset() override;
-  std::string save_state() const override;
-  void restore_state(const std::string& state) override;
+  StateJson save_state() const override;
+  void restore_state(const StateJson& state) override;
 
   /// The data sums without the prior: S_pp [pulse^2], S_py [pulse m].
   double data_s_pp() const { return s_pp_; }
@@ -218,6 +218,9 @@ class RlsEstimator : public ScaleFactorEstimator {
   RlsEstimator(const ScaleFactorEstimatorParams& params, double lambda, std::string name);
 
  private:
+  // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
   ScaleFactorEstimatorParams params_;
   double lambda_;
   std::string name_;
@@ -249,8 +252,8 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
   void update(const ScaleFactorSample& sample) override;
   ScaleFactorEstimate estimate() const override;
   void reset() override;
-  std::string save_state() const override;
-  void restore_state(const std::string& state) override;
+  StateJson save_state() const override;
+  void restore_state(const StateJson& state) override;
 
   /// The O(1)-updated window sums.
   WindowSums window_sums() const;
@@ -273,6 +276,9 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
     double y = 0.0;
     double log_weight = 0.0;  // Lambda when the sample entered (after its own lambda)
   };
+  // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
   void resum();
   // Drops the samples before index first_kept (samples_used_ counting), keeping at least
   // window_length reference intervals at the newest sample's interval_s, and re-sums. Returns
@@ -327,8 +333,8 @@ class CoarseEstimator : public ScaleFactorEstimator {
   void update(const ScaleFactorSample& sample) override;
   ScaleFactorEstimate estimate() const override;
   void reset() override;
-  std::string save_state() const override;
-  void restore_state(const std::string& state) override;
+  StateJson save_state() const override;
+  void restore_state(const StateJson& state) override;
 
   /// Counted runs so far, and their totals: sum S [m], sum N [pulses].
   uint64_t runs_counted() const { return runs_counted_; }
@@ -336,6 +342,9 @@ class CoarseEstimator : public ScaleFactorEstimator {
   double total_pulses() const { return total_pulses_; }
 
  private:
+  // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
   void close_run();
 
   ScaleFactorEstimatorParams params_;
@@ -367,8 +376,8 @@ class KfRandomWalkEstimator : public ScaleFactorEstimator {
   void update(const ScaleFactorSample& sample) override;
   ScaleFactorEstimate estimate() const override;
   void reset() override;
-  std::string save_state() const override;
-  void restore_state(const std::string& state) override;
+  StateJson save_state() const override;
+  void restore_state(const StateJson& state) override;
 
   /// Changes detected since reset.
   uint64_t changes_detected() const { return change_.changes_detected(); }
@@ -376,6 +385,9 @@ class KfRandomWalkEstimator : public ScaleFactorEstimator {
   double change_statistic() const { return change_.statistic(); }
 
  private:
+  // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
   ScaleFactorEstimatorParams params_;
   bool initialised_ = false;
   double k_ = 0.0;
