@@ -206,8 +206,8 @@ class RlsEstimator : public ScaleFactorEstimator {
   void update(const ScaleFactorSample& sample) override;
   ScaleFactorEstimate estimate() const override;
   void reset() override;
-  std::string save_state() const override;
-  void restore_state(const std::string& state) override;
+  StateJson save_state() const override;
+  void restore_state(const StateJson& state) override;
 
   /// The data sums without the prior: S_pp [pulse^2], S_py [pulse m].
   double data_s_pp() const { return s_pp_; }
@@ -218,6 +218,9 @@ class RlsEstimator : public ScaleFactorEstimator {
   RlsEstimator(const ScaleFactorEstimatorParams& params, double lambda, std::string name);
 
  private:
+  // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
   ScaleFactorEstimatorParams params_;
   double lambda_;
   std::string name_;
@@ -251,8 +254,8 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
   void update(const ScaleFactorSample& sample) override;
   ScaleFactorEstimate estimate() const override;
   void reset() override;
-  std::string save_state() const override;
-  void restore_state(const std::string& state) override;
+  StateJson save_state() const override;
+  void restore_state(const StateJson& state) override;
 
   /// The O(1)-updated window sums.
   WindowSums window_sums() const;
@@ -283,6 +286,9 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
   // sqrt(sigma_since^2 + (K - K_since)^2) over the samples since change_began_ (see
   // ScaleFactorEstimate::lag_sigma_m_per_pulse), 0 when every held sample is from after it.
   double lag_sigma(double k_m_per_pulse, double sigma_y_m) const;
+  // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
   void resum();
   // Drops the samples before index first_kept (samples_used_ counting), keeping at least
   // window_length reference intervals at the newest sample's interval_s, and re-sums. Returns
@@ -339,8 +345,8 @@ class CoarseEstimator : public ScaleFactorEstimator {
   void update(const ScaleFactorSample& sample) override;
   ScaleFactorEstimate estimate() const override;
   void reset() override;
-  std::string save_state() const override;
-  void restore_state(const std::string& state) override;
+  StateJson save_state() const override;
+  void restore_state(const StateJson& state) override;
 
   /// Counted runs so far, and their totals: sum S [m], sum N [pulses].
   uint64_t runs_counted() const { return runs_counted_; }
@@ -348,6 +354,9 @@ class CoarseEstimator : public ScaleFactorEstimator {
   double total_pulses() const { return total_pulses_; }
 
  private:
+  // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
   void close_run();
 
   ScaleFactorEstimatorParams params_;
@@ -379,8 +388,8 @@ class KfRandomWalkEstimator : public ScaleFactorEstimator {
   void update(const ScaleFactorSample& sample) override;
   ScaleFactorEstimate estimate() const override;
   void reset() override;
-  std::string save_state() const override;
-  void restore_state(const std::string& state) override;
+  StateJson save_state() const override;
+  void restore_state(const StateJson& state) override;
 
   /// Changes detected since reset.
   uint64_t changes_detected() const { return change_.changes_detected(); }
@@ -388,6 +397,9 @@ class KfRandomWalkEstimator : public ScaleFactorEstimator {
   double change_statistic() const { return change_.statistic(); }
 
  private:
+  // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
   ScaleFactorEstimatorParams params_;
   bool initialised_ = false;
   double k_ = 0.0;

@@ -405,15 +405,15 @@ class SampleBuilder {
   /// sigmas: beats_nominal false). K is not published as converged before (IdentificationCore).
   bool latency_decided() const;
 
-  /// Everything the builder holds besides its parameters, as text (every double exact): the
-  /// buffered inputs not processed yet, the sample chain, the gates' references, the observed GNSS
-  /// period, the latency estimate with its sums, the counters. A builder made with the same
-  /// parameters and given restore_state(save_state()) continues exactly as this one would (a
+  /// Everything the builder holds besides its parameters (checkpoint_state.hpp, every double
+  /// exact): the buffered inputs not processed yet, the sample chain, the gates' references, the
+  /// observed GNSS period, the latency estimate with its sums, the counters. A builder made with the
+  /// same parameters and given restore_state(save_state()) continues exactly as this one would (a
   /// component checkpoint; the inputs it had taken in must then not be added again).
-  std::string save_state() const;
-  /// Throws CheckpointError (checkpoint_file.hpp) naming the field when the text is not a state of
-  /// a builder with these parameters; the builder is unchanged then.
-  void restore_state(const std::string& text);
+  StateJson save_state() const;
+  /// Throws CheckpointError (checkpoint_state.hpp) naming the field when the state is not one of a
+  /// builder with these parameters; the builder is unchanged then.
+  void restore_state(const StateJson& state);
 
  private:
   struct GoodEpoch {
@@ -421,11 +421,22 @@ class SampleBuilder {
     Eigen::Vector3d vel_enu_mps;
     Attitude attitude;
     double count_pulses;
+    template <class Archive, class Self>  // checkpoint fields (checkpoint_state.hpp)
+    static void state_fields(Archive& a, Self& s) {
+      a("t_s", s.t_s)("vel_enu_mps", s.vel_enu_mps)("attitude", s.attitude)("count_pulses", s.count_pulses);
+    }
   };
   struct KEstimate {
     double k_m_per_pulse;
     double sigma_m_per_pulse;
+    template <class Archive, class Self>
+    static void state_fields(Archive& a, Self& s) {
+      a("k_m_per_pulse", s.k_m_per_pulse)("sigma_m_per_pulse", s.sigma_m_per_pulse);
+    }
   };
+  // The builder's checkpoint fields, listed once for save_state() and restore_state().
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
   /// What an epoch that passed its own checks gives: the chain-start record and what the
   /// interval checks need.
   struct EpochInputs {
@@ -486,6 +497,10 @@ class SampleBuilder {
     double y_m;
     double applied_s;      ///< latency in force when the sample was made.
     double needs_until_s;  ///< sensor time up to which the odometer must be final to add it.
+    template <class Archive, class Self>
+    static void state_fields(Archive& a, Self& s) {
+      a("t0_s", s.t0_s)("t1_s", s.t1_s)("y_m", s.y_m)("applied_s", s.applied_s)("needs_until_s", s.needs_until_s);
+    }
   };
   /// Queues an accepted sample between the epochs stamped t0_s and t1_s for the latency sums.
   void defer_latency_sample(double t0_s, double t1_s, double y_m);

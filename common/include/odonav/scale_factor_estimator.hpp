@@ -12,6 +12,8 @@
 
 #include <Eigen/Dense>
 
+#include "odonav/state_json.hpp"
+
 namespace odonav {
 
 /// One regression sample, built by the sample builder (sample_builder.hpp).
@@ -78,16 +80,15 @@ class ScaleFactorEstimator {
   /// Forgets everything; the next estimate is invalid until new samples arrive.
   virtual void reset() = 0;
 
-  // Added by the estimators work (every estimator implements them): a restarted service resumes
-  // from the last state instead of re-converging for L samples; DDS persistence keeps samples
-  // only, not estimator internals (docs/DDS.md §5).
-  /// The complete internal state as versioned text (doubles in hex-float, so a restored estimator
-  /// continues bit-identically), with the estimator name, its parameters and a checksum.
-  virtual std::string save_state() const = 0;
-  /// Restores a save_state() text. Throws std::runtime_error naming the reason when the text is
-  /// corrupt, of another version, of another estimator, or saved with different parameters; the
-  /// state is then unchanged.
-  virtual void restore_state(const std::string& state) = 0;
+  // A restarted service resumes from the last state instead of re-converging for L samples; DDS
+  // persistence keeps samples only, not estimator internals (docs/DDS.md §5).
+  /// The complete internal state (checkpoint_state.hpp: every double exact, so a restored estimator
+  /// continues bit-identically), with the estimator name and its parameters.
+  virtual StateJson save_state() const = 0;
+  /// Restores a save_state() state. Throws std::runtime_error (CheckpointError) naming the reason
+  /// when it is malformed, of another estimator, or saved with different parameters; the estimator
+  /// is then unchanged.
+  virtual void restore_state(const StateJson& state) = 0;
 };
 
 }  // namespace odonav

@@ -24,6 +24,8 @@
 #include <cstdint>
 #include <string>
 
+#include "odonav/state_json.hpp"
+
 namespace odonav {
 
 /// One interval that the yaw-rate gate kept out of K (every other interval gate passed).
@@ -86,11 +88,15 @@ class TurnSlipEstimator {
   void update(const TurnSlipSample& sample);
   TurnSlipEstimate estimate() const;
 
-  /// The sums as text, every double exact; restore_state throws CheckpointError naming the field.
-  std::string save_state() const;
-  void restore_state(const std::string& text);
+  /// The sums and counts (checkpoint_state.hpp, every double exact); restore_state throws
+  /// CheckpointError naming the field and leaves the estimator unchanged then.
+  StateJson save_state() const;
+  void restore_state(const StateJson& state);
 
  private:
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
+
   TurnSlipParams params_;
   // Weighted sums (weight 1 / sigma_y^2) of h^2, h r and r^2: h = -K X (m rad/s), r = y - K phi (m), so r = g h.
   double shh_ = 0.0;

@@ -90,53 +90,26 @@ void CoarseEstimator::reset() {
   samples_used_ = 0;
 }
 
-std::string CoarseEstimator::save_state() const {
-  StateWriter out(name());
-  out.put_params(params_);
-  out.put_u64("have_previous", have_previous_ ? 1 : 0);
-  out.put("previous_t_s", previous_t_s_);
-  out.put_row("row", {previous_position_m_.x(), previous_position_m_.y(), previous_position_m_.z()});
-  out.put_u64("run_open", run_open_ ? 1 : 0);
-  out.put_row("row", {run_start_m_.x(), run_start_m_.y(), run_start_m_.z()});
-  out.put_row("row", {run_end_m_.x(), run_end_m_.y(), run_end_m_.z()});
-  out.put("run_pulses", run_pulses_);
-  out.put_u64("runs_counted", runs_counted_);
-  out.put("total_length_m", total_length_m_);
-  out.put("total_pulses", total_pulses_);
-  out.put_u64("samples_used", samples_used_);
-  return out.finish();
+template <class Archive, class Self>
+void CoarseEstimator::state_fields(Archive& a, Self& self) {
+  a("have_previous", self.have_previous_)("previous_t_s", self.previous_t_s_)(
+      "previous_position_m", self.previous_position_m_)("run_open", self.run_open_)("run_start_m", self.run_start_m_)(
+      "run_end_m", self.run_end_m_)("run_pulses", self.run_pulses_)("runs_counted", self.runs_counted_)(
+      "total_length_m", self.total_length_m_)("total_pulses", self.total_pulses_)("samples_used", self.samples_used_);
+  a.check("run_pulses", self.run_pulses_ >= 0.0, "is out of range");
+  a.check("total_length_m", self.total_length_m_ >= 0.0, "is out of range");
+  a.check("total_pulses", self.total_pulses_ >= 0.0 && (self.runs_counted_ == 0 || self.total_pulses_ > 0.0),
+          "is out of range");
 }
 
-void CoarseEstimator::restore_state(const std::string& state) {
-  const StateReader in(state, name());
-  in.check_params(params_);
-  const auto rows = in.rows("row", 3);
-  const std::string where = "estimator state for 'coarse': ";
-  if (rows.size() != 3)
-    throw std::runtime_error(where + "expected 3 position rows, got " + std::to_string(rows.size()));
-  const uint64_t have_previous = in.get_u64("have_previous");
-  const uint64_t run_open = in.get_u64("run_open");
-  if (have_previous > 1 || run_open > 1) throw std::runtime_error(where + "flags must be 0 or 1");
-  const double previous_t_s = in.get("previous_t_s");
-  const double run_pulses = in.get("run_pulses");
-  const uint64_t runs_counted = in.get_u64("runs_counted");
-  const double total_length_m = in.get("total_length_m");
-  const double total_pulses = in.get("total_pulses");
-  const uint64_t samples_used = in.get_u64("samples_used");
-  if (!(run_pulses >= 0.0) || !(total_length_m >= 0.0) || !(total_pulses >= 0.0) ||
-      (runs_counted > 0 && !(total_pulses > 0.0)))
-    throw std::runtime_error(where + "run totals out of range");
-  have_previous_ = have_previous == 1;
-  previous_t_s_ = previous_t_s;
-  previous_position_m_ = Eigen::Vector3d(rows[0][0], rows[0][1], rows[0][2]);
-  run_open_ = run_open == 1;
-  run_start_m_ = Eigen::Vector3d(rows[1][0], rows[1][1], rows[1][2]);
-  run_end_m_ = Eigen::Vector3d(rows[2][0], rows[2][1], rows[2][2]);
-  run_pulses_ = run_pulses;
-  runs_counted_ = runs_counted;
-  total_length_m_ = total_length_m;
-  total_pulses_ = total_pulses;
-  samples_used_ = samples_used;
+StateJson CoarseEstimator::save_state() const {
+  return save_estimator_state(name(), params_, [&](StateOut& a) { state_fields(a, *this); });
+}
+
+void CoarseEstimator::restore_state(const StateJson& state) {
+  CoarseEstimator e = *this;  // restored into a copy: this one changes only when everything was read
+  restore_estimator_state(state, name(), params_, [&](StateIn& a) { state_fields(a, e); });
+  *this = std::move(e);
 }
 
 }  // namespace odonav

@@ -1,19 +1,24 @@
 #pragma once
-// Private helpers shared by the estimator sources: input checks, the noise model, and the text
-// format of save_state() / restore_state(). Not installed, not part of the API.
-//
-// State text, version 1: one "key value..." line each, first line "odonav-scale-factor-state 1",
-// second "estimator <name>", parameters as "param.<name> <value>", doubles in C99 hex-float (%a, so
-// the round trip is exact), last line "checksum <FNV-1a 64 of every byte before that line>".
+// Private helpers shared by the estimator sources: input checks, the noise model, and the
+// save_state() / restore_state() fields (checkpoint_state.hpp). Not installed, not part of the API.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <map>
+#include <functional>
 #include <string>
 #include <vector>
 
+#include "odonav/checkpoint_state.hpp"
 #include "odonav/estimators.hpp"
 #include "odonav/scale_factor_estimator.hpp"
+
+namespace odonav {
+
+ODONAV_STATE_FIELDS(CusumChangeDetector::State) {
+  a("high", s.high)("low", s.low)("high_start", s.high_start)("low_start", s.low_start)("changes", s.changes);
+}
+
+}  // namespace odonav
 
 namespace odonav::estimators_internal {
 
@@ -68,44 +73,30 @@ inline ScaleFactorEstimate least_squares_estimate(const ScaleFactorEstimatorPara
   return e;
 }
 
-class StateWriter {
- public:
-  explicit StateWriter(const std::string& estimator_name);
-  void put(const std::string& key, double value);
-  void put_u64(const std::string& key, uint64_t value);
-  void put_row(const std::string& key, const std::vector<double>& values);
-  void put_params(const ScaleFactorEstimatorParams& params);
-  std::string finish();
+/// An estimator's state (save_state): {"estimator": name, "params": {...}, its own fields}. `fields`
+/// writes the estimator's fields (its state_fields, which only the estimator can reach).
+StateJson save_estimator_state(const std::string& name, const ScaleFactorEstimatorParams& params,
+                               const std::function<void(StateOut&)>& fields);
+/// Reads such a state: the estimator's name and every parameter must be the same (bitwise: another
+/// parameter would not continue identically), then `fields` reads the estimator's fields (into a
+/// copy the caller commits). Throws CheckpointError "estimator state for '<name>': <what>".
+void restore_estimator_state(const StateJson& state, const std::string& name, const ScaleFactorEstimatorParams& params,
+                             const std::function<void(StateIn&)>& fields);
 
- private:
-  std::string text_;
-};
+/// The residual scale tracker's count and variance (saved and restored through its accessors).
+template <class Archive, class Tracker>
+void residual_scale_fields(Archive& a, Tracker& t) {
+  a.via(
+      "residual_scale", [&] { return std::make_pair(t.count(), t.variance_m2()); },
+      [&](auto v) { t.set_state(v.first, v.second); });
+}
 
-class StateReader {
- public:
-  /// Parses and checks header, version, checksum and estimator name; throws std::runtime_error.
-  StateReader(const std::string& text, const std::string& estimator_name);
-  double get(const std::string& key) const;
-  /// Whether a single-valued field is present (fields added in a later build are optional).
-  bool has(const std::string& key) const { return single_.count(key) > 0; }
-  uint64_t get_u64(const std::string& key) const;
-  /// All rows stored under key, in order; each must have `width` values.
-  std::vector<std::vector<double>> rows(const std::string& key, std::size_t width) const;
-  /// Throws std::runtime_error when a parameter differs from the saved one (names it).
-  void check_params(const ScaleFactorEstimatorParams& params) const;
-
- private:
-  const std::vector<std::string>& values(const std::string& key) const;
-  std::string estimator_;
-  std::map<std::string, std::vector<std::string>> single_;
-  std::map<std::string, std::vector<std::vector<std::string>>> rows_;
-};
-
-/// The change detector's fields in a state text (cusum_high, cusum_low, their runs' first sample,
-/// changes_detected).
-void put_change_detector(StateWriter& out, const CusumChangeDetector& detector);
-/// Reads them back; throws std::runtime_error naming the field when one is missing or out of range.
-CusumChangeDetector::State get_change_detector(const StateReader& in);
+/// The change detector's sums, their runs' first sample and the changes counted.
+template <class Archive, class Detector>
+void change_detector_fields(Archive& a, Detector& d) {
+  a.via(
+      "change_detector", [&] { return d.state(); }, [&](auto s) { d.set_state(s); });
+}
 
 /// Until a few residuals are in, the online scale is too noisy to weight measurements with or to
 /// normalise the change detector's residuals by.

@@ -83,39 +83,24 @@ void KfRandomWalkEstimator::reset() {
   residual_scale_.reset();
 }
 
-std::string KfRandomWalkEstimator::save_state() const {
-  StateWriter out(name());
-  out.put_params(params_);
-  out.put_u64("initialised", initialised_ ? 1 : 0);
-  out.put("k", k_);
-  out.put("p", p_);
-  put_change_detector(out, change_);
-  out.put_u64("samples_used", samples_used_);
-  out.put_u64("residual_count", residual_scale_.count());
-  out.put("residual_variance", residual_scale_.variance_m2());
-  return out.finish();
+template <class Archive, class Self>
+void KfRandomWalkEstimator::state_fields(Archive& a, Self& self) {
+  a("initialised", self.initialised_)("k", self.k_)("p", self.p_)("samples_used", self.samples_used_);
+  change_detector_fields(a, self.change_);
+  residual_scale_fields(a, self.residual_scale_);
+  a.check("k", std::isfinite(self.k_), "is not finite");
+  a.check("p", self.p_ >= 0.0 && std::isfinite(self.p_), "is out of range");
+  a.check("residual_scale", self.residual_scale_.variance_m2() >= 0.0, "has a negative variance");
 }
 
-void KfRandomWalkEstimator::restore_state(const std::string& state) {
-  const StateReader in(state, name());
-  in.check_params(params_);
-  const std::string where = "estimator state for 'kf_rw': ";
-  const uint64_t initialised = in.get_u64("initialised");
-  const double k = in.get("k");
-  const double p = in.get("p");
-  const CusumChangeDetector::State change = get_change_detector(in);
-  const uint64_t samples_used = in.get_u64("samples_used");
-  const uint64_t residual_count = in.get_u64("residual_count");
-  const double residual_variance = in.get("residual_variance");
-  if (initialised > 1) throw std::runtime_error(where + "initialised must be 0 or 1");
-  if (!std::isfinite(k) || !(p >= 0.0) || !std::isfinite(p) || !(residual_variance >= 0.0))
-    throw std::runtime_error(where + "K or variance out of range");
-  initialised_ = initialised == 1;
-  k_ = k;
-  p_ = p;
-  change_.set_state(change);
-  samples_used_ = samples_used;
-  residual_scale_.set_state(residual_count, residual_variance);
+StateJson KfRandomWalkEstimator::save_state() const {
+  return save_estimator_state(name(), params_, [&](StateOut& a) { state_fields(a, *this); });
+}
+
+void KfRandomWalkEstimator::restore_state(const StateJson& state) {
+  KfRandomWalkEstimator e = *this;  // restored into a copy: this one changes only when everything was read
+  restore_estimator_state(state, name(), params_, [&](StateIn& a) { state_fields(a, e); });
+  *this = std::move(e);
 }
 
 }  // namespace odonav

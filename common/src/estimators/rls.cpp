@@ -53,31 +53,23 @@ void RlsEstimator::reset() {
   residual_scale_.reset();
 }
 
-std::string RlsEstimator::save_state() const {
-  StateWriter out(name_);
-  out.put_params(params_);
-  out.put("s_pp", s_pp_);
-  out.put("s_py", s_py_);
-  out.put_u64("samples_used", samples_used_);
-  out.put_u64("residual_count", residual_scale_.count());
-  out.put("residual_variance", residual_scale_.variance_m2());
-  return out.finish();
+template <class Archive, class Self>
+void RlsEstimator::state_fields(Archive& a, Self& self) {
+  a("s_pp", self.s_pp_)("s_py", self.s_py_)("samples_used", self.samples_used_);
+  residual_scale_fields(a, self.residual_scale_);
+  a.check("s_pp", self.s_pp_ >= 0.0 && std::isfinite(self.s_pp_), "is out of range");
+  a.check("s_py", std::isfinite(self.s_py_), "is not finite");
+  a.check("residual_scale", self.residual_scale_.variance_m2() >= 0.0, "has a negative variance");
 }
 
-void RlsEstimator::restore_state(const std::string& state) {
-  const StateReader in(state, name_);
-  in.check_params(params_);
-  const double s_pp = in.get("s_pp");
-  const double s_py = in.get("s_py");
-  const uint64_t samples_used = in.get_u64("samples_used");
-  const uint64_t residual_count = in.get_u64("residual_count");
-  const double residual_variance = in.get("residual_variance");
-  if (!(s_pp >= 0.0) || !std::isfinite(s_pp) || !std::isfinite(s_py) || !(residual_variance >= 0.0))
-    throw std::runtime_error("estimator state for '" + name_ + "': sums or residual variance out of range");
-  s_pp_ = s_pp;
-  s_py_ = s_py;
-  samples_used_ = samples_used;
-  residual_scale_.set_state(residual_count, residual_variance);
+StateJson RlsEstimator::save_state() const {
+  return save_estimator_state(name_, params_, [&](StateOut& a) { state_fields(a, *this); });
+}
+
+void RlsEstimator::restore_state(const StateJson& state) {
+  RlsEstimator e = *this;  // restored into a copy: this one changes only when everything was read
+  restore_estimator_state(state, name_, params_, [&](StateIn& a) { state_fields(a, e); });
+  *this = std::move(e);
 }
 
 }  // namespace odonav

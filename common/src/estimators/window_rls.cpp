@@ -3,6 +3,7 @@
 // when the running log-weight was Lambda_i has weight exp(Lambda - Lambda_i) now: the product of the
 // lambdas applied since, not lambda^L. That is the weight it must be removed with.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -220,70 +221,46 @@ void WindowRlsEstimator::reset() {
   change_began_.reset();
 }
 
-std::string WindowRlsEstimator::save_state() const {
-  StateWriter out(name());
-  out.put_params(params_);
-  out.put("s_pp", s_pp_);
-  out.put("s_py", s_py_);
-  out.put("s_pdv", s_pdv_);
-  out.put("log_weight", log_weight_);
-  out.put("last_lambda", last_lambda_);
-  out.put_u64("since_resum", since_resum_);
-  out.put_u64("samples_used", samples_used_);
-  out.put_u64("residual_count", residual_scale_.count());
-  out.put("residual_variance", residual_scale_.variance_m2());
-  put_change_detector(out, change_);
-  if (change_began_) out.put_u64("change_began", *change_began_);
-  out.put_u64("held", held_);
-  for (std::size_t i = 0; i < held_; ++i)
-    out.put_row("row", {entry(i).phi, entry(i).y, entry(i).log_weight, entry(i).dv});
-  return out.finish();
+template <class Archive, class Self>
+void WindowRlsEstimator::state_fields(Archive& a, Self& self) {
+  a("s_pp", self.s_pp_)("s_py", self.s_py_)("s_pdv", self.s_pdv_)("log_weight", self.log_weight_)(
+      "last_lambda", self.last_lambda_)("since_resum", self.since_resum_)("samples_used", self.samples_used_);
+  residual_scale_fields(a, self.residual_scale_);
+  change_detector_fields(a, self.change_);
+  a("change_began", self.change_began_);  // null before any detected change
+  // The window, oldest first, as (phi, y, Lambda, speed change) rows; restored from the start of the ring.
+  using Rows = std::vector<std::array<double, 4>>;
+  a.via(
+      "window",
+      [&] {
+        Rows rows;
+        for (std::size_t i = 0; i < self.held_; ++i)
+          rows.push_back({self.entry(i).phi, self.entry(i).y, self.entry(i).log_weight, self.entry(i).dv});
+        return rows;
+      },
+      [&](const auto& rows) {
+        if (rows.size() > self.capacity_) throw CheckpointError("field 'window' is longer than the window length");
+        for (const auto& r : rows)
+          if (!std::isfinite(r[0]) || !std::isfinite(r[1]) || !std::isfinite(r[2]) || !std::isfinite(r[3]))
+            throw CheckpointError("field 'window' holds a value that is not finite");
+        self.oldest_ = 0;
+        self.held_ = rows.size();
+        for (std::size_t i = 0; i < rows.size(); ++i)
+          self.buffer_[i] = Entry{rows[i][0], rows[i][1], rows[i][2], rows[i][3]};
+      });
+  a.check("since_resum", self.since_resum_ < self.resum_interval_, "is out of range");
+  a.check("change_began", !self.change_began_ || *self.change_began_ <= self.samples_used_, "is out of range");
+  a.check("residual_scale", self.residual_scale_.variance_m2() >= 0.0, "has a negative variance");
 }
 
-void WindowRlsEstimator::restore_state(const std::string& state) {
-  const StateReader in(state, name());
-  in.check_params(params_);
-  const auto rows = in.rows("row", 4);
-  const uint64_t held = in.get_u64("held");
-  const std::string where = "estimator state for '" + name() + "': ";
-  if (held != rows.size())
-    throw std::runtime_error(where + "held = " + std::to_string(held) + " but " + std::to_string(rows.size()) +
-                             " buffer rows");
-  if (held > capacity_) throw std::runtime_error(where + "more buffer rows than the window length");
-  const uint64_t since_resum = in.get_u64("since_resum");
-  if (since_resum >= resum_interval_) throw std::runtime_error(where + "since_resum out of range");
-  const double residual_variance = in.get("residual_variance");
-  if (!(residual_variance >= 0.0)) throw std::runtime_error(where + "negative residual variance");
-  for (const auto& r : rows)
-    if (!std::isfinite(r[0]) || !std::isfinite(r[1]) || !std::isfinite(r[2]) || !std::isfinite(r[3]))
-      throw std::runtime_error(where + "non-finite buffer value");
-  const double s_pp = in.get("s_pp");
-  const double s_py = in.get("s_py");
-  const double s_pdv = in.get("s_pdv");
-  const double log_weight = in.get("log_weight");
-  const double last_lambda = in.get("last_lambda");
-  const uint64_t samples_used = in.get_u64("samples_used");
-  const uint64_t residual_count = in.get_u64("residual_count");
-  const CusumChangeDetector::State change = get_change_detector(in);
-  std::optional<uint64_t> change_began;  // absent before any detected change
-  if (in.has("change_began")) {
-    change_began = in.get_u64("change_began");
-    if (*change_began > samples_used) throw std::runtime_error(where + "change_began out of range");
-  }
-  // All read and checked: commit.
-  s_pp_ = s_pp;
-  s_py_ = s_py;
-  s_pdv_ = s_pdv;
-  log_weight_ = log_weight;
-  last_lambda_ = last_lambda;
-  since_resum_ = since_resum;
-  samples_used_ = samples_used;
-  residual_scale_.set_state(residual_count, residual_variance);
-  change_.set_state(change);
-  change_began_ = change_began;
-  oldest_ = 0;
-  held_ = held;
-  for (std::size_t i = 0; i < held; ++i) buffer_[i] = Entry{rows[i][0], rows[i][1], rows[i][2], rows[i][3]};
+StateJson WindowRlsEstimator::save_state() const {
+  return save_estimator_state(name(), params_, [&](StateOut& a) { state_fields(a, *this); });
+}
+
+void WindowRlsEstimator::restore_state(const StateJson& state) {
+  WindowRlsEstimator e = *this;  // restored into a copy: this one changes only when everything was read
+  restore_estimator_state(state, name(), params_, [&](StateIn& a) { state_fields(a, e); });
+  *this = std::move(e);
 }
 
 }  // namespace odonav

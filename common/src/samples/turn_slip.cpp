@@ -5,7 +5,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "odonav/checkpoint_file.hpp"
+#include "odonav/checkpoint_state.hpp"
 
 namespace odonav {
 
@@ -85,30 +85,25 @@ TurnSlipEstimate TurnSlipEstimator::estimate() const {
   return e;
 }
 
-namespace {
-constexpr const char* kTurnSlipStateMagic = "odonav-turn-slip-state";
-constexpr int kTurnSlipStateVersion = 1;
-}  // namespace
-
-std::string TurnSlipEstimator::save_state() const {
-  std::string s = std::string(kTurnSlipStateMagic) + " " + std::to_string(kTurnSlipStateVersion) + "\n";
-  s += checkpoint_value_list("sums", {shh_, shr_, srr_});
-  s += "counts " + std::to_string(samples_) + " " + std::to_string(outliers_) + "\n";
-  return s;
+template <class Archive, class Self>
+void TurnSlipEstimator::state_fields(Archive& a, Self& self) {
+  a("shh", self.shh_)("shr", self.shr_)("srr", self.srr_)("samples", self.samples_)("outliers", self.outliers_);
+  a.check("shh", std::isfinite(self.shh_), "is not finite");
+  a.check("shr", std::isfinite(self.shr_), "is not finite");
+  a.check("srr", std::isfinite(self.srr_), "is not finite");
 }
 
-void TurnSlipEstimator::restore_state(const std::string& text) {
-  CheckpointReader r(text);
-  check_checkpoint_version(r, kTurnSlipStateMagic, kTurnSlipStateVersion);
-  const std::vector<double> sums = r.exact_values("sums", 3);
-  for (double v : sums)
-    if (!std::isfinite(v)) throw CheckpointError("field 'sums' holds a value that is not finite");
-  const std::vector<uint64_t> counts = r.unsigned_list("counts", 2);
-  shh_ = sums[0];
-  shr_ = sums[1];
-  srr_ = sums[2];
-  samples_ = counts[0];
-  outliers_ = counts[1];
+StateJson TurnSlipEstimator::save_state() const {
+  StateOut out;
+  state_fields(out, *this);
+  return out.take();
+}
+
+void TurnSlipEstimator::restore_state(const StateJson& state) {
+  TurnSlipEstimator e = *this;  // restored into a copy: this one changes only when everything was read
+  StateIn in(state, "turn_slip");
+  state_fields(in, e);
+  *this = std::move(e);
 }
 
 }  // namespace odonav

@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "odonav/calibration/calibration_checkpoint.hpp"
+#include "odonav/calibration/calibration_lifecycle.hpp"
 #include "odonav/calibration/misalignment_calibrator.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dds/event_time_node.hpp"

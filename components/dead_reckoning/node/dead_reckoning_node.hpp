@@ -12,7 +12,7 @@
 #include "odonav/dds/event_time_node.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_component.hpp"
-#include "odonav/dead_reckoning/dead_reckoning_checkpoint.hpp"
+#include "odonav/dead_reckoning/dead_reckoning_lifecycle.hpp"
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/Misalignment.h"

@@ -14,7 +14,7 @@
 #include <limits>
 #include <sstream>
 
-#include "odonav/calibration/calibration_checkpoint.hpp"
+#include "odonav/calibration/calibration_lifecycle.hpp"
 #include "odonav/calibration/misalignment_calibrator.hpp"
 #include "synthetic_drive.hpp"
 
@@ -230,15 +230,24 @@ TEST_F(CalibrationCheckpointTest, StateTextRoundTripsAndTheFileIsVersionedAndSel
   for (const auto& s : d.ins) a.add_ins(s);
   for (const auto& s : d.gnss) a.add_gnss(s);
   a.process_until(50.0);
-  const std::string state = a.save_state();
+  const StateJson state = a.save_state();
   MisalignmentCalibrator b(test_params());
   b.restore_state(state);
   EXPECT_EQ(b.save_state(), state);
+  EXPECT_EQ(b.save_state().dump(), state.dump()) << "saved, restored and saved again: the same bytes";
   const std::string text =
       serialize_calibration_checkpoint(CalibrationCheckpoint{kVehicle, kHash, a.current().t_s, state});
-  EXPECT_EQ(text.rfind("odonav-calibration-checkpoint 1\nvehicle vehicle-07\nconfig_hash 0123456789abcdef\n", 0), 0u)
-      << text;
-  EXPECT_NE(text.find("odonav-misalignment-calibrator-state 2\n"), std::string::npos);
+  // One JSON object in the shared envelope, one line.
+  EXPECT_EQ(text.find('\n'), text.size() - 1) << text;
+  const StateJson doc = StateJson::parse(text);
+  EXPECT_EQ(doc.at("format"), "odonav-checkpoint");
+  EXPECT_EQ(doc.at("component"), "calibration");
+  EXPECT_EQ(doc.at("version"), kCalibrationCheckpointVersion);
+  EXPECT_EQ(doc.at("vehicle"), "vehicle-07");
+  EXPECT_EQ(doc.at("config_hash"), "0123456789abcdef");
+  EXPECT_EQ(doc.at("checksum").get<std::string>().size(), 16u);
+  EXPECT_EQ(doc.at("payload").at("calibrator"), state);
+  EXPECT_TRUE(doc.at("payload").at("calibrator").at("heading").contains("sum_phi_y"));
   const CalibrationCheckpoint c = parse_calibration_checkpoint(text);
   EXPECT_EQ(c.last_sample_t_s, a.current().t_s);
   EXPECT_EQ(c.calibrator_state, state);
@@ -256,17 +265,25 @@ TEST_F(CalibrationCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideNamedA
   a.process_until(30.0);
   const std::string good =
       serialize_calibration_checkpoint(CalibrationCheckpoint{kVehicle, kHash, a.current().t_s, a.save_state()});
+  // A flipped bit in a digit after a decimal point: the text stays valid JSON, only the checksum
+  // sees it.
   std::string flipped = good;
-  flipped[good.size() / 2] ^= 0x01;
-  std::string bad_state = a.save_state();
-  bad_state.replace(bad_state.find("frozen 0"), 8, "frozen 7");
+  flipped[good.find('.', good.find("sum_phi_y")) + 1] ^= 0x01;
+  StateJson bad_state = a.save_state();
+  bad_state["frozen"] = 7;
+  auto sealed = [&](const std::string& component, int version) {
+    return seal_checkpoint(CheckpointIdentity{component, version, kVehicle, kHash},
+                           StateJson::parse(good).at("payload"));
+  };
   struct Case {
     std::string name, text, reason;
   };
   const std::vector<Case> cases{
       {"truncated", good.substr(0, good.size() / 2), "truncated"},
       {"flipped byte", flipped, "checksum mismatch: the file is corrupt"},
-      {"garbage", "not a checkpoint\n", "truncated: no checksum line"},
+      {"garbage", "not a checkpoint\n", "not an odonav checkpoint"},
+      {"older text checkpoint", "odonav-calibration-checkpoint 1\nvehicle vehicle-07\n",
+       "an older text checkpoint ('odonav-calibration-checkpoint 1')"},
       {"other vehicle",
        serialize_calibration_checkpoint(CalibrationCheckpoint{"vehicle-99", kHash, 1.0, a.save_state()}),
        "made for vehicle 'vehicle-99', this is 'vehicle-07'"},
@@ -274,11 +291,11 @@ TEST_F(CalibrationCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideNamedA
        serialize_calibration_checkpoint(CalibrationCheckpoint{kVehicle, "fedcba9876543210", 1.0, a.save_state()}),
        "made with another configuration (hash fedcba9876543210, now 0123456789abcdef)"},
       {"bad state", serialize_calibration_checkpoint(CalibrationCheckpoint{kVehicle, kHash, 1.0, bad_state}),
-       "calibrator state refused: field 'frozen' is not 0 or 1"},
-      {"identification checkpoint", seal_checkpoint("odonav-identification-checkpoint 1\n"),
-       "expected field 'odonav-calibration-checkpoint', found 'odonav-identification-checkpoint 1'"},
-      {"future version", seal_checkpoint("odonav-calibration-checkpoint 2\n"),
-       "unknown checkpoint version '2' (this build reads 1)"},
+       "calibrator state refused: field 'calibrator.frozen' is not true or false"},
+      {"identification checkpoint", sealed("identification", kCalibrationCheckpointVersion),
+       "made by odonav-identification, this is odonav-calibration"},
+      {"future version", sealed("calibration", kCalibrationCheckpointVersion + 1),
+       "checkpoint version 3, this build reads version 2"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
@@ -286,7 +303,7 @@ TEST_F(CalibrationCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideNamedA
     fs::create_directories(dir_);
     write_text(ckpt_, c.text);
     MisalignmentCalibrator fresh(test_params());
-    const std::string fresh_state = fresh.save_state();
+    const StateJson fresh_state = fresh.save_state();
     CalibrationLifecycle l(settings(), kVehicle, fresh.restore_margin_s());
     l.start(fresh, kUnixTime_s, 10.0);
     EXPECT_EQ(fresh.save_state(), fresh_state) << "untouched";

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -103,7 +104,7 @@ class Checkpoint : public ::testing::Test {
                           const std::string& why) {
     write_text(path_, text);
     IdentificationCore fresh(params_with("vff_lm_rls"));
-    const std::string fresh_state = fresh.save_state();
+    const StateJson fresh_state = fresh.save_state();
     const CheckpointLoadResult r = load_identification_checkpoint(path_, vehicle, hash, fresh, 1700000000);
     EXPECT_EQ(r.status, CheckpointLoadStatus::kMovedAside);
     EXPECT_NE(r.reason.find(why), std::string::npos) << "reason: " << r.reason;
@@ -376,13 +377,13 @@ TEST_F(Checkpoint, GarbageIsMovedAside) {
   std::mt19937 rng(7);
   std::string garbage(4096, '\0');
   for (char& c : garbage) c = static_cast<char>(rng() & 0xff);
-  expect_moved_aside(garbage, kVehicle, "0123456789abcdef", "truncated: no checksum line");
+  expect_moved_aside(garbage, kVehicle, "0123456789abcdef", "not an odonav checkpoint");
 }
 
 TEST_F(Checkpoint, FlippedByteIsACorruptChecksum) {
   auto e = fed_core(50);
   std::string text = serialize_checkpoint(valid_checkpoint(*e));
-  text[text.find("samples_accepted 300") + 17] = '9';  // 300 -> 900: still well-formed
+  text[text.find("\"samples_accepted\":300") + 19] = '9';  // 300 -> 900: still well-formed
   expect_moved_aside(text, kVehicle, "0123456789abcdef", "checksum mismatch");
 }
 
@@ -406,11 +407,27 @@ TEST_F(Checkpoint, OtherEstimatorIsMovedAside) {
 
 TEST_F(Checkpoint, AnOlderVersionIsMovedAsideWithItsVersionNamed) {
   // Version 1 held the estimator's state only: a restart from it lost the builder's state (the
-  // GNSS latency in force among it), so it is not resumed from.
+  // GNSS latency in force among it), so it is not resumed from; version 2 was the text format.
   auto e = fed_core(50);
-  std::string body = unseal_checkpoint(serialize_checkpoint(valid_checkpoint(*e)));
-  body.replace(body.find("odonav-identification-checkpoint 2"), 35, "odonav-identification-checkpoint 1");
-  expect_moved_aside(seal_checkpoint(body), kVehicle, "0123456789abcdef", "version");
+  const StateJson payload = StateJson::parse(serialize_checkpoint(valid_checkpoint(*e))).at("payload");
+  expect_moved_aside(seal_checkpoint(CheckpointIdentity{"identification", kIdentificationCheckpointVersion - 1,
+                                                        kVehicle, "0123456789abcdef"},
+                                     payload),
+                     kVehicle, "0123456789abcdef", "checkpoint version 2, this build reads version 3");
+}
+
+TEST_F(Checkpoint, AnOlderTextCheckpointIsMovedAsideNamedAsSuch) {
+  expect_moved_aside("odonav-identification-checkpoint 2\nvehicle vehicle-07\nconfig_hash 0123456789abcdef\n", kVehicle,
+                     "0123456789abcdef", "an older text checkpoint ('odonav-identification-checkpoint 2')");
+}
+
+TEST_F(Checkpoint, AnotherComponentsCheckpointIsMovedAside) {
+  auto e = fed_core(50);
+  const StateJson payload = StateJson::parse(serialize_checkpoint(valid_checkpoint(*e))).at("payload");
+  expect_moved_aside(seal_checkpoint(CheckpointIdentity{"dead-reckoning", kIdentificationCheckpointVersion, kVehicle,
+                                                        "0123456789abcdef"},
+                                     payload),
+                     kVehicle, "0123456789abcdef", "made by odonav-dead-reckoning, this is odonav-identification");
 }
 
 TEST_F(Checkpoint, SecondBadFileDoesNotOverwriteTheFirst) {
@@ -446,24 +463,25 @@ TEST_F(Checkpoint, ConfigHashIgnoresTransportAndLoggingButNotTheEstimator) {
 
 }  // namespace
 
-TEST(CheckpointValueList, KeepsEveryDoubleExactlyAndNamesABadCount) {
+TEST(CheckpointStateValues, KeepsEveryDoubleExactlyAndNamesABadCount) {
+  using odonav::StateJson;
   const std::vector<double> v{0.1, -0.0, std::nan(""), -std::numeric_limits<double>::infinity(), 5e-324, 1e308};
-  const std::string text = odonav::checkpoint_value_list("k", v) + odonav::checkpoint_value_list("empty", {});
-  odonav::CheckpointReader r(text);
-  const std::vector<double> back = r.value_list("k", 2);
+  const StateJson j = StateJson::parse(odonav::to_state(v).dump());
+  std::vector<double> back;
+  odonav::from_state(j, back, "k");
   ASSERT_EQ(back.size(), v.size());
   for (std::size_t i = 0; i < v.size(); ++i)
     EXPECT_TRUE(std::memcmp(&back[i], &v[i], sizeof(double)) == 0 || (std::isnan(back[i]) && std::isnan(v[i]))) << i;
-  EXPECT_TRUE(r.value_list("empty").empty());
-  EXPECT_TRUE(r.at_end());
-  odonav::CheckpointReader odd(text);
+  std::vector<double> empty{1.0};
+  odonav::from_state(StateJson::array(), empty, "empty");
+  EXPECT_TRUE(empty.empty());
   try {
-    odd.value_list("k", 4);  // 6 values are not records of 4
+    std::array<double, 4> four{};
+    odonav::from_state(j, four, "k");  // 6 values are not 4
     FAIL() << "accepted";
   } catch (const odonav::CheckpointError& e) {
-    EXPECT_EQ(std::string(e.what()), "field 'k' has a bad value count '6'");
+    EXPECT_EQ(std::string(e.what()), "field 'k' does not hold 4 values");
   }
-  const std::string short_text = "k 3 0x1p+0 0x1p+1\n";
-  odonav::CheckpointReader short_list(short_text);
-  EXPECT_THROW(short_list.value_list("k"), odonav::CheckpointError);
+  std::vector<double> not_numbers;
+  EXPECT_THROW(odonav::from_state(StateJson::parse("[1.0, \"x\"]"), not_numbers, "k"), odonav::CheckpointError);
 }

@@ -16,7 +16,7 @@
 #include <sstream>
 
 #include "odonav/consumer_rules.hpp"
-#include "odonav/dead_reckoning/dead_reckoning_checkpoint.hpp"
+#include "odonav/dead_reckoning/dead_reckoning_lifecycle.hpp"
 #include "synthetic_drive.hpp"
 
 namespace {
@@ -306,18 +306,22 @@ TEST_F(DeadReckoningCheckpointTest, StatesRoundTripExactly) {
   const std::vector<Event> ev = events_of(dv);
   Run r(CheckpointSettings{});
   feed(r, dv, ev, 0, index_at(ev, 29.0), 0.0);  // in the outage, inputs buffered ahead
-  const std::string core = r.core.save_state();
-  const std::string anchor = r.anchor.save_state();
+  const StateJson core = r.core.save_state();
+  const StateJson anchor = r.anchor.save_state();
   DeadReckoner c(dr_params());
   c.restore_state(core);
   EXPECT_EQ(c.save_state(), core);
+  EXPECT_EQ(c.save_state().dump(), core.dump()) << "saved, restored and saved again: the same bytes";
   AnchoredPositionFilter a;
   a.restore_state(anchor);
   EXPECT_EQ(a.save_state(), anchor);
+  EXPECT_EQ(a.save_state().dump(), anchor.dump());
   EXPECT_TRUE(c.started());
   EXPECT_EQ(c.origin()->lat_rad, r.core.origin()->lat_rad);
-  EXPECT_NE(core.find("odonav-dead-reckoner-state 2\n"), std::string::npos);
-  EXPECT_NE(anchor.find("odonav-anchored-position-state 1\n"), std::string::npos);
+  // In the outage, with inputs buffered ahead: the state holds them.
+  EXPECT_FALSE(core.at("odometer").at("entries").empty());
+  EXPECT_FALSE(core.at("origin").is_null());
+  EXPECT_EQ(anchor.at("p").size(), 64u) << "the 8x8 covariance";
 }
 
 TEST_F(DeadReckoningCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideNamedAndChangeNothing) {
@@ -330,14 +334,15 @@ TEST_F(DeadReckoningCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideName
   ASSERT_FALSE(good.empty());
   DeadReckoningCheckpoint c = parse_dead_reckoning_checkpoint(good);
   EXPECT_EQ(serialize_dead_reckoning_checkpoint(c), good);
+  // A flipped bit in a digit after a decimal point: still valid JSON, only the checksum sees it.
   std::string flipped = good;
-  flipped[good.size() / 2] ^= 0x01;
+  flipped[good.find('.', good.find("\"position\"")) + 1] ^= 0x01;
   DeadReckoningCheckpoint other_vehicle = c;
   other_vehicle.vehicle_id = "vehicle-99";
   DeadReckoningCheckpoint bad_core = c;
-  bad_core.dead_reckoner_state.replace(bad_core.dead_reckoner_state.find("integration 4 "), 14, "integration 3 ");
+  bad_core.dead_reckoner_state.at("position").erase("lat_rad");
   DeadReckoningCheckpoint bad_anchor = c;
-  bad_anchor.anchor_state = "odonav-anchored-position-state 1\nqueued_fixes 0\n";
+  bad_anchor.anchor_state = StateJson{{"queued_fixes", StateJson::array()}};
   struct Case {
     std::string name, text, reason;
   };
@@ -346,11 +351,17 @@ TEST_F(DeadReckoningCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideName
       {"flipped byte", flipped, "checksum mismatch: the file is corrupt"},
       {"other vehicle", serialize_dead_reckoning_checkpoint(other_vehicle), "made for vehicle 'vehicle-99'"},
       {"bad dead reckoner state", serialize_dead_reckoning_checkpoint(bad_core),
-       "dead reckoner state refused: field 'integration' has a bad value count '3'"},
+       "dead reckoner state refused: field 'dead_reckoner.position.lat_rad' is missing"},
       {"bad anchored state", serialize_dead_reckoning_checkpoint(bad_anchor),
-       "anchored position state refused: truncated before field 'last_added_t_s'"},
-      {"calibration checkpoint", seal_checkpoint("odonav-calibration-checkpoint 1\n"),
-       "expected field 'odonav-dead-reckoning-checkpoint', found 'odonav-calibration-checkpoint 1'"},
+       "anchored position state refused: field 'anchored_position.last_added_t_s' is missing"},
+      {"calibration checkpoint",
+       seal_checkpoint(CheckpointIdentity{"calibration", kDeadReckoningCheckpointVersion, kVehicle, kHash},
+                       StateJson::parse(good).at("payload")),
+       "made by odonav-calibration, this is odonav-dead-reckoning"},
+      {"older version",
+       seal_checkpoint(CheckpointIdentity{"dead-reckoning", kDeadReckoningCheckpointVersion - 1, kVehicle, kHash},
+                       StateJson::parse(good).at("payload")),
+       "checkpoint version 2, this build reads version 3"},
   };
   for (const Case& k : cases) {
     SCOPED_TRACE(k.name);
@@ -358,7 +369,7 @@ TEST_F(DeadReckoningCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideName
     fs::create_directories(dir_);
     write_text(ckpt_, k.text);
     Run fresh(settings());
-    const std::string fresh_core = fresh.core.save_state(), fresh_anchor = fresh.anchor.save_state();
+    const StateJson fresh_core = fresh.core.save_state(), fresh_anchor = fresh.anchor.save_state();
     fresh.lifecycle.start(fresh.state(), kUnixTime_s, 10.0);
     EXPECT_EQ(fresh.core.save_state(), fresh_core) << "untouched";
     EXPECT_EQ(fresh.anchor.save_state(), fresh_anchor) << "untouched";

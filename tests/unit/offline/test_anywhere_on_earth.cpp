@@ -12,6 +12,7 @@
 
 #include "core/simulator.hpp"
 #include "evaluation.hpp"
+#include "odonav/checkpoint_state.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
@@ -244,8 +245,8 @@ TEST(AnywhereOnEarth, ADeadReckonerRestoredInThePolarCapContinuesBitForBit) {
   DeadReckoner ran_on(p);
   add_inputs(ran_on, true);
   ran_on.process_until(t_save);
-  const std::string state = ran_on.save_state();
-  EXPECT_NE(state.find("\nheading_position_offset_enu_m 3 "), std::string::npos);
+  const StateJson state = ran_on.save_state();
+  EXPECT_EQ(state.at("heading_position_offset_enu_m").size(), 3u);
   DeadReckoner restored(p);
   restored.restore_state(state);
   add_inputs(ran_on, false);

@@ -120,8 +120,20 @@ TEST(TurnSlip, SaveAndRestoreContinueExactly) {
   EXPECT_EQ(a.estimate().sigma_s_per_rad, b.estimate().sigma_s_per_rad);
   EXPECT_EQ(a.save_state(), b.save_state());
   TurnSlipEstimator c;
-  EXPECT_THROW(c.restore_state("odonav-turn-slip-state 1\nsums 3 0x1p+0 nan 0x1p+0\ncounts 1 0\n"), CheckpointError);
-  EXPECT_THROW(c.restore_state("odonav-turn-slip-state 9\n"), CheckpointError);
+  EXPECT_EQ(a.save_state().dump(), b.save_state().dump());
+  StateJson not_finite = a.save_state();
+  not_finite["shr"] = "nan";
+  EXPECT_THROW(c.restore_state(not_finite), CheckpointError);
+  StateJson missing = a.save_state();
+  missing.erase("samples");
+  EXPECT_THROW(c.restore_state(missing), CheckpointError);
+  const StateJson untouched = c.save_state();
+  try {
+    c.restore_state(not_finite);
+  } catch (const CheckpointError& e) {
+    EXPECT_EQ(std::string(e.what()), "field 'turn_slip.shr' is not finite");
+  }
+  EXPECT_EQ(c.save_state(), untouched) << "a refused state changes nothing";
 }
 
 namespace {

@@ -1,19 +1,33 @@
+// The calibration's checkpoint file (calibration_checkpoint.hpp).
 #include "odonav/calibration/calibration_checkpoint.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
-#include <sstream>
 #include <stdexcept>
 #include <utility>
 
-#include "odonav/frames.hpp"
-
 namespace odonav {
 
+ODONAV_STATE_FIELDS(CalibrationCheckpoint) {
+  a("last_sample_t_s", s.last_sample_t_s)("calibrator", s.calibrator_state);
+  a.check("last_sample_t_s", std::isfinite(s.last_sample_t_s), "is not finite");
+}
+
 namespace {
-constexpr const char* kMagic = "odonav-calibration-checkpoint";
-constexpr int kVersion = 1;
+
+CheckpointIdentity identity_of(const std::string& vehicle_id, const std::string& config_hash) {
+  return {kCalibrationCheckpointComponent, kCalibrationCheckpointVersion, vehicle_id, config_hash};
+}
+
+CalibrationCheckpoint checkpoint_of(const CheckpointIdentity& id, const StateJson& payload) {
+  CalibrationCheckpoint c;
+  StateIn in(payload, "");
+  state_fields(in, c);
+  c.vehicle_id = id.vehicle_id;
+  c.config_hash = id.config_hash;
+  return c;
+}
+
 }  // namespace
 
 std::string calibration_checkpoint_path(const std::string& state_dir, const std::string& vehicle_id) {
@@ -22,91 +36,35 @@ std::string calibration_checkpoint_path(const std::string& state_dir, const std:
 }
 
 std::string serialize_calibration_checkpoint(const CalibrationCheckpoint& c) {
-  return seal_checkpoint(checkpoint_head(kMagic, kVersion, c.vehicle_id, c.config_hash) +
-                         checkpoint_time_line("last_sample_t_s", c.last_sample_t_s) +
-                         checkpoint_state_block(c.calibrator_state));
+  if (!std::isfinite(c.last_sample_t_s)) throw std::invalid_argument("checkpoint: last_sample_t_s is not finite");
+  return seal_checkpoint(identity_of(c.vehicle_id, c.config_hash), to_state(c));
 }
 
 CalibrationCheckpoint parse_calibration_checkpoint(const std::string& text) {
-  const std::string body = unseal_checkpoint(text);
-  CheckpointReader r(body);
-  const CheckpointHead head = read_checkpoint_head(r, kMagic, kVersion);
-  CalibrationCheckpoint c;
-  c.vehicle_id = head.vehicle_id;
-  c.config_hash = head.config_hash;
-  c.last_sample_t_s = r.double_field("last_sample_t_s");
-  c.calibrator_state = read_checkpoint_state_block(r, "calibrator state");
-  if (!r.at_end()) throw CheckpointError("unexpected text after the calibrator state");
-  return c;
+  const CheckpointContents contents = unseal_checkpoint(text);
+  const CheckpointIdentity& id = contents.identity;
+  check_checkpoint_identity(id, identity_of(id.vehicle_id, id.config_hash));
+  return checkpoint_of(id, contents.payload);
 }
 
 CalibrationCheckpointLoad load_calibration_checkpoint(const std::string& path, const std::string& vehicle_id,
                                                       const std::string& config_hash,
                                                       MisalignmentCalibrator& calibrator, int64_t unix_time_s) {
+  const CheckpointIdentity expected = identity_of(vehicle_id, config_hash);
   CalibrationCheckpointLoad result;
   std::optional<double> t_s;
-  static_cast<CheckpointFileLoad&>(result) = load_checkpoint_file(path, unix_time_s, [&](const std::string& text) {
-    const CalibrationCheckpoint c = parse_calibration_checkpoint(text);
-    check_checkpoint_identity(c.vehicle_id, c.config_hash, vehicle_id, config_hash);
-    try {
-      calibrator.restore_state(c.calibrator_state);  // unchanged when it throws
-    } catch (const std::exception& e) {
-      throw CheckpointError(std::string("calibrator state refused: ") + e.what());
-    }
-    t_s = c.last_sample_t_s;
-  });
+  static_cast<CheckpointFileLoad&>(result) =
+      load_checkpoint_file(path, unix_time_s, expected, [&](const StateJson& payload) {
+        const CalibrationCheckpoint c = checkpoint_of(expected, payload);
+        try {
+          calibrator.restore_state(c.calibrator_state);  // unchanged when it throws
+        } catch (const std::exception& e) {
+          throw CheckpointError(std::string("calibrator state refused: ") + e.what());
+        }
+        t_s = c.last_sample_t_s;
+      });
   if (result.status == CheckpointLoadStatus::kRestored) result.restored_t_s = t_s;
   return result;
-}
-
-CalibrationLifecycle::CalibrationLifecycle(CheckpointSettings settings, std::string vehicle_id, double ins_margin_s)
-    : vehicle_id_(std::move(vehicle_id)),
-      // Indexed by CalibrationInput. The GNSS epoch at the checkpoint was processed: skipped, not
-      // fed again (it would enter the regressions twice).
-      restart_(std::move(settings), {{"GNSS", 0.0, true, true}, {"INS", ins_margin_s, false, false}}) {}
-
-void CalibrationLifecycle::start(MisalignmentCalibrator& calibrator, int64_t unix_time_s, double steady_now_s) {
-  if (restart_.settings().state_dir.empty()) return;
-  const std::string& file =
-      restart_.open_state_dir([&](const std::string& dir) { return calibration_checkpoint_path(dir, vehicle_id_); });
-  const CalibrationCheckpointLoad r =
-      load_calibration_checkpoint(file, vehicle_id_, restart_.settings().config_hash, calibrator, unix_time_s);
-  if (!restart_.note_load(r, "starting from nothing", steady_now_s)) return;
-  restored_output_ = calibrator.current();
-  const MisalignmentOutput& o = *restored_output_;
-  char line[200];
-  std::snprintf(line, sizeof line,
-                "restored misalignment heading %.6f deg, pitch %.6f deg (%llu epochs used, %s) from checkpoint "
-                "(t=%.3f s)",
-                rad_to_deg(o.misalignment.heading_rad), rad_to_deg(o.misalignment.pitch_rad),
-                static_cast<unsigned long long>(o.samples_used), to_string(o.state), *r.restored_t_s);
-  restart_.note_restored(line, *r.restored_t_s, steady_now_s);
-}
-
-std::optional<MisalignmentOutput> CalibrationLifecycle::take_restored_output() {
-  return std::exchange(restored_output_, std::nullopt);
-}
-
-bool CalibrationLifecycle::skip_sample(CalibrationInput input, double t_s) {
-  return restart_.skip_sample(static_cast<std::size_t>(input), t_s);
-}
-
-std::vector<MisalignmentOutput> CalibrationLifecycle::outputs_to_publish(std::vector<MisalignmentOutput> outputs,
-                                                                         double steady_now_s) {
-  return restart_.keep_outputs(std::move(outputs), steady_now_s);
-}
-
-std::string CalibrationLifecycle::text_of(const MisalignmentCalibrator& calibrator, double t_s) const {
-  return serialize_calibration_checkpoint(
-      CalibrationCheckpoint{vehicle_id_, restart_.settings().config_hash, t_s, calibrator.save_state()});
-}
-
-void CalibrationLifecycle::checkpoint_if_due(const MisalignmentCalibrator& calibrator) {
-  restart_.checkpoint_if_due([&](double t_s) { return text_of(calibrator, t_s); });
-}
-
-void CalibrationLifecycle::checkpoint_at_finish(const MisalignmentCalibrator& calibrator) {
-  restart_.checkpoint_at_finish([&](double t_s) { return text_of(calibrator, t_s); });
 }
 
 }  // namespace odonav

@@ -5,7 +5,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "odonav/checkpoint_file.hpp"
+#include "odonav/checkpoint_state.hpp"
 
 namespace odonav {
 
@@ -336,105 +336,43 @@ MisalignmentOutput MisalignmentCalibrator::process_epoch(const GnssSample& g) {
   return finish_epoch(CalibrationEpochStatus::kUsed, counters_.used);
 }
 
-namespace {
-constexpr const char* kStateMagic = "odonav-misalignment-calibrator-state";
-constexpr int kStateVersion = 2;
-}  // namespace
-
-std::string MisalignmentCalibrator::save_state() const {
-  auto hex = [](double v) { return checkpoint_hex_double(v); };
-  auto sums = [&](const Regression& r) { return hex(r.sum_phi2) + " " + hex(r.sum_phi_y) + " " + hex(r.sum_y2); };
-  const MisalignmentCounters& c = counters_;
-  std::string s = std::string(kStateMagic) + " " + std::to_string(kStateVersion) + "\n";
-  s += "heading " + sums(heading_) + "\n";
-  s += "pitch " + sums(pitch_) + "\n";
-  s += "samples_used " + std::to_string(samples_used_) + "\n";
-  s += "last_used_forward " +
-       (last_used_forward_ ? hex(last_used_forward_->first) + " " + hex(last_used_forward_->second) : "none") + "\n";
-  s += "consecutive_innovation_rejections " + std::to_string(consecutive_innovation_rejections_) + "\n";
-  s += std::string("frozen ") + (frozen_ ? "1" : "0") + "\n";
-  s += "last_t_s " + hex(last_t_s_) + "\n";
-  s += "counters";
-  for (uint64_t v : {c.epochs, c.used, c.no_ins, c.invalid_fix, c.no_attitude, c.reversing, c.low_speed, c.turning,
-                     c.frozen, c.outlier, c.innovation_suspended, c.braking_stops, c.braking_withdrawn})
-    s += " " + std::to_string(v);
-  s += "\n" + checkpoint_value_list("motion_epochs", motion_.state());
-  if (const auto& b = braking_snapshot_) {
-    s += "braking_snapshot " + sums(b->heading) + " " + sums(b->pitch) + " " + std::to_string(b->samples_used) + " " +
-         std::to_string(b->consecutive_innovation_rejections) + " " + std::to_string(b->used_since) + "\n";
-    s += "braking_snapshot_last_used_forward " +
-         (b->last_used_forward ? hex(b->last_used_forward->first) + " " + hex(b->last_used_forward->second) : "none") +
-         "\n";
-  } else {
-    s += "braking_snapshot none\n";
-  }
-  return s;
+ODONAV_STATE_FIELDS(MisalignmentCounters) {
+  a("epochs", s.epochs)("used", s.used)("no_ins", s.no_ins)("invalid_fix", s.invalid_fix)("no_attitude", s.no_attitude)(
+      "reversing", s.reversing)("low_speed", s.low_speed)("turning", s.turning)("frozen", s.frozen)(
+      "outlier", s.outlier)("innovation_suspended", s.innovation_suspended)("braking_stops", s.braking_stops)(
+      "braking_withdrawn", s.braking_withdrawn);
 }
 
-void MisalignmentCalibrator::restore_state(const std::string& text) {
-  CheckpointReader r(text);
-  check_checkpoint_version(r, kStateMagic, kStateVersion);
-  auto regression = [&](const std::string& key) {
-    const std::vector<double> t = r.finite_doubles(key, 3);
-    Regression g{t[0], t[1], t[2]};
-    if (g.sum_phi2 < 0.0 || g.sum_y2 < 0.0) throw CheckpointError("field '" + key + "' has a negative sum of squares");
-    return g;
-  };
-  const Regression heading = regression("heading");
-  const Regression pitch = regression("pitch");
-  const uint64_t samples_used = r.unsigned_field("samples_used");
-  std::optional<std::pair<double, double>> last_used_forward;
-  if (const std::string f = r.field("last_used_forward"); f != "none") {
-    const std::vector<double> t = checkpoint_parse_finite_doubles(f, "last_used_forward", 2);
-    last_used_forward = std::make_pair(t[0], t[1]);
-  }
-  const uint64_t rejections = r.unsigned_field("consecutive_innovation_rejections");
-  if (rejections > static_cast<uint64_t>(params_.innovation_max_consecutive_rejections))
-    throw CheckpointError("field 'consecutive_innovation_rejections' is above the configured limit");
-  const uint64_t frozen = r.unsigned_field("frozen");
-  if (frozen > 1) throw CheckpointError("field 'frozen' is not 0 or 1");
-  const double last_t_s = r.finite_doubles("last_t_s", 1)[0];
-  const std::vector<uint64_t> v = r.unsigned_list("counters", 13);
-  std::vector<double> motion_epochs = r.value_list("motion_epochs", 2);
-  MotionPhaseTracker motion(params_.braking_stop);
-  try {
-    motion.restore(motion_epochs);
-  } catch (const std::invalid_argument& e) {
-    throw CheckpointError(e.what());
-  }
-  std::optional<BrakingSnapshot> snapshot;
-  if (const std::string f = r.field("braking_snapshot"); f != "none") {
-    const std::vector<double> t = checkpoint_parse_finite_doubles(f, "braking_snapshot", 9);
-    for (int i : {6, 7, 8})
-      if (t[i] < 0.0 || t[i] != std::floor(t[i])) throw CheckpointError("field 'braking_snapshot' has a bad count");
-    BrakingSnapshot b;
-    b.heading = Regression{t[0], t[1], t[2]};
-    b.pitch = Regression{t[3], t[4], t[5]};
-    b.samples_used = static_cast<uint64_t>(t[6]);
-    b.consecutive_innovation_rejections = static_cast<int>(t[7]);
-    b.used_since = static_cast<uint64_t>(t[8]);
-    if (const std::string l = r.field("braking_snapshot_last_used_forward"); l != "none") {
-      const std::vector<double> u = checkpoint_parse_finite_doubles(l, "braking_snapshot_last_used_forward", 2);
-      b.last_used_forward = std::make_pair(u[0], u[1]);
-    }
-    snapshot = b;
-  }
-  if (!r.at_end()) throw CheckpointError("unexpected text after the calibrator state");
-  if (samples_used > v[1]) throw CheckpointError("samples_used exceeds the used-epoch counter");
+template <class Archive, class Self>
+void MisalignmentCalibrator::state_fields(Archive& a, Self& c) {
+  a("heading", c.heading_)("pitch", c.pitch_)("samples_used", c.samples_used_)(
+      "last_used_forward", c.last_used_forward_)("consecutive_innovation_rejections",
+                                                 c.consecutive_innovation_rejections_)("frozen", c.frozen_)(
+      "last_t_s", c.last_t_s_)("counters", c.counters_)
+      .via(
+          "motion_epochs", [&] { return c.motion_.state(); }, [&](const auto& epochs) { c.motion_.restore(epochs); })(
+          "braking_snapshot", c.braking_snapshot_);
+  a.check("consecutive_innovation_rejections",
+          c.consecutive_innovation_rejections_ >= 0 &&
+              c.consecutive_innovation_rejections_ <= c.params_.innovation_max_consecutive_rejections,
+          "is negative or above the configured limit");
+  a.check("last_t_s", std::isfinite(c.last_t_s_), "is not finite");
+  a.check("samples_used", c.samples_used_ <= c.counters_.used, "exceeds the used-epoch counter");
+}
 
-  // Everything parsed: only now the calibrator changes.
-  heading_ = heading;
-  pitch_ = pitch;
-  samples_used_ = samples_used;
-  last_used_forward_ = last_used_forward;
-  consecutive_innovation_rejections_ = static_cast<int>(rejections);
-  frozen_ = frozen == 1;
-  last_t_s_ = last_t_s;
-  counters_ = MisalignmentCounters{v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12]};
-  motion_ = std::move(motion);
-  braking_snapshot_ = snapshot;
+StateJson MisalignmentCalibrator::save_state() const {
+  StateOut out;
+  state_fields(out, *this);
+  return out.take();
+}
+
+void MisalignmentCalibrator::restore_state(const StateJson& state) {
+  MisalignmentCalibrator c = *this;  // restored into a copy: this one changes only when everything was read
+  StateIn in(state, "calibrator");
+  state_fields(in, c);
   // The epochs up to the restored one were processed: one stamped at or before it is refused.
-  if (counters_.epochs > 0) last_gnss_t_s_ = last_t_s_;
+  if (c.counters_.epochs > 0) c.last_gnss_t_s_ = c.last_t_s_;
+  *this = std::move(c);
 }
 
 }  // namespace odonav

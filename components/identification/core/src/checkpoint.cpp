@@ -4,17 +4,33 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
-#include <sstream>
+#include <stdexcept>
 
 namespace odonav {
 
+ODONAV_STATE_FIELDS(IdentificationCheckpoint) {
+  a("estimator", s.estimator_name)("last_sample_t_s", s.last_sample_t_s)("samples_accepted", s.samples_accepted)(
+      "samples_rejected", s.samples_rejected)("fed_until_s", s.fed_until_s)(
+      "misalignments_applied", s.misalignments_applied)("held_misalignment_t_s", s.held_misalignment_t_s)("core",
+                                                                                                          s.core_state);
+  a.check("estimator", !s.estimator_name.empty(), "is empty");
+  a.check("last_sample_t_s", std::isfinite(s.last_sample_t_s), "is not finite");
+}
+
 namespace {
 
-constexpr const char* kMagic = "odonav-identification-checkpoint";
-constexpr int kVersion = 2;
-constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+CheckpointIdentity identity_of(const std::string& vehicle_id, const std::string& config_hash) {
+  return {kIdentificationCheckpointComponent, kIdentificationCheckpointVersion, vehicle_id, config_hash};
+}
 
-bool has_line_break(const std::string& s) { return s.find_first_of("\r\n") != std::string::npos; }
+IdentificationCheckpoint checkpoint_of(const CheckpointIdentity& id, const StateJson& payload) {
+  IdentificationCheckpoint c;
+  StateIn in(payload, "");
+  state_fields(in, c);
+  c.vehicle_id = id.vehicle_id;
+  c.config_hash = id.config_hash;
+  return c;
+}
 
 }  // namespace
 
@@ -24,55 +40,25 @@ std::string checkpoint_path(const std::string& state_dir, const std::string& veh
 }
 
 std::string serialize_checkpoint(const IdentificationCheckpoint& c) {
-  if (c.estimator_name.empty() || has_line_break(c.estimator_name))
-    throw std::invalid_argument("checkpoint: estimator name is empty or holds a line break");
-  std::vector<double> fed;
-  for (const auto& f : c.fed_until_s) fed.push_back(f.value_or(kNone));
-  std::ostringstream s;
-  s << checkpoint_head(kMagic, kVersion, c.vehicle_id, c.config_hash) << "estimator " << c.estimator_name << '\n'
-    << checkpoint_time_line("last_sample_t_s", c.last_sample_t_s) << "samples_accepted " << c.samples_accepted << '\n'
-    << "samples_rejected " << c.samples_rejected << '\n'
-    << checkpoint_value_list("inputs_fed_until_s", fed) << "misalignments_applied " << c.misalignments_applied << '\n'
-    << checkpoint_value_list("held_misalignment_t_s", c.held_misalignment_t_s
-                                                          ? std::vector<double>{*c.held_misalignment_t_s}
-                                                          : std::vector<double>{})
-    << checkpoint_state_block(c.core_state);
-  return seal_checkpoint(s.str());
+  if (c.estimator_name.empty()) throw std::invalid_argument("checkpoint: estimator name is empty");
+  if (!std::isfinite(c.last_sample_t_s)) throw std::invalid_argument("checkpoint: last_sample_t_s is not finite");
+  return seal_checkpoint(identity_of(c.vehicle_id, c.config_hash), to_state(c));
 }
 
 IdentificationCheckpoint parse_checkpoint(const std::string& text) {
-  const std::string body = unseal_checkpoint(text);
-  CheckpointReader r(body);
-  const CheckpointHead head = read_checkpoint_head(r, kMagic, kVersion);
-  IdentificationCheckpoint c;
-  c.vehicle_id = head.vehicle_id;
-  c.config_hash = head.config_hash;
-  c.estimator_name = r.field("estimator");
-  c.last_sample_t_s = r.double_field("last_sample_t_s");
-  c.samples_accepted = r.unsigned_field("samples_accepted");
-  c.samples_rejected = r.unsigned_field("samples_rejected");
-  const std::vector<double> fed = r.value_list("inputs_fed_until_s", kIdentificationInputs, kIdentificationInputs);
-  if (fed.size() != kIdentificationInputs)
-    throw CheckpointError("field 'inputs_fed_until_s' does not hold " + std::to_string(kIdentificationInputs) +
-                          " values");
-  for (std::size_t i = 0; i < kIdentificationInputs; ++i)
-    if (!std::isnan(fed[i])) c.fed_until_s[i] = fed[i];
-  c.misalignments_applied = r.unsigned_field("misalignments_applied");
-  const std::vector<double> held = r.value_list("held_misalignment_t_s", 1, 1);
-  if (!held.empty()) c.held_misalignment_t_s = held[0];
-  c.core_state = read_checkpoint_state_block(r, "identification state");
-  if (!r.at_end()) throw CheckpointError("unexpected text after the identification state");
-  if (c.estimator_name.empty()) throw CheckpointError("empty estimator");
-  return c;
+  const CheckpointContents contents = unseal_checkpoint(text);
+  const CheckpointIdentity& id = contents.identity;
+  check_checkpoint_identity(id, identity_of(id.vehicle_id, id.config_hash));
+  return checkpoint_of(id, contents.payload);
 }
 
 CheckpointLoadResult load_identification_checkpoint(const std::string& path, const std::string& vehicle_id,
                                                     const std::string& config_hash, IdentificationCore& core,
                                                     int64_t unix_time_s) {
+  const CheckpointIdentity expected = identity_of(vehicle_id, config_hash);
   std::optional<IdentificationCheckpoint> restored;
-  const CheckpointFileLoad load = load_checkpoint_file(path, unix_time_s, [&](const std::string& text) {
-    IdentificationCheckpoint c = parse_checkpoint(text);
-    check_checkpoint_identity(c.vehicle_id, c.config_hash, vehicle_id, config_hash);
+  const CheckpointFileLoad load = load_checkpoint_file(path, unix_time_s, expected, [&](const StateJson& payload) {
+    IdentificationCheckpoint c = checkpoint_of(expected, payload);
     if (c.estimator_name != core.main_estimator_name())
       throw CheckpointError("made by estimator '" + c.estimator_name + "', this is '" + core.main_estimator_name() +
                             "'");

@@ -1,6 +1,6 @@
 #include "odonav/identification/identification_core.hpp"
 
-#include "odonav/checkpoint_file.hpp"
+#include "odonav/checkpoint_state.hpp"
 #include "odonav/consumer_rules.hpp"
 
 #include <cmath>
@@ -127,16 +127,19 @@ void IdentificationCore::track_braking_stop(const SampleBuilderEpoch& epoch, Mot
     case MotionPhase::kBraking:
       if (!braking_snapshot_ && epoch.sample) {
         BrakingSnapshot snap;
-        snap.main = withdraws_braking(*main_) ? main_->save_state() : std::string();
-        for (const auto& e : all_) snap.all.push_back(withdraws_braking(*e) ? e->save_state() : std::string());
+        auto state_of = [](const ScaleFactorEstimator& e) {
+          return withdraws_braking(e) ? std::make_shared<const StateJson>(e.save_state()) : nullptr;
+        };
+        snap.main = state_of(*main_);
+        for (const auto& e : all_) snap.all.push_back(state_of(*e));
         braking_snapshot_ = std::move(snap);
       }
       return;
     case MotionPhase::kStandstill:
       if (!braking_snapshot_) return;
-      if (withdraws_braking(*main_)) main_->restore_state(braking_snapshot_->main);
+      if (withdraws_braking(*main_)) main_->restore_state(*braking_snapshot_->main);
       for (std::size_t i = 0; i < all_.size(); ++i)
-        if (withdraws_braking(*all_[i])) all_[i]->restore_state(braking_snapshot_->all[i]);
+        if (withdraws_braking(*all_[i])) all_[i]->restore_state(*braking_snapshot_->all[i]);
       ++braking_stop_counters_.stops;
       braking_stop_counters_.samples_withdrawn += braking_snapshot_->samples;
       braking_snapshot_.reset();
@@ -219,88 +222,64 @@ std::vector<IdentificationOutput> IdentificationCore::finish() {
   return outputs;
 }
 
-namespace {
-constexpr const char* kCoreStateMagic = "odonav-identification-core-state";
-constexpr int kCoreStateVersion = 3;
-}  // namespace
+ODONAV_STATE_FIELDS(BrakingStopCounters) { a("stops", s.stops)("samples_withdrawn", s.samples_withdrawn); }
 
-std::string IdentificationCore::save_state() const {
-  std::string s = std::string(kCoreStateMagic) + " " + std::to_string(kCoreStateVersion) + "\n";
-  s += "counters " + std::to_string(accepted_) + " " + std::to_string(rejected_) + "\n";
-  s += std::string("frozen ") + (frozen_ ? "1" : "0") + "\n";
-  s += checkpoint_value_list("commanded_k_m_per_pulse",
-                             seed_k_m_per_pulse_ ? std::vector<double>{*seed_k_m_per_pulse_} : std::vector<double>{});
-  s += checkpoint_value_list("last_gate_t_s",
-                             last_gate_t_s_ ? std::vector<double>{*last_gate_t_s_} : std::vector<double>{});
-  s += checkpoint_state_block(builder_.save_state());
-  s += "estimator " + main_->name() + "\n";
-  s += checkpoint_state_block(main_->save_state());
-  s += checkpoint_state_block(turn_slip_.save_state());
-  s += "side_by_side " + std::to_string(all_.size()) + "\n";
-  for (const auto& e : all_) s += "estimator " + e->name() + "\n" + checkpoint_state_block(e->save_state());
-  s += "braking_stop " + std::to_string(braking_stop_counters_.stops) + " " +
-       std::to_string(braking_stop_counters_.samples_withdrawn) + "\n";
-  s += checkpoint_value_list("motion_epochs", motion_.state());
-  s += "braking_snapshot " + (braking_snapshot_ ? std::to_string(braking_snapshot_->samples) : std::string("none")) +
-       "\n";
-  if (braking_snapshot_) {
-    s += checkpoint_state_block(braking_snapshot_->main);
-    for (const std::string& a : braking_snapshot_->all) s += checkpoint_state_block(a);
-  }
-  return s;
+template <class Archive, class Self>
+void IdentificationCore::state_fields(Archive& a, Self& c) {
+  // An estimator's state, restored by the estimator (which checks its name and parameters).
+  auto estimator = [&](const char* key, auto& e) {
+    a.via(
+        key, [&] { return e->save_state(); },
+        [&](const auto& state) {
+          try {
+            e->restore_state(state);
+          } catch (const std::exception& ex) {
+            throw CheckpointError("estimator " + e->name() + ": state refused: " + ex.what());
+          }
+        });
+  };
+  a("accepted", c.accepted_)("rejected", c.rejected_)("frozen", c.frozen_)(
+      "commanded_k_m_per_pulse", c.seed_k_m_per_pulse_)("last_gate_t_s", c.last_gate_t_s_)
+      .via("sample_builder", c.builder_);
+  estimator("main_estimator", c.main_);
+  a.via("turn_slip", c.turn_slip_)
+      .via(
+          "side_by_side",
+          [&] {
+            std::vector<StateJson> states;
+            for (const auto& e : c.all_) states.push_back(e->save_state());
+            return states;
+          },
+          [&](const auto& states) {
+            if (states.size() != c.all_.size())
+              throw CheckpointError("field 'side_by_side' holds " + std::to_string(states.size()) +
+                                    " estimators, this core runs " + std::to_string(c.all_.size()));
+            for (std::size_t i = 0; i < states.size(); ++i) {
+              try {
+                c.all_[i]->restore_state(states[i]);
+              } catch (const std::exception& ex) {
+                throw CheckpointError("estimator " + c.all_[i]->name() + ": state refused: " + ex.what());
+              }
+            }
+          })("braking_stop", c.braking_stop_counters_)
+      .via(
+          "motion_epochs", [&] { return c.motion_.state(); }, [&](const auto& v) { c.motion_.restore(v); })(
+          "braking_snapshot", c.braking_snapshot_);
+  if (c.braking_snapshot_)
+    a.check("braking_snapshot", c.braking_snapshot_->all.size() == c.all_.size(),
+            "does not hold one state per side-by-side estimator");
 }
 
-void IdentificationCore::restore_state(const std::string& text) {
-  CheckpointReader r(text);
-  check_checkpoint_version(r, kCoreStateMagic, kCoreStateVersion);
+StateJson IdentificationCore::save_state() const {
+  StateOut out;
+  state_fields(out, *this);
+  return out.take();
+}
+
+void IdentificationCore::restore_state(const StateJson& state) {
   IdentificationCore c(params_);  // restored into a copy: this one changes only when everything was read
-  const std::vector<uint64_t> counts = r.unsigned_list("counters", 2);
-  c.accepted_ = counts[0];
-  c.rejected_ = counts[1];
-  const std::string frozen = r.field("frozen");
-  if (frozen != "0" && frozen != "1") throw CheckpointError("field 'frozen' is not 0 or 1");
-  c.frozen_ = frozen == "1";
-  std::vector<double> v = r.value_list("commanded_k_m_per_pulse", 1, 1);
-  if (!v.empty()) c.seed_k_m_per_pulse_ = v[0];
-  v = r.value_list("last_gate_t_s", 1, 1);
-  if (!v.empty()) c.last_gate_t_s_ = v[0];
-  c.builder_.restore_state(read_checkpoint_state_block(r, "sample builder state"));
-  auto restore_estimator = [&](ScaleFactorEstimator& e) {
-    const std::string name = r.field("estimator");
-    if (name != e.name()) throw CheckpointError("made by estimator '" + name + "', this is '" + e.name() + "'");
-    const std::string state = read_checkpoint_state_block(r, "estimator state");
-    try {
-      e.restore_state(state);
-    } catch (const std::exception& ex) {
-      throw CheckpointError("estimator " + name + ": state refused: " + ex.what());
-    }
-  };
-  restore_estimator(*c.main_);
-  c.turn_slip_.restore_state(read_checkpoint_state_block(r, "turn slip state"));
-  const uint64_t n = r.unsigned_field("side_by_side");
-  if (n != c.all_.size())
-    throw CheckpointError("field 'side_by_side' is " + std::to_string(n) + ", this core runs " +
-                          std::to_string(c.all_.size()) + " side-by-side estimators");
-  for (auto& e : c.all_) restore_estimator(*e);
-  const std::vector<uint64_t> stops = r.unsigned_list("braking_stop", 2);
-  c.braking_stop_counters_ = BrakingStopCounters{stops[0], stops[1]};
-  try {
-    c.motion_.restore(r.value_list("motion_epochs", 2));
-  } catch (const std::invalid_argument& e) {
-    throw CheckpointError(e.what());
-  }
-  if (const std::string snap = r.field("braking_snapshot"); snap != "none") {
-    BrakingSnapshot b;
-    try {
-      b.samples = std::stoull(snap);
-    } catch (const std::exception&) {
-      throw CheckpointError("field 'braking_snapshot' is not a count or 'none'");
-    }
-    b.main = read_checkpoint_state_block(r, "braking snapshot");
-    for (std::size_t i = 0; i < c.all_.size(); ++i) b.all.push_back(read_checkpoint_state_block(r, "braking snapshot"));
-    c.braking_snapshot_ = std::move(b);
-  }
-  if (!r.at_end()) throw CheckpointError("unexpected text after the identification core state");
+  StateIn in(state, "identification");
+  state_fields(in, c);
   *this = std::move(c);
 }
 

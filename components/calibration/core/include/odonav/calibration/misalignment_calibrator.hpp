@@ -19,6 +19,7 @@
 // been added; one output per GNSS epoch (also for gated epochs, carrying the current values, so a
 // downstream stream has a watermark), bit-identical whatever the interleaving of the add_* calls.
 // freeze() / unfreeze() / reset() act on the epochs processed after the call.
+#include <cmath>
 #include <cstdint>
 #include <deque>
 #include <limits>
@@ -34,6 +35,7 @@
 #include "odonav/published_estimates.hpp"
 #include "odonav/results/output_files.hpp"
 #include "odonav/sensor_samples.hpp"
+#include "odonav/state_json.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/stream_buffers.hpp"
 
@@ -196,17 +198,18 @@ class MisalignmentCalibrator {
   MisalignmentOutput current() const;
   const MisalignmentCounters& counters() const { return counters_; }
 
-  /// The state a restarted calibration needs to continue exactly (calibration_checkpoint.hpp), as
-  /// versioned text with exact (hex) numbers: both regressions' sums, the used-epoch count, the
+  /// The state a restarted calibration needs to continue exactly (calibration_checkpoint.hpp;
+  /// checkpoint_state.hpp, every double exact): both regressions' sums, the used-epoch count, the
   /// gates' state (speed-jump reference, consecutive innovation rejections), frozen, the last
-  /// epoch's time and the counters. Not the buffered samples: after a restore the INS from
-  /// restore_margin_s() before the last epoch and the GNSS after it are fed again.
-  std::string save_state() const;
-  /// Restores save_state()'s text into this calibrator, which must have been made with the same
+  /// epoch's time, the counters, the motion phase and the braking snapshot. Not the buffered
+  /// samples: after a restore the INS from restore_margin_s() before the last epoch and the GNSS
+  /// after it are fed again.
+  StateJson save_state() const;
+  /// Restores save_state()'s state into this calibrator, which must have been made with the same
   /// parameters (the checkpoint's configuration hash says so) and fed nothing yet. Throws
-  /// std::runtime_error naming the field when the text is not a state of this version; the
-  /// calibrator is unchanged then.
-  void restore_state(const std::string& text);
+  /// std::runtime_error (CheckpointError) naming the field when it is not a state of this version;
+  /// the calibrator is unchanged then.
+  void restore_state(const StateJson& state);
   /// How long before a restored epoch (s) the INS must be fed again for the next epochs' attitude
   /// and yaw-rate windows: the window (2h) plus the longest bracket interpolated across.
   double restore_margin_s() const { return 2.0 * params_.yaw_rate_half_window_s + params_.max_bracket_s; }
@@ -216,7 +219,17 @@ class MisalignmentCalibrator {
     double sum_phi2 = 0.0, sum_phi_y = 0.0, sum_y2 = 0.0;
     double theta() const { return sum_phi2 > 0.0 ? sum_phi_y / sum_phi2 : 0.0; }
     double residual_sum_squares() const;
+    template <class Archive, class Self>  // checkpoint fields (checkpoint_state.hpp)
+    static void state_fields(Archive& a, Self& s) {
+      a("sum_phi2", s.sum_phi2)("sum_phi_y", s.sum_phi_y)("sum_y2", s.sum_y2);
+      a.check("sum_phi2", s.sum_phi2 >= 0.0 && std::isfinite(s.sum_phi2), "is negative or not finite");
+      a.check("sum_phi_y", std::isfinite(s.sum_phi_y), "is not finite");
+      a.check("sum_y2", s.sum_y2 >= 0.0 && std::isfinite(s.sum_y2), "is negative or not finite");
+    }
   };
+  // The calibrator's checkpoint fields, listed once for save_state() and restore_state().
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
   MisalignmentOutput process_epoch(const GnssSample& gnss);
   /// Tests 2 and 3 of the outlier gate (the physical limit is tested first, in process_epoch): true when the epoch's body velocity v_b (m/s)
   /// must not enter the regressions. Updates the consecutive-rejection count.
@@ -253,6 +266,13 @@ class MisalignmentCalibrator {
     std::optional<std::pair<double, double>> last_used_forward;
     int consecutive_innovation_rejections = 0;
     uint64_t used_since = 0;
+    template <class Archive, class Self>
+    static void state_fields(Archive& a, Self& s) {
+      a("heading", s.heading)("pitch", s.pitch)("samples_used", s.samples_used)(
+          "last_used_forward", s.last_used_forward)("consecutive_innovation_rejections",
+                                                    s.consecutive_innovation_rejections)("used_since", s.used_since);
+      a.check("consecutive_innovation_rejections", s.consecutive_innovation_rejections >= 0, "is negative");
+    }
   };
   std::optional<BrakingSnapshot> braking_snapshot_;
 };

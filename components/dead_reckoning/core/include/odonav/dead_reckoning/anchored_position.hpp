@@ -57,6 +57,7 @@
 #include "odonav/consumer_rules.hpp"
 #include "odonav/geodesy.hpp"
 #include "odonav/results/output_files.hpp"
+#include "odonav/state_json.hpp"
 
 namespace odonav {
 
@@ -181,12 +182,13 @@ class AnchoredPositionFilter {
   /// The same for a DeadReckoner output, whose gnss_fixes are added first.
   AnchoredPosition step(const DeadReckoningOutput& dr);
 
-  /// The complete state as text (versioned, every double exact): queued fixes, the filter's state
-  /// and covariance, the last step, the gate and the counters (DeadReckoner::save_state's rule).
-  std::string save_state() const;
-  /// Restores save_state()'s text into a filter made with the same parameters. Throws
+  /// The complete state (checkpoint_state.hpp, every double exact): queued fixes, the filter's
+  /// state and covariance, the last step, the gate and the counters (DeadReckoner::save_state's
+  /// rule).
+  StateJson save_state() const;
+  /// Restores save_state()'s state into a filter made with the same parameters. Throws
   /// CheckpointError naming the field; the filter is unchanged then.
-  void restore_state(const std::string& text);
+  void restore_state(const StateJson& state);
 
   const AnchoredPositionCounters& counters() const { return counters_; }
   /// Odometer time from which a fix of epoch epoch_s applies: estimate_applies_from_s(epoch_s,
@@ -201,6 +203,9 @@ class AnchoredPositionFilter {
   void apply(const AnchorFix& fix, const AnchorDrStep& now);
   void start(const Eigen::Vector3d& z, double sigma_h_m);
   void propagate(const Eigen::Vector3d& d_m, double dd_m, double dt_s);
+  // The filter's checkpoint fields, listed once for save_state() and restore_state().
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
 
   AnchoredPositionParams params_;
   double q_offset_m2_per_m_ = 0.0, q_scale_per_m_ = 0.0, q_heading_rad2_per_s_ = 0.0;

@@ -57,6 +57,7 @@
 // so it never changes a number; counted, and reported as spans of consecutive outputs (HeldSpan).
 // Never held: before any estimate of the kind was received (nothing to hold: nominal K, zero
 // misalignment), a commanded K, and epochs the core does not know (GNSS itself silent).
+#include <cmath>
 #include <cstdint>
 #include <deque>
 #include <limits>
@@ -273,17 +274,17 @@ class DeadReckoner {
   /// End of data: processes everything left.
   std::vector<DeadReckoningOutput> finish();
 
-  /// The complete state as text (versioned; every double exact, checkpoint_value_list): the
-  /// integration (origin, position, count, distance, held heading), the buffered inputs not yet
-  /// processed or still needed (odometer, attitude, GNSS, K, misalignment, latency), the epochs
-  /// whose error is not evaluated yet and the outputs it needs, the last error, the held-estimate
-  /// tracking and the counters. A DeadReckoner restored from it and fed the inputs that follow
-  /// those already added gives the same outputs, bit for bit, as this one.
-  std::string save_state() const;
-  /// Restores save_state()'s text into this dead reckoner, which must have been made with the same
+  /// The complete state (checkpoint_state.hpp, every double exact): the integration (origin,
+  /// position, count, distance, held heading), the buffered inputs not yet processed or still needed
+  /// (odometer, attitude, GNSS, K, misalignment, latency), the epochs whose error is not evaluated
+  /// yet and the outputs it needs, the last error, the held-estimate tracking and the counters. A
+  /// DeadReckoner restored from it and fed the inputs that follow those already added gives the
+  /// same outputs, bit for bit, as this one.
+  StateJson save_state() const;
+  /// Restores save_state()'s state into this dead reckoner, which must have been made with the same
   /// parameters (a checkpoint's configuration hash says so). Throws CheckpointError naming the field
-  /// when the text is not a state of this version; the dead reckoner is unchanged then.
-  void restore_state(const std::string& text);
+  /// when it is not a state of this version; the dead reckoner is unchanged then.
+  void restore_state(const StateJson& state);
 
   bool started() const { return frame_.has_value(); }
   /// The DR origin (reference point at the start), once started.
@@ -298,6 +299,15 @@ class DeadReckoner {
   struct KInForce {
     double k_m_per_pulse;
     ScaleFactorSource source;
+    template <class Archive, class Self>  // checkpoint fields (checkpoint_state.hpp)
+    static void state_fields(Archive& a, Self& s) {
+      a("k_m_per_pulse", s.k_m_per_pulse)("source", s.source);
+      a.check("k_m_per_pulse", std::isfinite(s.k_m_per_pulse), "is not finite");
+      a.check("source",
+              s.source == ScaleFactorSource::kNominal || s.source == ScaleFactorSource::kIdentified ||
+                  s.source == ScaleFactorSource::kCommanded,
+              "is not 0, 1 or 2");
+    }
   };
   enum class Readiness { kReady, kWait };
   Readiness try_start(double t_j);
@@ -313,6 +323,10 @@ class DeadReckoner {
     /// The lever arm in ENU at t_s: zero without a lever arm, unset when it is configured but
     /// the attitude (INS, or the GNSS course without INS) is not known at t_s.
     std::optional<Eigen::Vector3d> lever_arm_enu_m;
+    template <class Archive, class Self>
+    static void state_fields(Archive& a, Self& s) {
+      a("t_s", s.t_s)("enu_m", s.enu_m)("distance_m", s.distance_m)("lever_arm_enu_m", s.lever_arm_enu_m);
+    }
   };
   struct EpochError {
     double epoch_s;
@@ -320,6 +334,11 @@ class DeadReckoner {
     double horizontal_error_m;
     double error_percent_distance;
     double carry_s;  ///< carried on the outputs up to this long after applies_s (the GNSS gap).
+    template <class Archive, class Self>
+    static void state_fields(Archive& a, Self& s) {
+      a("epoch_s", s.epoch_s)("applies_s", s.applies_s)("horizontal_error_m", s.horizontal_error_m)(
+          "error_percent_distance", s.error_percent_distance)("carry_s", s.carry_s);
+    }
   };
   Eigen::Vector3d lever_arm_enu(const Attitude& att) const;
   DeadReckoningOutput step(const OdometerBuffer::Entry& sample);
@@ -349,6 +368,10 @@ class DeadReckoner {
   struct TurnSlipInForce {
     double g_s_per_rad;
     double threshold_radps;
+    template <class Archive, class Self>
+    static void state_fields(Archive& a, Self& s) {
+      a("g_s_per_rad", s.g_s_per_rad)("threshold_radps", s.threshold_radps);
+    }
   };
   StepHistory<TurnSlipInForce> turn_slip_{"turn_slip"};
   std::optional<std::pair<double, TurnSlipInForce>> last_turn_slip_;  ///< (t_s, value) last added
@@ -383,8 +406,16 @@ class DeadReckoner {
     /// Whether an output at t_s, with epoch_s the latest GNSS epoch applicable, is on a held
     /// estimate (exempt: never); updates the span.
     bool decide(double t_s, const std::optional<double>& epoch_s, bool exempt);
+    template <class Archive, class Self>
+    static void state_fields(Archive& a, Self& s) {
+      a("received_s", s.received_s)("last_applicable_s", s.last_applicable_s)("span", s.span);
+    }
   };
   HeldTracker held_[2];
+
+  // The dead reckoner's checkpoint fields, listed once for save_state() and restore_state().
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
 };
 
 }  // namespace odonav

@@ -1,31 +1,26 @@
 #pragma once
-// Checkpoint and restart of odonav-dead-reckoning, middleware-free: the complete state of the dead
-// reckoning (DeadReckoner, AnchoredPositionFilter and what the node's event-time logic keeps) in a
-// file, so a restarted dead reckoning resumes its track (same origin, position, anchored filter)
-// instead of starting again at the next fix, and the shared RestartPolicy
-// (odonav/restart_policy.hpp: skipped samples, catch-up, checkpoint period, health notes) with the
-// dead reckoning's inputs.
+// Checkpoint of odonav-dead-reckoning, middleware-free: the complete state of the dead reckoning
+// (DeadReckoner, AnchoredPositionFilter and what the node's event-time logic keeps) in a file, so a
+// restarted dead reckoning resumes its track (same origin, position, anchored filter) instead of
+// starting again at the next fix. When to write and how a restart goes on: DeadReckoningLifecycle
+// (dead_reckoning_lifecycle.hpp).
 //
 // Unlike the estimators', the dead reckoner's state holds inputs it has taken in but not processed
 // yet (an odometer sample waits for the attitude after it, GNSS and estimates arrive ahead of the
 // odometer): the checkpoint keeps them, and the stamp of the last sample of each input taken in;
 // after a restore each input's samples up to that stamp are skipped (RestartPolicy fed_until).
 //
-// File `<state-dir>/dead-reckoning-<vehicle>.ckpt`, versioned text (envelope: odonav/checkpoint_file.hpp):
-//   odonav-dead-reckoning-checkpoint 2
-//   vehicle <vehicle id>
-//   config_hash <16 hex digits>
-//   last_output_t_s <%.17g>             (event time of the last published output, s)
-//   inputs_fed_until_s 5 <hex doubles>  (per DeadReckoningInput, the last stamp taken in; NaN none)
-//   k_selection <commanded 0/1> <last K stamp or NaN> <k_applied> <k_ignored> <k_source_changes>
-//   k_source <ScaleFactor.source followed, may be empty>
-//   k_in_force_source <ScaleFactor.source of the identified K in force, may be empty>
-//   applied_misalignment <n> <t heading pitch>...  (the misalignments given, for the messages)
-//   misalignments_applied <n>
-//   held_misalignment_t_s <0|1> <t>
-//   state_chars <n> + DeadReckoner::save_state() text
-//   state_chars <n> + AnchoredPositionFilter::save_state() text
-//   checksum <16 hex digits>
+// File `<state-dir>/dead-reckoning-<vehicle>.ckpt`: the shared envelope (checkpoint_file.hpp:
+// component "dead-reckoning", version kDeadReckoningCheckpointVersion, vehicle, configuration hash,
+// checksum) around the payload (checkpoint_state.hpp):
+//   last_output_t_s          event time of the last published output (s)
+//   fed_until_s              per DeadReckoningInput, the last stamp taken in (null: none)
+//   k_selection              ScaleFactorSelection::State (commanded, last K stamp, sources, counters)
+//   applied_misalignment     the misalignments given (for the messages), misalignments_applied,
+//   held_misalignment_t_s
+//   dead_reckoner            DeadReckoner::save_state()
+//   anchored_position        AnchoredPositionFilter::save_state()
+// A file of another version (the text files before version 3 included) is moved aside: fresh start.
 // Written atomically, every --checkpoint-every-s of event time and at shutdown.
 #include <array>
 #include <cstdint>
@@ -38,10 +33,14 @@
 #include "odonav/dead_reckoning/anchored_position.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
-#include "odonav/restart_policy.hpp"
 #include "odonav/stream_buffers.hpp"
 
 namespace odonav {
+
+/// The envelope's component name and version of the dead reckoning's checkpoint; the version is
+/// bumped whenever anything in the payload (the cores' states included) changes.
+inline constexpr const char* kDeadReckoningCheckpointComponent = "dead-reckoning";
+inline constexpr int kDeadReckoningCheckpointVersion = 3;
 
 /// The inputs of the dead reckoning, as the restart policy indexes them.
 enum class DeadReckoningInput { kOdometer, kGnss, kIns, kMisalignment, kScaleFactor };
@@ -75,16 +74,16 @@ struct DeadReckoningCheckpoint {
   StepHistory<Misalignment>::State applied_misalignment;
   uint64_t misalignments_applied = 0;
   std::optional<double> held_misalignment_t_s;
-  std::string dead_reckoner_state;  ///< DeadReckoner::save_state()
-  std::string anchor_state;         ///< AnchoredPositionFilter::save_state()
+  StateJson dead_reckoner_state;  ///< DeadReckoner::save_state()
+  StateJson anchor_state;         ///< AnchoredPositionFilter::save_state()
 };
 
 /// `<state_dir>/dead-reckoning-<vehicle_id>.ckpt` (std::invalid_argument for a bad vehicle id).
 std::string dead_reckoning_checkpoint_path(const std::string& state_dir, const std::string& vehicle_id);
 /// The file text (std::invalid_argument for an empty vehicle / hash or a non-finite time).
 std::string serialize_dead_reckoning_checkpoint(const DeadReckoningCheckpoint& checkpoint);
-/// Parses it. Throws CheckpointError naming the first problem (empty, truncated, checksum, version,
-/// field).
+/// Parses it. Throws CheckpointError naming the first problem (empty, truncated, not a checkpoint,
+/// checksum, another component or version, field).
 DeadReckoningCheckpoint parse_dead_reckoning_checkpoint(const std::string& text);
 
 /// Loads `path` into `state` when intact and made for this vehicle and configuration; otherwise
@@ -95,36 +94,5 @@ struct DeadReckoningCheckpointLoad : CheckpointFileLoad {
 DeadReckoningCheckpointLoad load_dead_reckoning_checkpoint(const std::string& path, const std::string& vehicle_id,
                                                            const std::string& config_hash,
                                                            const DeadReckoningStateRefs& state, int64_t unix_time_s);
-
-/// One dead-reckoning run's restart policy. Not thread-safe: the node runs it one task at a time.
-class DeadReckoningLifecycle {
- public:
-  /// settings.state_dir empty: checkpointing off (nothing restored, skipped or written).
-  DeadReckoningLifecycle(CheckpointSettings settings, std::string vehicle_id);
-
-  /// At start, before any input reaches the cores: creates the state directory (ConfigError), restores
-  /// the checkpoint into `state` (or moves an unusable one aside: ERROR, WARN for 30 s, fresh start)
-  /// and logs what it did.
-  void start(const DeadReckoningStateRefs& state, int64_t unix_time_s, double steady_now_s);
-  /// True when a sample must not reach the cores after a restore: taken in before the checkpoint
-  /// (stamped at or before the input's last stamp in it), or an odometer sample in a lost span.
-  /// Otherwise the sample is recorded as taken in (the next checkpoint's fed_until).
-  bool take_sample(DeadReckoningInput input, double t_s);
-  /// The outputs to publish: after a restore none at or before the checkpoint; catch-up counted.
-  std::vector<DeadReckoningOutput> outputs_to_publish(std::vector<DeadReckoningOutput> outputs, double steady_now_s);
-  /// Each odometer sample as it arrives: the live edge after a restore.
-  void note_live_sample(double t_s, double steady_now_s) { restart_.note_live_sample(t_s, steady_now_s); }
-  void checkpoint_if_due(const DeadReckoningStateRefs& state);
-  void checkpoint_at_finish(const DeadReckoningStateRefs& state);
-
-  const RestartPolicy& restart() const { return restart_; }
-  const std::optional<double>& restored_t_s() const { return restart_.restored_t_s(); }
-
- private:
-  std::string text_of(const DeadReckoningStateRefs& state, double t_s) const;
-
-  std::string vehicle_id_;
-  RestartPolicy restart_;
-};
 
 }  // namespace odonav

@@ -10,21 +10,17 @@
 // the producers could rebuild. So the checkpoint keeps, per input, the stamp of the last sample taken
 // in; after a restore each input's samples up to it are skipped.
 //
-// File `<state-dir>/identification-<vehicle>.ckpt`, versioned text:
-//   odonav-identification-checkpoint 2
-//   vehicle <vehicle id>
-//   config_hash <16 hex digits>         (config_hash_of: the options that change the estimate)
-//   estimator <name>
-//   last_sample_t_s <%.17g: exact round trip>     (event time of the last processed GNSS epoch, s)
-//   samples_accepted <n>
-//   samples_rejected <n>
-//   inputs_fed_until_s 4 <hex doubles>  (per IdentificationInput, the last stamp taken in; NaN none)
-//   misalignments_applied <n>
-//   held_misalignment_t_s <0|1> <t>     (stamp of the last misalignment applied)
-//   state_chars <n>
-//   <n characters: IdentificationCore::save_state() text>
-//   checksum <16 hex digits>            (FNV-1a 64 of every byte before this line)
-// Version 1 (the estimator's state only) is refused like a corrupt file: moved aside, fresh start.
+// File `<state-dir>/identification-<vehicle>.ckpt` (with --instance: instance.hpp), the shared
+// envelope (checkpoint_file.hpp: component "identification", version kIdentificationCheckpointVersion,
+// vehicle, configuration hash, checksum) around the payload (checkpoint_state.hpp):
+//   estimator                the main estimator's name
+//   last_sample_t_s          event time of the last processed GNSS epoch (s)
+//   samples_accepted, samples_rejected
+//   fed_until_s              per IdentificationInput, the last stamp taken in (null: none)
+//   misalignments_applied, held_misalignment_t_s
+//   core                     IdentificationCore::save_state()
+// A file of another version (the text files before version 3 included) is refused like a corrupt
+// one: moved aside, fresh start.
 // Written atomically (temporary file in the same directory, fsync, rename, fsync of the directory),
 // so a kill -9 at any instant leaves either the previous checkpoint or the new one, never a mix.
 #include <array>
@@ -39,6 +35,11 @@
 #include "odonav/scale_factor_estimator.hpp"
 
 namespace odonav {
+
+/// The envelope's component name and version of the identification's checkpoint; the version is
+/// bumped whenever anything in the payload (the core's state included) changes.
+inline constexpr const char* kIdentificationCheckpointComponent = "identification";
+inline constexpr int kIdentificationCheckpointVersion = 3;
 
 /// The inputs of the identification, as the restart policy indexes them.
 enum class IdentificationInput { kOdometer, kGnss, kIns, kMisalignment };
@@ -55,7 +56,7 @@ struct IdentificationCheckpoint {
   std::array<std::optional<double>, kIdentificationInputs> fed_until_s;
   uint64_t misalignments_applied = 0;           ///< converged misalignments given to the core.
   std::optional<double> held_misalignment_t_s;  ///< stamp of the last one (s).
-  std::string core_state;                       ///< IdentificationCore::save_state() text.
+  StateJson core_state;                         ///< IdentificationCore::save_state().
 };
 
 // checkpoint_neutral_options() and config_hash_of() (the configuration hash) are shared with the
@@ -65,11 +66,12 @@ struct IdentificationCheckpoint {
 /// empty or holds anything but letters, digits, '.', '_' and '-' (it becomes a file name).
 std::string checkpoint_path(const std::string& state_dir, const std::string& vehicle_id);
 
-/// The file text (see the file comment). Throws std::invalid_argument when vehicle_id or
-/// estimator_name is empty or holds a line break, or last_sample_t_s is not finite.
+/// The file text (see the file comment). Throws std::invalid_argument when vehicle_id, config_hash or
+/// estimator_name is empty, or last_sample_t_s is not finite.
 std::string serialize_checkpoint(const IdentificationCheckpoint& checkpoint);
 /// Parses serialize_checkpoint's text. Throws CheckpointError naming the first problem: empty,
-/// truncated, checksum mismatch, unknown version, missing or malformed field.
+/// truncated, not a checkpoint, checksum mismatch, another component or version, missing or
+/// malformed field.
 IdentificationCheckpoint parse_checkpoint(const std::string& text);
 
 // Checkpoints are written with write_file_atomically (odonav/safe_output.hpp); an unusable one is

@@ -174,15 +174,16 @@ class IdentificationCore {
   ScaleFactorEstimator& main_estimator() { return *main_; }
   const ScaleFactorEstimator& main_estimator() const { return *main_; }
 
-  /// The complete state as text (every double exact): the sample builder (inputs taken in and not
-  /// processed yet, the sample chain, the gates' references, the GNSS latency and its sums), every
-  /// estimator, the counters, frozen, the commanded K and the gate's last stamp. A core made with
-  /// the same parameters and given restore_state(save_state()) produces exactly the outputs this
-  /// one would, provided the inputs it had taken in are not added again (a component checkpoint).
-  std::string save_state() const;
-  /// Throws CheckpointError (checkpoint_file.hpp) naming the field when the text is not a state of
-  /// a core with these parameters; the core is unchanged then.
-  void restore_state(const std::string& text);
+  /// The complete state (checkpoint_state.hpp, every double exact): the sample builder (inputs
+  /// taken in and not processed yet, the sample chain, the gates' references, the GNSS latency and
+  /// its sums), every estimator, the counters, frozen, the commanded K and the gate's last stamp. A
+  /// core made with the same parameters and given restore_state(save_state()) produces exactly the
+  /// outputs this one would, provided the inputs it had taken in are not added again (a component
+  /// checkpoint).
+  StateJson save_state() const;
+  /// Throws CheckpointError (checkpoint_state.hpp) naming the field when the state is not one of a
+  /// core with these parameters; the core is unchanged then.
+  void restore_state(const StateJson& state);
 
  private:
   IdentificationOutput on_epoch(const SampleBuilderEpoch& epoch);
@@ -209,13 +210,23 @@ class IdentificationCore {
   MotionPhaseTracker motion_;
   /// The estimators' states (main, then side by side) when the current braking began, and the
   /// samples accepted since; none while driving.
+  /// The estimators' states are shared, immutable, between copies of the core; null for an
+  /// estimator that does not withdraw brakings.
   struct BrakingSnapshot {
-    std::string main;
-    std::vector<std::string> all;
+    std::shared_ptr<const StateJson> main;
+    std::vector<std::shared_ptr<const StateJson>> all;
     uint64_t samples = 0;
+    template <class Archive, class Self>  // checkpoint fields (checkpoint_state.hpp)
+    static void state_fields(Archive& a, Self& s) {
+      a("main", s.main)("all", s.all)("samples", s.samples);
+    }
   };
   std::optional<BrakingSnapshot> braking_snapshot_;
   BrakingStopCounters braking_stop_counters_;
+
+  // The core's checkpoint fields, listed once for save_state() and restore_state().
+  template <class Archive, class Self>
+  static void state_fields(Archive& a, Self& self);
 };
 
 }  // namespace odonav
