@@ -21,7 +21,7 @@ Options parsed(const std::vector<std::string>& args) {
 }
 
 TEST(IdentificationParamsFor, TakesTheVehicleFactsOnTopOfTheOptions) {
-  const Options o = parsed({"--window", "250", "--min-speed", "2.5"});
+  const Options o = parsed({"--window", "250", "--id-min-speed", "2.5"});
   IdentificationVehicleFacts facts;
   facts.use_ins = false;
   facts.lever_arm_body_m = Eigen::Vector3d(0.5, -0.25, 2.0);
