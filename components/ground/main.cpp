@@ -32,41 +32,45 @@ constexpr int kExitFailure = 1;  // also: command rejected
 constexpr int kExitConfig = 2;
 constexpr int kExitTimeout = 3;  // command: no acknowledgement in time
 
+// The options every subcommand shares (before or after its name), then each subcommand's own.
 void declare_options(Options& o) {
-  o.add_positional("action", "monitor | serve | record | command");
-  o.add_positional("command", "command: reset | set-k | freeze | unfreeze | release-k", false);
-  o.add_positional("value", "command set-k: K in metres per pulse", false);
   odonav::dds::add_participant_options(o, "DDS domain id of the fleet");
   o.add_string("log-level", "", std::string("log level (") + kLogLevelNames + "); empty = $ODONAV_LOG_LEVEL or info");
-  // monitor
-  o.add_string("vehicle", "", "monitor: vehicle ids to show, comma separated (empty: all); command: the vehicle");
-  o.add_bool("once", false, "monitor: print one snapshot after --settle-s and exit");
-  o.add_bool("json", false, "monitor: the snapshot as JSON (with --once: exactly one JSON document on stdout)");
-  o.add_double("settle-s", 2.0, "monitor --once: how long to listen before the snapshot (s)", 0.0, 3600.0);
-  o.add_double("refresh-s", 0.5, "monitor: refresh period (s); in a pipe at least 5 s unless given", 0.05, 3600.0);
-  // record
-  o.add_string("out", "", "record: the MCAP file to write");
-  o.add_string("topics", "",
-               "record: topics, comma separated (odometer, ins/attitude, gnss/fix, misalignment, "
-               "scale_factor, dead_reckoning, health, command); empty = all");
-  o.add_double("duration-s", 0.0, "record: stop after this many seconds (0: until SIGINT/SIGTERM)", 0.0, 1e9);
-  o.add_bool("best-effort", false,
-             "record: read every topic best effort (weak links: odonav_ground_reader_best_effort) instead "
-             "of reliably");
-  // serve
-  o.add_int("port", 8765, "serve: TCP port of the page and the Foxglove WebSocket (0: any free port)", 0, 65535);
-  o.add_string("bind", "127.0.0.1", "serve: address to listen on (a warning when not loopback)");
-  o.add_string("token", "", "serve: the token commands from the web need (empty: commands disabled)");
-  o.add_string("token-file", "", "serve: read the token from the first line of this file instead");
-  o.add_double("diagnostics-period-s", 0.5, "serve: DiagnosticArray of each vehicle this often (s)", 0.05, 60.0);
-  o.add_int("client-queue-kib", 4096, "serve: data queued per Foxglove client before its frames are dropped (KiB)", 16,
-            1 << 20);
-  o.add_double("forget-after-s", 60.0, "serve: unadvertise a channel silent this long (s)", 1.0, 1e6);
-  // command
-  o.add_string("component", "", "command: the addressed component, e.g. odonav-identification");
-  o.add_double("timeout-s", 5.0, "command: how long to wait for the acknowledgement (s)", 0.01, 3600.0);
   // DDS Security (secure profile): --security-dir / --security-identity, else the environment.
   odonav::dds::add_security_options(o);
+
+  Options& monitor = o.add_subcommand("monitor", "live dashboard of every vehicle");
+  monitor.add_string("vehicle", "", "vehicle ids to show, comma separated (empty: all)");
+  monitor.add_bool("once", false, "print one snapshot after --settle-s and exit");
+  monitor.add_bool("json", false, "the snapshot as JSON (with --once: exactly one JSON document on stdout)");
+  monitor.add_double("settle-s", 2.0, "with --once: how long to listen before the snapshot (s)", 0.0, 3600.0);
+  monitor.add_double("refresh-s", 0.5, "refresh period (s); in a pipe at least 5 s unless given", 0.05, 3600.0);
+
+  Options& serve = o.add_subcommand("serve", "fleet page and Foxglove WebSocket");
+  serve.add_int("port", 8765, "TCP port of the page and the Foxglove WebSocket (0: any free port)", 0, 65535);
+  serve.add_string("bind", "127.0.0.1", "address to listen on (a warning when not loopback)");
+  serve.add_string("token", "", "the token commands from the web need (empty: commands disabled)");
+  serve.add_string("token-file", "", "read the token from the first line of this file instead");
+  serve.add_double("diagnostics-period-s", 0.5, "DiagnosticArray of each vehicle this often (s)", 0.05, 60.0);
+  serve.add_int("client-queue-kib", 4096, "data queued per Foxglove client before its frames are dropped (KiB)", 16,
+                1 << 20);
+  serve.add_double("forget-after-s", 60.0, "unadvertise a channel silent this long (s)", 1.0, 1e6);
+
+  Options& record = o.add_subcommand("record", "MCAP recording (ros2msg + cdr)");
+  record.add_string("out", "", "the MCAP file to write (required)");
+  record.add_string("topics", "",
+                    "topics, comma separated (odometer, ins/attitude, gnss/fix, misalignment, scale_factor, "
+                    "dead_reckoning, health, command); empty = all");
+  record.add_double("duration-s", 0.0, "stop after this many seconds (0: until SIGINT/SIGTERM)", 0.0, 1e9);
+  record.add_bool("best-effort", false,
+                  "read every topic best effort (weak links: odonav_ground_reader_best_effort) instead of reliably");
+
+  Options& command = o.add_subcommand("command", "send an operator command to one component of one vehicle");
+  command.add_positional("command", "reset | set-k | freeze | unfreeze | release-k", false);
+  command.add_positional("value", "set-k: K in metres per pulse", false);
+  command.add_string("vehicle", "", "the vehicle (exactly one id; required)");
+  command.add_string("component", "", "the addressed component, e.g. odonav-identification (required)");
+  command.add_double("timeout-s", 5.0, "how long to wait for the acknowledgement (s)", 0.01, 3600.0);
 }
 
 odonav::dds::ParticipantOptions participant_options(const Options& o) {
@@ -288,25 +292,21 @@ int main(int argc, char** argv) {
   Options options(
       "odonav-ground",
       "The ground station of an odonav fleet.\n"
-      "  monitor [--once --json] [--vehicle ID,...]   live dashboard of every vehicle\n"
-      "  serve [--port 8765] [--bind 127.0.0.1] [--token T | --token-file F]   fleet page + Foxglove WebSocket\n"
-      "  record --out FILE.mcap [--topics a,b] [--duration-s S]   MCAP recording (ros2msg + cdr)\n"
-      "  command --vehicle ID --component NAME (reset|set-k VALUE|freeze|unfreeze|release-k)\n"
+      "  odonav-ground monitor [--once --json] [--vehicle ID,...]\n"
+      "  odonav-ground serve [--port 8765] [--bind 127.0.0.1] [--token T | --token-file F]\n"
+      "  odonav-ground record --out FILE.mcap [--topics a,b] [--duration-s S]\n"
+      "  odonav-ground command --vehicle ID --component NAME (reset|set-k VALUE|freeze|unfreeze|release-k)\n"
       "Exit codes: 0 done (command: accepted), 1 failure (command: rejected), 2 bad configuration, "
       "3 command not acknowledged in time.");
   declare_options(options);
   try {
     if (options.parse(argc, argv) == ParseResult::kHelp) return kExitOk;
     setup_logging("odonav-ground", options.get_string("log-level"));
-    const std::string action = options.get_string("action");
-    if (action != "command" && (options.was_set("command") || options.was_set("value"))) {
-      throw ConfigError(action + ": unexpected argument '" + options.get_string("command") + "'");
-    }
-    if (action == "monitor") return run_monitor(options, stop);
-    if (action == "record") return run_record(options, stop);
-    if (action == "serve") return run_serve(options, stop);
-    if (action == "command") return run_command(options);
-    throw ConfigError("unknown action '" + action + "' (monitor, serve, record, command)");
+    const Options& sub = *options.subcommand();
+    if (sub.name() == "monitor") return run_monitor(sub, stop);
+    if (sub.name() == "record") return run_record(sub, stop);
+    if (sub.name() == "serve") return run_serve(sub, stop);
+    return run_command(sub);
   } catch (const ConfigError& e) {
     // Possibly before logging is set up (spdlog's default logger writes to stdout): stderr directly.
     std::cerr << "odonav-ground: " << e.what() << " (--help for the usage)" << std::endl;

@@ -13,10 +13,12 @@
 // repeated on the command line takes its last value; a key repeated in the file is an error.
 // `--` ends the options (what follows is positional). `--help` / `-h` prints the usage.
 // Numbers are parsed strictly and independently of the locale ("12abc", "1,5", "nan" are errors).
+// The command line is split by CLI11 (Debian's libcli11-dev); the values, their ranges and the
+// config file are checked here, so every error names the flag, or the file:line and key.
 #include <cstdint>
 #include <iosfwd>
 #include <limits>
-#include <map>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -40,6 +42,9 @@ class Options {
  public:
   /// program: the tool name shown in the usage; description: one paragraph shown under it.
   Options(std::string program, std::string description);
+  ~Options();
+  Options(Options&&) noexcept;
+  Options& operator=(Options&&) noexcept;
 
   /// A positional argument, in declaration order. Required unless `required` is false (optional
   /// positionals must come after required ones). Read with get_string(name).
@@ -59,6 +64,19 @@ class Options {
   /// A text option restricted to `choices` (the default must be one). Read with get_string.
   void add_choice(const std::string& name, const std::string& default_value, const std::vector<std::string>& choices,
                   const std::string& help);
+  /// A flag that was renamed: giving `--old_name` (or `old_name` in a config file) is an error
+  /// naming `new_name`. Not shown in the usage.
+  void add_renamed(const std::string& old_name, const std::string& new_name);
+
+  /// A subcommand (`program name [its options]`), e.g. odonav-ground's `monitor`. Declare its
+  /// options on the returned object (valid as long as this one); the options declared here are
+  /// shared: accepted before or after the subcommand's name, and read through the subcommand's
+  /// object too. When a tool has subcommands, exactly one must be given.
+  Options& add_subcommand(const std::string& name, const std::string& description);
+  /// After parse(): the subcommand given (its object), or nullptr when the tool has none.
+  const Options* subcommand() const;
+  /// The subcommand's name ("" for the tool itself).
+  const std::string& name() const;
 
   /// Parses argv[1..argc-1]. Prints the usage to `help_out` and returns kHelp on --help/-h.
   /// Throws ConfigError on any user error. May be called once.
@@ -83,42 +101,12 @@ class Options {
   std::vector<std::string> values_as_text() const;
   /// The usage text: every option with its type, default, range or choices, and help.
   std::string usage() const;
-  const std::string& program() const { return program_; }
+  const std::string& program() const;
 
  private:
-  enum class Type { kString, kDouble, kInt, kBool, kChoice, kPositional };
-  struct Option {
-    std::string name;
-    Type type = Type::kString;
-    std::string help;
-    std::string text;  // the value as text: default, then as given (normalised for numbers)
-    double double_value = 0.0;
-    int64_t int_value = 0;
-    bool bool_value = false;
-    double default_double = 0.0;
-    double min_double = 0.0, max_double = 0.0;
-    int64_t min_int = 0, max_int = 0;
-    std::vector<std::string> choices;
-    std::string default_text;
-    bool required = false;  // positionals only
-    bool set = false;
-  };
-  struct Assignment {
-    std::string value;
-    std::string where;  // "--name=value" or "file:line: name = value": the prefix of any error
-    bool from_file = false;
-  };
-
-  Option& declare(const std::string& name, Type type, const std::string& help);
-  const Option& find(const std::string& name, std::initializer_list<Type> allowed) const;
-  Option* find_option(const std::string& name);
-  void assign(Option& option, const Assignment& a);
-  void load_config_file(const std::string& path, std::map<std::string, Assignment>& from_file);
-
-  std::string program_;
-  std::string description_;
-  std::vector<Option> options_;  // declaration order (for the usage); positionals among them
-  bool parsed_ = false;
+  struct Impl;
+  explicit Options(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
 };
 
 }  // namespace odonav

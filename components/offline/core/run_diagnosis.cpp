@@ -24,9 +24,9 @@ std::string dominant_gate(double gnss_period_s, const OfflineParams& p, const Sa
       {c.gap, "as gaps > " + num(effective_max_interval_s(b, gnss_period_s)) + " s (--max-interval-s" +
                   (b.max_interval_s > 0.0 ? "" : ", derived from the GNSS period") + "); the GNSS period is " +
                   num(gnss_period_s) + " s"},
-      {c.min_speed, "below the minimum speed " + num(b.min_speed_mps) + " m/s (--min-speed) or the minimum of " +
+      {c.min_speed, "below the minimum speed " + num(b.min_speed_mps) + " m/s (--id-min-speed) or the minimum of " +
                         num(b.min_pulses) + " pulses per sample (--min-pulses)"},
-      {c.yaw_rate, "in turns above " + num(rad_to_deg(b.max_yaw_rate_rad_s)) + " deg/s (--max-yaw-rate-deg-s)"},
+      {c.yaw_rate, "in turns above " + num(rad_to_deg(b.max_yaw_rate_rad_s)) + " deg/s (--id-max-yaw-rate-deg-s)"},
       {c.invalid_fix, "with an invalid fix (fix 0, 6, 7 or 8)"},
       {c.speed_jump, "as speed jumps above " + num(b.max_acceleration_mps2) + " m/s^2 x dt + " +
                          num(b.speed_jump_margin_mps) + " m/s"},

@@ -364,4 +364,21 @@ TEST_F(GroundProcesses, CommandIsAcknowledgedRejectedOrTimesOut) {
   EXPECT_NE(old_name.err.find("'reset-calibration' is no longer a command: use 'reset'"), std::string::npos)
       << old_name.err;
   EXPECT_NE(old_name.err.find("'release-k'"), std::string::npos) << old_name.err;
+
+  // Subcommands take their own flags only: one before the subcommand's name (as a flat option list
+  // took it) or of another subcommand is refused, naming the subcommand it belongs to.
+  const RunResult before = run(binary("odonav-ground"), ground_args("--once", kDomain, {"monitor"}), dir, "before");
+  EXPECT_EQ(before.exit_code, 2) << before.out << before.err;
+  EXPECT_NE(before.err.find("--once is an option of 'odonav-ground monitor': write odonav-ground monitor ... --once"),
+            std::string::npos)
+      << before.err;
+  const RunResult elsewhere =
+      run(binary("odonav-ground"), ground_args("monitor", kDomain, {"--port", "80"}), dir, "elsewhere");
+  EXPECT_EQ(elsewhere.exit_code, 2) << elsewhere.out << elsewhere.err;
+  EXPECT_NE(elsewhere.err.find("--port is an option of 'odonav-ground serve', not of 'odonav-ground monitor'"),
+            std::string::npos)
+      << elsewhere.err;
+  const RunResult none = run(binary("odonav-ground"), ground_args("--log-level=warn", kDomain), dir, "none");
+  EXPECT_EQ(none.exit_code, 2) << none.out << none.err;
+  EXPECT_NE(none.err.find("missing the subcommand: monitor, serve, record, command"), std::string::npos) << none.err;
 }

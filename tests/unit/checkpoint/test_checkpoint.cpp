@@ -458,7 +458,7 @@ TEST_F(Checkpoint, ConfigHashIgnoresTransportAndLoggingButNotTheEstimator) {
   EXPECT_EQ(hash({"--domain", "81", "--log-level", "debug", "--state-dir", "/tmp/x"}), base);
   EXPECT_NE(hash({"--window", "77"}), base);
   EXPECT_NE(hash({"--estimator", "rls"}), base);
-  EXPECT_NE(hash({"--min-speed", "2.5"}), base);
+  EXPECT_NE(hash({"--id-min-speed", "2.5"}), base);
 }
 
 }  // namespace

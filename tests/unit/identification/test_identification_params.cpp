@@ -21,7 +21,7 @@ Options parsed(const std::vector<std::string>& args) {
 }
 
 TEST(IdentificationParamsFor, TakesTheVehicleFactsOnTopOfTheOptions) {
-  const Options o = parsed({"--window", "250", "--min-speed", "2.5"});
+  const Options o = parsed({"--window", "250", "--id-min-speed", "2.5"});
   IdentificationVehicleFacts facts;
   facts.use_ins = false;
   facts.lever_arm_body_m = Eigen::Vector3d(0.5, -0.25, 2.0);
@@ -65,3 +65,26 @@ TEST(IdentificationParamsFor, RefusesANominalKThatIsNotPositiveAndFinite) {
 }
 
 }  // namespace
+
+namespace {
+
+std::string identification_error(const std::vector<std::string>& args) {
+  try {
+    (void)odonav::identification_params_from(parsed(args));
+  } catch (const odonav::ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(IdentificationOptions, FormerGateNamesAreRefusedNamingTheNewOnes) {
+  EXPECT_EQ(identification_error({"--min-speed=2.5"}), "--min-speed was renamed --id-min-speed");
+  EXPECT_EQ(identification_error({"--max-yaw-rate-deg-s", "4"}),
+            "--max-yaw-rate-deg-s was renamed --id-max-yaw-rate-deg-s");
+  EXPECT_EQ(identification_error({"--no-braking-stop"}), "--no-braking-stop was renamed --no-id-braking-stop");
+  EXPECT_EQ(identification_error({"--braking-stop-decel-mps2=1"}),
+            "--braking-stop-decel-mps2 was renamed --id-braking-stop-decel-mps2");
+  EXPECT_EQ(identification_error({"--id-min-speed=2.5", "--no-id-braking-stop", "--id-max-yaw-rate-deg-s=4"}), "");
+}

@@ -243,3 +243,146 @@ TEST(Options, ArgvOverload) {
   EXPECT_EQ(opts.get_int("window"), 42);
   EXPECT_EQ(opts.get_string("dataset"), "dir");
 }
+
+namespace {
+
+// A tool with subcommands, as odonav-ground declares them.
+Options ground_like_options() {
+  Options opts("odonav-ground", "The ground station.");
+  opts.add_int("domain", 0, "DDS domain", 0, 232);
+  Options& monitor = opts.add_subcommand("monitor", "live dashboard");
+  monitor.add_bool("once", false, "one snapshot");
+  monitor.add_double("settle-s", 2.0, "listen this long (s)", 0.0, 3600.0);
+  Options& serve = opts.add_subcommand("serve", "fleet page");
+  serve.add_int("port", 8765, "TCP port", 0, 65535);
+  Options& command = opts.add_subcommand("command", "operator command");
+  command.add_positional("command", "reset | set-k");
+  command.add_positional("value", "K", false);
+  command.add_string("vehicle", "", "the vehicle");
+  return opts;
+}
+
+std::string ground_error(const std::vector<std::string>& args) {
+  Options opts = ground_like_options();
+  std::ostringstream help;
+  try {
+    opts.parse(args, help);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Options, SubcommandWithSharedOptionsBeforeOrAfterItsName) {
+  for (const auto& args : {std::vector<std::string>{"monitor", "--once", "--domain", "7", "--settle-s=3"},
+                           std::vector<std::string>{"--domain=7", "monitor", "--settle-s", "3", "--once"}}) {
+    Options opts = ground_like_options();
+    std::ostringstream help;
+    ASSERT_EQ(opts.parse(args, help), ParseResult::kRun);
+    ASSERT_NE(opts.subcommand(), nullptr);
+    const Options& monitor = *opts.subcommand();
+    EXPECT_EQ(monitor.name(), "monitor");
+    EXPECT_TRUE(monitor.get_bool("once"));
+    EXPECT_EQ(monitor.get_double("settle-s"), 3.0);
+    EXPECT_EQ(monitor.get_int("domain"), 7);  // the tool's option, read through the subcommand
+    EXPECT_TRUE(monitor.was_set("domain"));
+    EXPECT_EQ(opts.get_int("domain"), 7);
+  }
+  Options opts = ground_like_options();
+  std::ostringstream help;
+  ASSERT_EQ(opts.parse({"command", "--vehicle", "v1", "set-k", "0.42"}, help), ParseResult::kRun);
+  EXPECT_EQ(opts.subcommand()->get_string("command"), "set-k");
+  EXPECT_EQ(opts.subcommand()->get_string("value"), "0.42");
+  EXPECT_EQ(opts.subcommand()->get_string("vehicle"), "v1");
+}
+
+TEST(Options, SubcommandErrorsNameTheNewSpelling) {
+  EXPECT_EQ(ground_error({"--domain=3"}), "missing the subcommand: monitor, serve, command");
+  // A subcommand's flag before the subcommand (a tool with one flat option list took that).
+  EXPECT_EQ(ground_error({"--once", "monitor"}),
+            "--once is an option of 'odonav-ground monitor': write odonav-ground monitor ... --once");
+  EXPECT_EQ(ground_error({"monitor", "--port=80"}),
+            "--port is an option of 'odonav-ground serve', not of 'odonav-ground monitor'");
+  EXPECT_EQ(ground_error({"--vehicle=v1", "command", "reset"}),
+            "--vehicle is an option of 'odonav-ground command': write odonav-ground command ... --vehicle");
+  EXPECT_EQ(ground_error({"monitor", "serve"}), "unexpected argument 'serve'");
+  EXPECT_EQ(ground_error({"monitor", "--settle-s=-1"}), "--settle-s=-1: must be in [0, 3600]");
+  EXPECT_EQ(ground_error({"command", "--vehicle", "v1"}), "missing required argument <command> (reset | set-k)");
+  ScratchDir dir;
+  dir.write("g.conf", "domain = 4\nport = 80\n");
+  EXPECT_EQ(ground_error({"monitor", "--config", dir.file("g.conf")}),
+            dir.file("g.conf") + ":2: 'port' is an option of 'odonav-ground serve', not of 'odonav-ground monitor'");
+  Options opts = ground_like_options();
+  std::ostringstream help;
+  ASSERT_EQ(opts.parse({"serve", "--config", dir.file("g.conf")}, help), ParseResult::kRun);
+  EXPECT_EQ(opts.subcommand()->get_int("port"), 80);
+  EXPECT_EQ(opts.get_int("domain"), 4);
+}
+
+TEST(Options, SubcommandHelp) {
+  Options tool = ground_like_options();
+  std::ostringstream help;
+  ASSERT_EQ(tool.parse({"--help"}, help), ParseResult::kHelp);
+  EXPECT_EQ(help.str().rfind("Usage: odonav-ground <subcommand> [options]\n", 0), 0u) << help.str();
+  for (const char* expected : {"monitor", "live dashboard", "serve", "fleet page", "--domain <integer>"}) {
+    EXPECT_NE(help.str().find(expected), std::string::npos) << expected << "\n" << help.str();
+  }
+  EXPECT_EQ(help.str().find("--settle-s"), std::string::npos) << help.str();
+
+  Options sub = ground_like_options();
+  std::ostringstream sub_help;
+  ASSERT_EQ(sub.parse({"monitor", "--settle-s=bad", "-h"}, sub_help), ParseResult::kHelp);
+  EXPECT_EQ(sub_help.str().rfind("Usage: odonav-ground monitor [options]\n", 0), 0u) << sub_help.str();
+  for (const char* expected : {"--settle-s <number>", "--[no-]once", "--domain <integer>"}) {
+    EXPECT_NE(sub_help.str().find(expected), std::string::npos) << expected << "\n" << sub_help.str();
+  }
+}
+
+TEST(Options, RenamedFlagIsRefusedNamingTheNewOne) {
+  const auto error = [](const std::vector<std::string>& args, const std::string& conf = "") {
+    Options opts = offline_options();
+    opts.add_double("id-min-speed", 0.5, "identification gate (m/s)", 0.0, 100.0);
+    opts.add_renamed("min-speed", "id-min-speed");
+    opts.add_bool("id-braking-stop", false, "braking stop");
+    opts.add_renamed("braking-stop", "id-braking-stop");
+    std::ostringstream help;
+    try {
+      opts.parse(args, help);
+      EXPECT_EQ(opts.get_double("id-min-speed"), 2.0);
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(opts.usage().find("--min-speed"), std::string::npos);
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(error({"run", "--id-min-speed=2"}), "");
+  EXPECT_EQ(error({"run", "--min-speed=2"}), "--min-speed was renamed --id-min-speed");
+  EXPECT_EQ(error({"run", "--min-speed", "2"}), "--min-speed was renamed --id-min-speed");
+  EXPECT_EQ(error({"run", "--braking-stop", "--id-min-speed=2"}), "--braking-stop was renamed --id-braking-stop");
+  EXPECT_EQ(error({"run", "--no-braking-stop"}), "--no-braking-stop was renamed --no-id-braking-stop");
+  ScratchDir dir;
+  dir.write("old.conf", "min-speed = 2\n");
+  EXPECT_EQ(error({"run", "--config", dir.file("old.conf")}),
+            dir.file("old.conf") + ":1: min-speed = 2: --min-speed was renamed --id-min-speed");
+}
+
+TEST(Options, CommandLineSplittingEdgeCases) {
+  // A negative number is a positional value or an option's value; a word after a value option is its value.
+  Options opts = offline_options();
+  std::ostringstream help;
+  ASSERT_EQ(opts.parse({"--vff-c", "-0e3", "-3", "--out", "-x"}, help), ParseResult::kRun);
+  EXPECT_EQ(opts.get_double("vff-c"), 0.0);
+  EXPECT_EQ(opts.get_string("dataset"), "-3");
+  EXPECT_EQ(opts.get_string("out"), "-x");
+  EXPECT_EQ(parse_error({"run", "--vff-c=-0.5"}), "--vff-c=-0.5: must be in [0, 1e6]");
+  // The last of --freeze / --no-freeze wins; a value with '=' and commas stays whole.
+  Options last = offline_options();
+  ASSERT_EQ(last.parse({"run", "--freeze", "--no-freeze", "--out=a=b,c d"}, help), ParseResult::kRun);
+  EXPECT_FALSE(last.get_bool("freeze"));
+  EXPECT_EQ(last.get_string("out"), "a=b,c d");
+  EXPECT_EQ(parse_error({"run", "--config="}), "option '--config' needs a value");
+  EXPECT_EQ(parse_error({"run", "--help-me"}), "unknown option '--help-me'");
+  EXPECT_EQ(parse_error({"run", "--", "--window=3"}), "unexpected argument '--window=3'");
+}

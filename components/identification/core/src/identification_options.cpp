@@ -27,8 +27,9 @@ void add_identification_options(Options& o) {
   o.add_double("ff-lambda", d.estimator.forgetting_factor, "constant forgetting factor of ff_rls", 0.5, 1.0);
   o.add_double("converged-rel-sigma", d.estimator.converged_rel_sigma,
                "K is 'converged' when sigma_K / K is below this", 1e-6, 1.0);
-  o.add_double("min-speed", d.builder.min_speed_mps, "gate: minimum speed at both ends of a sample (m/s)", 0.0, 100.0);
-  o.add_double("max-yaw-rate-deg-s", rad_to_deg(d.builder.max_yaw_rate_rad_s),
+  o.add_double("id-min-speed", d.builder.min_speed_mps, "gate: minimum speed at both ends of a sample (m/s)", 0.0,
+               100.0);
+  o.add_double("id-max-yaw-rate-deg-s", rad_to_deg(d.builder.max_yaw_rate_rad_s),
                "gate: maximum |yaw rate| over a sample (deg/s)", 0.1, 1000.0);
   o.add_double("innovation-n-sigma", d.builder.innovation_n_sigma, "gate: GNSS velocity outlier threshold (sigmas)",
                1.0, 1000.0);
@@ -45,14 +46,21 @@ void add_identification_options(Options& o) {
              "and publish it for dead reckoning");
   o.add_bool("reversing-samples", d.builder.reversing_samples,
              "intervals driven backwards (odometer direction -1 throughout) make samples of K too");
-  o.add_bool("braking-stop", d.braking_stop.enabled,
+  o.add_bool("id-braking-stop", d.braking_stop.enabled,
              "a braking that ends in a standstill leaves K as it was before the braking (its samples are withdrawn)");
-  o.add_double("braking-stop-decel-mps2", d.braking_stop.braking_mps2,
-               "braking-stop: braking is the GNSS speed falling faster than this over 1 s (m/s^2)", 0.01, 100.0);
+  o.add_double("id-braking-stop-decel-mps2", d.braking_stop.braking_mps2,
+               "with --id-braking-stop: braking is the GNSS speed falling faster than this over 1 s (m/s^2)", 0.01,
+               100.0);
   o.add_string("gnss-latency-s", "auto",
                "GNSS latency (s) the fixes are stamped late by (receiver delay or clock offset): 'auto' "
                "estimates it online, 'off' assumes 0, a number fixes it (negative: stamps that lead the "
                "measurement)");
+  // The identification's gates carry "id-" as the calibration's carry "cal-": one name, one meaning
+  // in every program (odonav-offline takes both).
+  o.add_renamed("min-speed", "id-min-speed");
+  o.add_renamed("max-yaw-rate-deg-s", "id-max-yaw-rate-deg-s");
+  o.add_renamed("braking-stop", "id-braking-stop");
+  o.add_renamed("braking-stop-decel-mps2", "id-braking-stop-decel-mps2");
 }
 
 std::optional<double> parse_gnss_latency_option(const std::string& text, bool& estimate) {
@@ -84,16 +92,16 @@ IdentificationParams identification_params_from(const Options& o) {
   p.estimator.vff_change_threshold = o.get_double("vff-change-threshold");
   p.estimator.forgetting_factor = o.get_double("ff-lambda");
   p.estimator.converged_rel_sigma = o.get_double("converged-rel-sigma");
-  p.builder.min_speed_mps = o.get_double("min-speed");
-  p.builder.max_yaw_rate_rad_s = deg_to_rad(o.get_double("max-yaw-rate-deg-s"));
+  p.builder.min_speed_mps = o.get_double("id-min-speed");
+  p.builder.max_yaw_rate_rad_s = deg_to_rad(o.get_double("id-max-yaw-rate-deg-s"));
   p.builder.innovation_n_sigma = o.get_double("innovation-n-sigma");
   p.builder.gnss_velocity_sigma_mps = o.get_double("gnss-velocity-sigma");
   p.builder.max_interval_s = o.get_double("max-interval-s");
   p.builder.min_pulses = o.get_double("min-pulses");
   p.builder.reversing_samples = o.get_bool("reversing-samples");
   p.turn_slip_enabled = o.get_bool("turn-slip");
-  p.braking_stop.enabled = o.get_bool("braking-stop");
-  p.braking_stop.braking_mps2 = o.get_double("braking-stop-decel-mps2");
+  p.braking_stop.enabled = o.get_bool("id-braking-stop");
+  p.braking_stop.braking_mps2 = o.get_double("id-braking-stop-decel-mps2");
   bool estimate_latency = true;
   p.builder.gnss_latency_fixed_s = parse_gnss_latency_option(o.get_string("gnss-latency-s"), estimate_latency);
   p.builder.latency_estimation_enabled = estimate_latency;

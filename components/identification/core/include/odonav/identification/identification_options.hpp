@@ -12,7 +12,7 @@
 namespace odonav {
 
 /// Declares --estimator, --window, --lambda-min, --vff-kappa, --vff-c, --vff-change-threshold, --ff-lambda,
-/// --converged-rel-sigma, --min-speed, --max-yaw-rate-deg-s, --innovation-n-sigma,
+/// --converged-rel-sigma, --id-min-speed, --id-max-yaw-rate-deg-s, --innovation-n-sigma,
 /// --gnss-velocity-sigma, --max-interval-s, --min-pulses, --[no-]reversing-samples, --gnss-latency-s.
 void add_identification_options(Options& options);
 
