@@ -855,7 +855,8 @@ TEST(SaveRestore, CorruptOrMismatchedStateIsRefusedWithAReason) {
   negative["residual_scale"][1] = -1.0;
   expect_refused(target, negative, "field 'residual_scale' has a negative variance");
   StateJson long_window = state;
-  for (int i = 0; i < 200; ++i) long_window["window"].push_back(StateJson::array({1.0, 1.0, 0.0}));
+  for (int i = 0; i < 200; ++i)
+    long_window["window"].push_back(StateJson::array({1.0, 1.0, 0.0, 0.0}));  // (phi, y, Lambda, dv)
   expect_refused(target, long_window, "field 'window' is longer than the window length");
   EXPECT_EQ(target.save_state(), target_before) << "a refused restore leaves the state alone";
 
@@ -937,9 +938,11 @@ TEST(HonestSigma, LagSigmaCoversTheLagAfterAStepUntilTheOldSamplesHaveLeft) {
     });
     ASSERT_TRUE(detected_at);
     ASSERT_TRUE(last_lag_sample);
-    EXPECT_LE(*detected_at, step_at + 10);         // the detector fires within a few samples of the step
-    if (interval_s < 0.5) EXPECT_GT(lagging, 3u);  // the step's lag is outside 3 of the scatter's sigmas ...
-    EXPECT_EQ(covered_by_lag, lagging);            // ... and inside 3 of the lag's, on every sample
+    EXPECT_LE(*detected_at, step_at + 10);  // the detector fires within a few samples of the step
+    if (interval_s < 0.5) {
+      EXPECT_GT(lagging, 3u);  // the step's lag is outside 3 of the scatter's sigmas ...
+    }
+    EXPECT_EQ(covered_by_lag, lagging);  // ... and inside 3 of the lag's, on every sample
     // The window holds 100 samples (10 s at 10 Hz; at 1 Hz cut back to the run, never below 10 s).
     EXPECT_LE(*last_lag_sample, step_at + static_cast<std::size_t>(std::lround(110.0 / interval_s)));
   }

@@ -341,7 +341,7 @@ TEST(Options, SubcommandHelp) {
 }
 
 TEST(Options, RenamedFlagIsRefusedNamingTheNewOne) {
-  const auto error = [](const std::vector<std::string>& args, const std::string& conf = "") {
+  const auto error = [](const std::vector<std::string>& args) {
     Options opts = offline_options();
     opts.add_double("id-min-speed", 0.5, "identification gate (m/s)", 0.0, 100.0);
     opts.add_renamed("min-speed", "id-min-speed");
