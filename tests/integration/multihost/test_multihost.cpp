@@ -102,7 +102,7 @@ struct Snapshot {
   }
   std::optional<double> dr_stamp_s() const {
     if (vehicle.is_null() || vehicle.at("dead_reckoning").is_null()) return std::nullopt;
-    return vehicle.at("dead_reckoning").at("stamp_s").get<double>();
+    return vehicle.at("dead_reckoning").at("t").get<double>();
   }
   std::string dr_k_source() const {
     if (vehicle.is_null() || vehicle.at("dead_reckoning").is_null()) return "";
