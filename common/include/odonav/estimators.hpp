@@ -28,6 +28,7 @@
 // estimator, the sample time and the field; the estimator state is then unchanged.
 #include <algorithm>
 #include <cstddef>
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -289,6 +290,10 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
   // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
   template <class Archive, class Self>
   static void state_fields(Archive& a, Self& self);
+  // The window rows (phi, y, Lambda, speed change) restored into e; the const overload is the
+  // save side's, where state_fields never calls it (it exists so both sides compile).
+  static void restore_window(WindowRlsEstimator& e, const std::vector<std::array<double, 4>>& rows);
+  static void restore_window(const WindowRlsEstimator&, const std::vector<std::array<double, 4>>&) {}
   void resum();
   // Drops the samples before index first_kept (samples_used_ counting), keeping at least
   // window_length reference intervals at the newest sample's interval_s, and re-sums. Returns

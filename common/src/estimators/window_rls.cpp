@@ -238,19 +238,20 @@ void WindowRlsEstimator::state_fields(Archive& a, Self& self) {
           rows.push_back({self.entry(i).phi, self.entry(i).y, self.entry(i).log_weight, self.entry(i).dv});
         return rows;
       },
-      [&](const auto& rows) {
-        if (rows.size() > self.capacity_) throw CheckpointError("field 'window' is longer than the window length");
-        for (const auto& r : rows)
-          if (!std::isfinite(r[0]) || !std::isfinite(r[1]) || !std::isfinite(r[2]) || !std::isfinite(r[3]))
-            throw CheckpointError("field 'window' holds a value that is not finite");
-        self.oldest_ = 0;
-        self.held_ = rows.size();
-        for (std::size_t i = 0; i < rows.size(); ++i)
-          self.buffer_[i] = Entry{rows[i][0], rows[i][1], rows[i][2], rows[i][3]};
-      });
+      [&](const Rows& rows) { restore_window(self, rows); });
   a.check("since_resum", self.since_resum_ < self.resum_interval_, "is out of range");
   a.check("change_began", !self.change_began_ || *self.change_began_ <= self.samples_used_, "is out of range");
   a.check("residual_scale", self.residual_scale_.variance_m2() >= 0.0, "has a negative variance");
+}
+
+void WindowRlsEstimator::restore_window(WindowRlsEstimator& e, const std::vector<std::array<double, 4>>& rows) {
+  if (rows.size() > e.capacity_) throw CheckpointError("field 'window' is longer than the window length");
+  for (const auto& r : rows)
+    if (!std::isfinite(r[0]) || !std::isfinite(r[1]) || !std::isfinite(r[2]) || !std::isfinite(r[3]))
+      throw CheckpointError("field 'window' holds a value that is not finite");
+  e.oldest_ = 0;
+  e.held_ = rows.size();
+  for (std::size_t i = 0; i < rows.size(); ++i) e.buffer_[i] = Entry{rows[i][0], rows[i][1], rows[i][2], rows[i][3]};
 }
 
 StateJson WindowRlsEstimator::save_state() const {
