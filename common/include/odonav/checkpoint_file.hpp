@@ -58,6 +58,18 @@ CheckpointContents unseal_checkpoint(const std::string& text);
 /// another vehicle or with another configuration hash (each named with both values).
 void check_checkpoint_identity(const CheckpointIdentity& file, const CheckpointIdentity& expected);
 
+/// A component's checkpoint from a file's identity and payload: its state_fields read from the
+/// payload, vehicle and configuration hash from the envelope. Throws CheckpointError naming a field.
+template <class Checkpoint>
+Checkpoint checkpoint_from_payload(const CheckpointIdentity& id, const StateJson& payload) {
+  Checkpoint c;
+  StateIn in(payload, "");
+  state_fields(in, c);
+  c.vehicle_id = id.vehicle_id;
+  c.config_hash = id.config_hash;
+  return c;
+}
+
 /// Options that do not change any estimate (transport, logging, where state lives, how often it is
 /// saved, hot standby): left out of the configuration hash so that changing them keeps a checkpoint
 /// valid. vehicle-id is left out too because it is checked on its own (a clearer reason).

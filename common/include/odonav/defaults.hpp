@@ -18,7 +18,7 @@ inline constexpr double kDefaultNominalK_m_per_pulse = 0.0125;
 /// meta.json odometer.k_nominal_sigma_percent): what a K from the odometer's data sheet (wheel
 /// circumference over pulses per turn) is known to before it is identified on the vehicle, tyre
 /// pressure, load and wear moving the rolling circumference by 1-3 %: the upper end, so a K that is
-/// known better is taken (BENCHMARKS.md §12). Dead reckoning applies an identified K whose sigma is
+/// known better is taken. Dead reckoning applies an identified K whose sigma is
 /// below it (consumer_rules.hpp scale_factor_applicable).
 inline constexpr double kDefaultNominalKRelSigma = 0.03;
 

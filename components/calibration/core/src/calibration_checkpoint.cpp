@@ -19,15 +19,6 @@ CheckpointIdentity identity_of(const std::string& vehicle_id, const std::string&
   return {kCalibrationCheckpointComponent, kCalibrationCheckpointVersion, vehicle_id, config_hash};
 }
 
-CalibrationCheckpoint checkpoint_of(const CheckpointIdentity& id, const StateJson& payload) {
-  CalibrationCheckpoint c;
-  StateIn in(payload, "");
-  state_fields(in, c);
-  c.vehicle_id = id.vehicle_id;
-  c.config_hash = id.config_hash;
-  return c;
-}
-
 }  // namespace
 
 std::string calibration_checkpoint_path(const std::string& state_dir, const std::string& vehicle_id) {
@@ -44,7 +35,7 @@ CalibrationCheckpoint parse_calibration_checkpoint(const std::string& text) {
   const CheckpointContents contents = unseal_checkpoint(text);
   const CheckpointIdentity& id = contents.identity;
   check_checkpoint_identity(id, identity_of(id.vehicle_id, id.config_hash));
-  return checkpoint_of(id, contents.payload);
+  return checkpoint_from_payload<CalibrationCheckpoint>(id, contents.payload);
 }
 
 CalibrationCheckpointLoad load_calibration_checkpoint(const std::string& path, const std::string& vehicle_id,
@@ -55,7 +46,7 @@ CalibrationCheckpointLoad load_calibration_checkpoint(const std::string& path, c
   std::optional<double> t_s;
   static_cast<CheckpointFileLoad&>(result) =
       load_checkpoint_file(path, unix_time_s, expected, [&](const StateJson& payload) {
-        const CalibrationCheckpoint c = checkpoint_of(expected, payload);
+        const CalibrationCheckpoint c = checkpoint_from_payload<CalibrationCheckpoint>(expected, payload);
         try {
           calibrator.restore_state(c.calibrator_state);  // unchanged when it throws
         } catch (const std::exception& e) {

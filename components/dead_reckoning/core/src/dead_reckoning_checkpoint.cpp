@@ -33,15 +33,6 @@ CheckpointIdentity identity_of(const std::string& vehicle_id, const std::string&
   return {kDeadReckoningCheckpointComponent, kDeadReckoningCheckpointVersion, vehicle_id, config_hash};
 }
 
-DeadReckoningCheckpoint checkpoint_of(const CheckpointIdentity& id, const StateJson& payload) {
-  DeadReckoningCheckpoint c;
-  StateIn in(payload, "");
-  state_fields(in, c);
-  c.vehicle_id = id.vehicle_id;
-  c.config_hash = id.config_hash;
-  return c;
-}
-
 }  // namespace
 
 std::string dead_reckoning_checkpoint_path(const std::string& state_dir, const std::string& vehicle_id) {
@@ -58,7 +49,7 @@ DeadReckoningCheckpoint parse_dead_reckoning_checkpoint(const std::string& text)
   const CheckpointContents contents = unseal_checkpoint(text);
   const CheckpointIdentity& id = contents.identity;
   check_checkpoint_identity(id, identity_of(id.vehicle_id, id.config_hash));
-  return checkpoint_of(id, contents.payload);
+  return checkpoint_from_payload<DeadReckoningCheckpoint>(id, contents.payload);
 }
 
 DeadReckoningCheckpointLoad load_dead_reckoning_checkpoint(const std::string& path, const std::string& vehicle_id,
@@ -69,7 +60,7 @@ DeadReckoningCheckpointLoad load_dead_reckoning_checkpoint(const std::string& pa
   std::optional<DeadReckoningCheckpoint> loaded;
   static_cast<CheckpointFileLoad&>(result) =
       load_checkpoint_file(path, unix_time_s, expected, [&](const StateJson& payload) {
-        DeadReckoningCheckpoint c = checkpoint_of(expected, payload);
+        DeadReckoningCheckpoint c = checkpoint_from_payload<DeadReckoningCheckpoint>(expected, payload);
         // Both cores restored into copies first: nothing changes unless both are usable.
         DeadReckoner core = state.core;
         AnchoredPositionFilter anchor = state.anchor;

@@ -23,15 +23,6 @@ CheckpointIdentity identity_of(const std::string& vehicle_id, const std::string&
   return {kIdentificationCheckpointComponent, kIdentificationCheckpointVersion, vehicle_id, config_hash};
 }
 
-IdentificationCheckpoint checkpoint_of(const CheckpointIdentity& id, const StateJson& payload) {
-  IdentificationCheckpoint c;
-  StateIn in(payload, "");
-  state_fields(in, c);
-  c.vehicle_id = id.vehicle_id;
-  c.config_hash = id.config_hash;
-  return c;
-}
-
 }  // namespace
 
 std::string checkpoint_path(const std::string& state_dir, const std::string& vehicle_id) {
@@ -49,7 +40,7 @@ IdentificationCheckpoint parse_checkpoint(const std::string& text) {
   const CheckpointContents contents = unseal_checkpoint(text);
   const CheckpointIdentity& id = contents.identity;
   check_checkpoint_identity(id, identity_of(id.vehicle_id, id.config_hash));
-  return checkpoint_of(id, contents.payload);
+  return checkpoint_from_payload<IdentificationCheckpoint>(id, contents.payload);
 }
 
 CheckpointLoadResult load_identification_checkpoint(const std::string& path, const std::string& vehicle_id,
@@ -58,7 +49,7 @@ CheckpointLoadResult load_identification_checkpoint(const std::string& path, con
   const CheckpointIdentity expected = identity_of(vehicle_id, config_hash);
   std::optional<IdentificationCheckpoint> restored;
   const CheckpointFileLoad load = load_checkpoint_file(path, unix_time_s, expected, [&](const StateJson& payload) {
-    IdentificationCheckpoint c = checkpoint_of(expected, payload);
+    IdentificationCheckpoint c = checkpoint_from_payload<IdentificationCheckpoint>(expected, payload);
     if (c.estimator_name != core.main_estimator_name())
       throw CheckpointError("made by estimator '" + c.estimator_name + "', this is '" + core.main_estimator_name() +
                             "'");
