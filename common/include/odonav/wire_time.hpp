@@ -23,6 +23,11 @@ struct WireTime {
 /// |t_s| < 2^22 s (48 days); there to_wire_time(from_wire_time(w)) == w for every w.
 WireTime to_wire_time(double t_s);
 
+/// True when to_wire_time(t_s) succeeds: t_s finite and its floor within int32 once rounded to
+/// the nanosecond. A dataset reader refuses a row whose time fails this, so nothing accepted from a
+/// file is refused later by the pipeline.
+bool fits_wire_time(double t_s);
+
 /// sec + nanosec * 1e-9 in seconds, rounded once to the nearest double. Throws
 /// std::invalid_argument if nanosec >= 1e9 (not a normalized time, e.g. from a bad peer).
 double from_wire_time(std::int32_t sec, std::uint32_t nanosec);

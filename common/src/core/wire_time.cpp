@@ -17,23 +17,42 @@ constexpr std::int64_t kNanosecondsPerSecond = 1000000000;
   msg << "time " << seconds << " s " << why;
   throw std::invalid_argument(msg.str());
 }
-}  // namespace
 
-WireTime to_wire_time(double t_s) {
-  if (!std::isfinite(t_s)) throw_bad_seconds(t_s, "is not finite");
+// The one split of a time into {sec, nanosec}; false (and why set) when it does not fit.
+bool split_wire_time(double t_s, WireTime& out, const char*& why) {
+  if (!std::isfinite(t_s)) {
+    why = "is not finite";
+    return false;
+  }
   constexpr double kMinSec = std::numeric_limits<std::int32_t>::min();
   constexpr double kMaxSec = std::numeric_limits<std::int32_t>::max();
   double whole = std::floor(t_s);
-  if (whole < kMinSec || whole > kMaxSec) throw_bad_seconds(t_s, "does not fit int32 seconds");
+  why = "does not fit int32 seconds";
+  if (whole < kMinSec || whole > kMaxSec) return false;
   // t_s - floor(t_s) is exact in double (a multiple of ulp(t_s), below 1); the product by 1e9
   // rounds once, then to the nearest nanosecond.
   std::int64_t nanosec = std::llround((t_s - whole) * 1e9);
   if (nanosec >= kNanosecondsPerSecond) {
     nanosec -= kNanosecondsPerSecond;
     whole += 1.0;
-    if (whole > kMaxSec) throw_bad_seconds(t_s, "does not fit int32 seconds");
+    if (whole > kMaxSec) return false;
   }
-  return WireTime{static_cast<std::int32_t>(whole), static_cast<std::uint32_t>(nanosec)};
+  out = WireTime{static_cast<std::int32_t>(whole), static_cast<std::uint32_t>(nanosec)};
+  return true;
+}
+}  // namespace
+
+WireTime to_wire_time(double t_s) {
+  WireTime w;
+  const char* why = "";
+  if (!split_wire_time(t_s, w, why)) throw_bad_seconds(t_s, why);
+  return w;
+}
+
+bool fits_wire_time(double t_s) {
+  WireTime w;
+  const char* why = "";
+  return split_wire_time(t_s, w, why);
 }
 
 double from_wire_time(std::int32_t sec, std::uint32_t nanosec) {

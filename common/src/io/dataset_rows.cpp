@@ -17,6 +17,7 @@
 
 #include "dataset_internal.hpp"
 #include "odonav/geodesy.hpp"
+#include "odonav/wire_time.hpp"
 #include "text_util.hpp"
 
 namespace odonav::dataset_detail {
@@ -529,6 +530,12 @@ bool RowReader<Sample>::read_good_row(Sample& sample) {
     }
     RowFields row(fields_, header_.field_of_column, FileRules<Sample>::specs());
     sample = FileRules<Sample>::parse(row);
+    if (!row.failed() && !fits_wire_time(sample.t_s)) {
+      // A first row in ms/us/ns since 1970 gets the unit message, not a bad row per line.
+      if (!unit_checked_ && first_t_count_ == 0) note_first_row(sample.t_s, line_no, row.text(0));
+      row.fail(0, "t " + format_double(sample.t_s) +
+                      " s is beyond what a stamp carries (int32 seconds: -2147483648 to 2147483647 s)");
+    }
     if (!row.failed() && previous_t_ && !(sample.t_s > *previous_t_)) {
       row.fail(0, "t does not increase: " + format_double(sample.t_s) + " after " + format_double(*previous_t_) +
                       " (line " + std::to_string(previous_t_line_) + ")");

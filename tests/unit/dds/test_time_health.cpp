@@ -86,6 +86,14 @@ TEST(DdsTime, BadInputIsRefusedWithTheValue) {
       << error_of(2147483648.0);
   EXPECT_NE(error_of(-2147483648.5).find("does not fit int32 seconds"), std::string::npos);
   EXPECT_NE(error_of(2147483647.9999999999).find("does not fit int32 seconds"), std::string::npos);  // 2^31 as a double
+  // fits_wire_time is the same rule without the exception (the dataset reader's row check).
+  for (const double t : {std::nan(""), 2147483648.0, -2147483648.5, 2147483647.9999999999, 3.3e116}) {
+    EXPECT_FALSE(odonav::fits_wire_time(t)) << t;
+  }
+  for (const double t : {-2147483648.0, 0.0, 2147483647.9999997, 1.7e9}) {
+    EXPECT_TRUE(odonav::fits_wire_time(t)) << t;
+    EXPECT_NO_THROW(odonav::to_wire_time(t)) << t;
+  }
   try {
     to_seconds(make_time(3, 1000000000u));
     ADD_FAILURE() << "accepted nanosec = 1e9";

@@ -148,6 +148,16 @@ TEST(DatasetValidation, TimeGoingBackIsRejected) {
   expect_bad_odometer_row("0.25,200,1", "t", "column 't': t does not increase: 0.25 after 0.5 (line 3)");
 }
 
+TEST(DatasetValidation, TimeBeyondAStampIsRejected) {
+  // A DDS stamp holds int32 seconds: a later row beyond it is a bad row, not an error in processing.
+  expect_bad_odometer_row("3.3333333333333335e+116,200,1", "t",
+                          "column 't': t 3.3333333333333335e+116 s is beyond what a stamp carries (int32 seconds: "
+                          "-2147483648 to 2147483647 s)");
+  expect_bad_odometer_row("2147483648,200,1", "t",
+                          "column 't': t 2147483648 s is beyond what a stamp carries (int32 seconds: "
+                          "-2147483648 to 2147483647 s)");
+}
+
 TEST(DatasetValidation, SkippedRowsDoNotBecomeTheTimeReference) {
   // Line 4 jumps ahead to 9 but is bad (pulses); the reference stays 0.5 (line 3), so 1.0 is good.
   // Line 6 goes back to 0.9: bad against the last good t = 1.0 (line 5).
