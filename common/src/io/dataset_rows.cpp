@@ -531,10 +531,14 @@ bool RowReader<Sample>::read_good_row(Sample& sample) {
     RowFields row(fields_, header_.field_of_column, FileRules<Sample>::specs());
     sample = FileRules<Sample>::parse(row);
     if (!row.failed() && !fits_wire_time(sample.t_s)) {
-      // A first row in ms/us/ns since 1970 gets the unit message, not a bad row per line.
-      if (!unit_checked_ && first_t_count_ == 0) note_first_row(sample.t_s, line_no, row.text(0));
+      // A first row in ms/us/ns since 1970 gets the unit message (note_first_row throws it), not a
+      // bad row per line.
+      if (!unit_checked_ && first_t_count_ == 0 && std::abs(sample.t_s) >= kMinEpochMilliseconds) {
+        note_first_row(sample.t_s, line_no, row.text(0));
+      }
       row.fail(0, "t " + format_double(sample.t_s) +
-                      " s is beyond what a stamp carries (int32 seconds: -2147483648 to 2147483647 s)");
+                      " s is beyond what a DDS stamp carries (int32 seconds, -2147483648 to 2147483647 s: "
+                      "UNIX time up to 2038-01-19)");
     }
     if (!row.failed() && previous_t_ && !(sample.t_s > *previous_t_)) {
       row.fail(0, "t does not increase: " + format_double(sample.t_s) + " after " + format_double(*previous_t_) +

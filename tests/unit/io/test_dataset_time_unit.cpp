@@ -134,8 +134,9 @@ TEST(DatasetTimeUnit, StampsSinceTheStartAreJudgedByTheirMedianStep) {
 }
 
 TEST(DatasetTimeUnit, SecondsKeepWorkingUnixTimeIncluded) {
-  // UNIX seconds (2023) at 100 Hz and 1 Hz, GPS time of week, and the row values read exactly.
-  for (double t0_s : {1700000000.0, 4102444800.0, 518400.0, 0.0}) {
+  // UNIX seconds (2023, and 2038 close to the int32 end of a DDS stamp) at 100 Hz and 1 Hz, GPS
+  // time of week, and the row values read exactly.
+  for (double t0_s : {1700000000.0, 2147000000.0, 518400.0, 0.0}) {
     SCOPED_TRACE(t0_s);
     ScratchDir dir;
     dir.write("odometer.csv", odometer(2000, seconds(t0_s, 0.01)));

@@ -151,11 +151,11 @@ TEST(DatasetValidation, TimeGoingBackIsRejected) {
 TEST(DatasetValidation, TimeBeyondAStampIsRejected) {
   // A DDS stamp holds int32 seconds: a later row beyond it is a bad row, not an error in processing.
   expect_bad_odometer_row("3.3333333333333335e+116,200,1", "t",
-                          "column 't': t 3.3333333333333335e+116 s is beyond what a stamp carries (int32 seconds: "
-                          "-2147483648 to 2147483647 s)");
-  expect_bad_odometer_row("2147483648,200,1", "t",
-                          "column 't': t 2147483648 s is beyond what a stamp carries (int32 seconds: "
-                          "-2147483648 to 2147483647 s)");
+                          "column 't': t 3.3333333333333335e+116 s is beyond what a DDS stamp carries (int32 seconds, "
+                          "-2147483648 to 2147483647 s: UNIX time up to 2038-01-19)");
+  expect_bad_odometer_row("4102444800,200,1", "t",  // UNIX time in 2100
+                          "column 't': t 4102444800 s is beyond what a DDS stamp carries (int32 seconds, "
+                          "-2147483648 to 2147483647 s: UNIX time up to 2038-01-19)");
 }
 
 TEST(DatasetValidation, SkippedRowsDoNotBecomeTheTimeReference) {
