@@ -26,16 +26,16 @@
 #include <vector>
 
 #include "bench_scenarios.hpp"
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/calibration/calibration_options.hpp"
 #include "odonav/config.hpp"
 #include "odonav/consumer_rules.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 #include "odonav/identification/identification_options.hpp"
 #include "odonav/logging.hpp"
-#include "first_metres.hpp"
-#include "offline_runner.hpp"
-#include "summary.hpp"
+#include "odonav/offline/first_metres.hpp"
+#include "odonav/offline/offline_runner.hpp"
+#include "odonav/offline/summary.hpp"
 
 namespace {
 

@@ -19,10 +19,10 @@
 #include <iostream>
 #include <string>
 
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
-#include "offline_runner.hpp"
-#include "summary.hpp"
+#include "odonav/offline/offline_runner.hpp"
+#include "odonav/offline/summary.hpp"
 
 namespace {
 
@@ -151,9 +151,9 @@ int main(int argc, char** argv) {
       g_dataset_dir = temp_dir() + "/odonav-bench-ring3600";
       if (!fs::exists(g_dataset_dir + "/odometer.csv")) {
         std::cerr << "odonav-bench-offline: simulating ring, 3600 s, seed 1 into " << g_dataset_dir << "\n";
-        odonav::sim::SimulationConfig cfg = odonav::sim::scenario_config("ring");
+        odonav::simulator::SimulationConfig cfg = odonav::simulator::scenario_config("ring");
         cfg.duration_s = 3600.0;
-        odonav::write_dataset(g_dataset_dir, odonav::sim::simulate(cfg));
+        odonav::write_dataset(g_dataset_dir, odonav::simulator::simulate(cfg));
       }
     }
     g_out_dir = temp_dir() + "/odonav-bench-offline-out-" + std::to_string(::getpid());

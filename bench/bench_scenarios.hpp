@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/calibration/calibration_options.hpp"
 #include "odonav/config.hpp"
 #include "odonav/consumer_rules.hpp"
@@ -19,17 +19,17 @@
 #include "odonav/identification/identification_options.hpp"
 #include "odonav/lever_arm_option.hpp"
 #include "odonav/logging.hpp"
-#include "offline_runner.hpp"
+#include "odonav/offline/offline_runner.hpp"
 
 namespace odonav::bench {
 
 // A scenario with variants: "terrain", "terrain+1hz" (GNSS rate), "terrain+lat50" (GNSS latency in
 // ms), combinable ("ring+1hz+lat100"). Throws std::invalid_argument naming an unknown modifier.
-inline sim::SimulationConfig scenario_variant(const std::string& spec) {
+inline simulator::SimulationConfig scenario_variant(const std::string& spec) {
   std::stringstream parts(spec);
   std::string name;
   std::getline(parts, name, '+');
-  sim::SimulationConfig cfg = sim::scenario_config(name);
+  simulator::SimulationConfig cfg = simulator::scenario_config(name);
   for (std::string m; std::getline(parts, m, '+');) {
     if (m.size() > 2 && m.compare(m.size() - 2, 2, "hz") == 0) {
       cfg.gnss_rate_hz = std::stod(m.substr(0, m.size() - 2));
@@ -43,9 +43,9 @@ inline sim::SimulationConfig scenario_variant(const std::string& spec) {
 }
 
 inline Dataset simulate(const std::string& scenario, uint64_t seed) {
-  sim::SimulationConfig cfg = scenario_variant(scenario);
+  simulator::SimulationConfig cfg = scenario_variant(scenario);
   cfg.seed = seed;
-  return sim::simulate(cfg);
+  return simulator::simulate(cfg);
 }
 
 // What odonav-offline's main does with a dataset before running (apply_dataset_defaults): the

@@ -24,12 +24,12 @@
 #include <vector>
 
 #include "bench_scenarios.hpp"
-#include "coverage.hpp"
+#include "odonav/offline/coverage.hpp"
 #include "odonav/calibration/calibration_options.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/logging.hpp"
-#include "offline_runner.hpp"
+#include "odonav/offline/offline_runner.hpp"
 
 namespace {
 
@@ -89,10 +89,10 @@ QuantityCoverage latency_estimate_coverage(const odonav::offline::OfflineResult&
 
 // K without the rows of the settle_s after each K step of the simulation.
 QuantityCoverage k_outside_steps(const odonav::Dataset& d, const odonav::results::OutputRows& rows,
-                                 const odonav::sim::SimulationConfig& cfg, double settle_s) {
+                                 const odonav::simulator::SimulationConfig& cfg, double settle_s) {
   odonav::results::OutputRows kept;
   for (const odonav::results::ScaleFactorRow& r : rows.scale_factor) {
-    const bool settling = std::any_of(cfg.k_steps.begin(), cfg.k_steps.end(), [&](const odonav::sim::KStep& st) {
+    const bool settling = std::any_of(cfg.k_steps.begin(), cfg.k_steps.end(), [&](const odonav::simulator::KStep& st) {
       const double t_step_s = cfg.start_time_s + st.t_s;
       return r.t_s >= t_step_s && r.t_s < t_step_s + settle_s;
     });
@@ -153,7 +153,7 @@ int main(int argc, char** argv) {
         const odonav::offline::OfflineResult r = odonav::offline::run_offline(d, p);
         const auto rows = odonav::offline::to_output_rows(r, p.identification.estimator_name);
         for (const QuantityCoverage& q : odonav::offline::evaluate_coverage(d, rows)) add(q, scenario);
-        const odonav::sim::SimulationConfig cfg = odonav::bench::scenario_variant(scenario);
+        const odonav::simulator::SimulationConfig cfg = odonav::bench::scenario_variant(scenario);
         if (!cfg.k_steps.empty()) add(k_outside_steps(d, rows, cfg, 20.0), scenario);
         add(latency_estimate_coverage(r, cfg.gnss_latency_s), scenario);
       }

@@ -23,8 +23,8 @@
 
 #include "fuzz_support.hpp"
 #include "odonav/dataset.hpp"
-#include "offline_runner.hpp"
-#include "run_diagnosis.hpp"
+#include "odonav/offline/offline_runner.hpp"
+#include "odonav/offline/run_diagnosis.hpp"
 
 namespace {
 const char* const kFiles[] = {"odometer.csv", "gnss.csv", "ins.csv", "truth.csv", "meta.json"};

@@ -10,10 +10,10 @@
 #include <thread>
 #include <tuple>
 
-#include "core/fleet_state.hpp"
-#include "core/mcap_writer.hpp"
-#include "core/recording.hpp"
-#include "core/web_api.hpp"
+#include "odonav/ground/fleet_state.hpp"
+#include "odonav/ground/mcap_writer.hpp"
+#include "odonav/ground/recording.hpp"
+#include "odonav/ground/web_api.hpp"
 #include "node/ground_node.hpp"
 #include "web/ground_web.hpp"
 #include "odonav/config.hpp"

@@ -13,8 +13,8 @@
 #include "odonav/results/output_files.hpp"
 #include "odonav/run_provenance.hpp"
 #include "odonav/safe_output.hpp"
-#include "evaluation.hpp"
-#include "summary.hpp"
+#include "odonav/offline/evaluation.hpp"
+#include "odonav/offline/summary.hpp"
 
 namespace {
 

@@ -27,9 +27,9 @@
 #include "odonav/safe_output.hpp"
 #include "odonav/stream_buffers.hpp"
 #include "odonav/tool_output.hpp"
-#include "offline_runner.hpp"
-#include "run_diagnosis.hpp"
-#include "summary.hpp"
+#include "odonav/offline/offline_runner.hpp"
+#include "odonav/offline/run_diagnosis.hpp"
+#include "odonav/offline/summary.hpp"
 
 namespace {
 

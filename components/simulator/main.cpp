@@ -16,8 +16,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "core/nmea.hpp"
-#include "core/simulator.hpp"
+#include "odonav/simulator/nmea.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dataset_writer.hpp"
@@ -45,8 +45,7 @@ void check_dataset_destination(const std::string& dir, bool force) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  namespace sim = odonav::sim;
-  const sim::SimulationConfig base;  // defaults shown in the usage; the scenario may change some
+  const odonav::simulator::SimulationConfig base;  // defaults shown in the usage; the scenario may change some
   odonav::Options opts("odonav-sim",
                        "Simulates a tracked vehicle (odometer, GNSS, INS, truth) on a named scenario and "
                        "writes a dataset directory (docs/DATASET.md). Deterministic for a given seed.");
@@ -58,7 +57,7 @@ int main(int argc, char** argv) {
   opts.add_string("nmea", "",
                   "also (or only) write the GNSS as NMEA 0183 GGA, RMC, VTG and GST sentences, one fix "
                   "per GNSS row, to this file (for gpsfake / gpsd)");
-  opts.add_double("nmea-utc-epoch-s", odonav::sim::NmeaSettings{}.utc_epoch_s,
+  opts.add_double("nmea-utc-epoch-s", odonav::simulator::NmeaSettings{}.utc_epoch_s,
                   "--nmea: UTC of t = 0, s since 1970 (a fix at t is reported at this + t)", 0.0, 4e9);
   opts.add_int("seed", 1, "random seed of the sensor noise", 0, std::numeric_limits<int64_t>::max());
   opts.add_choice("gnss-rate", "default", {"default", "1", "2", "5", "10", "20"},
@@ -80,13 +79,13 @@ int main(int argc, char** argv) {
   opts.add_string("log-level", "",
                   "trace, debug, info, warn, error, critical, off (default: ODONAV_LOG_LEVEL or info)");
 
-  sim::SimulationConfig cfg;
+  odonav::simulator::SimulationConfig cfg;
   std::string out_dir, nmea_path;
-  sim::NmeaSettings nmea;
+  odonav::simulator::NmeaSettings nmea;
   try {
     if (opts.parse(argc, argv) == odonav::ParseResult::kHelp) return 0;
     odonav::setup_logging("odonav-sim", opts.get_string("log-level"));
-    cfg = sim::scenario_config(opts.get_string("scenario"));
+    cfg = odonav::simulator::scenario_config(opts.get_string("scenario"));
     out_dir = opts.get_string("out");
     nmea_path = opts.get_string("nmea");
     nmea.utc_epoch_s = opts.get_double("nmea-utc-epoch-s");
@@ -106,7 +105,7 @@ int main(int argc, char** argv) {
       cfg.misalignment.pitch_rad = odonav::deg_to_rad(opts.get_double("misalignment-pitch-deg"));
     }
     cfg.start_time_s = opts.get_double("start-time-s");
-    sim::validate(cfg);
+    odonav::simulator::validate(cfg);
   } catch (const std::exception& e) {  // ConfigError, unknown scenario, invalid config
     std::cerr << "odonav-sim: " << e.what() << "\n(odonav-sim --help for the usage)\n";
     return 2;
@@ -114,10 +113,10 @@ int main(int argc, char** argv) {
   try {
     if (!out_dir.empty()) check_dataset_destination(out_dir, opts.get_bool("force"));
     // The samples go to the files as they are produced: memory does not grow with the drive.
-    struct Sink : sim::SampleSink {
+    struct Sink : odonav::simulator::SampleSink {
       std::unique_ptr<odonav::DatasetWriter> dataset;
       std::unique_ptr<odonav::AtomicFile> nmea_file;
-      sim::NmeaSettings nmea;
+      odonav::simulator::NmeaSettings nmea;
       std::size_t fixes = 0;
       std::optional<odonav::TruthSample> first_truth, last_truth;
       void add(const odonav::TruthSample& s) override {
@@ -135,7 +134,7 @@ int main(int argc, char** argv) {
         if (dataset) dataset->add(s);
         if (nmea_file) {
           // One fix per GNSS row, at the GNSS rate; CR LF ends each sentence as NMEA 0183 requires.
-          for (const std::string& sentence : sim::nmea_sentences(s, nmea)) {
+          for (const std::string& sentence : odonav::simulator::nmea_sentences(s, nmea)) {
             nmea_file->write(sentence);
             nmea_file->write("\r\n", 2);
           }
@@ -146,8 +145,8 @@ int main(int argc, char** argv) {
     sink.nmea = nmea;
     if (!nmea_path.empty()) sink.nmea_file = std::make_unique<odonav::AtomicFile>(nmea_path);
     if (!out_dir.empty())
-      sink.dataset = std::make_unique<odonav::DatasetWriter>(out_dir, sim::dataset_writer_options(cfg));
-    const odonav::DatasetMeta meta = sim::simulate(cfg, sink);
+      sink.dataset = std::make_unique<odonav::DatasetWriter>(out_dir, odonav::simulator::dataset_writer_options(cfg));
+    const odonav::DatasetMeta meta = odonav::simulator::simulate(cfg, sink);
     if (sink.nmea_file) {
       sink.nmea_file->commit();
       spdlog::info("wrote {}: {} fixes as NMEA (UTC of t=0: {} s)", nmea_path, sink.fixes, nmea.utc_epoch_s);

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "core/candump_source.hpp"
-#include "core/pacing.hpp"
-#include "core/sensor_source.hpp"
+#include "odonav/gateway/candump_source.hpp"
+#include "odonav/gateway/pacing.hpp"
+#include "odonav/gateway/sensor_source.hpp"
 #include "node/sensor_publisher.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"

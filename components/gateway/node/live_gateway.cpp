@@ -15,10 +15,10 @@
 #include <cerrno>
 #include <cstring>
 
-#include "core/candump_source.hpp"
-#include "core/gpsd_source.hpp"
-#include "core/live_input.hpp"
-#include "core/sensor_health.hpp"
+#include "odonav/gateway/candump_source.hpp"
+#include "odonav/gateway/gpsd_source.hpp"
+#include "odonav/gateway/live_input.hpp"
+#include "odonav/gateway/sensor_health.hpp"
 #include "node/sensor_publisher.hpp"
 #include "odonav/topics.hpp"
 

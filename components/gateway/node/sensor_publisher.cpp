@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/sensor_source.hpp"
+#include "odonav/gateway/sensor_source.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/peer_tracker.hpp"
 #include "odonav/topics.hpp"

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "core/live_input.hpp"
-#include "core/sensor_health.hpp"
+#include "odonav/gateway/live_input.hpp"
+#include "odonav/gateway/sensor_health.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dds/component.hpp"
 #include "odonav/msg/GnssFix.h"

@@ -14,9 +14,9 @@
 #include <thread>
 #include <type_traits>
 
-#include "core/recording.hpp"
-#include "core/ros2msg_schema.hpp"
-#include "core/standard_channels.hpp"
+#include "odonav/ground/recording.hpp"
+#include "odonav/ground/ros2msg_schema.hpp"
+#include "odonav/ground/standard_channels.hpp"
 #include "node/topic_types.hpp"
 #include "odonav/dds/component.hpp"
 #include "odonav/dds/output_messages.hpp"

@@ -10,8 +10,8 @@
 #include <variant>
 #include <vector>
 
-#include "core/fleet_state.hpp"
-#include "core/mcap_writer.hpp"
+#include "odonav/ground/fleet_state.hpp"
+#include "odonav/ground/mcap_writer.hpp"
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/participant.hpp"
 #include "odonav/msg/Command.h"

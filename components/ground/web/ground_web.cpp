@@ -7,10 +7,10 @@
 #include <stdexcept>
 #include <type_traits>
 
-#include "core/recording.hpp"
-#include "core/ros2msg_schema.hpp"
-#include "core/standard_channels.hpp"
-#include "core/web_api.hpp"
+#include "odonav/ground/recording.hpp"
+#include "odonav/ground/ros2msg_schema.hpp"
+#include "odonav/ground/standard_channels.hpp"
+#include "odonav/ground/web_api.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/dds/types.hpp"
 

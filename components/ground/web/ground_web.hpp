@@ -9,9 +9,9 @@
 #include <memory>
 #include <string>
 
-#include "core/fleet_history.hpp"
-#include "core/fleet_state.hpp"
-#include "core/foxglove_protocol.hpp"
+#include "odonav/ground/fleet_history.hpp"
+#include "odonav/ground/fleet_state.hpp"
+#include "odonav/ground/foxglove_protocol.hpp"
 #include "node/ground_node.hpp"
 #include "web/web_server.hpp"
 

@@ -19,7 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/foxglove_protocol.hpp"
+#include "odonav/ground/foxglove_protocol.hpp"
 
 namespace odonav::ground {
 

@@ -13,7 +13,7 @@
 #include <optional>
 #include <string>
 
-#include "core/recording_resume.hpp"
+#include "odonav/recorder/recording_resume.hpp"
 #include "odonav/csv_writer.hpp"
 #include "odonav/dds/component.hpp"
 #include "odonav/gap_detector.hpp"

@@ -45,7 +45,7 @@
 
 #include "child_process.hpp"
 #include "multihost/virtual_network.hpp"
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/participant.hpp"
@@ -133,7 +133,7 @@ std::vector<std::string> common_args(int domain, std::vector<std::string> extra)
 }
 
 std::string lever_arm(const std::string& scenario) {
-  const Eigen::Vector3d l = sim::scenario_config(scenario).lever_arm_m;
+  const Eigen::Vector3d l = simulator::scenario_config(scenario).lever_arm_m;
   char buf[96];
   std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g", l.x(), l.y(), l.z());
   return buf;
@@ -666,7 +666,7 @@ void kill_nine_and_restart_catches_up(int domain, const std::vector<Kill>& kills
   const std::string state = dir + "/state";
   const std::string arm = lever_arm("ring");
   char nominal[64];
-  std::snprintf(nominal, sizeof nominal, "%.17g", sim::scenario_config("ring").k_nominal_m_per_pulse);
+  std::snprintf(nominal, sizeof nominal, "%.17g", simulator::scenario_config("ring").k_nominal_m_per_pulse);
   ASSERT_NO_FATAL_FAILURE(simulate_ring(dir, kSeed, kDuration));
 
   odonav::dds::Participant participant(participant_options(domain));

@@ -17,8 +17,8 @@
 #include <fstream>
 
 #include "../nodes/node_test_support.hpp"
-#include "core/can_decoders.hpp"
-#include "core/line_protocol.hpp"
+#include "odonav/gateway/can_decoders.hpp"
+#include "odonav/gateway/line_protocol.hpp"
 #include "live_test_support.hpp"
 #include "odonav/results/output_files.hpp"
 

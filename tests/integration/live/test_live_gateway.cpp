@@ -15,8 +15,8 @@
 
 #include "../nodes/node_test_support.hpp"
 #include "live_test_support.hpp"
-#include "core/line_protocol.hpp"
-#include "core/sensor_source.hpp"
+#include "odonav/gateway/line_protocol.hpp"
+#include "odonav/gateway/sensor_source.hpp"
 
 namespace odonav::test {
 namespace {

@@ -12,8 +12,8 @@
 #include <cstdio>
 #include <functional>
 
-#include "core/line_protocol.hpp"
-#include "core/sensor_source.hpp"
+#include "odonav/gateway/line_protocol.hpp"
+#include "odonav/gateway/sensor_source.hpp"
 #include "live_test_support.hpp"
 #include "odonav/msg/ScaleFactor.h"
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "child_process.hpp"
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/participant.hpp"
@@ -63,9 +63,9 @@ inline double wire_angle(double rad) {
 
 /// A short straight run of the simulator (start standing, then 10 m/s), reduced to the wire.
 inline Dataset short_dataset(double duration_s) {
-  sim::SimulationConfig cfg = sim::scenario_config("straight");
+  simulator::SimulationConfig cfg = simulator::scenario_config("straight");
   cfg.duration_s = duration_s;
-  Dataset d = sim::simulate(cfg);
+  Dataset d = simulator::simulate(cfg);
   for (auto& o : d.odometer) o.t_s = wire_time(o.t_s);
   for (auto& i : d.ins) i.t_s = wire_time(i.t_s);
   for (auto& g : d.gnss) {

@@ -65,7 +65,7 @@ class IdentificationRestart : public ::testing::Test {
   /// The GNSS antenna lever arm of the simulated vehicle, as deploy/launch passes it from meta.json
   /// (without it K wobbles in every turn by more than the tolerances below).
   static std::string lever_arm() {
-    const Eigen::Vector3d l = sim::scenario_config("ring").lever_arm_m;
+    const Eigen::Vector3d l = simulator::scenario_config("ring").lever_arm_m;
     char buf[96];
     std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g", l.x(), l.y(), l.z());
     return buf;

@@ -61,7 +61,7 @@ double stamp_s(const msg::DeadReckoning& m) { return odonav::dds::to_seconds(m.h
 double steady_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 std::string lever_arm() {
-  const Eigen::Vector3d l = sim::scenario_config("ring").lever_arm_m;
+  const Eigen::Vector3d l = simulator::scenario_config("ring").lever_arm_m;
   char buf[96];
   std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g", l.x(), l.y(), l.z());
   return buf;

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/identification/identification_core.hpp"
@@ -35,7 +35,7 @@ struct IdentificationRun {
   double lambda_min = 0.0;
 };
 
-IdentificationRun identify(const Dataset& d, const sim::SimulationConfig& cfg, bool use_ins) {
+IdentificationRun identify(const Dataset& d, const simulator::SimulationConfig& cfg, bool use_ins) {
   IdentificationParams p;
   p.builder.use_ins = use_ins;
   if (use_ins) p.builder.lever_arm_body_m = cfg.lever_arm_m;
@@ -66,8 +66,8 @@ IdentificationRun identify(const Dataset& d, const sim::SimulationConfig& cfg, b
   return r;
 }
 
-sim::SimulationConfig straight_config() {
-  sim::SimulationConfig cfg = sim::scenario_config("straight");
+simulator::SimulationConfig straight_config() {
+  simulator::SimulationConfig cfg = simulator::scenario_config("straight");
   cfg.seed = 11;
   return cfg;
 }
@@ -116,8 +116,8 @@ class ScratchDir {
 // GNSS velocity spikes of 10 m/s on a simulated straight run: the gates reject them and count them,
 // the forgetting factor does not collapse, and K ends within 0.2 % of the truth.
 TEST(BadInput, GnssVelocitySpikesOfTenMetresPerSecondAreRejectedAndKStaysWithinPointTwoPercent) {
-  const sim::SimulationConfig cfg = straight_config();
-  const Dataset clean = sim::simulate(cfg);
+  const simulator::SimulationConfig cfg = straight_config();
+  const Dataset clean = simulator::simulate(cfg);
   Dataset spiked = clean;
   // 60 epochs while moving (> 3 m/s), each 10 m/s in a random horizontal direction (fixed seed).
   std::vector<std::size_t> moving;
@@ -174,8 +174,8 @@ TEST(BadInput, GnssVelocitySpikesOfTenMetresPerSecondAreRejectedAndKStaysWithinP
 // INS missing (docs/DATASET.md degraded mode): K from the GNSS ground speed, dead reckoning along the
 // GNSS course, both flagged; nothing is rejected for want of an attitude.
 TEST(BadInput, WithoutInsTheDegradedModeIdentifiesKAndDeadReckons) {
-  const sim::SimulationConfig cfg = straight_config();
-  Dataset d = sim::simulate(cfg);
+  const simulator::SimulationConfig cfg = straight_config();
+  Dataset d = simulator::simulate(cfg);
   d.ins.clear();
   const IdentificationRun run = identify(d, cfg, false);
   std::printf("degraded: K %.4f %% from truth, %llu samples accepted\n",
@@ -286,9 +286,9 @@ TEST(BadInput, NanAndInfinityInEveryFieldOfEveryFileAreBadRows) {
 TEST(BadInput, MalformedConfigFileMakesTheToolExitTwoNamingFileAndLine) {
   ScratchDir dir;
   const std::string dataset = dir.file("straight");
-  sim::SimulationConfig cfg = straight_config();
+  simulator::SimulationConfig cfg = straight_config();
   cfg.straight_length_m = 100.0;
-  write_dataset(dataset, sim::simulate(cfg));
+  write_dataset(dataset, simulator::simulate(cfg));
   const std::string tool = binary("odonav-offline") + " " + dataset + " --out " + dir.file("out") + " --config ";
   struct Case {
     std::string text;

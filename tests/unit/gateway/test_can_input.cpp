@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "core/can_decoders.hpp"
-#include "core/candump_source.hpp"
-#include "core/sensor_health.hpp"
-#include "core/sensor_source.hpp"
+#include "odonav/gateway/can_decoders.hpp"
+#include "odonav/gateway/candump_source.hpp"
+#include "odonav/gateway/sensor_health.hpp"
+#include "odonav/gateway/sensor_source.hpp"
 #include "odonav/config.hpp"
 
 using namespace odonav;

@@ -8,9 +8,9 @@
 #include <random>
 #include <string>
 
-#include "core/pacing.hpp"
-#include "core/sensor_source.hpp"
-#include "core/simulator.hpp"
+#include "odonav/gateway/pacing.hpp"
+#include "odonav/gateway/sensor_source.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/config.hpp"
 
 using namespace odonav;
@@ -129,11 +129,11 @@ TEST(GatewaySource, SimSourceIsBitIdenticalToTheWrittenDataset) {
   settings.seed = 7;
   settings.duration_s = 30.0;
   const Dataset published = load_source(parse_source("sim:terrain"), settings, BadRowPolicy::kFail);
-  sim::SimulationConfig cfg = sim::scenario_config("terrain");
+  simulator::SimulationConfig cfg = simulator::scenario_config("terrain");
   cfg.seed = 7;
   cfg.duration_s = 30.0;
   const std::string dir = std::string(ODONAV_BINARY_DIR) + "/test-gateway-core-dataset";
-  write_dataset(dir, sim::simulate(cfg));
+  write_dataset(dir, simulator::simulate(cfg));
   const Dataset files = read_dataset(dir, BadRowPolicy::kFail);
   ASSERT_EQ(published.odometer.size(), files.odometer.size());
   ASSERT_EQ(published.ins.size(), files.ins.size());

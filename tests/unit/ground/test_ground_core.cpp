@@ -9,10 +9,10 @@
 #include <fstream>
 #include <sstream>
 
-#include "core/fleet_state.hpp"
-#include "core/mcap_writer.hpp"
-#include "core/recording.hpp"
-#include "core/ros2msg_schema.hpp"
+#include "odonav/ground/fleet_state.hpp"
+#include "odonav/ground/mcap_writer.hpp"
+#include "odonav/ground/recording.hpp"
+#include "odonav/ground/ros2msg_schema.hpp"
 
 using namespace odonav::ground;
 namespace fs = std::filesystem;

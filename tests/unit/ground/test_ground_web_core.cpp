@@ -7,10 +7,10 @@
 #include <cmath>
 #include <cstring>
 
-#include "core/fleet_history.hpp"
-#include "core/foxglove_protocol.hpp"
-#include "core/standard_channels.hpp"
-#include "core/web_api.hpp"
+#include "odonav/ground/fleet_history.hpp"
+#include "odonav/ground/foxglove_protocol.hpp"
+#include "odonav/ground/standard_channels.hpp"
+#include "odonav/ground/web_api.hpp"
 #include "odonav/frames.hpp"
 
 using namespace odonav::ground;

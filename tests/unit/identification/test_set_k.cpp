@@ -7,7 +7,7 @@
 #include <limits>
 #include <vector>
 
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/identification/identification_core.hpp"
 
 namespace {
@@ -19,14 +19,14 @@ constexpr double kNominalK = 0.0125;  // m/pulse
 /// 120 s of the straight scenario (start standing, then 10 m/s): K_true = 0.0125 x 1.015.
 const Dataset& drive() {
   static const Dataset d = [] {
-    sim::SimulationConfig cfg = sim::scenario_config("straight");
+    simulator::SimulationConfig cfg = simulator::scenario_config("straight");
     cfg.duration_s = 120.0;
-    return sim::simulate(cfg);
+    return simulator::simulate(cfg);
   }();
   return d;
 }
 
-double true_k() { return sim::scenario_config("straight").k_true_m_per_pulse; }
+double true_k() { return simulator::scenario_config("straight").k_true_m_per_pulse; }
 
 /// Core fed with every sample of the drive (processing happens in process_until).
 IdentificationCore fed_core(const std::string& estimator) {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "io_test_util.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dataset_stream.hpp"
@@ -185,10 +185,10 @@ TEST(DatasetStream, SimulatedDatasetsStreamExactlyAsReadDataset) {
   };
   for (const Case& c : {Case{"terrain", 0.0}, Case{"terrain", 0.037}, Case{"slow_robot", 0.0}}) {
     SCOPED_TRACE(std::string(c.scenario) + " latency " + std::to_string(c.gnss_latency_s));
-    sim::SimulationConfig config = sim::scenario_config(c.scenario);
+    simulator::SimulationConfig config = simulator::scenario_config(c.scenario);
     config.gnss_latency_s = c.gnss_latency_s;
     ScratchDir dir;
-    write_dataset(dir.str(), sim::simulate(config));
+    write_dataset(dir.str(), simulator::simulate(config));
     const std::size_t ties = expect_stream_equals_read_dataset(dir.str());
     if (c.gnss_latency_s == 0.0) {
       EXPECT_GT(ties, 0u);

@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "core/gpsd_source.hpp"
+#include "odonav/gateway/gpsd_source.hpp"
 #include "odonav/config.hpp"
 #include "odonav/frames.hpp"
 

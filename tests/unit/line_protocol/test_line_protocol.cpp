@@ -8,18 +8,18 @@
 #include <string>
 #include <vector>
 
-#include "core/line_protocol.hpp"
-#include "core/sensor_source.hpp"
-#include "core/simulator.hpp"
+#include "odonav/gateway/line_protocol.hpp"
+#include "odonav/gateway/sensor_source.hpp"
+#include "odonav/simulator/simulator.hpp"
 
 namespace odonav::gateway {
 namespace {
 
 Dataset short_drive(double duration_s) {
-  sim::SimulationConfig cfg = sim::scenario_config("terrain");
+  simulator::SimulationConfig cfg = simulator::scenario_config("terrain");
   cfg.duration_s = duration_s;
   cfg.seed = 7;
-  return as_recorded(sim::simulate(cfg));
+  return as_recorded(simulator::simulate(cfg));
 }
 
 std::vector<ParsedLine> feed_all(LineDecoder& d, const std::string& bytes) {

@@ -12,8 +12,8 @@
 #include <thread>
 #include <vector>
 
-#include "core/live_input.hpp"
-#include "core/sensor_source.hpp"
+#include "odonav/gateway/live_input.hpp"
+#include "odonav/gateway/sensor_source.hpp"
 #include "odonav/config.hpp"
 
 namespace odonav::gateway {

@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "core/nmea.hpp"
+#include "odonav/simulator/nmea.hpp"
 #include "odonav/frames.hpp"
 
-namespace odonav::sim {
+namespace odonav::simulator {
 namespace {
 
 std::vector<std::string> fields_of(const std::string& sentence) {
@@ -114,4 +114,4 @@ TEST(Nmea, NoFixGivesEmptyPositionAndBadValuesThrow) {
 }
 
 }  // namespace
-}  // namespace odonav::sim
+}  // namespace odonav::simulator

@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "core/sensor_health.hpp"
+#include "odonav/gateway/sensor_health.hpp"
 
 namespace odonav::gateway {
 namespace {

@@ -9,7 +9,7 @@
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/identification/identification_options.hpp"
-#include "offline_runner.hpp"
+#include "odonav/offline/offline_runner.hpp"
 
 namespace odonav::offline::test {
 

@@ -10,15 +10,15 @@
 #include <iostream>
 #include <string>
 
-#include "core/simulator.hpp"
-#include "evaluation.hpp"
+#include "odonav/simulator/simulator.hpp"
+#include "odonav/offline/evaluation.hpp"
 #include "odonav/checkpoint_state.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
-#include "offline_runner.hpp"
+#include "odonav/offline/offline_runner.hpp"
 #include "offline_test_params.hpp"
-#include "run_diagnosis.hpp"
+#include "odonav/offline/run_diagnosis.hpp"
 
 using namespace odonav;
 using namespace odonav::offline;
@@ -27,16 +27,16 @@ using namespace odonav::offline::test;
 namespace {
 
 struct ScenarioRun {
-  sim::SimulationConfig cfg;
+  simulator::SimulationConfig cfg;
   Dataset d;
   OfflineResult r;
 };
 
 ScenarioRun run(const std::string& scenario) {
   ScenarioRun x;
-  x.cfg = sim::scenario_config(scenario);
+  x.cfg = simulator::scenario_config(scenario);
   x.cfg.seed = 1;
-  x.d = sim::simulate(x.cfg);
+  x.d = simulator::simulate(x.cfg);
   x.r = run_offline(x.d, default_params(x.d));
   return x;
 }
@@ -204,11 +204,11 @@ TEST(AnywhereOnEarth, ADriveStartingOnTheNorthPoleItself) {
   // point): every output finite and in range, and the DR and anchored errors those of a start
   // where north is undefined for the first metres (docs/ALGORITHM.md §4c).
   ScenarioRun x;
-  x.cfg = sim::scenario_config("polar_north");
+  x.cfg = simulator::scenario_config("polar_north");
   x.cfg.seed = 1;
   x.cfg.start = Geodetic{0.5 * kPi, deg_to_rad(30.0), 20.0};
   x.cfg.straight_length_m = 1000.0;
-  x.d = sim::simulate(x.cfg);
+  x.d = simulator::simulate(x.cfg);
   x.r = run_offline(x.d, default_params(x.d));
   expect_rows_in_range(x);
   const Figures f = figures(x);
@@ -227,8 +227,8 @@ TEST(AnywhereOnEarth, ADeadReckonerRestoredInThePolarCapContinuesBitForBit) {
   // The north offset of the polar cap (the DR's error at the latest GNSS epoch) is part of the
   // checkpoint: a dead reckoner restored 20 s after passing 50 m from the South Pole continues
   // with exactly the positions of the one that ran on.
-  sim::SimulationConfig cfg = sim::scenario_config("south_pole");
-  const Dataset d = sim::simulate(cfg);
+  simulator::SimulationConfig cfg = simulator::scenario_config("south_pole");
+  const Dataset d = simulator::simulate(cfg);
   DeadReckonerParams p;
   p.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
   p.lever_arm_body_m = d.meta.gnss_lever_arm_m;

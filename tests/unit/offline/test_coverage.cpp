@@ -12,9 +12,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/simulator.hpp"
-#include "coverage.hpp"
-#include "offline_runner.hpp"
+#include "odonav/simulator/simulator.hpp"
+#include "odonav/offline/coverage.hpp"
+#include "odonav/offline/offline_runner.hpp"
 #include "offline_test_params.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
@@ -278,9 +278,9 @@ TEST(Coverage, ARecordingWithoutTruthUsesTheKReferenceAndTheFixesNotYetApplied) 
 std::map<std::string, QuantityCoverage> pooled_over_seeds(const std::string& scenario_name) {
   std::map<std::string, QuantityCoverage> pooled;
   for (uint64_t seed = 1; seed <= 3; ++seed) {
-    sim::SimulationConfig cfg = sim::scenario_config(scenario_name);
+    simulator::SimulationConfig cfg = simulator::scenario_config(scenario_name);
     cfg.seed = seed;
-    const Dataset d = sim::simulate(cfg);
+    const Dataset d = simulator::simulate(cfg);
     const OfflineParams p = test::user_params(d);
     const OfflineResult r = run_offline(d, p);
     for (const QuantityCoverage& q : evaluate_coverage(d, to_output_rows(r, p.identification.estimator_name))) {
@@ -322,10 +322,10 @@ TEST(Coverage, PublishedSigmasOnTerrainSeedsOneToThree) {
 TEST(Coverage, PublishedKSigmaHonestBeforeTheLatencyIsKnown) {
   std::map<std::string, QuantityCoverage> pooled;
   for (uint64_t seed = 1; seed <= 3; ++seed) {
-    sim::SimulationConfig cfg = sim::scenario_config("terrain");
+    simulator::SimulationConfig cfg = simulator::scenario_config("terrain");
     cfg.seed = seed;
     cfg.gnss_latency_s = 0.1;
-    const Dataset d = sim::simulate(cfg);
+    const Dataset d = simulator::simulate(cfg);
     const OfflineParams p = test::user_params(d);
     const OfflineResult r = run_offline(d, p);
     for (const QuantityCoverage& q : evaluate_coverage(d, to_output_rows(r, p.identification.estimator_name)))
@@ -374,11 +374,11 @@ TEST(Coverage, PublishedGnssLatencySigmaIsTheOneOfTheValueInForce) {
     SCOPED_TRACE(rate_hz);
     std::map<std::string, QuantityCoverage> pooled;
     for (uint64_t seed = 1; seed <= 3; ++seed) {
-      sim::SimulationConfig cfg = sim::scenario_config(scenario_name);
+      simulator::SimulationConfig cfg = simulator::scenario_config(scenario_name);
       cfg.seed = seed;
       cfg.gnss_rate_hz = rate_hz;
       cfg.gnss_latency_s = 0.1;
-      const Dataset d = sim::simulate(cfg);
+      const Dataset d = simulator::simulate(cfg);
       const OfflineParams p = test::user_params(d);
       const OfflineResult r = run_offline(d, p);
       for (const QuantityCoverage& q : evaluate_coverage(d, to_output_rows(r, p.identification.estimator_name)))

@@ -5,14 +5,14 @@
 
 #include <cmath>
 
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/identification/identification_options.hpp"
-#include "first_metres.hpp"
-#include "offline_runner.hpp"
+#include "odonav/offline/first_metres.hpp"
+#include "odonav/offline/offline_runner.hpp"
 #include "offline_test_params.hpp"
-#include "summary.hpp"
+#include "odonav/offline/summary.hpp"
 
 using namespace odonav;
 using namespace odonav::offline;
@@ -21,16 +21,16 @@ using nlohmann::json;
 
 namespace {
 
-sim::SimulationConfig terrain_config(uint64_t seed) {
-  sim::SimulationConfig cfg = sim::scenario_config("terrain");
+simulator::SimulationConfig terrain_config(uint64_t seed) {
+  simulator::SimulationConfig cfg = simulator::scenario_config("terrain");
   cfg.seed = seed;
   return cfg;
 }
 
 Dataset terrain(uint64_t seed, double k_true_m_per_pulse = 0.0) {
-  sim::SimulationConfig cfg = terrain_config(seed);
+  simulator::SimulationConfig cfg = terrain_config(seed);
   if (k_true_m_per_pulse > 0.0) cfg.k_true_m_per_pulse = k_true_m_per_pulse;
-  return sim::simulate(cfg);
+  return simulator::simulate(cfg);
 }
 
 // odonav-offline's chain with the default parameters on d, evaluated against d's truth; the figures
@@ -68,10 +68,10 @@ TEST(FirstMetre, AnRtkStartMeetsTheMaxAfter500mGoal) {
   // first minute averages away (BENCHMARKS.md §5.1). What does meet the goal is a start fix of
   // centimetres: the same drive with RTK-grade positions (the slow robot's 1 cm + 1 cm), the DR
   // unchanged.
-  sim::SimulationConfig cfg = terrain_config(1);
+  simulator::SimulationConfig cfg = terrain_config(1);
   cfg.gnss_pos_gm_std_m = 0.01;
   cfg.gnss_pos_white_std_m = 0.01;
-  const Dataset d = sim::simulate(cfg);
+  const Dataset d = simulator::simulate(cfg);
   const FirstMetres f = measure(d);
   SCOPED_TRACE(describe(f));
   EXPECT_LE(f.start_offset_m, 0.1);

@@ -7,10 +7,10 @@
 #include <cmath>
 #include <vector>
 
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/frames.hpp"
-#include "offline_runner.hpp"
+#include "odonav/offline/offline_runner.hpp"
 #include "offline_test_params.hpp"
 
 using namespace odonav;
@@ -60,16 +60,16 @@ struct Figures {
 // latency_s: the simulator stamps the fixes this late (the chain estimates it; the DR compares each
 // fix with the DR at stamp - latency).
 Figures figures(uint64_t seed, double gnss_rate_hz = 10.0, double latency_s = 0.0) {
-  sim::SimulationConfig cfg = sim::scenario_config("terrain");
+  simulator::SimulationConfig cfg = simulator::scenario_config("terrain");
   cfg.seed = seed;
   cfg.gnss_rate_hz = gnss_rate_hz;
   cfg.gnss_latency_s = latency_s;
-  const Dataset d = sim::simulate(cfg);
+  const Dataset d = simulator::simulate(cfg);
   const OfflineResult r = run_offline(d, default_params(d));
   EXPECT_EQ(r.navigation_position.size(), r.dr_online.size());
   const LocalEnuFrame frame(d.truth.front().position);
   Truth truth(d, frame);
-  const sim::GnssOutage outage = cfg.gnss_outages.at(0);
+  const simulator::GnssOutage outage = cfg.gnss_outages.at(0);
   const double t0 = d.truth.front().t_s;
   const double settle_s = 60.0;  // identification and calibration converge first
 
@@ -218,10 +218,10 @@ TEST(NavigationPosition, AFixStampedLateIsComparedWithTheDrWhenItMeasured) {
 // inside the outage (the +3 % at 250 s within a 200-500 s outage gives 13.8 m after 725 m with a
 // sigma of 1.9 m): no GNSS, no identification, and the filter's scale walk is for slow changes.
 TEST(NavigationPosition, MinutesWithoutGnssGrowTheSigmaSayDeadReckoningAndReturnWithoutAJump) {
-  sim::SimulationConfig cfg = sim::scenario_config("terrain");
+  simulator::SimulationConfig cfg = simulator::scenario_config("terrain");
   cfg.seed = 1;
-  cfg.gnss_outages = {sim::GnssOutage{290.0, 490.0}};
-  const Dataset d = sim::simulate(cfg);
+  cfg.gnss_outages = {simulator::GnssOutage{290.0, 490.0}};
+  const Dataset d = simulator::simulate(cfg);
   const OfflineResult r = run_offline(d, default_params(d));
   const LocalEnuFrame frame(d.truth.front().position);
   Truth truth(d, frame);

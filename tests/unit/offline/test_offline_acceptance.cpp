@@ -9,11 +9,11 @@
 #include <map>
 #include <sstream>
 
-#include "offline_runner.hpp"
+#include "odonav/offline/offline_runner.hpp"
 #include "offline_test_params.hpp"
 #include "odonav/dataset.hpp"
-#include "core/simulator.hpp"
-#include "summary.hpp"
+#include "odonav/simulator/simulator.hpp"
+#include "odonav/offline/summary.hpp"
 
 using namespace odonav;
 using namespace odonav::offline;
@@ -23,9 +23,9 @@ using nlohmann::json;
 namespace {
 
 Dataset scenario(const std::string& name, uint64_t seed = 1) {
-  sim::SimulationConfig cfg = sim::scenario_config(name);
+  simulator::SimulationConfig cfg = simulator::scenario_config(name);
   cfg.seed = seed;
-  return sim::simulate(cfg);
+  return simulator::simulate(cfg);
 }
 
 json summarize(const Dataset& d, const OfflineResult& r, const OfflineParams& p) {
@@ -60,9 +60,9 @@ TEST(OfflineAcceptance, TheHeadingIsTheMisalignmentPlusTheInsHeadingBiasAndTheSu
   // 4 sigma, while heading_error_deg (against the mechanical angle) takes the bias.
   std::map<double, json> by_bias;
   for (double bias_deg : {0.0, 0.02, 0.2}) {
-    sim::SimulationConfig cfg = sim::scenario_config("straight");
+    simulator::SimulationConfig cfg = simulator::scenario_config("straight");
     cfg.ins_heading_bias_rad = deg_to_rad(bias_deg);
-    const Dataset d = sim::simulate(cfg);
+    const Dataset d = simulator::simulate(cfg);
     const OfflineParams p = default_params(d);
     by_bias[bias_deg] = summarize(d, run_offline(d, p), p);
     const json& m = by_bias[bias_deg]["misalignment"];

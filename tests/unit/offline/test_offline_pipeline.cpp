@@ -7,11 +7,11 @@
 #include <cstring>
 #include <vector>
 
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/consumer_rules.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_component.hpp"
 #include "odonav/wire_time.hpp"
-#include "offline_pipeline.hpp"
+#include "odonav/offline/offline_pipeline.hpp"
 #include "offline_test_params.hpp"
 
 using namespace odonav;
@@ -20,9 +20,9 @@ using namespace odonav::offline;
 namespace {
 
 Dataset short_terrain(double duration_s) {
-  sim::SimulationConfig cfg = sim::scenario_config("terrain");
+  simulator::SimulationConfig cfg = simulator::scenario_config("terrain");
   cfg.duration_s = duration_s;
-  return sim::simulate(cfg);
+  return simulator::simulate(cfg);
 }
 
 template <class F>

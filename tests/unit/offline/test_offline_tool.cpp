@@ -8,9 +8,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
-#include "offline_runner.hpp"
+#include "odonav/offline/offline_runner.hpp"
 #include "odonav/results/output_files.hpp"
 
 namespace fs = std::filesystem;
@@ -49,9 +49,9 @@ class OfflineTool : public ::testing::Test {
     dir_ = fs::temp_directory_path() / ("odonav-offline-test-" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
-    sim::SimulationConfig cfg = sim::scenario_config("straight");
+    simulator::SimulationConfig cfg = simulator::scenario_config("straight");
     cfg.seed = 5;
-    write_dataset((dir_ / "straight").string(), sim::simulate(cfg));
+    write_dataset((dir_ / "straight").string(), simulator::simulate(cfg));
   }
   void TearDown() override { fs::remove_all(dir_); }
   fs::path dir_;

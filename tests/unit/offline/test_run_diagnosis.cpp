@@ -4,19 +4,19 @@
 
 #include <cmath>
 
-#include "core/simulator.hpp"
-#include "offline_runner.hpp"
-#include "run_diagnosis.hpp"
-#include "evaluation.hpp"
-#include "summary.hpp"
+#include "odonav/simulator/simulator.hpp"
+#include "odonav/offline/offline_runner.hpp"
+#include "odonav/offline/run_diagnosis.hpp"
+#include "odonav/offline/evaluation.hpp"
+#include "odonav/offline/summary.hpp"
 
 using namespace odonav;
 using namespace odonav::offline;
 
 namespace {
 
-sim::SimulationConfig straight(double duration_s = 120.0) {
-  sim::SimulationConfig cfg = sim::scenario_config("straight");
+simulator::SimulationConfig straight(double duration_s = 120.0) {
+  simulator::SimulationConfig cfg = simulator::scenario_config("straight");
   cfg.seed = 5;
   cfg.duration_s = duration_s;
   return cfg;
@@ -37,7 +37,7 @@ const RunWarning* find(const RunDiagnosis& r, const std::string& code) {
 }  // namespace
 
 TEST(RunDiagnosis, ACleanDriveHasNoWarning) {
-  const Dataset d = sim::simulate(straight());
+  const Dataset d = simulator::simulate(straight());
   const OfflineParams p = params_for(d);
   const RunDiagnosis r = diagnose_run(d, p, run_offline(d, p));
   EXPECT_TRUE(r.usable);
@@ -45,9 +45,9 @@ TEST(RunDiagnosis, ACleanDriveHasNoWarning) {
 }
 
 TEST(RunDiagnosis, OneHertzGnssWithTheTenHertzGapGateNamesTheGateThePeriodAndTheFlag) {
-  sim::SimulationConfig cfg = straight();
+  simulator::SimulationConfig cfg = straight();
   cfg.gnss_rate_hz = 1.0;
-  const Dataset d = sim::simulate(cfg);
+  const Dataset d = simulator::simulate(cfg);
   OfflineParams p = params_for(d);
   p.identification.builder.max_interval_s = 0.5;  // the 10 Hz setting, given explicitly
   const OfflineResult result = run_offline(d, p);
@@ -61,7 +61,7 @@ TEST(RunDiagnosis, OneHertzGnssWithTheTenHertzGapGateNamesTheGateThePeriodAndThe
 }
 
 TEST(RunDiagnosis, AWrongNominalKThatTruncatesTheDeadReckoningIsNamed) {
-  const Dataset d = sim::simulate(straight());
+  const Dataset d = simulator::simulate(straight());
   OfflineParams p = params_for(d);
   p.dead_reckoning.nominal_k_m_per_pulse = 1.0;  // 80x the encoder's: every real increment is a "jump"
   const OfflineResult result = run_offline(d, p);
@@ -77,7 +77,7 @@ TEST(RunDiagnosis, AWrongNominalKThatTruncatesTheDeadReckoningIsNamed) {
 }
 
 TEST(RunDiagnosis, NoTimeOverlapIsNamedWithBothSpans) {
-  Dataset d = sim::simulate(straight(60.0));
+  Dataset d = simulator::simulate(straight(60.0));
   for (GnssSample& g : d.gnss) g.t_s += 1e6;  // GNSS in another time base
   const OfflineParams p = params_for(d);
   const RunDiagnosis r = diagnose_run(d, p, run_offline(d, p));
@@ -89,7 +89,7 @@ TEST(RunDiagnosis, NoTimeOverlapIsNamedWithBothSpans) {
 }
 
 TEST(RunDiagnosis, NegatedGnssVelocityIsNamed) {
-  Dataset d = sim::simulate(straight(60.0));
+  Dataset d = simulator::simulate(straight(60.0));
   for (GnssSample& g : d.gnss) g.vel_enu_mps = -g.vel_enu_mps;
   const OfflineParams p = params_for(d);
   const RunDiagnosis r = diagnose_run(d, p, run_offline(d, p));
@@ -103,7 +103,7 @@ TEST(RunDiagnosis, NegatedGnssVelocityIsNamed) {
 }
 
 TEST(RunDiagnosis, AKFarFromTheNominalIsCalledImplausible) {
-  const Dataset d = sim::simulate(straight());
+  const Dataset d = simulator::simulate(straight());
   OfflineParams p = params_for(d);
   p.dead_reckoning.nominal_k_m_per_pulse = 0.0125 / 3.6;               // the encoder is said to be 3.6x finer
   p.identification.builder.odometer_jump_gate.k_m_per_pulse = 0.0125;  // gate kept at the real encoder
@@ -123,8 +123,8 @@ TEST(RunDiagnosis, MedianPeriodIgnoresOutagesAndJitter) {
 // good drive raises nothing; an INS heading of the other sign convention, or in radians, is named
 // with its numbers, withdraws converged, and every output is still produced.
 namespace {
-sim::SimulationConfig terrain(double duration_s = 300.0) {
-  sim::SimulationConfig cfg = sim::scenario_config("terrain");
+simulator::SimulationConfig terrain(double duration_s = 300.0) {
+  simulator::SimulationConfig cfg = simulator::scenario_config("terrain");
   cfg.seed = 2;
   cfg.duration_s = duration_s;
   return cfg;
@@ -133,9 +133,9 @@ sim::SimulationConfig terrain(double duration_s = 300.0) {
 
 TEST(Consistency, AGoodTerrainDriveRaisesNothing) {
   for (const double rate_hz : {10.0, 1.0}) {
-    sim::SimulationConfig cfg = terrain();
+    simulator::SimulationConfig cfg = terrain();
     cfg.gnss_rate_hz = rate_hz;
-    const Dataset d = sim::simulate(cfg);
+    const Dataset d = simulator::simulate(cfg);
     const OfflineParams p = params_for(d);
     const OfflineResult result = run_offline(d, p);
     ASSERT_EQ(result.consistency.size(), 3u);
@@ -149,7 +149,7 @@ TEST(Consistency, AGoodTerrainDriveRaisesNothing) {
 }
 
 TEST(Consistency, AHeadingOfTheOtherSignOrInRadiansIsNamedAndConvergedWithdrawn) {
-  const Dataset good = sim::simulate(terrain());
+  const Dataset good = simulator::simulate(terrain());
   const OfflineParams p = params_for(good);
   const std::size_t good_outputs = run_offline(good, p).dr_online.size();
   struct Case {
@@ -186,7 +186,7 @@ TEST(Consistency, AHeadingOfTheOtherSignOrInRadiansIsNamedAndConvergedWithdrawn)
 }
 
 TEST(Consistency, AGnssFixAThousandKilometresAwayIsCountedReportedAndKeptOutOfTheAnchoredPosition) {
-  const Dataset good = sim::simulate(terrain(120.0));
+  const Dataset good = simulator::simulate(terrain(120.0));
   const OfflineParams p = params_for(good);
   const OfflineResult good_result = run_offline(good, p);
   EXPECT_EQ(good_result.gnss_jumps.jumps, 0u);
@@ -218,7 +218,7 @@ TEST(Consistency, AGnssFixAThousandKilometresAwayIsCountedReportedAndKeptOutOfTh
 }
 
 TEST(TruthCheck, TheDrivesOwnTruthMatchesAndAnotherPlaceATimeShiftOrNoOverlapIsRefusedByName) {
-  const Dataset d = sim::simulate(terrain(120.0));
+  const Dataset d = simulator::simulate(terrain(120.0));
   ASSERT_FALSE(d.truth.empty());
   const auto check = [&](const std::vector<TruthSample>& truth) {
     return truth_mismatch(vector_source(d.gnss)(), vector_source(truth)());
@@ -241,9 +241,9 @@ TEST(TruthCheck, TheDrivesOwnTruthMatchesAndAnotherPlaceATimeShiftOrNoOverlapIsR
 }
 
 TEST(RunDiagnosis, AShortOneHertzDriveSaysTheMisalignmentDidNotConvergeAndWhatIsMissing) {
-  sim::SimulationConfig cfg = straight(80.0);
+  simulator::SimulationConfig cfg = straight(80.0);
   cfg.gnss_rate_hz = 1.0;
-  const Dataset d = sim::simulate(cfg);
+  const Dataset d = simulator::simulate(cfg);
   OfflineParams p = params_for(d);
   p.identification.builder.max_interval_s = 1.5;
   const OfflineResult result = run_offline(d, p);
@@ -261,15 +261,15 @@ TEST(RunDiagnosis, AShortOneHertzDriveSaysTheMisalignmentDidNotConvergeAndWhatIs
       std::string::npos)
       << w->message;
   // The same drive for 120 s at 10 Hz converges: no such warning.
-  const Dataset ok = sim::simulate(straight(120.0));
+  const Dataset ok = simulator::simulate(straight(120.0));
   const OfflineParams q = params_for(ok);
   EXPECT_EQ(find(diagnose_run(ok, q, run_offline(ok, q)), "misalignment_not_converged"), nullptr);
 }
 
 TEST(RunDiagnosis, AShortOneHertzDriveSaysKDidNotConvergeAndWhatIsMissing) {
-  sim::SimulationConfig cfg = straight(20.0);  // 15 s of driving after the 5 s standstill
+  simulator::SimulationConfig cfg = straight(20.0);  // 15 s of driving after the 5 s standstill
   cfg.gnss_rate_hz = 1.0;
-  const Dataset d = sim::simulate(cfg);
+  const Dataset d = simulator::simulate(cfg);
   const OfflineParams p = params_for(d);
   const OfflineResult result = run_offline(d, p);
   ASSERT_FALSE(result.identification.empty());
@@ -287,9 +287,9 @@ TEST(RunDiagnosis, AShortOneHertzDriveSaysKDidNotConvergeAndWhatIsMissing) {
 }
 
 TEST(RunDiagnosis, AShortDriveSaysTheGnssLatencyWasNeverDecidedAndWhy) {
-  sim::SimulationConfig cfg = straight(20.0);
+  simulator::SimulationConfig cfg = straight(20.0);
   cfg.gnss_rate_hz = 1.0;
-  const Dataset d = sim::simulate(cfg);
+  const Dataset d = simulator::simulate(cfg);
   OfflineParams p = params_for(d);
   const OfflineResult result = run_offline(d, p);
   for (const IdentificationOutput& o : result.identification) {
@@ -321,12 +321,12 @@ TEST(RunDiagnosis, AShortDriveSaysTheGnssLatencyWasNeverDecidedAndWhy) {
 // for a change of K: without the rule the stop moved K by +1.4 %. With it, K and the misalignment
 // leave the stop as they entered the braking.
 TEST(BrakingStop, AStopAtTheEndOfADriveLeavesKAndTheMisalignmentAsBeforeTheBraking) {
-  sim::SimulationConfig cfg = sim::scenario_config("straight");
+  simulator::SimulationConfig cfg = simulator::scenario_config("straight");
   cfg.seed = 1;
   cfg.gnss_rate_hz = 1.0;
   cfg.gnss_latency_s = 0.1;
   cfg.standstill_end_s = 20.0;
-  const Dataset d = sim::simulate(cfg);
+  const Dataset d = simulator::simulate(cfg);
   // The braking starts where the true distance per truth row starts to fall for good.
   std::size_t stop = d.truth.size() - 1;
   while (stop > 0 && d.truth[stop].distance_m - d.truth[stop - 1].distance_m < 1e-6) --stop;

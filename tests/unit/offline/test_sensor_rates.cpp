@@ -8,14 +8,14 @@
 #include <cstdio>
 #include <sstream>
 
-#include "core/simulator.hpp"
-#include "first_metres.hpp"
+#include "odonav/simulator/simulator.hpp"
+#include "odonav/offline/first_metres.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/identification/identification_options.hpp"
-#include "offline_runner.hpp"
+#include "odonav/offline/offline_runner.hpp"
 #include "offline_test_params.hpp"
-#include "summary.hpp"
+#include "odonav/offline/summary.hpp"
 
 using namespace odonav;
 using namespace odonav::offline;
@@ -25,11 +25,11 @@ using nlohmann::json;
 namespace {
 
 Dataset scenario(const std::string& name, double gnss_rate_hz = 0.0, double latency_s = 0.0, uint64_t seed = 1) {
-  sim::SimulationConfig cfg = sim::scenario_config(name);
+  simulator::SimulationConfig cfg = simulator::scenario_config(name);
   cfg.seed = seed;
   if (gnss_rate_hz > 0.0) cfg.gnss_rate_hz = gnss_rate_hz;
   cfg.gnss_latency_s = latency_s;
-  return sim::simulate(cfg);
+  return simulator::simulate(cfg);
 }
 
 json summarize(const Dataset& d, const OfflineResult& r, const OfflineParams& p) {
@@ -213,10 +213,10 @@ TEST(SensorRates, SlowReversingRobotWithoutInsGetsKWithin03Percent) {
 TEST(SensorRates, SlowReversingRobotWithInsTakesTheBackwardsSamplesRight) {
   // The same robot with an INS: backwards, the forward speed along the odometer axis is negative,
   // and the samples take the distance driven backwards.
-  sim::SimulationConfig cfg = sim::scenario_config("slow_robot");
+  simulator::SimulationConfig cfg = simulator::scenario_config("slow_robot");
   cfg.seed = 1;
   cfg.has_ins = true;
-  const Dataset d = sim::simulate(cfg);
+  const Dataset d = simulator::simulate(cfg);
   const OfflineParams p = user_params(d);
   const OfflineResult r = run_offline(d, p);
   expect_k_within(d, r, p, 0.3);

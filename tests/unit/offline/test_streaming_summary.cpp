@@ -11,13 +11,13 @@
 #include <fstream>
 #include <tuple>
 
-#include "core/simulator.hpp"
-#include "evaluation.hpp"
-#include "first_metres.hpp"
-#include "offline_runner.hpp"
+#include "odonav/simulator/simulator.hpp"
+#include "odonav/offline/evaluation.hpp"
+#include "odonav/offline/first_metres.hpp"
+#include "odonav/offline/offline_runner.hpp"
 #include "offline_test_params.hpp"
-#include "run_diagnosis.hpp"
-#include "summary.hpp"
+#include "odonav/offline/run_diagnosis.hpp"
+#include "odonav/offline/summary.hpp"
 
 using namespace odonav;
 using namespace odonav::offline;
@@ -74,10 +74,10 @@ const Geodetic kOrigin{52.5 * kDegToRad, 13.4 * kDegToRad, 40.0};
 }  // namespace
 
 TEST(StreamingSummary, FedInStreamingOrderItGivesMakeSummarysFigures) {
-  sim::SimulationConfig cfg = sim::scenario_config("terrain");  // K steps, an outage, truth
+  simulator::SimulationConfig cfg = simulator::scenario_config("terrain");  // K steps, an outage, truth
   cfg.seed = 3;
   cfg.gnss_rate_hz = 1.0;
-  Dataset d = sim::simulate(cfg);
+  Dataset d = simulator::simulate(cfg);
   const OfflineParams p = user_params(d);
   const OfflineResult r = run_offline(d, p);
   const results::OutputRows rows = to_output_rows(r, p.identification.estimator_name);
@@ -342,10 +342,10 @@ TEST(StreamingSummary, BuffersDoNotGrowWithTheDrive) {
 
 TEST(StreamingSummary, OutputFilesReadRowByRowAreTheRowsWritten) {
   namespace fs = std::filesystem;
-  sim::SimulationConfig cfg = sim::scenario_config("straight");
+  simulator::SimulationConfig cfg = simulator::scenario_config("straight");
   cfg.seed = 2;
   cfg.duration_s = 60.0;
-  const Dataset d = sim::simulate(cfg);
+  const Dataset d = simulator::simulate(cfg);
   const OfflineParams p = user_params(d);
   const results::OutputRows rows = to_output_rows(run_offline(d, p), p.identification.estimator_name);
   const fs::path dir = fs::temp_directory_path() / ("odonav-streaming-summary-" + std::to_string(::getpid()));

@@ -8,7 +8,7 @@
 #include <GeographicLib/Geodesic.hpp>
 #include <cmath>
 
-#include "evaluation.hpp"
+#include "odonav/offline/evaluation.hpp"
 #include "odonav/frames.hpp"
 
 namespace odonav::offline {

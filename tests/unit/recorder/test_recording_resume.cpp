@@ -1,4 +1,4 @@
-// Resuming an unfinished recording (components/recorder/core/recording_resume.hpp): which files of
+// Resuming an unfinished recording (components/recorder/core/include/odonav/recorder/recording_resume.hpp): which files of
 // a killed recorder are adopted, which of their rows, what is refused, and what is a repeat.
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "core/recording_resume.hpp"
+#include "odonav/recorder/recording_resume.hpp"
 
 using namespace odonav::recorder;
 namespace fs = std::filesystem;

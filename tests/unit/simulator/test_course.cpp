@@ -6,11 +6,11 @@
 #include <cmath>
 #include <vector>
 
-#include "core/course.hpp"
+#include "odonav/simulator/course.hpp"
 #include "odonav/frames.hpp"
 
 using namespace odonav;
-using namespace odonav::sim;
+using namespace odonav::simulator;
 
 TEST(Course, TrainingGroundLapClosesAndTurnsOnceClockwise) {
   const Course c = Course::training_ground();

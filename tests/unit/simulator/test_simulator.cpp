@@ -13,13 +13,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
 
 using namespace odonav;
-using namespace odonav::sim;
+using namespace odonav::simulator;
 
 namespace {
 

@@ -9,12 +9,12 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "core/simulator.hpp"
+#include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dataset_writer.hpp"
 
 using namespace odonav;
-using namespace odonav::sim;
+using namespace odonav::simulator;
 
 namespace {
 
