@@ -4,7 +4,7 @@
 // and all of them in a row as the tool runs them.
 //
 // Dataset: --dataset=DIR, or $ODONAV_BENCH_DATASET, else the simulator's ring at 3600 s, seed 1
-// (`odonav-sim ring --duration-s 3600`), generated once into $TMPDIR/odonav-bench-ring3600.
+// (`odonav-simulator ring --duration-s 3600`), generated once into $TMPDIR/odonav-bench-ring3600.
 // Outputs go to a temporary folder that is removed at the end. Rates are per second of CPU time
 // of the process (user + system, so the kernel's share of reading and writing counts): on a shared,
 // loaded machine that is the figure that does not depend on what the neighbours do; the wall time

@@ -1,7 +1,7 @@
 // Reading a dataset whole (read_dataset) against row by row (DatasetStream + TruthStream): wall time,
 // rows and peak RSS of the process. One mode per run, so each run's peak RSS is its own:
 //   odonav-bench-dataset-read whole|stream DIR
-// The dataset of a drive of any length: odonav-sim ring --out DIR --duration-s 3600.
+// The dataset of a drive of any length: odonav-simulator ring --out DIR --duration-s 3600.
 #include <sys/resource.h>
 
 #include <chrono>

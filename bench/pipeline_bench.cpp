@@ -284,7 +284,7 @@ struct Setup {
   std::string work;
   int domain = 140;
   double warmup_s = 10.0;      // data time excluded from the steady-state latency (standing start, first fixes)
-  double gnss_rate_hz = 10.0;  // odonav-sim --gnss-rate
+  double gnss_rate_hz = 10.0;  // odonav-simulator --gnss-rate
   double hold_off_s = 0.2;     // the components' --estimate-hold-off-s (given to them when pass_hold_off)
   bool pass_hold_off = false;
   std::string vehicle_id = "bench-vehicle";
@@ -367,10 +367,10 @@ DatasetInfo make_dataset(const Setup& setup, const std::string& scenario, int64_
   std::ostringstream name;
   name << scenario << "-" << seed << "-" << duration_s << "s-" << setup.gnss_rate_hz << "hz";
   info.dir = setup.work + "/" + name.str();
-  run_or_throw("odonav-sim", "'" + setup.bin_dir + "/odonav-sim' " + scenario + " --seed " + std::to_string(seed) +
-                                 " --duration-s " + shortest(duration_s) + " --gnss-rate " +
-                                 shortest(setup.gnss_rate_hz) + " --out '" + info.dir + "' --log-level warn >'" +
-                                 info.dir + ".log' 2>&1");
+  run_or_throw("odonav-simulator", "'" + setup.bin_dir + "/odonav-simulator' " + scenario + " --seed " +
+                                       std::to_string(seed) + " --duration-s " + shortest(duration_s) +
+                                       " --gnss-rate " + shortest(setup.gnss_rate_hz) + " --out '" + info.dir +
+                                       "' --log-level warn >'" + info.dir + ".log' 2>&1");
   const odonav::Dataset d = odonav::read_dataset(info.dir, odonav::BadRowPolicy::kFail);
   info.odometer = d.odometer.size();
   info.ins = d.ins.size();
@@ -875,7 +875,8 @@ int main(int argc, char** argv) {
   opts.add_double("warmup-s", 10.0, "data time at the start left out of the steady-state latency, s", 0.0, 3600.0);
   opts.add_bool("echo", false, "internal: run as the echo process of the raw-hop measurement");
   opts.add_string("vehicle-id", "bench-vehicle", "vehicle id of the run (the DDS key)");
-  opts.add_double("gnss-rate", 10.0, "GNSS rate of the simulated datasets (odonav-sim --gnss-rate), Hz", 0.1, 100.0);
+  opts.add_double("gnss-rate", 10.0, "GNSS rate of the simulated datasets (odonav-simulator --gnss-rate), Hz", 0.1,
+                  100.0);
   opts.add_double("estimate-hold-off-s", -1.0,
                   "hold-off given to dead reckoning and identification, s; < 0 = their default (0.2 s, not passed)",
                   -1.0, 10.0);

@@ -20,7 +20,7 @@ endif()
 include(GNUInstallDirs)
 
 set(_odonav_programs odonav-gateway odonav-calibration odonav-identification odonav-dead-reckoning
-  odonav-recorder odonav-ground odonav-offline odonav-evaluate odonav-sim)
+  odonav-recorder odonav-ground odonav-offline odonav-evaluate odonav-simulator)
 install(TARGETS ${_odonav_programs} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(PROGRAMS ${CMAKE_SOURCE_DIR}/components/report/odonav-report DESTINATION ${CMAKE_INSTALL_BINDIR})
 

@@ -1,8 +1,8 @@
-// odonav-sim: writes a simulated dataset directory (docs/DATASET.md) for a named scenario.
+// odonav-simulator: writes a simulated dataset directory (docs/DATASET.md) for a named scenario.
 //
-//   odonav-sim <straight|ring|terrain|slow_robot|polar_north|south_pole|antimeridian> --out DIR [--seed N] [--gnss-rate 1|2|5|10|20] [--duration-s S] ...
-//   odonav-sim <scenario> --nmea FILE [--nmea-utc-epoch-s S] ...   the GNSS as NMEA 0183 (core/nmea.hpp)
-//   (odonav-sim --help lists every option; --config FILE reads `name = value` lines.)
+//   odonav-simulator <straight|ring|terrain|slow_robot|polar_north|south_pole|antimeridian> --out DIR [--seed N] [--gnss-rate 1|2|5|10|20] [--duration-s S] ...
+//   odonav-simulator <scenario> --nmea FILE [--nmea-utc-epoch-s S] ...   the GNSS as NMEA 0183 (core/nmea.hpp)
+//   (odonav-simulator --help lists every option; --config FILE reads `name = value` lines.)
 //
 // Exit codes: 0 written, 2 bad command line, 1 simulation or I/O failure.
 #include <spdlog/spdlog.h>
@@ -46,7 +46,7 @@ void check_dataset_destination(const std::string& dir, bool force) {
 
 int main(int argc, char** argv) {
   const odonav::simulator::SimulationConfig base;  // defaults shown in the usage; the scenario may change some
-  odonav::Options opts("odonav-sim",
+  odonav::Options opts("odonav-simulator",
                        "Simulates a tracked vehicle (odometer, GNSS, INS, truth) on a named scenario and "
                        "writes a dataset directory (docs/DATASET.md). Deterministic for a given seed.");
   opts.add_positional("scenario", "straight, ring, terrain, slow_robot, polar_north, south_pole or antimeridian");
@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
   odonav::simulator::NmeaSettings nmea;
   try {
     if (opts.parse(argc, argv) == odonav::ParseResult::kHelp) return 0;
-    odonav::setup_logging("odonav-sim", opts.get_string("log-level"));
+    odonav::setup_logging("odonav-simulator", opts.get_string("log-level"));
     cfg = odonav::simulator::scenario_config(opts.get_string("scenario"));
     out_dir = opts.get_string("out");
     nmea_path = opts.get_string("nmea");
@@ -107,7 +107,7 @@ int main(int argc, char** argv) {
     cfg.start_time_s = opts.get_double("start-time-s");
     odonav::simulator::validate(cfg);
   } catch (const std::exception& e) {  // ConfigError, unknown scenario, invalid config
-    std::cerr << "odonav-sim: " << e.what() << "\n(odonav-sim --help for the usage)\n";
+    std::cerr << "odonav-simulator: " << e.what() << "\n(odonav-simulator --help for the usage)\n";
     return 2;
   }
   try {
@@ -158,7 +158,7 @@ int main(int argc, char** argv) {
                  cfg.scenario, cfg.seed, sink.last_truth->t_s - sink.first_truth->t_s, sink.last_truth->distance_m,
                  rows.odometer, rows.gnss, rows.ins, rows.truth);
   } catch (const std::exception& e) {
-    std::cerr << "odonav-sim: " << e.what() << "\n";
+    std::cerr << "odonav-simulator: " << e.what() << "\n";
     return 1;
   }
   return 0;

@@ -29,10 +29,10 @@ void add_gateway_options(Options& o) {
                0.0, 1e10);
   o.add_bool("allow-non-loopback", false,
              "udp source: allow binding an address outside 127.0.0.0/8; gpsd: allow a non-loopback host");
-  o.add_int("seed", 1, "sim source: seed of the sensor noise (as odonav-sim --seed)", 0,
+  o.add_int("seed", 1, "sim source: seed of the sensor noise (as odonav-simulator --seed)", 0,
             std::numeric_limits<int64_t>::max());
-  o.add_double("duration-s", 0.0, "sim source: run length, s (as odonav-sim --duration-s); 0 = the scenario's", 0.0,
-               604800.0);
+  o.add_double("duration-s", 0.0, "sim source: run length, s (as odonav-simulator --duration-s); 0 = the scenario's",
+               0.0, 604800.0);
   o.add_choice("on-bad-row", "fail", {"fail", "skip"},
                "replay source: a bad row stops the gateway, or is skipped and counted");
   o.add_string("speed", "1", "1 = real time, N = N times real time, max = as fast as the readers acknowledge");

@@ -21,9 +21,9 @@ const auto run = odonav::test::run_command;
 
 namespace {
 
-const char* kPrograms[] = {"odonav-gateway",  "odonav-calibration", "odonav-identification", "odonav-dead-reckoning",
-                           "odonav-recorder", "odonav-ground",      "odonav-offline",        "odonav-evaluate",
-                           "odonav-sim",      "odonav-report"};
+const char* kPrograms[] = {"odonav-gateway",   "odonav-calibration", "odonav-identification", "odonav-dead-reckoning",
+                           "odonav-recorder",  "odonav-ground",      "odonav-offline",        "odonav-evaluate",
+                           "odonav-simulator", "odonav-report"};
 
 }  // namespace
 

@@ -616,7 +616,7 @@ double health_counter(const msg::Health& h, const std::string& name) {
 
 /// The ring drive the gateway replays (same seed and duration), as a dataset in dir/dataset.
 void simulate_ring(const std::string& dir, const char* seed, const char* duration_s) {
-  ASSERT_EQ(run(binary("odonav-sim") + " ring --out " + dir + "/dataset --seed " + seed + " --duration-s " +
+  ASSERT_EQ(run(binary("odonav-simulator") + " ring --out " + dir + "/dataset --seed " + seed + " --duration-s " +
                 duration_s + " >" + dir + "/sim.log 2>&1"),
             0)
       << read_text(dir + "/sim.log");

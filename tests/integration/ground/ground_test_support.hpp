@@ -151,7 +151,7 @@ inline McapRead read_mcap(const std::filesystem::path& file, const std::string& 
 
 /// How a VehiclePipeline runs.
 struct PipelineOptions {
-  std::string scenario = "terrain";  ///< odonav-sim scenario of the gateway's sim: source
+  std::string scenario = "terrain";  ///< odonav-simulator scenario of the gateway's sim: source
   std::string speed = "2";           ///< gateway --speed: 1 real time, N, or max
   int seed = 1;
   double duration_s = 240.0;  ///< sim length (s); terrain's first K step is at 250 s
@@ -248,15 +248,15 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 /// The simulator's truth for a scenario and seed (meta.json "truth" and "simulation"), from
-/// odonav-sim itself: initial K (m/pulse) and installation misalignment (deg).
+/// odonav-simulator itself: initial K (m/pulse) and installation misalignment (deg).
 struct ScenarioTruth {
   double k_m_per_pulse = 0.0;
   double heading_deg = 0.0, pitch_deg = 0.0;
 };
 inline ScenarioTruth scenario_truth(const std::string& scenario, int seed, const std::filesystem::path& dir) {
-  const RunResult r =
-      run(binary("odonav-sim"), {scenario, "--seed", std::to_string(seed), "--duration-s", "10", "--out", dir.string()},
-          dir.parent_path(), "sim-" + scenario);
+  const RunResult r = run(binary("odonav-simulator"),
+                          {scenario, "--seed", std::to_string(seed), "--duration-s", "10", "--out", dir.string()},
+                          dir.parent_path(), "sim-" + scenario);
   EXPECT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json meta = nlohmann::json::parse(read_text(dir / "meta.json"));
   ScenarioTruth t;

@@ -1,4 +1,4 @@
-// odonav-report on the output folder of odonav-offline over a short simulated drive (odonav-sim
+// odonav-report on the output folder of odonav-offline over a short simulated drive (odonav-simulator
 // terrain, 120 s): the page exists, every figure file is non-empty and referenced by the page; a
 // folder with a missing file fails naming it.
 #include <gtest/gtest.h>
@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 TEST(Report, HtmlWithEveryFigureFromAnOfflineRun) {
   const fs::path dir = scratch_dir("report");
   const RunResult sim =
-      run(binary("odonav-sim"), {"terrain", "--duration-s", "120", "--out", (dir / "data").string()}, dir, "sim");
+      run(binary("odonav-simulator"), {"terrain", "--duration-s", "120", "--out", (dir / "data").string()}, dir, "sim");
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
   const RunResult off =
       run(binary("odonav-offline"), {(dir / "data").string(), "--out", (dir / "out").string()}, dir, "offline");
@@ -64,9 +64,10 @@ TEST(Report, HtmlWithEveryFigureFromAnOfflineRun) {
 // or a file that is not its own, and refuses results of another vehicle or time span.
 TEST(Report, RefusesWhatItMustNotWriteAndNeverTracesBack) {
   const fs::path dir = scratch_dir("report-hostile");
-  ASSERT_EQ(run(binary("odonav-sim"), {"straight", "--duration-s", "60", "--out", (dir / "data").string()}, dir, "sim")
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      run(binary("odonav-simulator"), {"straight", "--duration-s", "60", "--out", (dir / "data").string()}, dir, "sim")
+          .exit_code,
+      0);
   // A drive whose every fix is invalid: dead reckoning never starts (summary.json has nulls).
   {
     const std::string gnss = read_text(dir / "data" / "gnss.csv");

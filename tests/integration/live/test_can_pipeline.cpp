@@ -89,8 +89,8 @@ CanLog write_can_log(const Dataset& d, const fs::path& path) {
 
 fs::path simulate(const fs::path& dir, const std::string& scenario, const std::string& duration_s) {
   const fs::path data = dir / "sim";
-  ChildProcess sim(binary("odonav-sim"), {scenario, "--seed", "2", "--duration-s", duration_s, "--out", data.string(),
-                                          "--log-level", "warn"});
+  ChildProcess sim(binary("odonav-simulator"), {scenario, "--seed", "2", "--duration-s", duration_s, "--out",
+                                                data.string(), "--log-level", "warn"});
   EXPECT_TRUE(sim.wait_exit(120s));
   EXPECT_EQ(sim.exit_code(), 0);
   return data;

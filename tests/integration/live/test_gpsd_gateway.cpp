@@ -69,7 +69,7 @@ double stamp_s(const msg::GnssFix& m) { return dds::to_seconds(m.header().stamp(
 
 TEST(GpsdGateway, SimulatorNmeaThroughGpsdMatchesTheScenarioGnss) {
   const fs::path dir = fresh_live_dir("gpsd-sim");
-  ChildProcess sim(binary("odonav-sim"),
+  ChildProcess sim(binary("odonav-simulator"),
                    {"straight", "--seed", "5", "--duration-s", "12", "--out", (dir / "dataset").string(), "--nmea",
                     (dir / "drive.nmea").string(), "--log-level", "warn"});
   ASSERT_TRUE(sim.wait_exit(60s));

@@ -1,4 +1,4 @@
-// odonav-gateway with a live source, as a process on loopback DDS: a drive written by odonav-sim is
+// odonav-gateway with a live source, as a process on loopback DDS: a drive written by odonav-simulator is
 // sent as protocol lines (with malformed and bad-checksum lines mixed in) over UDP on 127.0.0.1 and
 // through a socat pseudo-terminal pair; every published message must equal the dataset's sample
 // (stamp, counter, angles, position), and Health must count exactly the bad lines sent.
@@ -31,9 +31,9 @@ fs::path fresh_dir(const std::string& name) {
   return dir;
 }
 
-/// A 12 s straight drive written by odonav-sim and read back as the gateway's consumers see it.
+/// A 12 s straight drive written by odonav-simulator and read back as the gateway's consumers see it.
 Dataset simulated_drive(const fs::path& dir) {
-  ChildProcess sim(binary("odonav-sim"),
+  ChildProcess sim(binary("odonav-simulator"),
                    {"straight", "--seed", "5", "--duration-s", "12", "--out", dir.string(), "--log-level", "warn"});
   EXPECT_TRUE(sim.wait_exit(60s));
   EXPECT_EQ(sim.exit_code(), 0);

@@ -77,7 +77,7 @@ DriveAndReplay drive_and_replay(const std::string& name, int domain) {
   DriveAndReplay r;
   const fs::path dir = fresh_live_dir(name);
   const std::string data = (dir / "dataset").string();
-  ChildProcess sim(binary("odonav-sim"),
+  ChildProcess sim(binary("odonav-simulator"),
                    {"straight", "--seed", "5", "--duration-s", "60", "--out", data, "--log-level", "warn"});
   EXPECT_TRUE(sim.wait_exit(60s));
   EXPECT_EQ(sim.exit_code(), 0);

@@ -252,10 +252,10 @@ struct Drive {
 
 Drive simulate_drive(const fs::path& dir, double duration_s) {
   const fs::path out = dir / "dataset";
-  const std::string cmd = (kBin / "odonav-sim").string() + " terrain --seed " + std::to_string(kSeed) +
+  const std::string cmd = (kBin / "odonav-simulator").string() + " terrain --seed " + std::to_string(kSeed) +
                           " --duration-s " + std::to_string(duration_s) + " --out " + out.string() + " >" +
                           (dir / "sim.log").string() + " 2>&1";
-  if (std::system(cmd.c_str()) != 0) throw std::runtime_error("odonav-sim failed: " + read_text(dir / "sim.log"));
+  if (std::system(cmd.c_str()) != 0) throw std::runtime_error("odonav-simulator failed: " + read_text(dir / "sim.log"));
   Drive d;
   d.data = odonav::read_dataset(out.string(), odonav::BadRowPolicy::kFail);
   const auto meta = nlohmann::json::parse(d.data.meta.raw_json);

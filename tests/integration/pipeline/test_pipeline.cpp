@@ -107,8 +107,8 @@ std::string fresh_dir(const std::string& name) {
 /// when the simulator failed (its log: dir/sim.log).
 std::string ring_without_gnss(const std::string& dir, int duration_s, double gap_start_s, double gap_end_s) {
   const std::string full = dir + "/full";
-  if (run(kBin + "/odonav-sim ring --duration-s " + std::to_string(duration_s) + " --seed 3 --out " + full + " >" +
-          dir + "/sim.log 2>&1") != 0)
+  if (run(kBin + "/odonav-simulator ring --duration-s " + std::to_string(duration_s) + " --seed 3 --out " + full +
+          " >" + dir + "/sim.log 2>&1") != 0)
     return "";
   Dataset d = read_dataset(full, BadRowPolicy::kFail);
   d.gnss.erase(std::remove_if(d.gnss.begin(), d.gnss.end(),
@@ -404,8 +404,8 @@ void expect_pipeline_equals_offline(const std::string& data, const std::string& 
 TEST_F(Pipeline, LateGnssEqualsTheOfflineToolWithTheLatencyEstimated) {
   const std::string dir = fresh_dir("late-gnss");
   const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s 150 --seed 2 --gnss-latency-s 0.105 --out " + data + " >" +
-                dir + "/sim.log 2>&1"),
+  ASSERT_EQ(run(kBin + "/odonav-simulator terrain --duration-s 150 --seed 2 --gnss-latency-s 0.105 --out " + data +
+                " >" + dir + "/sim.log 2>&1"),
             0);
   const std::string out = dir + "/out";
   launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "170", "--out", out}, out, 300);
@@ -419,7 +419,7 @@ TEST_F(Pipeline, LateGnssEqualsTheOfflineToolWithTheLatencyEstimated) {
 TEST_F(Pipeline, OneHertzSlowRobotEqualsTheOfflineTool) {
   const std::string dir = fresh_dir("slow-robot");
   const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-sim slow_robot --out " + data + " >" + dir + "/sim.log 2>&1"), 0);
+  ASSERT_EQ(run(kBin + "/odonav-simulator slow_robot --out " + data + " >" + dir + "/sim.log 2>&1"), 0);
   const std::string out = dir + "/out";
   launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "171", "--out", out}, out, 300);
   expect_pipeline_equals_offline(data, out);
@@ -434,7 +434,7 @@ TEST_F(Pipeline, OneHertzSlowRobotEqualsTheOfflineTool) {
 TEST_F(Pipeline, OneHertzTerrainWithReceiverLatencyEqualsTheOfflineTool) {
   const std::string dir = fresh_dir("terrain-1hz-latency");
   const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s 150 --seed 1 --gnss-rate 1 --gnss-latency-s 0.1 --out " +
+  ASSERT_EQ(run(kBin + "/odonav-simulator terrain --duration-s 150 --seed 1 --gnss-rate 1 --gnss-latency-s 0.1 --out " +
                 data + " >" + dir + "/sim.log 2>&1"),
             0);
   const std::string out = dir + "/out";
@@ -456,9 +456,10 @@ TEST_F(Pipeline, OneHertzTerrainWithReceiverLatencyEqualsTheOfflineTool) {
 TEST_F(Pipeline, TenHertzTerrainWithReceiverLatencyEqualsTheOfflineTool) {
   const std::string dir = fresh_dir("terrain-10hz-latency");
   const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s 120 --seed 1 --gnss-rate 10 --gnss-latency-s 0.1 --out " +
-                data + " >" + dir + "/sim.log 2>&1"),
-            0);
+  ASSERT_EQ(
+      run(kBin + "/odonav-simulator terrain --duration-s 120 --seed 1 --gnss-rate 10 --gnss-latency-s 0.1 --out " +
+          data + " >" + dir + "/sim.log 2>&1"),
+      0);
   const std::string out = dir + "/out";
   launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "221", "--out", out}, out, 300);
   expect_pipeline_equals_offline(data, out);
@@ -475,7 +476,8 @@ TEST_F(Pipeline, TenHertzTerrainWithReceiverLatencyEqualsTheOfflineTool) {
 TEST_F(Pipeline, EstimatesLaterThanTheirHoldOffAreWaitedForCountedAndStillEqualTheOfflineTool) {
   const std::string dir = fresh_dir("hold-off-0");
   const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-sim ring --duration-s 90 --seed 3 --out " + data + " >" + dir + "/sim.log 2>&1"), 0);
+  ASSERT_EQ(run(kBin + "/odonav-simulator ring --duration-s 90 --seed 3 --out " + data + " >" + dir + "/sim.log 2>&1"),
+            0);
   const std::string out = dir + "/out";
   launch_ok(
       {"--source", "replay:" + data, "--speed", "max", "--domain", "222", "--estimate-hold-off-s", "0", "--out", out},
@@ -497,8 +499,8 @@ void expect_rate_equals_offline(const std::string& scenario, const std::string& 
                                 const std::string& domain, std::size_t epochs_min) {
   const std::string dir = fresh_dir(scenario + "-" + rate + "hz");
   const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-sim " + scenario + " --duration-s " + duration_s + " --seed 4 --gnss-rate " + rate +
-                " --gnss-latency-s 0.05 --out " + data + " >" + dir + "/sim.log 2>&1"),
+  ASSERT_EQ(run(kBin + "/odonav-simulator " + scenario + " --duration-s " + duration_s + " --seed 4 --gnss-rate " +
+                rate + " --gnss-latency-s 0.05 --out " + data + " >" + dir + "/sim.log 2>&1"),
             0);
   const std::string out = dir + "/out";
   shm_clean();
@@ -550,7 +552,7 @@ TEST_F(Pipeline, GnssAbsentForMinutesDeadReckoningKeepsPublishingOnHeldEstimates
   const std::string dir = fresh_dir("gnss-absent-minutes");
   const double gap_start_s = 50.0, gap_end_s = 185.0;
   const std::string data = ring_without_gnss(dir, 200, gap_start_s, gap_end_s);
-  ASSERT_FALSE(data.empty()) << "odonav-sim failed: " << dir << "/sim.log";
+  ASSERT_FALSE(data.empty()) << "odonav-simulator failed: " << dir << "/sim.log";
   const std::string out = dir + "/out";
   launch_ok({"--source", "replay:" + data, "--speed", "10", "--max-wait-s", "5", "--domain", "167", "--out", out}, out,
             300);
@@ -583,7 +585,7 @@ TEST_F(Pipeline, GnssAbsentForMinutesDeadReckoningKeepsPublishingOnHeldEstimates
 // files at every GNSS rate: estimates apply by the event-time hold-off rule, never by arrival.
 // A drive of duration_s (standstill, then driving off along the first straight) keeps real time short.
 struct SpeedCase {
-  std::string rate;  ///< GNSS rate [Hz], as given to odonav-sim --gnss-rate
+  std::string rate;  ///< GNSS rate [Hz], as given to odonav-simulator --gnss-rate
   double duration_s;
   std::string domain_real, domain_fast;
   std::string dir{}, data{}, real{}, fast{};  ///< filled in by the test
@@ -600,8 +602,8 @@ TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFilesAtEveryGnssR
     c.data = c.dir + "/data";
     c.real = c.dir + "/real-time";
     c.fast = c.dir + "/max";
-    ASSERT_EQ(run(kBin + "/odonav-sim terrain --duration-s " + std::to_string(c.duration_s) + " --seed 5 --gnss-rate " +
-                  c.rate + " --out " + c.data + " >" + c.dir + "/sim.log 2>&1"),
+    ASSERT_EQ(run(kBin + "/odonav-simulator terrain --duration-s " + std::to_string(c.duration_s) +
+                  " --seed 5 --gnss-rate " + c.rate + " --out " + c.data + " >" + c.dir + "/sim.log 2>&1"),
               0)
         << c.rate << " Hz";
   }
@@ -651,7 +653,7 @@ TEST_F(Pipeline, GnssRemovedMidRunIdentificationHoldsKAndDeadReckoningContinues)
   const std::string dir = fresh_dir("gnss-removed");
   const double gap_start_s = 90.0, gap_end_s = 120.0;
   const std::string data = ring_without_gnss(dir, 150, gap_start_s, gap_end_s);
-  ASSERT_FALSE(data.empty()) << "odonav-sim failed: " << dir << "/sim.log";
+  ASSERT_FALSE(data.empty()) << "odonav-simulator failed: " << dir << "/sim.log";
   const std::string out = dir + "/out";
   launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "55", "--out", out}, out, 300);
   const results::OutputRows rows = results::read_output_rows(out);

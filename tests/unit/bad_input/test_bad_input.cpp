@@ -339,7 +339,8 @@ TEST(BadInput, MalformedXmlProfileMakesAComponentExitNonzeroNamingThePath) {
 TEST(BadInput, OneWrongGnssVelocityRowDoesNotMoveTheMisalignment) {
   ScratchDir dir;
   const std::string dataset = dir.file("ring");
-  ASSERT_EQ(run(binary("odonav-sim") + " ring --duration-s 60 --out " + dataset + " --log-level error").exit_code, 0);
+  ASSERT_EQ(run(binary("odonav-simulator") + " ring --duration-s 60 --out " + dataset + " --log-level error").exit_code,
+            0);
   const auto heading_error_deg = [&](const std::string& out, const std::string& flags = "") {
     const RunResult r = run(binary("odonav-offline") + " " + dataset + " --out " + out + " --log-level warn " + flags);
     EXPECT_EQ(r.exit_code, 0) << r.output;
@@ -386,8 +387,9 @@ TEST(BadInput, OneWrongGnssVelocityRowDoesNotMoveTheMisalignment) {
 TEST(BadInput, AHeadingOfTheOtherConventionAndAForeignTruthAreNamedAndNothingGoodIsLost) {
   ScratchDir dir;
   const std::string dataset = dir.file("terrain");
-  ASSERT_EQ(run(binary("odonav-sim") + " terrain --duration-s 200 --out " + dataset + " --log-level error").exit_code,
-            0);
+  ASSERT_EQ(
+      run(binary("odonav-simulator") + " terrain --duration-s 200 --out " + dataset + " --log-level error").exit_code,
+      0);
   const auto lines_of = [](const std::string& file) {
     std::ifstream in(file);
     std::size_t n = 0;

@@ -1,6 +1,6 @@
 // odonav-gateway's core without DDS: --source and --speed parsing, the pacing clock, the
 // acknowledgment schedule, the time-ordered merge of the streams, and the promise that the sim
-// source gives exactly the dataset odonav-sim writes (angles as the files hold them).
+// source gives exactly the dataset odonav-simulator writes (angles as the files hold them).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -124,7 +124,7 @@ TEST(GatewaySource, RecordedDegreesGiveTheRadiansBackWithinOneUlp) {
 
 TEST(GatewaySource, SimSourceIsBitIdenticalToTheWrittenDataset) {
   // What the gateway publishes from sim:terrain equals what read_dataset gives for the files
-  // odonav-sim writes with the same seed and duration.
+  // odonav-simulator writes with the same seed and duration.
   SimulatorSettings settings;
   settings.seed = 7;
   settings.duration_s = 30.0;

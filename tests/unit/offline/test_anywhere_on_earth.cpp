@@ -1,4 +1,4 @@
-// Drives across longitude 180 and past both poles (odonav-sim's antimeridian, polar_north and
+// Drives across longitude 180 and past both poles (odonav-simulator's antimeridian, polar_north and
 // south_pole scenarios) through odonav-offline's chain, against the simulator's truth: every
 // position written is in range, the pure DR and the GNSS-anchored navigation position are as
 // accurate there as on an ordinary drive, the anchored position stays within its own stated sigma,

@@ -198,7 +198,7 @@ TEST(NavigationPosition, AtFiveAndTwentyHertzGnssItBeatsTheFixesAndBridgesTheOut
   }
 }
 
-// Fixes stamped 0.1 s after they measured (odonav-sim --gnss-latency-s 0.1), 10 Hz, seed 1: the
+// Fixes stamped 0.1 s after they measured (odonav-simulator --gnss-latency-s 0.1), 10 Hz, seed 1: the
 // identification estimates the latency and the DR hands the filter each fix with the DR at stamp -
 // latency, so the navigation position is what it is without a latency.
 TEST(NavigationPosition, AFixStampedLateIsComparedWithTheDrWhenItMeasured) {

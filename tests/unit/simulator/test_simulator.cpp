@@ -462,7 +462,7 @@ TEST(Simulator, BadConfigAndUnknownScenarioNameTheProblem) {
 TEST(Simulator, WrittenDatasetReadsBackUnderFailPolicy) {
   const Dataset& ds = scenario("terrain");
   const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("odonav-sim-test-" + std::to_string(::getpid()));
+      std::filesystem::temp_directory_path() / ("odonav-simulator-test-" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   write_dataset(dir.string(), ds);
   DatasetReadReport report;
@@ -487,7 +487,7 @@ TEST(Simulator, WrittenDatasetReadsBackUnderFailPolicy) {
 
 TEST(Simulator, ExecutableWritesReadableDatasetAndRejectsBadArguments) {
   const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("odonav-sim-exe-" + std::to_string(::getpid()));
+      std::filesystem::temp_directory_path() / ("odonav-simulator-exe-" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   const std::string exe = ODONAV_SIM_EXECUTABLE;
   const std::string cmd = exe + " straight --out " + dir.string() + " --seed 3 --gnss-rate 1 > /dev/null 2>&1";

@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 class Scratch {
  public:
   explicit Scratch(const std::string& name)
-      : path_(fs::temp_directory_path() / ("odonav-sim-stream-" + name + "-" + std::to_string(::getpid()))) {
+      : path_(fs::temp_directory_path() / ("odonav-simulator-stream-" + name + "-" + std::to_string(::getpid()))) {
     fs::remove_all(path_);
   }
   ~Scratch() {

@@ -4,7 +4,7 @@
 // A source is `sim:<scenario>` (the simulator, in-process) or `replay:<dataset dir>` (a dataset
 // directory, docs/DATASET.md). Either way the result is an odonav::Dataset holding exactly what
 // read_dataset() gives for the dataset files of that drive, so the pipeline fed by the gateway and
-// odonav-offline reading `odonav-sim <scenario> --out DIR` see bit-identical inputs.
+// odonav-offline reading `odonav-simulator <scenario> --out DIR` see bit-identical inputs.
 // The three sensor streams are then merged into one time-ordered list of events (interleave()).
 #include <cstddef>
 #include <cstdint>
@@ -30,8 +30,8 @@ SourceSpec parse_source(const std::string& text);
 
 /// Settings of the simulator source.
 struct SimulatorSettings {
-  std::uint64_t seed = 1;   ///< noise seed, as odonav-sim --seed.
-  double duration_s = 0.0;  ///< > 0: run length in seconds, as odonav-sim --duration-s; 0 = natural length.
+  std::uint64_t seed = 1;   ///< noise seed, as odonav-simulator --seed.
+  double duration_s = 0.0;  ///< > 0: run length in seconds, as odonav-simulator --duration-s; 0 = natural length.
 };
 
 /// Loads the dataset of a source.
@@ -55,7 +55,7 @@ inline double recorded_radians(double angle_rad) { return deg_to_rad(recorded_de
 
 /// The dataset as write_dataset + read_dataset would give it back: every GNSS, INS and truth
 /// angle replaced by recorded_radians(). Everything else already round-trips exactly (shortest
-/// round-trip decimal form). Used on simulated data so the gateway publishes what odonav-sim writes.
+/// round-trip decimal form). Used on simulated data so the gateway publishes what odonav-simulator writes.
 Dataset as_recorded(Dataset dataset);
 
 /// One sensor sample to publish: which stream and its index in that stream of the dataset.
