@@ -511,6 +511,7 @@ IdentificationHealthFacts running_facts(bool converged) {
   f.last_output->main.valid = true;
   f.last_output->main.converged = converged;
   f.last_output->main.k_m_per_pulse = kTrueK;
+  f.last_output->latency_decided = true;
   f.misalignment_heard = true;
   f.misalignments_applied = 4;
   f.now_s = 100.0;
@@ -522,6 +523,26 @@ TEST(IdentificationHealthDecision, ConvergedWithMisalignmentIsRunningOkWithoutRe
   EXPECT_EQ(h.state, State::kRunning);
   EXPECT_EQ(h.level, Level::kOk);
   EXPECT_EQ(h.reason, "");
+}
+
+TEST(IdentificationHealthDecision, AKWaitingForTheLatencySearchSaysWhatIsMissing) {
+  IdentificationHealthFacts f = running_facts(false);
+  f.last_output->latency_decided = false;
+  f.last_output->latency.estimate_s = 0.023;
+  f.last_output->latency.sigma_s = 0.008;
+  f.last_output->latency.samples = 120;
+  ComponentHealth h = identification_health(f);
+  EXPECT_EQ(h.state, State::kRunning);
+  EXPECT_EQ(h.level, Level::kOk);
+  EXPECT_EQ(
+      h.reason,
+      "K not converged yet: GNSS latency not decided (estimate 23.0 +- 8.0 ms from 120 samples, 0.0 ms in force)");
+  f.last_output->latency = GnssLatencyEstimate{};
+  f.last_output->latency.reason = "12 s of samples, 20 s needed";
+  EXPECT_EQ(identification_health(f).reason,
+            "K not converged yet: GNSS latency not decided (no estimate yet: 12 s of samples, 20 s needed)");
+  f.last_output->main.valid = false;
+  EXPECT_EQ(identification_health(f).reason, "K not converged yet") << "no K: the latency is not the reason";
 }
 
 TEST(IdentificationHealthDecision, WaitingFrozenAndNotConverged) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <utility>
 
 #include <spdlog/spdlog.h>
@@ -9,6 +10,21 @@
 #include "odonav/consumer_rules.hpp"
 
 namespace odonav {
+
+namespace {
+// Why K cannot be converged yet when the latency search has not decided (SampleBuilder::
+// latency_decided): its estimate against the value in force, or why there is none.
+std::string latency_not_decided_text(const GnssLatencyEstimate& l) {
+  if (l.sigma_s < 0.0) {
+    return "GNSS latency not decided (no estimate yet" + (l.reason.empty() ? std::string() : ": " + l.reason) + ")";
+  }
+  char text[160];
+  std::snprintf(
+      text, sizeof text, "GNSS latency not decided (estimate %.1f +- %.1f ms from %llu samples, %.1f ms in force)",
+      1000.0 * l.estimate_s, 1000.0 * l.sigma_s, static_cast<unsigned long long>(l.samples), 1000.0 * l.applied_s);
+  return text;
+}
+}  // namespace
 
 ComponentHealth identification_health(const IdentificationHealthFacts& f) {
   using State = ComponentHealth::State;
@@ -20,6 +36,9 @@ ComponentHealth identification_health(const IdentificationHealthFacts& f) {
     s.reason = "frozen by command: K held";
   } else if (!f.last_output->main.valid || !f.last_output->main.converged) {
     s.reason = "K not converged yet";
+    if (f.last_output->main.valid && !f.last_output->latency_decided) {
+      s.reason += ": " + latency_not_decided_text(f.last_output->latency);
+    }
   }
   // The misalignment is optional: say why zero is used, without raising the level.
   std::string mis;
