@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "odonav/safe_output.hpp"
+#include "odonav/shortest_double.hpp"
 #include "text_util.hpp"
 
 namespace odonav {
@@ -41,9 +42,8 @@ CsvWriter& CsvWriter::field(double value) {
   if (std::isfinite(value)) {
     // The same shortest round-trip text as io_detail::format_double, written straight into the buffer:
     // this is the hottest line of odonav-offline's output stage (and of the dataset writer).
-    char text[64];
-    const auto [end, ec] = std::to_chars(text, text + sizeof text, value);
-    if (ec == std::errc()) buffer_.append(text, end);
+    char text[kShortestDoubleMaxChars];
+    buffer_.append(text, write_shortest_double(text, value));
   }
   return *this;
 }
@@ -52,13 +52,15 @@ CsvWriter& CsvWriter::field(const std::optional<double>& value) { return value ?
 
 CsvWriter& CsvWriter::field(int64_t value) {
   separator();
-  buffer_ += std::to_string(value);
+  char text[24];
+  buffer_.append(text, std::to_chars(text, text + sizeof text, value).ptr);
   return *this;
 }
 
 CsvWriter& CsvWriter::field(uint64_t value) {
   separator();
-  buffer_ += std::to_string(value);
+  char text[24];
+  buffer_.append(text, std::to_chars(text, text + sizeof text, value).ptr);
   return *this;
 }
 
