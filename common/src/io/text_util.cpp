@@ -7,7 +7,6 @@
 
 #include <charconv>
 #include <cmath>
-#include <cstdint>
 #include <limits>
 #include <system_error>
 
@@ -41,45 +40,9 @@ static bool looks_like_nan_or_inf(std::string_view text) {
   return lower == "nan" || lower == "inf" || lower == "infinity" || lower.rfind("nan(", 0) == 0;
 }
 
-// The plain decimals of a dataset ("0.01", "-12.5", "52.50000658205023") without from_chars: digits,
-// optionally a point and more digits, at most 2^53 as an integer and at most 22 after the point.
-// Then the integer and 10^decimals are exact doubles and their quotient, one IEEE division, is the
-// correctly rounded value, the one std::from_chars returns (Clinger's fast path). Anything else
-// (17 significant digits, an exponent, a sign other than a leading '-' or '+', a stray character)
-// returns false and goes through from_chars and its checks.
-static bool parse_plain_decimal(std::string_view text, double& out) {
-  static constexpr double kPowersOf10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
-                                             1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
-  constexpr uint64_t kMaxExact = uint64_t{1} << 53;
-  const char* p = text.data();
-  const char* const end = p + text.size();
-  const bool negative = p != end && *p == '-';
-  if (p != end && (*p == '-' || *p == '+')) ++p;
-  uint64_t digits = 0;
-  int integer_digits = 0, decimals = 0;
-  for (; p != end && *p >= '0' && *p <= '9'; ++p, ++integer_digits) {
-    if (integer_digits >= 16) return false;  // keeps `digits` from overflowing; 2^53 has 16 digits
-    digits = digits * 10 + static_cast<uint64_t>(*p - '0');
-  }
-  if (integer_digits == 0) return false;
-  if (p != end && *p == '.') {
-    ++p;
-    for (; p != end && *p >= '0' && *p <= '9'; ++p, ++decimals) {
-      if (integer_digits + decimals >= 19 || decimals >= 22) return false;
-      digits = digits * 10 + static_cast<uint64_t>(*p - '0');
-    }
-    if (decimals == 0) return false;
-  }
-  if (p != end || digits > kMaxExact) return false;
-  const double value = static_cast<double>(digits) / kPowersOf10[decimals];
-  out = negative ? -value : value;
-  return true;
-}
-
 NumberStatus parse_double(std::string_view text, double& out) {
   text = trim(text);
   if (text.empty()) return NumberStatus::kEmpty;
-  if (parse_plain_decimal(text, out)) return NumberStatus::kOk;
   if (looks_like_nan_or_inf(text)) return NumberStatus::kNotFinite;
   if (!strip_plus(text)) return NumberStatus::kNotNumber;
   double value = 0.0;
