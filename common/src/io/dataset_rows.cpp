@@ -117,7 +117,9 @@ class RowFields {
  private:
   double parse_number(int id) {
     double value = 0.0;
-    switch (io_detail::parse_double(text(id), value)) {
+    // parse_double trims the field itself (text(id) would trim it a second time).
+    const std::string_view field = has_column(id) ? fields_[field_of_column_[id]] : std::string_view();
+    switch (io_detail::parse_double(field, value)) {
       case NumberStatus::kOk: return value;
       case NumberStatus::kEmpty: fail(id, "missing value"); break;
       case NumberStatus::kNotFinite: fail(id, "NaN or infinity is not allowed: " + in_quotes(text(id))); break;

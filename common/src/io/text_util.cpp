@@ -1,6 +1,8 @@
 // Strict number parsing and exact number formatting for odonav_io (see text_util.hpp).
 #include "text_util.hpp"
 
+#include "odonav/shortest_double.hpp"
+
 #include <algorithm>
 
 #include <charconv>
@@ -67,10 +69,8 @@ NumberStatus parse_int64(std::string_view text, int64_t& out) {
 }
 
 std::string format_double(double value) {
-  char buffer[64];
-  const auto [ptr, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
-  if (ec != std::errc()) return "?";  // cannot happen with 64 bytes; kept for safety
-  return std::string(buffer, ptr);
+  char buffer[kShortestDoubleMaxChars];
+  return std::string(buffer, write_shortest_double(buffer, value));
 }
 
 std::string format_number(double value) {

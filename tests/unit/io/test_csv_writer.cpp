@@ -3,15 +3,19 @@
 // dataset writer builds its files with.
 #include <gtest/gtest.h>
 
+#include <charconv>
 #include <cmath>
+#include <cstring>
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 
 #include "io_test_util.hpp"
 #include "odonav/csv_writer.hpp"
+#include "odonav/shortest_double.hpp"
 
 using odonav::CsvWriter;
 using odonav::test::ScratchDir;
@@ -61,6 +65,58 @@ TEST(CsvWriter, EveryWrittenDoubleReadsBackToTheSameBits) {
     ASSERT_TRUE(std::getline(lines, line));
     EXPECT_EQ(std::strtod(line.c_str(), nullptr), v) << line;  // strtod: stod refuses subnormals
   }
+}
+
+// write_shortest_double must write what std::to_chars writes, byte for byte (the outputs of odonav are
+// compared to the last byte across versions): every bit pattern class, the magnitudes of positions,
+// times and small errors, decimals of every digit count, powers of two and their neighbours.
+TEST(ShortestDouble, WritesExactlyWhatStdToCharsWrites) {
+  std::size_t checked = 0, differing = 0;
+  const auto check = [&](double v) {
+    char expected[64], got[odonav::kShortestDoubleMaxChars];
+    char* const expected_end = std::to_chars(expected, expected + sizeof expected, v).ptr;
+    char* const got_end = odonav::write_shortest_double(got, v);
+    ++checked;
+    const std::string a(expected, expected_end), b(got, got_end);
+    if (a != b && ++differing <= 10) ADD_FAILURE() << "std::to_chars " << a << " but " << b;
+  };
+  std::mt19937_64 rng(7);
+  for (int i = 0; i < 1000000; ++i) {
+    const uint64_t bits = rng();
+    double v = 0.0;
+    std::memcpy(&v, &bits, sizeof v);
+    check(v);
+  }
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::uniform_int_distribution<int> decade(-30, 30);
+  for (int i = 0; i < 1000000; ++i) check(unit(rng) * std::pow(10.0, decade(rng)));
+  for (int i = 0; i < 500000; ++i) {  // decimals of 1 to 17 digits, as a parser reads them
+    const int digits = static_cast<int>(rng() % 17) + 1;
+    const uint64_t mantissa = rng() % static_cast<uint64_t>(std::pow(10.0, digits));
+    const std::string text = std::to_string(mantissa) + "e" + std::to_string(static_cast<int>(rng() % 50) - 35);
+    const double v = std::strtod(text.c_str(), nullptr);
+    check(v);
+    check(-v);
+  }
+  for (int e = -1074; e < 1024; ++e) {
+    const double p = std::ldexp(1.0, e);
+    check(p);
+    check(std::nextafter(p, 0.0));
+    check(std::nextafter(p, std::numeric_limits<double>::infinity()));
+  }
+  for (int i = 0; i < 200000; ++i) {
+    check(i);
+    check(i / 10.0);
+    check(i * 0.001);
+    check(i * 1e-7);
+    check(-i * 1e5);
+    check(99999999.0 + i);  // every 8-digit block boundary
+  }
+  for (double v : {0.0, -0.0, 1e100, 1e-100, 123456789012345680000.0, 5e-324, 1.7976931348623157e308,
+                   std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                   std::numeric_limits<double>::quiet_NaN()})
+    check(v);
+  EXPECT_EQ(differing, 0u) << "of " << checked;
 }
 
 TEST(CsvWriter, InMemoryWriterTouchesNoFileAndHoldsTheWholeText) {
