@@ -188,7 +188,7 @@ void BM_DeadReckonerStep(benchmark::State& state) {
 
 // One GNSS epoch of the misalignment calibrator: 10 INS samples and the fix buffered, one RLS update.
 void BM_MisalignmentUpdate(benchmark::State& state) {
-  odonav::MisalignmentCalibrator calibrator;
+  odonav::calibration::MisalignmentCalibrator calibrator;
   SyntheticDrive drive;
   odonav::OdometerSample odo;
   odonav::InsSample ins;

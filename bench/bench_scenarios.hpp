@@ -82,7 +82,7 @@ inline void add_scenario_bench_options(Options& opts, const std::string& default
   opts.add_string("scenarios", default_scenarios, scenarios_help);
   opts.add_string("log-level", "warn", "trace, debug, info, warn, error, critical, off");
   add_identification_options(opts);
-  add_calibration_options(opts);
+  calibration::add_calibration_options(opts);
   add_dead_reckoning_options(opts);
   add_lever_arm_option(opts);
 }
@@ -96,7 +96,7 @@ inline std::optional<int> parse_scenario_bench(Options& opts, int argc, char** a
     if (opts.parse(argc, argv) == ParseResult::kHelp) return 0;
     setup_logging(tool, opts.get_string("log-level"));
     base.identification = identification_params_from(opts);
-    base.calibration = calibration_params_from(opts);
+    base.calibration = calibration::calibration_params_from(opts);
     base.dead_reckoning = dead_reckoner_params(dead_reckoning_facts_from(opts));
     base.calibration.lever_arm_body_m = base.dead_reckoning.lever_arm_body_m;
   } catch (const ConfigError& e) {

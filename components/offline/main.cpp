@@ -61,7 +61,7 @@ odonav::Options make_options() {
   opts.add_string("log-level", "",
                   "trace, debug, info, warn, error, critical, off (default: $ODONAV_LOG_LEVEL or info)");
   odonav::add_identification_options(opts);
-  odonav::add_calibration_options(opts);
+  odonav::calibration::add_calibration_options(opts);
   odonav::add_dead_reckoning_options(opts);
   odonav::add_lever_arm_option(opts);
   return opts;
@@ -184,8 +184,8 @@ class OutputFiles : public odonav::offline::PipelineSink {
         summary_(summary),
         diagnosis_(diagnosis) {}
 
-  void on_misalignment(const odonav::MisalignmentOutput& m) override {
-    const odonav::results::MisalignmentRow row = odonav::output_row(m);
+  void on_misalignment(const odonav::calibration::MisalignmentOutput& m) override {
+    const odonav::results::MisalignmentRow row = odonav::calibration::output_row(m);
     misalignment_.write(row);
     summary_.add(row);
     diagnosis_.add_misalignment(m);
@@ -257,7 +257,7 @@ struct InputTime {
 struct CoarseStep {
   odonav::DeadReckoningStep step;
 };
-using OutputItem = std::variant<InputTime, odonav::MisalignmentOutput, odonav::IdentificationOutput,
+using OutputItem = std::variant<InputTime, odonav::calibration::MisalignmentOutput, odonav::IdentificationOutput,
                                 odonav::DeadReckoningStep, CoarseStep>;
 
 /// The output side of the run (the files, the summary, the diagnosis) on a second thread, so that
@@ -327,7 +327,7 @@ class OutputThread {
 class HandOver : public odonav::offline::PipelineSink {
  public:
   HandOver(OutputThread& thread, bool coarse) : thread_(thread), coarse_(coarse) {}
-  void on_misalignment(const odonav::MisalignmentOutput& m) override {
+  void on_misalignment(const odonav::calibration::MisalignmentOutput& m) override {
     if (!coarse_) thread_.push(m);
   }
   void on_scale_factor(const odonav::IdentificationOutput& k) override { thread_.push(k); }
@@ -477,7 +477,7 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
         case odonav::DatasetStreamKind::kGnss: diagnosis.add_gnss(t->t_s); break;
         case odonav::DatasetStreamKind::kIns: diagnosis.add_ins(t->t_s); break;
       }
-    } else if (const auto* m = std::get_if<odonav::MisalignmentOutput>(&item)) {
+    } else if (const auto* m = std::get_if<odonav::calibration::MisalignmentOutput>(&item)) {
       files.on_misalignment(*m);
     } else if (const auto* k = std::get_if<odonav::IdentificationOutput>(&item)) {
       files.on_scale_factor(*k);
@@ -579,7 +579,7 @@ int main(int argc, char** argv) {
   try {
     // Checked here (exit status 2 for a bad option); built again below with the dataset's facts.
     params.identification = odonav::identification_params_for(opts, {});
-    params.calibration = odonav::calibration_params_from(opts);
+    params.calibration = odonav::calibration::calibration_params_from(opts);
     dr_facts = odonav::dead_reckoning_facts_from(opts);
   } catch (const odonav::ConfigError& e) {
     spdlog::error("{}", e.what());

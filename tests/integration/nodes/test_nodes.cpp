@@ -83,15 +83,15 @@ std::vector<TimedWrite> sensor_writes(const Dataset& d, odonav::dds::Writer<msg:
   return w;
 }
 
-std::vector<MisalignmentOutput> reference_calibration(const Dataset& d) {
-  MisalignmentCalibrator c{MisalignmentCalibratorParams{}};
+std::vector<calibration::MisalignmentOutput> reference_calibration(const Dataset& d) {
+  calibration::MisalignmentCalibrator c{calibration::MisalignmentCalibratorParams{}};
   for (const auto& g : d.gnss) c.add_gnss(g);
   for (const auto& i : d.ins) c.add_ins(i);
   return c.finish();
 }
 
 std::vector<IdentificationOutput> reference_identification(const Dataset& d,
-                                                           const std::vector<MisalignmentOutput>& mis) {
+                                                           const std::vector<calibration::MisalignmentOutput>& mis) {
   IdentificationCore core{IdentificationParams{}};
   for (const auto& o : d.odometer) core.add_odometer(o);
   for (const auto& g : d.gnss) core.add_gnss(g);
@@ -103,7 +103,8 @@ std::vector<IdentificationOutput> reference_identification(const Dataset& d,
   return core.finish();
 }
 
-std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d, const std::vector<MisalignmentOutput>& mis,
+std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d,
+                                                          const std::vector<calibration::MisalignmentOutput>& mis,
                                                           const std::vector<msg::ScaleFactor>* k) {
   DeadReckoner dr{DeadReckonerParams{}};
   for (const auto& o : d.odometer) dr.add_odometer(o);
@@ -193,7 +194,7 @@ TEST_F(NodeProcess, CalibrationNodePublishesWhatTheCalibratorComputesAndDrainsOn
   ASSERT_EQ(got.size(), expected.size());
   std::size_t converged = 0;
   for (std::size_t i = 0; i < got.size(); ++i) {
-    const auto want = nodes::misalignment_message(expected[i], kVehicle);
+    const auto want = calibration::misalignment_message(expected[i], kVehicle);
     ASSERT_EQ(got[i].header().stamp(), want.header().stamp()) << i;
     EXPECT_EQ(got[i].heading_rad(), want.heading_rad()) << i;
     EXPECT_EQ(got[i].pitch_rad(), want.pitch_rad()) << i;
@@ -248,7 +249,7 @@ TEST_F(NodeProcess, IdentificationNodeEqualsTheCoreFedTheSameMisalignments) {
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   for (const auto& m : mis)  // as the calibration node publishes them: after the GNSS epoch
     writes.push_back(
-        {m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+        {m.t_s, 1, [&mis_writer, msg = calibration::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
   replay(writes, {&odo, &gnss, &ins, &mis_writer});
   wait_quiet(out);
 
@@ -326,7 +327,7 @@ TEST_F(NodeProcess, DeadReckoningNodeEqualsTheDeadReckonerFedTheSameEstimates) {
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   for (const auto& m : mis)
     writes.push_back(
-        {m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+        {m.t_s, 1, [&mis_writer, msg = calibration::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
   for (const auto& k : k_messages)
     writes.push_back({odonav::dds::to_seconds(k.header().stamp()), 2, [&k_writer, k] { k_writer.write(k); }});
   replay(writes, {&odo, &gnss, &ins, &mis_writer, &k_writer});
@@ -367,7 +368,7 @@ TEST_F(NodeProcess, DeadReckoningWithoutIdentificationUsesTheNominalKAndSaysSo) 
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   for (const auto& m : mis)
     writes.push_back(
-        {m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+        {m.t_s, 1, [&mis_writer, msg = calibration::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
   replay(writes, {&odo, &gnss, &ins, &mis_writer});
 
   // No identification: after the maximum wait the scale-factor input is absent, counted and told.

@@ -109,20 +109,21 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
   }
   {
     SCOPED_TRACE("calibration");
-    MisalignmentCalibrator calibrator;
+    calibration::MisalignmentCalibrator calibrator;
     for (const auto& x : d.ins) calibrator.add_ins(x);
     for (const auto& x : d.gnss) calibrator.add_gnss(x);
     calibrator.process_until(cut_s);
     ASSERT_GT(calibrator.current().samples_used, 100u);
-    const std::string text =
-        serialize_calibration_checkpoint(CalibrationCheckpoint{kVehicle, kHash, cut_s, calibrator.save_state()});
-    const std::string path = calibration_checkpoint_path(dir_.string(), kVehicle);
+    const std::string text = calibration::serialize_calibration_checkpoint(
+        calibration::CalibrationCheckpoint{kVehicle, kHash, cut_s, calibrator.save_state()});
+    const std::string path = calibration::calibration_checkpoint_path(dir_.string(), kVehicle);
     write_file_atomically(path, text);
-    MisalignmentCalibrator restored;
-    const CalibrationCheckpointLoad r = load_calibration_checkpoint(path, kVehicle, kHash, restored, kUnixTime_s);
+    calibration::MisalignmentCalibrator restored;
+    const calibration::CalibrationCheckpointLoad r =
+        calibration::load_calibration_checkpoint(path, kVehicle, kHash, restored, kUnixTime_s);
     ASSERT_EQ(r.status, CheckpointLoadStatus::kRestored) << r.reason;
-    EXPECT_EQ(serialize_calibration_checkpoint(
-                  CalibrationCheckpoint{kVehicle, kHash, *r.restored_t_s, restored.save_state()}),
+    EXPECT_EQ(calibration::serialize_calibration_checkpoint(
+                  calibration::CalibrationCheckpoint{kVehicle, kHash, *r.restored_t_s, restored.save_state()}),
               text);
   }
   {

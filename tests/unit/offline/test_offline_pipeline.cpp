@@ -147,12 +147,12 @@ TEST(OfflinePipeline, EveryEstimateArrivesBeforeTheOutputsItAppliesToSoTheRunEqu
   config.anchored = params.anchored;
 
   struct Recorder : PipelineSink {
-    std::vector<MisalignmentOutput> misalignment;
+    std::vector<calibration::MisalignmentOutput> misalignment;
     std::vector<IdentificationOutput> scale_factor;
     std::vector<DeadReckoningStep> steps;
     // For each step: the estimates delivered before it.
     std::vector<std::size_t> misalignments_before, scale_factors_before;
-    void on_misalignment(const MisalignmentOutput& m) override { misalignment.push_back(m); }
+    void on_misalignment(const calibration::MisalignmentOutput& m) override { misalignment.push_back(m); }
     void on_scale_factor(const IdentificationOutput& k) override { scale_factor.push_back(k); }
     void on_dead_reckoning(DeadReckoningStep s) override {
       misalignments_before.push_back(misalignment.size());
@@ -194,7 +194,8 @@ TEST(OfflinePipeline, EveryEstimateArrivesBeforeTheOutputsItAppliesToSoTheRunEqu
   // The oracle.
   DeadReckoningComponent oracle(params.dead_reckoning, params.anchored);
   for_each_sensor_sample(d, WireFeeder{oracle});
-  for (const MisalignmentOutput& m : run.misalignment) oracle.on_misalignment(published_misalignment(m));
+  for (const calibration::MisalignmentOutput& m : run.misalignment)
+    oracle.on_misalignment(calibration::published_misalignment(m));
   for (const IdentificationOutput& k : run.scale_factor)
     oracle.on_scale_factor(published_scale_factor(k, "identification"), 0.0);
   std::vector<DeadReckoningOutput> expected = oracle.finish();

@@ -345,7 +345,7 @@ TEST(BrakingStop, AStopAtTheEndOfADriveLeavesKAndTheMisalignmentAsBeforeTheBraki
   };
   auto mis_before = [&](const OfflineResult& r) {
     Misalignment m;
-    for (const MisalignmentOutput& o : r.misalignment)
+    for (const calibration::MisalignmentOutput& o : r.misalignment)
       if (o.t_s < brake_t - 0.5) m = o.misalignment;
     return m;
   };

@@ -172,13 +172,13 @@ TEST(SensorRates, AtOneHertzASidewaysVelocityErrorInTheFirstHalfMinuteCostsTheCa
   const OfflineParams p = user_params(d);
   const OfflineResult r = run_offline(d, p);
   ASSERT_FALSE(r.misalignment.empty());
-  const MisalignmentOutput& last = r.misalignment.back();
+  const calibration::MisalignmentOutput& last = r.misalignment.back();
   EXPECT_TRUE(last.converged);
   EXPECT_GE(r.calibration_counters.outlier, 1u);
   EXPECT_NEAR(rad_to_deg(last.misalignment.heading_rad), *d.meta.truth_misalignment_heading_deg, 0.05);
   // From the start on, not only at the end: every published estimate after the first minute is
   // within 0.25 deg (armed at 20, the estimate at 60 s was not).
-  for (const MisalignmentOutput& m : r.misalignment) {
+  for (const calibration::MisalignmentOutput& m : r.misalignment) {
     if (m.t_s >= d.odometer.front().t_s + 60.0) {
       ASSERT_NEAR(rad_to_deg(m.misalignment.heading_rad), *d.meta.truth_misalignment_heading_deg, 0.25)
           << "t " << m.t_s;

@@ -137,10 +137,10 @@ void OfflinePipeline::finish() {
   if (dead_reckoning_) deliver_dead_reckoning(dead_reckoning_->finish());
 }
 
-void OfflinePipeline::deliver_misalignments(const std::vector<MisalignmentOutput>& outputs) {
-  for (const MisalignmentOutput& m : outputs) {
+void OfflinePipeline::deliver_misalignments(const std::vector<calibration::MisalignmentOutput>& outputs) {
+  for (const calibration::MisalignmentOutput& m : outputs) {
     sink_.on_misalignment(m);
-    const PublishedMisalignment p = published_misalignment(m);
+    const PublishedMisalignment p = calibration::published_misalignment(m);
     if (identification_ && identification_inputs_->admit(identification_inputs_->misalignment, p.t_s))
       identification_->apply_misalignment(p);
     if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->misalignment, p.t_s))

@@ -25,7 +25,7 @@ void feed(const SampleStream& next, OfflinePipeline& pipeline) {
 class Collector : public PipelineSink {
  public:
   explicit Collector(OfflineResult& result, bool coarse) : r_(result), coarse_(coarse) {}
-  void on_misalignment(const MisalignmentOutput& m) override {
+  void on_misalignment(const calibration::MisalignmentOutput& m) override {
     if (!coarse_) r_.misalignment.push_back(m);
   }
   void on_scale_factor(const IdentificationOutput& k) override { r_.identification.push_back(k); }
@@ -62,7 +62,7 @@ std::optional<double> final_coarse_k(const std::optional<IdentificationOutput>& 
 class LastEstimate : public PipelineSink {
  public:
   explicit LastEstimate(PipelineSink& next) : next_(next) {}
-  void on_misalignment(const MisalignmentOutput& m) override { next_.on_misalignment(m); }
+  void on_misalignment(const calibration::MisalignmentOutput& m) override { next_.on_misalignment(m); }
   void on_scale_factor(const IdentificationOutput& k) override {
     last = k;
     next_.on_scale_factor(k);

@@ -117,15 +117,18 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
   for (const GnssSample& g : d.gnss) acc.add_gnss(g.t_s);
   for (const InsSample& i : d.ins) acc.add_ins(i.t_s);
   for (const IdentificationOutput& k : r.identification) acc.add_identification(k.main, k.latency, k.latency_decided);
-  for (const MisalignmentOutput& m : r.misalignment) acc.add_misalignment(m);
+  for (const calibration::MisalignmentOutput& m : r.misalignment) acc.add_misalignment(m);
   for (const DeadReckoningOutput& o : r.dr_online) acc.add_dead_reckoning(o.t_s, o.position);
   return acc.finish(p, r.builder_counters, r.calibration_counters, r.dr_counters, r.consistency, r.gnss_jumps);
 }
 
-void RunDiagnosisAccumulator::add_misalignment(const MisalignmentOutput& output) { last_misalignment_ = output; }
+void RunDiagnosisAccumulator::add_misalignment(const calibration::MisalignmentOutput& output) {
+  last_misalignment_ = output;
+}
 
 RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const SampleBuilderCounters& c,
-                                             const MisalignmentCounters& m, const DeadReckonerCounters& dr_counters,
+                                             const calibration::MisalignmentCounters& m,
+                                             const DeadReckonerCounters& dr_counters,
                                              const std::vector<ConsistencyState>& consistency,
                                              const GnssJumpCounters& gnss_jumps) const {
   RunDiagnosis out;
@@ -242,7 +245,7 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
               "; zero misalignment applied");
     } else if (last_misalignment_ && !last_misalignment_->converged) {
       // Used, but not enough: say what is missing, epochs or precision.
-      const MisalignmentOutput& o = *last_misalignment_;
+      const calibration::MisalignmentOutput& o = *last_misalignment_;
       std::string missing;
       if (o.samples_used < p.calibration.min_samples)
         missing = num(static_cast<double>(o.samples_used), 12) + " GNSS epochs used while moving (straight, above " +

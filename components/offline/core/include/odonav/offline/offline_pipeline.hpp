@@ -33,7 +33,7 @@ namespace odonav::offline {
 class PipelineSink {
  public:
   virtual ~PipelineSink() = default;
-  virtual void on_misalignment(const MisalignmentOutput& /*output*/) {}
+  virtual void on_misalignment(const calibration::MisalignmentOutput& /*output*/) {}
   virtual void on_scale_factor(const IdentificationOutput& /*output*/) {}
   // By value: a forwarding sink moves the step on.
   virtual void on_dead_reckoning(DeadReckoningStep /*step*/) {}  // NOLINT(performance-unnecessary-value-param)
@@ -41,7 +41,7 @@ class PipelineSink {
 
 /// Which components run, with their parameters.
 struct PipelineConfig {
-  MisalignmentCalibratorParams calibration;
+  calibration::MisalignmentCalibratorParams calibration;
   /// Unset: no identification (dead reckoning keeps its nominal K and a zero GNSS latency).
   std::optional<IdentificationParams> identification;
   /// Unset: no dead reckoning.
@@ -72,7 +72,7 @@ class OfflinePipeline {
   /// End of data: every component finishes in pipeline order and every remaining output is delivered.
   void finish();
 
-  const MisalignmentCalibrator& calibration() const { return calibration_; }
+  const calibration::MisalignmentCalibrator& calibration() const { return calibration_; }
   /// nullptr when not configured.
   const IdentificationCore* identification() const { return identification_.get(); }
   const DeadReckoningComponent* dead_reckoning() const { return dead_reckoning_.get(); }
@@ -81,13 +81,13 @@ class OfflinePipeline {
   struct Consumer;  // a component's aligner and its input streams
   void advance_to(double t_s);
   void process(double complete_through_s);
-  void deliver_misalignments(const std::vector<MisalignmentOutput>& outputs);
+  void deliver_misalignments(const std::vector<calibration::MisalignmentOutput>& outputs);
   void deliver_scale_factors(const std::vector<IdentificationOutput>& outputs);
   void deliver_dead_reckoning(std::vector<DeadReckoningOutput> outputs);
 
   PipelineConfig config_;
   PipelineSink& sink_;
-  MisalignmentCalibrator calibration_;
+  calibration::MisalignmentCalibrator calibration_;
   std::unique_ptr<IdentificationCore> identification_;
   std::unique_ptr<DeadReckoningComponent> dead_reckoning_;
   std::unique_ptr<Consumer> identification_inputs_;

@@ -19,7 +19,7 @@
 namespace odonav::offline {
 
 struct OfflineParams {
-  MisalignmentCalibratorParams calibration;
+  calibration::MisalignmentCalibratorParams calibration;
   IdentificationParams identification;
   DeadReckonerParams dead_reckoning;  ///< nominal_k is the K before identification converges.
   AnchoredPositionParams anchored;    ///< the navigation position anchored on GNSS (online DR).
@@ -45,7 +45,7 @@ struct OfflineRunTotals {
   double coarse_k_m_per_pulse = 0.0;
   std::string coarse_k_origin;
   SampleBuilderCounters builder_counters;
-  MisalignmentCounters calibration_counters;
+  calibration::MisalignmentCounters calibration_counters;
   DeadReckonerCounters dr_counters;
   AnchoredPositionCounters anchored_counters;
   /// The online dead reckoning's consistency checks at the end (consistency_monitor.hpp), by
@@ -56,11 +56,11 @@ struct OfflineRunTotals {
 
 /// A run over an in-memory dataset with every output kept (tests, benchmarks).
 struct OfflineResult : OfflineRunTotals {
-  std::vector<MisalignmentOutput> misalignment;       ///< one per GNSS epoch.
-  std::vector<IdentificationOutput> identification;   ///< one per GNSS epoch.
-  std::vector<DeadReckoningOutput> dr_online;         ///< DR with the identified K.
-  std::vector<AnchoredPosition> navigation_position;  ///< dr_online anchored on GNSS, one per output.
-  std::vector<DeadReckoningOutput> dr_coarse;         ///< DR with the coarse K.
+  std::vector<calibration::MisalignmentOutput> misalignment;  ///< one per GNSS epoch.
+  std::vector<IdentificationOutput> identification;           ///< one per GNSS epoch.
+  std::vector<DeadReckoningOutput> dr_online;                 ///< DR with the identified K.
+  std::vector<AnchoredPosition> navigation_position;          ///< dr_online anchored on GNSS, one per output.
+  std::vector<DeadReckoningOutput> dr_coarse;                 ///< DR with the coarse K.
 };
 
 /// Runs the pipeline over open()'s samples, delivering every output to `sink` as it is made, then
