@@ -53,7 +53,7 @@ inline Dataset simulate(const std::string& scenario, uint64_t seed) {
 // identification_params_for with the same vehicle facts, so the bench measures the defaults a user
 // gets.
 inline offline::OfflineParams params_for(const Dataset& d, offline::OfflineParams p, const Options& opts) {
-  DeadReckoningFacts facts = dead_reckoning_facts_from(opts);
+  dead_reckoning::DeadReckoningFacts facts = dead_reckoning::dead_reckoning_facts_from(opts);
   if (!facts.lever_arm_body_m && d.meta.gnss_lever_arm_m) {
     facts.lever_arm_body_m = d.meta.gnss_lever_arm_m;
     p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
@@ -61,7 +61,7 @@ inline offline::OfflineParams params_for(const Dataset& d, offline::OfflineParam
   facts.use_ins = d.has_ins();
   facts.dataset_nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse;
   facts.dataset_nominal_k_sigma_percent = d.meta.k_nominal_sigma_percent;
-  p.dead_reckoning = dead_reckoner_params(facts);
+  p.dead_reckoning = dead_reckoning::dead_reckoner_params(facts);
   IdentificationVehicleFacts vehicle;
   vehicle.use_ins = d.has_ins();
   vehicle.lever_arm_body_m = p.dead_reckoning.lever_arm_body_m;
@@ -83,7 +83,7 @@ inline void add_scenario_bench_options(Options& opts, const std::string& default
   opts.add_string("log-level", "warn", "trace, debug, info, warn, error, critical, off");
   add_identification_options(opts);
   calibration::add_calibration_options(opts);
-  add_dead_reckoning_options(opts);
+  dead_reckoning::add_dead_reckoning_options(opts);
   add_lever_arm_option(opts);
 }
 
@@ -97,7 +97,7 @@ inline std::optional<int> parse_scenario_bench(Options& opts, int argc, char** a
     setup_logging(tool, opts.get_string("log-level"));
     base.identification = identification_params_from(opts);
     base.calibration = calibration::calibration_params_from(opts);
-    base.dead_reckoning = dead_reckoner_params(dead_reckoning_facts_from(opts));
+    base.dead_reckoning = dead_reckoning::dead_reckoner_params(dead_reckoning::dead_reckoning_facts_from(opts));
     base.calibration.lever_arm_body_m = base.dead_reckoning.lever_arm_body_m;
   } catch (const ConfigError& e) {
     std::cerr << "odonav-" << tool << ": " << e.what() << "\n";

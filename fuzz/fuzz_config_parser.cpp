@@ -34,7 +34,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   options.add_bool("verbose", false, "a switch");
   odonav::add_identification_options(options);
   odonav::calibration::add_calibration_options(options);
-  odonav::add_dead_reckoning_options(options);
+  odonav::dead_reckoning::add_dead_reckoning_options(options);
   odonav::add_lever_arm_option(options);
 
   std::vector<std::string> args{"--config", path};
@@ -44,7 +44,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
     if (options.parse(args, help) == odonav::ParseResult::kHelp) return 0;
     (void)odonav::identification_params_from(options);
     (void)odonav::calibration::calibration_params_from(options);
-    (void)odonav::dead_reckoning_params_from(options);
+    (void)odonav::dead_reckoning::dead_reckoning_params_from(options);
     (void)odonav::lever_arm_from(options);
     (void)options.values_as_text();
   } catch (const odonav::ConfigError&) {

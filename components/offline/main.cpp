@@ -62,7 +62,7 @@ odonav::Options make_options() {
                   "trace, debug, info, warn, error, critical, off (default: $ODONAV_LOG_LEVEL or info)");
   odonav::add_identification_options(opts);
   odonav::calibration::add_calibration_options(opts);
-  odonav::add_dead_reckoning_options(opts);
+  odonav::dead_reckoning::add_dead_reckoning_options(opts);
   odonav::add_lever_arm_option(opts);
   return opts;
 }
@@ -92,7 +92,8 @@ std::optional<int> parse_command_line(odonav::Options& opts, int argc, char** ar
 /// the nominal K (m/pulse: the flag, else meta.json, else 0.0125, dead_reckoner_params); then the identification
 /// parameters from the flags and these vehicle facts.
 void apply_dataset_defaults(const odonav::DatasetMeta& meta, bool has_ins, const odonav::Options& opts,
-                            odonav::DeadReckoningFacts dr_facts, odonav::offline::OfflineParams& params) {
+                            odonav::dead_reckoning::DeadReckoningFacts dr_facts,
+                            odonav::offline::OfflineParams& params) {
   if (!dr_facts.lever_arm_body_m && meta.gnss_lever_arm_m) {
     const Eigen::Vector3d& l = *meta.gnss_lever_arm_m;
     spdlog::info("GNSS lever arm from meta.json: ({}, {}, {}) m (forward, left, up)", l.x(), l.y(), l.z());
@@ -102,8 +103,8 @@ void apply_dataset_defaults(const odonav::DatasetMeta& meta, bool has_ins, const
   dr_facts.use_ins = has_ins;
   dr_facts.dataset_nominal_k_m_per_pulse = meta.k_nominal_m_per_pulse;
   dr_facts.dataset_nominal_k_sigma_percent = meta.k_nominal_sigma_percent;
-  params.dead_reckoning = odonav::dead_reckoner_params(dr_facts);  // as odonav-dead-reckoning's
-  params.anchored = odonav::anchored_position_params(dr_facts);    // likewise
+  params.dead_reckoning = odonav::dead_reckoning::dead_reckoner_params(dr_facts);  // as odonav-dead-reckoning's
+  params.anchored = odonav::dead_reckoning::anchored_position_params(dr_facts);    // likewise
   // The same function as odonav-identification, with the same vehicle facts the launcher gives
   // it as flags (deploy/launch): INS present, lever arm, nominal K (the pulse-jump gate's K).
   odonav::IdentificationVehicleFacts vehicle;
@@ -196,12 +197,12 @@ class OutputFiles : public odonav::offline::PipelineSink {
     summary_.add(row);
     diagnosis_.add_identification(k.main, k.latency, k.latency_decided);
   }
-  void on_dead_reckoning(odonav::DeadReckoningStep step) override {
-    const odonav::results::DeadReckoningRow dr = odonav::output_row(step.output);
+  void on_dead_reckoning(odonav::dead_reckoning::DeadReckoningStep step) override {
+    const odonav::results::DeadReckoningRow dr = odonav::dead_reckoning::output_row(step.output);
     dead_reckoning_.write(dr);
     summary_.add_dead_reckoning(dr);
     diagnosis_.add_dead_reckoning(step.output.t_s, step.output.position);
-    const odonav::results::NavigationPositionRow nav = odonav::output_row(step.navigation);
+    const odonav::results::NavigationPositionRow nav = odonav::dead_reckoning::output_row(step.navigation);
     navigation_.write(nav);
     summary_.add(nav);
     ++navigation_rows_;
@@ -231,8 +232,8 @@ class CoarseFile : public odonav::offline::PipelineSink {
  public:
   CoarseFile(const odonav::OutputDirectory& out, odonav::offline::SummaryAccumulator& summary)
       : csv_(out.file("dead_reckoning_coarse.csv")), summary_(summary) {}
-  void on_dead_reckoning(odonav::DeadReckoningStep step) override {
-    const odonav::results::DeadReckoningRow row = odonav::output_row(step.output);
+  void on_dead_reckoning(odonav::dead_reckoning::DeadReckoningStep step) override {
+    const odonav::results::DeadReckoningRow row = odonav::dead_reckoning::output_row(step.output);
     csv_.write(row);
     summary_.add_dead_reckoning_coarse(row);
     ++rows_;
@@ -255,10 +256,10 @@ struct InputTime {
 
 /// What the output side receives, in the order the run makes it.
 struct CoarseStep {
-  odonav::DeadReckoningStep step;
+  odonav::dead_reckoning::DeadReckoningStep step;
 };
 using OutputItem = std::variant<InputTime, odonav::calibration::MisalignmentOutput, odonav::IdentificationOutput,
-                                odonav::DeadReckoningStep, CoarseStep>;
+                                odonav::dead_reckoning::DeadReckoningStep, CoarseStep>;
 
 /// The output side of the run (the files, the summary, the diagnosis) on a second thread, so that
 /// formatting and evaluating overlap with processing: items are handed over in batches, in the
@@ -331,7 +332,7 @@ class HandOver : public odonav::offline::PipelineSink {
     if (!coarse_) thread_.push(m);
   }
   void on_scale_factor(const odonav::IdentificationOutput& k) override { thread_.push(k); }
-  void on_dead_reckoning(odonav::DeadReckoningStep step) override {
+  void on_dead_reckoning(odonav::dead_reckoning::DeadReckoningStep step) override {
     if (coarse_)
       thread_.push(CoarseStep{std::move(step)});
     else
@@ -403,7 +404,7 @@ void add_run_facts(nlohmann::json& summary, const odonav::offline::OfflineRunTot
 /// Reads, runs, writes the files as the outputs come and prints the summary. Exit code 0, 1 (an
 /// error, logged) or kExitNoUsableResult (no K or no dead reckoning: the warnings say why).
 int run(const odonav::Options& opts, const std::string& dataset_dir, const std::string& out_dir,
-        odonav::offline::OfflineParams params, const odonav::DeadReckoningFacts& dr_facts) {
+        odonav::offline::OfflineParams params, const odonav::dead_reckoning::DeadReckoningFacts& dr_facts) {
   const auto t_start = std::chrono::steady_clock::now();
   // Checked before any work: a user's directory (or the dataset itself) is never written into.
   odonav::OutputPolicy policy;
@@ -481,7 +482,7 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
       files.on_misalignment(*m);
     } else if (const auto* k = std::get_if<odonav::IdentificationOutput>(&item)) {
       files.on_scale_factor(*k);
-    } else if (auto* step = std::get_if<odonav::DeadReckoningStep>(&item)) {
+    } else if (auto* step = std::get_if<odonav::dead_reckoning::DeadReckoningStep>(&item)) {
       files.on_dead_reckoning(std::move(*step));
     } else {
       coarse.on_dead_reckoning(std::move(std::get<CoarseStep>(item).step));
@@ -575,12 +576,12 @@ int main(int argc, char** argv) {
     return 2;
   }
   odonav::offline::OfflineParams params;
-  odonav::DeadReckoningFacts dr_facts;  // completed from the dataset below
+  odonav::dead_reckoning::DeadReckoningFacts dr_facts;  // completed from the dataset below
   try {
     // Checked here (exit status 2 for a bad option); built again below with the dataset's facts.
     params.identification = odonav::identification_params_for(opts, {});
     params.calibration = odonav::calibration::calibration_params_from(opts);
-    dr_facts = odonav::dead_reckoning_facts_from(opts);
+    dr_facts = odonav::dead_reckoning::dead_reckoning_facts_from(opts);
   } catch (const odonav::ConfigError& e) {
     spdlog::error("{}", e.what());
     return 2;

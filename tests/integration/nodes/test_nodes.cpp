@@ -103,10 +103,9 @@ std::vector<IdentificationOutput> reference_identification(const Dataset& d,
   return core.finish();
 }
 
-std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d,
-                                                          const std::vector<calibration::MisalignmentOutput>& mis,
-                                                          const std::vector<msg::ScaleFactor>* k) {
-  DeadReckoner dr{DeadReckonerParams{}};
+std::vector<dead_reckoning::DeadReckoningOutput> reference_dead_reckoning(
+    const Dataset& d, const std::vector<calibration::MisalignmentOutput>& mis, const std::vector<msg::ScaleFactor>* k) {
+  dead_reckoning::DeadReckoner dr{dead_reckoning::DeadReckonerParams{}};
   for (const auto& o : d.odometer) dr.add_odometer(o);
   for (const auto& i : d.ins) dr.add_ins(i);
   for (const auto& g : d.gnss) dr.add_gnss(g);
@@ -119,10 +118,10 @@ std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d,
       dr.add_gnss_latency(
           estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
           s.gnss_latency_s());
-  ScaleFactorSelection selection(DeadReckonerParams{}.nominal_k_m_per_pulse);
+  dead_reckoning::ScaleFactorSelection selection(dead_reckoning::DeadReckonerParams{}.nominal_k_m_per_pulse);
   if (k)
     for (const auto& s : *k) {
-      const IdentifiedScaleFactor in{
+      const dead_reckoning::IdentifiedScaleFactor in{
           estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
           s.k_m_per_pulse(),
           s.converged(),
@@ -136,7 +135,7 @@ std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d,
 }
 
 void expect_same_dead_reckoning(const std::vector<msg::DeadReckoning>& got,
-                                const std::vector<DeadReckoningOutput>& want) {
+                                const std::vector<dead_reckoning::DeadReckoningOutput>& want) {
   ASSERT_EQ(got.size(), want.size());
   for (std::size_t i = 0; i < got.size(); ++i) {
     const auto& g = got[i];

@@ -128,12 +128,12 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
   }
   {
     SCOPED_TRACE("dead reckoning");
-    DeadReckonerParams p;
+    dead_reckoning::DeadReckonerParams p;
     p.nominal_k_m_per_pulse = 0.0126;
-    DeadReckoner core(p);
-    AnchoredPositionFilter anchor;
-    DeadReckoningConsumerState consumer(p.nominal_k_m_per_pulse);
-    core.add_scale_factor(10.0, 0.0125, ScaleFactorSource::kIdentified);
+    dead_reckoning::DeadReckoner core(p);
+    dead_reckoning::AnchoredPositionFilter anchor;
+    dead_reckoning::DeadReckoningConsumerState consumer(p.nominal_k_m_per_pulse);
+    core.add_scale_factor(10.0, 0.0125, dead_reckoning::ScaleFactorSource::kIdentified);
     core.add_misalignment(12.0, Misalignment{0.01, -0.007});
     consumer.applied_misalignment.add(12.0, Misalignment{0.01, -0.007});
     consumer.misalignments_applied = 1;
@@ -142,9 +142,9 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
     for (const auto& x : d.ins)
       if (x.t_s < 50.0) core.add_ins(x);
     for (const auto& x : d.gnss) core.add_gnss(x);
-    for (const DeadReckoningOutput& o : core.process_until(cut_s)) anchor.step(o);
+    for (const dead_reckoning::DeadReckoningOutput& o : core.process_until(cut_s)) anchor.step(o);
     ASSERT_TRUE(core.started());
-    DeadReckoningCheckpoint c;
+    dead_reckoning::DeadReckoningCheckpoint c;
     c.vehicle_id = kVehicle;
     c.config_hash = kHash;
     c.last_output_t_s = cut_s;
@@ -156,23 +156,23 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
     c.dead_reckoner_state = core.save_state();
     c.anchor_state = anchor.save_state();
     ASSERT_FALSE(c.dead_reckoner_state.at("gnss").empty()) << "inputs buffered ahead are in it";
-    const std::string text = serialize_dead_reckoning_checkpoint(c);
-    const std::string path = dead_reckoning_checkpoint_path(dir_.string(), kVehicle);
+    const std::string text = dead_reckoning::serialize_dead_reckoning_checkpoint(c);
+    const std::string path = dead_reckoning::dead_reckoning_checkpoint_path(dir_.string(), kVehicle);
     write_file_atomically(path, text);
-    DeadReckoner core2(p);
-    AnchoredPositionFilter anchor2;
-    DeadReckoningConsumerState consumer2(p.nominal_k_m_per_pulse);
-    const DeadReckoningCheckpointLoad r = load_dead_reckoning_checkpoint(
-        path, kVehicle, kHash, DeadReckoningStateRefs{core2, anchor2, consumer2}, kUnixTime_s);
+    dead_reckoning::DeadReckoner core2(p);
+    dead_reckoning::AnchoredPositionFilter anchor2;
+    dead_reckoning::DeadReckoningConsumerState consumer2(p.nominal_k_m_per_pulse);
+    const dead_reckoning::DeadReckoningCheckpointLoad r = dead_reckoning::load_dead_reckoning_checkpoint(
+        path, kVehicle, kHash, dead_reckoning::DeadReckoningStateRefs{core2, anchor2, consumer2}, kUnixTime_s);
     ASSERT_EQ(r.status, CheckpointLoadStatus::kRestored) << r.reason;
-    DeadReckoningCheckpoint again = *r.checkpoint;
+    dead_reckoning::DeadReckoningCheckpoint again = *r.checkpoint;
     again.k_selection = consumer2.k_selection.state();
     again.applied_misalignment = consumer2.applied_misalignment.state();
     again.misalignments_applied = consumer2.misalignments_applied;
     again.held_misalignment_t_s = consumer2.held_misalignment_t_s;
     again.dead_reckoner_state = core2.save_state();
     again.anchor_state = anchor2.save_state();
-    EXPECT_EQ(serialize_dead_reckoning_checkpoint(again), text);
+    EXPECT_EQ(dead_reckoning::serialize_dead_reckoning_checkpoint(again), text);
   }
 }
 

@@ -139,7 +139,8 @@ TEST(Consistency, AGoodTerrainDriveRaisesNothing) {
     const OfflineParams p = params_for(d);
     const OfflineResult result = run_offline(d, p);
     ASSERT_EQ(result.consistency.size(), 3u);
-    for (const ConsistencyState& s : result.consistency) EXPECT_EQ(s.times_raised, 0u) << rate_hz << " Hz: " << s.text;
+    for (const dead_reckoning::ConsistencyState& s : result.consistency)
+      EXPECT_EQ(s.times_raised, 0u) << rate_hz << " Hz: " << s.text;
     // The heading-rate check did decide (the course turned enough): its ratio is about 1.
     EXPECT_NEAR(result.consistency[0].last_value, 1.0, 0.1) << rate_hz;
     EXPECT_NEAR(result.consistency[2].last_value, 1.0, 0.05) << rate_hz;
@@ -166,7 +167,8 @@ TEST(Consistency, AHeadingOfTheOtherSignOrInRadiansIsNamedAndConvergedWithdrawn)
     for (InsSample& s : d.ins) s.attitude.heading_rad = c.heading(s.attitude.heading_rad);
     const OfflineResult result = run_offline(d, p);
     EXPECT_EQ(result.dr_online.size(), good_outputs) << c.name;  // nothing good lost
-    const ConsistencyState& s = result.consistency[static_cast<int>(ConsistencyCheck::kHeadingRate)];
+    const dead_reckoning::ConsistencyState& s =
+        result.consistency[static_cast<int>(dead_reckoning::ConsistencyCheck::kHeadingRate)];
     EXPECT_TRUE(s.raised) << c.name;
     EXPECT_NE(s.text.find(c.words), std::string::npos) << c.name << ": " << s.text;
     if (std::string(c.name) == "negated")

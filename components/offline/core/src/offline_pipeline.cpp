@@ -54,10 +54,10 @@ OfflinePipeline::OfflinePipeline(const PipelineConfig& config, PipelineSink& sin
     identification_inputs_ = std::make_unique<Consumer>(identification_inputs(*config_.identification), false);
   }
   if (config_.dead_reckoning) {
-    dead_reckoning_ =
-        std::make_unique<DeadReckoningComponent>(*config_.dead_reckoning, config_.anchored, config_.navigation);
-    dead_reckoning_inputs_ =
-        std::make_unique<Consumer>(dead_reckoning_inputs(*config_.dead_reckoning), identification_ != nullptr);
+    dead_reckoning_ = std::make_unique<dead_reckoning::DeadReckoningComponent>(*config_.dead_reckoning,
+                                                                               config_.anchored, config_.navigation);
+    dead_reckoning_inputs_ = std::make_unique<Consumer>(dead_reckoning::dead_reckoning_inputs(*config_.dead_reckoning),
+                                                        identification_ != nullptr);
   }
 }
 
@@ -156,8 +156,9 @@ void OfflinePipeline::deliver_scale_factors(const std::vector<IdentificationOutp
   }
 }
 
-void OfflinePipeline::deliver_dead_reckoning(std::vector<DeadReckoningOutput> outputs) {
-  for (DeadReckoningOutput& o : outputs) sink_.on_dead_reckoning(dead_reckoning_->publish(std::move(o)));
+void OfflinePipeline::deliver_dead_reckoning(std::vector<dead_reckoning::DeadReckoningOutput> outputs) {
+  for (dead_reckoning::DeadReckoningOutput& o : outputs)
+    sink_.on_dead_reckoning(dead_reckoning_->publish(std::move(o)));
 }
 
 }  // namespace odonav::offline

@@ -29,7 +29,7 @@ class Collector : public PipelineSink {
     if (!coarse_) r_.misalignment.push_back(m);
   }
   void on_scale_factor(const IdentificationOutput& k) override { r_.identification.push_back(k); }
-  void on_dead_reckoning(DeadReckoningStep step) override {
+  void on_dead_reckoning(dead_reckoning::DeadReckoningStep step) override {
     if (coarse_) {
       r_.dr_coarse.push_back(std::move(step.output));
     } else {
@@ -67,7 +67,7 @@ class LastEstimate : public PipelineSink {
     last = k;
     next_.on_scale_factor(k);
   }
-  void on_dead_reckoning(DeadReckoningStep step) override { next_.on_dead_reckoning(std::move(step)); }
+  void on_dead_reckoning(dead_reckoning::DeadReckoningStep step) override { next_.on_dead_reckoning(std::move(step)); }
   std::optional<IdentificationOutput> last;
 
  private:
@@ -126,8 +126,9 @@ OfflineRunTotals run_offline(const OpenSampleStream& open, bool has_ins, const O
     r.calibration_counters = pipeline.calibration().counters();
     r.dr_counters = pipeline.dead_reckoning()->core().counters();
     r.anchored_counters = pipeline.dead_reckoning()->anchor().counters();
-    for (int i = 0; i < kConsistencyChecks; ++i)
-      r.consistency.push_back(pipeline.dead_reckoning()->monitor().state(static_cast<ConsistencyCheck>(i)));
+    for (int i = 0; i < dead_reckoning::kConsistencyChecks; ++i)
+      r.consistency.push_back(
+          pipeline.dead_reckoning()->monitor().state(static_cast<dead_reckoning::ConsistencyCheck>(i)));
     r.gnss_jumps = pipeline.dead_reckoning()->monitor().gnss_jumps();
   }
   if (params.coarse_k_m_per_pulse) {

@@ -73,9 +73,10 @@ class RunDiagnosisAccumulator {
   /// consistency: the dead reckoning's checks at the end (OfflineRunTotals::consistency; each one
   /// raised during the run is a warning "inconsistent_<check>" with its finding).
   RunDiagnosis finish(const OfflineParams& params, const SampleBuilderCounters& builder,
-                      const calibration::MisalignmentCounters& calibration, const DeadReckonerCounters& dead_reckoning,
-                      const std::vector<ConsistencyState>& consistency = {},
-                      const GnssJumpCounters& gnss_jumps = {}) const;
+                      const calibration::MisalignmentCounters& calibration,
+                      const dead_reckoning::DeadReckonerCounters& dead_reckoning,
+                      const std::vector<dead_reckoning::ConsistencyState>& consistency = {},
+                      const dead_reckoning::GnssJumpCounters& gnss_jumps = {}) const;
 
  private:
   struct Span {  // first and last time (s) of a stream, and its count
