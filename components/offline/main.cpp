@@ -60,7 +60,7 @@ odonav::Options make_options() {
                   "dataset's own coarse S/N estimate");
   opts.add_string("log-level", "",
                   "trace, debug, info, warn, error, critical, off (default: $ODONAV_LOG_LEVEL or info)");
-  odonav::add_identification_options(opts);
+  odonav::identification::add_identification_options(opts);
   odonav::calibration::add_calibration_options(opts);
   odonav::dead_reckoning::add_dead_reckoning_options(opts);
   odonav::add_lever_arm_option(opts);
@@ -107,12 +107,12 @@ void apply_dataset_defaults(const odonav::DatasetMeta& meta, bool has_ins, const
   params.anchored = odonav::dead_reckoning::anchored_position_params(dr_facts);    // likewise
   // The same function as odonav-identification, with the same vehicle facts the launcher gives
   // it as flags (deploy/launch): INS present, lever arm, nominal K (the pulse-jump gate's K).
-  odonav::IdentificationVehicleFacts vehicle;
+  odonav::identification::IdentificationVehicleFacts vehicle;
   vehicle.use_ins = has_ins;
   vehicle.lever_arm_body_m = params.dead_reckoning.lever_arm_body_m;
   vehicle.nominal_k_m_per_pulse = params.dead_reckoning.nominal_k_m_per_pulse;
   vehicle.run_all_estimators = true;  // every estimator side by side
-  params.identification = odonav::identification_params_for(opts, vehicle);
+  params.identification = odonav::identification::identification_params_for(opts, vehicle);
 }
 
 /// A pass over the dataset's sensor files, as one time-ordered stream. The first pass reads through
@@ -191,8 +191,8 @@ class OutputFiles : public odonav::offline::PipelineSink {
     summary_.add(row);
     diagnosis_.add_misalignment(m);
   }
-  void on_scale_factor(const odonav::IdentificationOutput& k) override {
-    const odonav::results::ScaleFactorRow row = odonav::output_row(k, main_estimator_, estimators_);
+  void on_scale_factor(const odonav::identification::IdentificationOutput& k) override {
+    const odonav::results::ScaleFactorRow row = odonav::identification::output_row(k, main_estimator_, estimators_);
     scale_factor_.write(row);
     summary_.add(row);
     diagnosis_.add_identification(k.main, k.latency, k.latency_decided);
@@ -258,8 +258,9 @@ struct InputTime {
 struct CoarseStep {
   odonav::dead_reckoning::DeadReckoningStep step;
 };
-using OutputItem = std::variant<InputTime, odonav::calibration::MisalignmentOutput, odonav::IdentificationOutput,
-                                odonav::dead_reckoning::DeadReckoningStep, CoarseStep>;
+using OutputItem =
+    std::variant<InputTime, odonav::calibration::MisalignmentOutput, odonav::identification::IdentificationOutput,
+                 odonav::dead_reckoning::DeadReckoningStep, CoarseStep>;
 
 /// The output side of the run (the files, the summary, the diagnosis) on a second thread, so that
 /// formatting and evaluating overlap with processing: items are handed over in batches, in the
@@ -331,7 +332,7 @@ class HandOver : public odonav::offline::PipelineSink {
   void on_misalignment(const odonav::calibration::MisalignmentOutput& m) override {
     if (!coarse_) thread_.push(m);
   }
-  void on_scale_factor(const odonav::IdentificationOutput& k) override { thread_.push(k); }
+  void on_scale_factor(const odonav::identification::IdentificationOutput& k) override { thread_.push(k); }
   void on_dead_reckoning(odonav::dead_reckoning::DeadReckoningStep step) override {
     if (coarse_)
       thread_.push(CoarseStep{std::move(step)});
@@ -395,7 +396,7 @@ void add_run_facts(nlohmann::json& summary, const odonav::offline::OfflineRunTot
     summary["scale_factor"]["turn_slip_outliers"] = slip.outliers;
     summary["scale_factor"]["turn_slip_reason"] = slip.reason;  // why it is not applied; "" when it is
     // Brakings that ended in a standstill, whose samples were withdrawn from K (braking_stop.hpp).
-    const odonav::BrakingStopCounters& stops = totals.last_identification->braking_stop;
+    const odonav::identification::BrakingStopCounters& stops = totals.last_identification->braking_stop;
     summary["scale_factor"]["braking_stops"] = stops.stops;
     summary["scale_factor"]["braking_samples_withdrawn"] = stops.samples_withdrawn;
   }
@@ -480,7 +481,7 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
       }
     } else if (const auto* m = std::get_if<odonav::calibration::MisalignmentOutput>(&item)) {
       files.on_misalignment(*m);
-    } else if (const auto* k = std::get_if<odonav::IdentificationOutput>(&item)) {
+    } else if (const auto* k = std::get_if<odonav::identification::IdentificationOutput>(&item)) {
       files.on_scale_factor(*k);
     } else if (auto* step = std::get_if<odonav::dead_reckoning::DeadReckoningStep>(&item)) {
       files.on_dead_reckoning(std::move(*step));
@@ -579,7 +580,7 @@ int main(int argc, char** argv) {
   odonav::dead_reckoning::DeadReckoningFacts dr_facts;  // completed from the dataset below
   try {
     // Checked here (exit status 2 for a bad option); built again below with the dataset's facts.
-    params.identification = odonav::identification_params_for(opts, {});
+    params.identification = odonav::identification::identification_params_for(opts, {});
     params.calibration = odonav::calibration::calibration_params_from(opts);
     dr_facts = odonav::dead_reckoning::dead_reckoning_facts_from(opts);
   } catch (const odonav::ConfigError& e) {

@@ -90,9 +90,9 @@ std::vector<calibration::MisalignmentOutput> reference_calibration(const Dataset
   return c.finish();
 }
 
-std::vector<IdentificationOutput> reference_identification(const Dataset& d,
-                                                           const std::vector<calibration::MisalignmentOutput>& mis) {
-  IdentificationCore core{IdentificationParams{}};
+std::vector<identification::IdentificationOutput> reference_identification(
+    const Dataset& d, const std::vector<calibration::MisalignmentOutput>& mis) {
+  identification::IdentificationCore core{identification::IdentificationParams{}};
   for (const auto& o : d.odometer) core.add_odometer(o);
   for (const auto& g : d.gnss) core.add_gnss(g);
   for (const auto& i : d.ins) core.add_ins(i);
@@ -275,7 +275,7 @@ TEST_F(NodeProcess, IdentificationNodeEqualsTheCoreFedTheSameMisalignments) {
   ASSERT_EQ(got.size(), expected.size());
   std::size_t converged = 0;
   for (std::size_t i = 0; i < got.size(); ++i) {
-    const auto want = nodes::scale_factor_message(expected[i], "vff_lm_rls", kVehicle);
+    const auto want = identification::scale_factor_message(expected[i], "vff_lm_rls", kVehicle);
     ASSERT_EQ(got[i].header().stamp(), want.header().stamp()) << i;
     EXPECT_EQ(got[i].k_m_per_pulse(), want.k_m_per_pulse()) << i;
     EXPECT_EQ(got[i].sigma_m_per_pulse(), want.sigma_m_per_pulse()) << i;
@@ -303,7 +303,7 @@ TEST_F(NodeProcess, DeadReckoningNodeEqualsTheDeadReckonerFedTheSameEstimates) {
   const auto mis = reference_calibration(d);
   const auto ident = reference_identification(d, mis);
   std::vector<msg::ScaleFactor> k_messages;
-  for (const auto& o : ident) k_messages.push_back(nodes::scale_factor_message(o, "vff_lm_rls", kVehicle));
+  for (const auto& o : ident) k_messages.push_back(identification::scale_factor_message(o, "vff_lm_rls", kVehicle));
   const auto expected = reference_dead_reckoning(d, mis, &k_messages);
 
   odonav::dds::Participant p(test_participant(domain));

@@ -36,10 +36,10 @@ struct IdentificationRun {
 };
 
 IdentificationRun identify(const Dataset& d, const simulator::SimulationConfig& cfg, bool use_ins) {
-  IdentificationParams p;
+  identification::IdentificationParams p;
   p.builder.use_ins = use_ins;
   if (use_ins) p.builder.lever_arm_body_m = cfg.lever_arm_m;
-  IdentificationCore core(p);
+  identification::IdentificationCore core(p);
   if (use_ins) core.add_misalignment(d.odometer.front().t_s, cfg.misalignment);
   for (const auto& s : d.odometer) core.add_odometer(s);
   for (const auto& s : d.gnss) core.add_gnss(s);

@@ -78,15 +78,15 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
 
   {
     SCOPED_TRACE("identification");
-    IdentificationParams p;
+    identification::IdentificationParams p;
     p.run_all_estimators = true;  // every estimator's state in it
-    IdentificationCore core(p);
+    identification::IdentificationCore core(p);
     for (const auto& x : d.odometer) core.add_odometer(x);
     for (const auto& x : d.ins) core.add_ins(x);
     for (const auto& x : d.gnss)
       if (x.t_s < 45.0) core.add_gnss(x);
     core.process_until(cut_s);
-    IdentificationCheckpoint c;
+    identification::IdentificationCheckpoint c;
     c.vehicle_id = kVehicle;
     c.config_hash = kHash;
     c.estimator_name = core.main_estimator_name();
@@ -96,15 +96,16 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
     c.held_misalignment_t_s = 30.0;
     c.core_state = core.save_state();
     ASSERT_EQ(c.core_state.at("side_by_side").size(), core.estimator_names().size());
-    const std::string text = serialize_checkpoint(c);
-    const std::string path = checkpoint_path(dir_.string(), kVehicle);
+    const std::string text = identification::serialize_checkpoint(c);
+    const std::string path = identification::checkpoint_path(dir_.string(), kVehicle);
     write_file_atomically(path, text);
-    IdentificationCore restored(p);
-    const CheckpointLoadResult r = load_identification_checkpoint(path, kVehicle, kHash, restored, kUnixTime_s);
+    identification::IdentificationCore restored(p);
+    const identification::CheckpointLoadResult r =
+        identification::load_identification_checkpoint(path, kVehicle, kHash, restored, kUnixTime_s);
     ASSERT_EQ(r.status, CheckpointLoadStatus::kRestored) << r.reason;
-    IdentificationCheckpoint again = *r.checkpoint;
+    identification::IdentificationCheckpoint again = *r.checkpoint;
     again.core_state = restored.save_state();
-    EXPECT_EQ(serialize_checkpoint(again), text);
+    EXPECT_EQ(identification::serialize_checkpoint(again), text);
     EXPECT_EQ(read_text(path), text);
   }
   {
@@ -236,11 +237,11 @@ TEST(CheckpointStateValues, NonFiniteSubnormalAndNegativeZeroRoundTripBitExactly
 
   // A fresh sample builder holds -inf (its watermark) and NaN (no GNSS period yet): its state in a
   // checkpoint comes back to the same bytes.
-  const IdentificationCore fresh{IdentificationParams{}};
+  const identification::IdentificationCore fresh{identification::IdentificationParams{}};
   const StateJson state = fresh.save_state();
   EXPECT_EQ(state.at("sample_builder").at("watermark_s"), "-inf");
   EXPECT_EQ(state.at("sample_builder").at("gnss_period_s"), "nan");
-  IdentificationCore restored{IdentificationParams{}};
+  identification::IdentificationCore restored{identification::IdentificationParams{}};
   restored.restore_state(StateJson::parse(state.dump()));
   EXPECT_EQ(restored.save_state().dump(), state.dump());
 }

@@ -162,7 +162,7 @@ TEST(OfflineAcceptance, RealSmartLocDriveKWithinHalfPercentOfReferenceRatio) {
   OfflineParams p = default_params(d);
   const OfflineResult r = run_offline(d, p);
   std::vector<double> converged_k;
-  for (const IdentificationOutput& o : r.identification)
+  for (const identification::IdentificationOutput& o : r.identification)
     if (o.main.valid && o.main.converged) converged_k.push_back(o.main.k_m_per_pulse);
   ASSERT_GT(converged_k.size(), 50u);
   std::nth_element(converged_k.begin(), converged_k.begin() + converged_k.size() / 2, converged_k.end());

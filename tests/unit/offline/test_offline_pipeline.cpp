@@ -148,12 +148,12 @@ TEST(OfflinePipeline, EveryEstimateArrivesBeforeTheOutputsItAppliesToSoTheRunEqu
 
   struct Recorder : PipelineSink {
     std::vector<calibration::MisalignmentOutput> misalignment;
-    std::vector<IdentificationOutput> scale_factor;
+    std::vector<identification::IdentificationOutput> scale_factor;
     std::vector<dead_reckoning::DeadReckoningStep> steps;
     // For each step: the estimates delivered before it.
     std::vector<std::size_t> misalignments_before, scale_factors_before;
     void on_misalignment(const calibration::MisalignmentOutput& m) override { misalignment.push_back(m); }
-    void on_scale_factor(const IdentificationOutput& k) override { scale_factor.push_back(k); }
+    void on_scale_factor(const identification::IdentificationOutput& k) override { scale_factor.push_back(k); }
     void on_dead_reckoning(dead_reckoning::DeadReckoningStep s) override {
       misalignments_before.push_back(misalignment.size());
       scale_factors_before.push_back(scale_factor.size());
@@ -196,8 +196,8 @@ TEST(OfflinePipeline, EveryEstimateArrivesBeforeTheOutputsItAppliesToSoTheRunEqu
   for_each_sensor_sample(d, WireFeeder{oracle});
   for (const calibration::MisalignmentOutput& m : run.misalignment)
     oracle.on_misalignment(calibration::published_misalignment(m));
-  for (const IdentificationOutput& k : run.scale_factor)
-    oracle.on_scale_factor(published_scale_factor(k, "identification"), 0.0);
+  for (const identification::IdentificationOutput& k : run.scale_factor)
+    oracle.on_scale_factor(identification::published_scale_factor(k, "identification"), 0.0);
   std::vector<dead_reckoning::DeadReckoningOutput> expected = oracle.finish();
   ASSERT_EQ(expected.size(), run.steps.size());
   std::size_t identified = 0;

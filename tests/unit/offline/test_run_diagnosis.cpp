@@ -294,7 +294,7 @@ TEST(RunDiagnosis, AShortDriveSaysTheGnssLatencyWasNeverDecidedAndWhy) {
   const Dataset d = simulator::simulate(cfg);
   OfflineParams p = params_for(d);
   const OfflineResult result = run_offline(d, p);
-  for (const IdentificationOutput& o : result.identification) {
+  for (const identification::IdentificationOutput& o : result.identification) {
     EXPECT_FALSE(o.latency_decided) << o.t_s;
     EXPECT_FALSE(o.main.converged) << o.t_s;
   }
@@ -341,7 +341,7 @@ TEST(BrakingStop, AStopAtTheEndOfADriveLeavesKAndTheMisalignmentAsBeforeTheBraki
   const double k_true = cfg.k_true_m_per_pulse;
   auto k_before = [&](const OfflineResult& r) {
     double k = std::nan("");
-    for (const IdentificationOutput& o : r.identification)
+    for (const identification::IdentificationOutput& o : r.identification)
       if (o.t_s < brake_t - 0.5 && o.main.valid) k = o.main.k_m_per_pulse;
     return k;
   };

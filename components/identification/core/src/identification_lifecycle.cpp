@@ -8,7 +8,7 @@
 
 #include "odonav/consumer_rules.hpp"
 
-namespace odonav {
+namespace odonav::identification {
 
 ComponentHealth identification_health(const IdentificationHealthFacts& f) {
   using State = ComponentHealth::State;
@@ -172,4 +172,4 @@ IdentificationHealthFacts IdentificationLifecycle::health_facts(double steady_no
   return f;
 }
 
-}  // namespace odonav
+}  // namespace odonav::identification

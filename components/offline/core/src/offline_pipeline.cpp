@@ -50,8 +50,9 @@ struct OfflinePipeline::Consumer {
 OfflinePipeline::OfflinePipeline(const PipelineConfig& config, PipelineSink& sink)
     : config_(config), sink_(sink), calibration_(config.calibration) {
   if (config_.identification) {
-    identification_ = std::make_unique<IdentificationCore>(*config_.identification);
-    identification_inputs_ = std::make_unique<Consumer>(identification_inputs(*config_.identification), false);
+    identification_ = std::make_unique<identification::IdentificationCore>(*config_.identification);
+    identification_inputs_ =
+        std::make_unique<Consumer>(identification::identification_inputs(*config_.identification), false);
   }
   if (config_.dead_reckoning) {
     dead_reckoning_ = std::make_unique<dead_reckoning::DeadReckoningComponent>(*config_.dead_reckoning,
@@ -148,11 +149,12 @@ void OfflinePipeline::deliver_misalignments(const std::vector<calibration::Misal
   }
 }
 
-void OfflinePipeline::deliver_scale_factors(const std::vector<IdentificationOutput>& outputs) {
-  for (const IdentificationOutput& k : outputs) {
+void OfflinePipeline::deliver_scale_factors(const std::vector<identification::IdentificationOutput>& outputs) {
+  for (const identification::IdentificationOutput& k : outputs) {
     sink_.on_scale_factor(k);
     if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->scale_factor, k.t_s))
-      dead_reckoning_->on_scale_factor(published_scale_factor(k, config_.identification_source), kNow_s);
+      dead_reckoning_->on_scale_factor(identification::published_scale_factor(k, config_.identification_source),
+                                       kNow_s);
   }
 }
 

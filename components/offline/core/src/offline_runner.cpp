@@ -28,7 +28,7 @@ class Collector : public PipelineSink {
   void on_misalignment(const calibration::MisalignmentOutput& m) override {
     if (!coarse_) r_.misalignment.push_back(m);
   }
-  void on_scale_factor(const IdentificationOutput& k) override { r_.identification.push_back(k); }
+  void on_scale_factor(const identification::IdentificationOutput& k) override { r_.identification.push_back(k); }
   void on_dead_reckoning(dead_reckoning::DeadReckoningStep step) override {
     if (coarse_) {
       r_.dr_coarse.push_back(std::move(step.output));
@@ -51,7 +51,7 @@ OfflineParams with_degraded_mode(bool ins, OfflineParams p) {
   return p;
 }
 
-std::optional<double> final_coarse_k(const std::optional<IdentificationOutput>& last,
+std::optional<double> final_coarse_k(const std::optional<identification::IdentificationOutput>& last,
                                      const std::vector<std::string>& names) {
   for (std::size_t i = 0; i < names.size(); ++i)
     if (names[i] == "coarse" && last && last->all[i].valid) return last->all[i].k_m_per_pulse;
@@ -63,12 +63,12 @@ class LastEstimate : public PipelineSink {
  public:
   explicit LastEstimate(PipelineSink& next) : next_(next) {}
   void on_misalignment(const calibration::MisalignmentOutput& m) override { next_.on_misalignment(m); }
-  void on_scale_factor(const IdentificationOutput& k) override {
+  void on_scale_factor(const identification::IdentificationOutput& k) override {
     last = k;
     next_.on_scale_factor(k);
   }
   void on_dead_reckoning(dead_reckoning::DeadReckoningStep step) override { next_.on_dead_reckoning(std::move(step)); }
-  std::optional<IdentificationOutput> last;
+  std::optional<identification::IdentificationOutput> last;
 
  private:
   PipelineSink& next_;

@@ -116,7 +116,8 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
   for (const OdometerSample& o : d.odometer) acc.add_odometer(o.t_s);
   for (const GnssSample& g : d.gnss) acc.add_gnss(g.t_s);
   for (const InsSample& i : d.ins) acc.add_ins(i.t_s);
-  for (const IdentificationOutput& k : r.identification) acc.add_identification(k.main, k.latency, k.latency_decided);
+  for (const identification::IdentificationOutput& k : r.identification)
+    acc.add_identification(k.main, k.latency, k.latency_decided);
   for (const calibration::MisalignmentOutput& m : r.misalignment) acc.add_misalignment(m);
   for (const dead_reckoning::DeadReckoningOutput& o : r.dr_online) acc.add_dead_reckoning(o.t_s, o.position);
   return acc.finish(p, r.builder_counters, r.calibration_counters, r.dr_counters, r.consistency, r.gnss_jumps);

@@ -34,7 +34,7 @@ class PipelineSink {
  public:
   virtual ~PipelineSink() = default;
   virtual void on_misalignment(const calibration::MisalignmentOutput& /*output*/) {}
-  virtual void on_scale_factor(const IdentificationOutput& /*output*/) {}
+  virtual void on_scale_factor(const identification::IdentificationOutput& /*output*/) {}
   // By value: a forwarding sink moves the step on.
   virtual void on_dead_reckoning(dead_reckoning::DeadReckoningStep /*step*/) {
   }  // NOLINT(performance-unnecessary-value-param)
@@ -44,7 +44,7 @@ class PipelineSink {
 struct PipelineConfig {
   calibration::MisalignmentCalibratorParams calibration;
   /// Unset: no identification (dead reckoning keeps its nominal K and a zero GNSS latency).
-  std::optional<IdentificationParams> identification;
+  std::optional<identification::IdentificationParams> identification;
   /// Unset: no dead reckoning.
   std::optional<dead_reckoning::DeadReckonerParams> dead_reckoning;
   dead_reckoning::AnchoredPositionParams anchored;
@@ -75,7 +75,7 @@ class OfflinePipeline {
 
   const calibration::MisalignmentCalibrator& calibration() const { return calibration_; }
   /// nullptr when not configured.
-  const IdentificationCore* identification() const { return identification_.get(); }
+  const identification::IdentificationCore* identification() const { return identification_.get(); }
   const dead_reckoning::DeadReckoningComponent* dead_reckoning() const { return dead_reckoning_.get(); }
 
  private:
@@ -83,13 +83,13 @@ class OfflinePipeline {
   void advance_to(double t_s);
   void process(double complete_through_s);
   void deliver_misalignments(const std::vector<calibration::MisalignmentOutput>& outputs);
-  void deliver_scale_factors(const std::vector<IdentificationOutput>& outputs);
+  void deliver_scale_factors(const std::vector<identification::IdentificationOutput>& outputs);
   void deliver_dead_reckoning(std::vector<dead_reckoning::DeadReckoningOutput> outputs);
 
   PipelineConfig config_;
   PipelineSink& sink_;
   calibration::MisalignmentCalibrator calibration_;
-  std::unique_ptr<IdentificationCore> identification_;
+  std::unique_ptr<identification::IdentificationCore> identification_;
   std::unique_ptr<dead_reckoning::DeadReckoningComponent> dead_reckoning_;
   std::unique_ptr<Consumer> identification_inputs_;
   std::unique_ptr<Consumer> dead_reckoning_inputs_;

@@ -20,7 +20,7 @@ namespace odonav::offline {
 
 struct OfflineParams {
   calibration::MisalignmentCalibratorParams calibration;
-  IdentificationParams identification;
+  identification::IdentificationParams identification;
   dead_reckoning::DeadReckonerParams dead_reckoning;  ///< nominal_k is the K before identification converges.
   dead_reckoning::AnchoredPositionParams anchored;    ///< the navigation position anchored on GNSS (online DR).
   /// K for the "coarse" DR run (m/pulse). Unset: the coarse S/N estimate of this dataset (its final
@@ -40,8 +40,9 @@ SampleStream samples_of(const Dataset& dataset);
 
 /// What a streaming run leaves besides the outputs it delivered.
 struct OfflineRunTotals {
-  std::vector<std::string> estimator_names;                 ///< order of IdentificationOutput::all.
-  std::optional<IdentificationOutput> last_identification;  ///< the final estimate (none without GNSS epochs)
+  std::vector<std::string> estimator_names;  ///< order of IdentificationOutput::all.
+  std::optional<identification::IdentificationOutput>
+      last_identification;  ///< the final estimate (none without GNSS epochs)
   double coarse_k_m_per_pulse = 0.0;
   std::string coarse_k_origin;
   SampleBuilderCounters builder_counters;
@@ -57,7 +58,7 @@ struct OfflineRunTotals {
 /// A run over an in-memory dataset with every output kept (tests, benchmarks).
 struct OfflineResult : OfflineRunTotals {
   std::vector<calibration::MisalignmentOutput> misalignment;          ///< one per GNSS epoch.
-  std::vector<IdentificationOutput> identification;                   ///< one per GNSS epoch.
+  std::vector<identification::IdentificationOutput> identification;   ///< one per GNSS epoch.
   std::vector<dead_reckoning::DeadReckoningOutput> dr_online;         ///< DR with the identified K.
   std::vector<dead_reckoning::AnchoredPosition> navigation_position;  ///< dr_online anchored on GNSS, one per output.
   std::vector<dead_reckoning::DeadReckoningOutput> dr_coarse;         ///< DR with the coarse K.
