@@ -223,19 +223,20 @@ struct Setting {
 };
 
 json identification_summary(const odonav::Dataset& d, const odonav::offline::OfflineParams& params,
-                            const std::vector<odonav::MisalignmentOutput>& misalignment) {
-  odonav::IdentificationParams ip = params.identification;
+                            const std::vector<odonav::calibration::MisalignmentOutput>& misalignment) {
+  odonav::identification::IdentificationParams ip = params.identification;
   ip.run_all_estimators = false;
   ip.estimator_name = "vff_lm_rls";
   ip.builder.use_ins = d.has_ins();
-  odonav::IdentificationCore core(ip);
+  odonav::identification::IdentificationCore core(ip);
   for (const auto& o : d.odometer) core.add_odometer(o);
   for (const auto& g : d.gnss) core.add_gnss(g);
   for (const auto& i : d.ins) core.add_ins(i);
   // Applied by the identification's own rule, as the pipeline applies them.
-  for (const auto& m : misalignment) core.apply_misalignment(odonav::published_misalignment(m));
+  for (const auto& m : misalignment) core.apply_misalignment(odonav::calibration::published_misalignment(m));
   odonav::results::OutputRows rows;
-  for (const auto& k : core.finish()) rows.scale_factor.push_back(odonav::output_row(k, "vff_lm_rls", {}));
+  for (const auto& k : core.finish())
+    rows.scale_factor.push_back(odonav::identification::output_row(k, "vff_lm_rls", {}));
   return summary_of(d, rows, "terrain");
 }
 
@@ -267,10 +268,10 @@ void run_sensitivity(const odonav::offline::OfflineParams& base, const odonav::O
     const odonav::Dataset d = simulate("terrain", seed);
     odonav::offline::OfflineParams p = params_for(d, base, opts);
     p.identification.estimator = base.identification.estimator;
-    odonav::MisalignmentCalibrator calibrator(p.calibration);
+    odonav::calibration::MisalignmentCalibrator calibrator(p.calibration);
     for (const auto& g : d.gnss) calibrator.add_gnss(g);
     for (const auto& i : d.ins) calibrator.add_ins(i);
-    const std::vector<odonav::MisalignmentOutput> misalignment = calibrator.finish();
+    const std::vector<odonav::calibration::MisalignmentOutput> misalignment = calibrator.finish();
     for (std::size_t i = 0; i < settings.size(); ++i) {
       odonav::offline::OfflineParams q = p;
       q.identification.estimator.window_length = settings[i].window;

@@ -168,9 +168,9 @@ void BM_SampleBuilderEpoch(benchmark::State& state) {
 // attitude interpolation, the rotation, the WGS-84 position update, ENU of the new position and
 // the error against the GNSS reference interpolated between two fixes.
 void BM_DeadReckonerStep(benchmark::State& state) {
-  odonav::DeadReckonerParams params;
+  odonav::dead_reckoning::DeadReckonerParams params;
   params.lever_arm_body_m = Eigen::Vector3d(-0.5, 0.3, 2.2);
-  odonav::DeadReckoner dr(params);
+  odonav::dead_reckoning::DeadReckoner dr(params);
   SyntheticDrive drive;
   odonav::OdometerSample odo;
   odonav::InsSample ins;
@@ -188,7 +188,7 @@ void BM_DeadReckonerStep(benchmark::State& state) {
 
 // One GNSS epoch of the misalignment calibrator: 10 INS samples and the fix buffered, one RLS update.
 void BM_MisalignmentUpdate(benchmark::State& state) {
-  odonav::MisalignmentCalibrator calibrator;
+  odonav::calibration::MisalignmentCalibrator calibrator;
   SyntheticDrive drive;
   odonav::OdometerSample odo;
   odonav::InsSample ins;

@@ -53,7 +53,7 @@ inline Dataset simulate(const std::string& scenario, uint64_t seed) {
 // identification_params_for with the same vehicle facts, so the bench measures the defaults a user
 // gets.
 inline offline::OfflineParams params_for(const Dataset& d, offline::OfflineParams p, const Options& opts) {
-  DeadReckoningFacts facts = dead_reckoning_facts_from(opts);
+  dead_reckoning::DeadReckoningFacts facts = dead_reckoning::dead_reckoning_facts_from(opts);
   if (!facts.lever_arm_body_m && d.meta.gnss_lever_arm_m) {
     facts.lever_arm_body_m = d.meta.gnss_lever_arm_m;
     p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
@@ -61,13 +61,13 @@ inline offline::OfflineParams params_for(const Dataset& d, offline::OfflineParam
   facts.use_ins = d.has_ins();
   facts.dataset_nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse;
   facts.dataset_nominal_k_sigma_percent = d.meta.k_nominal_sigma_percent;
-  p.dead_reckoning = dead_reckoner_params(facts);
-  IdentificationVehicleFacts vehicle;
+  p.dead_reckoning = dead_reckoning::dead_reckoner_params(facts);
+  identification::IdentificationVehicleFacts vehicle;
   vehicle.use_ins = d.has_ins();
   vehicle.lever_arm_body_m = p.dead_reckoning.lever_arm_body_m;
   vehicle.nominal_k_m_per_pulse = p.dead_reckoning.nominal_k_m_per_pulse;
   vehicle.run_all_estimators = true;
-  p.identification = identification_params_for(opts, vehicle);
+  p.identification = identification::identification_params_for(opts, vehicle);
   p.calibration.use_ins = d.has_ins();
   return p;
 }
@@ -81,9 +81,9 @@ inline void add_scenario_bench_options(Options& opts, const std::string& default
   opts.add_int("first-seed", 1, "first seed", 0, std::numeric_limits<int64_t>::max() / 2);
   opts.add_string("scenarios", default_scenarios, scenarios_help);
   opts.add_string("log-level", "warn", "trace, debug, info, warn, error, critical, off");
-  add_identification_options(opts);
-  add_calibration_options(opts);
-  add_dead_reckoning_options(opts);
+  identification::add_identification_options(opts);
+  calibration::add_calibration_options(opts);
+  dead_reckoning::add_dead_reckoning_options(opts);
   add_lever_arm_option(opts);
 }
 
@@ -95,9 +95,9 @@ inline std::optional<int> parse_scenario_bench(Options& opts, int argc, char** a
   try {
     if (opts.parse(argc, argv) == ParseResult::kHelp) return 0;
     setup_logging(tool, opts.get_string("log-level"));
-    base.identification = identification_params_from(opts);
-    base.calibration = calibration_params_from(opts);
-    base.dead_reckoning = dead_reckoner_params(dead_reckoning_facts_from(opts));
+    base.identification = identification::identification_params_from(opts);
+    base.calibration = calibration::calibration_params_from(opts);
+    base.dead_reckoning = dead_reckoning::dead_reckoner_params(dead_reckoning::dead_reckoning_facts_from(opts));
     base.calibration.lever_arm_body_m = base.dead_reckoning.lever_arm_body_m;
   } catch (const ConfigError& e) {
     std::cerr << "odonav-" << tool << ": " << e.what() << "\n";

@@ -79,7 +79,7 @@ std::string cells(const Coverage& c, double worst_seed_within_2) {
 // The diagnosis: the latency's online estimate (not the one in force) against its own sigma.
 QuantityCoverage latency_estimate_coverage(const odonav::offline::OfflineResult& r, double latency_true_s) {
   QuantityCoverage q{"GNSS latency, online estimate", {}, {}};
-  for (const odonav::IdentificationOutput& o : r.identification) {
+  for (const odonav::identification::IdentificationOutput& o : r.identification) {
     if (o.latency.sigma_s < 0.0) continue;
     q.all.add(o.latency.estimate_s - latency_true_s, o.latency.sigma_s);
     if (o.main.converged) q.converged.add(o.latency.estimate_s - latency_true_s, o.latency.sigma_s);

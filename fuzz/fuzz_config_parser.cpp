@@ -32,9 +32,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   options.add_choice("on-bad-row", "fail", {"fail", "skip"}, "bad row policy");
   options.add_int("count", 3, "an integer option", -5, 1000000);
   options.add_bool("verbose", false, "a switch");
-  odonav::add_identification_options(options);
-  odonav::add_calibration_options(options);
-  odonav::add_dead_reckoning_options(options);
+  odonav::identification::add_identification_options(options);
+  odonav::calibration::add_calibration_options(options);
+  odonav::dead_reckoning::add_dead_reckoning_options(options);
   odonav::add_lever_arm_option(options);
 
   std::vector<std::string> args{"--config", path};
@@ -42,9 +42,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   std::ostringstream help;
   try {
     if (options.parse(args, help) == odonav::ParseResult::kHelp) return 0;
-    (void)odonav::identification_params_from(options);
-    (void)odonav::calibration_params_from(options);
-    (void)odonav::dead_reckoning_params_from(options);
+    (void)odonav::identification::identification_params_from(options);
+    (void)odonav::calibration::calibration_params_from(options);
+    (void)odonav::dead_reckoning::dead_reckoning_params_from(options);
     (void)odonav::lever_arm_from(options);
     (void)options.values_as_text();
   } catch (const odonav::ConfigError&) {

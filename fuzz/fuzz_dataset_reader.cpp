@@ -87,9 +87,9 @@ void run_cores(const odonav::Dataset& d) {
   odonav::SampleBuilderParams builder_params;
   builder_params.use_ins = d.has_ins();
   odonav::SampleBuilder builder(builder_params);
-  odonav::DeadReckonerParams dr_params;
+  odonav::dead_reckoning::DeadReckonerParams dr_params;
   dr_params.use_ins = d.has_ins();
-  odonav::DeadReckoner dr(dr_params);
+  odonav::dead_reckoning::DeadReckoner dr(dr_params);
   for (const auto& o : d.odometer) {
     builder.add_odometer(o);
     dr.add_odometer(o);

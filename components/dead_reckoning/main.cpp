@@ -9,11 +9,11 @@ int main(int argc, char** argv) {
       "rt/odonav/dead_reckoning and the GNSS-anchored rt/odonav/navigation_position once per odometer sample, in "
       "event time. Uses the nominal K until an identified "
       "K converges, and goes on without identification. Stops on SIGINT/SIGTERM after publishing every output.",
-      [](odonav::Options& o) { odonav::nodes::add_dead_reckoning_node_options(o); },
+      [](odonav::Options& o) { odonav::dead_reckoning::add_dead_reckoning_node_options(o); },
       [](const odonav::Options& o, odonav::dds::ComponentRuntime& runtime) {
-        odonav::nodes::DeadReckoningNode node(runtime, odonav::nodes::dead_reckoning_node_params_from(o),
-                                              odonav::nodes::anchored_position_node_params_from(o),
-                                              odonav::checkpoint_settings_from_options(o));
+        odonav::dead_reckoning::DeadReckoningNode node(
+            runtime, odonav::dead_reckoning::dead_reckoning_node_params_from(o),
+            odonav::dead_reckoning::anchored_position_node_params_from(o), odonav::checkpoint_settings_from_options(o));
         return node.run();
       });
 }

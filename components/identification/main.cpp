@@ -7,11 +7,11 @@ int main(int argc, char** argv) {
       "Identifies the odometer scale factor K online (docs/ALGORITHM.md sections 2-3): reads rt/odonav/odometer, "
       "rt/odonav/gnss/fix, rt/odonav/ins/attitude and rt/odonav/misalignment, publishes rt/odonav/scale_factor "
       "once per GNSS epoch, in event time. With --state-dir it resumes from its checkpoint after a restart. Stops on SIGINT/SIGTERM after publishing every remaining output.",
-      [](odonav::Options& o) { odonav::nodes::add_identification_node_options(o); },
+      [](odonav::Options& o) { odonav::identification::add_identification_node_options(o); },
       [](const odonav::Options& o, odonav::dds::ComponentRuntime& runtime) {
-        odonav::nodes::IdentificationNode node(runtime, odonav::nodes::identification_node_params_from(o),
-                                               odonav::nodes::checkpoint_settings_from(o),
-                                               odonav::nodes::instance_settings_from(o));
+        odonav::identification::IdentificationNode node(
+            runtime, odonav::identification::identification_node_params_from(o),
+            odonav::identification::checkpoint_settings_from(o), odonav::identification::instance_settings_from(o));
         return node.run();
       });
 }

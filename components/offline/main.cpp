@@ -60,9 +60,9 @@ odonav::Options make_options() {
                   "dataset's own coarse S/N estimate");
   opts.add_string("log-level", "",
                   "trace, debug, info, warn, error, critical, off (default: $ODONAV_LOG_LEVEL or info)");
-  odonav::add_identification_options(opts);
-  odonav::add_calibration_options(opts);
-  odonav::add_dead_reckoning_options(opts);
+  odonav::identification::add_identification_options(opts);
+  odonav::calibration::add_calibration_options(opts);
+  odonav::dead_reckoning::add_dead_reckoning_options(opts);
   odonav::add_lever_arm_option(opts);
   return opts;
 }
@@ -92,7 +92,8 @@ std::optional<int> parse_command_line(odonav::Options& opts, int argc, char** ar
 /// the nominal K (m/pulse: the flag, else meta.json, else 0.0125, dead_reckoner_params); then the identification
 /// parameters from the flags and these vehicle facts.
 void apply_dataset_defaults(const odonav::DatasetMeta& meta, bool has_ins, const odonav::Options& opts,
-                            odonav::DeadReckoningFacts dr_facts, odonav::offline::OfflineParams& params) {
+                            odonav::dead_reckoning::DeadReckoningFacts dr_facts,
+                            odonav::offline::OfflineParams& params) {
   if (!dr_facts.lever_arm_body_m && meta.gnss_lever_arm_m) {
     const Eigen::Vector3d& l = *meta.gnss_lever_arm_m;
     spdlog::info("GNSS lever arm from meta.json: ({}, {}, {}) m (forward, left, up)", l.x(), l.y(), l.z());
@@ -102,16 +103,16 @@ void apply_dataset_defaults(const odonav::DatasetMeta& meta, bool has_ins, const
   dr_facts.use_ins = has_ins;
   dr_facts.dataset_nominal_k_m_per_pulse = meta.k_nominal_m_per_pulse;
   dr_facts.dataset_nominal_k_sigma_percent = meta.k_nominal_sigma_percent;
-  params.dead_reckoning = odonav::dead_reckoner_params(dr_facts);  // as odonav-dead-reckoning's
-  params.anchored = odonav::anchored_position_params(dr_facts);    // likewise
+  params.dead_reckoning = odonav::dead_reckoning::dead_reckoner_params(dr_facts);  // as odonav-dead-reckoning's
+  params.anchored = odonav::dead_reckoning::anchored_position_params(dr_facts);    // likewise
   // The same function as odonav-identification, with the same vehicle facts the launcher gives
   // it as flags (deploy/launch): INS present, lever arm, nominal K (the pulse-jump gate's K).
-  odonav::IdentificationVehicleFacts vehicle;
+  odonav::identification::IdentificationVehicleFacts vehicle;
   vehicle.use_ins = has_ins;
   vehicle.lever_arm_body_m = params.dead_reckoning.lever_arm_body_m;
   vehicle.nominal_k_m_per_pulse = params.dead_reckoning.nominal_k_m_per_pulse;
   vehicle.run_all_estimators = true;  // every estimator side by side
-  params.identification = odonav::identification_params_for(opts, vehicle);
+  params.identification = odonav::identification::identification_params_for(opts, vehicle);
 }
 
 /// A pass over the dataset's sensor files, as one time-ordered stream. The first pass reads through
@@ -184,24 +185,24 @@ class OutputFiles : public odonav::offline::PipelineSink {
         summary_(summary),
         diagnosis_(diagnosis) {}
 
-  void on_misalignment(const odonav::MisalignmentOutput& m) override {
-    const odonav::results::MisalignmentRow row = odonav::output_row(m);
+  void on_misalignment(const odonav::calibration::MisalignmentOutput& m) override {
+    const odonav::results::MisalignmentRow row = odonav::calibration::output_row(m);
     misalignment_.write(row);
     summary_.add(row);
     diagnosis_.add_misalignment(m);
   }
-  void on_scale_factor(const odonav::IdentificationOutput& k) override {
-    const odonav::results::ScaleFactorRow row = odonav::output_row(k, main_estimator_, estimators_);
+  void on_scale_factor(const odonav::identification::IdentificationOutput& k) override {
+    const odonav::results::ScaleFactorRow row = odonav::identification::output_row(k, main_estimator_, estimators_);
     scale_factor_.write(row);
     summary_.add(row);
     diagnosis_.add_identification(k.main, k.latency, k.latency_decided);
   }
-  void on_dead_reckoning(odonav::DeadReckoningStep step) override {
-    const odonav::results::DeadReckoningRow dr = odonav::output_row(step.output);
+  void on_dead_reckoning(odonav::dead_reckoning::DeadReckoningStep step) override {
+    const odonav::results::DeadReckoningRow dr = odonav::dead_reckoning::output_row(step.output);
     dead_reckoning_.write(dr);
     summary_.add_dead_reckoning(dr);
     diagnosis_.add_dead_reckoning(step.output.t_s, step.output.position);
-    const odonav::results::NavigationPositionRow nav = odonav::output_row(step.navigation);
+    const odonav::results::NavigationPositionRow nav = odonav::dead_reckoning::output_row(step.navigation);
     navigation_.write(nav);
     summary_.add(nav);
     ++navigation_rows_;
@@ -231,8 +232,8 @@ class CoarseFile : public odonav::offline::PipelineSink {
  public:
   CoarseFile(const odonav::OutputDirectory& out, odonav::offline::SummaryAccumulator& summary)
       : csv_(out.file("dead_reckoning_coarse.csv")), summary_(summary) {}
-  void on_dead_reckoning(odonav::DeadReckoningStep step) override {
-    const odonav::results::DeadReckoningRow row = odonav::output_row(step.output);
+  void on_dead_reckoning(odonav::dead_reckoning::DeadReckoningStep step) override {
+    const odonav::results::DeadReckoningRow row = odonav::dead_reckoning::output_row(step.output);
     csv_.write(row);
     summary_.add_dead_reckoning_coarse(row);
     ++rows_;
@@ -255,10 +256,11 @@ struct InputTime {
 
 /// What the output side receives, in the order the run makes it.
 struct CoarseStep {
-  odonav::DeadReckoningStep step;
+  odonav::dead_reckoning::DeadReckoningStep step;
 };
-using OutputItem = std::variant<InputTime, odonav::MisalignmentOutput, odonav::IdentificationOutput,
-                                odonav::DeadReckoningStep, CoarseStep>;
+using OutputItem =
+    std::variant<InputTime, odonav::calibration::MisalignmentOutput, odonav::identification::IdentificationOutput,
+                 odonav::dead_reckoning::DeadReckoningStep, CoarseStep>;
 
 /// The output side of the run (the files, the summary, the diagnosis) on a second thread, so that
 /// formatting and evaluating overlap with processing: items are handed over in batches, in the
@@ -327,11 +329,11 @@ class OutputThread {
 class HandOver : public odonav::offline::PipelineSink {
  public:
   HandOver(OutputThread& thread, bool coarse) : thread_(thread), coarse_(coarse) {}
-  void on_misalignment(const odonav::MisalignmentOutput& m) override {
+  void on_misalignment(const odonav::calibration::MisalignmentOutput& m) override {
     if (!coarse_) thread_.push(m);
   }
-  void on_scale_factor(const odonav::IdentificationOutput& k) override { thread_.push(k); }
-  void on_dead_reckoning(odonav::DeadReckoningStep step) override {
+  void on_scale_factor(const odonav::identification::IdentificationOutput& k) override { thread_.push(k); }
+  void on_dead_reckoning(odonav::dead_reckoning::DeadReckoningStep step) override {
     if (coarse_)
       thread_.push(CoarseStep{std::move(step)});
     else
@@ -394,7 +396,7 @@ void add_run_facts(nlohmann::json& summary, const odonav::offline::OfflineRunTot
     summary["scale_factor"]["turn_slip_outliers"] = slip.outliers;
     summary["scale_factor"]["turn_slip_reason"] = slip.reason;  // why it is not applied; "" when it is
     // Brakings that ended in a standstill, whose samples were withdrawn from K (braking_stop.hpp).
-    const odonav::BrakingStopCounters& stops = totals.last_identification->braking_stop;
+    const odonav::identification::BrakingStopCounters& stops = totals.last_identification->braking_stop;
     summary["scale_factor"]["braking_stops"] = stops.stops;
     summary["scale_factor"]["braking_samples_withdrawn"] = stops.samples_withdrawn;
   }
@@ -403,7 +405,7 @@ void add_run_facts(nlohmann::json& summary, const odonav::offline::OfflineRunTot
 /// Reads, runs, writes the files as the outputs come and prints the summary. Exit code 0, 1 (an
 /// error, logged) or kExitNoUsableResult (no K or no dead reckoning: the warnings say why).
 int run(const odonav::Options& opts, const std::string& dataset_dir, const std::string& out_dir,
-        odonav::offline::OfflineParams params, const odonav::DeadReckoningFacts& dr_facts) {
+        odonav::offline::OfflineParams params, const odonav::dead_reckoning::DeadReckoningFacts& dr_facts) {
   const auto t_start = std::chrono::steady_clock::now();
   // Checked before any work: a user's directory (or the dataset itself) is never written into.
   odonav::OutputPolicy policy;
@@ -477,11 +479,11 @@ int run(const odonav::Options& opts, const std::string& dataset_dir, const std::
         case odonav::DatasetStreamKind::kGnss: diagnosis.add_gnss(t->t_s); break;
         case odonav::DatasetStreamKind::kIns: diagnosis.add_ins(t->t_s); break;
       }
-    } else if (const auto* m = std::get_if<odonav::MisalignmentOutput>(&item)) {
+    } else if (const auto* m = std::get_if<odonav::calibration::MisalignmentOutput>(&item)) {
       files.on_misalignment(*m);
-    } else if (const auto* k = std::get_if<odonav::IdentificationOutput>(&item)) {
+    } else if (const auto* k = std::get_if<odonav::identification::IdentificationOutput>(&item)) {
       files.on_scale_factor(*k);
-    } else if (auto* step = std::get_if<odonav::DeadReckoningStep>(&item)) {
+    } else if (auto* step = std::get_if<odonav::dead_reckoning::DeadReckoningStep>(&item)) {
       files.on_dead_reckoning(std::move(*step));
     } else {
       coarse.on_dead_reckoning(std::move(std::get<CoarseStep>(item).step));
@@ -575,12 +577,12 @@ int main(int argc, char** argv) {
     return 2;
   }
   odonav::offline::OfflineParams params;
-  odonav::DeadReckoningFacts dr_facts;  // completed from the dataset below
+  odonav::dead_reckoning::DeadReckoningFacts dr_facts;  // completed from the dataset below
   try {
     // Checked here (exit status 2 for a bad option); built again below with the dataset's facts.
-    params.identification = odonav::identification_params_for(opts, {});
-    params.calibration = odonav::calibration_params_from(opts);
-    dr_facts = odonav::dead_reckoning_facts_from(opts);
+    params.identification = odonav::identification::identification_params_for(opts, {});
+    params.calibration = odonav::calibration::calibration_params_from(opts);
+    dr_facts = odonav::dead_reckoning::dead_reckoning_facts_from(opts);
   } catch (const odonav::ConfigError& e) {
     spdlog::error("{}", e.what());
     return 2;

@@ -13,7 +13,7 @@
 #include "odonav/dds/time.hpp"
 #include "odonav/topics.hpp"
 
-namespace odonav::nodes {
+namespace odonav::calibration {
 
 namespace {
 MisalignmentCalibrator make_calibrator(const MisalignmentCalibratorParams& p) {
@@ -208,4 +208,4 @@ void CalibrationNode::append_counters(dds::HealthCounters& c) {
   }
 }
 
-}  // namespace odonav::nodes
+}  // namespace odonav::calibration

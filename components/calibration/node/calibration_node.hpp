@@ -13,7 +13,7 @@
 #include "odonav/dds/event_time_node.hpp"
 #include "odonav/msg/Misalignment.h"
 
-namespace odonav::nodes {
+namespace odonav::calibration {
 
 /// The calibrator's options (add_calibration_options), --lever-arm, --use-ins, --state-dir and
 /// --checkpoint-every-s.
@@ -71,4 +71,4 @@ class CalibrationNode : public dds::EventTimeNode {
   std::unique_ptr<dds::Reader<odonav::msg::InsAttitude>> ins_reader_;
 };
 
-}  // namespace odonav::nodes
+}  // namespace odonav::calibration

@@ -15,7 +15,7 @@
 #include "odonav/dead_reckoning/dead_reckoning_options.hpp"
 #include "odonav/topics.hpp"
 
-namespace odonav::nodes {
+namespace odonav::dead_reckoning {
 
 namespace {
 DeadReckoningComponent make_component(const DeadReckonerParams& p, const AnchoredPositionParams& anchored) {
@@ -285,4 +285,4 @@ void DeadReckoningNode::append_counters(dds::HealthCounters& c) {
   }
 }
 
-}  // namespace odonav::nodes
+}  // namespace odonav::dead_reckoning

@@ -22,7 +22,7 @@
 #include "odonav/stream_buffers.hpp"
 #include "odonav/topics.hpp"
 
-namespace odonav::nodes {
+namespace odonav::dead_reckoning {
 
 /// --nominal-k, --dr-mode (add_dead_reckoning_options), --lever-arm, --use-ins, --state-dir and
 /// --checkpoint-every-s.
@@ -99,4 +99,4 @@ class DeadReckoningNode : public dds::EventTimeNode {
   std::unique_ptr<dds::Reader<odonav::msg::ScaleFactor>> scale_factor_reader_;
 };
 
-}  // namespace odonav::nodes
+}  // namespace odonav::dead_reckoning

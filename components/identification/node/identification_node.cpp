@@ -21,7 +21,7 @@
 #include "odonav/identification/identification_options.hpp"
 #include "odonav/topics.hpp"
 
-namespace odonav::nodes {
+namespace odonav::identification {
 
 namespace {
 IdentificationCore make_core(const IdentificationParams& p) {
@@ -329,4 +329,4 @@ void IdentificationNode::append_counters(dds::HealthCounters& c) {
   }
 }
 
-}  // namespace odonav::nodes
+}  // namespace odonav::identification

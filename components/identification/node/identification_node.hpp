@@ -20,7 +20,7 @@
 #include "odonav/msg/Misalignment.h"
 #include "odonav/msg/ScaleFactor.h"
 
-namespace odonav::nodes {
+namespace odonav::identification {
 
 /// The identification options (add_identification_options), --use-ins, --lever-arm, --state-dir and
 /// --checkpoint-every-s.
@@ -121,4 +121,4 @@ class IdentificationNode : public dds::EventTimeNode {
   std::unique_ptr<dds::Reader<odonav::msg::Misalignment>> misalignment_reader_;
 };
 
-}  // namespace odonav::nodes
+}  // namespace odonav::identification

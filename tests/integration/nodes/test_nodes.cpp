@@ -83,16 +83,16 @@ std::vector<TimedWrite> sensor_writes(const Dataset& d, odonav::dds::Writer<msg:
   return w;
 }
 
-std::vector<MisalignmentOutput> reference_calibration(const Dataset& d) {
-  MisalignmentCalibrator c{MisalignmentCalibratorParams{}};
+std::vector<calibration::MisalignmentOutput> reference_calibration(const Dataset& d) {
+  calibration::MisalignmentCalibrator c{calibration::MisalignmentCalibratorParams{}};
   for (const auto& g : d.gnss) c.add_gnss(g);
   for (const auto& i : d.ins) c.add_ins(i);
   return c.finish();
 }
 
-std::vector<IdentificationOutput> reference_identification(const Dataset& d,
-                                                           const std::vector<MisalignmentOutput>& mis) {
-  IdentificationCore core{IdentificationParams{}};
+std::vector<identification::IdentificationOutput> reference_identification(
+    const Dataset& d, const std::vector<calibration::MisalignmentOutput>& mis) {
+  identification::IdentificationCore core{identification::IdentificationParams{}};
   for (const auto& o : d.odometer) core.add_odometer(o);
   for (const auto& g : d.gnss) core.add_gnss(g);
   for (const auto& i : d.ins) core.add_ins(i);
@@ -103,9 +103,9 @@ std::vector<IdentificationOutput> reference_identification(const Dataset& d,
   return core.finish();
 }
 
-std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d, const std::vector<MisalignmentOutput>& mis,
-                                                          const std::vector<msg::ScaleFactor>* k) {
-  DeadReckoner dr{DeadReckonerParams{}};
+std::vector<dead_reckoning::DeadReckoningOutput> reference_dead_reckoning(
+    const Dataset& d, const std::vector<calibration::MisalignmentOutput>& mis, const std::vector<msg::ScaleFactor>* k) {
+  dead_reckoning::DeadReckoner dr{dead_reckoning::DeadReckonerParams{}};
   for (const auto& o : d.odometer) dr.add_odometer(o);
   for (const auto& i : d.ins) dr.add_ins(i);
   for (const auto& g : d.gnss) dr.add_gnss(g);
@@ -118,10 +118,10 @@ std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d, cons
       dr.add_gnss_latency(
           estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
           s.gnss_latency_s());
-  ScaleFactorSelection selection(DeadReckonerParams{}.nominal_k_m_per_pulse);
+  dead_reckoning::ScaleFactorSelection selection(dead_reckoning::DeadReckonerParams{}.nominal_k_m_per_pulse);
   if (k)
     for (const auto& s : *k) {
-      const IdentifiedScaleFactor in{
+      const dead_reckoning::IdentifiedScaleFactor in{
           estimate_applies_from_s(odonav::dds::to_seconds(s.header().stamp()), kDefaultEstimateHoldOff_s),
           s.k_m_per_pulse(),
           s.converged(),
@@ -135,7 +135,7 @@ std::vector<DeadReckoningOutput> reference_dead_reckoning(const Dataset& d, cons
 }
 
 void expect_same_dead_reckoning(const std::vector<msg::DeadReckoning>& got,
-                                const std::vector<DeadReckoningOutput>& want) {
+                                const std::vector<dead_reckoning::DeadReckoningOutput>& want) {
   ASSERT_EQ(got.size(), want.size());
   for (std::size_t i = 0; i < got.size(); ++i) {
     const auto& g = got[i];
@@ -193,7 +193,7 @@ TEST_F(NodeProcess, CalibrationNodePublishesWhatTheCalibratorComputesAndDrainsOn
   ASSERT_EQ(got.size(), expected.size());
   std::size_t converged = 0;
   for (std::size_t i = 0; i < got.size(); ++i) {
-    const auto want = nodes::misalignment_message(expected[i], kVehicle);
+    const auto want = calibration::misalignment_message(expected[i], kVehicle);
     ASSERT_EQ(got[i].header().stamp(), want.header().stamp()) << i;
     EXPECT_EQ(got[i].heading_rad(), want.heading_rad()) << i;
     EXPECT_EQ(got[i].pitch_rad(), want.pitch_rad()) << i;
@@ -248,7 +248,7 @@ TEST_F(NodeProcess, IdentificationNodeEqualsTheCoreFedTheSameMisalignments) {
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   for (const auto& m : mis)  // as the calibration node publishes them: after the GNSS epoch
     writes.push_back(
-        {m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+        {m.t_s, 1, [&mis_writer, msg = calibration::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
   replay(writes, {&odo, &gnss, &ins, &mis_writer});
   wait_quiet(out);
 
@@ -275,7 +275,7 @@ TEST_F(NodeProcess, IdentificationNodeEqualsTheCoreFedTheSameMisalignments) {
   ASSERT_EQ(got.size(), expected.size());
   std::size_t converged = 0;
   for (std::size_t i = 0; i < got.size(); ++i) {
-    const auto want = nodes::scale_factor_message(expected[i], "vff_lm_rls", kVehicle);
+    const auto want = identification::scale_factor_message(expected[i], "vff_lm_rls", kVehicle);
     ASSERT_EQ(got[i].header().stamp(), want.header().stamp()) << i;
     EXPECT_EQ(got[i].k_m_per_pulse(), want.k_m_per_pulse()) << i;
     EXPECT_EQ(got[i].sigma_m_per_pulse(), want.sigma_m_per_pulse()) << i;
@@ -303,7 +303,7 @@ TEST_F(NodeProcess, DeadReckoningNodeEqualsTheDeadReckonerFedTheSameEstimates) {
   const auto mis = reference_calibration(d);
   const auto ident = reference_identification(d, mis);
   std::vector<msg::ScaleFactor> k_messages;
-  for (const auto& o : ident) k_messages.push_back(nodes::scale_factor_message(o, "vff_lm_rls", kVehicle));
+  for (const auto& o : ident) k_messages.push_back(identification::scale_factor_message(o, "vff_lm_rls", kVehicle));
   const auto expected = reference_dead_reckoning(d, mis, &k_messages);
 
   odonav::dds::Participant p(test_participant(domain));
@@ -326,7 +326,7 @@ TEST_F(NodeProcess, DeadReckoningNodeEqualsTheDeadReckonerFedTheSameEstimates) {
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   for (const auto& m : mis)
     writes.push_back(
-        {m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+        {m.t_s, 1, [&mis_writer, msg = calibration::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
   for (const auto& k : k_messages)
     writes.push_back({odonav::dds::to_seconds(k.header().stamp()), 2, [&k_writer, k] { k_writer.write(k); }});
   replay(writes, {&odo, &gnss, &ins, &mis_writer, &k_writer});
@@ -367,7 +367,7 @@ TEST_F(NodeProcess, DeadReckoningWithoutIdentificationUsesTheNominalKAndSaysSo) 
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   for (const auto& m : mis)
     writes.push_back(
-        {m.t_s, 1, [&mis_writer, msg = nodes::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+        {m.t_s, 1, [&mis_writer, msg = calibration::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
   replay(writes, {&odo, &gnss, &ins, &mis_writer});
 
   // No identification: after the maximum wait the scale-factor input is absent, counted and told.

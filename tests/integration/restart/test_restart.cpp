@@ -288,8 +288,8 @@ TEST_F(IdentificationRestart, LateReaderAfterARestartWithNoInputGetsTheRestoredK
     EXPECT_TRUE(calibration->wait_exit(seconds(30)));
   }
   // The checkpoint the restart resumes from (every 5 s of event time: up to 5 s before the last K).
-  const IdentificationCheckpoint ckpt =
-      parse_checkpoint(read_text(state + "/identification-" + std::string(kVehicle) + ".ckpt"));
+  const identification::IdentificationCheckpoint ckpt =
+      identification::parse_checkpoint(read_text(state + "/identification-" + std::string(kVehicle) + ".ckpt"));
   const auto published = std::find_if(before_kill.begin(), before_kill.end(),
                                       [&](const msg::ScaleFactor& m) { return stamp_s(m) == ckpt.last_sample_t_s; });
   ASSERT_NE(published, before_kill.end()) << "the checkpoint's epoch t=" << ckpt.last_sample_t_s << " s was published";

@@ -36,10 +36,10 @@ struct IdentificationRun {
 };
 
 IdentificationRun identify(const Dataset& d, const simulator::SimulationConfig& cfg, bool use_ins) {
-  IdentificationParams p;
+  identification::IdentificationParams p;
   p.builder.use_ins = use_ins;
   if (use_ins) p.builder.lever_arm_body_m = cfg.lever_arm_m;
-  IdentificationCore core(p);
+  identification::IdentificationCore core(p);
   if (use_ins) core.add_misalignment(d.odometer.front().t_s, cfg.misalignment);
   for (const auto& s : d.odometer) core.add_odometer(s);
   for (const auto& s : d.gnss) core.add_gnss(s);
@@ -187,18 +187,19 @@ TEST(BadInput, WithoutInsTheDegradedModeIdentifiesKAndDeadReckons) {
   EXPECT_GT(run.counters.accepted, 800u);
   EXPECT_NEAR(run.final_k / cfg.k_true_m_per_pulse - 1.0, 0.0, 0.002);
 
-  DeadReckonerParams p;
+  dead_reckoning::DeadReckonerParams p;
   p.use_ins = false;
   p.nominal_k_m_per_pulse = cfg.k_true_m_per_pulse;
-  DeadReckoner dr(p);
+  dead_reckoning::DeadReckoner dr(p);
   for (const auto& s : d.odometer) dr.add_odometer(s);
   for (const auto& s : d.gnss) dr.add_gnss(s);
   const auto out = dr.finish();
   ASSERT_GT(out.size(), 10000u);
-  EXPECT_TRUE(std::all_of(out.begin(), out.end(), [](const DeadReckoningOutput& o) { return o.degraded; }));
+  EXPECT_TRUE(
+      std::all_of(out.begin(), out.end(), [](const dead_reckoning::DeadReckoningOutput& o) { return o.degraded; }));
   // The last output with a GNSS reference (the odometer runs on after the last GNSS epoch).
-  const auto last =
-      std::find_if(out.rbegin(), out.rend(), [](const DeadReckoningOutput& o) { return o.gnss_reference; });
+  const auto last = std::find_if(out.rbegin(), out.rend(),
+                                 [](const dead_reckoning::DeadReckoningOutput& o) { return o.gnss_reference; });
   ASSERT_NE(last, out.rend());
   std::printf("degraded DR: %.1f m travelled, final error %.2f m\n", last->distance_m, last->horizontal_error_m);
   // GNSS positions carry metres of correlated noise: the end is within 10 m after about 1.8 km.

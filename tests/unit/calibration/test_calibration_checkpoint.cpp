@@ -21,6 +21,7 @@
 namespace {
 
 using namespace odonav;
+using namespace odonav::calibration;
 using namespace odonav::synthetic;
 namespace fs = std::filesystem;
 

@@ -3,7 +3,7 @@
 
 #include "odonav/calibration/calibration_health.hpp"
 
-namespace odonav {
+namespace odonav::calibration {
 namespace {
 
 MisalignmentOutput output_in(CalibrationState state, const std::string& reason = "") {
@@ -64,4 +64,4 @@ TEST(CalibrationHealth, RestartNotesComeFirstAndRaiseTheLevelOnlyWhenTheySaySo) 
 }
 
 }  // namespace
-}  // namespace odonav
+}  // namespace odonav::calibration

@@ -10,6 +10,7 @@
 #include "synthetic_drive.hpp"
 
 using namespace odonav;
+using namespace odonav::calibration;
 using namespace odonav::synthetic;
 
 namespace {

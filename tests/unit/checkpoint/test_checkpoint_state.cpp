@@ -78,15 +78,15 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
 
   {
     SCOPED_TRACE("identification");
-    IdentificationParams p;
+    identification::IdentificationParams p;
     p.run_all_estimators = true;  // every estimator's state in it
-    IdentificationCore core(p);
+    identification::IdentificationCore core(p);
     for (const auto& x : d.odometer) core.add_odometer(x);
     for (const auto& x : d.ins) core.add_ins(x);
     for (const auto& x : d.gnss)
       if (x.t_s < 45.0) core.add_gnss(x);
     core.process_until(cut_s);
-    IdentificationCheckpoint c;
+    identification::IdentificationCheckpoint c;
     c.vehicle_id = kVehicle;
     c.config_hash = kHash;
     c.estimator_name = core.main_estimator_name();
@@ -96,43 +96,45 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
     c.held_misalignment_t_s = 30.0;
     c.core_state = core.save_state();
     ASSERT_EQ(c.core_state.at("side_by_side").size(), core.estimator_names().size());
-    const std::string text = serialize_checkpoint(c);
-    const std::string path = checkpoint_path(dir_.string(), kVehicle);
+    const std::string text = identification::serialize_checkpoint(c);
+    const std::string path = identification::checkpoint_path(dir_.string(), kVehicle);
     write_file_atomically(path, text);
-    IdentificationCore restored(p);
-    const CheckpointLoadResult r = load_identification_checkpoint(path, kVehicle, kHash, restored, kUnixTime_s);
+    identification::IdentificationCore restored(p);
+    const identification::CheckpointLoadResult r =
+        identification::load_identification_checkpoint(path, kVehicle, kHash, restored, kUnixTime_s);
     ASSERT_EQ(r.status, CheckpointLoadStatus::kRestored) << r.reason;
-    IdentificationCheckpoint again = *r.checkpoint;
+    identification::IdentificationCheckpoint again = *r.checkpoint;
     again.core_state = restored.save_state();
-    EXPECT_EQ(serialize_checkpoint(again), text);
+    EXPECT_EQ(identification::serialize_checkpoint(again), text);
     EXPECT_EQ(read_text(path), text);
   }
   {
     SCOPED_TRACE("calibration");
-    MisalignmentCalibrator calibrator;
+    calibration::MisalignmentCalibrator calibrator;
     for (const auto& x : d.ins) calibrator.add_ins(x);
     for (const auto& x : d.gnss) calibrator.add_gnss(x);
     calibrator.process_until(cut_s);
     ASSERT_GT(calibrator.current().samples_used, 100u);
-    const std::string text =
-        serialize_calibration_checkpoint(CalibrationCheckpoint{kVehicle, kHash, cut_s, calibrator.save_state()});
-    const std::string path = calibration_checkpoint_path(dir_.string(), kVehicle);
+    const std::string text = calibration::serialize_calibration_checkpoint(
+        calibration::CalibrationCheckpoint{kVehicle, kHash, cut_s, calibrator.save_state()});
+    const std::string path = calibration::calibration_checkpoint_path(dir_.string(), kVehicle);
     write_file_atomically(path, text);
-    MisalignmentCalibrator restored;
-    const CalibrationCheckpointLoad r = load_calibration_checkpoint(path, kVehicle, kHash, restored, kUnixTime_s);
+    calibration::MisalignmentCalibrator restored;
+    const calibration::CalibrationCheckpointLoad r =
+        calibration::load_calibration_checkpoint(path, kVehicle, kHash, restored, kUnixTime_s);
     ASSERT_EQ(r.status, CheckpointLoadStatus::kRestored) << r.reason;
-    EXPECT_EQ(serialize_calibration_checkpoint(
-                  CalibrationCheckpoint{kVehicle, kHash, *r.restored_t_s, restored.save_state()}),
+    EXPECT_EQ(calibration::serialize_calibration_checkpoint(
+                  calibration::CalibrationCheckpoint{kVehicle, kHash, *r.restored_t_s, restored.save_state()}),
               text);
   }
   {
     SCOPED_TRACE("dead reckoning");
-    DeadReckonerParams p;
+    dead_reckoning::DeadReckonerParams p;
     p.nominal_k_m_per_pulse = 0.0126;
-    DeadReckoner core(p);
-    AnchoredPositionFilter anchor;
-    DeadReckoningConsumerState consumer(p.nominal_k_m_per_pulse);
-    core.add_scale_factor(10.0, 0.0125, ScaleFactorSource::kIdentified);
+    dead_reckoning::DeadReckoner core(p);
+    dead_reckoning::AnchoredPositionFilter anchor;
+    dead_reckoning::DeadReckoningConsumerState consumer(p.nominal_k_m_per_pulse);
+    core.add_scale_factor(10.0, 0.0125, dead_reckoning::ScaleFactorSource::kIdentified);
     core.add_misalignment(12.0, Misalignment{0.01, -0.007});
     consumer.applied_misalignment.add(12.0, Misalignment{0.01, -0.007});
     consumer.misalignments_applied = 1;
@@ -141,9 +143,9 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
     for (const auto& x : d.ins)
       if (x.t_s < 50.0) core.add_ins(x);
     for (const auto& x : d.gnss) core.add_gnss(x);
-    for (const DeadReckoningOutput& o : core.process_until(cut_s)) anchor.step(o);
+    for (const dead_reckoning::DeadReckoningOutput& o : core.process_until(cut_s)) anchor.step(o);
     ASSERT_TRUE(core.started());
-    DeadReckoningCheckpoint c;
+    dead_reckoning::DeadReckoningCheckpoint c;
     c.vehicle_id = kVehicle;
     c.config_hash = kHash;
     c.last_output_t_s = cut_s;
@@ -155,23 +157,23 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
     c.dead_reckoner_state = core.save_state();
     c.anchor_state = anchor.save_state();
     ASSERT_FALSE(c.dead_reckoner_state.at("gnss").empty()) << "inputs buffered ahead are in it";
-    const std::string text = serialize_dead_reckoning_checkpoint(c);
-    const std::string path = dead_reckoning_checkpoint_path(dir_.string(), kVehicle);
+    const std::string text = dead_reckoning::serialize_dead_reckoning_checkpoint(c);
+    const std::string path = dead_reckoning::dead_reckoning_checkpoint_path(dir_.string(), kVehicle);
     write_file_atomically(path, text);
-    DeadReckoner core2(p);
-    AnchoredPositionFilter anchor2;
-    DeadReckoningConsumerState consumer2(p.nominal_k_m_per_pulse);
-    const DeadReckoningCheckpointLoad r = load_dead_reckoning_checkpoint(
-        path, kVehicle, kHash, DeadReckoningStateRefs{core2, anchor2, consumer2}, kUnixTime_s);
+    dead_reckoning::DeadReckoner core2(p);
+    dead_reckoning::AnchoredPositionFilter anchor2;
+    dead_reckoning::DeadReckoningConsumerState consumer2(p.nominal_k_m_per_pulse);
+    const dead_reckoning::DeadReckoningCheckpointLoad r = dead_reckoning::load_dead_reckoning_checkpoint(
+        path, kVehicle, kHash, dead_reckoning::DeadReckoningStateRefs{core2, anchor2, consumer2}, kUnixTime_s);
     ASSERT_EQ(r.status, CheckpointLoadStatus::kRestored) << r.reason;
-    DeadReckoningCheckpoint again = *r.checkpoint;
+    dead_reckoning::DeadReckoningCheckpoint again = *r.checkpoint;
     again.k_selection = consumer2.k_selection.state();
     again.applied_misalignment = consumer2.applied_misalignment.state();
     again.misalignments_applied = consumer2.misalignments_applied;
     again.held_misalignment_t_s = consumer2.held_misalignment_t_s;
     again.dead_reckoner_state = core2.save_state();
     again.anchor_state = anchor2.save_state();
-    EXPECT_EQ(serialize_dead_reckoning_checkpoint(again), text);
+    EXPECT_EQ(dead_reckoning::serialize_dead_reckoning_checkpoint(again), text);
   }
 }
 
@@ -235,11 +237,11 @@ TEST(CheckpointStateValues, NonFiniteSubnormalAndNegativeZeroRoundTripBitExactly
 
   // A fresh sample builder holds -inf (its watermark) and NaN (no GNSS period yet): its state in a
   // checkpoint comes back to the same bytes.
-  const IdentificationCore fresh{IdentificationParams{}};
+  const identification::IdentificationCore fresh{identification::IdentificationParams{}};
   const StateJson state = fresh.save_state();
   EXPECT_EQ(state.at("sample_builder").at("watermark_s"), "-inf");
   EXPECT_EQ(state.at("sample_builder").at("gnss_period_s"), "nan");
-  IdentificationCore restored{IdentificationParams{}};
+  identification::IdentificationCore restored{identification::IdentificationParams{}};
   restored.restore_state(StateJson::parse(state.dump()));
   EXPECT_EQ(restored.save_state().dump(), state.dump());
 }

@@ -18,6 +18,7 @@
 #include "odonav/stream_buffers.hpp"
 
 using namespace odonav;
+using namespace odonav::dead_reckoning;
 
 namespace {
 const Geodetic kOrigin{52.5 * kDegToRad, 13.4 * kDegToRad, 80.0};

@@ -10,6 +10,7 @@
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
 
 using namespace odonav;
+using namespace odonav::dead_reckoning;
 
 TEST(ConsistencyFindings, EachCauseIsNamedWithItsNumbers) {
   EXPECT_FALSE(heading_rate_finding(0.95, 2.0, 0.3));

@@ -22,6 +22,7 @@
 namespace {
 
 using namespace odonav;
+using namespace odonav::dead_reckoning;
 using namespace odonav::synthetic;
 namespace fs = std::filesystem;
 

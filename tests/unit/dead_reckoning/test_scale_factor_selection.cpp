@@ -16,6 +16,7 @@
 #include "odonav/nominal_k_option.hpp"
 
 using namespace odonav;
+using namespace odonav::dead_reckoning;
 
 namespace {
 

@@ -7,6 +7,7 @@
 #include "synthetic_drive.hpp"
 
 using namespace odonav;
+using namespace odonav::dead_reckoning;
 using namespace odonav::synthetic;
 
 namespace {

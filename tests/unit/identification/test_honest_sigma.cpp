@@ -7,7 +7,7 @@
 
 #include "odonav/identification/identification_core.hpp"
 
-namespace odonav {
+namespace odonav::identification {
 namespace {
 
 ScaleFactorEstimate own_estimate() {
@@ -60,4 +60,4 @@ TEST(HonestEstimate, NoValueOrNoSigmaIsLeftAsItIs) {
 }
 
 }  // namespace
-}  // namespace odonav
+}  // namespace odonav::identification

@@ -23,6 +23,7 @@
 namespace {
 
 using namespace odonav;
+using namespace odonav::identification;
 namespace fs = std::filesystem;
 
 constexpr double kTrueK = 0.0125;  // m/pulse

@@ -11,6 +11,7 @@
 namespace {
 
 using namespace odonav;
+using namespace odonav::identification;
 
 Options parsed(const std::vector<std::string>& args) {
   Options o("test", "identification options");
@@ -70,7 +71,7 @@ namespace {
 
 std::string identification_error(const std::vector<std::string>& args) {
   try {
-    (void)odonav::identification_params_from(parsed(args));
+    (void)odonav::identification::identification_params_from(parsed(args));
   } catch (const odonav::ConfigError& e) {
     return e.what();
   }

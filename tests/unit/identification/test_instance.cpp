@@ -10,6 +10,7 @@
 namespace {
 
 using namespace odonav;
+using namespace odonav::identification;
 
 TEST(Instance, NamesAreValidatedWithTheReason) {
   EXPECT_NO_THROW(validate_identification_instance("identification"));

@@ -13,6 +13,7 @@
 namespace {
 
 using namespace odonav;
+using namespace odonav::identification;
 
 constexpr double kNominalK = 0.0125;  // m/pulse
 

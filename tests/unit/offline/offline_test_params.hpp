@@ -29,7 +29,7 @@ inline OfflineParams default_params(const Dataset& d) {
 /// lever arm from the dataset, every estimator run.
 inline OfflineParams user_params(const Dataset& d) {
   Options o("test", "identification options");
-  add_identification_options(o);
+  identification::add_identification_options(o);
   std::ostringstream help;
   o.parse(std::vector<std::string>{}, help);
   OfflineParams p;
@@ -38,12 +38,12 @@ inline OfflineParams user_params(const Dataset& d) {
   p.dead_reckoning.use_ins = d.has_ins();
   p.calibration.lever_arm_body_m = d.meta.gnss_lever_arm_m;
   p.calibration.use_ins = d.has_ins();
-  IdentificationVehicleFacts facts;
+  identification::IdentificationVehicleFacts facts;
   facts.use_ins = d.has_ins();
   facts.lever_arm_body_m = d.meta.gnss_lever_arm_m;
   facts.nominal_k_m_per_pulse = p.dead_reckoning.nominal_k_m_per_pulse;
   facts.run_all_estimators = true;
-  p.identification = identification_params_for(o, facts);
+  p.identification = identification::identification_params_for(o, facts);
   return p;
 }
 

@@ -75,7 +75,7 @@ Figures figures(const ScenarioRun& x) {
   Figures f;
   const double t0 = x.d.truth.front().t_s;
   TruthCursor truth(x.d);
-  for (const DeadReckoningOutput& o : x.r.dr_online) {
+  for (const dead_reckoning::DeadReckoningOutput& o : x.r.dr_online) {
     const std::optional<TruthSample> t = truth.at(o.t_s);
     if (!t) continue;
     const double e = horizontal_distance_m(o.position, t->position);
@@ -86,9 +86,9 @@ Figures figures(const ScenarioRun& x) {
   }
   TruthCursor truth2(x.d);
   double nav2 = 0.0;
-  for (const AnchoredPosition& p : x.r.navigation_position) {
+  for (const dead_reckoning::AnchoredPosition& p : x.r.navigation_position) {
     const std::optional<TruthSample> t = truth2.at(p.t_s);
-    if (!t || p.t_s - t0 < kSettleS || p.status != AnchorStatus::kAnchored) continue;
+    if (!t || p.t_s - t0 < kSettleS || p.status != dead_reckoning::AnchorStatus::kAnchored) continue;
     const double e = horizontal_distance_m(p.position, t->position);
     f.nav_max_m = std::max(f.nav_max_m, e);
     f.nav_max_over_sigma = std::max(f.nav_max_over_sigma, e / p.horizontal_sigma_m());
@@ -157,7 +157,7 @@ TEST(AnywhereOnEarth, AntimeridianTerrainDrive) {
   // The evaluation (summary.json's figures) across 180: the same maximum as measured here.
   std::vector<TimedPosition> dr, truth;
   std::vector<double> distance;
-  for (const DeadReckoningOutput& o : x.r.dr_online) {
+  for (const dead_reckoning::DeadReckoningOutput& o : x.r.dr_online) {
     dr.push_back({o.t_s, o.position});
     distance.push_back(o.distance_m);
   }
@@ -229,11 +229,11 @@ TEST(AnywhereOnEarth, ADeadReckonerRestoredInThePolarCapContinuesBitForBit) {
   // with exactly the positions of the one that ran on.
   simulator::SimulationConfig cfg = simulator::scenario_config("south_pole");
   const Dataset d = simulator::simulate(cfg);
-  DeadReckonerParams p;
+  dead_reckoning::DeadReckonerParams p;
   p.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
   p.lever_arm_body_m = d.meta.gnss_lever_arm_m;
   const double t_save = d.truth.front().t_s + 170.0;
-  const auto add_inputs = [&](DeadReckoner& dr, bool before_save) {
+  const auto add_inputs = [&](dead_reckoning::DeadReckoner& dr, bool before_save) {
     const auto wanted = [&](double t_s) { return (t_s <= t_save) == before_save; };
     for (const OdometerSample& s : d.odometer)
       if (wanted(s.t_s)) dr.add_odometer(s);
@@ -242,16 +242,16 @@ TEST(AnywhereOnEarth, ADeadReckonerRestoredInThePolarCapContinuesBitForBit) {
     for (const GnssSample& s : d.gnss)
       if (wanted(s.t_s)) dr.add_gnss(s);
   };
-  DeadReckoner ran_on(p);
+  dead_reckoning::DeadReckoner ran_on(p);
   add_inputs(ran_on, true);
   ran_on.process_until(t_save);
   const StateJson state = ran_on.save_state();
   EXPECT_EQ(state.at("heading_position_offset_enu_m").size(), 3u);
-  DeadReckoner restored(p);
+  dead_reckoning::DeadReckoner restored(p);
   restored.restore_state(state);
   add_inputs(ran_on, false);
   add_inputs(restored, false);
-  const std::vector<DeadReckoningOutput> a = ran_on.finish(), b = restored.finish();
+  const std::vector<dead_reckoning::DeadReckoningOutput> a = ran_on.finish(), b = restored.finish();
   ASSERT_EQ(a.size(), b.size());
   ASSERT_GT(a.size(), 10000u);
   for (std::size_t i = 0; i < a.size(); ++i) {

@@ -79,12 +79,13 @@ Figures figures(uint64_t seed, double gnss_rate_hz = 10.0, double latency_s = 0.
   // Across the outage: the last sample before its start and the last before GNSS is applied again.
   std::size_t i_start = 0, i_end = 0;
   for (std::size_t i = 0; i < r.navigation_position.size(); ++i) {
-    const AnchoredPosition& p = r.navigation_position[i];
-    const DeadReckoningOutput& dr = r.dr_online[i];
+    const dead_reckoning::AnchoredPosition& p = r.navigation_position[i];
+    const dead_reckoning::DeadReckoningOutput& dr = r.dr_online[i];
     const double t = p.t_s - t0;
     if (t < outage.start_s) i_start = i;
     if (t < outage.end_s + 0.2) i_end = i;
-    if (t < settle_s || (t >= outage.start_s && t < outage.end_s + 1.0) || p.status != AnchorStatus::kAnchored)
+    if (t < settle_s || (t >= outage.start_s && t < outage.end_s + 1.0) ||
+        p.status != dead_reckoning::AnchorStatus::kAnchored)
       continue;
     const Eigen::Vector3d tr = truth.at(p.t_s).enu_m;
     nav2 += std::pow(horizontal(frame.to_enu(p.position) - tr), 2);
@@ -119,7 +120,7 @@ Figures figures(uint64_t seed, double gnss_rate_hz = 10.0, double latency_s = 0.
   const Eigen::Vector3d true_move = truth.at(r.dr_online[i_end].t_s).enu_m - truth.at(r.dr_online[i_start].t_s).enu_m;
   f.outage_dr_growth_m = horizontal(dr_move - true_move);
   f.outage_distance_m = r.dr_online[i_end].distance_m - r.dr_online[i_start].distance_m;
-  EXPECT_EQ(r.navigation_position[i_end].status, AnchorStatus::kDeadReckoning);
+  EXPECT_EQ(r.navigation_position[i_end].status, dead_reckoning::AnchorStatus::kDeadReckoning);
   // From the last fix, at most one GNSS period (1 s, up to 15 m) before the last sample before the outage.
   EXPECT_NEAR(r.navigation_position[i_end].distance_since_fix_m, f.outage_distance_m, 16.0);
   f.applied = r.anchored_counters.fixes_applied;
@@ -232,10 +233,10 @@ TEST(NavigationPosition, MinutesWithoutGnssGrowTheSigmaSayDeadReckoningAndReturn
   double previous_sigma_m = 0.0;
   std::size_t last_before_return = 0, checked = 0;
   for (std::size_t i = 0; i < r.navigation_position.size(); ++i) {
-    const AnchoredPosition& p = r.navigation_position[i];
+    const dead_reckoning::AnchoredPosition& p = r.navigation_position[i];
     const double t = p.t_s - t0;
     if (t > 293.0 && p.last_fix_t_s - t0 < 290.0) {  // bridging
-      ASSERT_EQ(p.status, AnchorStatus::kDeadReckoning) << t;
+      ASSERT_EQ(p.status, dead_reckoning::AnchorStatus::kDeadReckoning) << t;
       if (previous_sigma_m == 0.0) previous_sigma_m = p.horizontal_sigma_m();
       ASSERT_GE(p.horizontal_sigma_m(), previous_sigma_m) << t;
       ASSERT_LT(error(i), 3.0 * p.horizontal_sigma_m()) << t;
@@ -245,15 +246,15 @@ TEST(NavigationPosition, MinutesWithoutGnssGrowTheSigmaSayDeadReckoningAndReturn
   }
   ASSERT_GT(checked, 19000u);  // ~197 s at 100 Hz
   const std::size_t b = last_before_return, a = b + 1;
-  const AnchoredPosition& before = r.navigation_position[b];
-  const AnchoredPosition& after = r.navigation_position[a];
+  const dead_reckoning::AnchoredPosition& before = r.navigation_position[b];
+  const dead_reckoning::AnchoredPosition& after = r.navigation_position[a];
   const Eigen::Vector3d dr_move = frame.to_enu(r.dr_online[a].position) - frame.to_enu(r.dr_online[b].position);
   const double jump_m = horizontal(frame.to_enu(after.position) - frame.to_enu(before.position) - dr_move);
   std::printf(
       "200 s without GNSS (%.0f m): error %.3f m (sigma %.3f m) before GNSS returns, %.3f m after its first "
       "fix (jump %.3f m, sigma %.3f m)\n",
       before.distance_since_fix_m, error(b), before.horizontal_sigma_m(), error(a), jump_m, after.horizontal_sigma_m());
-  EXPECT_EQ(after.status, AnchorStatus::kAnchored);
+  EXPECT_EQ(after.status, dead_reckoning::AnchorStatus::kAnchored);
   EXPECT_GT(before.horizontal_sigma_m(), 1.2 * r.navigation_position[b - 19000].horizontal_sigma_m());
   // The jump is a fraction of the discrepancy the fix shows (error before + the fix's own error).
   EXPECT_LT(jump_m, error(b) + 3.0 * 1.5);

@@ -43,7 +43,7 @@ TEST(OfflineAcceptance, MisalignmentWithin003DegAfter60sOfStraight) {
   const double truth_h = *d.meta.truth_misalignment_heading_deg, truth_p = *d.meta.truth_misalignment_pitch_deg;
   // The estimate published at t = 60 s (the scenario starts at t = 0 with a 5 s standstill).
   const auto at60 = std::find_if(r.misalignment.begin(), r.misalignment.end(),
-                                 [](const MisalignmentOutput& m) { return m.t_s >= 60.0; });
+                                 [](const calibration::MisalignmentOutput& m) { return m.t_s >= 60.0; });
   ASSERT_NE(at60, r.misalignment.end());
   EXPECT_NEAR(rad_to_deg(at60->misalignment.heading_rad), truth_h, 0.03);
   EXPECT_NEAR(rad_to_deg(at60->misalignment.pitch_rad), truth_p, 0.03);
@@ -162,7 +162,7 @@ TEST(OfflineAcceptance, RealSmartLocDriveKWithinHalfPercentOfReferenceRatio) {
   OfflineParams p = default_params(d);
   const OfflineResult r = run_offline(d, p);
   std::vector<double> converged_k;
-  for (const IdentificationOutput& o : r.identification)
+  for (const identification::IdentificationOutput& o : r.identification)
     if (o.main.valid && o.main.converged) converged_k.push_back(o.main.k_m_per_pulse);
   ASSERT_GT(converged_k.size(), 50u);
   std::nth_element(converged_k.begin(), converged_k.begin() + converged_k.size() / 2, converged_k.end());

@@ -43,7 +43,7 @@ void for_each_sensor_sample(const Dataset& d, F&& f) {
 }
 
 struct Feeder {
-  DeadReckoningComponent& c;
+  dead_reckoning::DeadReckoningComponent& c;
   void operator()(const OdometerSample& s) { c.add_odometer(s); }
   void operator()(const GnssSample& s) { c.add_gnss(s); }
   void operator()(const InsSample& s) { c.add_ins(s); }
@@ -52,7 +52,7 @@ struct Feeder {
 // The same, with each stamp as the pipeline's nodes (and OfflinePipeline) read it from the
 // gateway's message: rounded to the nanosecond.
 struct WireFeeder {
-  DeadReckoningComponent& c;
+  dead_reckoning::DeadReckoningComponent& c;
   template <class Sample>
   static Sample wired(Sample s) {
     s.t_s = wire_time_s(s.t_s);
@@ -70,7 +70,7 @@ bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; 
 TEST(DeadReckoningComponent, AKAppliesFromItsEpochPlusTheHoldOffAndAProvisionalOneOnFewSamplesNever) {
   const Dataset d = short_terrain(40.0);
   const OfflineParams params = test::user_params(d);
-  DeadReckoningComponent c(params.dead_reckoning, params.anchored);
+  dead_reckoning::DeadReckoningComponent c(params.dead_reckoning, params.anchored);
   const double nominal = params.dead_reckoning.nominal_k_m_per_pulse;
   for_each_sensor_sample(d, Feeder{c});
   PublishedScaleFactor provisional;  // far from the nominal, but on 2 samples: not applicable
@@ -88,15 +88,15 @@ TEST(DeadReckoningComponent, AKAppliesFromItsEpochPlusTheHoldOffAndAProvisionalO
   c.on_scale_factor(converged, 0.0);
   const double from_s = estimate_applies_from_s(20.0, params.dead_reckoning.estimate_hold_off_s);
   std::size_t before = 0, after = 0;
-  for (const DeadReckoningOutput& o : c.finish()) {
-    const DeadReckoningStep s = c.publish(o);
+  for (const dead_reckoning::DeadReckoningOutput& o : c.finish()) {
+    const dead_reckoning::DeadReckoningStep s = c.publish(o);
     if (s.output.t_s < from_s) {
       EXPECT_EQ(s.output.k_m_per_pulse, nominal) << s.output.t_s;
-      EXPECT_EQ(s.output.k_source, ScaleFactorSource::kNominal);
+      EXPECT_EQ(s.output.k_source, dead_reckoning::ScaleFactorSource::kNominal);
       ++before;
     } else {
       EXPECT_EQ(s.output.k_m_per_pulse, 1.02 * nominal) << s.output.t_s;
-      EXPECT_EQ(s.output.k_source, ScaleFactorSource::kIdentified);
+      EXPECT_EQ(s.output.k_source, dead_reckoning::ScaleFactorSource::kIdentified);
       ++after;
     }
   }
@@ -108,7 +108,7 @@ TEST(DeadReckoningComponent, AKAppliesFromItsEpochPlusTheHoldOffAndAProvisionalO
 TEST(DeadReckoningComponent, OnlyAnApplicableMisalignmentIsAppliedAndEachOutputNamesTheOneInForce) {
   const Dataset d = short_terrain(30.0);
   const OfflineParams params = test::user_params(d);
-  DeadReckoningComponent c(params.dead_reckoning, params.anchored);
+  dead_reckoning::DeadReckoningComponent c(params.dead_reckoning, params.anchored);
   for_each_sensor_sample(d, Feeder{c});
   PublishedMisalignment early;  // 3 epochs, not converged: under kProvisionalMinSamples
   early.t_s = 5.0;
@@ -127,8 +127,8 @@ TEST(DeadReckoningComponent, OnlyAnApplicableMisalignmentIsAppliedAndEachOutputN
   c.on_misalignment(good);
   EXPECT_EQ(c.consumer().misalignments_applied, 1u);
   const double from_s = estimate_applies_from_s(15.0, params.dead_reckoning.estimate_hold_off_s);
-  for (const DeadReckoningOutput& o : c.finish()) {
-    const DeadReckoningStep s = c.publish(o);
+  for (const dead_reckoning::DeadReckoningOutput& o : c.finish()) {
+    const dead_reckoning::DeadReckoningStep s = c.publish(o);
     EXPECT_EQ(s.misalignment.heading_rad, s.output.t_s < from_s ? 0.0 : 0.014) << s.output.t_s;
     EXPECT_EQ(s.misalignment.pitch_rad, s.output.t_s < from_s ? 0.0 : -0.009) << s.output.t_s;
   }
@@ -147,14 +147,14 @@ TEST(OfflinePipeline, EveryEstimateArrivesBeforeTheOutputsItAppliesToSoTheRunEqu
   config.anchored = params.anchored;
 
   struct Recorder : PipelineSink {
-    std::vector<MisalignmentOutput> misalignment;
-    std::vector<IdentificationOutput> scale_factor;
-    std::vector<DeadReckoningStep> steps;
+    std::vector<calibration::MisalignmentOutput> misalignment;
+    std::vector<identification::IdentificationOutput> scale_factor;
+    std::vector<dead_reckoning::DeadReckoningStep> steps;
     // For each step: the estimates delivered before it.
     std::vector<std::size_t> misalignments_before, scale_factors_before;
-    void on_misalignment(const MisalignmentOutput& m) override { misalignment.push_back(m); }
-    void on_scale_factor(const IdentificationOutput& k) override { scale_factor.push_back(k); }
-    void on_dead_reckoning(DeadReckoningStep s) override {
+    void on_misalignment(const calibration::MisalignmentOutput& m) override { misalignment.push_back(m); }
+    void on_scale_factor(const identification::IdentificationOutput& k) override { scale_factor.push_back(k); }
+    void on_dead_reckoning(dead_reckoning::DeadReckoningStep s) override {
       misalignments_before.push_back(misalignment.size());
       scale_factors_before.push_back(scale_factor.size());
       steps.push_back(std::move(s));
@@ -192,17 +192,18 @@ TEST(OfflinePipeline, EveryEstimateArrivesBeforeTheOutputsItAppliesToSoTheRunEqu
   EXPECT_GT(interleaved, run.steps.size() * 9 / 10);
 
   // The oracle.
-  DeadReckoningComponent oracle(params.dead_reckoning, params.anchored);
+  dead_reckoning::DeadReckoningComponent oracle(params.dead_reckoning, params.anchored);
   for_each_sensor_sample(d, WireFeeder{oracle});
-  for (const MisalignmentOutput& m : run.misalignment) oracle.on_misalignment(published_misalignment(m));
-  for (const IdentificationOutput& k : run.scale_factor)
-    oracle.on_scale_factor(published_scale_factor(k, "identification"), 0.0);
-  std::vector<DeadReckoningOutput> expected = oracle.finish();
+  for (const calibration::MisalignmentOutput& m : run.misalignment)
+    oracle.on_misalignment(calibration::published_misalignment(m));
+  for (const identification::IdentificationOutput& k : run.scale_factor)
+    oracle.on_scale_factor(identification::published_scale_factor(k, "identification"), 0.0);
+  std::vector<dead_reckoning::DeadReckoningOutput> expected = oracle.finish();
   ASSERT_EQ(expected.size(), run.steps.size());
   std::size_t identified = 0;
   for (std::size_t i = 0; i < expected.size(); ++i) {
-    const DeadReckoningStep e = oracle.publish(expected[i]);
-    const DeadReckoningStep& a = run.steps[i];
+    const dead_reckoning::DeadReckoningStep e = oracle.publish(expected[i]);
+    const dead_reckoning::DeadReckoningStep& a = run.steps[i];
     ASSERT_TRUE(same_bits(a.output.t_s, e.output.t_s)) << i;
     ASSERT_TRUE(same_bits(a.output.position.lat_rad, e.output.position.lat_rad)) << a.output.t_s;
     ASSERT_TRUE(same_bits(a.output.position.lon_rad, e.output.position.lon_rad)) << a.output.t_s;
@@ -212,7 +213,7 @@ TEST(OfflinePipeline, EveryEstimateArrivesBeforeTheOutputsItAppliesToSoTheRunEqu
         << a.output.t_s;
     ASSERT_TRUE(same_bits(a.misalignment.heading_rad, e.misalignment.heading_rad)) << a.output.t_s;
     ASSERT_TRUE(same_bits(a.navigation.position.lat_rad, e.navigation.position.lat_rad)) << a.output.t_s;
-    if (a.output.k_source == ScaleFactorSource::kIdentified) ++identified;
+    if (a.output.k_source == dead_reckoning::ScaleFactorSource::kIdentified) ++identified;
   }
   EXPECT_GT(identified, expected.size() / 2);  // the identified K was in force for most of the drive
 }

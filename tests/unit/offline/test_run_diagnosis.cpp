@@ -139,7 +139,8 @@ TEST(Consistency, AGoodTerrainDriveRaisesNothing) {
     const OfflineParams p = params_for(d);
     const OfflineResult result = run_offline(d, p);
     ASSERT_EQ(result.consistency.size(), 3u);
-    for (const ConsistencyState& s : result.consistency) EXPECT_EQ(s.times_raised, 0u) << rate_hz << " Hz: " << s.text;
+    for (const dead_reckoning::ConsistencyState& s : result.consistency)
+      EXPECT_EQ(s.times_raised, 0u) << rate_hz << " Hz: " << s.text;
     // The heading-rate check did decide (the course turned enough): its ratio is about 1.
     EXPECT_NEAR(result.consistency[0].last_value, 1.0, 0.1) << rate_hz;
     EXPECT_NEAR(result.consistency[2].last_value, 1.0, 0.05) << rate_hz;
@@ -166,7 +167,8 @@ TEST(Consistency, AHeadingOfTheOtherSignOrInRadiansIsNamedAndConvergedWithdrawn)
     for (InsSample& s : d.ins) s.attitude.heading_rad = c.heading(s.attitude.heading_rad);
     const OfflineResult result = run_offline(d, p);
     EXPECT_EQ(result.dr_online.size(), good_outputs) << c.name;  // nothing good lost
-    const ConsistencyState& s = result.consistency[static_cast<int>(ConsistencyCheck::kHeadingRate)];
+    const dead_reckoning::ConsistencyState& s =
+        result.consistency[static_cast<int>(dead_reckoning::ConsistencyCheck::kHeadingRate)];
     EXPECT_TRUE(s.raised) << c.name;
     EXPECT_NE(s.text.find(c.words), std::string::npos) << c.name << ": " << s.text;
     if (std::string(c.name) == "negated")
@@ -292,7 +294,7 @@ TEST(RunDiagnosis, AShortDriveSaysTheGnssLatencyWasNeverDecidedAndWhy) {
   const Dataset d = simulator::simulate(cfg);
   OfflineParams p = params_for(d);
   const OfflineResult result = run_offline(d, p);
-  for (const IdentificationOutput& o : result.identification) {
+  for (const identification::IdentificationOutput& o : result.identification) {
     EXPECT_FALSE(o.latency_decided) << o.t_s;
     EXPECT_FALSE(o.main.converged) << o.t_s;
   }
@@ -339,13 +341,13 @@ TEST(BrakingStop, AStopAtTheEndOfADriveLeavesKAndTheMisalignmentAsBeforeTheBraki
   const double k_true = cfg.k_true_m_per_pulse;
   auto k_before = [&](const OfflineResult& r) {
     double k = std::nan("");
-    for (const IdentificationOutput& o : r.identification)
+    for (const identification::IdentificationOutput& o : r.identification)
       if (o.t_s < brake_t - 0.5 && o.main.valid) k = o.main.k_m_per_pulse;
     return k;
   };
   auto mis_before = [&](const OfflineResult& r) {
     Misalignment m;
-    for (const MisalignmentOutput& o : r.misalignment)
+    for (const calibration::MisalignmentOutput& o : r.misalignment)
       if (o.t_s < brake_t - 0.5) m = o.misalignment;
     return m;
   };

@@ -90,7 +90,7 @@ TEST(SensorRates, GnssLatencySweepIsEstimatedWithin5msAndKStaysAccurate) {
     // Applied early: the first epoch with the latency in force within 10 ms (measured 29.4-29.9 s
     // after the start; 87 s at 100 ms while the sums waited for a K that held still for 20 s).
     double first_applied_s = -1.0;
-    for (const IdentificationOutput& o : r.identification)
+    for (const identification::IdentificationOutput& o : r.identification)
       if (std::abs(o.latency.applied_s - latency_s) < 0.01) {
         first_applied_s = o.t_s - d.odometer.front().t_s;
         break;
@@ -125,7 +125,7 @@ TEST(SensorRates, AtOneHertzALatencyIsAppliedWithinTheFirstMinutesAndKKeepsItsZe
   SCOPED_TRACE(s["scale_factor"].dump(1));
   double first_applied_s = -1.0;
   double first_sigma_s = -1.0;
-  for (const IdentificationOutput& o : r.identification)
+  for (const identification::IdentificationOutput& o : r.identification)
     if (o.latency.applied_s != 0.0) {
       first_applied_s = o.t_s - d.odometer.front().t_s;
       first_sigma_s = o.latency.applied_sigma_s;
@@ -155,7 +155,8 @@ TEST(SensorRates, AtOneHertzWithA200msLatencyTheStartOfTheDriveKeepsTheDeadRecko
   const OfflineParams p = user_params(d);
   const OfflineResult r = run_offline(d, p);
   int start_k_epochs = 0;
-  for (const IdentificationOutput& o : r.identification) start_k_epochs += o.k_from_start_latency ? 1 : 0;
+  for (const identification::IdentificationOutput& o : r.identification)
+    start_k_epochs += o.k_from_start_latency ? 1 : 0;
   EXPECT_GT(start_k_epochs, 0);
   const FirstMetres f = evaluate_first_metres(d, r.dr_online);
   SCOPED_TRACE(describe(f));
@@ -172,13 +173,13 @@ TEST(SensorRates, AtOneHertzASidewaysVelocityErrorInTheFirstHalfMinuteCostsTheCa
   const OfflineParams p = user_params(d);
   const OfflineResult r = run_offline(d, p);
   ASSERT_FALSE(r.misalignment.empty());
-  const MisalignmentOutput& last = r.misalignment.back();
+  const calibration::MisalignmentOutput& last = r.misalignment.back();
   EXPECT_TRUE(last.converged);
   EXPECT_GE(r.calibration_counters.outlier, 1u);
   EXPECT_NEAR(rad_to_deg(last.misalignment.heading_rad), *d.meta.truth_misalignment_heading_deg, 0.05);
   // From the start on, not only at the end: every published estimate after the first minute is
   // within 0.25 deg (armed at 20, the estimate at 60 s was not).
-  for (const MisalignmentOutput& m : r.misalignment) {
+  for (const calibration::MisalignmentOutput& m : r.misalignment) {
     if (m.t_s >= d.odometer.front().t_s + 60.0) {
       ASSERT_NEAR(rad_to_deg(m.misalignment.heading_rad), *d.meta.truth_misalignment_heading_deg, 0.25)
           << "t " << m.t_s;
@@ -280,7 +281,7 @@ TEST(SensorRates, SmartLocDriveKWithin03PercentOfTheReferenceRatio) {
   const OfflineParams p = user_params(d);
   const OfflineResult r = run_offline(d, p);
   std::vector<double> converged_k;
-  for (const IdentificationOutput& o : r.identification)
+  for (const identification::IdentificationOutput& o : r.identification)
     if (o.main.valid && o.main.converged) converged_k.push_back(o.main.k_m_per_pulse);
   ASSERT_GT(converged_k.size(), 50u);
   std::nth_element(converged_k.begin(), converged_k.begin() + converged_k.size() / 2, converged_k.end());

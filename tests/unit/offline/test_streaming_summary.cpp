@@ -212,14 +212,14 @@ TEST(StreamingSummary, FirstMetresOfATrackOneMetreEastOfTheTruth) {
   }
   FirstMetresAccumulator acc(vector_source(truth));
   for (int i = 0; i <= 1000; ++i) {
-    DeadReckoningOutput o;
+    dead_reckoning::DeadReckoningOutput o;
     o.t_s = 0.1 * i;
     o.position = enu_point(frame, 1.0, 1.0 * i);
     o.distance_m = 1.0 * i;
-    o.k_source = i >= 50 ? ScaleFactorSource::kIdentified : ScaleFactorSource::kNominal;
+    o.k_source = i >= 50 ? dead_reckoning::ScaleFactorSource::kIdentified : dead_reckoning::ScaleFactorSource::kNominal;
     // A fix every second, 0.5 m west of the truth: the origin from the fixes would be 1.5 m off.
     if (i % 10 == 0) {
-      AnchorFix f;
+      dead_reckoning::AnchorFix f;
       f.t_s = o.t_s;
       f.fix_enu_m = Eigen::Vector3d(-0.5, 1.0 * i, 0.0);
       f.dr_enu_m = Eigen::Vector3d(1.0, 1.0 * i, 0.0);
@@ -308,12 +308,12 @@ TEST(StreamingSummary, BuffersDoNotGrowWithTheDrive) {
     nav.lat_rad = p.lat_rad, nav.lon_rad = p.lon_rad, nav.height_m = p.height_m;
     nav.status = "anchored";
     acc.add(nav);
-    DeadReckoningOutput o;
+    dead_reckoning::DeadReckoningOutput o;
     o.t_s = t;
     o.position = Geodetic{dr.lat_rad, dr.lon_rad, dr.height_m};
     o.distance_m = dr.distance_m;
     if (i % 10 == 0) {
-      AnchorFix f;
+      dead_reckoning::AnchorFix f;
       f.dr_distance_m = o.distance_m;
       o.gnss_fixes.push_back(f);
     }

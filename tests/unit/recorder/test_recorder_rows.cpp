@@ -204,12 +204,15 @@ TEST(OutputMessages, EverySharedColumnCrossesTheWireUnchanged) {
   auto maybe = [&](double v) { return unknown(rng) ? nan : v; };
   auto maybe_opt = [&](double v) { return unknown(rng) ? std::nullopt : std::optional<double>(v); };
   // The names as the cores write them into odonav-offline's files.
-  const char* calibration_states[] = {to_string(CalibrationState::kWaiting), to_string(CalibrationState::kCalibrating),
-                                      to_string(CalibrationState::kConverged), to_string(CalibrationState::kFrozen)};
-  const char* k_sources[] = {to_string(ScaleFactorSource::kNominal), to_string(ScaleFactorSource::kIdentified),
-                             to_string(ScaleFactorSource::kCommanded)};
-  const char* statuses[] = {to_string(AnchorStatus::kNotStarted), to_string(AnchorStatus::kAnchored),
-                            to_string(AnchorStatus::kDeadReckoning)};
+  const char* calibration_states[] = {
+      to_string(calibration::CalibrationState::kWaiting), to_string(calibration::CalibrationState::kCalibrating),
+      to_string(calibration::CalibrationState::kConverged), to_string(calibration::CalibrationState::kFrozen)};
+  const char* k_sources[] = {to_string(dead_reckoning::ScaleFactorSource::kNominal),
+                             to_string(dead_reckoning::ScaleFactorSource::kIdentified),
+                             to_string(dead_reckoning::ScaleFactorSource::kCommanded)};
+  const char* statuses[] = {to_string(dead_reckoning::AnchorStatus::kNotStarted),
+                            to_string(dead_reckoning::AnchorStatus::kAnchored),
+                            to_string(dead_reckoning::AnchorStatus::kDeadReckoning)};
   for (int i = 0; i < 200; ++i) {
     const double t = 100.0 + 0.01 * i;
     results::MisalignmentRow mr;

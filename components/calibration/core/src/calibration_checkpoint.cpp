@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <utility>
 
-namespace odonav {
+namespace odonav::calibration {
 
 ODONAV_STATE_FIELDS(CalibrationCheckpoint) {
   a("last_sample_t_s", s.last_sample_t_s)("calibrator", s.calibrator_state);
@@ -58,4 +58,4 @@ CalibrationCheckpointLoad load_calibration_checkpoint(const std::string& path, c
   return result;
 }
 
-}  // namespace odonav
+}  // namespace odonav::calibration

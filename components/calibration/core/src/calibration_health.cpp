@@ -1,6 +1,6 @@
 #include "odonav/calibration/calibration_health.hpp"
 
-namespace odonav {
+namespace odonav::calibration {
 
 ComponentHealth calibration_health(const CalibrationHealthFacts& f) {
   using State = ComponentHealth::State;
@@ -24,4 +24,4 @@ ComponentHealth calibration_health(const CalibrationHealthFacts& f) {
   return h;
 }
 
-}  // namespace odonav
+}  // namespace odonav::calibration

@@ -6,7 +6,7 @@
 
 #include "odonav/frames.hpp"
 
-namespace odonav {
+namespace odonav::calibration {
 
 CalibrationLifecycle::CalibrationLifecycle(CheckpointSettings settings, std::string vehicle_id, double ins_margin_s)
     : vehicle_id_(std::move(vehicle_id)),
@@ -58,4 +58,4 @@ void CalibrationLifecycle::checkpoint_at_finish(const MisalignmentCalibrator& ca
   restart_.checkpoint_at_finish([&](double t_s) { return text_of(calibrator, t_s); });
 }
 
-}  // namespace odonav
+}  // namespace odonav::calibration

@@ -4,7 +4,7 @@
 #include <cstdlib>
 #include <sstream>
 
-namespace odonav {
+namespace odonav::calibration {
 
 void add_calibration_options(Options& o) {
   const MisalignmentCalibratorParams d;
@@ -30,4 +30,4 @@ MisalignmentCalibratorParams calibration_params_from(const Options& o) {
   return p;
 }
 
-}  // namespace odonav
+}  // namespace odonav::calibration

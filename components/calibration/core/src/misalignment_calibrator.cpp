@@ -7,7 +7,7 @@
 
 #include "odonav/checkpoint_state.hpp"
 
-namespace odonav {
+namespace odonav::calibration {
 
 PublishedMisalignment published_misalignment(const MisalignmentOutput& out) {
   PublishedMisalignment m;
@@ -375,4 +375,4 @@ void MisalignmentCalibrator::restore_state(const StateJson& state) {
   *this = std::move(c);
 }
 
-}  // namespace odonav
+}  // namespace odonav::calibration

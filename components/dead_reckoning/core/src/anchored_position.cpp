@@ -9,7 +9,7 @@
 #include "odonav/frames.hpp"
 #include "odonav/stream_buffers.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 results::NavigationPositionRow output_row(const AnchoredPosition& p) {
   results::NavigationPositionRow r;
@@ -229,4 +229,4 @@ AnchoredPosition AnchoredPositionFilter::step(const DeadReckoningOutput& dr) {
   return step(AnchorDrStep{dr.t_s, dr.position, dr.enu_m, dr.distance_m, dr.origin_to_local});
 }
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

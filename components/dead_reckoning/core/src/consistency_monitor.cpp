@@ -8,7 +8,7 @@
 
 #include "odonav/frames.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -275,4 +275,4 @@ std::string ConsistencyMonitor::reason() const {
   return r;
 }
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

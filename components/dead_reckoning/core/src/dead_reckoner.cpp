@@ -7,7 +7,7 @@
 
 #include "odonav/consumer_rules.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 std::optional<double> polar_heading_distance_m(const Geodetic& p) {
   // |lat| below 89 deg is more than 100 km from a pole: no geodesic needed to know.
@@ -627,4 +627,4 @@ void DeadReckoner::evaluate_errors(DeadReckoningOutput& o) {
   gnss_latency_.drop_before(std::min(t_j, next_applies_s));
 }
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

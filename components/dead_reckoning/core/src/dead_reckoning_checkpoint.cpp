@@ -8,7 +8,7 @@
 
 #include "odonav/stream_state.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 ODONAV_STATE_FIELDS(ScaleFactorSelectionCounters) {
   a("k_applied", s.k_applied)("k_ignored", s.k_ignored)("k_source_changes", s.k_source_changes);
@@ -86,4 +86,4 @@ DeadReckoningCheckpointLoad load_dead_reckoning_checkpoint(const std::string& pa
   return result;
 }
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

@@ -5,7 +5,7 @@
 
 #include "odonav/consumer_rules.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 DeadReckoningComponent::DeadReckoningComponent(const DeadReckonerParams& params, const AnchoredPositionParams& anchored,
                                                bool navigation, const ConsistencyParams& consistency)
@@ -74,4 +74,4 @@ std::vector<ComponentInput> dead_reckoning_inputs(const DeadReckonerParams& p) {
   return in;
 }
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

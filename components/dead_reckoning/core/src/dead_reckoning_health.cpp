@@ -4,7 +4,7 @@
 
 #include "odonav/consumer_rules.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 std::string held_span_text(HeldEstimate estimate, const HeldSpan& span) {
   const char* producer = estimate == HeldEstimate::kScaleFactor ? "identification" : "calibration";
@@ -79,4 +79,4 @@ ComponentHealth dead_reckoning_health(const DeadReckoningHealthFacts& f) {
   return s;
 }
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

@@ -7,7 +7,7 @@
 
 #include "odonav/frames.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 DeadReckoningLifecycle::DeadReckoningLifecycle(CheckpointSettings settings, std::string vehicle_id)
     : vehicle_id_(std::move(vehicle_id)),
@@ -79,4 +79,4 @@ void DeadReckoningLifecycle::checkpoint_at_finish(const DeadReckoningStateRefs& 
   restart_.checkpoint_at_finish([&](double t_s) { return text_of(state, t_s); });
 }
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

@@ -7,7 +7,7 @@
 #include "odonav/lever_arm_option.hpp"
 #include "odonav/nominal_k_option.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 void add_dead_reckoning_options(Options& o) {
   add_nominal_k_option(o);
@@ -93,4 +93,4 @@ AnchoredPositionParams anchored_position_params(const DeadReckoningFacts& facts)
   return p;
 }
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

@@ -9,7 +9,7 @@
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/stream_state.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 ODONAV_STATE_FIELDS(AnchorFix) {
   a("t_s", s.t_s)("fix_enu_m", s.fix_enu_m)("dr_enu_m", s.dr_enu_m)("dr_distance_m", s.dr_distance_m)("sigma_m",
@@ -103,4 +103,4 @@ void AnchoredPositionFilter::restore_state(const StateJson& state) {
   *this = std::move(f);
 }
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

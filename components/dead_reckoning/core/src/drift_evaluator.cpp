@@ -5,7 +5,7 @@
 
 #include "odonav/frames.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 DriftEvaluator::DriftEvaluator(double min_distance_m) : min_distance_m_(min_distance_m) {
   if (!(min_distance_m >= 0.0)) throw std::invalid_argument("DriftEvaluator: min_distance_m must be >= 0");
@@ -46,4 +46,4 @@ std::optional<Geodetic> TruthTrack::position_at(double t_s) const {
                   a.position.height_m + f * (b.position.height_m - a.position.height_m)};
 }
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

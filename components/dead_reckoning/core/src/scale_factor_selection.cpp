@@ -9,7 +9,7 @@
 
 #include "odonav/consumer_rules.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 void ScaleFactorSelection::track_source(const std::string& source, double t_s, double now_s) {
   // Which identification instance is followed (the one the node's SourceArbiter hands on: the
@@ -68,4 +68,4 @@ ScaleFactorCommandResult ScaleFactorSelection::release_commanded_k() {
   return {true, "following the identified K again (from its next estimate)", std::nullopt};
 }
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

@@ -6,7 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
-namespace odonav {
+namespace odonav::identification {
 
 ODONAV_STATE_FIELDS(IdentificationCheckpoint) {
   a("estimator", s.estimator_name)("last_sample_t_s", s.last_sample_t_s)("samples_accepted", s.samples_accepted)(
@@ -90,4 +90,4 @@ std::string describe(const CheckpointLoadResult& r, const ScaleFactorEstimator& 
   return {};
 }
 
-}  // namespace odonav
+}  // namespace odonav::identification

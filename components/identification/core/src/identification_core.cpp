@@ -8,7 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace odonav {
+namespace odonav::identification {
 
 IdentificationCore::IdentificationCore(const IdentificationParams& params)
     : params_(params),
@@ -207,7 +207,8 @@ ScaleFactorEstimate honest_estimate(const ScaleFactorEstimate& own, double laten
 
 ScaleFactorEstimate IdentificationCore::honest_estimate(const ScaleFactorEstimate& own, double latency_uncertainty_s,
                                                         bool latency_decided) const {
-  return odonav::honest_estimate(own, latency_uncertainty_s, latency_decided, params_.estimator.converged_rel_sigma);
+  return identification::honest_estimate(own, latency_uncertainty_s, latency_decided,
+                                         params_.estimator.converged_rel_sigma);
 }
 
 std::vector<IdentificationOutput> IdentificationCore::process_until(double watermark_s) {
@@ -355,4 +356,4 @@ std::vector<ComponentInput> identification_inputs(const IdentificationParams& p)
   return in;
 }
 
-}  // namespace odonav
+}  // namespace odonav::identification

@@ -9,7 +9,7 @@
 
 #include "odonav/consumer_rules.hpp"
 
-namespace odonav {
+namespace odonav::identification {
 
 namespace {
 // Why K cannot be converged yet when the latency search has not decided (SampleBuilder::
@@ -191,4 +191,4 @@ IdentificationHealthFacts IdentificationLifecycle::health_facts(double steady_no
   return f;
 }
 
-}  // namespace odonav
+}  // namespace odonav::identification

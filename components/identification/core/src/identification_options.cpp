@@ -6,7 +6,7 @@
 
 #include "odonav/hold_off_option.hpp"
 
-namespace odonav {
+namespace odonav::identification {
 
 void add_identification_options(Options& o) {
   add_estimate_hold_off_option(o);
@@ -129,4 +129,4 @@ IdentificationParams identification_params_for(const Options& o, const Identific
   return p;
 }
 
-}  // namespace odonav
+}  // namespace odonav::identification

@@ -7,7 +7,7 @@
 
 #include "odonav/identification/checkpoint.hpp"
 
-namespace odonav {
+namespace odonav::identification {
 
 namespace {
 uint64_t fnv1a64(const std::string& text) {
@@ -87,4 +87,4 @@ std::string persistence_guid(const std::string& vehicle_id, const std::string& i
   return text;
 }
 
-}  // namespace odonav
+}  // namespace odonav::identification

@@ -60,10 +60,10 @@ void FirstMetresAccumulator::count_past_500m(const Past500m& p) {
   count(first_500m_, f_.first_500m_origin_max_after_500m_percent);
 }
 
-void FirstMetresAccumulator::add(const DeadReckoningOutput& o) {
+void FirstMetresAccumulator::add(const dead_reckoning::DeadReckoningOutput& o) {
   // An origin shifted by c moves every DR position by c; (fix - DR) = (fix - truth) - (DR - truth),
   // so the DR error with that origin is e + c.
-  for (const AnchorFix& fix : o.gnss_fixes)
+  for (const dead_reckoning::AnchorFix& fix : o.gnss_fixes)
     for (Origin* origin : {&standstill_, &first_500m_}) {
       if (fix.dr_distance_m <= origin->max_distance_m) {
         origin->sum += horizontal(fix.fix_enu_m - fix.dr_enu_m);
@@ -72,7 +72,7 @@ void FirstMetresAccumulator::add(const DeadReckoningOutput& o) {
         origin->complete = true;
       }
     }
-  if (std::isnan(f_.distance_on_nominal_k_m) && o.k_source == ScaleFactorSource::kIdentified)
+  if (std::isnan(f_.distance_on_nominal_k_m) && o.k_source == dead_reckoning::ScaleFactorSource::kIdentified)
     f_.distance_on_nominal_k_m = o.distance_m;
   const std::optional<TruthSample> truth = truth_at_ms(std::llround(o.t_s * 1000.0));
   if (truth) {
@@ -114,9 +114,9 @@ FirstMetres FirstMetresAccumulator::finish() {
   return f_;
 }
 
-FirstMetres evaluate_first_metres(const Dataset& d, const std::vector<DeadReckoningOutput>& dr) {
+FirstMetres evaluate_first_metres(const Dataset& d, const std::vector<dead_reckoning::DeadReckoningOutput>& dr) {
   FirstMetresAccumulator acc(vector_source(d.truth));
-  for (const DeadReckoningOutput& o : dr) acc.add(o);
+  for (const dead_reckoning::DeadReckoningOutput& o : dr) acc.add(o);
   return acc.finish();
 }
 

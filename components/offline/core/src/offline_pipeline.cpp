@@ -50,14 +50,15 @@ struct OfflinePipeline::Consumer {
 OfflinePipeline::OfflinePipeline(const PipelineConfig& config, PipelineSink& sink)
     : config_(config), sink_(sink), calibration_(config.calibration) {
   if (config_.identification) {
-    identification_ = std::make_unique<IdentificationCore>(*config_.identification);
-    identification_inputs_ = std::make_unique<Consumer>(identification_inputs(*config_.identification), false);
+    identification_ = std::make_unique<identification::IdentificationCore>(*config_.identification);
+    identification_inputs_ =
+        std::make_unique<Consumer>(identification::identification_inputs(*config_.identification), false);
   }
   if (config_.dead_reckoning) {
-    dead_reckoning_ =
-        std::make_unique<DeadReckoningComponent>(*config_.dead_reckoning, config_.anchored, config_.navigation);
-    dead_reckoning_inputs_ =
-        std::make_unique<Consumer>(dead_reckoning_inputs(*config_.dead_reckoning), identification_ != nullptr);
+    dead_reckoning_ = std::make_unique<dead_reckoning::DeadReckoningComponent>(*config_.dead_reckoning,
+                                                                               config_.anchored, config_.navigation);
+    dead_reckoning_inputs_ = std::make_unique<Consumer>(dead_reckoning::dead_reckoning_inputs(*config_.dead_reckoning),
+                                                        identification_ != nullptr);
   }
 }
 
@@ -137,10 +138,10 @@ void OfflinePipeline::finish() {
   if (dead_reckoning_) deliver_dead_reckoning(dead_reckoning_->finish());
 }
 
-void OfflinePipeline::deliver_misalignments(const std::vector<MisalignmentOutput>& outputs) {
-  for (const MisalignmentOutput& m : outputs) {
+void OfflinePipeline::deliver_misalignments(const std::vector<calibration::MisalignmentOutput>& outputs) {
+  for (const calibration::MisalignmentOutput& m : outputs) {
     sink_.on_misalignment(m);
-    const PublishedMisalignment p = published_misalignment(m);
+    const PublishedMisalignment p = calibration::published_misalignment(m);
     if (identification_ && identification_inputs_->admit(identification_inputs_->misalignment, p.t_s))
       identification_->apply_misalignment(p);
     if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->misalignment, p.t_s))
@@ -148,16 +149,18 @@ void OfflinePipeline::deliver_misalignments(const std::vector<MisalignmentOutput
   }
 }
 
-void OfflinePipeline::deliver_scale_factors(const std::vector<IdentificationOutput>& outputs) {
-  for (const IdentificationOutput& k : outputs) {
+void OfflinePipeline::deliver_scale_factors(const std::vector<identification::IdentificationOutput>& outputs) {
+  for (const identification::IdentificationOutput& k : outputs) {
     sink_.on_scale_factor(k);
     if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->scale_factor, k.t_s))
-      dead_reckoning_->on_scale_factor(published_scale_factor(k, config_.identification_source), kNow_s);
+      dead_reckoning_->on_scale_factor(identification::published_scale_factor(k, config_.identification_source),
+                                       kNow_s);
   }
 }
 
-void OfflinePipeline::deliver_dead_reckoning(std::vector<DeadReckoningOutput> outputs) {
-  for (DeadReckoningOutput& o : outputs) sink_.on_dead_reckoning(dead_reckoning_->publish(std::move(o)));
+void OfflinePipeline::deliver_dead_reckoning(std::vector<dead_reckoning::DeadReckoningOutput> outputs) {
+  for (dead_reckoning::DeadReckoningOutput& o : outputs)
+    sink_.on_dead_reckoning(dead_reckoning_->publish(std::move(o)));
 }
 
 }  // namespace odonav::offline

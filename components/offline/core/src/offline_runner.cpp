@@ -25,11 +25,11 @@ void feed(const SampleStream& next, OfflinePipeline& pipeline) {
 class Collector : public PipelineSink {
  public:
   explicit Collector(OfflineResult& result, bool coarse) : r_(result), coarse_(coarse) {}
-  void on_misalignment(const MisalignmentOutput& m) override {
+  void on_misalignment(const calibration::MisalignmentOutput& m) override {
     if (!coarse_) r_.misalignment.push_back(m);
   }
-  void on_scale_factor(const IdentificationOutput& k) override { r_.identification.push_back(k); }
-  void on_dead_reckoning(DeadReckoningStep step) override {
+  void on_scale_factor(const identification::IdentificationOutput& k) override { r_.identification.push_back(k); }
+  void on_dead_reckoning(dead_reckoning::DeadReckoningStep step) override {
     if (coarse_) {
       r_.dr_coarse.push_back(std::move(step.output));
     } else {
@@ -51,7 +51,7 @@ OfflineParams with_degraded_mode(bool ins, OfflineParams p) {
   return p;
 }
 
-std::optional<double> final_coarse_k(const std::optional<IdentificationOutput>& last,
+std::optional<double> final_coarse_k(const std::optional<identification::IdentificationOutput>& last,
                                      const std::vector<std::string>& names) {
   for (std::size_t i = 0; i < names.size(); ++i)
     if (names[i] == "coarse" && last && last->all[i].valid) return last->all[i].k_m_per_pulse;
@@ -62,13 +62,13 @@ std::optional<double> final_coarse_k(const std::optional<IdentificationOutput>& 
 class LastEstimate : public PipelineSink {
  public:
   explicit LastEstimate(PipelineSink& next) : next_(next) {}
-  void on_misalignment(const MisalignmentOutput& m) override { next_.on_misalignment(m); }
-  void on_scale_factor(const IdentificationOutput& k) override {
+  void on_misalignment(const calibration::MisalignmentOutput& m) override { next_.on_misalignment(m); }
+  void on_scale_factor(const identification::IdentificationOutput& k) override {
     last = k;
     next_.on_scale_factor(k);
   }
-  void on_dead_reckoning(DeadReckoningStep step) override { next_.on_dead_reckoning(std::move(step)); }
-  std::optional<IdentificationOutput> last;
+  void on_dead_reckoning(dead_reckoning::DeadReckoningStep step) override { next_.on_dead_reckoning(std::move(step)); }
+  std::optional<identification::IdentificationOutput> last;
 
  private:
   PipelineSink& next_;
@@ -126,8 +126,9 @@ OfflineRunTotals run_offline(const OpenSampleStream& open, bool has_ins, const O
     r.calibration_counters = pipeline.calibration().counters();
     r.dr_counters = pipeline.dead_reckoning()->core().counters();
     r.anchored_counters = pipeline.dead_reckoning()->anchor().counters();
-    for (int i = 0; i < kConsistencyChecks; ++i)
-      r.consistency.push_back(pipeline.dead_reckoning()->monitor().state(static_cast<ConsistencyCheck>(i)));
+    for (int i = 0; i < dead_reckoning::kConsistencyChecks; ++i)
+      r.consistency.push_back(
+          pipeline.dead_reckoning()->monitor().state(static_cast<dead_reckoning::ConsistencyCheck>(i)));
     r.gnss_jumps = pipeline.dead_reckoning()->monitor().gnss_jumps();
   }
   if (params.coarse_k_m_per_pulse) {

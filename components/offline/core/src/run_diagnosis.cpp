@@ -102,7 +102,7 @@ void RunDiagnosisAccumulator::add_identification(const ScaleFactorEstimate& main
 }
 void RunDiagnosisAccumulator::add_dead_reckoning(double t_s, const Geodetic& position) {
   dead_reckoning_.add(t_s);
-  const std::optional<double> pole_m = polar_heading_distance_m(position);
+  const std::optional<double> pole_m = dead_reckoning::polar_heading_distance_m(position);
   if (!pole_m) return;
   if (near_pole_.n++ == 0 || *pole_m < near_pole_.closest_m) {
     if (near_pole_.n == 1) near_pole_.first_s = t_s;
@@ -116,18 +116,22 @@ RunDiagnosis diagnose_run(const Dataset& d, const OfflineParams& p, const Offlin
   for (const OdometerSample& o : d.odometer) acc.add_odometer(o.t_s);
   for (const GnssSample& g : d.gnss) acc.add_gnss(g.t_s);
   for (const InsSample& i : d.ins) acc.add_ins(i.t_s);
-  for (const IdentificationOutput& k : r.identification) acc.add_identification(k.main, k.latency, k.latency_decided);
-  for (const MisalignmentOutput& m : r.misalignment) acc.add_misalignment(m);
-  for (const DeadReckoningOutput& o : r.dr_online) acc.add_dead_reckoning(o.t_s, o.position);
+  for (const identification::IdentificationOutput& k : r.identification)
+    acc.add_identification(k.main, k.latency, k.latency_decided);
+  for (const calibration::MisalignmentOutput& m : r.misalignment) acc.add_misalignment(m);
+  for (const dead_reckoning::DeadReckoningOutput& o : r.dr_online) acc.add_dead_reckoning(o.t_s, o.position);
   return acc.finish(p, r.builder_counters, r.calibration_counters, r.dr_counters, r.consistency, r.gnss_jumps);
 }
 
-void RunDiagnosisAccumulator::add_misalignment(const MisalignmentOutput& output) { last_misalignment_ = output; }
+void RunDiagnosisAccumulator::add_misalignment(const calibration::MisalignmentOutput& output) {
+  last_misalignment_ = output;
+}
 
 RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const SampleBuilderCounters& c,
-                                             const MisalignmentCounters& m, const DeadReckonerCounters& dr_counters,
-                                             const std::vector<ConsistencyState>& consistency,
-                                             const GnssJumpCounters& gnss_jumps) const {
+                                             const calibration::MisalignmentCounters& m,
+                                             const dead_reckoning::DeadReckonerCounters& dr_counters,
+                                             const std::vector<dead_reckoning::ConsistencyState>& consistency,
+                                             const dead_reckoning::GnssJumpCounters& gnss_jumps) const {
   RunDiagnosis out;
   auto warn = [&](std::string code, std::string message) {
     out.warnings.push_back({std::move(code), std::move(message)});
@@ -141,17 +145,17 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
              " km): outliers, kept out of the anchored position by its gate; the estimators use the GNSS velocity");
   // The results contradicted independent evidence: a wrong input, named with its numbers.
   for (std::size_t i = 0; i < consistency.size(); ++i) {
-    const ConsistencyState& s = consistency[i];
+    const dead_reckoning::ConsistencyState& s = consistency[i];
     if (s.times_raised == 0) continue;
-    warn(std::string("inconsistent_") + to_string(static_cast<ConsistencyCheck>(i)),
+    warn(std::string("inconsistent_") + to_string(static_cast<dead_reckoning::ConsistencyCheck>(i)),
          s.text + " (from t = " + num(s.raised_at_s, 10) + " s" +
              (s.raised ? ", to the end: converged withdrawn)" : ", later cleared)"));
   }
 
   // Dead reckoning near a pole, where the INS heading is ill-defined (dead_reckoner.hpp).
   if (near_pole_.n > 0)
-    warn("near_pole", "dead reckoning " + polar_heading_text(near_pole_.closest_m, near_pole_.north) + " (" +
-                          num(static_cast<double>(near_pole_.n), 12) +
+    warn("near_pole", "dead reckoning " + dead_reckoning::polar_heading_text(near_pole_.closest_m, near_pole_.north) +
+                          " (" + num(static_cast<double>(near_pole_.n), 12) +
                           " outputs from t = " + num(near_pole_.first_s, 10) + " s)");
 
   // Time overlap of the two streams every result needs.
@@ -242,7 +246,7 @@ RunDiagnosis RunDiagnosisAccumulator::finish(const OfflineParams& p, const Sampl
               "; zero misalignment applied");
     } else if (last_misalignment_ && !last_misalignment_->converged) {
       // Used, but not enough: say what is missing, epochs or precision.
-      const MisalignmentOutput& o = *last_misalignment_;
+      const calibration::MisalignmentOutput& o = *last_misalignment_;
       std::string missing;
       if (o.samples_used < p.calibration.min_samples)
         missing = num(static_cast<double>(o.samples_used), 12) + " GNSS epochs used while moving (straight, above " +

@@ -747,12 +747,12 @@ std::string fmt(const json& v, int precision, const char* unit = "") {
 }
 }  // namespace
 
-void add_consistency(json& s, const std::vector<ConsistencyState>& checks) {
+void add_consistency(json& s, const std::vector<dead_reckoning::ConsistencyState>& checks) {
   json c = json::object();
   std::string misalignment_withdrawn, k_withdrawn;
   for (std::size_t i = 0; i < checks.size(); ++i) {
-    const ConsistencyState& st = checks[i];
-    const auto check = static_cast<ConsistencyCheck>(i);
+    const dead_reckoning::ConsistencyState& st = checks[i];
+    const auto check = static_cast<dead_reckoning::ConsistencyCheck>(i);
     c[to_string(check)] = {{"raised", st.raised},
                            {"times_raised", st.times_raised},
                            {"finding", st.times_raised ? json(st.text) : json()},
@@ -760,8 +760,9 @@ void add_consistency(json& s, const std::vector<ConsistencyState>& checks) {
     if (!st.raised) continue;
     // A heading that contradicts the GNSS course spoils the misalignment; a distance that does, K;
     // a drifting track, either.
-    if (check != ConsistencyCheck::kOdometerSpeed && misalignment_withdrawn.empty()) misalignment_withdrawn = st.text;
-    if (check != ConsistencyCheck::kHeadingRate && k_withdrawn.empty()) k_withdrawn = st.text;
+    if (check != dead_reckoning::ConsistencyCheck::kOdometerSpeed && misalignment_withdrawn.empty())
+      misalignment_withdrawn = st.text;
+    if (check != dead_reckoning::ConsistencyCheck::kHeadingRate && k_withdrawn.empty()) k_withdrawn = st.text;
   }
   s["consistency"] = c;
   if (!misalignment_withdrawn.empty() && s.contains("misalignment") && s["misalignment"].is_object()) {

@@ -17,7 +17,7 @@
 #include "odonav/calibration/misalignment_calibrator.hpp"
 #include "odonav/checkpoint_file.hpp"
 
-namespace odonav {
+namespace odonav::calibration {
 
 /// The envelope's component name and version of the calibration's checkpoint; the version is
 /// bumped whenever anything in the payload (the calibrator's state included) changes.
@@ -51,4 +51,4 @@ CalibrationCheckpointLoad load_calibration_checkpoint(const std::string& path, c
                                                       const std::string& config_hash,
                                                       MisalignmentCalibrator& calibrator, int64_t unix_time_s);
 
-}  // namespace odonav
+}  // namespace odonav::calibration

@@ -9,7 +9,7 @@
 #include "odonav/component_health.hpp"
 #include "odonav/restart_policy.hpp"
 
-namespace odonav {
+namespace odonav::calibration {
 
 /// Everything calibration_health() decides on. The restart notes come from the lifecycle
 /// (CalibrationLifecycle::restart().health_notes()).
@@ -31,4 +31,4 @@ struct CalibrationHealthFacts : RestartHealthNotes {
 ///    raise the level to WARN when they say so.
 ComponentHealth calibration_health(const CalibrationHealthFacts& facts);
 
-}  // namespace odonav
+}  // namespace odonav::calibration

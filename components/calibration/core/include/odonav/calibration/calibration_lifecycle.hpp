@@ -11,7 +11,7 @@
 #include "odonav/calibration/misalignment_calibrator.hpp"
 #include "odonav/restart_policy.hpp"
 
-namespace odonav {
+namespace odonav::calibration {
 
 /// The inputs whose samples may predate a restored checkpoint (CalibrationLifecycle::skip_sample).
 enum class CalibrationInput { kGnss, kIns };
@@ -60,4 +60,4 @@ class CalibrationLifecycle {
   std::optional<MisalignmentOutput> restored_output_;
 };
 
-}  // namespace odonav
+}  // namespace odonav::calibration

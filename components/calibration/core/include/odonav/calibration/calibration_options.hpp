@@ -9,11 +9,11 @@
 #include "odonav/config.hpp"
 #include "odonav/lever_arm_option.hpp"
 
-namespace odonav {
+namespace odonav::calibration {
 
 /// Declares --cal-min-speed, --cal-max-yaw-rate-deg-s, --cal-converged-sigma-deg, --cal-min-samples,
 /// --cal-braking-stop.
 void add_calibration_options(Options& options);
 MisalignmentCalibratorParams calibration_params_from(const Options& options);
 
-}  // namespace odonav
+}  // namespace odonav::calibration

@@ -39,7 +39,7 @@
 #include "odonav/frames.hpp"
 #include "odonav/stream_buffers.hpp"
 
-namespace odonav {
+namespace odonav::calibration {
 
 struct MisalignmentCalibratorParams {
   /// False when the recording has no INS: nothing can be calibrated (state stays waiting).
@@ -279,4 +279,4 @@ class MisalignmentCalibrator {
 
 // body_rate_rad_s() lives in frames.hpp (the sample builder uses it too).
 
-}  // namespace odonav
+}  // namespace odonav::calibration

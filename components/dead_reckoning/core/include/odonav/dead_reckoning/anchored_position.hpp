@@ -59,7 +59,7 @@
 #include "odonav/results/output_files.hpp"
 #include "odonav/state_json.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 struct DeadReckoningOutput;
 
@@ -224,4 +224,4 @@ class AnchoredPositionFilter {
   AnchoredPositionCounters counters_;
 };
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

@@ -41,7 +41,7 @@
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/sensor_samples.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 struct ConsistencyParams {
   double min_speed_mps = 3.0;           ///< course and heading compared above this GNSS speed (m/s)
@@ -163,4 +163,4 @@ class ConsistencyMonitor {
   int raised_count_ = 0;
 };
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

@@ -76,7 +76,7 @@
 #include "odonav/stream_buffers.hpp"
 #include "odonav/turn_slip.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 /// Where the K in use comes from.
 enum class ScaleFactorSource {
@@ -418,4 +418,4 @@ class DeadReckoner {
   static void state_fields(Archive& a, Self& self);
 };
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

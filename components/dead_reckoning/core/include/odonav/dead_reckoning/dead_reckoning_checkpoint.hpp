@@ -35,7 +35,7 @@
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "odonav/stream_buffers.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 /// The envelope's component name and version of the dead reckoning's checkpoint; the version is
 /// bumped whenever anything in the payload (the cores' states included) changes.
@@ -95,4 +95,4 @@ DeadReckoningCheckpointLoad load_dead_reckoning_checkpoint(const std::string& pa
                                                            const std::string& config_hash,
                                                            const DeadReckoningStateRefs& state, int64_t unix_time_s);
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

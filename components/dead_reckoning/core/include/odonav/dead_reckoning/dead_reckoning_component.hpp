@@ -20,7 +20,7 @@
 #include "odonav/event_time_aligner.hpp"
 #include "odonav/published_estimates.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 /// One output of dead reckoning as it is published: the DR output, the anchored position at the
 /// same time, and the misalignment (rad) that was in force for it.
@@ -94,4 +94,4 @@ class DeadReckoningComponent {
   ConsistencyMonitor monitor_;
 };
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

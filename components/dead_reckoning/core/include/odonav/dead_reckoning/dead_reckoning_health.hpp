@@ -12,7 +12,7 @@
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/restart_policy.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 /// How long (wall clock, s) health tells about an event (K source change, pulse jump): long enough
 /// for a monitor polling at 1 Hz, or an operator, to see it.
@@ -61,4 +61,4 @@ std::string held_span_text(HeldEstimate estimate, const HeldSpan& span);
 /// it goes on and for kDeadReckoningNoticeDuration_s after. Pure: the same facts give the same answer.
 ComponentHealth dead_reckoning_health(const DeadReckoningHealthFacts& facts);
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

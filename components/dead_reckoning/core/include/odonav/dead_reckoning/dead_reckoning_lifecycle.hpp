@@ -10,7 +10,7 @@
 #include "odonav/dead_reckoning/dead_reckoning_checkpoint.hpp"
 #include "odonav/restart_policy.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 /// One dead-reckoning run's restart policy. Not thread-safe: the node runs it one task at a time.
 class DeadReckoningLifecycle {
@@ -43,4 +43,4 @@ class DeadReckoningLifecycle {
   RestartPolicy restart_;
 };
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

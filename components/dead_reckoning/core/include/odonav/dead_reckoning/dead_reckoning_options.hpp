@@ -10,7 +10,7 @@
 #include "odonav/dead_reckoning/anchored_position.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 /// Offset random walk (%D) of the navigation position at least, without INS: the DR heading is then
 /// the GNSS course held through stops and turns.
@@ -64,4 +64,4 @@ DeadReckonerParams dead_reckoner_params(const DeadReckoningFacts& facts);
 /// (--estimate-hold-off-s), and without INS (degraded mode) at least kDegradedAnchorDriftPercent.
 AnchoredPositionParams anchored_position_params(const DeadReckoningFacts& facts);
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

@@ -9,7 +9,7 @@
 #include "odonav/dataset.hpp"
 #include "odonav/geodesy.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 struct DriftSummary {
   uint64_t points = 0;  ///< points with distance >= min_distance_m.
@@ -49,4 +49,4 @@ class TruthTrack {
   double max_gap_s_;
 };
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

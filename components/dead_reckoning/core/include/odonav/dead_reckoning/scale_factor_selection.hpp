@@ -24,7 +24,7 @@
 
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 
-namespace odonav {
+namespace odonav::dead_reckoning {
 
 /// A K to give DeadReckoner::add_scale_factor: in force from t_s (event time, s) on.
 struct ScaleFactorUpdate {
@@ -140,4 +140,4 @@ class CountChangeTime {
   double changed_at_s_ = -std::numeric_limits<double>::infinity();
 };
 
-}  // namespace odonav
+}  // namespace odonav::dead_reckoning

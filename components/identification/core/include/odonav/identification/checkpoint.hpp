@@ -34,7 +34,7 @@
 #include "odonav/safe_output.hpp"
 #include "odonav/scale_factor_estimator.hpp"
 
-namespace odonav {
+namespace odonav::identification {
 
 /// The envelope's component name and version of the identification's checkpoint; the version is
 /// bumped whenever anything in the payload (the core's state included) changes.
@@ -99,4 +99,4 @@ CheckpointLoadResult load_identification_checkpoint(const std::string& path, con
 /// or "checkpoint <file> was corrupt (<reason>): moved aside; starting from nominal K".
 std::string describe(const CheckpointLoadResult& result, const ScaleFactorEstimator& estimator);
 
-}  // namespace odonav
+}  // namespace odonav::identification

@@ -22,7 +22,7 @@
 #include "odonav/results/output_files.hpp"
 #include "odonav/sample_builder.hpp"
 
-namespace odonav {
+namespace odonav::identification {
 
 struct IdentificationParams {
   SampleBuilderParams builder;
@@ -191,7 +191,7 @@ class IdentificationCore {
   /// no value of its own since set_k().
   ScaleFactorEstimate main_estimate() const;
   void feed_gate(double t_s, const ScaleFactorEstimate& estimate);
-  /// odonav::honest_estimate with the params' converged_rel_sigma.
+  /// identification::honest_estimate with the params' converged_rel_sigma.
   ScaleFactorEstimate honest_estimate(const ScaleFactorEstimate& own, double latency_uncertainty_s,
                                       bool latency_decided) const;
   /// The braking-to-a-standstill rule for one epoch (braking_stop.hpp), before its sample is fed.
@@ -229,4 +229,4 @@ class IdentificationCore {
   static void state_fields(Archive& a, Self& self);
 };
 
-}  // namespace odonav
+}  // namespace odonav::identification

@@ -26,7 +26,7 @@
 #include "odonav/identification/instance.hpp"
 #include "odonav/restart_policy.hpp"
 
-namespace odonav {
+namespace odonav::identification {
 
 // CheckpointSettings (state directory, period, configuration hash), kRestoreNoteDuration_s and
 // kCatchUpSettle_s: odonav/restart_policy.hpp, the restart policy the calibration shares; this
@@ -192,4 +192,4 @@ class IdentificationLifecycle {
   std::optional<IdentificationOutput> last_output_;
 };
 
-}  // namespace odonav
+}  // namespace odonav::identification

@@ -9,7 +9,7 @@
 #include "odonav/config.hpp"
 #include "odonav/identification/identification_core.hpp"
 
-namespace odonav {
+namespace odonav::identification {
 
 /// Declares --estimator, --window, --lambda-min, --vff-kappa, --vff-c, --vff-change-threshold, --ff-lambda,
 /// --converged-rel-sigma, --id-min-speed, --id-max-yaw-rate-deg-s, --innovation-n-sigma,
@@ -46,4 +46,4 @@ struct IdentificationVehicleFacts {
 /// "nominal K" when facts.nominal_k_m_per_pulse is not finite and > 0.
 IdentificationParams identification_params_for(const Options& options, const IdentificationVehicleFacts& facts);
 
-}  // namespace odonav
+}  // namespace odonav::identification

@@ -5,7 +5,7 @@
 // no persistence any more, docs/DDS.md section 5). Middleware-free: plain strings.
 #include <string>
 
-namespace odonav {
+namespace odonav::identification {
 
 /// The instance name a lone identification publishes as ScaleFactor.source.
 inline constexpr const char* kDefaultIdentificationInstance = "identification";
@@ -43,4 +43,4 @@ std::string persistence_db_path(const std::string& state_dir, const std::string&
 /// Validates the instance (std::invalid_argument) and the vehicle (non-empty).
 std::string persistence_guid(const std::string& vehicle_id, const std::string& instance);
 
-}  // namespace odonav
+}  // namespace odonav::identification

@@ -46,7 +46,7 @@ class FirstMetresAccumulator {
   /// truth: the truth track (time order), matched to the outputs by stamp to the millisecond.
   explicit FirstMetresAccumulator(SourceFactory<TruthSample> truth);
   /// The next DeadReckoner output of the drive (time order).
-  void add(const DeadReckoningOutput& o);
+  void add(const dead_reckoning::DeadReckoningOutput& o);
   /// The figures. Call once.
   FirstMetres finish();
   /// Outputs past 500 m waiting for the origin of the first 500 m (to check the memory bound).
@@ -84,7 +84,7 @@ class FirstMetresAccumulator {
 /// The figures of `dr` (DeadReckoner outputs of one drive, time order) against d.truth (matched by
 /// stamp to the millisecond; outputs without a truth sample are skipped). %D below 1 m of distance is
 /// not counted. A FirstMetresAccumulator fed the outputs.
-FirstMetres evaluate_first_metres(const Dataset& d, const std::vector<DeadReckoningOutput>& dr);
+FirstMetres evaluate_first_metres(const Dataset& d, const std::vector<dead_reckoning::DeadReckoningOutput>& dr);
 
 /// One line of text with every figure, for test traces and logs.
 std::string describe(const FirstMetres& f);

@@ -33,20 +33,21 @@ namespace odonav::offline {
 class PipelineSink {
  public:
   virtual ~PipelineSink() = default;
-  virtual void on_misalignment(const MisalignmentOutput& /*output*/) {}
-  virtual void on_scale_factor(const IdentificationOutput& /*output*/) {}
+  virtual void on_misalignment(const calibration::MisalignmentOutput& /*output*/) {}
+  virtual void on_scale_factor(const identification::IdentificationOutput& /*output*/) {}
   // By value: a forwarding sink moves the step on.
-  virtual void on_dead_reckoning(DeadReckoningStep /*step*/) {}  // NOLINT(performance-unnecessary-value-param)
+  virtual void on_dead_reckoning(dead_reckoning::DeadReckoningStep /*step*/) {
+  }  // NOLINT(performance-unnecessary-value-param)
 };
 
 /// Which components run, with their parameters.
 struct PipelineConfig {
-  MisalignmentCalibratorParams calibration;
+  calibration::MisalignmentCalibratorParams calibration;
   /// Unset: no identification (dead reckoning keeps its nominal K and a zero GNSS latency).
-  std::optional<IdentificationParams> identification;
+  std::optional<identification::IdentificationParams> identification;
   /// Unset: no dead reckoning.
-  std::optional<DeadReckonerParams> dead_reckoning;
-  AnchoredPositionParams anchored;
+  std::optional<dead_reckoning::DeadReckonerParams> dead_reckoning;
+  dead_reckoning::AnchoredPositionParams anchored;
   /// Compute the GNSS-anchored navigation position of each dead-reckoning output (off: a run whose
   /// positions nobody reads, e.g. the coarse-K pass).
   bool navigation = true;
@@ -72,24 +73,24 @@ class OfflinePipeline {
   /// End of data: every component finishes in pipeline order and every remaining output is delivered.
   void finish();
 
-  const MisalignmentCalibrator& calibration() const { return calibration_; }
+  const calibration::MisalignmentCalibrator& calibration() const { return calibration_; }
   /// nullptr when not configured.
-  const IdentificationCore* identification() const { return identification_.get(); }
-  const DeadReckoningComponent* dead_reckoning() const { return dead_reckoning_.get(); }
+  const identification::IdentificationCore* identification() const { return identification_.get(); }
+  const dead_reckoning::DeadReckoningComponent* dead_reckoning() const { return dead_reckoning_.get(); }
 
  private:
   struct Consumer;  // a component's aligner and its input streams
   void advance_to(double t_s);
   void process(double complete_through_s);
-  void deliver_misalignments(const std::vector<MisalignmentOutput>& outputs);
-  void deliver_scale_factors(const std::vector<IdentificationOutput>& outputs);
-  void deliver_dead_reckoning(std::vector<DeadReckoningOutput> outputs);
+  void deliver_misalignments(const std::vector<calibration::MisalignmentOutput>& outputs);
+  void deliver_scale_factors(const std::vector<identification::IdentificationOutput>& outputs);
+  void deliver_dead_reckoning(std::vector<dead_reckoning::DeadReckoningOutput> outputs);
 
   PipelineConfig config_;
   PipelineSink& sink_;
-  MisalignmentCalibrator calibration_;
-  std::unique_ptr<IdentificationCore> identification_;
-  std::unique_ptr<DeadReckoningComponent> dead_reckoning_;
+  calibration::MisalignmentCalibrator calibration_;
+  std::unique_ptr<identification::IdentificationCore> identification_;
+  std::unique_ptr<dead_reckoning::DeadReckoningComponent> dead_reckoning_;
   std::unique_ptr<Consumer> identification_inputs_;
   std::unique_ptr<Consumer> dead_reckoning_inputs_;
   std::optional<double> pending_t_s_;  ///< stamp of the samples passed since the last processing

@@ -19,10 +19,10 @@
 namespace odonav::offline {
 
 struct OfflineParams {
-  MisalignmentCalibratorParams calibration;
-  IdentificationParams identification;
-  DeadReckonerParams dead_reckoning;  ///< nominal_k is the K before identification converges.
-  AnchoredPositionParams anchored;    ///< the navigation position anchored on GNSS (online DR).
+  calibration::MisalignmentCalibratorParams calibration;
+  identification::IdentificationParams identification;
+  dead_reckoning::DeadReckonerParams dead_reckoning;  ///< nominal_k is the K before identification converges.
+  dead_reckoning::AnchoredPositionParams anchored;    ///< the navigation position anchored on GNSS (online DR).
   /// K for the "coarse" DR run (m/pulse). Unset: the coarse S/N estimate of this dataset (its final
   /// value, as a calibration run done before the drive would give), or the nominal K without one.
   std::optional<double> coarse_k_m_per_pulse;
@@ -40,27 +40,28 @@ SampleStream samples_of(const Dataset& dataset);
 
 /// What a streaming run leaves besides the outputs it delivered.
 struct OfflineRunTotals {
-  std::vector<std::string> estimator_names;                 ///< order of IdentificationOutput::all.
-  std::optional<IdentificationOutput> last_identification;  ///< the final estimate (none without GNSS epochs)
+  std::vector<std::string> estimator_names;  ///< order of IdentificationOutput::all.
+  std::optional<identification::IdentificationOutput>
+      last_identification;  ///< the final estimate (none without GNSS epochs)
   double coarse_k_m_per_pulse = 0.0;
   std::string coarse_k_origin;
   SampleBuilderCounters builder_counters;
-  MisalignmentCounters calibration_counters;
-  DeadReckonerCounters dr_counters;
-  AnchoredPositionCounters anchored_counters;
+  calibration::MisalignmentCounters calibration_counters;
+  dead_reckoning::DeadReckonerCounters dr_counters;
+  dead_reckoning::AnchoredPositionCounters anchored_counters;
   /// The online dead reckoning's consistency checks at the end (consistency_monitor.hpp), by
   /// ConsistencyCheck.
-  std::vector<ConsistencyState> consistency;
-  GnssJumpCounters gnss_jumps;  ///< GNSS position jumps (consistency_monitor.hpp)
+  std::vector<dead_reckoning::ConsistencyState> consistency;
+  dead_reckoning::GnssJumpCounters gnss_jumps;  ///< GNSS position jumps (consistency_monitor.hpp)
 };
 
 /// A run over an in-memory dataset with every output kept (tests, benchmarks).
 struct OfflineResult : OfflineRunTotals {
-  std::vector<MisalignmentOutput> misalignment;       ///< one per GNSS epoch.
-  std::vector<IdentificationOutput> identification;   ///< one per GNSS epoch.
-  std::vector<DeadReckoningOutput> dr_online;         ///< DR with the identified K.
-  std::vector<AnchoredPosition> navigation_position;  ///< dr_online anchored on GNSS, one per output.
-  std::vector<DeadReckoningOutput> dr_coarse;         ///< DR with the coarse K.
+  std::vector<calibration::MisalignmentOutput> misalignment;          ///< one per GNSS epoch.
+  std::vector<identification::IdentificationOutput> identification;   ///< one per GNSS epoch.
+  std::vector<dead_reckoning::DeadReckoningOutput> dr_online;         ///< DR with the identified K.
+  std::vector<dead_reckoning::AnchoredPosition> navigation_position;  ///< dr_online anchored on GNSS, one per output.
+  std::vector<dead_reckoning::DeadReckoningOutput> dr_coarse;         ///< DR with the coarse K.
 };
 
 /// Runs the pipeline over open()'s samples, delivering every output to `sink` as it is made, then

@@ -66,16 +66,17 @@ class RunDiagnosisAccumulator {
   /// latency was decided (IdentificationOutput::latency_decided).
   void add_identification(const ScaleFactorEstimate& main, const GnssLatencyEstimate& latency = {},
                           bool latency_decided = true);
-  void add_misalignment(const MisalignmentOutput& output);  ///< each calibration output
+  void add_misalignment(const calibration::MisalignmentOutput& output);  ///< each calibration output
   /// Each online dead-reckoning output's time (s) and position (for the warning near a pole).
   void add_dead_reckoning(double t_s, const Geodetic& position);
   /// The warnings, from the facts gathered and the run's final gate counters.
   /// consistency: the dead reckoning's checks at the end (OfflineRunTotals::consistency; each one
   /// raised during the run is a warning "inconsistent_<check>" with its finding).
   RunDiagnosis finish(const OfflineParams& params, const SampleBuilderCounters& builder,
-                      const MisalignmentCounters& calibration, const DeadReckonerCounters& dead_reckoning,
-                      const std::vector<ConsistencyState>& consistency = {},
-                      const GnssJumpCounters& gnss_jumps = {}) const;
+                      const calibration::MisalignmentCounters& calibration,
+                      const dead_reckoning::DeadReckonerCounters& dead_reckoning,
+                      const std::vector<dead_reckoning::ConsistencyState>& consistency = {},
+                      const dead_reckoning::GnssJumpCounters& gnss_jumps = {}) const;
 
  private:
   struct Span {  // first and last time (s) of a stream, and its count
@@ -96,7 +97,7 @@ class RunDiagnosisAccumulator {
   std::optional<GnssLatencyEstimate> last_latency_;
   bool latency_ever_decided_ = false;
   bool last_latency_decided_ = true;
-  std::optional<MisalignmentOutput> last_misalignment_;
+  std::optional<calibration::MisalignmentOutput> last_misalignment_;
 };
 
 /// Warnings of one run of run_offline over `dataset` with `params`: a RunDiagnosisAccumulator fed

@@ -96,6 +96,6 @@ void print_summary(const nlohmann::json& summary, std::ostream& out);
 /// "consistency", and withdraws "converged" (false, with "converged_withdrawn" naming the finding) of
 /// the misalignment while a heading-rate or drift check is raised at the end, and of the scale
 /// factor while an odometer-speed or drift check is.
-void add_consistency(nlohmann::json& summary, const std::vector<ConsistencyState>& checks);
+void add_consistency(nlohmann::json& summary, const std::vector<dead_reckoning::ConsistencyState>& checks);
 
 }  // namespace odonav::offline
