@@ -1,8 +1,26 @@
-// Message -> sample conversion, input bookkeeping and health reasons of the event-time nodes
-// (node_support.hpp).
+// Message -> sample conversion, the nodes' shared options, input bookkeeping and health reasons of
+// the event-time nodes (node_support.hpp).
 #include "odonav/dds/node_support.hpp"
 
+#include "odonav/lever_arm_option.hpp"
+#include "odonav/restart_policy.hpp"
+#include "odonav/topics.hpp"
+
 namespace odonav::dds {
+
+void add_sensor_node_options(Options& o, const std::string& degraded_mode, const std::string& checkpoint_file) {
+  add_lever_arm_option(o);
+  o.add_bool("use-ins", true,
+             "the vehicle has an INS; false = degraded mode (" + degraded_mode +
+                 "), as odonav-offline does for a dataset without ins.csv");
+  add_checkpoint_options(o, checkpoint_file);
+}
+
+const char* sensor_reader_profile(const std::optional<double>& restored_t_s) {
+  if (!restored_t_s) return topics::kSensorReaderProfile;
+  spdlog::info("sensor readers: TRANSIENT_LOCAL, processing the producers' history from t={:.3f} s on", *restored_t_s);
+  return topics::kSensorReplayReaderProfile;
+}
 
 OdometerSample odometer_sample_from(const odonav::msg::Odometer& m) {
   OdometerSample s;

@@ -15,23 +15,9 @@
 
 namespace odonav::calibration {
 
-namespace {
-MisalignmentCalibrator make_calibrator(const MisalignmentCalibratorParams& p) {
-  try {
-    return MisalignmentCalibrator(p);
-  } catch (const std::invalid_argument& e) {
-    throw ConfigError(std::string("calibration parameters: ") + e.what());
-  }
-}
-}  // namespace
-
 void add_calibration_node_options(Options& o) {
   add_calibration_options(o);
-  add_lever_arm_option(o);
-  o.add_bool("use-ins", true,
-             "the vehicle has an INS; false = degraded mode (nothing can be calibrated), as odonav-offline "
-             "does for a dataset without ins.csv");
-  add_checkpoint_options(o, "calibration-<vehicle>.ckpt");
+  dds::add_sensor_node_options(o, "nothing can be calibrated", "calibration-<vehicle>.ckpt");
 }
 
 MisalignmentCalibratorParams calibration_node_params_from(const Options& o) {
@@ -53,7 +39,7 @@ CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const Misalignm
     // producers' history length (EventTimeAligner, "Samples in flight").
     : EventTimeNode(runtime, calibration_inputs(params), kInFlightMaxWait_s),
       params_(params),
-      core_(make_calibrator(params)),
+      core_(dds::make_node_core<MisalignmentCalibrator>("calibration", params)),
       lifecycle_(checkpoint, runtime.settings().vehicle_id, core_.restore_margin_s()),
       gnss_(input("gnss")),
       ins_(find_input("ins")),
@@ -69,11 +55,7 @@ CalibrationNode::CalibrationNode(dds::ComponentRuntime& runtime, const Misalignm
   // Resumed from a checkpoint: the sensor readers ask the producers for their history (30 s), so the
   // data of the downtime is processed from the checkpoint on (what predates it is skipped). A fresh
   // start reads like every other consumer: from the moment it matched.
-  const char* sensor_profile =
-      lifecycle_.restored_t_s() ? topics::kSensorReplayReaderProfile : topics::kSensorReaderProfile;
-  if (lifecycle_.restored_t_s())
-    spdlog::info("sensor readers: TRANSIENT_LOCAL, processing the producers' history from t={:.3f} s on",
-                 *lifecycle_.restored_t_s());
+  const char* sensor_profile = dds::sensor_reader_profile(lifecycle_.restored_t_s());
 
   gnss_reader_ = subscribe<odonav::msg::GnssFix>(
       topics::with_reader_profile(topics::kGnssFix, sensor_profile), gnss_,

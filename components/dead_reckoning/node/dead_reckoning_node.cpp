@@ -8,7 +8,6 @@
 
 #include <spdlog/spdlog.h>
 
-#include "odonav/lever_arm_option.hpp"
 #include "odonav/consumer_rules.hpp"
 #include "odonav/dds/time.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_health.hpp"
@@ -18,35 +17,26 @@
 namespace odonav::dead_reckoning {
 
 namespace {
-DeadReckoningComponent make_component(const DeadReckonerParams& p, const AnchoredPositionParams& anchored) {
-  try {
-    return DeadReckoningComponent(p, anchored);
-  } catch (const std::invalid_argument& e) {
-    throw ConfigError(std::string("dead-reckoning parameters: ") + e.what());
-  }
+/// The vehicle facts of the node's options: dead_reckoning_facts_from plus --use-ins.
+DeadReckoningFacts node_facts_from(const Options& o) {
+  DeadReckoningFacts facts = dead_reckoning_facts_from(o);
+  facts.use_ins = o.get_bool("use-ins");
+  return facts;
 }
 
 }  // namespace
 
 void add_dead_reckoning_node_options(Options& o) {
   add_dead_reckoning_options(o);
-  add_lever_arm_option(o);
-  o.add_bool("use-ins", true,
-             "the vehicle has an INS; false = degraded mode (GNSS course, horizontal only), as odonav-offline "
-             "does for a dataset without ins.csv");
-  add_checkpoint_options(o, "dead-reckoning-<vehicle>.ckpt");
+  dds::add_sensor_node_options(o, "GNSS course, horizontal only", "dead-reckoning-<vehicle>.ckpt");
 }
 
 DeadReckonerParams dead_reckoning_node_params_from(const Options& o) {
-  DeadReckoningFacts facts = dead_reckoning_facts_from(o);
-  facts.use_ins = o.get_bool("use-ins");
-  return dead_reckoner_params(facts);  // the function odonav-offline uses too
+  return dead_reckoner_params(node_facts_from(o));  // the function odonav-offline uses too
 }
 
 AnchoredPositionParams anchored_position_node_params_from(const Options& o) {
-  DeadReckoningFacts facts = dead_reckoning_facts_from(o);
-  facts.use_ins = o.get_bool("use-ins");
-  return anchored_position_params(facts);
+  return anchored_position_params(node_facts_from(o));
 }
 
 odonav::msg::DeadReckoning dead_reckoning_message(const DeadReckoningOutput& o, const Geodetic& origin,
@@ -76,7 +66,7 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
                                      const AnchoredPositionParams& anchored, const CheckpointSettings& checkpoint)
     : EventTimeNode(runtime, dead_reckoning_inputs(params)),
       params_(params),
-      component_(make_component(params, anchored)),
+      component_(dds::make_node_core<DeadReckoningComponent>("dead-reckoning", params, anchored)),
       lifecycle_(checkpoint, runtime.settings().vehicle_id),
       odometer_(input("odometer")),
       gnss_(input("gnss")),
@@ -92,11 +82,7 @@ DeadReckoningNode::DeadReckoningNode(dds::ComponentRuntime& runtime, const DeadR
   // Resumed from a checkpoint: the sensor readers ask the producers for their history (30 s), so the
   // downtime is processed (what the checkpoint holds is skipped). The estimate readers are
   // TRANSIENT_LOCAL with the same depth already. A fresh start reads from the moment it matched.
-  const char* sensor_profile =
-      lifecycle_.restored_t_s() ? topics::kSensorReplayReaderProfile : topics::kSensorReaderProfile;
-  if (lifecycle_.restored_t_s())
-    spdlog::info("sensor readers: TRANSIENT_LOCAL, processing the producers' history from t={:.3f} s on",
-                 *lifecycle_.restored_t_s());
+  const char* sensor_profile = dds::sensor_reader_profile(lifecycle_.restored_t_s());
 
   odometer_reader_ = subscribe<odonav::msg::Odometer>(
       topics::with_reader_profile(topics::kOdometer, sensor_profile), odometer_,

@@ -23,24 +23,9 @@
 
 namespace odonav::identification {
 
-namespace {
-IdentificationCore make_core(const IdentificationParams& p) {
-  try {
-    return IdentificationCore(p);
-  } catch (const std::invalid_argument& e) {
-    throw ConfigError(std::string("identification parameters: ") + e.what());
-  }
-}
-
-}  // namespace
-
 void add_identification_node_options(Options& o) {
   add_identification_options(o);
-  add_lever_arm_option(o);
-  o.add_bool("use-ins", true,
-             "the vehicle has an INS; false = degraded mode (forward speed = |GNSS velocity|), as "
-             "odonav-offline does for a dataset without ins.csv");
-  add_checkpoint_options(o, "identification-<vehicle>.ckpt");
+  dds::add_sensor_node_options(o, "forward speed = |GNSS velocity|", "identification-<vehicle>.ckpt");
   o.add_string("instance", kDefaultIdentificationInstance,
                "name of this instance, published as ScaleFactor.source and naming its state files "
                "(e.g. identification/standby for a hot standby; letters, digits, . _ - /)");
@@ -107,7 +92,7 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
     : EventTimeNode(runtime, identification_inputs(params), kInFlightMaxWait_s),
       params_(params),
       instance_(instance),
-      core_(make_core(params)),
+      core_(dds::make_node_core<IdentificationCore>("identification", params)),
       lifecycle_(checkpoint, runtime.settings().vehicle_id, instance.instance),
       odometer_(input("odometer")),
       gnss_(input("gnss")),
@@ -126,11 +111,7 @@ IdentificationNode::IdentificationNode(dds::ComponentRuntime& runtime, const Ide
   // Resumed from a checkpoint: the sensor readers ask the producers for their history (30 s), so
   // the data of the downtime is processed from the checkpoint on (what predates it is skipped).
   // A fresh start reads like every other consumer: from the moment it matched.
-  const char* sensor_profile =
-      lifecycle_.restored_t_s() ? topics::kSensorReplayReaderProfile : topics::kSensorReaderProfile;
-  if (lifecycle_.restored_t_s())
-    spdlog::info("sensor readers: TRANSIENT_LOCAL, processing the producers' history from t={:.3f} s on",
-                 *lifecycle_.restored_t_s());
+  const char* sensor_profile = dds::sensor_reader_profile(lifecycle_.restored_t_s());
 
   odometer_reader_ = subscribe<odonav::msg::Odometer>(
       topics::with_reader_profile(topics::kOdometer, sensor_profile), odometer_,

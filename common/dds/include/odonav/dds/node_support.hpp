@@ -10,7 +10,9 @@
 //   when nothing was published for a second (the estimate topics' 1 s deadline contract,
 //   idl/README.md, and the liveness signal consumers' maximum waits rely on), or for the period
 //   the node gives (the scale factor's 300 ms deadline);
-// - BurstThrottle: the pause that lets a KEEP_LAST history drain during a burst of writes.
+// - BurstThrottle: the pause that lets a KEEP_LAST history drain during a burst of writes;
+// - the options every node adds to its core's own, and the core's construction (a parameter it
+//   rejects is a configuration error).
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -24,6 +26,7 @@
 #include <utility>
 #include <vector>
 
+#include "odonav/config.hpp"
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/health.hpp"
 #include "odonav/dds/time.hpp"
@@ -59,6 +62,33 @@ PublishedMisalignment published_misalignment_from(const odonav::msg::Misalignmen
 
 /// ScaleFactor message -> what its consumers use (published_estimates.hpp); t_s: its stamp (s).
 PublishedScaleFactor published_scale_factor_from(const odonav::msg::ScaleFactor& m, double t_s);
+
+// ---- options and the core ----
+
+/// Adds what a sensor-consuming node takes beside its core's own options, in this order:
+/// --lever-arm (lever_arm_option.hpp), --use-ins (default true; help "the vehicle has an INS;
+/// false = degraded mode (<degraded_mode>), as odonav-offline does for a dataset without ins.csv"),
+/// --state-dir and --checkpoint-every-s (restart_policy.hpp; checkpoint_file names the file in the
+/// help, e.g. "calibration-<vehicle>.ckpt").
+void add_sensor_node_options(Options& options, const std::string& degraded_mode, const std::string& checkpoint_file);
+
+/// Constructs a node's core from its parameters; a parameter the core rejects
+/// (std::invalid_argument) becomes a ConfigError "<what> parameters: <why>", so the process exits 2
+/// as for a bad flag.
+template <class Core, class... Args>
+Core make_node_core(const std::string& what, Args&&... args) {
+  try {
+    return Core(std::forward<Args>(args)...);
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(what + " parameters: " + e.what());
+  }
+}
+
+/// The QoS profile of a node's sensor readers: after a restore from a checkpoint (restored_t_s
+/// set) topics::kSensorReplayReaderProfile, TRANSIENT_LOCAL, so the producers hand over their
+/// history (30 s) and the downtime is processed (logged with the restored time); on a fresh start
+/// topics::kSensorReaderProfile, reading from the moment the reader matched.
+const char* sensor_reader_profile(const std::optional<double>& restored_t_s);
 
 // ---- inputs ----
 
