@@ -1,6 +1,7 @@
 #pragma once
 // Offline parameters as a user gets them, for the offline accuracy tests: one definition, so every
 // test measures the same configuration.
+#include <algorithm>
 #include <ostream>
 #include <sstream>
 #include <string>
@@ -45,6 +46,25 @@ inline OfflineParams user_params(const Dataset& d) {
   facts.run_all_estimators = true;
   p.identification = identification_params_for(o, facts);
   return p;
+}
+
+/// The recorded smartLoc Berlin drive (tests/data/smartloc-berlin).
+inline Dataset smartloc_dataset() {
+  return read_dataset(ODONAV_SOURCE_DIR "/tests/data/smartloc-berlin", BadRowPolicy::kFail);
+}
+
+/// The main estimator's K of every converged identification output.
+inline std::vector<double> converged_k(const OfflineResult& r) {
+  std::vector<double> k;
+  for (const IdentificationOutput& o : r.identification)
+    if (o.main.valid && o.main.converged) k.push_back(o.main.k_m_per_pulse);
+  return k;
+}
+
+/// The median (upper one of an even count); v must not be empty.
+inline double median_of(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
 }
 
 }  // namespace odonav::offline::test
