@@ -29,12 +29,6 @@ Dataset scenario(const std::string& name, uint64_t seed = 1) {
   return simulator::simulate(cfg);
 }
 
-json summarize(const Dataset& d, const OfflineResult& r, const OfflineParams& p) {
-  SummaryOptions o;
-  o.dataset_name = d.meta.description;
-  return make_summary(d, to_output_rows(r, p.identification.estimator_name), o);
-}
-
 }  // namespace
 
 TEST(OfflineAcceptance, MisalignmentWithin003DegAfter60sOfStraight) {

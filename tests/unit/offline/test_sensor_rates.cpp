@@ -33,12 +33,6 @@ Dataset scenario(const std::string& name, double gnss_rate_hz = 0.0, double late
   return simulator::simulate(cfg);
 }
 
-json summarize(const Dataset& d, const OfflineResult& r, const OfflineParams& p) {
-  SummaryOptions o;
-  o.dataset_name = d.meta.description;
-  return make_summary(d, to_output_rows(r, p.identification.estimator_name), o);
-}
-
 double vff_rms_percent(const json& s) {
   return s["scale_factor"]["estimators"]["vff_lm_rls"]["rms_rel_error_percent"].get<double>();
 }
