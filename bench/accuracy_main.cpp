@@ -318,19 +318,17 @@ int main(int argc, char** argv) {
   opts.add_int("sensitivity-seeds", 3, "seeds of the sensitivity table on terrain (0: skip it)", 0, 1000);
   odonav::offline::OfflineParams base;
   if (const auto status = odonav::bench::parse_scenario_bench(opts, argc, argv, "bench-accuracy", base)) return *status;
-  const auto seeds = static_cast<std::size_t>(opts.get_int("seeds"));
-  const auto first_seed = static_cast<uint64_t>(opts.get_int("first-seed"));
-  const std::vector<std::string> scenarios = odonav::bench::scenario_list(opts);
+  const odonav::bench::ScenarioRuns runs = odonav::bench::scenario_runs(opts);
 
   try {
     const auto t0 = std::chrono::steady_clock::now();
     std::map<std::string, ScenarioFigures> figures;
-    for (uint64_t seed = first_seed; seed < first_seed + seeds; ++seed) {
+    for (uint64_t seed = runs.first_seed; seed < runs.first_seed + runs.seeds; ++seed) {
       // The coarse K of the DR comparison: S/N of the straight calibration run of the same seed, as a
       // crew would calibrate before the drive.
       const odonav::Dataset straight = simulate("straight", seed);
       const std::optional<double> coarse_k = odonav::offline::coarse_k_of(straight, params_for(straight, base, opts));
-      for (const std::string& scenario : scenarios) {
+      for (const std::string& scenario : runs.scenarios) {
         const odonav::Dataset d = scenario == "straight" ? straight : simulate(scenario, seed);
         odonav::offline::OfflineParams p = params_for(d, base, opts);
         if (coarse_k) {
@@ -345,14 +343,15 @@ int main(int argc, char** argv) {
       std::cerr << "seed " << seed << " done ("
                 << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s)\n";
     }
-    std::cout << "## Accuracy: estimators side by side (simulator truth; seeds " << first_seed << ".."
-              << first_seed + seeds - 1 << ")\n";
+    std::cout << "## Accuracy: estimators side by side (simulator truth; seeds " << runs.first_seed << ".."
+              << runs.first_seed + runs.seeds - 1 << ")\n";
     std::cout << "\nK error figures as odonav-offline's summary defines them (steady state: after converging, "
                  "outside 10 s after each K step); settle = time after a K step until K stays within 0.5 % of "
                  "the new K; %D against the truth track.\n";
-    for (const std::string& scenario : scenarios) print_scenario(scenario, figures[scenario], seeds, std::cout);
+    for (const std::string& scenario : runs.scenarios)
+      print_scenario(scenario, figures[scenario], runs.seeds, std::cout);
     const auto sensitivity_seeds = static_cast<std::size_t>(opts.get_int("sensitivity-seeds"));
-    if (sensitivity_seeds > 0) run_sensitivity(base, opts, sensitivity_seeds, first_seed, std::cout);
+    if (sensitivity_seeds > 0) run_sensitivity(base, opts, sensitivity_seeds, runs.first_seed, std::cout);
     std::cout << "\n(run time " << std::fixed << std::setprecision(1)
               << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s)\n";
   } catch (const std::exception& e) {

@@ -115,4 +115,15 @@ inline std::vector<std::string> scenario_list(const Options& opts) {
   return scenarios;
 }
 
+// What a benchmark over scenarios runs: --seeds seeds from --first-seed, on each of --scenarios.
+struct ScenarioRuns {
+  std::size_t seeds = 0;
+  uint64_t first_seed = 0;
+  std::vector<std::string> scenarios;
+};
+inline ScenarioRuns scenario_runs(const Options& opts) {
+  return {static_cast<std::size_t>(opts.get_int("seeds")), static_cast<uint64_t>(opts.get_int("first-seed")),
+          scenario_list(opts)};
+}
+
 }  // namespace odonav::bench

@@ -30,6 +30,7 @@
 #include "odonav/dataset.hpp"
 #include "odonav/logging.hpp"
 #include "odonav/offline/offline_runner.hpp"
+#include "reference_k.hpp"
 
 namespace {
 
@@ -103,21 +104,6 @@ QuantityCoverage k_outside_steps(const odonav::Dataset& d, const odonav::results
   return {};
 }
 
-// A real recording's K reference: the reference path length (its fixes) over the pulses counted
-// (as the smartLoc tests compute it). It assumes one constant K over the drive.
-double k_reference_of(const odonav::Dataset& d) {
-  double distance_m = 0.0;
-  for (std::size_t i = 1; i < d.gnss.size(); ++i) {
-    const odonav::Geodetic& a = d.gnss[i - 1].position;
-    const odonav::Geodetic& b = d.gnss[i].position;
-    distance_m += 6371000.0 * std::hypot(b.lat_rad - a.lat_rad, (b.lon_rad - a.lon_rad) * std::cos(a.lat_rad));
-  }
-  uint64_t pulses = 0;
-  for (std::size_t i = 1; i < d.odometer.size(); ++i)
-    pulses += odonav::pulse_increment(d.odometer[i - 1].pulses, d.odometer[i].pulses);
-  return distance_m / static_cast<double>(pulses);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -132,9 +118,7 @@ int main(int argc, char** argv) {
                   "a recorded dataset without truth.csv to evaluate too (empty: none)");
   odonav::offline::OfflineParams base;
   if (const auto status = odonav::bench::parse_scenario_bench(opts, argc, argv, "bench-coverage", base)) return *status;
-  const auto seeds = static_cast<std::size_t>(opts.get_int("seeds"));
-  const auto first_seed = static_cast<uint64_t>(opts.get_int("first-seed"));
-  const std::vector<std::string> scenarios = odonav::bench::scenario_list(opts);
+  const odonav::bench::ScenarioRuns runs = odonav::bench::scenario_runs(opts);
 
   try {
     const auto t0 = std::chrono::steady_clock::now();
@@ -146,8 +130,8 @@ int main(int argc, char** argv) {
         quantities.push_back(q.quantity);
       table[q.quantity][scenario].add(q);
     };
-    for (uint64_t seed = first_seed; seed < first_seed + seeds; ++seed) {
-      for (const std::string& scenario : scenarios) {
+    for (uint64_t seed = runs.first_seed; seed < runs.first_seed + runs.seeds; ++seed) {
+      for (const std::string& scenario : runs.scenarios) {
         const odonav::Dataset d = odonav::bench::simulate(scenario, seed);
         const odonav::offline::OfflineParams p = odonav::bench::params_for(d, base, opts);
         const odonav::offline::OfflineResult r = odonav::offline::run_offline(d, p);
@@ -167,14 +151,15 @@ int main(int argc, char** argv) {
       const odonav::offline::OfflineParams p = odonav::bench::params_for(d, base, opts);
       const odonav::offline::OfflineResult r = odonav::offline::run_offline(d, p);
       odonav::offline::CoverageOptions co;
-      co.k_reference_m_per_pulse = k_reference_of(d);
+      co.k_reference_m_per_pulse = odonav::test::reference_k_m_per_pulse(d);
       co.hold_off_s = p.dead_reckoning.estimate_hold_off_s;
       for (const QuantityCoverage& q : odonav::offline::evaluate_coverage(
                d, odonav::offline::to_output_rows(r, p.identification.estimator_name), co))
         add(q, real_name);
     }
 
-    std::cout << "## Sigma coverage (simulator truth, seeds " << first_seed << ".." << first_seed + seeds - 1;
+    std::cout << "## Sigma coverage (simulator truth, seeds " << runs.first_seed << ".."
+              << runs.first_seed + runs.seeds - 1;
     if (!real_name.empty()) std::cout << "; " << real_name << " against its reference";
     std::cout
         << ")\n\nPer quantity and scenario: estimates with a published sigma from the first one (n), % of "
@@ -187,7 +172,7 @@ int main(int argc, char** argv) {
         << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const std::string& quantity : quantities) {
       Pooled pooled_sim;
-      for (const std::string& scenario : scenarios) {
+      for (const std::string& scenario : runs.scenarios) {
         const auto it = table[quantity].find(scenario);
         if (it == table[quantity].end()) continue;
         const Pooled& c = it->second;

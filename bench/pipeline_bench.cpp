@@ -897,20 +897,14 @@ int main(int argc, char** argv) {
     setup.pass_hold_off = opts.get_double("estimate-hold-off-s") >= 0.0;
     if (setup.pass_hold_off) setup.hold_off_s = opts.get_double("estimate-hold-off-s");
     if (setup.vehicle_id.empty()) throw odonav::ConfigError("--vehicle-id: must not be empty");
-    for (const auto& s : split(opts.get_string("speeds"))) {
-      if (s == "max") continue;
-      char* end = nullptr;
-      const double v = std::strtod(s.c_str(), &end);
-      if (end == s.c_str() || *end != '\0' || !(v > 0.0))
-        throw odonav::ConfigError("--speeds: '" + s + "' is not a positive number or max");
-    }
-    for (const auto& s : split(opts.get_string("ladder"))) {
-      if (s == "max") continue;
-      char* end = nullptr;
-      const double v = std::strtod(s.c_str(), &end);
-      if (end == s.c_str() || *end != '\0' || !(v > 0.0))
-        throw odonav::ConfigError("--ladder: '" + s + "' is not a positive number or max");
-    }
+    for (const char* flag : {"speeds", "ladder"})
+      for (const auto& s : split(opts.get_string(flag))) {
+        if (s == "max") continue;
+        char* end = nullptr;
+        const double v = std::strtod(s.c_str(), &end);
+        if (end == s.c_str() || *end != '\0' || !(v > 0.0))
+          throw odonav::ConfigError(std::string("--") + flag + ": '" + s + "' is not a positive number or max");
+      }
   } catch (const odonav::ConfigError& e) {
     std::cerr << kProgram << ": " << e.what() << "\n";
     return 2;

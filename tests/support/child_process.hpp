@@ -23,6 +23,8 @@
 #include <thread>
 #include <vector>
 
+#include "text_files.hpp"
+
 extern char** environ;
 
 namespace odonav::test {
@@ -51,14 +53,6 @@ inline CommandResult run_command(const std::string& command) {
 
 /// `fastdds shm clean` (removes only unused shared-memory segments; safe while others run).
 inline void shm_clean() { [[maybe_unused]] int rc = std::system("fastdds shm clean >/dev/null 2>&1"); }
-
-/// The whole content of a file ("" if it cannot be read).
-inline std::string read_text(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 #ifdef ODONAV_BINARY_DIR
 /// An empty folder ODONAV_BINARY_DIR/<suite>/<name> (removed first if it exists).

@@ -20,6 +20,7 @@
 #include <unistd.h>
 #include <vector>
 
+#include "error_of.hpp"
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/participant.hpp"
 #include "odonav/dds/security.hpp"
@@ -34,6 +35,7 @@ using odonav::dds::Writer;
 namespace fs = std::filesystem;
 namespace topics = odonav::topics;
 namespace msg = odonav::msg;
+using odonav::test::error_of;
 
 namespace {
 
@@ -75,17 +77,6 @@ struct KCollector {
     return k;
   }
 };
-
-template <class Make>
-std::string error_of(Make make) {
-  try {
-    make();
-  } catch (const std::runtime_error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no std::runtime_error thrown";
-  return {};
-}
 
 }  // namespace
 

@@ -43,6 +43,7 @@
 #include <thread>
 #include <vector>
 
+#include "shm_clean_test.hpp"
 #include "child_process.hpp"
 #include "multihost/virtual_network.hpp"
 #include "odonav/simulator/simulator.hpp"
@@ -158,11 +159,7 @@ struct GapsCsvRow {
   unsigned long long count = 0;
 };
 
-class Faults : public ::testing::Test {
- protected:
-  void SetUp() override { shm_clean(); }
-  void TearDown() override { shm_clean(); }
-};
+class Faults : public odonav::test::ShmCleanTest {};
 
 // ---- 1. restart loop ----------------------------------------------------------------------------
 

@@ -49,6 +49,7 @@ namespace {
 using namespace std::chrono_literals;
 using odonav::test::ChildProcess;
 using odonav::test::read_text;
+using odonav::test::tail_of;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
@@ -62,15 +63,6 @@ const std::vector<std::string> kComponents = {"odonav-recorder", "odonav-dead-re
 std::string env_or(const char* name, const std::string& fallback) {
   const char* v = std::getenv(name);
   return v == nullptr || *v == '\0' ? fallback : std::string(v);
-}
-
-std::string tail_of(const fs::path& path, std::size_t lines = 30) {
-  std::vector<std::string> all;
-  std::istringstream in(read_text(path));
-  for (std::string l; std::getline(in, l);) all.push_back(l);
-  std::string out;
-  for (std::size_t i = all.size() > lines ? all.size() - lines : 0; i < all.size(); ++i) out += "  | " + all[i] + "\n";
-  return out;
 }
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }

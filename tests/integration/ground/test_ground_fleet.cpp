@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "shm_clean_test.hpp"
 #include "ground_test_support.hpp"
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/time.hpp"
@@ -30,11 +31,7 @@ using nlohmann::json;
 
 namespace {
 
-class GroundFleet : public ::testing::Test {
- protected:
-  void SetUp() override { shm_clean(); }
-  void TearDown() override { shm_clean(); }
-};
+class GroundFleet : public odonav::test::ShmCleanTest {};
 
 }  // namespace
 

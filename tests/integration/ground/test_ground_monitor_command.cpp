@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "shm_clean_test.hpp"
 #include "ground_test_support.hpp"
 #include "odonav/dds/component.hpp"
 #include "odonav/dds/endpoints.hpp"
@@ -127,11 +128,7 @@ class SyntheticFleet {
   std::thread thread_;
 };
 
-class GroundProcesses : public ::testing::Test {
- protected:
-  void SetUp() override { shm_clean(); }
-  void TearDown() override { shm_clean(); }
-};
+class GroundProcesses : public odonav::test::ShmCleanTest {};
 
 }  // namespace
 

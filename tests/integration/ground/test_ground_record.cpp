@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "shm_clean_test.hpp"
 #include "ground_test_support.hpp"
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/health.hpp"
@@ -354,11 +355,7 @@ std::map<std::string, std::vector<json>> by_topic(const json& doc) {
   return m;
 }
 
-class GroundRecord : public ::testing::Test {
- protected:
-  void SetUp() override { shm_clean(); }
-  void TearDown() override { shm_clean(); }
-};
+class GroundRecord : public odonav::test::ShmCleanTest {};
 
 }  // namespace
 

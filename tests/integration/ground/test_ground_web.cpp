@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
+#include "shm_clean_test.hpp"
 #include "ground_test_support.hpp"
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/time.hpp"
@@ -130,11 +131,7 @@ Serve start_serve(int domain, const fs::path& dir, std::vector<std::string> extr
   return s;
 }
 
-class GroundWeb : public ::testing::Test {
- protected:
-  void SetUp() override { shm_clean(); }
-  void TearDown() override { shm_clean(); }
-};
+class GroundWeb : public odonav::test::ShmCleanTest {};
 
 }  // namespace
 

@@ -35,6 +35,32 @@ inline int free_loopback_port(int type) {
   return ntohs(a.sin_port);
 }
 
+/// A UDP socket sending datagrams to 127.0.0.1:port; closed with the object.
+class LoopbackUdpSender {
+ public:
+  explicit LoopbackUdpSender(int port) : fd_(::socket(AF_INET, SOCK_DGRAM, 0)) {
+    to_.sin_family = AF_INET;
+    to_.sin_port = htons(static_cast<uint16_t>(port));
+    to_.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  }
+  ~LoopbackUdpSender() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  LoopbackUdpSender(const LoopbackUdpSender&) = delete;
+  LoopbackUdpSender& operator=(const LoopbackUdpSender&) = delete;
+
+  bool is_open() const { return fd_ >= 0; }
+  /// True when the whole datagram went out.
+  bool send(const std::string& datagram) const {
+    return ::sendto(fd_, datagram.data(), datagram.size(), 0, reinterpret_cast<const sockaddr*>(&to_), sizeof(to_)) ==
+           static_cast<ssize_t>(datagram.size());
+  }
+
+ private:
+  int fd_;
+  sockaddr_in to_{};
+};
+
 /// True once something accepts TCP connections on 127.0.0.1:port (bounded wait).
 inline bool wait_tcp_listening(int port, std::chrono::milliseconds timeout) {
   const auto end = std::chrono::steady_clock::now() + timeout;

@@ -10,16 +10,17 @@
 //      odometer, ODO lines of the line source are dropped and counted.
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
+#include "shm_clean_test.hpp"
 #include "../nodes/node_test_support.hpp"
 #include "odonav/gateway/can_decoders.hpp"
 #include "odonav/gateway/line_protocol.hpp"
 #include "live_test_support.hpp"
+#include "output_rows_compare.hpp"
 #include "odonav/results/output_files.hpp"
 
 namespace odonav::test {
@@ -96,64 +97,7 @@ fs::path simulate(const fs::path& dir, const std::string& scenario, const std::s
   return data;
 }
 
-void expect_close(double a, double b, double tol, const char* what, std::size_t row) {
-  if (std::isnan(a) || std::isnan(b)) {
-    EXPECT_TRUE(std::isnan(a) && std::isnan(b)) << what << " row " << row << ": " << a << " vs " << b;
-    return;
-  }
-  EXPECT_NEAR(a, b, tol) << what << " row " << row;
-}
-void expect_close(const std::optional<double>& a, const std::optional<double>& b, double tol, const char* what,
-                  std::size_t row) {
-  ASSERT_EQ(a.has_value(), b.has_value()) << what << " row " << row;
-  if (a) expect_close(*a, *b, tol, what, row);
-}
-
-/// The pipeline's files against odonav-offline's, row by row (as tests/integration/pipeline does).
-void expect_equal_rows(const results::OutputRows& pipe, const results::OutputRows& ref) {
-  constexpr double kTol = 1e-9;
-  ASSERT_EQ(pipe.misalignment.size(), ref.misalignment.size());
-  for (std::size_t i = 0; i < ref.misalignment.size(); ++i) {
-    const auto& a = pipe.misalignment[i];
-    const auto& b = ref.misalignment[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "misalignment row " << i;
-    expect_close(a.heading_rad, b.heading_rad, kTol, "heading_rad", i);
-    expect_close(a.pitch_rad, b.pitch_rad, kTol, "pitch_rad", i);
-    EXPECT_EQ(a.samples_used, b.samples_used) << i;
-    EXPECT_EQ(a.state, b.state) << i;
-    if (::testing::Test::HasFailure()) FAIL() << "first difference at misalignment row " << i;
-  }
-  ASSERT_EQ(pipe.scale_factor.size(), ref.scale_factor.size());
-  ASSERT_GT(ref.scale_factor.size(), 100u);
-  for (std::size_t i = 0; i < ref.scale_factor.size(); ++i) {
-    const auto& a = pipe.scale_factor[i];
-    const auto& b = ref.scale_factor[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "scale factor row " << i;
-    expect_close(a.k_m_per_pulse, b.k_m_per_pulse, kTol, "k_m_per_pulse", i);
-    expect_close(a.sigma_m_per_pulse, b.sigma_m_per_pulse, kTol, "sigma_m_per_pulse", i);
-    EXPECT_EQ(a.samples_accepted, b.samples_accepted) << i;
-    EXPECT_EQ(a.samples_rejected, b.samples_rejected) << i;
-    if (::testing::Test::HasFailure()) FAIL() << "first difference at scale-factor row " << i;
-  }
-  ASSERT_EQ(pipe.dead_reckoning.size(), ref.dead_reckoning.size());
-  ASSERT_GT(ref.dead_reckoning.size(), 100u);
-  for (std::size_t i = 0; i < ref.dead_reckoning.size(); ++i) {
-    const auto& a = pipe.dead_reckoning[i];
-    const auto& b = ref.dead_reckoning[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "dead-reckoning row " << i;
-    expect_close(rad_to_deg(a.lat_rad), rad_to_deg(b.lat_rad), kTol, "lat_deg", i);
-    expect_close(rad_to_deg(a.lon_rad), rad_to_deg(b.lon_rad), kTol, "lon_deg", i);
-    expect_close(a.distance_m, b.distance_m, kTol, "distance_m", i);
-    expect_close(a.k_m_per_pulse, b.k_m_per_pulse, kTol, "k_m_per_pulse", i);
-    if (::testing::Test::HasFailure()) FAIL() << "first difference at dead-reckoning row " << i;
-  }
-}
-
-class CanPipeline : public ::testing::Test {
- protected:
-  void SetUp() override { shm_clean(); }
-  void TearDown() override { shm_clean(); }
-};
+class CanPipeline : public odonav::test::ShmCleanTest {};
 
 TEST_F(CanPipeline, ReplayedCandumpLogEqualsTheOfflineToolOnTheEquivalentDataset) {
   const fs::path dir = fresh_live_dir("can-pipeline");
@@ -240,7 +184,9 @@ TEST_F(CanPipeline, ReplayedCandumpLogEqualsTheOfflineToolOnTheEquivalentDataset
                    dir / "offline.log", dir / "offline.log");
   ASSERT_TRUE(off.wait_exit(300s));
   ASSERT_EQ(off.exit_code(), 0) << read_text(dir / "offline.log");
-  expect_equal_rows(results::read_output_rows(out.string()), results::read_output_rows(offline.string()));
+  // The pipeline's files against odonav-offline's, row by row (as tests/integration/pipeline does).
+  expect_estimate_rows_equal(results::read_output_rows(out.string()), results::read_output_rows(offline.string()),
+                             1e-9);
 }
 
 TEST_F(CanPipeline, LiveStandardInputPublishesEveryFrameAndCountsTheBadOnes) {
@@ -303,22 +249,14 @@ TEST_F(CanPipeline, LiveCanOdometerWithInsLinesOverUdp) {
   ChildProcess gw("/bin/sh", {"-c", "(" + command + ") | " + gateway}, dir / "gateway.log", dir / "gateway.log");
   ASSERT_TRUE(ins.reader().wait_for_matched(1, 20s)) << read_text(dir / "gateway.log");
   std::this_thread::sleep_for(500ms);
-  const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
-  ASSERT_GE(s, 0);
-  sockaddr_in to{};
-  to.sin_family = AF_INET;
-  to.sin_port = htons(static_cast<uint16_t>(port));
-  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  const auto send = [&](const std::string& line) {
-    const std::string datagram = line + "\n";
-    ::sendto(s, datagram.data(), datagram.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof(to));
-  };
+  const LoopbackUdpSender udp(port);
+  ASSERT_TRUE(udp.is_open());
+  const auto send = [&](const std::string& line) { udp.send(line + "\n"); };
   send(gateway::odometer_line(d.odometer.front(), false));  // the CAN input gives the odometer: ignored
   for (std::size_t i = 0; i < d.ins.size(); ++i) {
     send(gateway::ins_line(d.ins[i], false));
     if (i % 50 == 49) std::this_thread::sleep_for(5ms);
   }
-  ::close(s);
   EXPECT_TRUE(ins.wait_until([&](const auto& v) { return v.size() >= d.ins.size(); }, 10s))
       << ins.size() << " of " << d.ins.size() << " INS";
   ASSERT_TRUE(gw.wait_exit(30s)) << read_text(dir / "gateway.log");

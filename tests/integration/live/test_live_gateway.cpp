@@ -182,19 +182,9 @@ TEST(LiveGateway, UdpOnLoopbackCarriesASimulatedDrive) {
   const LineScript script = line_script(d);
   const int port = free_loopback_port(SOCK_DGRAM);
   run_and_compare(90, "udp:127.0.0.1:" + std::to_string(port), d, script, [&](const WaitForOdometer& wait) {
-    const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
-    sockaddr_in to{};
-    to.sin_family = AF_INET;
-    to.sin_port = htons(static_cast<uint16_t>(port));
-    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    const LoopbackUdpSender udp(port);
     send_paced(
-        script, "\n",
-        [&](const std::string& datagram) {
-          ASSERT_EQ(::sendto(s, datagram.data(), datagram.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof(to)),
-                    static_cast<ssize_t>(datagram.size()));
-        },
-        wait, true);
-    ::close(s);
+        script, "\n", [&](const std::string& datagram) { ASSERT_TRUE(udp.send(datagram)); }, wait, true);
   });
 }
 

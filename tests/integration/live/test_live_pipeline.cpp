@@ -154,18 +154,10 @@ TEST(LivePipeline, UdpLinesReachTheSameKAsTheReplay) {
   const DriveAndReplay r = drive_and_replay("pipeline", 122);
   if (HasFatalFailure()) return;
   const int port = free_loopback_port(SOCK_DGRAM);
-  const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
-  ASSERT_GE(s, 0);
-  sockaddr_in to{};
-  to.sin_family = AF_INET;
-  to.sin_port = htons(static_cast<uint16_t>(port));
-  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  const PipelineRun live = live_pipeline(123, "udp:127.0.0.1:" + std::to_string(port), r, [&](const std::string& line) {
-    const std::string datagram = line + "\n";
-    ASSERT_EQ(::sendto(s, datagram.data(), datagram.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof(to)),
-              static_cast<ssize_t>(datagram.size()));
-  });
-  ::close(s);
+  const LoopbackUdpSender udp(port);
+  ASSERT_TRUE(udp.is_open());
+  const PipelineRun live = live_pipeline(123, "udp:127.0.0.1:" + std::to_string(port), r,
+                                         [&](const std::string& line) { ASSERT_TRUE(udp.send(line + "\n")); });
   expect_same_k(r, live, "udp");
 }
 

@@ -60,6 +60,7 @@ using odonav::multihost::VirtualNetwork;
 using odonav::multihost::instantiate_profile;
 using odonav::test::ChildProcess;
 using odonav::test::read_text;
+using odonav::test::tail_of;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
@@ -67,15 +68,6 @@ const fs::path kSource = ODONAV_SOURCE_DIR;
 const fs::path kBin = fs::path(ODONAV_BINARY_DIR) / "bin";
 constexpr const char* kVehicle = "test-vehicle";
 constexpr int kSeed = 1;
-
-std::string tail_of(const fs::path& path, std::size_t lines = 25) {
-  std::vector<std::string> all;
-  std::istringstream in(read_text(path));
-  for (std::string l; std::getline(in, l);) all.push_back(l);
-  std::string out;
-  for (std::size_t i = all.size() > lines ? all.size() - lines : 0; i < all.size(); ++i) out += "  | " + all[i] + "\n";
-  return out;
-}
 
 /// The last line of a file that is a JSON document (Fast DDS may log to stdout before it).
 nlohmann::json last_json_line(const fs::path& path) {
@@ -154,7 +146,7 @@ class Rig {
   fs::path log_file(const std::string& name) const { return dir_ / "logs" / (name + ".log"); }
   fs::path out_file(const std::string& name) const { return dir_ / "logs" / (name + ".out"); }
   std::string log_tail(const std::string& name) const {
-    return name + " (" + log_file(name).string() + "):\n" + tail_of(log_file(name)) + tail_of(out_file(name), 5);
+    return name + " (" + log_file(name).string() + "):\n" + tail_of(log_file(name), 25) + tail_of(out_file(name), 5);
   }
   double now_s() const { return seconds_since(t0_); }
 

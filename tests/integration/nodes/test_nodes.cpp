@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "shm_clean_test.hpp"
 #include "node/calibration_node.hpp"
 #include "node/dead_reckoning_node.hpp"
 #include "node/identification_node.hpp"
@@ -28,11 +29,7 @@ namespace {
 
 constexpr double kDriveS = 50.0;  // long enough for the misalignment and K to converge
 
-class NodeProcess : public ::testing::Test {
- protected:
-  void SetUp() override { shm_clean(); }
-  void TearDown() override { shm_clean(); }
-};
+class NodeProcess : public odonav::test::ShmCleanTest {};
 
 /// Waits until a collector holds at least `at_least` samples (heartbeats aside), then until it has
 /// received nothing new for `quiet`; at most `limit` in all. The count comes first because a node
@@ -62,6 +59,22 @@ void wait_quiet(Collector<T>& c, std::size_t at_least = 0, std::chrono::millisec
 /// written in between are lost. Give both sides' discovery time to complete.
 void settle_discovery() { std::this_thread::sleep_for(1s); }
 
+/// Every writer has matched the node's reader and `reader` the node's writer (20 s each), then
+/// discovery settles.
+template <class Reader>
+void wait_matched(const std::vector<odonav::dds::detail::WriterBase*>& writers, Reader& reader) {
+  for (odonav::dds::detail::WriterBase* w : writers) ASSERT_TRUE(w->wait_for_matched(1, 20s)) << w->topic_name();
+  ASSERT_TRUE(reader.wait_for_matched(1, 20s));
+  settle_discovery();
+}
+
+/// SIGINT: the node drains and exits 0 within 30 s.
+void stop_node(ChildProcess& node) {
+  node.signal(SIGINT);
+  ASSERT_TRUE(node.wait_exit(30s));
+  EXPECT_EQ(node.exit_code(), 0);
+}
+
 /// The last Health of `component` received, if any.
 std::optional<msg::Health> last_health(const Collector<msg::Health>& h, const std::string& component) {
   std::optional<msg::Health> found;
@@ -81,6 +94,28 @@ std::vector<TimedWrite> sensor_writes(const Dataset& d, odonav::dds::Writer<msg:
   if (ins)
     for (const auto& s : d.ins) w.push_back({s.t_s, 0, [ins, m = ins_message(s)] { ins->write(m); }});
   return w;
+}
+
+/// The writers of the sensor topics and of the misalignment, as the gateway and the calibration
+/// node have them.
+struct InputWriters {
+  explicit InputWriters(odonav::dds::Participant& p)
+      : odo(p, topics::kOdometer.name, topics::kOdometer.writer_profile),
+        gnss(p, topics::kGnssFix.name, topics::kGnssFix.writer_profile),
+        ins(p, topics::kInsAttitude.name, topics::kInsAttitude.writer_profile),
+        misalignment(p, topics::kMisalignment.name, topics::kMisalignment.writer_profile) {}
+  odonav::dds::Writer<msg::Odometer> odo;
+  odonav::dds::Writer<msg::GnssFix> gnss;
+  odonav::dds::Writer<msg::InsAttitude> ins;
+  odonav::dds::Writer<msg::Misalignment> misalignment;
+};
+
+/// The misalignments as the calibration node publishes them: after the GNSS epoch of their stamp.
+void add_misalignment_writes(std::vector<TimedWrite>& writes, const std::vector<calibration::MisalignmentOutput>& mis,
+                             odonav::dds::Writer<msg::Misalignment>& writer) {
+  for (const auto& m : mis)
+    writes.push_back(
+        {m.t_s, 1, [&writer, msg = calibration::misalignment_message(m, kVehicle)] { writer.write(msg); }});
 }
 
 std::vector<calibration::MisalignmentOutput> reference_calibration(const Dataset& d) {
@@ -175,17 +210,12 @@ TEST_F(NodeProcess, CalibrationNodePublishesWhatTheCalibratorComputesAndDrainsOn
 
   ChildProcess node(binary("odonav-calibration"), node_args(domain, 10.0));
   ASSERT_TRUE(node.started());
-  ASSERT_TRUE(gnss.wait_for_matched(1, 20s));
-  ASSERT_TRUE(ins.wait_for_matched(1, 20s));
-  ASSERT_TRUE(out.reader().wait_for_matched(1, 20s));
-  settle_discovery();
+  ASSERT_NO_FATAL_FAILURE(wait_matched({&gnss, &ins}, out.reader()));
   replay(sensor_writes(d, nullptr, &gnss, &ins), {&gnss, &ins});
   wait_quiet(out, expected.size());
   const std::size_t before_stop = without_repeats(out.samples()).size();
 
-  node.signal(SIGINT);
-  ASSERT_TRUE(node.wait_exit(30s));
-  EXPECT_EQ(node.exit_code(), 0);
+  ASSERT_NO_FATAL_FAILURE(stop_node(node));
   const auto got = without_repeats(out.samples());
   // The yaw-rate window looks backwards: no epoch waits for INS after it, so every one was
   // published before the stop (the drain has nothing left).
@@ -228,27 +258,18 @@ TEST_F(NodeProcess, IdentificationNodeEqualsTheCoreFedTheSameMisalignments) {
   ASSERT_EQ(expected.size(), d.gnss.size());
 
   odonav::dds::Participant p(test_participant(domain));
-  odonav::dds::Writer<msg::Odometer> odo(p, topics::kOdometer.name, topics::kOdometer.writer_profile);
-  odonav::dds::Writer<msg::GnssFix> gnss(p, topics::kGnssFix.name, topics::kGnssFix.writer_profile);
-  odonav::dds::Writer<msg::InsAttitude> ins(p, topics::kInsAttitude.name, topics::kInsAttitude.writer_profile);
-  odonav::dds::Writer<msg::Misalignment> mis_writer(p, topics::kMisalignment.name,
-                                                    topics::kMisalignment.writer_profile);
+  InputWriters writers(p);
+  auto& [odo, gnss, ins, mis_writer] = writers;
   odonav::dds::Writer<msg::Command> command(p, topics::kCommand.name, topics::kCommand.writer_profile);
   Collector<msg::ScaleFactor> out(p, topics::kScaleFactor);
   Collector<msg::Health> health(p, topics::kHealth);
 
   ChildProcess node(binary("odonav-identification"), node_args(domain, 10.0));
   ASSERT_TRUE(node.started());
-  for (odonav::dds::detail::WriterBase* w :
-       std::vector<odonav::dds::detail::WriterBase*>{&odo, &gnss, &ins, &mis_writer, &command})
-    ASSERT_TRUE(w->wait_for_matched(1, 20s)) << w->topic_name();
-  ASSERT_TRUE(out.reader().wait_for_matched(1, 20s));
-  settle_discovery();
+  ASSERT_NO_FATAL_FAILURE(wait_matched({&odo, &gnss, &ins, &mis_writer, &command}, out.reader()));
 
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
-  for (const auto& m : mis)  // as the calibration node publishes them: after the GNSS epoch
-    writes.push_back(
-        {m.t_s, 1, [&mis_writer, msg = calibration::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+  add_misalignment_writes(writes, mis, mis_writer);
   replay(writes, {&odo, &gnss, &ins, &mis_writer});
   wait_quiet(out);
 
@@ -268,9 +289,7 @@ TEST_F(NodeProcess, IdentificationNodeEqualsTheCoreFedTheSameMisalignments) {
       },
       5s));
 
-  node.signal(SIGINT);
-  ASSERT_TRUE(node.wait_exit(30s));
-  EXPECT_EQ(node.exit_code(), 0);
+  ASSERT_NO_FATAL_FAILURE(stop_node(node));
   const auto got = without_repeats(out.samples());
   ASSERT_EQ(got.size(), expected.size());
   std::size_t converged = 0;
@@ -307,34 +326,23 @@ TEST_F(NodeProcess, DeadReckoningNodeEqualsTheDeadReckonerFedTheSameEstimates) {
   const auto expected = reference_dead_reckoning(d, mis, &k_messages);
 
   odonav::dds::Participant p(test_participant(domain));
-  odonav::dds::Writer<msg::Odometer> odo(p, topics::kOdometer.name, topics::kOdometer.writer_profile);
-  odonav::dds::Writer<msg::GnssFix> gnss(p, topics::kGnssFix.name, topics::kGnssFix.writer_profile);
-  odonav::dds::Writer<msg::InsAttitude> ins(p, topics::kInsAttitude.name, topics::kInsAttitude.writer_profile);
-  odonav::dds::Writer<msg::Misalignment> mis_writer(p, topics::kMisalignment.name,
-                                                    topics::kMisalignment.writer_profile);
+  InputWriters writers(p);
+  auto& [odo, gnss, ins, mis_writer] = writers;
   odonav::dds::Writer<msg::ScaleFactor> k_writer(p, topics::kScaleFactor.name, topics::kScaleFactor.writer_profile);
   Collector<msg::DeadReckoning> out(p, topics::kDeadReckoning);
 
   ChildProcess node(binary("odonav-dead-reckoning"), node_args(domain, 10.0));
   ASSERT_TRUE(node.started());
-  for (odonav::dds::detail::WriterBase* w :
-       std::vector<odonav::dds::detail::WriterBase*>{&odo, &gnss, &ins, &mis_writer, &k_writer})
-    ASSERT_TRUE(w->wait_for_matched(1, 20s)) << w->topic_name();
-  ASSERT_TRUE(out.reader().wait_for_matched(1, 20s));
-  settle_discovery();
+  ASSERT_NO_FATAL_FAILURE(wait_matched({&odo, &gnss, &ins, &mis_writer, &k_writer}, out.reader()));
 
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
-  for (const auto& m : mis)
-    writes.push_back(
-        {m.t_s, 1, [&mis_writer, msg = calibration::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+  add_misalignment_writes(writes, mis, mis_writer);
   for (const auto& k : k_messages)
     writes.push_back({odonav::dds::to_seconds(k.header().stamp()), 2, [&k_writer, k] { k_writer.write(k); }});
   replay(writes, {&odo, &gnss, &ins, &mis_writer, &k_writer});
   wait_quiet(out, expected.size());
 
-  node.signal(SIGINT);
-  ASSERT_TRUE(node.wait_exit(30s));
-  EXPECT_EQ(node.exit_code(), 0);
+  ASSERT_NO_FATAL_FAILURE(stop_node(node));
   const auto got = out.samples();
   expect_same_dead_reckoning(got, expected);
   std::size_t identified = 0;
@@ -349,25 +357,16 @@ TEST_F(NodeProcess, DeadReckoningWithoutIdentificationUsesTheNominalKAndSaysSo) 
   const auto expected = reference_dead_reckoning(d, mis, nullptr);
 
   odonav::dds::Participant p(test_participant(domain));
-  odonav::dds::Writer<msg::Odometer> odo(p, topics::kOdometer.name, topics::kOdometer.writer_profile);
-  odonav::dds::Writer<msg::GnssFix> gnss(p, topics::kGnssFix.name, topics::kGnssFix.writer_profile);
-  odonav::dds::Writer<msg::InsAttitude> ins(p, topics::kInsAttitude.name, topics::kInsAttitude.writer_profile);
-  odonav::dds::Writer<msg::Misalignment> mis_writer(p, topics::kMisalignment.name,
-                                                    topics::kMisalignment.writer_profile);
+  InputWriters writers(p);
+  auto& [odo, gnss, ins, mis_writer] = writers;
   Collector<msg::DeadReckoning> out(p, topics::kDeadReckoning);
   Collector<msg::Health> health(p, topics::kHealth);
 
   ChildProcess node(binary("odonav-dead-reckoning"), node_args(domain, 0.5));
   ASSERT_TRUE(node.started());
-  for (odonav::dds::detail::WriterBase* w :
-       std::vector<odonav::dds::detail::WriterBase*>{&odo, &gnss, &ins, &mis_writer})
-    ASSERT_TRUE(w->wait_for_matched(1, 20s)) << w->topic_name();
-  ASSERT_TRUE(out.reader().wait_for_matched(1, 20s));
-  settle_discovery();
+  ASSERT_NO_FATAL_FAILURE(wait_matched({&odo, &gnss, &ins, &mis_writer}, out.reader()));
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
-  for (const auto& m : mis)
-    writes.push_back(
-        {m.t_s, 1, [&mis_writer, msg = calibration::misalignment_message(m, kVehicle)] { mis_writer.write(msg); }});
+  add_misalignment_writes(writes, mis, mis_writer);
   replay(writes, {&odo, &gnss, &ins, &mis_writer});
 
   // No identification: after the maximum wait the scale-factor input is absent, counted and told.
@@ -378,9 +377,7 @@ TEST_F(NodeProcess, DeadReckoningWithoutIdentificationUsesTheNominalKAndSaysSo) 
       },
       10s));
   wait_quiet(out, expected.size());
-  node.signal(SIGINT);
-  ASSERT_TRUE(node.wait_exit(30s));
-  EXPECT_EQ(node.exit_code(), 0);
+  ASSERT_NO_FATAL_FAILURE(stop_node(node));
   const auto got = out.samples();
   expect_same_dead_reckoning(got, expected);
   ASSERT_FALSE(got.empty());
@@ -425,10 +422,7 @@ TEST_F(NodeProcess, LateJoiningDeadReckoningGetsTheLastPublishedK) {
   // g0..g1 would be dead-reckoned with the nominal K (k_source NOMINAL), which the checks below refuse.
   ChildProcess node(binary("odonav-dead-reckoning"), node_args(domain, 10.0));
   ASSERT_TRUE(node.started());
-  for (odonav::dds::detail::WriterBase* w : std::vector<odonav::dds::detail::WriterBase*>{&odo, &gnss, &ins, &k_writer})
-    ASSERT_TRUE(w->wait_for_matched(1, 20s)) << w->topic_name();
-  ASSERT_TRUE(out.reader().wait_for_matched(1, 20s));
-  settle_discovery();
+  ASSERT_NO_FATAL_FAILURE(wait_matched({&odo, &gnss, &ins, &k_writer}, out.reader()));
   // The node tells in its Health (1 Hz) that it received the K published before it existed.
   ASSERT_TRUE(
       health.wait_until([](const auto& v) { return !v.empty() && counter(v.back(), "scale_factor_in") >= 1.0; }, 5s));
@@ -437,9 +431,7 @@ TEST_F(NodeProcess, LateJoiningDeadReckoningGetsTheLastPublishedK) {
     writes.push_back({d.gnss[i].t_s, 2, [&k_writer, m = k_message(d.gnss[i].t_s, 0.0132)] { k_writer.write(m); }});
   replay(writes, {&odo, &gnss, &ins, &k_writer});
   wait_quiet(out, d.odometer.size() - 1);
-  node.signal(SIGINT);
-  ASSERT_TRUE(node.wait_exit(30s));
-  EXPECT_EQ(node.exit_code(), 0);
+  ASSERT_NO_FATAL_FAILURE(stop_node(node));
 
   const auto got = out.samples();
   std::size_t first_interval = 0;
@@ -476,10 +468,8 @@ TEST_F(NodeProcess, DeadReckoningCommandsSetKReleaseKAndRefuseReset) {
 
   ChildProcess node(binary("odonav-dead-reckoning"), node_args(domain, 10.0));
   ASSERT_TRUE(node.started());
-  ASSERT_TRUE(command.wait_for_matched(1, 20s));
-  ASSERT_TRUE(health.reader().wait_for_matched(1, 20s));
+  ASSERT_NO_FATAL_FAILURE(wait_matched({&command}, health.reader()));
   ASSERT_TRUE(health.wait_until([](const auto& v) { return !v.empty(); }, 10s));
-  settle_discovery();
 
   // Sends one command and returns the Health that acknowledges it.
   auto send = [&](msg::CommandKind kind, double value, uint32_t id) -> std::optional<msg::Health> {
@@ -517,7 +507,5 @@ TEST_F(NodeProcess, DeadReckoningCommandsSetKReleaseKAndRefuseReset) {
   EXPECT_EQ(release->last_command_result(), msg::COMMAND_RESULT_ACCEPTED);
   EXPECT_EQ(release->last_command_detail(), "following the identified K again (from its next estimate)");
 
-  node.signal(SIGINT);
-  ASSERT_TRUE(node.wait_exit(30s));
-  EXPECT_EQ(node.exit_code(), 0);
+  ASSERT_NO_FATAL_FAILURE(stop_node(node));
 }

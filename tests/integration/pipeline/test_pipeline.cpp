@@ -25,7 +25,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "shm_clean_test.hpp"
 #include "child_process.hpp"
+#include "output_rows_compare.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/frames.hpp"
 #include "odonav/geodesy.hpp"
@@ -34,11 +36,13 @@
 namespace {
 
 using namespace odonav;
+using test::expect_navigation_rows_equal;
+using test::expect_estimate_rows_equal;
+using test::read_text;
+using test::shm_clean;
 namespace fs = std::filesystem;
 
 const std::string kBin = std::string(ODONAV_BINARY_DIR) + "/bin";
-
-void shm_clean() { [[maybe_unused]] int rc = std::system("fastdds shm clean >/dev/null 2>&1"); }
 
 struct LaunchResult {
   int exit_code = -1;
@@ -46,13 +50,6 @@ struct LaunchResult {
   double seconds = 0.0;
   std::string log;  ///< the launcher's stdout and stderr
 };
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 /// Starts deploy/launch with `args` (output to log_path); launch_result() waits for it.
 std::unique_ptr<test::ChildProcess> start_launch(const std::vector<std::string>& args, const std::string& log_path) {
@@ -134,11 +131,7 @@ void launch_ok(const std::vector<std::string>& args, const std::string& out, int
   expect_launch_ok(launch(args, out + ".launch.log", timeout_s), args[1], timeout_s);
 }
 
-class Pipeline : public ::testing::Test {
- protected:
-  void SetUp() override { shm_clean(); }
-  void TearDown() override { shm_clean(); }
-};
+class Pipeline : public odonav::test::ShmCleanTest {};
 
 /// Truth sample nearest in time (the simulator writes truth at the odometer's instants).
 const TruthSample& truth_at(const Dataset& d, double t_s) {
@@ -213,53 +206,12 @@ TEST_F(Pipeline, ShortTerrainDriveIsAccurateAgainstTruth) {
 
 // ---- 2. equivalence with odonav-offline ---------------------------------------------------------
 
-void expect_close(double a, double b, double tol, const char* what, std::size_t row) {
-  if (std::isnan(a) || std::isnan(b)) {
-    EXPECT_TRUE(std::isnan(a) && std::isnan(b)) << what << " row " << row << ": " << a << " vs " << b;
-    return;
-  }
-  EXPECT_NEAR(a, b, tol) << what << " row " << row;
-}
-void expect_close_rel(double a, double b, double tol, const char* what, std::size_t row) {
-  expect_close(a, b, tol * std::max(std::abs(a), std::abs(b)), what, row);
-}
-void expect_close(const std::optional<double>& a, const std::optional<double>& b, double tol, const char* what,
-                  std::size_t row, bool relative) {
-  ASSERT_EQ(a.has_value(), b.has_value()) << what << " row " << row;
-  if (!a) return;
-  if (relative)
-    expect_close_rel(*a, *b, tol, what, row);
-  else
-    expect_close(*a, *b, tol, what, row);
-}
-
-// The GNSS-anchored navigation position, row by row (the DR node's filter against odonav-offline's).
-// mostly_anchored: GNSS valid through most of the drive, and a DR that can use it.
-void expect_navigation_equal(const results::OutputRows& pipe, const results::OutputRows& ref, double tol,
-                             bool mostly_anchored = false) {
-  ASSERT_EQ(pipe.navigation_position.size(), ref.navigation_position.size());
-  ASSERT_EQ(ref.navigation_position.size(), ref.dead_reckoning.size());  // one per DR output
-  std::size_t anchored = 0;
-  for (std::size_t i = 0; i < ref.navigation_position.size(); ++i) {
-    const auto& a = pipe.navigation_position[i];
-    const auto& b = ref.navigation_position[i];
-    ASSERT_NEAR(a.t_s, b.t_s, tol) << "navigation-position row " << i;
-    expect_close(rad_to_deg(a.lat_rad), rad_to_deg(b.lat_rad), tol, "nav lat_deg", i);
-    expect_close(rad_to_deg(a.lon_rad), rad_to_deg(b.lon_rad), tol, "nav lon_deg", i);
-    expect_close(a.height_m, b.height_m, tol, "nav height_m", i);
-    expect_close(a.east_m, b.east_m, tol, "nav east_m", i);
-    expect_close(a.north_m, b.north_m, tol, "nav north_m", i);
-    expect_close(a.var_east_m2, b.var_east_m2, tol, "nav var_east_m2", i);
-    expect_close(a.var_up_m2, b.var_up_m2, tol, "nav var_up_m2", i);
-    expect_close(a.last_fix_t_s, b.last_fix_t_s, tol, "nav last_fix_t", i);
-    expect_close(a.distance_since_fix_m, b.distance_since_fix_m, tol, "nav distance_since_fix_m", i);
-    EXPECT_EQ(a.status, b.status) << i;
-    anchored += b.status == "anchored";
-    if (::testing::Test::HasFailure()) FAIL() << "first difference at navigation-position row " << i;
-  }
-  if (mostly_anchored) {
-    EXPECT_GT(anchored, ref.navigation_position.size() / 2);
-  }
+/// odonav-offline on `data` with `flags`, into out/offline-check; fails the test unless it exits 0.
+void run_offline_check(const std::string& data, const std::string& out, const std::string& flags) {
+  ASSERT_EQ(run(kBin + "/odonav-offline " + data + " --out " + out + "/offline-check " + flags + " >" + out +
+                "/offline-check.log 2>&1"),
+            0)
+      << read_text(out + "/offline-check.log");
 }
 
 TEST_F(Pipeline, EveryPublishedSampleEqualsTheOfflineTool) {
@@ -268,133 +220,48 @@ TEST_F(Pipeline, EveryPublishedSampleEqualsTheOfflineTool) {
   launch_ok({"--source", "sim:ring", "--duration-s", "120", "--seed", "3", "--speed", "max", "--domain", "52",
              "--estimator", estimator, "--out", out},
             out, 300);
-  const std::string offline_dir = out + "/offline-check";
-  ASSERT_EQ(run(kBin + "/odonav-offline " + out + "/dataset --out " + offline_dir + " --estimator " + estimator + " >" +
-                out + "/offline-check.log 2>&1"),
-            0)
-      << read_text(out + "/offline-check.log");
+  ASSERT_NO_FATAL_FAILURE(run_offline_check(out + "/dataset", out, "--estimator " + estimator));
   const results::OutputRows pipe = results::read_output_rows(out);
-  const results::OutputRows ref = results::read_output_rows(offline_dir);
+  const results::OutputRows ref = results::read_output_rows(out + "/offline-check");
   constexpr double kTol = 1e-9;
-
-  ASSERT_EQ(pipe.misalignment.size(), ref.misalignment.size());
   ASSERT_GT(ref.misalignment.size(), 1000u);
-  for (std::size_t i = 0; i < ref.misalignment.size(); ++i) {
-    const auto& a = pipe.misalignment[i];
-    const auto& b = ref.misalignment[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "misalignment row " << i;
-    expect_close(rad_to_deg(a.heading_rad), rad_to_deg(b.heading_rad), kTol, "heading_deg", i);
-    expect_close(rad_to_deg(a.pitch_rad), rad_to_deg(b.pitch_rad), kTol, "pitch_deg", i);
-    expect_close(rad_to_deg(a.heading_std_rad), rad_to_deg(b.heading_std_rad), kTol, "heading_std_deg", i);
-    expect_close(rad_to_deg(a.pitch_std_rad), rad_to_deg(b.pitch_std_rad), kTol, "pitch_std_deg", i);
-    EXPECT_EQ(a.converged, b.converged) << i;
-    EXPECT_EQ(a.state, b.state) << i;
-    EXPECT_EQ(a.samples_used, b.samples_used) << i;
-    if (HasFailure()) FAIL() << "first difference at misalignment row " << i;
-  }
-
-  ASSERT_EQ(pipe.scale_factor.size(), ref.scale_factor.size());
-  for (std::size_t i = 0; i < ref.scale_factor.size(); ++i) {
-    const auto& a = pipe.scale_factor[i];
-    const auto& b = ref.scale_factor[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "scale factor row " << i;
-    EXPECT_EQ(a.estimator, estimator) << i;
-    EXPECT_EQ(b.estimator, estimator) << i;
-    expect_close(a.k_m_per_pulse, b.k_m_per_pulse, kTol, "k_m_per_pulse", i, true);
-    expect_close(a.sigma_m_per_pulse, b.sigma_m_per_pulse, kTol, "sigma_m_per_pulse", i, true);
-    // The offline tool runs every estimator, so its lambda_vff_lm_rls exists whatever the main one.
-    if (estimator == "vff_lm_rls")
-      expect_close(a.lambda_vff_lm_rls, b.lambda_vff_lm_rls, kTol, "lambda_vff_lm_rls", i, false);
-    expect_close(a.forgetting_factor, b.forgetting_factor, kTol, "forgetting_factor", i);
-    expect_close(a.window_fill, b.window_fill, kTol, "window_fill", i);
-    EXPECT_EQ(a.converged, b.converged) << i;
-    EXPECT_EQ(a.samples_accepted, b.samples_accepted) << i;
-    EXPECT_EQ(a.samples_rejected, b.samples_rejected) << i;
-    if (HasFailure()) FAIL() << "first difference at scale-factor row " << i;
-  }
-
-  ASSERT_EQ(pipe.dead_reckoning.size(), ref.dead_reckoning.size());
   ASSERT_GT(ref.dead_reckoning.size(), 11000u);
-  for (std::size_t i = 0; i < ref.dead_reckoning.size(); ++i) {
-    const auto& a = pipe.dead_reckoning[i];
-    const auto& b = ref.dead_reckoning[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "dead-reckoning row " << i;
-    expect_close(rad_to_deg(a.lat_rad), rad_to_deg(b.lat_rad), kTol, "lat_deg", i);
-    expect_close(rad_to_deg(a.lon_rad), rad_to_deg(b.lon_rad), kTol, "lon_deg", i);
-    expect_close(a.height_m, b.height_m, kTol, "height_m", i);
-    expect_close(a.distance_m, b.distance_m, kTol, "distance_m", i);
-    expect_close_rel(a.k_m_per_pulse, b.k_m_per_pulse, kTol, "k_m_per_pulse", i);
-    EXPECT_EQ(a.k_source, b.k_source) << i;
-    expect_close(a.east_m, b.east_m, kTol, "east_m", i);
-    expect_close(a.north_m, b.north_m, kTol, "north_m", i);
-    expect_close(a.up_m, b.up_m, kTol, "up_m", i);
-    expect_close(rad_to_deg(a.heading_rad), rad_to_deg(b.heading_rad), kTol, "heading_deg", i);
-    expect_close(a.horizontal_error_m, b.horizontal_error_m, kTol, "horizontal_error_m", i);
-    expect_close(a.error_percent, b.error_percent, kTol, "error_percent", i);
-    if (HasFailure()) FAIL() << "first difference at dead-reckoning row " << i;
-  }
+  for (const auto& r : pipe.scale_factor) EXPECT_EQ(r.estimator, estimator) << "t=" << r.t_s;
+  for (const auto& r : ref.scale_factor) EXPECT_EQ(r.estimator, estimator) << "t=" << r.t_s;
+  ASSERT_NO_FATAL_FAILURE(expect_estimate_rows_equal(pipe, ref, kTol));
   // The identified K was in use by the end (the comparison covered more than the nominal phase).
   EXPECT_EQ(pipe.dead_reckoning.back().k_source, "identified");
-  expect_navigation_equal(pipe, ref, kTol, true);
+  expect_navigation_rows_equal(pipe, ref, kTol, true);
 }
 
-// The pipeline's files against odonav-offline's on the same dataset, row by row: scale factor (K,
-// sigma, the GNSS latency in force and its sigma) and dead reckoning.
+// The pipeline's files against odonav-offline's on the same dataset, row by row: misalignment,
+// scale factor (with the GNSS latency in force and the turn slip), dead reckoning and the
+// navigation position.
 void expect_pipeline_equals_offline(const std::string& data, const std::string& out,
                                     const std::string& offline_flags = "") {
-  const std::string offline_dir = out + "/offline-check";
-  ASSERT_EQ(run(kBin + "/odonav-offline " + data + " --out " + offline_dir + " " + offline_flags + " >" + out +
-                "/offline-check.log 2>&1"),
-            0)
-      << read_text(out + "/offline-check.log");
+  ASSERT_NO_FATAL_FAILURE(run_offline_check(data, out, offline_flags));
   const results::OutputRows pipe = results::read_output_rows(out);
-  const results::OutputRows ref = results::read_output_rows(offline_dir);
+  const results::OutputRows ref = results::read_output_rows(out + "/offline-check");
   constexpr double kTol = 1e-9;
-  // The misalignment first: identification and DR apply it, so a calibration row missing or
-  // differing shows up downstream only as a tiny difference in K.
-  ASSERT_EQ(pipe.misalignment.size(), ref.misalignment.size());
-  for (std::size_t i = 0; i < ref.misalignment.size(); ++i) {
-    const auto& a = pipe.misalignment[i];
-    const auto& b = ref.misalignment[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "misalignment row " << i;
-    expect_close(a.heading_rad, b.heading_rad, kTol, "heading_rad", i);
-    expect_close(a.pitch_rad, b.pitch_rad, kTol, "pitch_rad", i);
-    expect_close(a.heading_std_rad, b.heading_std_rad, kTol, "heading_std_rad", i);
-    EXPECT_EQ(a.samples_used, b.samples_used) << i;
-    EXPECT_EQ(a.state, b.state) << i;
-    if (::testing::Test::HasFailure()) FAIL() << "first difference at misalignment row " << i;
-  }
-  ASSERT_EQ(pipe.scale_factor.size(), ref.scale_factor.size());
-  ASSERT_GT(ref.scale_factor.size(), 100u);
-  for (std::size_t i = 0; i < ref.scale_factor.size(); ++i) {
-    const auto& a = pipe.scale_factor[i];
-    const auto& b = ref.scale_factor[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "scale factor row " << i;
-    expect_close(a.k_m_per_pulse, b.k_m_per_pulse, kTol, "k_m_per_pulse", i, true);
-    expect_close(a.sigma_m_per_pulse, b.sigma_m_per_pulse, kTol, "sigma_m_per_pulse", i, true);
-    expect_close(a.gnss_latency_s, b.gnss_latency_s, kTol, "gnss_latency_s", i);
-    expect_close(a.gnss_latency_sigma_s, b.gnss_latency_sigma_s, kTol, "gnss_latency_sigma_s", i, false);
-    expect_close(a.turn_slip_s_per_rad, b.turn_slip_s_per_rad, kTol, "turn_slip_s_per_rad", i);
-    expect_close(a.turn_slip_sigma_s_per_rad, b.turn_slip_sigma_s_per_rad, kTol, "turn_slip_sigma_s_per_rad", i, false);
-    EXPECT_EQ(a.turn_slip_applies, b.turn_slip_applies) << i;
-    EXPECT_EQ(a.samples_accepted, b.samples_accepted) << i;
-    EXPECT_EQ(a.samples_rejected, b.samples_rejected) << i;
-    if (::testing::Test::HasFailure()) FAIL() << "first difference at scale-factor row " << i;
-  }
-  ASSERT_EQ(pipe.dead_reckoning.size(), ref.dead_reckoning.size());
-  for (std::size_t i = 0; i < ref.dead_reckoning.size(); ++i) {
-    const auto& a = pipe.dead_reckoning[i];
-    const auto& b = ref.dead_reckoning[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "dead-reckoning row " << i;
-    expect_close(rad_to_deg(a.lat_rad), rad_to_deg(b.lat_rad), kTol, "lat_deg", i);
-    expect_close(rad_to_deg(a.lon_rad), rad_to_deg(b.lon_rad), kTol, "lon_deg", i);
-    expect_close(a.distance_m, b.distance_m, kTol, "distance_m", i);
-    expect_close_rel(a.k_m_per_pulse, b.k_m_per_pulse, kTol, "k_m_per_pulse", i);
-    expect_close(a.horizontal_error_m, b.horizontal_error_m, kTol, "horizontal_error_m", i);
-    expect_close(a.error_t_s, b.error_t_s, kTol, "error_t", i);
-    if (::testing::Test::HasFailure()) FAIL() << "first difference at dead-reckoning row " << i;
-  }
-  expect_navigation_equal(pipe, ref, kTol);
+  ASSERT_NO_FATAL_FAILURE(expect_estimate_rows_equal(pipe, ref, kTol));
+  expect_navigation_rows_equal(pipe, ref, kTol);
+}
+
+/// The simulator (`simulator_args`) writes fresh_dir(name)/data; the pipeline replays it at maximum
+/// speed in `domain` (plus launch_args) into .../out, which must equal odonav-offline's files
+/// (plus offline_flags). out: that folder.
+void replay_equals_offline(const std::string& name, const std::string& simulator_args, const std::string& domain,
+                           std::string& out, const std::vector<std::string>& launch_args = {},
+                           const std::string& offline_flags = "") {
+  const std::string dir = fresh_dir(name);
+  const std::string data = dir + "/data";
+  ASSERT_EQ(run(kBin + "/odonav-simulator " + simulator_args + " --out " + data + " >" + dir + "/sim.log 2>&1"), 0);
+  out = dir + "/out";
+  std::vector<std::string> args{"--source", "replay:" + data, "--speed", "max", "--domain", domain};
+  args.insert(args.end(), launch_args.begin(), launch_args.end());
+  args.insert(args.end(), {"--out", out});
+  launch_ok(args, out, 300);
+  expect_pipeline_equals_offline(data, out, offline_flags);
 }
 
 // 10 Hz GNSS stamped 0.105 s late: the latency is estimated and applied alike in both. (0.105, not
@@ -402,14 +269,9 @@ void expect_pipeline_equals_offline(const std::string& data, const std::string& 
 // rounding decides on which side of an odometer sample dead reckoning applies a K; that rounding
 // question is not the latency's.)
 TEST_F(Pipeline, LateGnssEqualsTheOfflineToolWithTheLatencyEstimated) {
-  const std::string dir = fresh_dir("late-gnss");
-  const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-simulator terrain --duration-s 150 --seed 2 --gnss-latency-s 0.105 --out " + data +
-                " >" + dir + "/sim.log 2>&1"),
-            0);
-  const std::string out = dir + "/out";
-  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "170", "--out", out}, out, 300);
-  expect_pipeline_equals_offline(data, out);
+  std::string out;
+  ASSERT_NO_FATAL_FAILURE(
+      replay_equals_offline("late-gnss", "terrain --duration-s 150 --seed 2 --gnss-latency-s 0.105", "170", out));
   const results::OutputRows rows = results::read_output_rows(out);
   ASSERT_FALSE(rows.scale_factor.empty());
   EXPECT_NEAR(rows.scale_factor.back().gnss_latency_s, 0.105, 0.01);
@@ -417,12 +279,8 @@ TEST_F(Pipeline, LateGnssEqualsTheOfflineToolWithTheLatencyEstimated) {
 
 // The slow robot: 1 Hz GNSS, no INS, stops and reversing, a fine encoder.
 TEST_F(Pipeline, OneHertzSlowRobotEqualsTheOfflineTool) {
-  const std::string dir = fresh_dir("slow-robot");
-  const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-simulator slow_robot --out " + data + " >" + dir + "/sim.log 2>&1"), 0);
-  const std::string out = dir + "/out";
-  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "171", "--out", out}, out, 300);
-  expect_pipeline_equals_offline(data, out);
+  std::string out;
+  ASSERT_NO_FATAL_FAILURE(replay_equals_offline("slow-robot", "slow_robot", "171", out));
   const results::OutputRows rows = results::read_output_rows(out);
   ASSERT_FALSE(rows.scale_factor.empty());
   EXPECT_GT(rows.scale_factor.back().samples_accepted, 300u);
@@ -432,14 +290,9 @@ TEST_F(Pipeline, OneHertzSlowRobotEqualsTheOfflineTool) {
 // latency): the estimates of epoch g apply from g + 0.2 s, the stamps g + 0.1 lie on odometer
 // instants, and pipeline and offline tool still agree to 1e-9 (the rule's 1 us guard).
 TEST_F(Pipeline, OneHertzTerrainWithReceiverLatencyEqualsTheOfflineTool) {
-  const std::string dir = fresh_dir("terrain-1hz-latency");
-  const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-simulator terrain --duration-s 150 --seed 1 --gnss-rate 1 --gnss-latency-s 0.1 --out " +
-                data + " >" + dir + "/sim.log 2>&1"),
-            0);
-  const std::string out = dir + "/out";
-  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "220", "--out", out}, out, 300);
-  expect_pipeline_equals_offline(data, out);
+  std::string out;
+  ASSERT_NO_FATAL_FAILURE(replay_equals_offline(
+      "terrain-1hz-latency", "terrain --duration-s 150 --seed 1 --gnss-rate 1 --gnss-latency-s 0.1", "220", out));
   const results::OutputRows rows = results::read_output_rows(out);
   ASSERT_GT(rows.scale_factor.size(), 140u);  // one per epoch at 1 Hz
   EXPECT_EQ(rows.dead_reckoning.back().k_source, "identified");
@@ -454,15 +307,9 @@ TEST_F(Pipeline, OneHertzTerrainWithReceiverLatencyEqualsTheOfflineTool) {
 }
 
 TEST_F(Pipeline, TenHertzTerrainWithReceiverLatencyEqualsTheOfflineTool) {
-  const std::string dir = fresh_dir("terrain-10hz-latency");
-  const std::string data = dir + "/data";
-  ASSERT_EQ(
-      run(kBin + "/odonav-simulator terrain --duration-s 120 --seed 1 --gnss-rate 10 --gnss-latency-s 0.1 --out " +
-          data + " >" + dir + "/sim.log 2>&1"),
-      0);
-  const std::string out = dir + "/out";
-  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "221", "--out", out}, out, 300);
-  expect_pipeline_equals_offline(data, out);
+  std::string out;
+  ASSERT_NO_FATAL_FAILURE(replay_equals_offline(
+      "terrain-10hz-latency", "terrain --duration-s 120 --seed 1 --gnss-rate 10 --gnss-latency-s 0.1", "221", out));
   // The 60 m turn gives the turn slip enough samples by the end: the dead reckoning compared above
   // applied it for part of the drive.
   const results::OutputRows rows = results::read_output_rows(out);
@@ -474,15 +321,9 @@ TEST_F(Pipeline, TenHertzTerrainWithReceiverLatencyEqualsTheOfflineTool) {
 // Hold-off 0: every estimate arrives after the odometer samples it applies to, so dead reckoning
 // waits for each (bounded by the maximum wait) and counts it; the result is still the offline one.
 TEST_F(Pipeline, EstimatesLaterThanTheirHoldOffAreWaitedForCountedAndStillEqualTheOfflineTool) {
-  const std::string dir = fresh_dir("hold-off-0");
-  const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-simulator ring --duration-s 90 --seed 3 --out " + data + " >" + dir + "/sim.log 2>&1"),
-            0);
-  const std::string out = dir + "/out";
-  launch_ok(
-      {"--source", "replay:" + data, "--speed", "max", "--domain", "222", "--estimate-hold-off-s", "0", "--out", out},
-      out, 300);
-  expect_pipeline_equals_offline(data, out, "--estimate-hold-off-s 0");
+  std::string out;
+  ASSERT_NO_FATAL_FAILURE(replay_equals_offline("hold-off-0", "ring --duration-s 90 --seed 3", "222", out,
+                                                {"--estimate-hold-off-s", "0"}, "--estimate-hold-off-s 0"));
   // The node's drain line: "scale_factor: N waits for estimates later than their 0 s hold-off".
   const std::string log = read_text(out + "/logs/odonav-dead-reckoning.log");
   std::smatch m;
@@ -497,18 +338,11 @@ TEST_F(Pipeline, EstimatesLaterThanTheirHoldOffAreWaitedForCountedAndStillEqualT
 // sides of 180, and near the pole the dead reckoning says in its health that the heading degrades.
 void expect_rate_equals_offline(const std::string& scenario, const std::string& rate, const std::string& duration_s,
                                 const std::string& domain, std::size_t epochs_min) {
-  const std::string dir = fresh_dir(scenario + "-" + rate + "hz");
-  const std::string data = dir + "/data";
-  ASSERT_EQ(run(kBin + "/odonav-simulator " + scenario + " --duration-s " + duration_s + " --seed 4 --gnss-rate " +
-                rate + " --gnss-latency-s 0.05 --out " + data + " >" + dir + "/sim.log 2>&1"),
-            0);
-  const std::string out = dir + "/out";
-  shm_clean();
-  const LaunchResult r = launch({"--source", "replay:" + data, "--speed", "max", "--domain", domain, "--out", out},
-                                out + ".launch.log", 300);
-  ASSERT_FALSE(r.timed_out) << r.log;
-  ASSERT_EQ(r.exit_code, 0) << r.log;
-  expect_pipeline_equals_offline(data, out);
+  std::string out;
+  ASSERT_NO_FATAL_FAILURE(replay_equals_offline(
+      scenario + "-" + rate + "hz",
+      scenario + " --duration-s " + duration_s + " --seed 4 --gnss-rate " + rate + " --gnss-latency-s 0.05", domain,
+      out));
   const results::OutputRows rows = results::read_output_rows(out);
   EXPECT_GE(rows.scale_factor.size(), epochs_min) << rate << " Hz";
   EXPECT_GE(rows.misalignment.size(), epochs_min) << rate << " Hz";

@@ -24,6 +24,7 @@
 #include <thread>
 #include <vector>
 
+#include "shm_clean_test.hpp"
 #include "../nodes/node_test_support.hpp"
 #include "odonav/identification/checkpoint.hpp"
 #include "odonav/msg/ScaleFactor.h"
@@ -57,11 +58,8 @@ std::vector<msg::Health> health_of(const std::vector<msg::Health>& all, const st
   return out;
 }
 
-class IdentificationRestart : public ::testing::Test {
+class IdentificationRestart : public odonav::test::ShmCleanTest {
  protected:
-  void SetUp() override { shm_clean(); }
-  void TearDown() override { shm_clean(); }
-
   /// The GNSS antenna lever arm of the simulated vehicle, as deploy/launch passes it from meta.json
   /// (without it K wobbles in every turn by more than the tolerances below).
   static std::string lever_arm() {

@@ -20,7 +20,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -30,6 +29,7 @@
 #include <thread>
 #include <vector>
 
+#include "shm_clean_test.hpp"
 #include "../nodes/node_test_support.hpp"
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/ScaleFactor.h"
@@ -40,7 +40,6 @@ namespace {
 
 using namespace odonav;
 using namespace odonav::test;
-namespace fs = std::filesystem;
 using std::chrono::milliseconds;
 using std::chrono::seconds;
 using odonav::SourceArbiter;
@@ -99,11 +98,8 @@ struct RunResult {
   results::OutputRows recorded;  ///< odonav-recorder's files
 };
 
-class HotStandby : public ::testing::Test {
+class HotStandby : public odonav::test::ShmCleanTest {
  protected:
-  void SetUp() override { shm_clean(); }
-  void TearDown() override { shm_clean(); }
-
   static std::vector<std::string> identification_args(int domain, const char* instance, int strength) {
     return node_args(domain, 2.0,
                      {"--instance", instance, "--ownership-strength", std::to_string(strength), "--lever-arm",

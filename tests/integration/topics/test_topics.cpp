@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "message_fields.hpp"
+#include "error_of.hpp"
 #include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/health.hpp"
 #include "odonav/dds/participant.hpp"
@@ -29,6 +30,7 @@ using odonav::dds::Reader;
 using odonav::dds::Writer;
 namespace topics = odonav::topics;
 namespace msg = odonav::msg;
+using odonav::test::error_of;
 
 namespace {
 
@@ -51,18 +53,6 @@ void clean_shared_memory() {
   if (std::system("fastdds shm clean >/dev/null 2>&1") != 0) {
     std::fprintf(stderr, "note: 'fastdds shm clean' failed or is not installed\n");
   }
-}
-
-/// Message text of the std::runtime_error `make` throws; empty (and a test failure) if none.
-template <class Make>
-std::string error_of(Make make) {
-  try {
-    make();
-  } catch (const std::runtime_error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no std::runtime_error thrown";
-  return {};
 }
 
 }  // namespace

@@ -15,10 +15,12 @@
 #include <string>
 #include <vector>
 
+#include "child_process.hpp"
 #include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
 #include "odonav/identification/identification_core.hpp"
+#include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace odonav;
@@ -74,42 +76,10 @@ simulator::SimulationConfig straight_config() {
 
 // --- running a real executable ----------------------------------------------------------------
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-RunResult run(const std::string& command_line) {
-  const std::string command = command_line + " 2>&1";
-  RunResult r;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (!pipe) return r;
-  char buffer[4096];
-  std::size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) r.output.append(buffer, n);
-  const int status = ::pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-std::string binary(const std::string& name) { return std::string(ODONAV_BINARY_DIR) + "/bin/" + name; }
-
-class ScratchDir {
- public:
-  ScratchDir() {
-    path_ = fs::temp_directory_path() / ("odonav-bad-input-" + std::to_string(::getpid()) + "-" +
-                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~ScratchDir() { fs::remove_all(path_); }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  void write(const std::string& name, const std::string& text) const { std::ofstream(file(name)) << text; }
-  std::string str() const { return path_.string(); }
-
- private:
-  fs::path path_;
-};
+using test::binary;
+using test::ScratchDir;
+/// A shell command's exit status and its output (stdout and stderr).
+test::CommandResult run(const std::string& command_line) { return test::run_command(command_line); }
 
 }  // namespace
 
@@ -306,13 +276,13 @@ TEST(BadInput, MalformedConfigFileMakesTheToolExitTwoNamingFileAndLine) {
     SCOPED_TRACE(c.text);
     const std::string conf = dir.file("bad.conf");
     dir.write("bad.conf", c.text);
-    const RunResult r = run(tool + conf);
-    EXPECT_EQ(r.exit_code, 2) << r.output;
+    const test::CommandResult r = run(tool + conf);
+    EXPECT_EQ(r.status, 2) << r.output;
     EXPECT_NE(r.output.find(conf + ":" + c.expected), std::string::npos) << r.output;
   }
   EXPECT_FALSE(fs::exists(dir.file("out/scale_factor.csv")));
-  const RunResult missing = run(tool + dir.file("nowhere.conf"));
-  EXPECT_EQ(missing.exit_code, 2) << missing.output;
+  const test::CommandResult missing = run(tool + dir.file("nowhere.conf"));
+  EXPECT_EQ(missing.status, 2) << missing.output;
   EXPECT_NE(missing.output.find("cannot read config file '" + dir.file("nowhere.conf") + "'"), std::string::npos)
       << missing.output;
 }
@@ -322,13 +292,13 @@ TEST(BadInput, MalformedXmlProfileMakesAComponentExitNonzeroNamingThePath) {
   ScratchDir dir;
   dir.write("broken.xml", "<dds><profiles><participant profile_name=\"broken\">\n");  // never closed
   const std::string component = binary("odonav-dead-reckoning") + " --domain 110 --vehicle-id bad-input --profile ";
-  const RunResult broken = run(component + dir.file("broken.xml"));
-  EXPECT_NE(broken.exit_code, 0) << broken.output;
-  EXPECT_NE(broken.exit_code, -1) << "killed by a signal: " << broken.output;
+  const test::CommandResult broken = run(component + dir.file("broken.xml"));
+  EXPECT_NE(broken.status, 0) << broken.output;
+  EXPECT_NE(broken.status, -1) << "killed by a signal: " << broken.output;
   EXPECT_NE(broken.output.find(dir.file("broken.xml")), std::string::npos) << broken.output;
-  const RunResult missing = run(component + dir.file("missing.xml"));
-  EXPECT_NE(missing.exit_code, 0) << missing.output;
-  EXPECT_NE(missing.exit_code, -1) << missing.output;
+  const test::CommandResult missing = run(component + dir.file("missing.xml"));
+  EXPECT_NE(missing.status, 0) << missing.output;
+  EXPECT_NE(missing.status, -1) << missing.output;
   EXPECT_NE(missing.output.find(dir.file("missing.xml")), std::string::npos) << missing.output;
 }
 
@@ -340,11 +310,12 @@ TEST(BadInput, MalformedXmlProfileMakesAComponentExitNonzeroNamingThePath) {
 TEST(BadInput, OneWrongGnssVelocityRowDoesNotMoveTheMisalignment) {
   ScratchDir dir;
   const std::string dataset = dir.file("ring");
-  ASSERT_EQ(run(binary("odonav-simulator") + " ring --duration-s 60 --out " + dataset + " --log-level error").exit_code,
+  ASSERT_EQ(run(binary("odonav-simulator") + " ring --duration-s 60 --out " + dataset + " --log-level error").status,
             0);
   const auto heading_error_deg = [&](const std::string& out, const std::string& flags = "") {
-    const RunResult r = run(binary("odonav-offline") + " " + dataset + " --out " + out + " --log-level warn " + flags);
-    EXPECT_EQ(r.exit_code, 0) << r.output;
+    const test::CommandResult r =
+        run(binary("odonav-offline") + " " + dataset + " --out " + out + " --log-level warn " + flags);
+    EXPECT_EQ(r.status, 0) << r.output;
     std::ifstream in(out + "/summary.json");
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     const std::size_t at = text.find("\"heading_error_deg\"");
@@ -374,8 +345,8 @@ TEST(BadInput, OneWrongGnssVelocityRowDoesNotMoveTheMisalignment) {
   EXPECT_LT(std::abs(spiked), 0.1);
   EXPECT_NEAR(spiked, clean, 0.01);
   replace_ve(302, "1e6");
-  const RunResult strict = run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("strict"));
-  EXPECT_EQ(strict.exit_code, 1);
+  const test::CommandResult strict = run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("strict"));
+  EXPECT_EQ(strict.status, 1);
   EXPECT_NE(
       strict.output.find("gnss.csv:302: column 've': velocity (m/s) of a land vehicle outside [-500, 500]: '1e6'"),
       std::string::npos)
@@ -389,8 +360,7 @@ TEST(BadInput, AHeadingOfTheOtherConventionAndAForeignTruthAreNamedAndNothingGoo
   ScratchDir dir;
   const std::string dataset = dir.file("terrain");
   ASSERT_EQ(
-      run(binary("odonav-simulator") + " terrain --duration-s 200 --out " + dataset + " --log-level error").exit_code,
-      0);
+      run(binary("odonav-simulator") + " terrain --duration-s 200 --out " + dataset + " --log-level error").status, 0);
   const auto lines_of = [](const std::string& file) {
     std::ifstream in(file);
     std::size_t n = 0;
@@ -424,16 +394,16 @@ TEST(BadInput, AHeadingOfTheOtherConventionAndAForeignTruthAreNamedAndNothingGoo
       out << '\n';
     }
   };
-  const RunResult clean =
+  const test::CommandResult clean =
       run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("clean") + " --log-level warn");
-  ASSERT_EQ(clean.exit_code, 0) << clean.output;
+  ASSERT_EQ(clean.status, 0) << clean.output;
   EXPECT_EQ(clean.output.find("inconsistent"), std::string::npos) << clean.output;
 
   rewrite("ins.csv", "heading_deg", [](double h) { return std::fmod(360.0 - h, 360.0); });
   rewrite("truth.csv", "lat_deg", [](double lat) { return lat + 5.0; });
-  const RunResult bad =
+  const test::CommandResult bad =
       run(binary("odonav-offline") + " " + dataset + " --out " + dir.file("bad") + " --log-level warn");
-  EXPECT_EQ(bad.exit_code, 0) << bad.output;
+  EXPECT_EQ(bad.status, 0) << bad.output;
   EXPECT_NE(bad.output.find("INS heading turns opposite to the GNSS course"), std::string::npos) << bad.output;
   EXPECT_NE(bad.output.find("heading sign convention?"), std::string::npos) << bad.output;
   EXPECT_NE(bad.output.find("truth.csv is 55"), std::string::npos) << bad.output;  // 5 deg: 556 km

@@ -13,33 +13,26 @@
 
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
+#include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace odonav;
 
 namespace {
 
-class Dir {
+// A scratch folder with a valid odometer.csv and gnss.csv.
+class Dir : public test::ScratchDir {
  public:
   Dir() {
-    path_ = fs::temp_directory_path() / ("odonav-input-bounds-" + std::to_string(::getpid()) + "-" +
-                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
     put("odometer.csv", "t,pulses,direction\n0,0,1\n0.01,1,1\n0.02,2,1\n");
     put("gnss.csv",
         "t,lat_deg,lon_deg,height_m,ve,vn,vu,fix\n0,52.5,13.4,80,0,1,0,1\n0.1,52.5000009,13.4,80,0,1,0,1\n");
   }
-  ~Dir() { fs::remove_all(path_); }
+  /// Replaces <dir>/<name> (whatever it was) with a file holding `text`.
   void put(const std::string& name, const std::string& text) const {
-    fs::remove(path_ / name);
-    std::ofstream(path_ / name, std::ios::binary) << text;
+    fs::remove(path() / name);
+    write(name, text);
   }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  std::string str() const { return path_.string(); }
-
- private:
-  fs::path path_;
 };
 
 // read_dataset's DatasetError message, bounded in time so a hang fails instead of blocking.

@@ -21,12 +21,15 @@
 #include "odonav/consumer_rules.hpp"
 #include "odonav/identification/identification_lifecycle.hpp"
 #include "odonav/identification/identification_options.hpp"
+#include "scratch_dir.hpp"
 #include "synthetic_drive.hpp"
 
 namespace {
 
 using namespace odonav;
 using namespace odonav::identification;
+using odonav::test::read_text;
+using odonav::test::write_text;
 namespace fs = std::filesystem;
 
 constexpr double kTrueK = 0.0125;  // m/pulse
@@ -52,28 +55,9 @@ std::unique_ptr<IdentificationCore> fed_core(std::size_t epochs, const std::stri
   return core;
 }
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << text;
-}
-
 class Checkpoint : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("odonav-checkpoint-" + std::to_string(::getpid()) + "-" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    path_ = checkpoint_path(dir_.string(), kVehicle);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
+  void SetUp() override { path_ = checkpoint_path(dir_.string(), kVehicle); }
 
   /// A valid checkpoint of a core.
   IdentificationCheckpoint valid_checkpoint(const IdentificationCore& core) const {
@@ -121,7 +105,8 @@ class Checkpoint : public ::testing::Test {
     EXPECT_NE(line.find("starting from nominal K"), std::string::npos) << line;
   }
 
-  fs::path dir_;
+  test::ScratchDir scratch_;
+  fs::path dir_ = scratch_.path();
   std::string path_;
 };
 

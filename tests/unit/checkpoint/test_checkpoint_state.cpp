@@ -18,6 +18,7 @@
 #include "odonav/checkpoint_state.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_checkpoint.hpp"
 #include "odonav/identification/checkpoint.hpp"
+#include "scratch_dir.hpp"
 #include "synthetic_drive.hpp"
 
 namespace odonav {
@@ -39,16 +40,12 @@ ODONAV_STATE_FIELDS(SpecialValues) {
 namespace {
 
 namespace fs = std::filesystem;
+using test::read_text;
 constexpr const char* kVehicle = "vehicle-07";
 constexpr const char* kHash = "0123456789abcdef";
 constexpr int64_t kUnixTime_s = 1700000000;
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
 
 /// 60 s of a changing speed with a 0.05 s GNSS latency, a misalignment and noise.
 synthetic::SyntheticData drive(double duration_s) {
@@ -62,14 +59,8 @@ synthetic::SyntheticData drive(double duration_s) {
 
 class CheckpointRoundTrip : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("odonav-checkpoint-state-" + std::to_string(::getpid()) + "-" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  fs::path dir_;
+  test::ScratchDir scratch_;
+  fs::path dir_ = scratch_.path();
 };
 
 TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainIsTheSameBytes) {

@@ -3,7 +3,7 @@
 
 #include <sstream>
 
-#include "io_test_util.hpp"
+#include "scratch_dir.hpp"
 #include "odonav/config.hpp"
 
 using namespace odonav;
@@ -23,9 +23,8 @@ Options offline_options() {
   return opts;
 }
 
-// The ConfigError message of parsing `args`; empty when they parse.
-std::string parse_error(const std::vector<std::string>& args) {
-  Options opts = offline_options();
+// The ConfigError message of parsing `args` with `opts`; empty when they parse.
+std::string error_of(Options opts, const std::vector<std::string>& args) {
   std::ostringstream help;
   try {
     opts.parse(args, help);
@@ -34,6 +33,8 @@ std::string parse_error(const std::vector<std::string>& args) {
   }
   return "";
 }
+
+std::string parse_error(const std::vector<std::string>& args) { return error_of(offline_options(), args); }
 
 }  // namespace
 
@@ -262,16 +263,7 @@ Options ground_like_options() {
   return opts;
 }
 
-std::string ground_error(const std::vector<std::string>& args) {
-  Options opts = ground_like_options();
-  std::ostringstream help;
-  try {
-    opts.parse(args, help);
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
-}
+std::string ground_error(const std::vector<std::string>& args) { return error_of(ground_like_options(), args); }
 
 }  // namespace
 

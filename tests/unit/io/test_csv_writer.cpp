@@ -13,21 +13,13 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "io_test_util.hpp"
+#include "scratch_dir.hpp"
 #include "odonav/csv_writer.hpp"
 #include "odonav/shortest_double.hpp"
 
 using odonav::CsvWriter;
+using odonav::test::read_text;
 using odonav::test::ScratchDir;
-
-namespace {
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-}  // namespace
 
 TEST(CsvWriter, WritesHeaderAndShortestRoundTripFields) {
   ScratchDir dir;

@@ -8,7 +8,7 @@
 #include <random>
 #include <sstream>
 
-#include "io_test_util.hpp"
+#include "scratch_dir.hpp"
 #include "odonav/dataset.hpp"
 
 using namespace odonav;
@@ -19,12 +19,7 @@ namespace {
 // Bitwise equality that also treats two NaNs as equal (absent truth values are NaN).
 bool same(double a, double b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using odonav::test::read_text;
 
 std::string first_line(const std::string& path) {
   const std::string text = read_text(path);

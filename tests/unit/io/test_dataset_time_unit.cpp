@@ -8,7 +8,7 @@
 #include <functional>
 #include <string>
 
-#include "io_test_util.hpp"
+#include "scratch_dir.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dataset_stream.hpp"
 

@@ -4,7 +4,8 @@
 #include <spdlog/sinks/ringbuffer_sink.h>
 #include <spdlog/spdlog.h>
 
-#include "io_test_util.hpp"
+#include "io_test_data.hpp"
+#include "scratch_dir.hpp"
 #include "odonav/dataset.hpp"
 
 using namespace odonav;
@@ -12,15 +13,8 @@ using odonav::test::ScratchDir;
 
 namespace {
 
-const char* const kGoodGnss =
-    "t,lat_deg,lon_deg,height_m,ve,vn,vu\n"
-    "0.0,52.5,13.4,40.0,1.0,2.0,0.0\n"
-    "1.0,52.5001,13.4001,40.5,1.5,2.5,0.1\n";
-const char* const kGoodOdometer =
-    "t,pulses,direction\n"
-    "0.0,100,1\n"
-    "0.5,180,1\n"
-    "1.0,260,1\n";
+using odonav::test::kGoodGnss;
+using odonav::test::kGoodOdometer;
 
 // A directory holding `file` with `content` and the good version of the other required file.
 struct DatasetDir {

@@ -10,7 +10,7 @@
 #include <limits>
 #include <sstream>
 
-#include "io_test_util.hpp"
+#include "scratch_dir.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dataset_writer.hpp"
 
@@ -21,12 +21,7 @@ namespace {
 
 const char* const kDatasetFiles[] = {"odometer.csv", "gnss.csv", "ins.csv", "truth.csv", "meta.json"};
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using odonav::test::read_text;
 
 // Every entry of the directory except the output marker.
 std::vector<std::string> entries(const std::string& dir) {

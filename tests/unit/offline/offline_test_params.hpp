@@ -1,15 +1,20 @@
 #pragma once
 // Offline parameters as a user gets them, for the offline accuracy tests: one definition, so every
-// test measures the same configuration.
+// test measures the same configuration; and what those tests share besides (the smartLoc drive,
+// converged K, the run's summary).
+#include <algorithm>
 #include <ostream>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/identification/identification_options.hpp"
 #include "odonav/offline/offline_runner.hpp"
+#include "odonav/offline/summary.hpp"
 
 namespace odonav::offline::test {
 
@@ -45,6 +50,32 @@ inline OfflineParams user_params(const Dataset& d) {
   facts.run_all_estimators = true;
   p.identification = identification::identification_params_for(o, facts);
   return p;
+}
+
+/// The recorded smartLoc Berlin drive (tests/data/smartloc-berlin).
+inline Dataset smartloc_dataset() {
+  return read_dataset(ODONAV_SOURCE_DIR "/tests/data/smartloc-berlin", BadRowPolicy::kFail);
+}
+
+/// The main estimator's K of every converged identification output.
+inline std::vector<double> converged_k(const OfflineResult& r) {
+  std::vector<double> k;
+  for (const identification::IdentificationOutput& o : r.identification)
+    if (o.main.valid && o.main.converged) k.push_back(o.main.k_m_per_pulse);
+  return k;
+}
+
+/// The median (upper one of an even count); v must not be empty.
+inline double median_of(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+/// The summary of a run, as odonav-offline writes it (the dataset named by its description).
+inline nlohmann::json summarize(const Dataset& d, const OfflineResult& r, const OfflineParams& p) {
+  SummaryOptions o;
+  o.dataset_name = d.meta.description;
+  return make_summary(d, to_output_rows(r, p.identification.estimator_name), o);
 }
 
 }  // namespace odonav::offline::test

@@ -2,6 +2,7 @@
 // and which reference each published quantity is compared with.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -30,14 +31,17 @@ const QuantityCoverage& find(const std::vector<QuantityCoverage>& all, const std
   return none;
 }
 
+/// n, then the counts within 1, 2 and 3 sigma.
+std::array<std::size_t, 4> counts(const Coverage& c) {
+  return {c.n, c.within_1_sigma, c.within_2_sigma, c.within_3_sigma};
+}
+using Counts = std::array<std::size_t, 4>;
+
 TEST(Coverage, CountsWithinOneTwoThreeSigmaAndTheMeanNees) {
   Coverage c;
   // |z| = 0.5, 1 (on the bound: within), 1.5, 2.5, 3, 4: sigmas of 2 m, errors of either sign.
   for (const double error_m : {1.0, -2.0, 3.0, -5.0, 6.0, 8.0}) c.add(error_m, 2.0);
-  EXPECT_EQ(c.n, 6u);
-  EXPECT_EQ(c.within_1_sigma, 2u);
-  EXPECT_EQ(c.within_2_sigma, 3u);
-  EXPECT_EQ(c.within_3_sigma, 5u);
+  EXPECT_EQ(counts(c), (Counts{6, 2, 3, 5}));
   EXPECT_DOUBLE_EQ(c.fraction_within(1), 2.0 / 6.0);
   EXPECT_DOUBLE_EQ(c.fraction_within(2), 3.0 / 6.0);
   EXPECT_DOUBLE_EQ(c.fraction_within(3), 5.0 / 6.0);
@@ -52,9 +56,7 @@ TEST(Coverage, AZeroSigmaClaimsAnExactValueAndNoSigmaIsNoClaim) {
   c.add(1.0, std::numeric_limits<double>::quiet_NaN());  // no sigma: not counted
   c.add(1.0, -1.0);
   c.add(std::numeric_limits<double>::infinity(), 1.0);
-  EXPECT_EQ(c.n, 2u);
-  EXPECT_EQ(c.within_1_sigma, 1u);
-  EXPECT_EQ(c.within_3_sigma, 1u);
+  EXPECT_EQ(counts(c), (Counts{2, 1, 1, 1}));
   EXPECT_TRUE(std::isinf(c.mean_nees()));
   EXPECT_TRUE(std::isnan(Coverage{}.fraction_within(2)));
   EXPECT_TRUE(std::isnan(Coverage{}.mean_nees()));
@@ -66,10 +68,7 @@ TEST(Coverage, MergeAddsTheCounts) {
   b.add(2.5, 1.0);
   b.add(-3.5, 1.0);
   a.merge(b);
-  EXPECT_EQ(a.n, 3u);
-  EXPECT_EQ(a.within_1_sigma, 1u);
-  EXPECT_EQ(a.within_2_sigma, 1u);
-  EXPECT_EQ(a.within_3_sigma, 2u);
+  EXPECT_EQ(counts(a), (Counts{3, 1, 1, 2}));
   EXPECT_DOUBLE_EQ(a.mean_nees(), (0.25 + 6.25 + 12.25) / 3.0);
   EXPECT_DOUBLE_EQ(a.max_abs_z, 3.5);
 }
@@ -144,47 +143,31 @@ TEST(Coverage, EachQuantityAgainstItsReference) {
   ASSERT_EQ(all.size(), 7u);
 
   const QuantityCoverage& k = find(all, "K");
-  EXPECT_EQ(k.all.n, 3u);
-  EXPECT_EQ(k.all.within_1_sigma, 1u);
-  EXPECT_EQ(k.all.within_2_sigma, 2u);
-  EXPECT_EQ(k.all.within_3_sigma, 3u);
-  EXPECT_EQ(k.converged.n, 2u);
-  EXPECT_EQ(k.converged.within_1_sigma, 1u);
-  EXPECT_EQ(k.converged.within_2_sigma, 2u);
+  EXPECT_EQ(counts(k.all), (Counts{3, 1, 2, 3}));
+  EXPECT_EQ(counts(k.converged), (Counts{2, 1, 2, 2}));
 
   const QuantityCoverage& heading = find(all, "misalignment heading");
-  EXPECT_EQ(heading.all.n, 2u);
-  EXPECT_EQ(heading.all.within_2_sigma, 1u);
-  EXPECT_EQ(heading.all.within_3_sigma, 1u);
-  EXPECT_EQ(heading.converged.n, 1u);
-  EXPECT_EQ(heading.converged.within_1_sigma, 0u);
-  EXPECT_EQ(heading.converged.within_2_sigma, 1u);
+  EXPECT_EQ(counts(heading.all), (Counts{2, 0, 1, 1}));
+  EXPECT_EQ(counts(heading.converged), (Counts{1, 0, 1, 1}));
   const QuantityCoverage& pitch = find(all, "misalignment pitch");
-  EXPECT_EQ(pitch.all.n, 2u);
-  EXPECT_EQ(pitch.all.within_1_sigma, 1u);
-  EXPECT_EQ(pitch.all.within_2_sigma, 1u);
-  EXPECT_EQ(pitch.all.within_3_sigma, 2u);
+  EXPECT_EQ(counts(pitch.all), (Counts{2, 1, 1, 2}));
+  EXPECT_EQ(counts(pitch.converged), (Counts{1, 0, 0, 1}));
   EXPECT_NEAR(pitch.all.mean_nees(), (0.25 + 6.25) / 2.0, 1e-9);
 
   const QuantityCoverage& latency = find(all, "GNSS latency");
-  EXPECT_EQ(latency.all.n, 3u);
-  EXPECT_EQ(latency.all.within_1_sigma, 1u);
-  EXPECT_EQ(latency.all.within_3_sigma, 2u);
-  EXPECT_EQ(latency.converged.n, 2u);  // the rows whose K is converged
-  EXPECT_EQ(latency.converged.within_3_sigma, 1u);
+  EXPECT_EQ(counts(latency.all), (Counts{3, 1, 1, 2}));
+  EXPECT_EQ(counts(latency.converged), (Counts{2, 0, 0, 1}));  // the rows whose K is converged
 
   const QuantityCoverage& east = find(all, "position east");
   const QuantityCoverage& north = find(all, "position north");
   const QuantityCoverage& up = find(all, "position up");
-  for (const QuantityCoverage* q : {&east, &north, &up}) {
-    EXPECT_EQ(q->all.n, 3u) << q->quantity;
-    EXPECT_EQ(q->converged.n, 2u) << q->quantity;  // anchored
-  }
-  EXPECT_EQ(east.all.within_1_sigma, 3u);
-  EXPECT_EQ(north.all.within_1_sigma, 1u);
-  EXPECT_EQ(north.all.within_2_sigma, 3u);
-  EXPECT_EQ(up.all.within_2_sigma, 1u);
-  EXPECT_EQ(up.all.within_3_sigma, 3u);
+  // converged: the anchored rows.
+  EXPECT_EQ(counts(east.all), (Counts{3, 3, 3, 3}));
+  EXPECT_EQ(counts(east.converged), (Counts{2, 2, 2, 2}));
+  EXPECT_EQ(counts(north.all), (Counts{3, 1, 3, 3}));
+  EXPECT_EQ(counts(north.converged), (Counts{2, 0, 2, 2}));
+  EXPECT_EQ(counts(up.all), (Counts{3, 1, 1, 3}));
+  EXPECT_EQ(counts(up.converged), (Counts{2, 0, 0, 2}));
   EXPECT_NEAR(up.converged.mean_nees(), 6.25, 1e-6);
 }
 
@@ -212,8 +195,7 @@ TEST(Coverage, KAgainstTheSimulatedTimelineNotTheTurnSlip) {
     rows.scale_factor.push_back(r);
   }
   const QuantityCoverage& k = find(evaluate_coverage(d, rows), "K");
-  EXPECT_EQ(k.all.n, 2u);
-  EXPECT_EQ(k.all.within_1_sigma, 2u);  // against k_true in the turn, the first would be 13 sigmas off
+  EXPECT_EQ(counts(k.all), (Counts{2, 2, 2, 2}));  // against k_true in the turn, the first would be 13 sigmas off
 }
 
 // Without truth.csv, K against the given reference and the position against each fix from the rows
@@ -260,14 +242,11 @@ TEST(Coverage, ARecordingWithoutTruthUsesTheKReferenceAndTheFixesNotYetApplied) 
   options.k_reference_m_per_pulse = 0.02;
   const std::vector<QuantityCoverage> all = evaluate_coverage(d, rows, options);
   ASSERT_EQ(all.size(), 4u);  // K and the position; no misalignment or latency reference
-  EXPECT_EQ(find(all, "K").all.n, 1u);
-  EXPECT_EQ(find(all, "K").all.within_1_sigma, 1u);
+  EXPECT_EQ(counts(find(all, "K").all), (Counts{1, 1, 1, 1}));
   const QuantityCoverage& east = find(all, "position east");
-  EXPECT_EQ(east.all.n, 2u);
-  EXPECT_EQ(east.all.within_1_sigma, 1u);
-  EXPECT_EQ(east.all.within_2_sigma, 2u);
+  EXPECT_EQ(counts(east.all), (Counts{2, 1, 2, 2}));
   EXPECT_NEAR(east.all.mean_nees(), (0.25 + 2.25) / 2.0, 1e-6);
-  EXPECT_EQ(find(all, "position up").all.within_1_sigma, 2u);
+  EXPECT_EQ(counts(find(all, "position up").all), (Counts{2, 2, 2, 2}));
   EXPECT_NEAR(find(all, "position up").all.max_abs_z, 0.0, 1e-6);
 }
 
@@ -275,10 +254,9 @@ TEST(Coverage, ARecordingWithoutTruthUsesTheKReferenceAndTheFixesNotYetApplied) 
 // quantities whose sigmas meet a bound with a clear margin today (odonav-bench-coverage, BENCHMARKS.md
 // §12, has every quantity; the misalignment pitch, the GNSS latency at 1 Hz, K at 1 Hz and on the slow
 // robot, and the slow robot's height do not meet one yet).
-std::map<std::string, QuantityCoverage> pooled_over_seeds(const std::string& scenario_name) {
+std::map<std::string, QuantityCoverage> pooled_over_seeds(simulator::SimulationConfig cfg, const std::string& label) {
   std::map<std::string, QuantityCoverage> pooled;
   for (uint64_t seed = 1; seed <= 3; ++seed) {
-    simulator::SimulationConfig cfg = simulator::scenario_config(scenario_name);
     cfg.seed = seed;
     const Dataset d = simulator::simulate(cfg);
     const OfflineParams p = test::user_params(d);
@@ -291,10 +269,12 @@ std::map<std::string, QuantityCoverage> pooled_over_seeds(const std::string& sce
     }
   }
   for (const auto& [name, q] : pooled)
-    std::printf("%s %s: n %zu, within 2 / 3 sigma %.1f / %.1f %%, mean NEES %.2f\n", scenario_name.c_str(),
-                name.c_str(), q.all.n, 100.0 * q.all.fraction_within(2), 100.0 * q.all.fraction_within(3),
-                q.all.mean_nees());
+    std::printf("%s %s: n %zu, within 2 / 3 sigma %.1f / %.1f %%, mean NEES %.2f\n", label.c_str(), name.c_str(),
+                q.all.n, 100.0 * q.all.fraction_within(2), 100.0 * q.all.fraction_within(3), q.all.mean_nees());
   return pooled;
+}
+std::map<std::string, QuantityCoverage> pooled_over_seeds(const std::string& scenario_name) {
+  return pooled_over_seeds(simulator::scenario_config(scenario_name), scenario_name);
 }
 
 TEST(Coverage, PublishedSigmasOnTerrainSeedsOneToThree) {
@@ -320,17 +300,9 @@ TEST(Coverage, PublishedSigmasOnTerrainSeedsOneToThree) {
 // latency times its speed change, all alike, so the residuals' scatter cannot show it (the first
 // estimates were 5-11 % low with a sigma of 0.5 %). K's sigma counts the latency not yet known.
 TEST(Coverage, PublishedKSigmaHonestBeforeTheLatencyIsKnown) {
-  std::map<std::string, QuantityCoverage> pooled;
-  for (uint64_t seed = 1; seed <= 3; ++seed) {
-    simulator::SimulationConfig cfg = simulator::scenario_config("terrain");
-    cfg.seed = seed;
-    cfg.gnss_latency_s = 0.1;
-    const Dataset d = simulator::simulate(cfg);
-    const OfflineParams p = test::user_params(d);
-    const OfflineResult r = run_offline(d, p);
-    for (const QuantityCoverage& q : evaluate_coverage(d, to_output_rows(r, p.identification.estimator_name)))
-      pooled[q.quantity].all.merge(q.all);
-  }
+  simulator::SimulationConfig cfg = simulator::scenario_config("terrain");
+  cfg.gnss_latency_s = 0.1;
+  const std::map<std::string, QuantityCoverage> pooled = pooled_over_seeds(cfg, "terrain, 100 ms");
   const Coverage& k = pooled.at("K").all;
   std::printf("terrain, 100 ms: K n %zu, within 2 / 3 sigma %.1f / %.1f %%\n", k.n, 100.0 * k.fraction_within(2),
               100.0 * k.fraction_within(3));
@@ -372,18 +344,10 @@ TEST(Coverage, SlowRobotPositionHonestWhileReversing) {
 TEST(Coverage, PublishedGnssLatencySigmaIsTheOneOfTheValueInForce) {
   for (const auto& [scenario_name, rate_hz] : {std::pair{"terrain", 10.0}, std::pair{"terrain", 1.0}}) {
     SCOPED_TRACE(rate_hz);
-    std::map<std::string, QuantityCoverage> pooled;
-    for (uint64_t seed = 1; seed <= 3; ++seed) {
-      simulator::SimulationConfig cfg = simulator::scenario_config(scenario_name);
-      cfg.seed = seed;
-      cfg.gnss_rate_hz = rate_hz;
-      cfg.gnss_latency_s = 0.1;
-      const Dataset d = simulator::simulate(cfg);
-      const OfflineParams p = test::user_params(d);
-      const OfflineResult r = run_offline(d, p);
-      for (const QuantityCoverage& q : evaluate_coverage(d, to_output_rows(r, p.identification.estimator_name)))
-        pooled[q.quantity].all.merge(q.all);
-    }
+    simulator::SimulationConfig cfg = simulator::scenario_config(scenario_name);
+    cfg.gnss_rate_hz = rate_hz;
+    cfg.gnss_latency_s = 0.1;
+    const std::map<std::string, QuantityCoverage> pooled = pooled_over_seeds(cfg, scenario_name);
     const Coverage& latency = pooled.at("GNSS latency").all;
     std::printf("%.0f Hz, 100 ms: n %zu, within 3 sigma %.1f %%, largest |error| / sigma %.2f\n", rate_hz, latency.n,
                 100.0 * latency.fraction_within(3), latency.max_abs_z);

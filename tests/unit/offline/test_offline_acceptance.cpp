@@ -11,6 +11,7 @@
 
 #include "odonav/offline/offline_runner.hpp"
 #include "offline_test_params.hpp"
+#include "reference_k.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/simulator/simulator.hpp"
 #include "odonav/offline/summary.hpp"
@@ -26,12 +27,6 @@ Dataset scenario(const std::string& name, uint64_t seed = 1) {
   simulator::SimulationConfig cfg = simulator::scenario_config(name);
   cfg.seed = seed;
   return simulator::simulate(cfg);
-}
-
-json summarize(const Dataset& d, const OfflineResult& r, const OfflineParams& p) {
-  SummaryOptions o;
-  o.dataset_name = d.meta.description;
-  return make_summary(d, to_output_rows(r, p.identification.estimator_name), o);
 }
 
 }  // namespace
@@ -144,28 +139,12 @@ TEST(OfflineAcceptance, OnlineKBeatsCoarseKThroughTheOutageOnTerrain) {
 }
 
 TEST(OfflineAcceptance, RealSmartLocDriveKWithinHalfPercentOfReferenceRatio) {
-  const Dataset d = read_dataset(ODONAV_SOURCE_DIR "/tests/data/smartloc-berlin", BadRowPolicy::kFail);
+  const Dataset d = smartloc_dataset();
   // Reference, computed here independently of the product: path length of the reference trajectory
-  // (sum of horizontal steps between consecutive fixes on a sphere of the mean radius; the steps are
-  // ~1 m, where the sphere/ellipsoid difference is far below the 0.5 % tolerance) over the pulses.
-  double distance_m = 0.0;
-  for (std::size_t i = 1; i < d.gnss.size(); ++i) {
-    const Geodetic& a = d.gnss[i - 1].position;
-    const Geodetic& b = d.gnss[i].position;
-    distance_m += 6371000.0 * std::hypot(b.lat_rad - a.lat_rad, (b.lon_rad - a.lon_rad) * std::cos(a.lat_rad));
-  }
-  uint64_t pulses = 0;
-  for (std::size_t i = 1; i < d.odometer.size(); ++i)
-    pulses += pulse_increment(d.odometer[i - 1].pulses, d.odometer[i].pulses);
-  const double k_reference = distance_m / static_cast<double>(pulses);
-
-  OfflineParams p = default_params(d);
-  const OfflineResult r = run_offline(d, p);
-  std::vector<double> converged_k;
-  for (const identification::IdentificationOutput& o : r.identification)
-    if (o.main.valid && o.main.converged) converged_k.push_back(o.main.k_m_per_pulse);
-  ASSERT_GT(converged_k.size(), 50u);
-  std::nth_element(converged_k.begin(), converged_k.begin() + converged_k.size() / 2, converged_k.end());
-  const double median = converged_k[converged_k.size() / 2];
+  // over the pulses (reference_k_m_per_pulse).
+  const double k_reference = odonav::test::reference_k_m_per_pulse(d);
+  const std::vector<double> k = converged_k(run_offline(d, default_params(d)));
+  ASSERT_GT(k.size(), 50u);
+  const double median = median_of(k);
   EXPECT_NEAR(median / k_reference, 1.0, 0.005) << "median " << median << " reference " << k_reference;
 }

@@ -1,7 +1,6 @@
 // odonav-offline as a user runs it: the files and columns it writes, the summary, bad input, and the
 // output files reading back exactly.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -11,29 +10,18 @@
 #include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/offline/offline_runner.hpp"
+#include "child_process.hpp"
 #include "odonav/results/output_files.hpp"
+#include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace odonav;
 
 namespace {
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-RunResult run(const std::string& args) {
-  const std::string command = std::string(ODONAV_BINARY_DIR "/bin/odonav-offline ") + args + " 2>&1";
-  RunResult r;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (!pipe) return r;
-  char buffer[4096];
-  std::size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) r.output.append(buffer, n);
-  const int status = ::pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+/// odonav-offline with `args`: its exit status and its output (stdout and stderr).
+test::CommandResult run(const std::string& args) {
+  return test::run_command(test::binary("odonav-offline") + " " + args);
 }
 
 std::string header_of(const fs::path& file) {
@@ -46,22 +34,19 @@ std::string header_of(const fs::path& file) {
 class OfflineTool : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("odonav-offline-test-" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
     simulator::SimulationConfig cfg = simulator::scenario_config("straight");
     cfg.seed = 5;
     write_dataset((dir_ / "straight").string(), simulator::simulate(cfg));
   }
-  void TearDown() override { fs::remove_all(dir_); }
-  fs::path dir_;
+  test::ScratchDir scratch_;
+  fs::path dir_ = scratch_.path();
 };
 
 }  // namespace
 
 TEST_F(OfflineTool, WritesEveryFileWithItsColumnsAndASummary) {
-  const RunResult r = run((dir_ / "straight").string() + " --out " + (dir_ / "out").string());
-  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const test::CommandResult r = run((dir_ / "straight").string() + " --out " + (dir_ / "out").string());
+  ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("odonav summary"), std::string::npos) << r.output;
   EXPECT_EQ(header_of(dir_ / "out/misalignment.csv")
                 .rfind("t,heading_deg,pitch_deg,heading_std_deg,pitch_std_deg,converged", 0),
@@ -118,21 +103,22 @@ TEST_F(OfflineTool, BadRowFailsNamingFileLineAndColumnOrIsSkippedAndCounted) {
   in.close();
   std::ofstream(odo) << text.str();
 
-  const RunResult fail = run((dir_ / "straight").string() + " --out " + (dir_ / "out").string());
-  EXPECT_EQ(fail.exit_code, 1);
+  const test::CommandResult fail = run((dir_ / "straight").string() + " --out " + (dir_ / "out").string());
+  EXPECT_EQ(fail.status, 1);
   EXPECT_NE(fail.output.find("odometer.csv:101: column 'pulses'"), std::string::npos) << fail.output;
   EXPECT_FALSE(fs::exists(dir_ / "out/scale_factor.csv")) << "nothing written on a failed run";
 
-  const RunResult skip = run((dir_ / "straight").string() + " --out " + (dir_ / "out").string() + " --on-bad-row=skip");
-  EXPECT_EQ(skip.exit_code, 0) << skip.output;
+  const test::CommandResult skip =
+      run((dir_ / "straight").string() + " --out " + (dir_ / "out").string() + " --on-bad-row=skip");
+  EXPECT_EQ(skip.status, 0) << skip.output;
   EXPECT_NE(skip.output.find("skipped 1 bad rows"), std::string::npos) << skip.output;
 }
 
 TEST_F(OfflineTool, BadOptionsExitWithUsageError) {
-  EXPECT_EQ(run((dir_ / "straight").string()).exit_code, 2);  // no --out
-  const RunResult r = run((dir_ / "straight").string() + " --out x --window=0");
-  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(run((dir_ / "straight").string()).status, 2);  // no --out
+  const test::CommandResult r = run((dir_ / "straight").string() + " --out x --window=0");
+  EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("--window"), std::string::npos) << r.output;
-  EXPECT_EQ(run("/nonexistent-dataset --out " + (dir_ / "o").string()).exit_code, 1);
-  EXPECT_EQ(run("--help").exit_code, 0);
+  EXPECT_EQ(run("/nonexistent-dataset --out " + (dir_ / "o").string()).status, 1);
+  EXPECT_EQ(run("--help").status, 0);
 }

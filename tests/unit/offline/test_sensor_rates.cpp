@@ -15,6 +15,7 @@
 #include "odonav/identification/identification_options.hpp"
 #include "odonav/offline/offline_runner.hpp"
 #include "offline_test_params.hpp"
+#include "reference_k.hpp"
 #include "odonav/offline/summary.hpp"
 
 using namespace odonav;
@@ -30,12 +31,6 @@ Dataset scenario(const std::string& name, double gnss_rate_hz = 0.0, double late
   if (gnss_rate_hz > 0.0) cfg.gnss_rate_hz = gnss_rate_hz;
   cfg.gnss_latency_s = latency_s;
   return simulator::simulate(cfg);
-}
-
-json summarize(const Dataset& d, const OfflineResult& r, const OfflineParams& p) {
-  SummaryOptions o;
-  o.dataset_name = d.meta.description;
-  return make_summary(d, to_output_rows(r, p.identification.estimator_name), o);
 }
 
 double vff_rms_percent(const json& s) {
@@ -265,27 +260,13 @@ TEST(SensorRates, DeadReckoningFollowsTheGnssPeriodAtOneHertzAndOnTheSlowRobot) 
 }
 
 TEST(SensorRates, SmartLocDriveKWithin03PercentOfTheReferenceRatio) {
-  const Dataset d = read_dataset(ODONAV_SOURCE_DIR "/tests/data/smartloc-berlin", BadRowPolicy::kFail);
+  const Dataset d = smartloc_dataset();
   // Reference computed here, independently (as in test_offline_acceptance): reference path length
   // over the pulses counted.
-  double distance_m = 0.0;
-  for (std::size_t i = 1; i < d.gnss.size(); ++i) {
-    const Geodetic& a = d.gnss[i - 1].position;
-    const Geodetic& b = d.gnss[i].position;
-    distance_m += 6371000.0 * std::hypot(b.lat_rad - a.lat_rad, (b.lon_rad - a.lon_rad) * std::cos(a.lat_rad));
-  }
-  uint64_t pulses = 0;
-  for (std::size_t i = 1; i < d.odometer.size(); ++i)
-    pulses += pulse_increment(d.odometer[i - 1].pulses, d.odometer[i].pulses);
-  const double k_reference = distance_m / static_cast<double>(pulses);
-  const OfflineParams p = user_params(d);
-  const OfflineResult r = run_offline(d, p);
-  std::vector<double> converged_k;
-  for (const identification::IdentificationOutput& o : r.identification)
-    if (o.main.valid && o.main.converged) converged_k.push_back(o.main.k_m_per_pulse);
-  ASSERT_GT(converged_k.size(), 50u);
-  std::nth_element(converged_k.begin(), converged_k.begin() + converged_k.size() / 2, converged_k.end());
-  const double median = converged_k[converged_k.size() / 2];
+  const double k_reference = odonav::test::reference_k_m_per_pulse(d);
+  const std::vector<double> k = converged_k(run_offline(d, user_params(d)));
+  ASSERT_GT(k.size(), 50u);
+  const double median = median_of(k);
   std::printf("smartLoc: median K %.7f m/pulse, reference %.7f m/pulse, ratio - 1 = %+.3f %%\n", median, k_reference,
               100.0 * (median / k_reference - 1.0));
   EXPECT_NEAR(median / k_reference, 1.0, 0.003) << "median " << median << " reference " << k_reference;

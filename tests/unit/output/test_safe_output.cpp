@@ -12,35 +12,16 @@
 #include <string>
 
 #include "odonav/safe_output.hpp"
+#include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace odonav;
 
 namespace {
 
-class Scratch {
- public:
-  Scratch() {
-    root_ = fs::temp_directory_path() / ("odonav-safe-output-" + std::to_string(::getpid()) + "-" +
-                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-  }
-  ~Scratch() { fs::remove_all(root_); }
-  std::string operator/(const std::string& name) const { return (root_ / name).string(); }
-
- private:
-  fs::path root_;
-};
-
-std::string read(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-void put(const std::string& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+using test::ScratchDir;
+using test::read_text;
+using test::write_text;
 
 // The message of the OutputError `f` throws ("" when it throws none).
 template <class F>
@@ -56,19 +37,19 @@ std::string refusal(F f) {
 }  // namespace
 
 TEST(OutputDirectory, CreatesAMissingDirectoryAndMarksItAsOdonavs) {
-  Scratch s;
+  ScratchDir s;
   const OutputDirectory out(s / "a/b/out", {});
   EXPECT_TRUE(fs::is_directory(s / "a/b/out"));
   EXPECT_TRUE(fs::exists(s / "a/b/out/.odonav-output"));
   // Marked: a second run may replace its files.
-  put(s / "a/b/out/summary.json", "{}");
+  write_text(s / "a/b/out/summary.json", "{}");
   EXPECT_EQ(refusal([&] { OutputDirectory again(s / "a/b/out", {}); }), "");
 }
 
 TEST(OutputDirectory, RefusesANonEmptyForeignDirectoryUnlessForced) {
-  Scratch s;
+  ScratchDir s;
   fs::create_directories(s / "mine");
-  put(s / "mine/thesis.tex", "years of work");
+  write_text(s / "mine/thesis.tex", "years of work");
   const std::string why = refusal([&] { OutputDirectory d(s / "mine", {}); });
   EXPECT_NE(why.find("not empty"), std::string::npos) << why;
   EXPECT_NE(why.find("--force"), std::string::npos) << why;
@@ -77,21 +58,21 @@ TEST(OutputDirectory, RefusesANonEmptyForeignDirectoryUnlessForced) {
   OutputPolicy force;
   force.force = true;
   EXPECT_EQ(refusal([&] { OutputDirectory d(s / "mine", force); }), "");
-  EXPECT_EQ(read(s / "mine/thesis.tex"), "years of work");
+  EXPECT_EQ(read_text(s / "mine/thesis.tex"), "years of work");
 }
 
 TEST(OutputDirectory, AnEmptyExistingDirectoryIsAccepted) {
-  Scratch s;
+  ScratchDir s;
   fs::create_directories(s / "empty");
   EXPECT_EQ(refusal([&] { OutputDirectory d(s / "empty", {}); }), "");
 }
 
 TEST(OutputDirectory, RefusesAFileAndTheDatasetItselfOrADirectoryHoldingIt) {
-  Scratch s;
-  put(s / "plain", "x");
+  ScratchDir s;
+  write_text(s / "plain", "x");
   EXPECT_NE(refusal([&] { OutputDirectory d(s / "plain", {}); }).find("not a directory"), std::string::npos);
   fs::create_directories(s / "dataset");
-  put(s / "dataset/gnss.csv", "t\n");
+  write_text(s / "dataset/gnss.csv", "t\n");
   OutputPolicy p;
   p.inputs = {s / "dataset"};
   p.force = true;  // even forced
@@ -100,18 +81,18 @@ TEST(OutputDirectory, RefusesAFileAndTheDatasetItselfOrADirectoryHoldingIt) {
   fs::create_directories(s / "parent");
   p.inputs = {s / "parent/dataset"};
   EXPECT_NE(refusal([&] { OutputDirectory d(s / "parent", p); }).find("holds"), std::string::npos);
-  EXPECT_EQ(read(s / "dataset/gnss.csv"), "t\n");
+  EXPECT_EQ(read_text(s / "dataset/gnss.csv"), "t\n");
 }
 
 TEST(CheckOutputFile, RefusesSymlinksDirectoriesAndInputsUnderAnyName) {
-  Scratch s;
-  put(s / "victim", "precious");
+  ScratchDir s;
+  write_text(s / "victim", "precious");
   fs::create_symlink(s / "victim", s / "link");
   EXPECT_NE(refusal([&] { check_output_file(s / "link", {}); }).find("symbolic link"), std::string::npos);
   fs::create_directories(s / "dir");
   EXPECT_NE(refusal([&] { check_output_file(s / "dir", {}); }).find("directory"), std::string::npos);
   fs::create_directories(s / "ds");
-  put(s / "ds/gnss.csv", "data");
+  write_text(s / "ds/gnss.csv", "data");
   // The same file spelled with ".." and through a linked directory is still the input.
   fs::create_directory_symlink(s / "ds", s / "ds-link");
   for (const std::string& spelling : {s / "ds/gnss.csv", s / "dir/../ds/gnss.csv", s / "ds-link/gnss.csv"}) {
@@ -121,27 +102,27 @@ TEST(CheckOutputFile, RefusesSymlinksDirectoriesAndInputsUnderAnyName) {
   // Inside an input directory.
   EXPECT_NE(refusal([&] { check_output_file(s / "ds/new.html", {s / "ds"}); }).find("input"), std::string::npos);
   EXPECT_EQ(refusal([&] { check_output_file(s / "other.csv", {s / "ds"}); }), "");
-  EXPECT_EQ(read(s / "victim"), "precious");
+  EXPECT_EQ(read_text(s / "victim"), "precious");
 }
 
 TEST(AtomicFile, TheRealNameAppearsOnlyWhenComplete) {
-  Scratch s;
-  put(s / "out.csv", "old complete content\n");
+  ScratchDir s;
+  write_text(s / "out.csv", "old complete content\n");
   {
     AtomicFile f(s / "out.csv");
     f.write("new ");
     // While writing, the real name still has the previous complete file.
-    EXPECT_EQ(read(s / "out.csv"), "old complete content\n");
+    EXPECT_EQ(read_text(s / "out.csv"), "old complete content\n");
     f.write(std::string("content\n"));
     f.commit();
   }
-  EXPECT_EQ(read(s / "out.csv"), "new content\n");
+  EXPECT_EQ(read_text(s / "out.csv"), "new content\n");
   // Abandoned (an exception in the run): the old file stays, no temporary is left behind.
   {
     AtomicFile f(s / "out.csv");
     f.write("half");
   }
-  EXPECT_EQ(read(s / "out.csv"), "new content\n");
+  EXPECT_EQ(read_text(s / "out.csv"), "new content\n");
   int files = 0;
   for (const auto& e : fs::directory_iterator(fs::path(s / "out.csv").parent_path())) {
     (void)e;
@@ -152,8 +133,8 @@ TEST(AtomicFile, TheRealNameAppearsOnlyWhenComplete) {
 
 TEST(AtomicFile, AFailedWriteIsAnErrorNamingThePathAndTheOldFileSurvives) {
   // A file-size limit makes the kernel refuse writes past it (EFBIG), as a full disk does (ENOSPC).
-  Scratch s;
-  put(s / "summary.json", "{\"old\": true}");
+  ScratchDir s;
+  write_text(s / "summary.json", "{\"old\": true}");
   struct rlimit old_limit {};
   ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old_limit), 0);
   const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
@@ -172,7 +153,7 @@ TEST(AtomicFile, AFailedWriteIsAnErrorNamingThePathAndTheOldFileSurvives) {
   std::signal(SIGXFSZ, old_handler);
   EXPECT_NE(why.find("summary.json"), std::string::npos) << why;
   EXPECT_NE(why.find("cannot write"), std::string::npos) << why;
-  EXPECT_EQ(read(s / "summary.json"), "{\"old\": true}");
+  EXPECT_EQ(read_text(s / "summary.json"), "{\"old\": true}");
   // A directory removed under the writer: the rename fails, and says where.
   fs::create_directories(s / "gone");
   AtomicFile g(s / "gone/out.csv");
@@ -184,16 +165,16 @@ TEST(AtomicFile, AFailedWriteIsAnErrorNamingThePathAndTheOldFileSurvives) {
 }
 
 TEST(AtomicFile, KeptOnFailureAnAbandonedOrFailedFileLeavesItsTemporaryAndTheOldFile) {
-  Scratch s;
-  put(s / "rows.csv", "old\n");
+  ScratchDir s;
+  write_text(s / "rows.csv", "old\n");
   const std::string temporary = (s / "rows.csv") + ".tmp-" + std::to_string(::getpid());
   {
     AtomicFile f(s / "rows.csv");
     f.keep_on_failure();
     f.write("t\n1\n");
   }  // abandoned: an exception in the run
-  EXPECT_EQ(read(s / "rows.csv"), "old\n");
-  EXPECT_EQ(read(temporary), "t\n1\n");
+  EXPECT_EQ(read_text(s / "rows.csv"), "old\n");
+  EXPECT_EQ(read_text(temporary), "t\n1\n");
   // A failed write (the file-size limit, as a full disk): what reached the file stays.
   struct rlimit old_limit {};
   ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old_limit), 0);
@@ -215,21 +196,21 @@ TEST(AtomicFile, KeptOnFailureAnAbandonedOrFailedFileLeavesItsTemporaryAndTheOld
   ::setrlimit(RLIMIT_FSIZE, &old_limit);
   std::signal(SIGXFSZ, old_handler);
   EXPECT_NE(why.find("rows.csv"), std::string::npos) << why;
-  EXPECT_EQ(read(s / "rows.csv"), "old\n");
-  EXPECT_EQ(read(temporary).substr(0, 100), std::string(100, 'r'));
+  EXPECT_EQ(read_text(s / "rows.csv"), "old\n");
+  EXPECT_EQ(read_text(temporary).substr(0, 100), std::string(100, 'r'));
 }
 
 TEST(AtomicFile, RefusesToWriteThroughALinkPlantedAtTheRealName) {
-  Scratch s;
-  put(s / "victim", "precious");
+  ScratchDir s;
+  write_text(s / "victim", "precious");
   fs::create_symlink(s / "victim", s / "summary.json");
   EXPECT_NE(refusal([&] { write_file_atomically(s / "summary.json", "{}"); }).find("symbolic link"), std::string::npos);
-  EXPECT_EQ(read(s / "victim"), "precious");
+  EXPECT_EQ(read_text(s / "victim"), "precious");
 }
 
 TEST(AtomicFile, WriteFileAtomicallyReplacesTheWholeFile) {
-  Scratch s;
-  put(s / "f", std::string(10000, 'x'));
+  ScratchDir s;
+  write_text(s / "f", std::string(10000, 'x'));
   write_file_atomically(s / "f", "short");
-  EXPECT_EQ(read(s / "f"), "short");
+  EXPECT_EQ(read_text(s / "f"), "short");
 }

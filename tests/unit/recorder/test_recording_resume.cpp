@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "odonav/recorder/recording_resume.hpp"
+#include "scratch_dir.hpp"
 
 using namespace odonav::recorder;
 namespace fs = std::filesystem;
@@ -21,27 +22,15 @@ const std::string kHeader = "t,a,b\n";
 
 class Resume : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("odonav-resume-" + std::to_string(::getpid()) + "-" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  void write(const std::string& name, const std::string& text) const { std::ofstream(path(name)) << text; }
-  std::string read(const std::string& name) const {
-    std::ifstream in(path(name));
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  }
+  std::string path(const std::string& name) const { return dir_.file(name); }
+  void write(const std::string& name, const std::string& text) const { dir_.write(name, text); }
+  std::string read(const std::string& name) const { return dir_.read(name); }
   void marker(long pid, const std::string& vehicle) const { write(kRecordingMarker, marker_text({pid, vehicle})); }
   ResumePlan plan(long own_pid = 100, bool alive = false) const {
-    return plan_resume(dir_.string(), "car-1", {{"x.csv", kColumns}, {"y.csv", kColumns}}, {"gaps.csv"}, own_pid,
+    return plan_resume(dir_.str(), "car-1", {{"x.csv", kColumns}, {"y.csv", kColumns}}, {"gaps.csv"}, own_pid,
                        [alive](long) { return alive; });
   }
-  fs::path dir_;
+  odonav::test::ScratchDir dir_;
 };
 
 }  // namespace

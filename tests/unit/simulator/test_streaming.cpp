@@ -12,6 +12,7 @@
 #include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dataset_writer.hpp"
+#include "scratch_dir.hpp"
 
 using namespace odonav;
 using namespace odonav::simulator;
@@ -19,30 +20,6 @@ using namespace odonav::simulator;
 namespace {
 
 namespace fs = std::filesystem;
-
-class Scratch {
- public:
-  explicit Scratch(const std::string& name)
-      : path_(fs::temp_directory_path() / ("odonav-simulator-stream-" + name + "-" + std::to_string(::getpid()))) {
-    fs::remove_all(path_);
-  }
-  ~Scratch() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string str() const { return path_.string(); }
-  fs::path path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 std::vector<std::string> file_names(const fs::path& dir) {
   std::vector<std::string> names;
@@ -70,22 +47,23 @@ struct WriterSink : SampleSink {
 // Streams `config` to one directory and writes simulate(config) with write_dataset to another;
 // every file must be the same bytes.
 void expect_streamed_equals_collected(const SimulationConfig& config, const std::string& name) {
-  Scratch streamed(name + "-streamed"), collected(name + "-collected");
-  DatasetWriter writer(streamed.str(), dataset_writer_options(config));
+  const test::ScratchDir scratch;
+  const fs::path streamed = scratch.path() / "streamed", collected = scratch.path() / "collected";
+  DatasetWriter writer(streamed.string(), dataset_writer_options(config));
   WriterSink sink(writer);
   writer.finish(simulate(config, sink));
-  write_dataset(collected.str(), simulate(config));
+  write_dataset(collected.string(), simulate(config));
 
-  const std::vector<std::string> names = file_names(collected.path());
-  EXPECT_EQ(file_names(streamed.path()), names);
+  const std::vector<std::string> names = file_names(collected);
+  EXPECT_EQ(file_names(streamed), names);
   EXPECT_NE(std::find(names.begin(), names.end(), "truth.csv"), names.end());
   for (const std::string& f : names) {
-    const std::string a = read_text(streamed.path() / f), b = read_text(collected.path() / f);
+    const std::string a = test::read_text(streamed / f), b = test::read_text(collected / f);
     EXPECT_EQ(a.size(), b.size()) << name << " " << f;
     EXPECT_TRUE(a == b) << name << " " << f << " differs";
   }
   // The writer's memory did not follow the drive (several MB of text were written).
-  EXPECT_GT(fs::file_size(streamed.path() / "truth.csv"), 4u * 1000 * 1000);
+  EXPECT_GT(fs::file_size(streamed / "truth.csv"), 4u * 1000 * 1000);
   EXPECT_LE(sink.max_buffer_bytes, 4u * 2u * (64u * 1024u + 1024u));
 }
 

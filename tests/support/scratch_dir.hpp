@@ -1,11 +1,14 @@
 #pragma once
-// Helpers for the odonav_io tests: a scratch directory removed at the end, and file writing.
+// A scratch folder per test (gtest): a fresh directory under the system temp dir named after the
+// running test and this process, removed at the end.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
-#include <fstream>
 #include <string>
-#include <unistd.h>
+#include <system_error>
+
+#include "text_files.hpp"
 
 namespace odonav::test {
 
@@ -14,8 +17,8 @@ class ScratchDir {
  public:
   ScratchDir() {
     const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = std::filesystem::temp_directory_path() / ("odonav-io-" + std::string(info->test_suite_name()) + "-" +
-                                                      info->name() + "-" + std::to_string(::getpid()));
+    path_ = std::filesystem::temp_directory_path() /
+            ("odonav-" + std::string(info->test_suite_name()) + "-" + info->name() + "-" + std::to_string(::getpid()));
     std::filesystem::remove_all(path_);
     std::filesystem::create_directories(path_);
   }
@@ -26,13 +29,14 @@ class ScratchDir {
   ScratchDir(const ScratchDir&) = delete;
   ScratchDir& operator=(const ScratchDir&) = delete;
 
+  const std::filesystem::path& path() const { return path_; }
   std::string str() const { return path_.string(); }
   std::string file(const std::string& name) const { return (path_ / name).string(); }
+  std::string operator/(const std::string& name) const { return file(name); }
   /// Writes `content` byte for byte to <dir>/<name>.
-  void write(const std::string& name, const std::string& content) const {
-    std::ofstream out(file(name), std::ios::binary | std::ios::trunc);
-    out << content;
-  }
+  void write(const std::string& name, const std::string& content) const { write_text(path_ / name, content); }
+  /// The content of <dir>/<name> ("" if it cannot be read).
+  std::string read(const std::string& name) const { return read_text(path_ / name); }
 
  private:
   std::filesystem::path path_;
