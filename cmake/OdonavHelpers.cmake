@@ -10,7 +10,8 @@
 # alone (RUN_SERIAL). With LANE <lane>, the tests of the lane run one at a time (RESOURCE_LOCK) but
 # beside the tests of the other lane and the unit tests: most multi-process tests wait on real-time
 # pacing, leases and restarts, so two lanes fill two cores. A lane's DDS domain ids must not be used
-# by any test of the other lane (each CMakeLists.txt names its domains).
+# by any test of the other lane (each CMakeLists.txt names its domains). The target
+# odonav-integration-tests builds every multi-process test with the programs it starts (tests/CMakeLists.txt).
 function(odonav_add_gtest name)
   cmake_parse_arguments(ARG "" "TIMEOUT;LANE" "SOURCES;LIBS;LABELS;ENVIRONMENT" ${ARGN})
   set(target odonav-test-${name})
@@ -33,6 +34,7 @@ function(odonav_add_gtest name)
   endif()
   string(REPLACE ";" "\\;" _labels "${_labels}")
   if("integration" IN_LIST ARG_LABELS)
+    add_dependencies(odonav-integration-tests ${target})
     if(ARG_LANE)
       set(_schedule RESOURCE_LOCK "odonav-integration-lane-${ARG_LANE}")
     else()
