@@ -4,18 +4,16 @@
 // uninterrupted run (bit for bit, every field); corrupt and foreign checkpoints are moved aside and
 // named; a history that does not reach back to the checkpoint is named as lost.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <limits>
-#include <sstream>
 
 #include "odonav/calibration/calibration_lifecycle.hpp"
 #include "odonav/calibration/misalignment_calibrator.hpp"
+#include "checkpoint_test.hpp"
 #include "synthetic_drive.hpp"
 
 namespace {
@@ -23,12 +21,8 @@ namespace {
 using namespace odonav;
 using namespace odonav::calibration;
 using namespace odonav::synthetic;
+using namespace odonav::test;
 namespace fs = std::filesystem;
-
-constexpr const char* kVehicle = "vehicle-07";
-constexpr const char* kHash = "0123456789abcdef";
-constexpr int64_t kUnixTime_s = 1700000000;
-constexpr double kHistory_s = 30.0;  // the producers' history handed to a restarted reader
 
 const Misalignment kTrueMis{deg_to_rad(0.8), deg_to_rad(-0.5)};
 
@@ -94,19 +88,9 @@ void expect_identical(const MisalignmentOutput& a, const MisalignmentOutput& b, 
   EXPECT_EQ(a.reason, b.reason) << where;
 }
 
-class CalibrationCheckpointTest : public ::testing::Test {
+class CalibrationCheckpointTest : public StateDirTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("odonav-calcheckpoint-" + std::to_string(::getpid()) + "-" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    ckpt_ = dir_ / "calibration-vehicle-07.ckpt";
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  CheckpointSettings settings(const std::string& hash = kHash, double every_s = 5.0) const {
-    return CheckpointSettings{dir_.string(), every_s, hash};
-  }
+  CalibrationCheckpointTest() : StateDirTest("calibration-vehicle-07.ckpt") {}
 
   /// A node's run over the events [from, to) (indices): feeds what the lifecycle does not skip,
   /// processes up to the minimum of the inputs' watermarks, publishes what the lifecycle keeps and
@@ -143,17 +127,7 @@ class CalibrationCheckpointTest : public ::testing::Test {
       r.lifecycle.checkpoint_at_finish(r.calibrator);
     }
   }
-
-  fs::path dir_, ckpt_;
 };
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-void write_text(const fs::path& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
 
 // ---- exact resume ----
 
@@ -177,13 +151,13 @@ TEST_F(CalibrationCheckpointTest,
     const std::size_t kill = static_cast<std::size_t>(
         std::lower_bound(ev.begin(), ev.end(), kill_t_s, [](const Event& e, double t) { return e.t_s < t; }) -
         ev.begin());
-    Run first(settings(kHash, 1.0));
+    Run first(settings(1.0));
     first.lifecycle.start(first.calibrator, kUnixTime_s, 0.0);
     feed(first, d, ev, 0, kill, 0.0);  // no finish: kill -9
     EXPECT_GE(first.lifecycle.restart().checkpoints_written(), 2u);
 
     // The restart: the producers hand over their last 30 s, then the live data follows.
-    Run second(settings(kHash, 1.0));
+    Run second(settings(1.0));
     second.lifecycle.start(second.calibrator, kUnixTime_s, 100.0);
     ASSERT_TRUE(second.lifecycle.restored_t_s());
     const double t_ckpt = *second.lifecycle.restored_t_s();
@@ -215,13 +189,7 @@ TEST_F(CalibrationCheckpointTest,
     const MisalignmentCounters& b = second.calibrator.counters();
     EXPECT_EQ(std::memcmp(&a, &b, sizeof a), 0) << "the counters go on across the restart";
     // The downtime's outputs were caught up: from the first after the checkpoint to the live edge.
-    const RestartPolicy& p = second.lifecycle.restart();
-    EXPECT_GT(p.catch_up_outputs(), 0u);
-    EXPECT_EQ(*p.catch_up_first_t_s(), expected.front().t_s);
-    EXPECT_EQ(p.catch_up_lost_s(), 0.0);
-    EXPECT_GT(p.skipped_before_checkpoint(), 0u);
-    EXPECT_FALSE(p.catching_up());
-    EXPECT_NE(p.health_notes().catch_up_note.find("caught up after restart: "), std::string::npos);
+    expect_caught_up(second.lifecycle.restart(), expected.front().t_s);
   }
 }
 
@@ -300,9 +268,7 @@ TEST_F(CalibrationCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideNamedA
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    write_text(ckpt_, c.text);
+    write_checkpoint(c.text);
     MisalignmentCalibrator fresh(test_params());
     const StateJson fresh_state = fresh.save_state();
     CalibrationLifecycle l(settings(), kVehicle, fresh.restore_margin_s());
@@ -310,22 +276,14 @@ TEST_F(CalibrationCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideNamedA
     EXPECT_EQ(fresh.save_state(), fresh_state) << "untouched";
     EXPECT_FALSE(l.restored_t_s());
     EXPECT_FALSE(l.take_restored_output());
-    EXPECT_TRUE(l.restart().checkpoint_moved_aside());
     EXPECT_FALSE(fs::exists(ckpt_));
-    const fs::path aside = dir_ / "calibration-vehicle-07.ckpt.bad-1700000000";
-    ASSERT_TRUE(fs::exists(aside)) << "moved aside, never deleted";
-    EXPECT_EQ(read_text(aside), c.text);
-    const CalibrationCheckpointLoad again =
-        load_calibration_checkpoint(aside.string(), kVehicle, kHash, fresh, kUnixTime_s);
-    EXPECT_NE(again.reason.find(c.reason), std::string::npos) << again.reason;
     // WARN in the health for 30 s, then gone.
+    ASSERT_NO_FATAL_FAILURE(expect_moved_aside(l.restart(), c.text, "starting from nothing"));
+    const CalibrationCheckpointLoad again =
+        load_calibration_checkpoint(aside().string(), kVehicle, kHash, fresh, kUnixTime_s);
+    EXPECT_NE(again.reason.find(c.reason), std::string::npos) << again.reason;
     std::string reason;
     bool warn = false;
-    apply_restart_notes(l.restart().health_notes(), 39.9, reason, warn);
-    EXPECT_TRUE(warn);
-    EXPECT_EQ(reason, "checkpoint " + ckpt_.string() + " was corrupt: moved aside; starting from nothing");
-    reason.clear();
-    warn = false;
     apply_restart_notes(l.restart().health_notes(), 40.1, reason, warn);
     EXPECT_FALSE(warn);
     EXPECT_EQ(reason, "");
@@ -339,13 +297,13 @@ TEST_F(CalibrationCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideNamedA
 TEST_F(CalibrationCheckpointTest, AHistoryStartingAfterTheCheckpointIsNamedAsLost) {
   const SyntheticData d = gated_drive();
   const std::vector<Event> ev = events_of(d);
-  Run first(settings(kHash, 5.0));
+  Run first(settings(5.0));
   first.lifecycle.start(first.calibrator, kUnixTime_s, 0.0);
   std::size_t kill = 0;
   while (ev[kill].t_s < 21.0) ++kill;
   feed(first, d, ev, 0, kill, 0.0);  // checkpoints at the first epoch (t = 0) and every 5 s: the last at 20 s
 
-  Run second(settings(kHash, 5.0));
+  Run second(settings(5.0));
   second.lifecycle.start(second.calibrator, kUnixTime_s, 100.0);
   ASSERT_TRUE(second.lifecycle.restored_t_s());
   EXPECT_DOUBLE_EQ(*second.lifecycle.restored_t_s(), 20.0);

@@ -22,7 +22,7 @@
 #include "odonav/identification/identification_lifecycle.hpp"
 #include "odonav/identification/identification_options.hpp"
 #include "scratch_dir.hpp"
-#include "synthetic_drive.hpp"
+#include "fed_core.hpp"
 
 namespace {
 
@@ -30,6 +30,7 @@ using namespace odonav;
 using namespace odonav::identification;
 using odonav::test::read_text;
 using odonav::test::write_text;
+using odonav::test::fed_core;
 namespace fs = std::filesystem;
 
 constexpr double kTrueK = 0.0125;  // m/pulse
@@ -39,20 +40,6 @@ IdentificationParams params_with(const std::string& estimator) {
   IdentificationParams p;
   p.estimator_name = estimator;
   return p;
-}
-
-/// An identification core fed a straight 10 m/s drive of `epochs` GNSS epochs at 10 Hz.
-std::unique_ptr<IdentificationCore> fed_core(std::size_t epochs, const std::string& estimator = "vff_lm_rls") {
-  auto core = std::make_unique<IdentificationCore>(params_with(estimator));
-  synthetic::SensorConfig c;
-  c.duration_s = 0.1 * static_cast<double>(epochs);
-  c.velocity_noise_mps = 0.02;
-  const synthetic::SyntheticData d = synthetic::simulate(synthetic::straight(0.5, 0.0, 10.0, 0.0), c);
-  for (const auto& x : d.odometer) core->add_odometer(x);
-  for (const auto& x : d.ins) core->add_ins(x);
-  for (const auto& x : d.gnss) core->add_gnss(x);
-  core->finish();
-  return core;
 }
 
 class Checkpoint : public ::testing::Test {

@@ -5,18 +5,16 @@
 // of an uninterrupted run (pure DR and anchored position, bit for bit); corrupt and foreign
 // checkpoints are moved aside and named.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <limits>
-#include <sstream>
 
 #include "odonav/consumer_rules.hpp"
 #include "odonav/dead_reckoning/dead_reckoning_lifecycle.hpp"
+#include "checkpoint_test.hpp"
 #include "synthetic_drive.hpp"
 
 namespace {
@@ -24,12 +22,9 @@ namespace {
 using namespace odonav;
 using namespace odonav::dead_reckoning;
 using namespace odonav::synthetic;
+using namespace odonav::test;
 namespace fs = std::filesystem;
 
-constexpr const char* kVehicle = "vehicle-07";
-constexpr const char* kHash = "0123456789abcdef";
-constexpr int64_t kUnixTime_s = 1700000000;
-constexpr double kHistory_s = 30.0;      // the producers' history handed to a restarted reader
 constexpr double kEstimateLag_s = 0.05;  // estimates arrive this long after their GNSS epoch
 constexpr double kK = 0.0125;
 const Misalignment kTrueMis{deg_to_rad(0.8), deg_to_rad(-0.5)};
@@ -139,17 +134,9 @@ void expect_identical(const Published& a, const Published& b, const std::string&
   EXPECT_TRUE(same_bits(a.anchored.scale_error, b.anchored.scale_error)) << where;
 }
 
-class DeadReckoningCheckpointTest : public ::testing::Test {
+class DeadReckoningCheckpointTest : public StateDirTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("odonav-drcheckpoint-" + std::to_string(::getpid()) + "-" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    ckpt_ = dir_ / "dead-reckoning-vehicle-07.ckpt";
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  CheckpointSettings settings(double every_s = 1.0) const { return CheckpointSettings{dir_.string(), every_s, kHash}; }
+  DeadReckoningCheckpointTest() : StateDirTest("dead-reckoning-vehicle-07.ckpt") {}
 
   /// The node's work over the events [from, to): each sample through the lifecycle, then into the
   /// cores as the node feeds them; processed up to what every input has reached; what the lifecycle
@@ -220,17 +207,7 @@ class DeadReckoningCheckpointTest : public ::testing::Test {
       r.lifecycle.checkpoint_at_finish(r.state());
     }
   }
-
-  fs::path dir_, ckpt_;
 };
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-void write_text(const fs::path& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
 
 std::size_t index_at(const std::vector<Event>& ev, double t_s) {
   return static_cast<std::size_t>(
@@ -292,12 +269,7 @@ TEST_F(DeadReckoningCheckpointTest,
     EXPECT_EQ(reference.consumer.misalignments_applied, second.consumer.misalignments_applied);
     EXPECT_EQ(reference.consumer.k_selection.counters().k_applied, second.consumer.k_selection.counters().k_applied);
     const RestartPolicy& p = second.lifecycle.restart();
-    EXPECT_GT(p.catch_up_outputs(), 0u);
-    EXPECT_EQ(*p.catch_up_first_t_s(), expected.front()->dr.t_s);
-    EXPECT_EQ(p.catch_up_lost_s(), 0.0);
-    EXPECT_GT(p.skipped_before_checkpoint(), 0u);
-    EXPECT_FALSE(p.catching_up());
-    EXPECT_NE(p.health_notes().catch_up_note.find("caught up after restart: "), std::string::npos);
+    expect_caught_up(p, expected.front()->dr.t_s);
     EXPECT_NE(p.health_notes().restore_note.find("restored the dead reckoning from checkpoint"), std::string::npos);
   }
 }
@@ -366,28 +338,18 @@ TEST_F(DeadReckoningCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideName
   };
   for (const Case& k : cases) {
     SCOPED_TRACE(k.name);
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    write_text(ckpt_, k.text);
-    Run fresh(settings());
+    write_checkpoint(k.text);
+    Run fresh(settings(1.0));
     const StateJson fresh_core = fresh.core.save_state(), fresh_anchor = fresh.anchor.save_state();
     fresh.lifecycle.start(fresh.state(), kUnixTime_s, 10.0);
     EXPECT_EQ(fresh.core.save_state(), fresh_core) << "untouched";
     EXPECT_EQ(fresh.anchor.save_state(), fresh_anchor) << "untouched";
     EXPECT_EQ(fresh.consumer.misalignments_applied, 0u);
     EXPECT_FALSE(fresh.lifecycle.restored_t_s());
-    EXPECT_TRUE(fresh.lifecycle.restart().checkpoint_moved_aside());
-    const fs::path aside = dir_ / "dead-reckoning-vehicle-07.ckpt.bad-1700000000";
-    ASSERT_TRUE(fs::exists(aside)) << "moved aside, never deleted";
-    EXPECT_EQ(read_text(aside), k.text);
+    ASSERT_NO_FATAL_FAILURE(expect_moved_aside(fresh.lifecycle.restart(), k.text, "starting at the next GNSS fix"));
     const DeadReckoningCheckpointLoad again =
-        load_dead_reckoning_checkpoint(aside.string(), kVehicle, kHash, fresh.state(), kUnixTime_s);
+        load_dead_reckoning_checkpoint(aside().string(), kVehicle, kHash, fresh.state(), kUnixTime_s);
     EXPECT_NE(again.reason.find(k.reason), std::string::npos) << again.reason;
-    std::string reason;
-    bool warn = false;
-    apply_restart_notes(fresh.lifecycle.restart().health_notes(), 39.9, reason, warn);
-    EXPECT_TRUE(warn);
-    EXPECT_EQ(reason, "checkpoint " + ckpt_.string() + " was corrupt: moved aside; starting at the next GNSS fix");
     EXPECT_TRUE(fresh.lifecycle.take_sample(DeadReckoningInput::kOdometer, 0.1)) << "a fresh start skips nothing";
   }
 }

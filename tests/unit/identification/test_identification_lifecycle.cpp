@@ -4,51 +4,35 @@
 // carried over, when checkpoints are written (and retried after a failure), the set_k stamp, and
 // the health decision with its exact texts.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <random>
-#include <sstream>
 
 #include "odonav/config.hpp"
 #include "odonav/estimators.hpp"
 #include "odonav/identification/checkpoint.hpp"
 #include "odonav/identification/identification_lifecycle.hpp"
-#include "synthetic_drive.hpp"
+#include "checkpoint_test.hpp"
+#include "fed_core.hpp"
 
 namespace {
 
 using namespace odonav;
 using namespace odonav::identification;
+using namespace odonav::test;
 namespace fs = std::filesystem;
 
 constexpr double kTrueK = 0.0125;  // m/pulse
-constexpr const char* kVehicle = "vehicle-07";
-constexpr const char* kHash = "0123456789abcdef";
-constexpr int64_t kUnixTime_s = 1700000000;
 
 using State = ComponentHealth::State;
 using Level = ComponentHealth::Level;
 
 /// An identification core (vff_lm_rls) fed a straight 10 m/s drive of n GNSS epochs at 10 Hz
-/// (velocity noise 2 cm/s), everything processed.
-std::unique_ptr<IdentificationCore> fed_core(std::size_t n) {
-  auto core = std::make_unique<IdentificationCore>(IdentificationParams{});
-  synthetic::SensorConfig c;
-  c.duration_s = 0.1 * static_cast<double>(n);
-  c.velocity_noise_mps = 0.02;
-  c.seed = 7;
-  const synthetic::SyntheticData d = synthetic::simulate(synthetic::straight(0.5, 0.0, 10.0, 0.0), c);
-  for (const auto& s : d.odometer) core->add_odometer(s);
-  for (const auto& s : d.ins) core->add_ins(s);
-  for (const auto& s : d.gnss) core->add_gnss(s);
-  core->finish();
-  return core;
-}
+/// (velocity noise 2 cm/s, seed 7), everything processed.
+std::unique_ptr<IdentificationCore> fed_core(std::size_t n) { return odonav::test::fed_core(n, "vff_lm_rls", 7); }
 std::unique_ptr<IdentificationCore> fresh_core() {
   return std::make_unique<IdentificationCore>(IdentificationParams{});
 }
@@ -65,28 +49,12 @@ IdentificationOutput output_at(double t_s, uint64_t accepted, uint64_t rejected,
   return o;
 }
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-void write_text(const fs::path& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
-
-class IdentificationLifecycleTest : public ::testing::Test {
+class IdentificationLifecycleTest : public StateDirTest {
  protected:
+  IdentificationLifecycleTest() : StateDirTest("identification-vehicle-07.ckpt") {}
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("odonav-lifecycle-" + std::to_string(::getpid()) + "-" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    ckpt_ = dir_ / "identification-vehicle-07.ckpt";
+    StateDirTest::SetUp();
     db_ = dir_ / "vehicle-07-identification.db";
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  CheckpointSettings settings(const std::string& hash = kHash, double every_s = 5.0) const {
-    return CheckpointSettings{dir_.string(), every_s, hash};
   }
 
   /// A previous run: 300 epochs, its last published output at t = 30.1 s (300 accepted, 17
@@ -94,7 +62,7 @@ class IdentificationLifecycleTest : public ::testing::Test {
   /// misalignment of 29.9 s; checkpointed. Returns the core it checkpointed.
   std::unique_ptr<IdentificationCore> previous_run(const std::string& hash = kHash) {
     auto e = fed_core(300);
-    IdentificationLifecycle run(settings(hash), kVehicle);
+    IdentificationLifecycle run(settings(5.0, hash), kVehicle);
     run.start(*e, kUnixTime_s, 0.0);
     for (const auto& [input, t] : {std::pair{IdentificationInput::kOdometer, 30.3},
                                    {IdentificationInput::kGnss, 30.1},
@@ -114,7 +82,7 @@ class IdentificationLifecycleTest : public ::testing::Test {
     return out;
   }
 
-  fs::path dir_, ckpt_, db_;
+  fs::path db_;
 };
 
 // ---- restore ----
@@ -220,7 +188,7 @@ TEST_F(IdentificationLifecycleTest, CorruptCheckpointIsMovedAsideWithAWarnNote) 
 TEST_F(IdentificationLifecycleTest, CheckpointOfAnotherConfigurationIsMovedAsideAndNotRestored) {
   previous_run("fedcba9876543210");
   auto e = fresh_core();
-  IdentificationLifecycle l(settings(kHash), kVehicle);
+  IdentificationLifecycle l(settings(), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   EXPECT_TRUE(l.checkpoint_moved_aside());
   EXPECT_FALSE(l.restored_t_s());
@@ -395,7 +363,7 @@ TEST_F(IdentificationLifecycleTest, OutputsUpToTheCheckpointAreDroppedAndTheRest
 
 TEST_F(IdentificationLifecycleTest, CheckpointIsDueEveryPeriodOfProcessedEventTime) {
   auto e = fed_core(100);
-  IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
+  IdentificationLifecycle l(settings(5.0), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   EXPECT_FALSE(l.checkpoint_due()) << "nothing processed yet";
   l.outputs_to_publish({output_at(10.0, 100, 2, e.get())});
@@ -426,7 +394,7 @@ TEST_F(IdentificationLifecycleTest, CheckpointIsDueEveryPeriodOfProcessedEventTi
 TEST_F(IdentificationLifecycleTest, RestoredCheckpointCountsAsTheLastOne) {
   previous_run();  // at t = 30.1 s
   auto e = fresh_core();
-  IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
+  IdentificationLifecycle l(settings(5.0), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   EXPECT_FALSE(l.checkpoint_due()) << "the restored state is on disk already";
   l.outputs_to_publish({output_at(35.0, 340, 18)});
@@ -438,7 +406,7 @@ TEST_F(IdentificationLifecycleTest, RestoredCheckpointCountsAsTheLastOne) {
 
 TEST_F(IdentificationLifecycleTest, FailedCheckpointWriteIsCountedWarnedAndRetriedAtTheNextPeriod) {
   auto e = fed_core(100);
-  IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
+  IdentificationLifecycle l(settings(5.0), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   ASSERT_TRUE(e->main_estimator().estimate().valid && e->main_estimator().estimate().converged);
   fs::remove_all(dir_);  // the state directory is gone: the write cannot create its temporary file
@@ -468,7 +436,7 @@ TEST_F(IdentificationLifecycleTest, FailedCheckpointWriteIsCountedWarnedAndRetri
 
 TEST_F(IdentificationLifecycleTest, FinishCheckpointsTheLastProcessedEpochOnce) {
   auto e = fed_core(100);
-  IdentificationLifecycle l(settings(kHash, 5.0), kVehicle);
+  IdentificationLifecycle l(settings(5.0), kVehicle);
   l.start(*e, kUnixTime_s, 0.0);
   l.outputs_to_publish({output_at(10.0, 100, 0, e.get())});
   l.checkpoint_if_due(*e);
