@@ -57,6 +57,16 @@ synthetic::SyntheticData drive(double duration_s) {
   return synthetic::simulate(synthetic::wavy_drive(), c);
 }
 
+/// The dead reckoning's saved state (core, anchored filter, consumer rules) into a checkpoint.
+void set_state(dead_reckoning::DeadReckoningCheckpoint& c, const dead_reckoning::DeadReckoningStateRefs& s) {
+  c.k_selection = s.consumer.k_selection.state();
+  c.applied_misalignment = s.consumer.applied_misalignment.state();
+  c.misalignments_applied = s.consumer.misalignments_applied;
+  c.held_misalignment_t_s = s.consumer.held_misalignment_t_s;
+  c.dead_reckoner_state = s.core.save_state();
+  c.anchor_state = s.anchor.save_state();
+}
+
 class CheckpointRoundTrip : public ::testing::Test {
  protected:
   test::ScratchDir scratch_;
@@ -141,12 +151,7 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
     c.config_hash = kHash;
     c.last_output_t_s = cut_s;
     c.fed_until_s = {60.0, 60.0, 49.99, 12.0, std::nullopt};
-    c.k_selection = consumer.k_selection.state();
-    c.applied_misalignment = consumer.applied_misalignment.state();
-    c.misalignments_applied = consumer.misalignments_applied;
-    c.held_misalignment_t_s = consumer.held_misalignment_t_s;
-    c.dead_reckoner_state = core.save_state();
-    c.anchor_state = anchor.save_state();
+    set_state(c, dead_reckoning::DeadReckoningStateRefs{core, anchor, consumer});
     ASSERT_FALSE(c.dead_reckoner_state.at("gnss").empty()) << "inputs buffered ahead are in it";
     const std::string text = dead_reckoning::serialize_dead_reckoning_checkpoint(c);
     const std::string path = dead_reckoning::dead_reckoning_checkpoint_path(dir_.string(), kVehicle);
@@ -158,12 +163,7 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
         path, kVehicle, kHash, dead_reckoning::DeadReckoningStateRefs{core2, anchor2, consumer2}, kUnixTime_s);
     ASSERT_EQ(r.status, CheckpointLoadStatus::kRestored) << r.reason;
     dead_reckoning::DeadReckoningCheckpoint again = *r.checkpoint;
-    again.k_selection = consumer2.k_selection.state();
-    again.applied_misalignment = consumer2.applied_misalignment.state();
-    again.misalignments_applied = consumer2.misalignments_applied;
-    again.held_misalignment_t_s = consumer2.held_misalignment_t_s;
-    again.dead_reckoner_state = core2.save_state();
-    again.anchor_state = anchor2.save_state();
+    set_state(again, dead_reckoning::DeadReckoningStateRefs{core2, anchor2, consumer2});
     EXPECT_EQ(dead_reckoning::serialize_dead_reckoning_checkpoint(again), text);
   }
 }
