@@ -8,6 +8,7 @@
 #include "odonav/dead_reckoning/dead_reckoning_health.hpp"
 #include "odonav/dead_reckoning/consistency_monitor.hpp"
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
+#include "dr_health_facts.hpp"
 
 using namespace odonav;
 using namespace odonav::dead_reckoning;
@@ -154,12 +155,7 @@ TEST(ConsistencyMonitor, AFindingClearsWhenTheEvidenceAgreesAgainForThePersisten
 }
 
 TEST(DeadReckoningHealth, AnInconsistencyWarnsWithItsFinding) {
-  DeadReckoningHealthFacts f;
-  f.started = true;
-  f.scale_factor_heard = true;
-  f.k_applied = 1;
-  f.misalignment_heard = true;
-  f.misalignments_applied = 1;
+  DeadReckoningHealthFacts f = odonav::test::running_dr_facts(1, 1);
   EXPECT_EQ(dead_reckoning_health(f).level, ComponentHealth::Level::kOk);
   f.inconsistency = "INS heading turns opposite to the GNSS course (ratio -1.00 over 200 deg of turns)";
   const ComponentHealth h = dead_reckoning_health(f);

@@ -11,6 +11,7 @@
 #include "odonav/dead_reckoning/drift_evaluator.hpp"
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "synthetic_drive.hpp"
+#include "dr_health_facts.hpp"
 
 using namespace odonav;
 using namespace odonav::dead_reckoning;
@@ -670,12 +671,7 @@ TEST(DeadReckoner, OutputsOnAnEstimateHeldThroughAnEstimatorSilenceAreCountedAsO
 
   // Health: WARN with the span while it goes on and for the notice duration after the last held
   // output (wall clock), then no more.
-  DeadReckoningHealthFacts f;
-  f.started = true;
-  f.scale_factor_heard = true;
-  f.k_applied = 1;
-  f.misalignment_heard = true;
-  f.misalignments_applied = 1;
+  DeadReckoningHealthFacts f = odonav::test::running_dr_facts(1, 1);
   f.held_k_span = k_span;
   f.held_k_changed_at_s = 100.0;
   f.now_s = 100.0 + kDeadReckoningNoticeDuration_s - 1.0;

@@ -14,6 +14,7 @@
 #include "odonav/dead_reckoning/scale_factor_selection.hpp"
 #include "odonav/lever_arm_option.hpp"
 #include "odonav/nominal_k_option.hpp"
+#include "dr_health_facts.hpp"
 
 using namespace odonav;
 using namespace odonav::dead_reckoning;
@@ -309,12 +310,7 @@ TEST(DeadReckoningScaleFactorSelection, SourceChangeIsCountedNotedAndTheNoteExpi
   EXPECT_EQ(s.k_source_note(), "K source changed from 'identification' to 'identification/standby' at t=42.5 s");
   EXPECT_EQ(s.k_source_changed_at_s(), 200.0);
 
-  DeadReckoningHealthFacts f;
-  f.started = true;
-  f.scale_factor_heard = true;
-  f.k_applied = 2;
-  f.misalignment_heard = true;
-  f.misalignments_applied = 5;
+  DeadReckoningHealthFacts f = odonav::test::running_dr_facts(2, 5);
   f.k_source_note = s.k_source_note();
   f.k_source_changed_at_s = s.k_source_changed_at_s();
   f.now_s = 229.9;  // within kDeadReckoningNoticeDuration_s (30 s)
@@ -333,13 +329,8 @@ TEST(DeadReckoningScaleFactorSelection, SourceChangeIsCountedNotedAndTheNoteExpi
 
 namespace {
 DeadReckoningHealthFacts running_facts() {
-  DeadReckoningHealthFacts f;
+  DeadReckoningHealthFacts f = odonav::test::running_dr_facts(3, 4);
   f.now_s = 1000.0;
-  f.started = true;
-  f.scale_factor_heard = true;
-  f.k_applied = 3;
-  f.misalignment_heard = true;
-  f.misalignments_applied = 4;
   return f;
 }
 }  // namespace
