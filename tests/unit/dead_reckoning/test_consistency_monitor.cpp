@@ -48,15 +48,18 @@ namespace {
 // A vehicle circling at 8 m/s with a 100 m radius (0.08 rad/s), counter-clockwise from above, for
 // duration_s; GNSS at 10 Hz, outputs at 100 Hz whose heading is heading_of(true heading).
 struct Drive {
-  double heading_scale = 1.0;   // the heading the DR uses: scale * true (mod 2 pi)
-  bool radians = false;         // the heading the DR uses: the true heading in degrees read as radians / 57.3
-  double dr_error_per_m = 0.0;  // the DR drifts from GNSS by this per metre driven (east)
+  double heading_scale = 1.0;    // the heading the DR uses: scale * true (mod 2 pi)
+  bool radians = false;          // the heading the DR uses: the true heading in degrees read as radians / 57.3
+  double dr_error_per_m = 0.0;   // the DR drifts from GNSS by this per metre driven (east)
+  double negated_until_s = 0.0;  // before this time the heading the DR uses is negated too
+  bool anchor_fixes = true;      // the outputs carry the GNSS fixes (10 Hz) the drift check compares with
+  double misalignment_rad = deg_to_rad(0.01);  // the calibrated heading misalignment, converged
 };
 
 ConsistencyMonitor run(const Drive& drive, double duration_s, ConsistencyParams params = {}) {
   ConsistencyMonitor m(params);
   m.set_scale_factor(0.0125, 1e-5, true);
-  m.set_misalignment(deg_to_rad(0.01), true);
+  m.set_misalignment(drive.misalignment_rad, true);
   const double v = 8.0, r = 100.0, w = v / r;
   for (int i = 0; i <= static_cast<int>(duration_s * 100.0); ++i) {
     const double t = i * 0.01;
@@ -71,8 +74,9 @@ ConsistencyMonitor run(const Drive& drive, double duration_s, ConsistencyParams 
     DeadReckoningOutput o;
     o.t_s = t;
     o.distance_m = v * t;
-    o.heading_rad = drive.radians ? deg_to_rad(heading) : wrap_two_pi(drive.heading_scale * heading);
-    if (i % 10 == 0) {
+    const double scale = t < drive.negated_until_s ? -drive.heading_scale : drive.heading_scale;
+    o.heading_rad = drive.radians ? deg_to_rad(heading) : wrap_two_pi(scale * heading);
+    if (drive.anchor_fixes && i % 10 == 0) {
       AnchorFix f;
       f.t_s = t;
       f.dr_distance_m = o.distance_m;
@@ -127,25 +131,11 @@ TEST(ConsistencyMonitor, ATrackDriftingFromGnssWhileConvergedIsRaisedAndNotWitho
 TEST(ConsistencyMonitor, AFindingClearsWhenTheEvidenceAgreesAgainForThePersistence) {
   ConsistencyParams p;
   p.window_s = 20.0;  // the window forgets the negated part quickly
-  ConsistencyMonitor m(p);
-  m.set_scale_factor(0.0125, 1e-5, true);
-  m.set_misalignment(1e-4, true);
-  const double v = 8.0, r = 100.0, w = v / r;
-  for (int i = 0; i <= 12000; ++i) {  // 120 s: negated for the first 40 s, right after
-    const double t = i * 0.01;
-    const double heading = wrap_two_pi(-w * t);
-    if (i % 10 == 0) {
-      GnssSample g;
-      g.t_s = t;
-      g.vel_enu_mps = Eigen::Vector3d(v * std::sin(heading), v * std::cos(heading), 0.0);
-      m.add_gnss(g);
-    }
-    DeadReckoningOutput o;
-    o.t_s = t;
-    o.distance_m = v * t;
-    o.heading_rad = t < 40.0 ? wrap_two_pi(-heading) : heading;
-    m.on_output(o);
-  }
+  Drive drive;
+  drive.negated_until_s = 40.0;  // 120 s: negated for the first 40 s, right after
+  drive.anchor_fixes = false;
+  drive.misalignment_rad = 1e-4;
+  const ConsistencyMonitor m = run(drive, 120.0, p);
   const ConsistencyState& s = m.state(ConsistencyCheck::kHeadingRate);
   EXPECT_FALSE(s.raised);
   EXPECT_EQ(s.times_raised, 1u);
