@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <random>
 
 #include "odonav/dead_reckoning/dead_reckoning_health.hpp"
 #include "odonav/dead_reckoning/dead_reckoner.hpp"
@@ -343,31 +342,9 @@ TEST(DeadReckoner, DifferentInterleavingsGiveBitIdenticalOutputs) {
   DeadReckoner b(p);
   feed_controls(b);
   std::vector<DeadReckoningOutput> ob;
-  std::mt19937 rng(21);
-  std::size_t io = 0, ig = 0, ii = 0;
-  double wo = -1, wg = -1, wi = -1;
-  while (io < d.odometer.size() || ig < d.gnss.size() || ii < d.ins.size()) {
-    const int which = std::uniform_int_distribution<int>(0, 2)(rng);
-    const int burst = std::uniform_int_distribution<int>(1, 50)(rng);
-    for (int k = 0; k < burst; ++k) {
-      if (which == 0 && io < d.odometer.size()) {
-        b.add_odometer(d.odometer[io]);
-        wo = d.odometer[io++].t_s;
-      }
-      if (which == 1 && ig < d.gnss.size()) {
-        b.add_gnss(d.gnss[ig]);
-        wg = d.gnss[ig++].t_s;
-      }
-      if (which == 2 && ii < d.ins.size()) {
-        b.add_ins(d.ins[ii]);
-        wi = d.ins[ii++].t_s;
-      }
-    }
-    const double inf = std::numeric_limits<double>::infinity();
-    for (const auto& o : b.process_until(std::min(
-             {io < d.odometer.size() ? wo : inf, ig < d.gnss.size() ? wg : inf, ii < d.ins.size() ? wi : inf})))
-      ob.push_back(o);
-  }
+  feed_in_random_bursts(d, b, 21, 50, [&](double w) {
+    for (const auto& o : b.process_until(w)) ob.push_back(o);
+  });
   for (const auto& o : b.finish()) ob.push_back(o);
   ASSERT_EQ(oa.size(), ob.size());
   ASSERT_EQ(oa.size(), 1600u);

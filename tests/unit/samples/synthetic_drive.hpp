@@ -4,9 +4,11 @@
 //
 // The trajectory is the INS reference point's path in a local ENU frame; the odometer axis points
 // along the motion; the INS body is turned from it by the installation misalignment, exactly.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <random>
 #include <vector>
@@ -141,6 +143,39 @@ inline SyntheticData simulate(const Trajectory& tr, const SensorConfig& c) {
     d.ins.push_back({t, attitude(t), std::nullopt});
   }
   return d;
+}
+
+/// Feeds `d` to `core` (add_odometer, add_gnss, add_ins) as three streams with different lags: in
+/// random bursts (seeded by `seed`) of 1 to max_burst samples of one stream at a time; after each
+/// burst, process_until(w) with w the minimum over the streams not yet exhausted of the stamp of
+/// their last sample fed (infinite once all are). The caller finishes the core.
+template <class Core, class ProcessUntil>
+void feed_in_random_bursts(const SyntheticData& d, Core& core, uint32_t seed, int max_burst,
+                           ProcessUntil process_until) {
+  std::mt19937 rng(seed);
+  std::size_t io = 0, ig = 0, ii = 0;
+  double wo = -1, wg = -1, wi = -1;
+  while (io < d.odometer.size() || ig < d.gnss.size() || ii < d.ins.size()) {
+    const int which = std::uniform_int_distribution<int>(0, 2)(rng);
+    const int burst = std::uniform_int_distribution<int>(1, max_burst)(rng);
+    for (int k = 0; k < burst; ++k) {
+      if (which == 0 && io < d.odometer.size()) {
+        core.add_odometer(d.odometer[io]);
+        wo = d.odometer[io++].t_s;
+      }
+      if (which == 1 && ig < d.gnss.size()) {
+        core.add_gnss(d.gnss[ig]);
+        wg = d.gnss[ig++].t_s;
+      }
+      if (which == 2 && ii < d.ins.size()) {
+        core.add_ins(d.ins[ii]);
+        wi = d.ins[ii++].t_s;
+      }
+    }
+    const double inf = std::numeric_limits<double>::infinity();
+    process_until(
+        std::min({io < d.odometer.size() ? wo : inf, ig < d.gnss.size() ? wg : inf, ii < d.ins.size() ? wi : inf}));
+  }
 }
 
 }  // namespace odonav::synthetic

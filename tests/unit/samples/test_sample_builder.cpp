@@ -5,7 +5,6 @@
 #include <cstring>
 #include <iterator>
 #include <map>
-#include <random>
 
 #include "odonav/sample_builder.hpp"
 #include "synthetic_drive.hpp"
@@ -420,31 +419,7 @@ TEST(SampleBuilder, DifferentInterleavingsGiveBitIdenticalSamples) {
     fb.attach(b, e);
     eb.push_back(e);
   };
-  std::mt19937 rng(5);
-  std::size_t io = 0, ig = 0, ii = 0;
-  double wo = -1, wg = -1, wi = -1;
-  while (io < d.odometer.size() || ig < d.gnss.size() || ii < d.ins.size()) {
-    const int which = std::uniform_int_distribution<int>(0, 2)(rng);
-    const int burst = std::uniform_int_distribution<int>(1, 40)(rng);
-    for (int k = 0; k < burst; ++k) {
-      if (which == 0 && io < d.odometer.size()) {
-        b.add_odometer(d.odometer[io]);
-        wo = d.odometer[io++].t_s;
-      }
-      if (which == 1 && ig < d.gnss.size()) {
-        b.add_gnss(d.gnss[ig]);
-        wg = d.gnss[ig++].t_s;
-      }
-      if (which == 2 && ii < d.ins.size()) {
-        b.add_ins(d.ins[ii]);
-        wi = d.ins[ii++].t_s;
-      }
-    }
-    const double inf = std::numeric_limits<double>::infinity();
-    b.process_until(
-        std::min({io < d.odometer.size() ? wo : inf, ig < d.gnss.size() ? wg : inf, ii < d.ins.size() ? wi : inf}),
-        sink);
-  }
+  feed_in_random_bursts(d, b, 5, 40, [&](double w) { b.process_until(w, sink); });
   b.finish(sink);
 
   ASSERT_EQ(ea.size(), eb.size());
