@@ -15,12 +15,23 @@ using namespace odonav;
 
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// An aligner (EventTimeAligner's arguments) with the dead reckoning's two sample streams,
+/// odometer then GNSS: `auto [a, odo, gnss] = odometer_and_gnss(...)`.
+struct OdometerAndGnss {
+  OdometerAndGnss(double max_wait_s, double start_s, double in_flight_max_wait_s)
+      : a(max_wait_s, start_s, in_flight_max_wait_s) {}
+  EventTimeAligner a;
+  EventTimeAligner::StreamId odo = a.add_stream("odometer");
+  EventTimeAligner::StreamId gnss = a.add_stream("gnss");
+};
+OdometerAndGnss odometer_and_gnss(double max_wait_s, double start_s, double in_flight_max_wait_s = 0.0) {
+  return OdometerAndGnss(max_wait_s, start_s, in_flight_max_wait_s);
+}
 }  // namespace
 
 TEST(EventTimeAligner, WatermarkIsTheMinimumOverStreams) {
-  EventTimeAligner a(2.0, 0.0);
-  const auto odo = a.add_stream("odometer");
-  const auto gnss = a.add_stream("gnss");
+  auto [a, odo, gnss] = odometer_and_gnss(2.0, 0.0);
   EXPECT_EQ(a.on_sample(odo, 10.00, 0.0), SampleAdmission::kAccepted);
   EXPECT_EQ(a.on_sample(odo, 10.01, 0.0), SampleAdmission::kAccepted);
   // GNSS has said nothing: nothing can be processed.
@@ -37,9 +48,7 @@ TEST(EventTimeAligner, WatermarkIsTheMinimumOverStreams) {
 }
 
 TEST(EventTimeAligner, SilentStreamBecomesAbsentOnlyAfterMaxWaitWhileOthersAreAhead) {
-  EventTimeAligner a(2.0, 100.0);
-  const auto odo = a.add_stream("odometer");
-  const auto gnss = a.add_stream("gnss");
+  auto [a, odo, gnss] = odometer_and_gnss(2.0, 100.0);
   a.on_sample(odo, 1.0, 100.0);
   a.on_sample(gnss, 1.0, 100.0);
   EXPECT_EQ(a.advance(100.0), std::optional<double>(1.0));
@@ -65,9 +74,7 @@ TEST(EventTimeAligner, SilentStreamBecomesAbsentOnlyAfterMaxWaitWhileOthersAreAh
 }
 
 TEST(EventTimeAligner, LateSamplesAreDroppedAndCountedThenTheStreamResumes) {
-  EventTimeAligner a(1.0, 0.0);
-  const auto odo = a.add_stream("odometer");
-  const auto gnss = a.add_stream("gnss");
+  auto [a, odo, gnss] = odometer_and_gnss(1.0, 0.0);
   a.on_sample(odo, 1.0, 0.0);
   a.on_sample(gnss, 1.0, 0.0);
   ASSERT_TRUE(a.advance(0.0));
@@ -128,9 +135,7 @@ TEST(EventTimeAligner, HeartbeatsKeepAStreamAliveWhileItIsBehind) {
 }
 
 TEST(EventTimeAligner, PacedStreamIsCompleteUpToTheNextPacingEpoch) {
-  EventTimeAligner a(2.0, 0.0);
-  const auto odo = a.add_stream("odometer");
-  const auto gnss = a.add_stream("gnss");
+  auto [a, odo, gnss] = odometer_and_gnss(2.0, 0.0);
   const auto k = a.add_paced_stream("scale_factor", gnss);
   for (int i = 0; i <= 35; ++i) a.on_sample(odo, 0.01 * i, 0.0);  // odometer to 0.35
   for (double g : {0.0, 0.1, 0.2, 0.3}) a.on_sample(gnss, g, 0.0);
@@ -186,9 +191,7 @@ TEST(EventTimeAligner, HoldOffStreamsLimitOnlyUpToTheirEpochPlusTheHoldOff) {
 }
 
 TEST(EventTimeAligner, DeclaredCompletenessLetsAPacedStreamCatchUpWithoutTheNextEpoch) {
-  EventTimeAligner a(2.0, 0.0);
-  const auto odo = a.add_stream("odometer");
-  const auto gnss = a.add_stream("gnss");
+  auto [a, odo, gnss] = odometer_and_gnss(2.0, 0.0);
   const auto k = a.add_paced_stream("scale_factor", gnss);
   a.on_sample(gnss, 1.0, 0.0);
   a.on_sample(k, 1.0, 0.0);
@@ -215,9 +218,7 @@ TEST(EventTimeAligner, DeclaredCompletenessLetsAPacedStreamCatchUpWithoutTheNext
 TEST(EventTimeAligner, AStreamWithDeclaredSamplesInFlightWaitsTheLongerInFlightWait) {
   // A restarted identification: the odometer's history arrives at once and declares GNSS published
   // up to t = 50 s, while GNSS's own history is slow to come.
-  EventTimeAligner a(2.0, 100.0, kInFlightMaxWait_s);
-  const auto odo = a.add_stream("odometer");
-  const auto gnss = a.add_stream("gnss");
+  auto [a, odo, gnss] = odometer_and_gnss(2.0, 100.0, kInFlightMaxWait_s);
   a.on_sample(gnss, 20.0, 100.0);
   for (int i = 0; i <= 300; ++i) a.on_sample(odo, 20.0 + 0.1 * i, 100.0);
   a.declare_published(gnss, 50.0, 50.0);
@@ -252,9 +253,7 @@ TEST(EventTimeAligner, AStreamWithDeclaredSamplesInFlightWaitsTheLongerInFlightW
 
   // Without the longer wait (dead reckoning: fresh outputs first) the same stream is absent after
   // max wait, in flight or not.
-  EventTimeAligner fresh(2.0, 100.0);
-  const auto fodo = fresh.add_stream("odometer");
-  const auto fgnss = fresh.add_stream("gnss");
+  auto [fresh, fodo, fgnss] = odometer_and_gnss(2.0, 100.0);
   fresh.on_sample(fgnss, 20.0, 100.0);
   fresh.on_sample(fodo, 30.0, 100.0);
   fresh.declare_published(fgnss, 30.0, 30.0);
@@ -265,9 +264,7 @@ TEST(EventTimeAligner, AStreamWithDeclaredSamplesInFlightWaitsTheLongerInFlightW
 }
 
 TEST(EventTimeAligner, PacedStreamDoesNotHoldBackWhileItsPacingStreamIsAbsent) {
-  EventTimeAligner a(1.0, 0.0);
-  const auto odo = a.add_stream("odometer");
-  const auto gnss = a.add_stream("gnss");
+  auto [a, odo, gnss] = odometer_and_gnss(1.0, 0.0);
   const auto k = a.add_paced_stream("scale_factor", gnss);
   a.on_sample(gnss, 1.0, 0.0);
   a.on_sample(k, 1.0, 0.0);
@@ -287,9 +284,7 @@ TEST(EventTimeAligner, PacedStreamDoesNotHoldBackWhileItsPacingStreamIsAbsent) {
 
 TEST(EventTimeAligner, PacedStreamThatNeverSpokeBecomesAbsentAndIsCounted) {
   // Dead reckoning without identification: the K stream never speaks.
-  EventTimeAligner a(2.0, 0.0);
-  const auto odo = a.add_stream("odometer");
-  const auto gnss = a.add_stream("gnss");
+  auto [a, odo, gnss] = odometer_and_gnss(2.0, 0.0);
   const auto k = a.add_paced_stream("scale_factor", gnss);
   for (int i = 0; i <= 90; ++i) {  // odometer and GNSS both end at 0.9
     a.on_sample(odo, 0.01 * i, 0.001 * i);
