@@ -36,6 +36,18 @@ std::string error_of(Options opts, const std::vector<std::string>& args) {
 
 std::string parse_error(const std::vector<std::string>& args) { return error_of(offline_options(), args); }
 
+// The error `error` (parse_error or the like) gives for `command --config <file>` with a config file
+// holding `text`, the file's path at its start written "<file>".
+template <class Error>
+std::string config_file_error(Error error, const std::string& command, const std::string& text) {
+  ScratchDir dir;
+  dir.write("a.conf", text);
+  const std::string path = dir.file("a.conf");
+  std::string e = error({command, "--config", path});
+  if (e.rfind(path, 0) == 0) e.replace(0, path.size(), "<file>");
+  return e;
+}
+
 }  // namespace
 
 TEST(Options, DefaultsWhenNothingIsGiven) {
@@ -111,15 +123,10 @@ TEST(Options, UnknownFlagOrKey) {
   EXPECT_EQ(parse_error({"run", "--vffc=3"}), "unknown option '--vffc'");
   EXPECT_EQ(parse_error({"run", "-w", "3"}), "unknown option '-w' (options are written --name)");
   EXPECT_EQ(parse_error({"run", "--no-window"}), "unknown option '--no-window'");
-  ScratchDir dir;
-  dir.write("a.conf", "window = 3\n# ok\nwindw = 4\n");
-  EXPECT_EQ(parse_error({"run", "--config", dir.file("a.conf")}), dir.file("a.conf") + ":3: unknown key 'windw'");
-  dir.write("b.conf", "dataset = /x\n");
-  EXPECT_EQ(parse_error({"run", "--config", dir.file("b.conf")}),
-            dir.file("b.conf") + ":1: 'dataset' is a positional argument, give it on the command line");
-  dir.write("c.conf", "window 3\n");
-  EXPECT_EQ(parse_error({"run", "--config", dir.file("c.conf")}),
-            dir.file("c.conf") + ":1: expected 'key = value', got 'window 3'");
+  EXPECT_EQ(config_file_error(parse_error, "run", "window = 3\n# ok\nwindw = 4\n"), "<file>:3: unknown key 'windw'");
+  EXPECT_EQ(config_file_error(parse_error, "run", "dataset = /x\n"),
+            "<file>:1: 'dataset' is a positional argument, give it on the command line");
+  EXPECT_EQ(config_file_error(parse_error, "run", "window 3\n"), "<file>:1: expected 'key = value', got 'window 3'");
 }
 
 TEST(Options, MissingValue) {
@@ -127,9 +134,7 @@ TEST(Options, MissingValue) {
   EXPECT_EQ(parse_error({"run", "--out", "--freeze"}), "option '--out' needs a value");
   EXPECT_EQ(parse_error({"run", "--window="}), "--window=: missing value");
   EXPECT_EQ(parse_error({"run", "--config"}), "option '--config' needs a value");
-  ScratchDir dir;
-  dir.write("a.conf", "vff-c =\n");
-  EXPECT_EQ(parse_error({"run", "--config", dir.file("a.conf")}), dir.file("a.conf") + ":1: vff-c = : missing value");
+  EXPECT_EQ(config_file_error(parse_error, "run", "vff-c =\n"), "<file>:1: vff-c = : missing value");
 }
 
 TEST(Options, UnparsableValues) {
@@ -140,10 +145,7 @@ TEST(Options, UnparsableValues) {
   EXPECT_EQ(parse_error({"run", "--vff-c", "inf"}), "--vff-c=inf: not a finite number");
   EXPECT_EQ(parse_error({"run", "--freeze=maybe"}), "--freeze=maybe: must be true or false");
   EXPECT_EQ(parse_error({"run", "--no-freeze=true"}), "--no-freeze takes no value");
-  ScratchDir dir;
-  dir.write("a.conf", "\nwindow = ten\n");
-  EXPECT_EQ(parse_error({"run", "--config", dir.file("a.conf")}),
-            dir.file("a.conf") + ":2: window = ten: not an integer");
+  EXPECT_EQ(config_file_error(parse_error, "run", "\nwindow = ten\n"), "<file>:2: window = ten: not an integer");
 }
 
 TEST(Options, OutOfRange) {
@@ -354,10 +356,8 @@ TEST(Options, RenamedFlagIsRefusedNamingTheNewOne) {
   EXPECT_EQ(error({"run", "--min-speed", "2"}), "--min-speed was renamed --id-min-speed");
   EXPECT_EQ(error({"run", "--braking-stop", "--id-min-speed=2"}), "--braking-stop was renamed --id-braking-stop");
   EXPECT_EQ(error({"run", "--no-braking-stop"}), "--no-braking-stop was renamed --no-id-braking-stop");
-  ScratchDir dir;
-  dir.write("old.conf", "min-speed = 2\n");
-  EXPECT_EQ(error({"run", "--config", dir.file("old.conf")}),
-            dir.file("old.conf") + ":1: min-speed = 2: --min-speed was renamed --id-min-speed");
+  EXPECT_EQ(config_file_error(error, "run", "min-speed = 2\n"),
+            "<file>:1: min-speed = 2: --min-speed was renamed --id-min-speed");
 }
 
 TEST(Options, CommandLineSplittingEdgeCases) {
