@@ -1,6 +1,6 @@
 #pragma once
-// The message of the std::runtime_error an expression throws: for tests of refusals whose text
-// must name what was wrong.
+// The message of the exception (a std::runtime_error unless told) an expression throws: for tests of
+// refusals whose text must name what was wrong.
 #include <gtest/gtest.h>
 
 #include <stdexcept>
@@ -8,15 +8,16 @@
 
 namespace odonav::test {
 
-/// Message text of the std::runtime_error `make` throws; empty (and a test failure) if none.
-template <class Make>
+/// Message text of the `Error` (a std::runtime_error by default) `make` throws; empty (and a test
+/// failure) if none.
+template <class Error = std::runtime_error, class Make>
 std::string error_of(Make make) {
   try {
     make();
-  } catch (const std::runtime_error& e) {
+  } catch (const Error& e) {
     return e.what();
   }
-  ADD_FAILURE() << "no std::runtime_error thrown";
+  ADD_FAILURE() << "nothing thrown";
   return {};
 }
 

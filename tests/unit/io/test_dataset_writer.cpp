@@ -10,12 +10,14 @@
 #include <limits>
 #include <sstream>
 
+#include "error_of.hpp"
 #include "scratch_dir.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dataset_writer.hpp"
 
 using namespace odonav;
 using odonav::test::ScratchDir;
+using odonav::test::error_of;
 
 namespace {
 
@@ -74,13 +76,8 @@ TEST(DatasetWriter, BadValueNamesFileRowAndColumnAndLeavesNoDatasetFile) {
     writer.add(gnss_at(0.1));
     GnssSample bad = gnss_at(0.2);
     bad.position.lat_rad = deg_to_rad(95.0);
-    try {
-      writer.add(bad);
-      FAIL() << "no error";
-    } catch (const DatasetError& e) {
-      EXPECT_EQ(std::string(e.what()),
-                dir.file("gnss.csv") + ": cannot write row 3: column 'lat_deg' is outside [-90, 90] deg");
-    }
+    EXPECT_EQ(error_of<DatasetError>([&] { writer.add(bad); }),
+              dir.file("gnss.csv") + ": cannot write row 3: column 'lat_deg' is outside [-90, 90] deg");
     // While the writer exists its rows are in temporaries, never under a real name.
     for (const char* name : kDatasetFiles) EXPECT_FALSE(std::filesystem::exists(dir.file(name))) << name;
     // A failed writer writes nothing more.
@@ -94,13 +91,8 @@ TEST(DatasetWriter, BadValueNamesFileRowAndColumnAndLeavesNoDatasetFile) {
   writer.add(truth_at(0.0));
   TruthSample nan_height = truth_at(0.1);
   nan_height.k_true_m_per_pulse = std::numeric_limits<double>::infinity();
-  try {
-    writer.add(nan_height);
-    FAIL() << "no error";
-  } catch (const DatasetError& e) {
-    EXPECT_EQ(std::string(e.what()),
-              dir.file("truth.csv") + ": cannot write row 2: column 'k_true' is not finite (inf)");
-  }
+  EXPECT_EQ(error_of<DatasetError>([&] { writer.add(nan_height); }),
+            dir.file("truth.csv") + ": cannot write row 2: column 'k_true' is not finite (inf)");
 }
 
 TEST(DatasetWriter, AFailedWriterLeavesAnEarlierDatasetAsItWas) {
@@ -146,21 +138,16 @@ TEST(DatasetWriter, WritesTheColumnsItWasToldAndRefusesValuesForOthers) {
   // A value the file has no column for would be lost: refused, naming the column.
   g.t_s = 0.1;
   g.pos_std_m = 2.0;
-  try {
+  const std::string pos_std_error = error_of<DatasetError>([&] {
     DatasetWriter other(dir.str() + "/other", o);
     other.add(g);
-    FAIL() << "no error";
-  } catch (const DatasetError& e) {
-    EXPECT_NE(std::string(e.what()).find("gnss.csv: cannot write row 1: column 'pos_std_m'"), std::string::npos)
-        << e.what();
-  }
-  try {
+  });
+  EXPECT_NE(pos_std_error.find("gnss.csv: cannot write row 1: column 'pos_std_m'"), std::string::npos) << pos_std_error;
+  const std::string ins_error = error_of<DatasetError>([&] {
     DatasetWriter other(dir.str() + "/other", o);
     other.add(InsSample{});
-    FAIL() << "no error";
-  } catch (const DatasetError& e) {
-    EXPECT_NE(std::string(e.what()).find("ins.csv"), std::string::npos) << e.what();
-  }
+  });
+  EXPECT_NE(ins_error.find("ins.csv"), std::string::npos) << ins_error;
   writer.finish(DatasetMeta{});
   EXPECT_EQ(read_text(dir.file("gnss.csv")), "t,lat_deg,lon_deg,height_m,ve,vn,vu,fix\n0,52.5,13.4,80,0,0,0,1\n");
   EXPECT_EQ(read_text(dir.file("truth.csv")), "t,heading_deg,k_true\n0,90,0.0125\n");
