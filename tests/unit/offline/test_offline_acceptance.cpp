@@ -11,7 +11,7 @@
 
 #include "odonav/offline/offline_runner.hpp"
 #include "offline_test_params.hpp"
-#include "reference_k.hpp"
+#include "smartloc_k.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/simulator/simulator.hpp"
 #include "odonav/offline/summary.hpp"
@@ -139,12 +139,8 @@ TEST(OfflineAcceptance, OnlineKBeatsCoarseKThroughTheOutageOnTerrain) {
 }
 
 TEST(OfflineAcceptance, RealSmartLocDriveKWithinHalfPercentOfReferenceRatio) {
-  const Dataset d = smartloc_dataset();
-  // Reference, computed here independently of the product: path length of the reference trajectory
-  // over the pulses (reference_k_m_per_pulse).
-  const double k_reference = odonav::test::reference_k_m_per_pulse(d);
-  const std::vector<double> k = converged_k(run_offline(d, default_params(d)));
-  ASSERT_GT(k.size(), 50u);
-  const double median = median_of(k);
+  const SmartLocK k = smartloc_k(default_params);
+  ASSERT_GT(k.converged, 50u);
+  const double median = k.median_m_per_pulse, k_reference = k.reference_m_per_pulse;
   EXPECT_NEAR(median / k_reference, 1.0, 0.005) << "median " << median << " reference " << k_reference;
 }

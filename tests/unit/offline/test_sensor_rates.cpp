@@ -15,7 +15,7 @@
 #include "odonav/identification/identification_options.hpp"
 #include "odonav/offline/offline_runner.hpp"
 #include "offline_test_params.hpp"
-#include "reference_k.hpp"
+#include "smartloc_k.hpp"
 #include "odonav/offline/summary.hpp"
 
 using namespace odonav;
@@ -260,13 +260,9 @@ TEST(SensorRates, DeadReckoningFollowsTheGnssPeriodAtOneHertzAndOnTheSlowRobot) 
 }
 
 TEST(SensorRates, SmartLocDriveKWithin03PercentOfTheReferenceRatio) {
-  const Dataset d = smartloc_dataset();
-  // Reference computed here, independently (as in test_offline_acceptance): reference path length
-  // over the pulses counted.
-  const double k_reference = odonav::test::reference_k_m_per_pulse(d);
-  const std::vector<double> k = converged_k(run_offline(d, user_params(d)));
-  ASSERT_GT(k.size(), 50u);
-  const double median = median_of(k);
+  const SmartLocK k = smartloc_k(user_params);
+  ASSERT_GT(k.converged, 50u);
+  const double median = k.median_m_per_pulse, k_reference = k.reference_m_per_pulse;
   std::printf("smartLoc: median K %.7f m/pulse, reference %.7f m/pulse, ratio - 1 = %+.3f %%\n", median, k_reference,
               100.0 * (median / k_reference - 1.0));
   EXPECT_NEAR(median / k_reference, 1.0, 0.003) << "median " << median << " reference " << k_reference;
