@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <string>
 
 #include "odonav/simulator/simulator.hpp"
 #include "odonav/offline/offline_runner.hpp"
@@ -15,17 +17,26 @@ using namespace odonav::offline;
 
 namespace {
 
-simulator::SimulationConfig straight(double duration_s = 120.0) {
-  simulator::SimulationConfig cfg = simulator::scenario_config("straight");
-  cfg.seed = 5;
+/// The simulator's scenario `name` with this seed and length.
+simulator::SimulationConfig scenario(const std::string& name, std::uint64_t seed, double duration_s) {
+  simulator::SimulationConfig cfg = simulator::scenario_config(name);
+  cfg.seed = seed;
   cfg.duration_s = duration_s;
   return cfg;
 }
+
+simulator::SimulationConfig straight(double duration_s = 120.0) { return scenario("straight", 5, duration_s); }
 
 OfflineParams params_for(const Dataset& d) {
   OfflineParams p;
   p.dead_reckoning.nominal_k_m_per_pulse = d.meta.k_nominal_m_per_pulse.value_or(0.0125);
   return p;
+}
+
+/// The diagnosis of an offline run of d with params_for(d).
+RunDiagnosis diagnosed(const Dataset& d) {
+  const OfflineParams p = params_for(d);
+  return diagnose_run(d, p, run_offline(d, p));
 }
 
 const RunWarning* find(const RunDiagnosis& r, const std::string& code) {
@@ -38,8 +49,7 @@ const RunWarning* find(const RunDiagnosis& r, const std::string& code) {
 
 TEST(RunDiagnosis, ACleanDriveHasNoWarning) {
   const Dataset d = simulator::simulate(straight());
-  const OfflineParams p = params_for(d);
-  const RunDiagnosis r = diagnose_run(d, p, run_offline(d, p));
+  const RunDiagnosis r = diagnosed(d);
   EXPECT_TRUE(r.usable);
   for (const RunWarning& w : r.warnings) ADD_FAILURE() << w.code << ": " << w.message;
 }
@@ -79,8 +89,7 @@ TEST(RunDiagnosis, AWrongNominalKThatTruncatesTheDeadReckoningIsNamed) {
 TEST(RunDiagnosis, NoTimeOverlapIsNamedWithBothSpans) {
   Dataset d = simulator::simulate(straight(60.0));
   for (GnssSample& g : d.gnss) g.t_s += 1e6;  // GNSS in another time base
-  const OfflineParams p = params_for(d);
-  const RunDiagnosis r = diagnose_run(d, p, run_offline(d, p));
+  const RunDiagnosis r = diagnosed(d);
   EXPECT_FALSE(r.usable);
   const RunWarning* w = find(r, "no_time_overlap");
   ASSERT_NE(w, nullptr);
@@ -91,8 +100,7 @@ TEST(RunDiagnosis, NoTimeOverlapIsNamedWithBothSpans) {
 TEST(RunDiagnosis, NegatedGnssVelocityIsNamed) {
   Dataset d = simulator::simulate(straight(60.0));
   for (GnssSample& g : d.gnss) g.vel_enu_mps = -g.vel_enu_mps;
-  const OfflineParams p = params_for(d);
-  const RunDiagnosis r = diagnose_run(d, p, run_offline(d, p));
+  const RunDiagnosis r = diagnosed(d);
   EXPECT_FALSE(r.usable);
   const RunWarning* w = find(r, "no_k");
   ASSERT_NE(w, nullptr);
@@ -123,12 +131,7 @@ TEST(RunDiagnosis, MedianPeriodIgnoresOutagesAndJitter) {
 // good drive raises nothing; an INS heading of the other sign convention, or in radians, is named
 // with its numbers, withdraws converged, and every output is still produced.
 namespace {
-simulator::SimulationConfig terrain(double duration_s = 300.0) {
-  simulator::SimulationConfig cfg = simulator::scenario_config("terrain");
-  cfg.seed = 2;
-  cfg.duration_s = duration_s;
-  return cfg;
-}
+simulator::SimulationConfig terrain(double duration_s = 300.0) { return scenario("terrain", 2, duration_s); }
 }  // namespace
 
 TEST(Consistency, AGoodTerrainDriveRaisesNothing) {
@@ -264,8 +267,7 @@ TEST(RunDiagnosis, AShortOneHertzDriveSaysTheMisalignmentDidNotConvergeAndWhatIs
       << w->message;
   // The same drive for 120 s at 10 Hz converges: no such warning.
   const Dataset ok = simulator::simulate(straight(120.0));
-  const OfflineParams q = params_for(ok);
-  EXPECT_EQ(find(diagnose_run(ok, q, run_offline(ok, q)), "misalignment_not_converged"), nullptr);
+  EXPECT_EQ(find(diagnosed(ok), "misalignment_not_converged"), nullptr);
 }
 
 TEST(RunDiagnosis, AShortOneHertzDriveSaysKDidNotConvergeAndWhatIsMissing) {
