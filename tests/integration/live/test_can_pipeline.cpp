@@ -97,14 +97,26 @@ fs::path simulate(const fs::path& dir, const std::string& scenario, const std::s
   return data;
 }
 
+/// A drive of odonav-simulator (scenario, duration) in dir and its candump log, dir/can.log.
+struct CanDrive {
+  Dataset d;
+  fs::path can_log;
+  CanLog log;
+};
+CanDrive can_drive(const fs::path& dir, const std::string& scenario, const std::string& duration_s) {
+  CanDrive r;
+  r.d = read_dataset(simulate(dir, scenario, duration_s).string(), BadRowPolicy::kFail);
+  r.can_log = dir / "can.log";
+  r.log = write_can_log(r.d, r.can_log);
+  return r;
+}
+
 class CanPipeline : public odonav::test::ShmCleanTest {};
 
 TEST_F(CanPipeline, ReplayedCandumpLogEqualsTheOfflineToolOnTheEquivalentDataset) {
   const fs::path dir = fresh_live_dir("can-pipeline");
-  const Dataset d = read_dataset(simulate(dir, "terrain", "90").string(), BadRowPolicy::kFail);
+  const auto [d, can_log, log] = can_drive(dir, "terrain", "90");
   ASSERT_TRUE(d.has_ins());
-  const fs::path can_log = dir / "can.log";
-  const CanLog log = write_can_log(d, can_log);
   // What odonav-offline reads: the drive with the odometer as the log carries it.
   Dataset equivalent = d;
   equivalent.odometer = log.odometer;
@@ -207,7 +219,7 @@ TEST_F(CanPipeline, LiveStandardInputPublishesEveryFrameAndCountsTheBadOnes) {
   ChildProcess gw("/bin/sh", {"-c", "(" + command + ") | " + gateway}, dir / "gateway.log", dir / "gateway.log");
   ASSERT_TRUE(gw.wait_exit(60s)) << read_text(dir / "gateway.log");
   EXPECT_EQ(gw.exit_code(), 0) << read_text(dir / "gateway.log");
-  ASSERT_TRUE(odo.wait_until([&](const auto& v) { return v.size() >= log.odometer.size(); }, 10s))
+  ASSERT_TRUE(odo.wait_until([&log = log](const auto& v) { return v.size() >= log.odometer.size(); }, 10s))
       << odo.size() << " of " << log.odometer.size();
   const auto got = odo.samples();
   ASSERT_EQ(got.size(), log.odometer.size());
@@ -229,10 +241,8 @@ TEST_F(CanPipeline, LiveStandardInputPublishesEveryFrameAndCountsTheBadOnes) {
 
 TEST_F(CanPipeline, LiveCanOdometerWithInsLinesOverUdp) {
   const fs::path dir = fresh_live_dir("can-stdin-ins");
-  const Dataset d = read_dataset(simulate(dir, "straight", "5").string(), BadRowPolicy::kFail);
+  const auto [d, can_log, log] = can_drive(dir, "straight", "5");
   ASSERT_TRUE(d.has_ins());
-  const fs::path can_log = dir / "can.log";
-  const CanLog log = write_can_log(d, can_log);
   const int domain = 142;
   dds::Participant p(test_participant(domain));
   Collector<msg::Odometer> odo(p, topics::kOdometer);
@@ -257,11 +267,11 @@ TEST_F(CanPipeline, LiveCanOdometerWithInsLinesOverUdp) {
     send(gateway::ins_line(d.ins[i], false));
     if (i % 50 == 49) std::this_thread::sleep_for(5ms);
   }
-  EXPECT_TRUE(ins.wait_until([&](const auto& v) { return v.size() >= d.ins.size(); }, 10s))
+  EXPECT_TRUE(ins.wait_until([&d = d](const auto& v) { return v.size() >= d.ins.size(); }, 10s))
       << ins.size() << " of " << d.ins.size() << " INS";
   ASSERT_TRUE(gw.wait_exit(30s)) << read_text(dir / "gateway.log");
   EXPECT_EQ(gw.exit_code(), 0) << read_text(dir / "gateway.log");
-  EXPECT_TRUE(odo.wait_until([&](const auto& v) { return v.size() >= log.odometer.size(); }, 10s));
+  EXPECT_TRUE(odo.wait_until([&log = log](const auto& v) { return v.size() >= log.odometer.size(); }, 10s));
   EXPECT_EQ(odo.size(), log.odometer.size()) << "the CAN samples, not the ODO line as well";
   ASSERT_TRUE(health.wait_until(
       [](const auto& v) { return !v.empty() && v.back().state() == msg::HEALTH_STATE_STOPPING; }, 10s));
