@@ -23,10 +23,18 @@
 #include <nlohmann/json.hpp>
 
 #include "odonav/dds/participant.hpp"
+#include "odonav/dds/types.hpp"
 #include "child_process.hpp"
 #include "odonav/topics.hpp"
 
 namespace odonav::test {
+
+// The names the ground-station tests use unqualified (each has `using namespace odonav::test`).
+using namespace std::chrono_literals;
+namespace msg = odonav::msg;
+namespace topics = odonav::topics;
+namespace fs = std::filesystem;
+using nlohmann::json;
 
 inline std::string loopback_profile() { return std::string(ODONAV_SOURCE_DIR) + "/deploy/profiles/loopback.xml"; }
 

@@ -22,12 +22,7 @@
 #include "odonav/msg/ScaleFactor.h"
 #include "odonav/results/output_files.hpp"
 
-using namespace std::chrono_literals;
 using namespace odonav::test;
-namespace msg = odonav::msg;
-namespace topics = odonav::topics;
-namespace fs = std::filesystem;
-using nlohmann::json;
 
 namespace {
 

@@ -21,10 +21,7 @@
 #include "odonav/msg/Misalignment.h"
 #include "odonav/msg/ScaleFactor.h"
 
-using namespace std::chrono_literals;
 using namespace odonav::test;
-namespace msg = odonav::msg;
-namespace topics = odonav::topics;
 using odonav::dds::HealthPublisher;
 using odonav::dds::Participant;
 using odonav::dds::Reader;

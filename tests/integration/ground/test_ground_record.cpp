@@ -15,12 +15,7 @@
 #include "odonav/dds/time.hpp"
 #include "odonav/dds/types.hpp"
 
-using namespace std::chrono_literals;
 using namespace odonav::test;
-namespace msg = odonav::msg;
-namespace topics = odonav::topics;
-namespace fs = std::filesystem;
-using nlohmann::json;
 using odonav::dds::Participant;
 using odonav::dds::Writer;
 

@@ -27,12 +27,7 @@
 #include "odonav/msg/DeadReckoning.h"
 #include "odonav/msg/ScaleFactor.h"
 
-using namespace std::chrono_literals;
 using namespace odonav::test;
-namespace msg = odonav::msg;
-namespace topics = odonav::topics;
-namespace fs = std::filesystem;
-using nlohmann::json;
 
 namespace {
 

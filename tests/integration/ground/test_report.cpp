@@ -12,7 +12,6 @@
 #include "ground_test_support.hpp"
 
 using namespace odonav::test;
-namespace fs = std::filesystem;
 
 TEST(Report, HtmlWithEveryFigureFromAnOfflineRun) {
   const fs::path dir = scratch_dir("report");
