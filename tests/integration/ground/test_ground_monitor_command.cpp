@@ -313,47 +313,35 @@ TEST_F(GroundProcesses, CommandIsAcknowledgedRejectedOrTimesOut) {
   const auto dir = scratch_dir("command");
   FakeComponent fake(kDomain, "veh-cmd", "odonav-fake");
   FakeComponent other(kDomain, "veh-other", "odonav-fake");  // same component name, other vehicle
+  // `odonav-ground command` to the fake component of veh-cmd, output under `name` in dir.
+  const auto command = [&](const std::vector<std::string>& what, const std::string& name) {
+    std::vector<std::string> args{"--vehicle", "veh-cmd", "--component"};
+    args.insert(args.end(), what.begin(), what.end());
+    return run(binary("odonav-ground"), ground_args("command", kDomain, args), dir, name);
+  };
 
-  const RunResult ok = run(
-      binary("odonav-ground"),
-      ground_args("command", kDomain,
-                  {"--vehicle", "veh-cmd", "--component", "odonav-fake", "set-k", "0.0127125", "--timeout-s", "15"}),
-      dir, "set_k");
+  const RunResult ok = command({"odonav-fake", "set-k", "0.0127125", "--timeout-s", "15"}, "set_k");
   EXPECT_EQ(ok.exit_code, 0) << ok.out << ok.err;
   EXPECT_NE(ok.out.find("ACCEPTED: K set"), std::string::npos) << ok.out;
   ASSERT_TRUE(fake.commanded_k().has_value());
   EXPECT_EQ(*fake.commanded_k(), 0.0127125);      // the value crossed the wire exactly
   EXPECT_FALSE(other.commanded_k().has_value());  // addressed to one vehicle only
 
-  const RunResult rejected =
-      run(binary("odonav-ground"),
-          ground_args("command", kDomain,
-                      {"--vehicle", "veh-cmd", "--component", "odonav-fake", "freeze", "--timeout-s", "15"}),
-          dir, "freeze");
+  const RunResult rejected = command({"odonav-fake", "freeze", "--timeout-s", "15"}, "freeze");
   EXPECT_EQ(rejected.exit_code, 1) << rejected.out << rejected.err;
   EXPECT_NE(rejected.out.find("REJECTED: only set-k is supported here"), std::string::npos) << rejected.out;
 
-  const RunResult timeout =
-      run(binary("odonav-ground"),
-          ground_args("command", kDomain,
-                      {"--vehicle", "veh-cmd", "--component", "odonav-nobody", "reset", "--timeout-s", "2"}),
-          dir, "timeout");
+  const RunResult timeout = command({"odonav-nobody", "reset", "--timeout-s", "2"}, "timeout");
   EXPECT_EQ(timeout.exit_code, 3) << timeout.out << timeout.err;
   EXPECT_NE(timeout.out.find("TIMEOUT"), std::string::npos) << timeout.out;
   EXPECT_NE(timeout.out.find("odonav-nobody"), std::string::npos) << timeout.out;
 
-  const RunResult bad =
-      run(binary("odonav-ground"),
-          ground_args("command", kDomain, {"--vehicle", "veh-cmd", "--component", "odonav-fake", "set-k", "fast"}), dir,
-          "bad");
+  const RunResult bad = command({"odonav-fake", "set-k", "fast"}, "bad");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("'fast'"), std::string::npos) << bad.err;
 
   // The former name of wire value 0 is refused before anything is sent, naming the new ones.
-  const RunResult old_name =
-      run(binary("odonav-ground"),
-          ground_args("command", kDomain, {"--vehicle", "veh-cmd", "--component", "odonav-fake", "reset-calibration"}),
-          dir, "old_name");
+  const RunResult old_name = command({"odonav-fake", "reset-calibration"}, "old_name");
   EXPECT_EQ(old_name.exit_code, 2) << old_name.out << old_name.err;
   EXPECT_NE(old_name.err.find("'reset-calibration' is no longer a command: use 'reset'"), std::string::npos)
       << old_name.err;
