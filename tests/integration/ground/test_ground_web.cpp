@@ -147,20 +147,19 @@ TEST_F(GroundWeb, FoxgloveClientReadsTheVehicleAsStandardRosMessages) {
   std::map<long long, std::pair<double, double>> nav_by_stamp_us;  // the anchored position
   std::map<long long, double> k_by_stamp_us;
   auto us = [](const std_msgs::msg::Header& h) { return std::llround(odonav::dds::to_seconds(h.stamp()) * 1e6); };
+  // The vehicle's positions of a DeadReckoning or NavigationPosition message, into `by_stamp`.
+  const auto positions_into = [&](std::map<long long, std::pair<double, double>>& by_stamp) {
+    return [&](const auto& m) {
+      if (m.vehicle_id() != vehicle) return;
+      std::lock_guard<std::mutex> lock(mutex);
+      by_stamp[us(m.header())] = {m.latitude_deg(), m.longitude_deg()};
+    };
+  };
   odonav::dds::Reader<msg::DeadReckoning> dr_reader(
-      participant, topics::kDeadReckoning.name, topics::kGroundBestEffortReaderProfile,
-      [&](const msg::DeadReckoning& d) {
-        if (d.vehicle_id() != vehicle) return;
-        std::lock_guard<std::mutex> lock(mutex);
-        dr_by_stamp_us[us(d.header())] = {d.latitude_deg(), d.longitude_deg()};
-      });
-  odonav::dds::Reader<msg::NavigationPosition> nav_reader(
-      participant, topics::kNavigationPosition.name, topics::kGroundBestEffortReaderProfile,
-      [&](const msg::NavigationPosition& n) {
-        if (n.vehicle_id() != vehicle) return;
-        std::lock_guard<std::mutex> lock(mutex);
-        nav_by_stamp_us[us(n.header())] = {n.latitude_deg(), n.longitude_deg()};
-      });
+      participant, topics::kDeadReckoning.name, topics::kGroundBestEffortReaderProfile, positions_into(dr_by_stamp_us));
+  odonav::dds::Reader<msg::NavigationPosition> nav_reader(participant, topics::kNavigationPosition.name,
+                                                          topics::kGroundBestEffortReaderProfile,
+                                                          positions_into(nav_by_stamp_us));
   odonav::dds::Reader<msg::ScaleFactor> k_reader(participant, topics::kScaleFactor.name, topics::kEstimateReaderProfile,
                                                  [&](const msg::ScaleFactor& k) {
                                                    if (k.vehicle_id() != vehicle) return;
