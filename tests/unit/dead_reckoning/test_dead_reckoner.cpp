@@ -37,9 +37,7 @@ std::vector<DeadReckoningOutput> run_all(const SyntheticData& d, const DeadRecko
                                          DeadReckonerCounters* counters = nullptr) {
   DeadReckoner dr(p);
   if (mis) dr.add_misalignment(0.0, *mis);
-  for (const auto& s : d.odometer) dr.add_odometer(s);
-  for (const auto& s : d.ins) dr.add_ins(s);
-  for (const auto& s : d.gnss) dr.add_gnss(s);
+  add_whole_drive(dr, d);
   auto out = dr.finish();
   if (counters) *counters = dr.counters();
   return out;
@@ -101,9 +99,7 @@ TEST(DeadReckoner, OnePercentKErrorGivesOnePercentOfDistanceAlongTrack) {
   // The identified K from t = 50 s on stops the growth: the error stays at the 5 m of the first half.
   DeadReckoner dr(p);
   dr.add_scale_factor(50.0, kK, ScaleFactorSource::kIdentified);
-  for (const auto& s : d.odometer) dr.add_odometer(s);
-  for (const auto& s : d.ins) dr.add_ins(s);
-  for (const auto& s : d.gnss) dr.add_gnss(s);
+  add_whole_drive(dr, d);
   const auto fixed = dr.finish();
   EXPECT_NEAR(fixed.back().horizontal_error_m, 5.0, 0.02);
   EXPECT_EQ(fixed.back().k_source, ScaleFactorSource::kIdentified);
@@ -160,9 +156,7 @@ TEST(DeadReckoner, LeverArmMovesTheStartAndTheReferenceToTheInsPoint) {
   DeadReckonerParams p = exact_k();
   p.lever_arm_body_m = c.lever_arm_body_m;
   DeadReckoner dr(p);
-  for (const auto& s : d.odometer) dr.add_odometer(s);
-  for (const auto& s : d.ins) dr.add_ins(s);
-  for (const auto& s : d.gnss) dr.add_gnss(s);
+  add_whole_drive(dr, d);
   const auto out = dr.finish();
   const LocalEnuFrame truth_frame(c.origin);
   EXPECT_LT(truth_frame.to_enu(*dr.origin()).norm(), 1e-6);  // the INS point, not the antenna
@@ -491,9 +485,7 @@ TEST(DeadReckoner, ErrorAgainstGnssComparesEachFixWithTheDrAtItsStampMinusTheLat
       dr.add_gnss_latency(10.0, 0.3);  // not later than the previous one: ignored, counted
       dr.add_gnss_latency(11.0, 0.2);  // unchanged: nothing new
     }
-    for (const auto& s : d.odometer) dr.add_odometer(s);
-    for (const auto& s : d.ins) dr.add_ins(s);
-    for (const auto& s : d.gnss) dr.add_gnss(s);
+    add_whole_drive(dr, d);
     auto out = dr.finish();
     if (n) *n = dr.counters();
     return out;
@@ -533,9 +525,7 @@ TEST(DeadReckoner, AStampThatLeadsItsMeasurementIsComparedWhenTheDrReachesIt) {
     for (auto& g : d.gnss) g.t_s -= lead;
     DeadReckoner dr(exact_k());
     dr.add_gnss_latency(0.0, -lead);
-    for (const auto& s : d.odometer) dr.add_odometer(s);
-    for (const auto& s : d.ins) dr.add_ins(s);
-    for (const auto& s : d.gnss) dr.add_gnss(s);
+    add_whole_drive(dr, d);
     std::vector<DeadReckoningOutput> out;
     ASSERT_NO_THROW(out = dr.finish()) << lead;
     std::size_t fixes = 0, with_error = 0;

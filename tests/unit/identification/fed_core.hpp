@@ -24,9 +24,7 @@ inline std::unique_ptr<identification::IdentificationCore> fed_core(std::size_t 
   c.velocity_noise_mps = 0.02;
   c.seed = seed;
   const synthetic::SyntheticData d = synthetic::simulate(synthetic::straight(0.5, 0.0, 10.0, 0.0), c);
-  for (const auto& s : d.odometer) core->add_odometer(s);
-  for (const auto& s : d.ins) core->add_ins(s);
-  for (const auto& s : d.gnss) core->add_gnss(s);
+  synthetic::add_whole_drive(*core, d);
   core->finish();
   return core;
 }

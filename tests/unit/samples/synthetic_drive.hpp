@@ -145,6 +145,15 @@ inline SyntheticData simulate(const Trajectory& tr, const SensorConfig& c) {
   return d;
 }
 
+/// Adds every sample of `d` to `core` (add_odometer, add_ins, add_gnss): the whole odometer, then the
+/// INS, then the GNSS, for the tests that hand a core a drive at once.
+template <class Core>
+void add_whole_drive(Core& core, const SyntheticData& d) {
+  for (const auto& s : d.odometer) core.add_odometer(s);
+  for (const auto& s : d.ins) core.add_ins(s);
+  for (const auto& s : d.gnss) core.add_gnss(s);
+}
+
 /// Feeds `d` to `core` (add_odometer, add_gnss, add_ins) as three streams with different lags: in
 /// random bursts (seeded by `seed`) of 1 to max_burst samples of one stream at a time; after each
 /// burst, process_until(w) with w the minimum over the streams not yet exhausted of the stamp of

@@ -155,9 +155,7 @@ TurnSlipEstimate circle_slip_estimate(double gnss_period_s, int& turns) {
   const SyntheticData d = simulate(tr, c);
   SampleBuilder b;
   b.add_scale_factor_estimate(-1.0, kK, 1e-6);  // the K straight driving gave
-  for (const auto& o : d.odometer) b.add_odometer(o);
-  for (const auto& i : d.ins) b.add_ins(i);
-  for (const auto& x : d.gnss) b.add_gnss(x);
+  add_whole_drive(b, d);
   TurnSlipEstimator e;
   turns = 0;
   for (const SampleBuilderEpoch& ep : b.finish()) {
