@@ -102,14 +102,11 @@ void CoarseEstimator::state_fields(Archive& a, Self& self) {
           "is out of range");
 }
 
-StateJson CoarseEstimator::save_state() const {
-  return save_estimator_state(name(), params_, [&](StateOut& a) { state_fields(a, *this); });
-}
+StateJson CoarseEstimator::save_state() const { return save_estimator_fields(*this, name(), params_); }
 
 void CoarseEstimator::restore_state(const StateJson& state) {
-  CoarseEstimator e = *this;  // restored into a copy: this one changes only when everything was read
-  restore_estimator_state(state, name(), params_, [&](StateIn& a) { state_fields(a, e); });
-  *this = std::move(e);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_estimator_copy(*this, state, name(), params_);
 }
 
 }  // namespace odonav

@@ -83,6 +83,21 @@ StateJson save_estimator_state(const std::string& name, const ScaleFactorEstimat
 void restore_estimator_state(const StateJson& state, const std::string& name, const ScaleFactorEstimatorParams& params,
                              const std::function<void(StateIn&)>& fields);
 
+/// save_state() of estimator e: save_estimator_state with e's own state_fields.
+template <class Estimator>
+StateJson save_estimator_fields(const Estimator& e, const std::string& name, const ScaleFactorEstimatorParams& params) {
+  return save_estimator_state(name, params, [&](StateOut& a) { StateAccess::fields(a, e); });
+}
+
+/// `copy` (the estimator before the restore) with its state_fields read from state by
+/// restore_estimator_state; the caller commits it. Throws CheckpointError as that does.
+template <class Estimator>
+Estimator restored_estimator_copy(Estimator copy, const StateJson& state, const std::string& name,
+                                  const ScaleFactorEstimatorParams& params) {
+  restore_estimator_state(state, name, params, [&](StateIn& a) { StateAccess::fields(a, copy); });
+  return copy;
+}
+
 /// The residual scale tracker's count and variance (saved and restored through its accessors).
 template <class Archive, class Tracker>
 void residual_scale_fields(Archive& a, Tracker& t) {

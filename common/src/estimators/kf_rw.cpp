@@ -93,14 +93,11 @@ void KfRandomWalkEstimator::state_fields(Archive& a, Self& self) {
   a.check("residual_scale", self.residual_scale_.variance_m2() >= 0.0, "has a negative variance");
 }
 
-StateJson KfRandomWalkEstimator::save_state() const {
-  return save_estimator_state(name(), params_, [&](StateOut& a) { state_fields(a, *this); });
-}
+StateJson KfRandomWalkEstimator::save_state() const { return save_estimator_fields(*this, name(), params_); }
 
 void KfRandomWalkEstimator::restore_state(const StateJson& state) {
-  KfRandomWalkEstimator e = *this;  // restored into a copy: this one changes only when everything was read
-  restore_estimator_state(state, name(), params_, [&](StateIn& a) { state_fields(a, e); });
-  *this = std::move(e);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_estimator_copy(*this, state, name(), params_);
 }
 
 }  // namespace odonav

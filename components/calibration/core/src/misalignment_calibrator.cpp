@@ -360,16 +360,11 @@ void MisalignmentCalibrator::state_fields(Archive& a, Self& c) {
   a.check("samples_used", c.samples_used_ <= c.counters_.used, "exceeds the used-epoch counter");
 }
 
-StateJson MisalignmentCalibrator::save_state() const {
-  StateOut out;
-  state_fields(out, *this);
-  return out.take();
-}
+StateJson MisalignmentCalibrator::save_state() const { return save_fields(*this); }
 
 void MisalignmentCalibrator::restore_state(const StateJson& state) {
-  MisalignmentCalibrator c = *this;  // restored into a copy: this one changes only when everything was read
-  StateIn in(state, "calibrator");
-  state_fields(in, c);
+  // Restored into a copy: this one changes only when everything was read.
+  MisalignmentCalibrator c = restored_copy(*this, state, "calibrator");
   // The epochs up to the restored one were processed: one stamped at or before it is refused.
   if (c.counters_.epochs > 0) c.last_gnss_t_s_ = c.last_t_s_;
   *this = std::move(c);

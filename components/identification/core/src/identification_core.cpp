@@ -271,17 +271,11 @@ void IdentificationCore::state_fields(Archive& a, Self& c) {
             "does not hold one state per side-by-side estimator");
 }
 
-StateJson IdentificationCore::save_state() const {
-  StateOut out;
-  state_fields(out, *this);
-  return out.take();
-}
+StateJson IdentificationCore::save_state() const { return save_fields(*this); }
 
 void IdentificationCore::restore_state(const StateJson& state) {
-  IdentificationCore c(params_);  // restored into a copy: this one changes only when everything was read
-  StateIn in(state, "identification");
-  state_fields(in, c);
-  *this = std::move(c);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_copy(IdentificationCore(params_), state, "identification");
 }
 
 bool IdentificationCore::apply_misalignment(const PublishedMisalignment& m) {
