@@ -62,15 +62,9 @@ void KfRandomWalkEstimator::update(const ScaleFactorSample& sample) {
 }
 
 ScaleFactorEstimate KfRandomWalkEstimator::estimate() const {
-  ScaleFactorEstimate e;
-  e.samples_used = samples_used_;
-  e.forgetting_factor = 1.0;
-  e.window_fill = 1.0;
+  ScaleFactorEstimate e = invalid_estimate(samples_used_, 1.0, 1.0);  // no forgetting, no window
   if (!initialised_ || samples_used_ == 0) return e;
-  e.valid = true;
-  e.k_m_per_pulse = k_;
-  e.sigma_m_per_pulse = std::sqrt(p_);
-  e.converged = is_converged(params_, k_, e.sigma_m_per_pulse, samples_used_);
+  set_valid_estimate(e, params_, k_, std::sqrt(p_));
   return e;
 }
 
