@@ -96,10 +96,7 @@ MisalignmentCalibrator::MisalignmentCalibrator(const MisalignmentCalibratorParam
 }
 
 void MisalignmentCalibrator::add_gnss(const GnssSample& sample) {
-  detail::check_stream_time("gnss", sample.t_s, last_gnss_t_s_);
-  check_gnss_sample("gnss", sample);
-  last_gnss_t_s_ = sample.t_s;
-  pending_gnss_.push_back(sample);
+  queue_gnss_sample(sample, last_gnss_t_s_, pending_gnss_);
 }
 
 void MisalignmentCalibrator::add_ins(const InsSample& sample) {
