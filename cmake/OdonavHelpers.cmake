@@ -1,5 +1,31 @@
 # Helpers shared by every CMakeLists.txt of the project.
 
+# odonav_add_subdirectories(<glob>...)
+# Adds each folder the globs match that has a CMakeLists.txt, in sorted order, so that a component
+# or a test folder joins the build by itself.
+function(odonav_add_subdirectories)
+  file(GLOB _dirs LIST_DIRECTORIES true ${ARGN})
+  list(SORT _dirs)
+  foreach(_dir ${_dirs})
+    if(EXISTS ${_dir}/CMakeLists.txt)
+      add_subdirectory(${_dir})
+    endif()
+  endforeach()
+endfunction()
+
+# odonav_add_node_program(<program> NODE <library> SOURCES <files...> LINKS <targets...>)
+# The common shape of a DDS program's folder (components/<name>/): the node library <library> from
+# SOURCES, with the folder on its include path and LINKS as its public dependencies, and the
+# program bin/<program> from the folder's main.cpp, linked to it.
+function(odonav_add_node_program program)
+  cmake_parse_arguments(ARG "" "NODE" "SOURCES;LINKS" ${ARGN})
+  add_library(${ARG_NODE} STATIC ${ARG_SOURCES})
+  target_include_directories(${ARG_NODE} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR})
+  target_link_libraries(${ARG_NODE} PUBLIC ${ARG_LINKS})
+  add_executable(${program} main.cpp)
+  target_link_libraries(${program} PRIVATE ${ARG_NODE})
+endfunction()
+
 # odonav_add_gtest(<name> SOURCES <files...> LIBS <targets...> [LABELS <labels...>] [LANE <lane>]
 #                  [ENVIRONMENT <VAR=...>...] [TIMEOUT <s>])
 # Builds bin/odonav-test-<name> and registers each of its GoogleTest cases with CTest.

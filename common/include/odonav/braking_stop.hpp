@@ -11,7 +11,9 @@
 // Both components classify each GNSS epoch by its forward speed (m/s, GNSS) against the speed of an
 // epoch at least baseline_s earlier, so the decision depends on stamps only and needs nothing after
 // the epoch.
+#include <cstdint>
 #include <deque>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -54,6 +56,21 @@ MotionPhase classify_motion(double speed_before_mps, double speed_now_mps, doubl
 
 /// Throws std::invalid_argument naming the field when a parameter is out of range.
 void validate(const BrakingStopParams& params);
+
+/// What a component does with its braking snapshot (its estimates as they were when the current
+/// braking began) at an epoch: the one rule both the identification and the calibration follow.
+enum class BrakingStopStep {
+  kKeep,      ///< nothing changes: the phase is unknown, or the braking goes on with its snapshot taken.
+  kDrop,      ///< drop the snapshot, if any: the vehicle drives on, a braking that used no sample
+              ///< ended in a standstill, or the rule is off or the estimates frozen.
+  kSnapshot,  ///< a braking began: keep the estimates as they are now, count the samples used from now on.
+  kRollBack,  ///< a braking with used samples ended in a standstill: go back to the snapshot, drop it.
+};
+
+/// The step for an epoch of phase `phase` (call it before the epoch's sample is used). active:
+/// the rule is on and the estimates are not frozen. used_since: the samples used since the
+/// snapshot was taken (count), nullopt without a snapshot.
+BrakingStopStep braking_stop_step(MotionPhase phase, bool active, std::optional<uint64_t> used_since);
 
 /// The phase of each epoch in turn (classify_motion against the latest epoch at least baseline_s
 /// earlier). Memory: the epochs of the last max_reference_age_s.

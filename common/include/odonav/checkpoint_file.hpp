@@ -70,6 +70,34 @@ Checkpoint checkpoint_from_payload(const CheckpointIdentity& id, const StateJson
   return c;
 }
 
+/// One component's checkpoint files: the component named in the envelope and in the file name, and
+/// the version of its payload. A Checkpoint type has vehicle_id and config_hash members and a free
+/// state_fields (checkpoint_state.hpp) for the rest of its payload.
+struct CheckpointKind {
+  const char* component;  ///< "identification", "calibration", "dead-reckoning"
+  int version;            ///< of the component's payload
+  CheckpointIdentity identity(const std::string& vehicle_id, const std::string& config_hash) const {
+    return {component, version, vehicle_id, config_hash};
+  }
+  /// <state_dir>/<component>-<vehicle_id>.ckpt. Throws std::invalid_argument for a vehicle id that
+  /// cannot name a file (check_checkpoint_vehicle_id).
+  std::string path(const std::string& state_dir, const std::string& vehicle_id) const;
+  /// The file text of checkpoint c (the caller checks its values first).
+  template <class Checkpoint>
+  std::string seal(const Checkpoint& c) const {
+    return seal_checkpoint(identity(c.vehicle_id, c.config_hash), to_state(c));
+  }
+  /// A file text of this kind, for any vehicle and configuration. Throws CheckpointError when the
+  /// file is damaged, of another component or version, or a field is missing or out of range.
+  template <class Checkpoint>
+  Checkpoint parse(const std::string& text) const {
+    const CheckpointContents contents = unseal_checkpoint(text);
+    const CheckpointIdentity& id = contents.identity;
+    check_checkpoint_identity(id, identity(id.vehicle_id, id.config_hash));
+    return checkpoint_from_payload<Checkpoint>(id, contents.payload);
+  }
+};
+
 /// Options that do not change any estimate (transport, logging, where state lives, how often it is
 /// saved, hot standby): left out of the configuration hash so that changing them keeps a checkpoint
 /// valid. vehicle-id is left out too because it is checked on its own (a clearer reason).

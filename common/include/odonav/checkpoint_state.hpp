@@ -12,9 +12,10 @@
 // is a CheckpointError naming the field by its path ("dead_reckoner.gnss[3].fix is missing").
 // A plain struct is described by a free state_fields found by argument-dependent lookup
 // (ODONAV_STATE_FIELDS(Type) { a("x", s.x); } declares one), a private nested struct by a static
-// member template T::state_fields(a, s), a class by a private static member template called from
-// its save_state() / restore_state() (which restores into a copy and commits it only when every
-// field was read and checked). Members reached only through accessors go through via(): an object
+// member template T::state_fields(a, s), a class by a private static member template that its
+// save_state() / restore_state() reach through save_fields() / restored_copy() (the class declares
+// `friend struct StateAccess;`): restore_state restores into a copy and commits it only when every
+// field was read and checked. Members reached only through accessors go through via(): an object
 // that saves itself (StateJson save_state() / restore_state(const StateJson&)), one with
 // State state() / restore_state(State), or a getter and a setter. check() tests a restored value.
 //
@@ -281,6 +282,34 @@ void from_state(const StateJson& j, T& v, const std::string& field) {
     StateIn in(j, field);
     fields_of(in, v);
   }
+}
+
+/// The door to a class's private static state_fields for save_fields() and restored_copy(): a class
+/// that lists its checkpoint fields privately declares `friend struct StateAccess;`.
+struct StateAccess {
+  template <class Archive, class T>
+  static void fields(Archive& a, T& obj) {
+    std::remove_const_t<T>::state_fields(a, obj);
+  }
+};
+
+/// The checkpoint fields of obj (its state_fields) as one JSON object: a save_state().
+template <class T>
+StateJson save_fields(const T& obj) {
+  StateOut out;
+  StateAccess::fields(out, obj);
+  return out.take();
+}
+
+/// `copy` with its checkpoint fields read from state (its state_fields), for a restore_state() that
+/// commits the result only when everything was read and checked. copy: the object before the
+/// restore, or one made afresh from the same parameters. Throws CheckpointError naming the field
+/// under `where` ("dead_reckoner.gnss[3].fix is missing").
+template <class T>
+T restored_copy(T copy, const StateJson& state, const std::string& where) {
+  StateIn in(state, where);
+  StateAccess::fields(in, copy);
+  return copy;
 }
 
 /// Declares the state_fields of a plain struct `Type` (members reached as `s.<member>`, the

@@ -220,6 +220,7 @@ class RlsEstimator : public ScaleFactorEstimator {
 
  private:
   // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  friend struct StateAccess;  // the estimators' save_state() / restore_state() reach state_fields
   template <class Archive, class Self>
   static void state_fields(Archive& a, Self& self);
   ScaleFactorEstimatorParams params_;
@@ -288,6 +289,7 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
   // ScaleFactorEstimate::lag_sigma_m_per_pulse), 0 when every held sample is from after it.
   double lag_sigma(double k_m_per_pulse, double sigma_y_m) const;
   // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  friend struct StateAccess;  // the estimators' save_state() / restore_state() reach state_fields
   template <class Archive, class Self>
   static void state_fields(Archive& a, Self& self);
   // The window rows (phi, y, Lambda, speed change) restored into e; the const overload is the
@@ -360,6 +362,7 @@ class CoarseEstimator : public ScaleFactorEstimator {
 
  private:
   // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  friend struct StateAccess;  // the estimators' save_state() / restore_state() reach state_fields
   template <class Archive, class Self>
   static void state_fields(Archive& a, Self& self);
   void close_run();
@@ -403,6 +406,7 @@ class KfRandomWalkEstimator : public ScaleFactorEstimator {
 
  private:
   // The state's fields, listed once for save_state() and restore_state() (checkpoint_state.hpp).
+  friend struct StateAccess;  // the estimators' save_state() / restore_state() reach state_fields
   template <class Archive, class Self>
   static void state_fields(Archive& a, Self& self);
   ScaleFactorEstimatorParams params_;

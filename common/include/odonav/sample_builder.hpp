@@ -435,6 +435,7 @@ class SampleBuilder {
     }
   };
   // The builder's checkpoint fields, listed once for save_state() and restore_state().
+  friend struct odonav::StateAccess;  // save_fields() and restored_copy() reach state_fields
   template <class Archive, class Self>
   static void state_fields(Archive& a, Self& self);
   /// What an epoch that passed its own checks gives: the chain-start record and what the

@@ -5,4 +5,6 @@
 
 namespace odonav {
 using StateJson = nlohmann::json;
+/// Reaches a class's private checkpoint fields (checkpoint_state.hpp); a class befriends it.
+struct StateAccess;
 }  // namespace odonav

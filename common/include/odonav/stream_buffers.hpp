@@ -110,7 +110,53 @@ BracketState bracket(const Entries& entries, double t_s, double watermark_s, dou
   hi = i;
   return entries[hi].t_s - entries[lo].t_s <= max_bracket_s ? BracketState::kReady : BracketState::kMissing;
 }
+
+/// What the interpolated sensor buffers (OdometerBuffer, AttitudeBuffer) share: their samples in
+/// increasing time (Entry has t_s, s), the bracket of a time and the pruning of what no later time
+/// needs.
+template <class Entry>
+class BracketedStream {
+ public:
+  /// Whether the value at t_s (s) can be known, given that every sample with stamp <= watermark_s
+  /// has been added.
+  BracketState state_at(double t_s, double watermark_s) const {
+    std::size_t lo = 0, hi = 0;
+    return bracket(t_s, watermark_s, lo, hi);
+  }
+  /// Drops samples no longer needed for times >= t_s (keeps the last sample at or before t_s).
+  void drop_before(double t_s) {
+    while (entries_.size() >= 2 && entries_[1].t_s <= t_s) entries_.pop_front();
+  }
+  std::optional<double> last_time_s() const { return last_t_s_; }
+  double max_bracket_s() const { return max_bracket_s_; }
+
+ protected:
+  /// max_bracket_s: the longest gap between two samples across which the value is interpolated (s, > 0).
+  explicit BracketedStream(double max_bracket_s) : max_bracket_s_(max_bracket_s) {}
+  /// detail::bracket over the buffered samples.
+  BracketState bracket(double t_s, double watermark_s, std::size_t& lo, std::size_t& hi) const {
+    return detail::bracket(entries_, t_s, watermark_s, max_bracket_s_, lo, hi);
+  }
+
+  double max_bracket_s_;
+  std::deque<Entry> entries_;
+  std::optional<double> last_t_s_;
+};
 }  // namespace detail
+
+/// A sample of the odometer stream as OdometerBuffer keeps it.
+struct OdometerEntry {
+  double t_s = 0.0;
+  int64_t count = 0;  ///< unwrapped accumulated pulses since the first sample.
+  uint32_t raw_pulses = 0;
+  int direction = 1;
+};
+
+/// A sample of the INS attitude stream as AttitudeBuffer keeps it.
+struct AttitudeEntry {
+  double t_s;
+  Attitude attitude;
+};
 
 /// The pulse-jump gate of the odometer stream: the largest count increment a real vehicle can make
 /// in dt_s. A counter glitch (a bit flip, a reset to a random value, a bus error) shows up as an
@@ -160,20 +206,15 @@ enum class OdometerAddResult {
 ///    interval (exact at constant speed), counted in rebases().
 /// The counts of later samples are then their true increments added to that, so the distance after
 /// a jump stays correct (up to the one estimated interval).
-class OdometerBuffer {
+class OdometerBuffer : public detail::BracketedStream<OdometerEntry> {
  public:
-  struct Entry {
-    double t_s = 0.0;
-    int64_t count = 0;  ///< unwrapped accumulated pulses since the first sample.
-    uint32_t raw_pulses = 0;
-    int direction = 1;
-  };
+  using Entry = OdometerEntry;
 
   /// max_bracket_s: the longest gap between two samples across which the count is interpolated (s, > 0).
   /// gate: the pulse-jump gate (see OdometerJumpGate); throws std::invalid_argument when its values
   /// are out of range.
   explicit OdometerBuffer(double max_bracket_s = 1.0, const OdometerJumpGate& gate = {})
-      : max_bracket_s_(max_bracket_s), gate_(gate) {
+      : BracketedStream(max_bracket_s), gate_(gate) {
     if (!(std::isfinite(gate.max_speed_mps) && gate.max_speed_mps > 0.0) ||
         !(std::isfinite(gate.k_m_per_pulse) && gate.k_m_per_pulse > 0.0) ||
         !(std::isfinite(gate.margin_pulses) && gate.margin_pulses >= 0.0))
@@ -229,13 +270,6 @@ class OdometerBuffer {
   uint64_t rebases() const { return rebases_; }
   const OdometerJumpGate& jump_gate() const { return gate_; }
 
-  /// Whether the count at t_s (s) can be known, given that every sample with stamp <= watermark_s
-  /// has been added.
-  BracketState state_at(double t_s, double watermark_s) const {
-    std::size_t lo = 0, hi = 0;
-    return bracket(t_s, watermark_s, lo, hi);
-  }
-
   /// Unwrapped count at t_s (pulses, linear between the bracketing samples); nullopt unless kReady.
   std::optional<double> count_at(double t_s, double watermark_s) const {
     std::size_t lo = 0, hi = 0;
@@ -274,14 +308,7 @@ class OdometerBuffer {
     return OdometerDirection::kForward;
   }
 
-  /// Drops samples no longer needed for times >= t_s (keeps the last sample at or before t_s).
-  void drop_before(double t_s) {
-    while (entries_.size() >= 2 && entries_[1].t_s <= t_s) entries_.pop_front();
-  }
-
   const std::deque<Entry>& entries() const { return entries_; }
-  std::optional<double> last_time_s() const { return last_t_s_; }
-  double max_bracket_s() const { return max_bracket_s_; }
 
   /// Everything the buffer holds besides its parameters, for a component checkpoint: restoring it
   /// into a buffer made with the same parameters continues exactly as the saved one would.
@@ -308,26 +335,21 @@ class OdometerBuffer {
   }
 
  private:
-  BracketState bracket(double t_s, double watermark_s, std::size_t& lo, std::size_t& hi) const {
-    return detail::bracket(entries_, t_s, watermark_s, max_bracket_s_, lo, hi);
-  }
-
-  double max_bracket_s_;
   OdometerJumpGate gate_;
-  std::deque<Entry> entries_;
   std::optional<Entry> last_accepted_;   ///< the gate's reference (survives pruning).
   std::optional<Entry> rejected_;        ///< the last rejected sample, while no sample was accepted after it.
   double last_rate_pulses_per_s_ = 0.0;  ///< pulse rate over the last accepted interval.
   uint64_t jumps_rejected_ = 0;
   uint64_t rebases_ = 0;
-  std::optional<double> last_t_s_;
 };
 
 /// The INS attitude stream; attitude at a time by interpolate_attitude (frames.hpp).
-class AttitudeBuffer {
+class AttitudeBuffer : public detail::BracketedStream<AttitudeEntry> {
  public:
+  using Entry = AttitudeEntry;
+
   /// max_bracket_s: the longest gap between two samples across which attitude is interpolated (s, > 0).
-  explicit AttitudeBuffer(double max_bracket_s = 1.0) : max_bracket_s_(max_bracket_s) {}
+  explicit AttitudeBuffer(double max_bracket_s = 1.0) : BracketedStream(max_bracket_s) {}
 
   /// Adds one sample; time must be finite and increase, angles finite, pitch in [-pi/2, pi/2].
   /// Throws StreamInputError otherwise.
@@ -344,12 +366,6 @@ class AttitudeBuffer {
     entries_.push_back({s.t_s, a});
   }
 
-  /// See OdometerBuffer::state_at.
-  BracketState state_at(double t_s, double watermark_s) const {
-    std::size_t lo = 0, hi = 0;
-    return bracket(t_s, watermark_s, lo, hi);
-  }
-
   /// Attitude at t_s (interpolated between the bracketing samples); nullopt unless kReady.
   std::optional<Attitude> attitude_at(double t_s, double watermark_s) const {
     std::size_t lo = 0, hi = 0;
@@ -359,18 +375,8 @@ class AttitudeBuffer {
     return interpolate_attitude(entries_[lo].attitude, entries_[hi].attitude, f);
   }
 
-  /// Drops samples no longer needed for times >= t_s (keeps the last sample at or before t_s).
-  void drop_before(double t_s) {
-    while (entries_.size() >= 2 && entries_[1].t_s <= t_s) entries_.pop_front();
-  }
-
   std::size_t size() const { return entries_.size(); }
-  std::optional<double> last_time_s() const { return last_t_s_; }
 
-  struct Entry {
-    double t_s;
-    Attitude attitude;
-  };
   /// Everything the buffer holds besides its parameters (see OdometerBuffer::State).
   struct State {
     std::deque<Entry> entries;
@@ -381,15 +387,6 @@ class AttitudeBuffer {
     entries_ = std::move(s.entries);
     last_t_s_ = s.last_t_s;
   }
-
- private:
-  BracketState bracket(double t_s, double watermark_s, std::size_t& lo, std::size_t& hi) const {
-    return detail::bracket(entries_, t_s, watermark_s, max_bracket_s_, lo, hi);
-  }
-
-  double max_bracket_s_;
-  std::deque<Entry> entries_;
-  std::optional<double> last_t_s_;
 };
 
 /// A piecewise-constant value stream (misalignment, scale factor): the value in force at a time is
@@ -467,6 +464,26 @@ inline void check_gnss_sample(const char* stream, const GnssSample& g) {
     m << stream << ": at t=" << g.t_s << " s, position or velocity is not finite (or latitude out of range)";
     throw StreamInputError(m.str());
   }
+}
+
+/// Queues a GNSS epoch for processing after checking it (time finite and after last_t_s,
+/// check_gnss_sample); last_t_s becomes its time. Throws StreamInputError naming the gnss stream.
+inline void queue_gnss_sample(const GnssSample& s, std::optional<double>& last_t_s, std::deque<GnssSample>& pending) {
+  detail::check_stream_time("gnss", s.t_s, last_t_s);
+  check_gnss_sample("gnss", s);
+  last_t_s = s.t_s;
+  pending.push_back(s);
+}
+
+/// Adds the misalignment estimate m (rad) of epoch t_s (s) to its history. Throws StreamInputError
+/// when an angle is not finite (nothing is added then), or as StepHistory::add.
+inline void add_misalignment_estimate(StepHistory<Misalignment>& history, double t_s, const Misalignment& m) {
+  if (!std::isfinite(m.heading_rad) || !std::isfinite(m.pitch_rad)) {
+    std::ostringstream s;
+    s << "misalignment: at t=" << t_s << " s, angles are not finite";
+    throw StreamInputError(s.str());
+  }
+  history.add(t_s, m);
 }
 
 }  // namespace odonav

@@ -94,6 +94,7 @@ class TurnSlipEstimator {
   void restore_state(const StateJson& state);
 
  private:
+  friend struct odonav::StateAccess;  // save_fields() and restored_copy() reach state_fields
   template <class Archive, class Self>
   static void state_fields(Archive& a, Self& self);
 

@@ -53,10 +53,7 @@ void CoarseEstimator::update(const ScaleFactorSample& sample) {
 }
 
 ScaleFactorEstimate CoarseEstimator::estimate() const {
-  ScaleFactorEstimate e;
-  e.samples_used = samples_used_;
-  e.forgetting_factor = 1.0;
-  e.window_fill = 1.0;
+  ScaleFactorEstimate e = invalid_estimate(samples_used_, 1.0, 1.0);  // whole straight runs: no forgetting
   // The run still open counts as soon as it is long enough: a drive that ends on its straight (the
   // calibration run itself) never sees a sample that closes it.
   double length_m = total_length_m_, pulses = total_pulses_;
@@ -68,11 +65,9 @@ ScaleFactorEstimate CoarseEstimator::estimate() const {
     ++runs;
   }
   if (runs == 0) return e;
-  e.valid = true;
-  e.k_m_per_pulse = length_m / pulses;
   // Each run has two independent end-point position errors.
-  e.sigma_m_per_pulse = std::sqrt(2.0 * static_cast<double>(runs)) * params_.coarse_position_sigma_m / pulses;
-  e.converged = is_converged(params_, e.k_m_per_pulse, e.sigma_m_per_pulse, samples_used_);
+  set_valid_estimate(e, params_, length_m / pulses,
+                     std::sqrt(2.0 * static_cast<double>(runs)) * params_.coarse_position_sigma_m / pulses);
   return e;
 }
 
@@ -102,14 +97,11 @@ void CoarseEstimator::state_fields(Archive& a, Self& self) {
           "is out of range");
 }
 
-StateJson CoarseEstimator::save_state() const {
-  return save_estimator_state(name(), params_, [&](StateOut& a) { state_fields(a, *this); });
-}
+StateJson CoarseEstimator::save_state() const { return save_estimator_fields(*this, name(), params_); }
 
 void CoarseEstimator::restore_state(const StateJson& state) {
-  CoarseEstimator e = *this;  // restored into a copy: this one changes only when everything was read
-  restore_estimator_state(state, name(), params_, [&](StateIn& a) { state_fields(a, e); });
-  *this = std::move(e);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_estimator_copy(*this, state, name(), params_);
 }
 
 }  // namespace odonav

@@ -55,21 +55,35 @@ inline bool is_converged(const ScaleFactorEstimatorParams& params, double k, dou
   return samples_used >= params.min_samples && k != 0.0 && sigma / std::abs(k) < params.converged_rel_sigma;
 }
 
+/// An estimate that is not valid (yet): what every estimator reports whatever its state, the
+/// samples used, the forgetting factor (1: none) and the window fill (1: no window).
+inline ScaleFactorEstimate invalid_estimate(uint64_t samples_used, double forgetting_factor, double window_fill) {
+  ScaleFactorEstimate e;
+  e.samples_used = samples_used;
+  e.forgetting_factor = forgetting_factor;
+  e.window_fill = window_fill;
+  return e;
+}
+
+/// Makes e valid with K = k_m_per_pulse and its one-sigma sigma_m_per_pulse (m/pulse), converged
+/// per the params and e's samples_used.
+inline void set_valid_estimate(ScaleFactorEstimate& e, const ScaleFactorEstimatorParams& params, double k_m_per_pulse,
+                               double sigma_m_per_pulse) {
+  e.valid = true;
+  e.k_m_per_pulse = k_m_per_pulse;
+  e.sigma_m_per_pulse = sigma_m_per_pulse;
+  e.converged = is_converged(params, e.k_m_per_pulse, e.sigma_m_per_pulse, e.samples_used);
+}
+
 /// The estimate of a least-squares estimator with total sums (prior included) s_pp [pulse^2] and
 /// s_py [pulse m]: K = s_py / s_pp, sigma = sigma_y / sqrt(s_pp), converged per the params.
 /// Invalid when no sample is held (has_samples false) or s_pp is not positive.
 inline ScaleFactorEstimate least_squares_estimate(const ScaleFactorEstimatorParams& params, bool has_samples,
                                                   double s_pp, double s_py, double sigma_y_m, uint64_t samples_used,
                                                   double forgetting_factor, double window_fill) {
-  ScaleFactorEstimate e;
-  e.samples_used = samples_used;
-  e.forgetting_factor = forgetting_factor;
-  e.window_fill = window_fill;
+  ScaleFactorEstimate e = invalid_estimate(samples_used, forgetting_factor, window_fill);
   if (!has_samples || !(s_pp > 0.0)) return e;
-  e.valid = true;
-  e.k_m_per_pulse = s_py / s_pp;
-  e.sigma_m_per_pulse = sigma_y_m / std::sqrt(s_pp);
-  e.converged = is_converged(params, e.k_m_per_pulse, e.sigma_m_per_pulse, samples_used);
+  set_valid_estimate(e, params, s_py / s_pp, sigma_y_m / std::sqrt(s_pp));
   return e;
 }
 
@@ -82,6 +96,21 @@ StateJson save_estimator_state(const std::string& name, const ScaleFactorEstimat
 /// copy the caller commits). Throws CheckpointError "estimator state for '<name>': <what>".
 void restore_estimator_state(const StateJson& state, const std::string& name, const ScaleFactorEstimatorParams& params,
                              const std::function<void(StateIn&)>& fields);
+
+/// save_state() of estimator e: save_estimator_state with e's own state_fields.
+template <class Estimator>
+StateJson save_estimator_fields(const Estimator& e, const std::string& name, const ScaleFactorEstimatorParams& params) {
+  return save_estimator_state(name, params, [&](StateOut& a) { StateAccess::fields(a, e); });
+}
+
+/// `copy` (the estimator before the restore) with its state_fields read from state by
+/// restore_estimator_state; the caller commits it. Throws CheckpointError as that does.
+template <class Estimator>
+Estimator restored_estimator_copy(Estimator copy, const StateJson& state, const std::string& name,
+                                  const ScaleFactorEstimatorParams& params) {
+  restore_estimator_state(state, name, params, [&](StateIn& a) { StateAccess::fields(a, copy); });
+  return copy;
+}
 
 /// The residual scale tracker's count and variance (saved and restored through its accessors).
 template <class Archive, class Tracker>

@@ -62,15 +62,9 @@ void KfRandomWalkEstimator::update(const ScaleFactorSample& sample) {
 }
 
 ScaleFactorEstimate KfRandomWalkEstimator::estimate() const {
-  ScaleFactorEstimate e;
-  e.samples_used = samples_used_;
-  e.forgetting_factor = 1.0;
-  e.window_fill = 1.0;
+  ScaleFactorEstimate e = invalid_estimate(samples_used_, 1.0, 1.0);  // no forgetting, no window
   if (!initialised_ || samples_used_ == 0) return e;
-  e.valid = true;
-  e.k_m_per_pulse = k_;
-  e.sigma_m_per_pulse = std::sqrt(p_);
-  e.converged = is_converged(params_, k_, e.sigma_m_per_pulse, samples_used_);
+  set_valid_estimate(e, params_, k_, std::sqrt(p_));
   return e;
 }
 
@@ -93,14 +87,11 @@ void KfRandomWalkEstimator::state_fields(Archive& a, Self& self) {
   a.check("residual_scale", self.residual_scale_.variance_m2() >= 0.0, "has a negative variance");
 }
 
-StateJson KfRandomWalkEstimator::save_state() const {
-  return save_estimator_state(name(), params_, [&](StateOut& a) { state_fields(a, *this); });
-}
+StateJson KfRandomWalkEstimator::save_state() const { return save_estimator_fields(*this, name(), params_); }
 
 void KfRandomWalkEstimator::restore_state(const StateJson& state) {
-  KfRandomWalkEstimator e = *this;  // restored into a copy: this one changes only when everything was read
-  restore_estimator_state(state, name(), params_, [&](StateIn& a) { state_fields(a, e); });
-  *this = std::move(e);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_estimator_copy(*this, state, name(), params_);
 }
 
 }  // namespace odonav

@@ -62,14 +62,11 @@ void RlsEstimator::state_fields(Archive& a, Self& self) {
   a.check("residual_scale", self.residual_scale_.variance_m2() >= 0.0, "has a negative variance");
 }
 
-StateJson RlsEstimator::save_state() const {
-  return save_estimator_state(name_, params_, [&](StateOut& a) { state_fields(a, *this); });
-}
+StateJson RlsEstimator::save_state() const { return save_estimator_fields(*this, name_, params_); }
 
 void RlsEstimator::restore_state(const StateJson& state) {
-  RlsEstimator e = *this;  // restored into a copy: this one changes only when everything was read
-  restore_estimator_state(state, name_, params_, [&](StateIn& a) { state_fields(a, e); });
-  *this = std::move(e);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_estimator_copy(*this, state, name_, params_);
 }
 
 }  // namespace odonav

@@ -254,14 +254,11 @@ void WindowRlsEstimator::restore_window(WindowRlsEstimator& e, const std::vector
   for (std::size_t i = 0; i < rows.size(); ++i) e.buffer_[i] = Entry{rows[i][0], rows[i][1], rows[i][2], rows[i][3]};
 }
 
-StateJson WindowRlsEstimator::save_state() const {
-  return save_estimator_state(name(), params_, [&](StateOut& a) { state_fields(a, *this); });
-}
+StateJson WindowRlsEstimator::save_state() const { return save_estimator_fields(*this, name(), params_); }
 
 void WindowRlsEstimator::restore_state(const StateJson& state) {
-  WindowRlsEstimator e = *this;  // restored into a copy: this one changes only when everything was read
-  restore_estimator_state(state, name(), params_, [&](StateIn& a) { state_fields(a, e); });
-  *this = std::move(e);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_estimator_copy(*this, state, name(), params_);
 }
 
 }  // namespace odonav

@@ -135,6 +135,11 @@ std::string config_hash_of(const std::vector<std::string>& values_as_text) {
   return checkpoint_hex16(h);
 }
 
+std::string CheckpointKind::path(const std::string& state_dir, const std::string& vehicle_id) const {
+  check_checkpoint_vehicle_id(vehicle_id);
+  return (std::filesystem::path(state_dir) / (std::string(component) + "-" + vehicle_id + ".ckpt")).string();
+}
+
 void check_checkpoint_vehicle_id(const std::string& vehicle_id) {
   if (vehicle_id.empty()) throw std::invalid_argument("checkpoint: the vehicle id is empty");
   for (char c : vehicle_id) {

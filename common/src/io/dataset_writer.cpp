@@ -32,7 +32,11 @@ namespace {
 class CheckedCsv {
  public:
   CheckedCsv(const std::string& path, std::vector<std::string> columns) : csv_(path, std::move(columns)) {}
-  void begin_row() { row_ = csv_.rows(); }
+  /// Starts a row with its time column t (s): every dataset file begins with it.
+  void begin_row(double t_s) {
+    row_ = csv_.rows();
+    number(t_s, "t");
+  }
   void end_row() { csv_.end_row(); }
   void number(double value, const char* column) { csv_.field(checked(value, column)); }
   void degrees(double angle_rad, const char* column) { csv_.field(exact_degrees_of(checked(angle_rad, column))); }
@@ -163,6 +167,18 @@ struct DatasetWriter::Files {
   std::optional<CheckedCsv> truth;
 };
 
+namespace {
+// The file of an optional table (ins.csv, truth.csv) a row goes to; DatasetError when the writer was
+// opened without it.
+CheckedCsv& opened(std::optional<CheckedCsv>& file, const std::string& dir, const char* name, const char* row) {
+  if (!file) {
+    throw DatasetError(join_path(dir, name) + ": cannot write " + row + ": the writer was opened without " + name +
+                       " (DatasetWriterOptions)");
+  }
+  return *file;
+}
+}  // namespace
+
 // Runs one write; any exception marks the writer failed, an OutputError (safe_output.hpp: links,
 // I/O) becomes the DatasetError this writer promises.
 template <class F>
@@ -198,8 +214,7 @@ DatasetWriter::~DatasetWriter() = default;
 void DatasetWriter::add(const OdometerSample& s) {
   guarded([&] {
     CheckedCsv& csv = files_->odometer;
-    csv.begin_row();
-    csv.number(s.t_s, "t");
+    csv.begin_row(s.t_s);
     csv.integer(s.pulses);
     csv.integer(s.direction);
     csv.end_row();
@@ -209,8 +224,7 @@ void DatasetWriter::add(const OdometerSample& s) {
 void DatasetWriter::add(const GnssSample& s) {
   guarded([&] {
     CheckedCsv& csv = files_->gnss;
-    csv.begin_row();
-    csv.number(s.t_s, "t");
+    csv.begin_row(s.t_s);
     csv.degrees_within_quarter_turn(s.position.lat_rad, "lat_deg");
     csv.longitude(s.position.lon_rad, "lon_deg");
     csv.number(s.position.height_m, "height_m");
@@ -232,13 +246,8 @@ void DatasetWriter::add(const GnssSample& s) {
 
 void DatasetWriter::add(const InsSample& s) {
   guarded([&] {
-    if (!files_->ins) {
-      throw DatasetError(join_path(dir_, "ins.csv") +
-                         ": cannot write an INS row: the writer was opened without ins.csv (DatasetWriterOptions)");
-    }
-    CheckedCsv& csv = *files_->ins;
-    csv.begin_row();
-    csv.number(s.t_s, "t");
+    CheckedCsv& csv = opened(files_->ins, dir_, "ins.csv", "an INS row");
+    csv.begin_row(s.t_s);
     csv.degrees(s.attitude.heading_rad, "heading_deg");
     csv.degrees_within_quarter_turn(s.attitude.pitch_rad, "pitch_deg");
     csv.degrees(s.attitude.roll_rad, "roll_deg");
@@ -256,13 +265,8 @@ void DatasetWriter::add(const InsSample& s) {
 
 void DatasetWriter::add(const TruthSample& s) {
   guarded([&] {
-    if (!files_->truth) {
-      throw DatasetError(join_path(dir_, "truth.csv") +
-                         ": cannot write a truth row: the writer was opened without truth.csv (DatasetWriterOptions)");
-    }
-    CheckedCsv& csv = *files_->truth;
-    csv.begin_row();
-    csv.number(s.t_s, "t");
+    CheckedCsv& csv = opened(files_->truth, dir_, "truth.csv", "a truth row");
+    csv.begin_row(s.t_s);
     for (const TruthColumn& c : kTruthColumns) {
       const double value = c.get(s);
       if (!(options_.truth_columns.*c.enabled)) {

@@ -57,12 +57,16 @@ struct HeaderVisitor {
   }
 };
 
+// The column names of Row's file, listed once per run.
 template <class Row>
-std::vector<std::string> columns_of() {
-  std::vector<std::string> names;
-  Row row;
-  visit_columns(row, HeaderVisitor{names});
-  return names;
+const std::vector<std::string>& columns_of() {
+  static const std::vector<std::string> columns = [] {
+    std::vector<std::string> names;
+    Row row;
+    visit_columns(row, HeaderVisitor{names});
+    return names;
+  }();
+  return columns;
 }
 
 // One row into a CsvWriter, field by field in the table's order.
@@ -135,37 +139,21 @@ const std::vector<std::string>& scale_factor_estimator_columns() {
   return columns;
 }
 
-const std::vector<std::string>& misalignment_columns() {
-  static const std::vector<std::string> columns = columns_of<MisalignmentRow>();
-  return columns;
+const std::vector<std::string>& misalignment_columns() { return columns_of<MisalignmentRow>(); }
+const std::vector<std::string>& scale_factor_columns() { return columns_of<ScaleFactorRow>(); }
+const std::vector<std::string>& dead_reckoning_columns() { return columns_of<DeadReckoningRow>(); }
+const std::vector<std::string>& navigation_position_columns() { return columns_of<NavigationPositionRow>(); }
+
+template <class Row>
+RowCsv<Row>::RowCsv(const std::string& path) : csv_(path, columns_of<Row>()) {}
+template <class Row>
+void RowCsv<Row>::write(const Row& r) {
+  write_row(csv_, r);
 }
-
-const std::vector<std::string>& scale_factor_columns() {
-  static const std::vector<std::string> columns = columns_of<ScaleFactorRow>();
-  return columns;
-}
-
-const std::vector<std::string>& dead_reckoning_columns() {
-  static const std::vector<std::string> columns = columns_of<DeadReckoningRow>();
-  return columns;
-}
-
-const std::vector<std::string>& navigation_position_columns() {
-  static const std::vector<std::string> columns = columns_of<NavigationPositionRow>();
-  return columns;
-}
-
-MisalignmentCsv::MisalignmentCsv(const std::string& path) : csv_(path, misalignment_columns()) {}
-void MisalignmentCsv::write(const MisalignmentRow& r) { write_row(csv_, r); }
-
-ScaleFactorCsv::ScaleFactorCsv(const std::string& path) : csv_(path, scale_factor_columns()) {}
-void ScaleFactorCsv::write(const ScaleFactorRow& r) { write_row(csv_, r); }
-
-DeadReckoningCsv::DeadReckoningCsv(const std::string& path) : csv_(path, dead_reckoning_columns()) {}
-void DeadReckoningCsv::write(const DeadReckoningRow& r) { write_row(csv_, r); }
-
-NavigationPositionCsv::NavigationPositionCsv(const std::string& path) : csv_(path, navigation_position_columns()) {}
-void NavigationPositionCsv::write(const NavigationPositionRow& r) { write_row(csv_, r); }
+template class RowCsv<MisalignmentRow>;
+template class RowCsv<ScaleFactorRow>;
+template class RowCsv<DeadReckoningRow>;
+template class RowCsv<NavigationPositionRow>;
 
 }  // namespace odonav::results
 

@@ -34,6 +34,18 @@ void validate(const BrakingStopParams& p) {
           "max_reference_age_s must be >= baseline_s");
 }
 
+BrakingStopStep braking_stop_step(MotionPhase phase, bool active, std::optional<uint64_t> used_since) {
+  if (!active) return BrakingStopStep::kDrop;
+  switch (phase) {
+    case MotionPhase::kUnknown: return BrakingStopStep::kKeep;  // the braking is neither confirmed nor over
+    case MotionPhase::kDriving: return BrakingStopStep::kDrop;  // the braking ended moving: its samples stay
+    case MotionPhase::kBraking: return used_since ? BrakingStopStep::kKeep : BrakingStopStep::kSnapshot;
+    case MotionPhase::kStandstill:
+      return used_since && *used_since > 0 ? BrakingStopStep::kRollBack : BrakingStopStep::kDrop;
+  }
+  return BrakingStopStep::kKeep;
+}
+
 MotionPhaseTracker::MotionPhaseTracker(const BrakingStopParams& params) : params_(params) { validate(params_); }
 
 MotionPhase MotionPhaseTracker::add(double t_s, double speed_mps) {

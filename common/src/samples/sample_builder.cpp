@@ -455,24 +455,14 @@ OdometerAddResult SampleBuilder::add_odometer(const OdometerSample& sample) {
   return result;
 }
 
-void SampleBuilder::add_gnss(const GnssSample& sample) {
-  detail::check_stream_time("gnss", sample.t_s, last_gnss_t_s_);
-  check_gnss_sample("gnss", sample);
-  last_gnss_t_s_ = sample.t_s;
-  pending_gnss_.push_back(sample);
-}
+void SampleBuilder::add_gnss(const GnssSample& sample) { queue_gnss_sample(sample, last_gnss_t_s_, pending_gnss_); }
 
 void SampleBuilder::add_ins(const InsSample& sample) {
   if (params_.use_ins) attitude_.add(sample);
 }
 
 void SampleBuilder::add_misalignment(double t_s, const Misalignment& m) {
-  if (!std::isfinite(m.heading_rad) || !std::isfinite(m.pitch_rad)) {
-    std::ostringstream s;
-    s << "misalignment: at t=" << t_s << " s, angles are not finite";
-    throw StreamInputError(s.str());
-  }
-  misalignment_.add(t_s, m);
+  add_misalignment_estimate(misalignment_, t_s, m);
 }
 
 void SampleBuilder::add_scale_factor_estimate(double t_s, double k, double sigma) {

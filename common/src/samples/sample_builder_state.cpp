@@ -59,17 +59,11 @@ void SampleBuilder::state_fields(Archive& a, Self& b) {
   a.check("latency_block_phiphi", b.latency_block_phiphi_.size() == candidates, per_candidate);
 }
 
-StateJson SampleBuilder::save_state() const {
-  StateOut out;
-  state_fields(out, *this);
-  return out.take();
-}
+StateJson SampleBuilder::save_state() const { return save_fields(*this); }
 
 void SampleBuilder::restore_state(const StateJson& state) {
-  SampleBuilder b(params_);  // restored into a copy: this one changes only when everything was read
-  StateIn in(state, "sample_builder");
-  state_fields(in, b);
-  *this = std::move(b);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_copy(SampleBuilder(params_), state, "sample_builder");
 }
 
 }  // namespace odonav

@@ -93,17 +93,11 @@ void TurnSlipEstimator::state_fields(Archive& a, Self& self) {
   a.check("srr", std::isfinite(self.srr_), "is not finite");
 }
 
-StateJson TurnSlipEstimator::save_state() const {
-  StateOut out;
-  state_fields(out, *this);
-  return out.take();
-}
+StateJson TurnSlipEstimator::save_state() const { return save_fields(*this); }
 
 void TurnSlipEstimator::restore_state(const StateJson& state) {
-  TurnSlipEstimator e = *this;  // restored into a copy: this one changes only when everything was read
-  StateIn in(state, "turn_slip");
-  state_fields(in, e);
-  *this = std::move(e);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_copy(*this, state, "turn_slip");
 }
 
 }  // namespace odonav

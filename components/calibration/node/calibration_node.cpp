@@ -143,20 +143,15 @@ std::vector<dds::detail::WriterBase*> CalibrationNode::output_writers() { return
 
 dds::CommandAck CalibrationNode::on_command(const odonav::msg::Command& c) {
   using namespace odonav::msg;
+  if (auto ack = dds::run_estimation_command(
+          c, core_, {"misalignment calibration restarted", "misalignment frozen", "misalignment unfrozen"}))
+    return *ack;
   switch (c.command()) {
-    case COMMAND_RESET_ESTIMATION:
-      core_.reset();
-      return {c.command_id(), COMMAND_RESULT_ACCEPTED, "misalignment calibration restarted"};
-    case COMMAND_FREEZE_ESTIMATION:
-      core_.freeze();
-      return {c.command_id(), COMMAND_RESULT_ACCEPTED, "misalignment frozen"};
-    case COMMAND_UNFREEZE_ESTIMATION:
-      core_.unfreeze();
-      return {c.command_id(), COMMAND_RESULT_ACCEPTED, "misalignment unfrozen"};
     case COMMAND_SET_K:
       return {c.command_id(), COMMAND_RESULT_REJECTED, "set_k is for odonav-dead-reckoning, not calibration"};
     case COMMAND_RELEASE_K:
       return {c.command_id(), COMMAND_RESULT_REJECTED, "release_k is for odonav-dead-reckoning, not calibration"};
+    default: break;
   }
   return {c.command_id(), COMMAND_RESULT_REJECTED, "unknown command kind"};
 }

@@ -153,17 +153,33 @@ OfferedQos offered_qos(const dds::Participant& participant, const std::string& w
 
 // ---- FleetMonitor ----
 
+namespace {
+/// One FleetMonitor reader of Msg on `topic` with the data_reader profile `profile`: each sample goes
+/// to `on` with its arrival time (steady clock, s, from `now`), then to the tap as topic `id`;
+/// on_silence (may be null) hears the reader's deadline edges.
+template <class Msg, class On>
+std::unique_ptr<dds::detail::ReaderBase> fleet_reader(const dds::Participant& participant, const char* topic,
+                                                      const char* profile, topics::TopicId id,
+                                                      const std::function<double()>& now, const SampleTap& tap, On on,
+                                                      typename Reader<Msg>::SilenceCallback on_silence = nullptr) {
+  return std::make_unique<Reader<Msg>>(
+      participant, topic, profile,
+      [now, tap, id, on](const Msg& m) {
+        on(m, now());
+        if (tap) tap(id, &m);
+      },
+      std::move(on_silence));
+}
+}  // namespace
+
 FleetMonitor::FleetMonitor(const dds::Participant& participant, FleetState& state, std::function<double()> clock,
                            SampleTap tap) {
   FleetState* s = &state;
   auto now = clock;
   using topics::TopicId;
-  readers_.push_back(std::make_unique<Reader<msg::Health>>(
-      participant, topics::kHealth.name, topics::kHealthReaderProfile,
-      [s, now, tap](const msg::Health& h) {
-        s->on_health(view_of(h), now());
-        if (tap) tap(TopicId::kHealth, &h);
-      },
+  readers_.push_back(fleet_reader<msg::Health>(
+      participant, topics::kHealth.name, topics::kHealthReaderProfile, TopicId::kHealth, now, tap,
+      [s](const msg::Health& h, double t_s) { s->on_health(view_of(h), t_s); },
       [s](const msg::Health& last, bool silent) {
         s->on_silence(last.vehicle_id(), Stream::kHealth, last.component(), silent);
       }));
@@ -181,41 +197,28 @@ FleetMonitor::FleetMonitor(const dds::Participant& participant, FleetState& stat
       [s](const msg::ScaleFactor& last, bool silent) {
         s->on_silence(last.vehicle_id(), Stream::kScaleFactor, "", silent);
       }));
-  readers_.push_back(std::make_unique<Reader<msg::Misalignment>>(
-      participant, topics::kMisalignment.name, topics::kGroundEstimateReaderProfile,
-      [s, now, tap](const msg::Misalignment& m) {
-        s->on_misalignment(view_of(m), now());
-        if (tap) tap(TopicId::kMisalignment, &m);
-      },
+  readers_.push_back(fleet_reader<msg::Misalignment>(
+      participant, topics::kMisalignment.name, topics::kGroundEstimateReaderProfile, TopicId::kMisalignment, now, tap,
+      [s](const msg::Misalignment& m, double t_s) { s->on_misalignment(view_of(m), t_s); },
       [s](const msg::Misalignment& last, bool silent) {
         s->on_silence(last.vehicle_id(), Stream::kMisalignment, "", silent);
       }));
   const char* best_effort = topics::kGroundBestEffortReaderProfile;
-  readers_.push_back(std::make_unique<Reader<msg::DeadReckoning>>(participant, topics::kDeadReckoning.name, best_effort,
-                                                                  [s, now, tap](const msg::DeadReckoning& m) {
-                                                                    s->on_dead_reckoning(view_of(m), now());
-                                                                    if (tap) tap(TopicId::kDeadReckoning, &m);
-                                                                  }));
-  readers_.push_back(std::make_unique<Reader<msg::NavigationPosition>>(
-      participant, topics::kNavigationPosition.name, best_effort, [s, now, tap](const msg::NavigationPosition& m) {
-        s->on_navigation(view_of(m), now());
-        if (tap) tap(TopicId::kNavigationPosition, &m);
-      }));
-  readers_.push_back(std::make_unique<Reader<msg::GnssFix>>(participant, topics::kGnssFix.name, best_effort,
-                                                            [s, now, tap](const msg::GnssFix& m) {
-                                                              s->on_gnss(view_of(m), now());
-                                                              if (tap) tap(TopicId::kGnssFix, &m);
-                                                            }));
-  readers_.push_back(std::make_unique<Reader<msg::Odometer>>(participant, topics::kOdometer.name, best_effort,
-                                                             [s, now, tap](const msg::Odometer& m) {
-                                                               s->on_arrival(m.vehicle_id(), Stream::kOdometer, now());
-                                                               if (tap) tap(TopicId::kOdometer, &m);
-                                                             }));
-  readers_.push_back(std::make_unique<Reader<msg::InsAttitude>>(
-      participant, topics::kInsAttitude.name, best_effort, [s, now, tap](const msg::InsAttitude& m) {
-        s->on_arrival(m.vehicle_id(), Stream::kInsAttitude, now());
-        if (tap) tap(TopicId::kInsAttitude, &m);
-      }));
+  readers_.push_back(fleet_reader<msg::DeadReckoning>(
+      participant, topics::kDeadReckoning.name, best_effort, TopicId::kDeadReckoning, now, tap,
+      [s](const msg::DeadReckoning& m, double t_s) { s->on_dead_reckoning(view_of(m), t_s); }));
+  readers_.push_back(fleet_reader<msg::NavigationPosition>(
+      participant, topics::kNavigationPosition.name, best_effort, TopicId::kNavigationPosition, now, tap,
+      [s](const msg::NavigationPosition& m, double t_s) { s->on_navigation(view_of(m), t_s); }));
+  readers_.push_back(
+      fleet_reader<msg::GnssFix>(participant, topics::kGnssFix.name, best_effort, TopicId::kGnssFix, now, tap,
+                                 [s](const msg::GnssFix& m, double t_s) { s->on_gnss(view_of(m), t_s); }));
+  readers_.push_back(fleet_reader<msg::Odometer>(
+      participant, topics::kOdometer.name, best_effort, TopicId::kOdometer, now, tap,
+      [s](const msg::Odometer& m, double t_s) { s->on_arrival(m.vehicle_id(), Stream::kOdometer, t_s); }));
+  readers_.push_back(fleet_reader<msg::InsAttitude>(
+      participant, topics::kInsAttitude.name, best_effort, TopicId::kInsAttitude, now, tap,
+      [s](const msg::InsAttitude& m, double t_s) { s->on_arrival(m.vehicle_id(), Stream::kInsAttitude, t_s); }));
   if (tap) {
     readers_.push_back(std::make_unique<Reader<msg::Command>>(
         participant, topics::kCommand.name, best_effort, [tap](const msg::Command& m) { tap(TopicId::kCommand, &m); }));

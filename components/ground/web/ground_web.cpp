@@ -102,43 +102,37 @@ void GroundWeb::on_sample(topics::TopicId topic, AnySample sample) {
           eprosima::fastrtps::rtps::SerializedPayload_t payload(type.getSerializedSizeProvider(data)());
           if (type.serialize(data, &payload)) server_->publish(id, stamp_ns(stamp_s), payload.data, payload.length);
         }
+        // A derived channel of this vehicle (advertised on first use).
+        auto derived = [&](DerivedChannel kind) {
+          return channel(vehicle, derived_key(kind), [&] { return derived_info(vehicle, kind); });
+        };
+        // The NavSatFix fix() makes, CDR-encoded, to the clients of the derived channel `kind`.
+        auto publish_navsat = [&](DerivedChannel kind, const auto& fix) {
+          const std::uint32_t c = derived(kind);
+          if (!server_->subscribed(c)) return;
+          const auto bytes = encode_cdr(fix());
+          server_->publish(c, stamp_ns(stamp_s), bytes.data(), bytes.size());
+        };
         if constexpr (std::is_same_v<T, odonav::msg::DeadReckoning>) {
           const DeadReckoningView v = view_of(*m);
           history_.on_dead_reckoning(v);
-          const DerivedChannel kind = DerivedChannel::kNavSatDeadReckoning;
-          const std::uint32_t c = channel(vehicle, derived_key(kind), [&] { return derived_info(vehicle, kind); });
-          if (server_->subscribed(c)) {
-            const auto bytes = encode_cdr(navsat_from_dead_reckoning(v));
-            server_->publish(c, stamp_ns(stamp_s), bytes.data(), bytes.size());
-          }
+          publish_navsat(DerivedChannel::kNavSatDeadReckoning, [&] { return navsat_from_dead_reckoning(v); });
         } else if constexpr (std::is_same_v<T, odonav::msg::NavigationPosition>) {
           // The "navigation" NavSatFix: the GNSS-anchored position, not the pure DR.
           const NavigationPositionView v = view_of(*m);
-          const DerivedChannel kind = DerivedChannel::kNavSatNavigation;
-          const std::uint32_t c = channel(vehicle, derived_key(kind), [&] { return derived_info(vehicle, kind); });
-          if (server_->subscribed(c)) {
-            const auto bytes = encode_cdr(navsat_from_navigation(v));
-            server_->publish(c, stamp_ns(stamp_s), bytes.data(), bytes.size());
-          }
+          publish_navsat(DerivedChannel::kNavSatNavigation, [&] { return navsat_from_navigation(v); });
         } else if constexpr (std::is_same_v<T, odonav::msg::GnssFix>) {
           const GnssView v = view_of(*m);
           history_.on_gnss(v);
-          const std::uint32_t c = channel(vehicle, derived_key(DerivedChannel::kNavSatGnss),
-                                          [&] { return derived_info(vehicle, DerivedChannel::kNavSatGnss); });
-          if (server_->subscribed(c)) {
-            const auto bytes = encode_cdr(navsat_from_gnss(v));
-            server_->publish(c, stamp_ns(stamp_s), bytes.data(), bytes.size());
-          }
+          publish_navsat(DerivedChannel::kNavSatGnss, [&] { return navsat_from_gnss(v); });
         } else if constexpr (std::is_same_v<T, odonav::msg::ScaleFactor>) {
           const ScaleFactorView v = view_of(*m);
           history_.on_scale_factor(v);
-          const std::uint32_t c = channel(vehicle, derived_key(DerivedChannel::kScaleFactorPlot),
-                                          [&] { return derived_info(vehicle, DerivedChannel::kScaleFactorPlot); });
+          const std::uint32_t c = derived(DerivedChannel::kScaleFactorPlot);
           if (server_->subscribed(c)) publish_json(c, stamp_s, scale_factor_plot(v).dump());
         } else if constexpr (std::is_same_v<T, odonav::msg::Health>) {
           // The diagnostics channel lives while some component of the vehicle speaks; tick() fills it.
-          channel(vehicle, derived_key(DerivedChannel::kDiagnostics),
-                  [&] { return derived_info(vehicle, DerivedChannel::kDiagnostics); });
+          derived(DerivedChannel::kDiagnostics);
         }
       },
       sample);

@@ -227,17 +227,11 @@ std::vector<dds::detail::WriterBase*> IdentificationNode::output_writers() { ret
 
 dds::CommandAck IdentificationNode::on_command(const odonav::msg::Command& c) {
   using namespace odonav::msg;
+  // After a reset the next checkpoint (at most --checkpoint-every-s later) stores the reset state.
+  if (auto ack = dds::run_estimation_command(
+          c, core_, {"scale-factor estimator reset", "identification frozen: K held", "identification resumed"}))
+    return *ack;
   switch (c.command()) {
-    case COMMAND_RESET_ESTIMATION:
-      // The next checkpoint (at most --checkpoint-every-s later) stores the reset state.
-      core_.reset();
-      return {c.command_id(), COMMAND_RESULT_ACCEPTED, "scale-factor estimator reset"};
-    case COMMAND_FREEZE_ESTIMATION:
-      core_.freeze();
-      return {c.command_id(), COMMAND_RESULT_ACCEPTED, "identification frozen: K held"};
-    case COMMAND_UNFREEZE_ESTIMATION:
-      core_.unfreeze();
-      return {c.command_id(), COMMAND_RESULT_ACCEPTED, "identification resumed"};
     case COMMAND_RELEASE_K:
       return {c.command_id(), COMMAND_RESULT_REJECTED, "release_k is for odonav-dead-reckoning, not identification"};
     case COMMAND_SET_K: {
@@ -257,6 +251,7 @@ dds::CommandAck IdentificationNode::on_command(const odonav::msg::Command& c) {
       spdlog::info("{}", m.str());
       return {c.command_id(), COMMAND_RESULT_ACCEPTED, m.str()};
     }
+    default: break;
   }
   return {c.command_id(), COMMAND_RESULT_REJECTED, "unknown command kind"};
 }

@@ -202,46 +202,27 @@ nlohmann::json row_json(const ScaleFactorRow& row);
 nlohmann::json row_json(const DeadReckoningRow& row);
 nlohmann::json row_json(const NavigationPositionRow& row);
 
-/// Writers; each constructor creates the file with its header (throws std::runtime_error naming it).
-class MisalignmentCsv {
+/// The writer of one output file, rows of type Row (MisalignmentRow, ScaleFactorRow,
+/// DeadReckoningRow, NavigationPositionRow). The constructor creates the file with its header
+/// (throws std::runtime_error naming it).
+template <class Row>
+class RowCsv {
  public:
-  explicit MisalignmentCsv(const std::string& path);
-  void write(const MisalignmentRow& row);
+  explicit RowCsv(const std::string& path);
+  void write(const Row& row);
   void close() { csv_.close(); }
   CsvWriter& csv() { return csv_; }  ///< rows adopted as text, flushes (odonav-recorder)
  private:
   CsvWriter csv_;
 };
-
-class ScaleFactorCsv {
- public:
-  explicit ScaleFactorCsv(const std::string& path);
-  void write(const ScaleFactorRow& row);
-  void close() { csv_.close(); }
-  CsvWriter& csv() { return csv_; }  ///< rows adopted as text, flushes (odonav-recorder)
- private:
-  CsvWriter csv_;
-};
-
-class DeadReckoningCsv {
- public:
-  explicit DeadReckoningCsv(const std::string& path);
-  void write(const DeadReckoningRow& row);
-  void close() { csv_.close(); }
-  CsvWriter& csv() { return csv_; }  ///< rows adopted as text, flushes (odonav-recorder)
- private:
-  CsvWriter csv_;
-};
-
-class NavigationPositionCsv {
- public:
-  explicit NavigationPositionCsv(const std::string& path);
-  void write(const NavigationPositionRow& row);
-  void close() { csv_.close(); }
-  CsvWriter& csv() { return csv_; }  ///< rows adopted as text, flushes (odonav-recorder)
- private:
-  CsvWriter csv_;
-};
+extern template class RowCsv<MisalignmentRow>;
+extern template class RowCsv<ScaleFactorRow>;
+extern template class RowCsv<DeadReckoningRow>;
+extern template class RowCsv<NavigationPositionRow>;
+using MisalignmentCsv = RowCsv<MisalignmentRow>;
+using ScaleFactorCsv = RowCsv<ScaleFactorRow>;
+using DeadReckoningCsv = RowCsv<DeadReckoningRow>;
+using NavigationPositionCsv = RowCsv<NavigationPositionRow>;
 
 /// Everything the output files hold, read back (for odonav-evaluate and the pipeline's summary).
 struct OutputRows {

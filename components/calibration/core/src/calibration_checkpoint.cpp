@@ -2,7 +2,6 @@
 #include "odonav/calibration/calibration_checkpoint.hpp"
 
 #include <cmath>
-#include <filesystem>
 #include <stdexcept>
 #include <utility>
 
@@ -14,34 +13,26 @@ ODONAV_STATE_FIELDS(CalibrationCheckpoint) {
 }
 
 namespace {
-
-CheckpointIdentity identity_of(const std::string& vehicle_id, const std::string& config_hash) {
-  return {kCalibrationCheckpointComponent, kCalibrationCheckpointVersion, vehicle_id, config_hash};
-}
-
+constexpr CheckpointKind kKind{kCalibrationCheckpointComponent, kCalibrationCheckpointVersion};
 }  // namespace
 
 std::string calibration_checkpoint_path(const std::string& state_dir, const std::string& vehicle_id) {
-  check_checkpoint_vehicle_id(vehicle_id);
-  return (std::filesystem::path(state_dir) / ("calibration-" + vehicle_id + ".ckpt")).string();
+  return kKind.path(state_dir, vehicle_id);
 }
 
 std::string serialize_calibration_checkpoint(const CalibrationCheckpoint& c) {
   if (!std::isfinite(c.last_sample_t_s)) throw std::invalid_argument("checkpoint: last_sample_t_s is not finite");
-  return seal_checkpoint(identity_of(c.vehicle_id, c.config_hash), to_state(c));
+  return kKind.seal(c);
 }
 
 CalibrationCheckpoint parse_calibration_checkpoint(const std::string& text) {
-  const CheckpointContents contents = unseal_checkpoint(text);
-  const CheckpointIdentity& id = contents.identity;
-  check_checkpoint_identity(id, identity_of(id.vehicle_id, id.config_hash));
-  return checkpoint_from_payload<CalibrationCheckpoint>(id, contents.payload);
+  return kKind.parse<CalibrationCheckpoint>(text);
 }
 
 CalibrationCheckpointLoad load_calibration_checkpoint(const std::string& path, const std::string& vehicle_id,
                                                       const std::string& config_hash,
                                                       MisalignmentCalibrator& calibrator, int64_t unix_time_s) {
-  const CheckpointIdentity expected = identity_of(vehicle_id, config_hash);
+  const CheckpointIdentity expected = kKind.identity(vehicle_id, config_hash);
   CalibrationCheckpointLoad result;
   std::optional<double> t_s;
   static_cast<CheckpointFileLoad&>(result) =

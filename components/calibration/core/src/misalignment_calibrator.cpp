@@ -96,10 +96,7 @@ MisalignmentCalibrator::MisalignmentCalibrator(const MisalignmentCalibratorParam
 }
 
 void MisalignmentCalibrator::add_gnss(const GnssSample& sample) {
-  detail::check_stream_time("gnss", sample.t_s, last_gnss_t_s_);
-  check_gnss_sample("gnss", sample);
-  last_gnss_t_s_ = sample.t_s;
-  pending_gnss_.push_back(sample);
+  queue_gnss_sample(sample, last_gnss_t_s_, pending_gnss_);
 }
 
 void MisalignmentCalibrator::add_ins(const InsSample& sample) {
@@ -143,29 +140,24 @@ void MisalignmentCalibrator::reset() {
 
 void MisalignmentCalibrator::track_braking_stop(double t_s, double speed_mps) {
   const MotionPhase phase = motion_.add(t_s, speed_mps);
-  if (!params_.braking_stop.enabled || frozen_) {
-    braking_snapshot_.reset();
-    return;
-  }
-  switch (phase) {
-    case MotionPhase::kUnknown: return;
-    case MotionPhase::kDriving: braking_snapshot_.reset(); return;
-    case MotionPhase::kBraking:
-      if (!braking_snapshot_)
-        braking_snapshot_ =
-            BrakingSnapshot{heading_, pitch_, samples_used_, last_used_forward_, consecutive_innovation_rejections_, 0};
+  const bool active = params_.braking_stop.enabled && !frozen_;
+  const std::optional<uint64_t> used_since =
+      braking_snapshot_ ? std::optional<uint64_t>(braking_snapshot_->used_since) : std::nullopt;
+  switch (braking_stop_step(phase, active, used_since)) {
+    case BrakingStopStep::kKeep: return;
+    case BrakingStopStep::kDrop: braking_snapshot_.reset(); return;
+    case BrakingStopStep::kSnapshot:
+      braking_snapshot_ =
+          BrakingSnapshot{heading_, pitch_, samples_used_, last_used_forward_, consecutive_innovation_rejections_, 0};
       return;
-    case MotionPhase::kStandstill:
-      if (!braking_snapshot_) return;
-      if (braking_snapshot_->used_since > 0) {
-        heading_ = braking_snapshot_->heading;
-        pitch_ = braking_snapshot_->pitch;
-        samples_used_ = braking_snapshot_->samples_used;
-        last_used_forward_ = braking_snapshot_->last_used_forward;
-        consecutive_innovation_rejections_ = braking_snapshot_->consecutive_innovation_rejections;
-        ++counters_.braking_stops;
-        counters_.braking_withdrawn += braking_snapshot_->used_since;
-      }
+    case BrakingStopStep::kRollBack:
+      heading_ = braking_snapshot_->heading;
+      pitch_ = braking_snapshot_->pitch;
+      samples_used_ = braking_snapshot_->samples_used;
+      last_used_forward_ = braking_snapshot_->last_used_forward;
+      consecutive_innovation_rejections_ = braking_snapshot_->consecutive_innovation_rejections;
+      ++counters_.braking_stops;
+      counters_.braking_withdrawn += braking_snapshot_->used_since;
       braking_snapshot_.reset();
       return;
   }
@@ -360,16 +352,11 @@ void MisalignmentCalibrator::state_fields(Archive& a, Self& c) {
   a.check("samples_used", c.samples_used_ <= c.counters_.used, "exceeds the used-epoch counter");
 }
 
-StateJson MisalignmentCalibrator::save_state() const {
-  StateOut out;
-  state_fields(out, *this);
-  return out.take();
-}
+StateJson MisalignmentCalibrator::save_state() const { return save_fields(*this); }
 
 void MisalignmentCalibrator::restore_state(const StateJson& state) {
-  MisalignmentCalibrator c = *this;  // restored into a copy: this one changes only when everything was read
-  StateIn in(state, "calibrator");
-  state_fields(in, c);
+  // Restored into a copy: this one changes only when everything was read.
+  MisalignmentCalibrator c = restored_copy(*this, state, "calibrator");
   // The epochs up to the restored one were processed: one stamped at or before it is refused.
   if (c.counters_.epochs > 0) c.last_gnss_t_s_ = c.last_t_s_;
   *this = std::move(c);

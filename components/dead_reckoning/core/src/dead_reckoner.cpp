@@ -225,12 +225,7 @@ bool DeadReckoner::HeldTracker::decide(double t_s, const std::optional<double>& 
 }
 
 void DeadReckoner::add_misalignment(double t_s, const Misalignment& m) {
-  if (!std::isfinite(m.heading_rad) || !std::isfinite(m.pitch_rad)) {
-    std::ostringstream s;
-    s << "misalignment: at t=" << t_s << " s, angles are not finite";
-    throw StreamInputError(s.str());
-  }
-  misalignment_.add(t_s, m);
+  add_misalignment_estimate(misalignment_, t_s, m);
 }
 
 double dead_reckoning_gnss_max_gap_s(const DeadReckonerParams& params, double gnss_period_s) {

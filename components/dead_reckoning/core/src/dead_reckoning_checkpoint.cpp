@@ -2,7 +2,6 @@
 #include "odonav/dead_reckoning/dead_reckoning_checkpoint.hpp"
 
 #include <cmath>
-#include <filesystem>
 #include <stdexcept>
 #include <utility>
 
@@ -28,34 +27,26 @@ ODONAV_STATE_FIELDS(DeadReckoningCheckpoint) {
 }
 
 namespace {
-
-CheckpointIdentity identity_of(const std::string& vehicle_id, const std::string& config_hash) {
-  return {kDeadReckoningCheckpointComponent, kDeadReckoningCheckpointVersion, vehicle_id, config_hash};
-}
-
+constexpr CheckpointKind kKind{kDeadReckoningCheckpointComponent, kDeadReckoningCheckpointVersion};
 }  // namespace
 
 std::string dead_reckoning_checkpoint_path(const std::string& state_dir, const std::string& vehicle_id) {
-  check_checkpoint_vehicle_id(vehicle_id);
-  return (std::filesystem::path(state_dir) / ("dead-reckoning-" + vehicle_id + ".ckpt")).string();
+  return kKind.path(state_dir, vehicle_id);
 }
 
 std::string serialize_dead_reckoning_checkpoint(const DeadReckoningCheckpoint& c) {
   if (!std::isfinite(c.last_output_t_s)) throw std::invalid_argument("checkpoint: last_output_t_s is not finite");
-  return seal_checkpoint(identity_of(c.vehicle_id, c.config_hash), to_state(c));
+  return kKind.seal(c);
 }
 
 DeadReckoningCheckpoint parse_dead_reckoning_checkpoint(const std::string& text) {
-  const CheckpointContents contents = unseal_checkpoint(text);
-  const CheckpointIdentity& id = contents.identity;
-  check_checkpoint_identity(id, identity_of(id.vehicle_id, id.config_hash));
-  return checkpoint_from_payload<DeadReckoningCheckpoint>(id, contents.payload);
+  return kKind.parse<DeadReckoningCheckpoint>(text);
 }
 
 DeadReckoningCheckpointLoad load_dead_reckoning_checkpoint(const std::string& path, const std::string& vehicle_id,
                                                            const std::string& config_hash,
                                                            const DeadReckoningStateRefs& state, int64_t unix_time_s) {
-  const CheckpointIdentity expected = identity_of(vehicle_id, config_hash);
+  const CheckpointIdentity expected = kKind.identity(vehicle_id, config_hash);
   DeadReckoningCheckpointLoad result;
   std::optional<DeadReckoningCheckpoint> loaded;
   static_cast<CheckpointFileLoad&>(result) =

@@ -68,17 +68,11 @@ void DeadReckoner::state_fields(Archive& a, Self& d) {
           "and 'start_t_s' disagree on whether the dead reckoning started");
 }
 
-StateJson DeadReckoner::save_state() const {
-  StateOut out;
-  state_fields(out, *this);
-  return out.take();
-}
+StateJson DeadReckoner::save_state() const { return save_fields(*this); }
 
 void DeadReckoner::restore_state(const StateJson& state) {
-  DeadReckoner d(params_);  // restored into a copy: this one changes only when everything was read
-  StateIn in(state, "dead_reckoner");
-  state_fields(in, d);
-  *this = std::move(d);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_copy(DeadReckoner(params_), state, "dead_reckoner");
 }
 
 template <class Archive, class Self>
@@ -90,17 +84,11 @@ void AnchoredPositionFilter::state_fields(Archive& a, Self& f) {
       "consecutive_gated", f.consecutive_gated_)("counters", f.counters_);
 }
 
-StateJson AnchoredPositionFilter::save_state() const {
-  StateOut out;
-  state_fields(out, *this);
-  return out.take();
-}
+StateJson AnchoredPositionFilter::save_state() const { return save_fields(*this); }
 
 void AnchoredPositionFilter::restore_state(const StateJson& state) {
-  AnchoredPositionFilter f(params_);  // restored into a copy: this one changes only when everything was read
-  StateIn in(state, "anchored_position");
-  state_fields(in, f);
-  *this = std::move(f);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_copy(AnchoredPositionFilter(params_), state, "anchored_position");
 }
 
 }  // namespace odonav::dead_reckoning

@@ -4,16 +4,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include "odonav/gateway/line_protocol.hpp"
+
 namespace odonav::gateway {
 
 namespace {
-
-int hex_digit(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  return -1;
-}
 
 bool parse_hex(std::string_view s, std::uint32_t& out) {
   if (s.empty() || s.size() > 8) return false;

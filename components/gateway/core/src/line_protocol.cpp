@@ -36,14 +36,14 @@ std::uint8_t line_checksum(std::string_view text) {
   return x;
 }
 
-namespace {
-
-int hex_value(char c) {
+int hex_digit(char c) {
   if (c >= '0' && c <= '9') return c - '0';
   if (c >= 'A' && c <= 'F') return c - 'A' + 10;
   if (c >= 'a' && c <= 'f') return c - 'a' + 10;
   return -1;
 }
+
+namespace {
 
 std::vector<std::string_view> split_fields(std::string_view body) {
   std::vector<std::string_view> fields;
@@ -121,9 +121,9 @@ ParsedLine LineDecoder::parse_line(std::string_view line) {
   if (const std::size_t star = body.find('*'); star != std::string_view::npos) {
     const std::string_view hh = body.substr(star + 1);
     body = body.substr(0, star);
-    if (hh.size() != 2 || hex_value(hh[0]) < 0 || hex_value(hh[1]) < 0)
+    if (hh.size() != 2 || hex_digit(hh[0]) < 0 || hex_digit(hh[1]) < 0)
       return reject(LineError::kBadChecksum, "checksum '*" + std::string(hh.substr(0, 8)) + "' is not two hex digits");
-    const int given = hex_value(hh[0]) * 16 + hex_value(hh[1]);
+    const int given = hex_digit(hh[0]) * 16 + hex_digit(hh[1]);
     const int computed = line_checksum(body);
     if (given != computed) {
       char buf[64];

@@ -84,39 +84,39 @@ void FleetState::on_health(const HealthView& h, double now_s) {
   count(v, Stream::kHealth, now_s);
 }
 
+template <class View>
+FleetState::Vehicle& FleetState::keep_latest(std::optional<std::pair<View, Timed>> Vehicle::*slot, const View& view,
+                                             double now_s) {
+  Vehicle& v = vehicle(view.vehicle_id);
+  v.*slot = std::make_pair(view, Timed{now_s, false});
+  return v;
+}
+
 void FleetState::on_scale_factor(const ScaleFactorView& sf, double now_s) {
   std::lock_guard<std::mutex> lock(mutex_);
-  Vehicle& v = vehicle(sf.vehicle_id);
-  v.scale_factor = std::make_pair(sf, Timed{now_s, false});
-  count(v, Stream::kScaleFactor, now_s);
+  count(keep_latest(&Vehicle::scale_factor, sf, now_s), Stream::kScaleFactor, now_s);
 }
 
 void FleetState::on_misalignment(const MisalignmentView& m, double now_s) {
   std::lock_guard<std::mutex> lock(mutex_);
-  Vehicle& v = vehicle(m.vehicle_id);
-  v.misalignment = std::make_pair(m, Timed{now_s, false});
-  count(v, Stream::kMisalignment, now_s);
+  count(keep_latest(&Vehicle::misalignment, m, now_s), Stream::kMisalignment, now_s);
 }
 
 void FleetState::on_dead_reckoning(const DeadReckoningView& d, double now_s) {
   std::lock_guard<std::mutex> lock(mutex_);
-  Vehicle& v = vehicle(d.vehicle_id);
-  v.dead_reckoning = std::make_pair(d, Timed{now_s, false});
+  Vehicle& v = keep_latest(&Vehicle::dead_reckoning, d, now_s);
   count(v, Stream::kDeadReckoning, now_s);
   v.dead_reckoning_gaps.offer(d.row.t_s);
 }
 
 void FleetState::on_navigation(const NavigationPositionView& n, double now_s) {
   std::lock_guard<std::mutex> lock(mutex_);
-  Vehicle& v = vehicle(n.vehicle_id);
-  v.navigation = std::make_pair(n, Timed{now_s, false});
+  keep_latest(&Vehicle::navigation, n, now_s);
 }
 
 void FleetState::on_gnss(const GnssView& g, double now_s) {
   std::lock_guard<std::mutex> lock(mutex_);
-  Vehicle& v = vehicle(g.vehicle_id);
-  v.gnss = std::make_pair(g, Timed{now_s, false});
-  count(v, Stream::kGnssFix, now_s);
+  count(keep_latest(&Vehicle::gnss, g, now_s), Stream::kGnssFix, now_s);
 }
 
 void FleetState::on_arrival(const std::string& vehicle_id, Stream stream, double now_s) {

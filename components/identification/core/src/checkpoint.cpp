@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <limits>
 #include <stdexcept>
 
@@ -18,35 +17,27 @@ ODONAV_STATE_FIELDS(IdentificationCheckpoint) {
 }
 
 namespace {
-
-CheckpointIdentity identity_of(const std::string& vehicle_id, const std::string& config_hash) {
-  return {kIdentificationCheckpointComponent, kIdentificationCheckpointVersion, vehicle_id, config_hash};
-}
-
+constexpr CheckpointKind kKind{kIdentificationCheckpointComponent, kIdentificationCheckpointVersion};
 }  // namespace
 
 std::string checkpoint_path(const std::string& state_dir, const std::string& vehicle_id) {
-  check_checkpoint_vehicle_id(vehicle_id);
-  return (std::filesystem::path(state_dir) / ("identification-" + vehicle_id + ".ckpt")).string();
+  return kKind.path(state_dir, vehicle_id);
 }
 
 std::string serialize_checkpoint(const IdentificationCheckpoint& c) {
   if (c.estimator_name.empty()) throw std::invalid_argument("checkpoint: estimator name is empty");
   if (!std::isfinite(c.last_sample_t_s)) throw std::invalid_argument("checkpoint: last_sample_t_s is not finite");
-  return seal_checkpoint(identity_of(c.vehicle_id, c.config_hash), to_state(c));
+  return kKind.seal(c);
 }
 
 IdentificationCheckpoint parse_checkpoint(const std::string& text) {
-  const CheckpointContents contents = unseal_checkpoint(text);
-  const CheckpointIdentity& id = contents.identity;
-  check_checkpoint_identity(id, identity_of(id.vehicle_id, id.config_hash));
-  return checkpoint_from_payload<IdentificationCheckpoint>(id, contents.payload);
+  return kKind.parse<IdentificationCheckpoint>(text);
 }
 
 CheckpointLoadResult load_identification_checkpoint(const std::string& path, const std::string& vehicle_id,
                                                     const std::string& config_hash, IdentificationCore& core,
                                                     int64_t unix_time_s) {
-  const CheckpointIdentity expected = identity_of(vehicle_id, config_hash);
+  const CheckpointIdentity expected = kKind.identity(vehicle_id, config_hash);
   std::optional<IdentificationCheckpoint> restored;
   const CheckpointFileLoad load = load_checkpoint_file(path, unix_time_s, expected, [&](const StateJson& payload) {
     IdentificationCheckpoint c = checkpoint_from_payload<IdentificationCheckpoint>(expected, payload);

@@ -117,26 +117,25 @@ TurnSlipEstimate IdentificationCore::turn_slip_estimate() const {
 }
 
 void IdentificationCore::track_braking_stop(const SampleBuilderEpoch& epoch, MotionPhase phase) {
-  if (!params_.braking_stop.enabled || frozen_) {
-    braking_snapshot_.reset();
-    return;
-  }
-  switch (phase) {
-    case MotionPhase::kUnknown: return;  // no speed at this epoch: the braking is neither confirmed nor over
-    case MotionPhase::kDriving: braking_snapshot_.reset(); return;  // the braking ended moving: its samples stay
-    case MotionPhase::kBraking:
-      if (!braking_snapshot_ && epoch.sample) {
-        BrakingSnapshot snap;
-        auto state_of = [](const ScaleFactorEstimator& e) {
-          return withdraws_braking(e) ? std::make_shared<const StateJson>(e.save_state()) : nullptr;
-        };
-        snap.main = state_of(*main_);
-        for (const auto& e : all_) snap.all.push_back(state_of(*e));
-        braking_snapshot_ = std::move(snap);
-      }
+  const bool active = params_.braking_stop.enabled && !frozen_;
+  const std::optional<uint64_t> used_since =
+      braking_snapshot_ ? std::optional<uint64_t>(braking_snapshot_->samples) : std::nullopt;
+  switch (braking_stop_step(phase, active, used_since)) {
+    case BrakingStopStep::kKeep: return;
+    case BrakingStopStep::kDrop: braking_snapshot_.reset(); return;
+    case BrakingStopStep::kSnapshot: {
+      // Taken at the first braking epoch with a sample, so a snapshot always withdraws something.
+      if (!epoch.sample) return;
+      BrakingSnapshot snap;
+      auto state_of = [](const ScaleFactorEstimator& e) {
+        return withdraws_braking(e) ? std::make_shared<const StateJson>(e.save_state()) : nullptr;
+      };
+      snap.main = state_of(*main_);
+      for (const auto& e : all_) snap.all.push_back(state_of(*e));
+      braking_snapshot_ = std::move(snap);
       return;
-    case MotionPhase::kStandstill:
-      if (!braking_snapshot_) return;
+    }
+    case BrakingStopStep::kRollBack:
       if (withdraws_braking(*main_)) main_->restore_state(*braking_snapshot_->main);
       for (std::size_t i = 0; i < all_.size(); ++i)
         if (withdraws_braking(*all_[i])) all_[i]->restore_state(*braking_snapshot_->all[i]);
@@ -271,17 +270,11 @@ void IdentificationCore::state_fields(Archive& a, Self& c) {
             "does not hold one state per side-by-side estimator");
 }
 
-StateJson IdentificationCore::save_state() const {
-  StateOut out;
-  state_fields(out, *this);
-  return out.take();
-}
+StateJson IdentificationCore::save_state() const { return save_fields(*this); }
 
 void IdentificationCore::restore_state(const StateJson& state) {
-  IdentificationCore c(params_);  // restored into a copy: this one changes only when everything was read
-  StateIn in(state, "identification");
-  state_fields(in, c);
-  *this = std::move(c);
+  // Restored into a copy: this one changes only when everything was read.
+  *this = restored_copy(IdentificationCore(params_), state, "identification");
 }
 
 bool IdentificationCore::apply_misalignment(const PublishedMisalignment& m) {

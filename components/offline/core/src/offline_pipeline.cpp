@@ -45,6 +45,11 @@ struct OfflinePipeline::Consumer {
   bool admit(const std::optional<StreamId>& input, double t_s) {
     return input && aligner.on_sample(*input, t_s, kNow_s) == SampleAdmission::kAccepted;
   }
+  /// Whether a sample of stream `input` stamped t_s reaches the component whose inputs are c: the
+  /// component runs (c is not null: its core exists too) and admits it.
+  static bool admits(Consumer* c, std::optional<StreamId> Consumer::*input, double t_s) {
+    return c && c->admit(c->*input, t_s);
+  }
 };
 
 OfflinePipeline::OfflinePipeline(const PipelineConfig& config, PipelineSink& sink)
@@ -73,46 +78,37 @@ void OfflinePipeline::advance_to(double t_s) {
   pending_t_s_ = t_s;
 }
 
-namespace {
-// A sensor sample as the nodes receive it: its stamp as the gateway's message carries it.
 template <class Sample>
-Sample as_on_the_wire(const Sample& sample) {
+Sample OfflinePipeline::arrive(const Sample& sample) {
   Sample s = sample;
   try {
     s.t_s = wire_time_s(sample.t_s);
   } catch (const std::invalid_argument& e) {
     throw StreamInputError(std::string("offline pipeline: sample stamp: ") + e.what());
   }
+  advance_to(s.t_s);
   return s;
 }
-}  // namespace
 
 void OfflinePipeline::add_odometer(const OdometerSample& sample) {
-  const OdometerSample s = as_on_the_wire(sample);
-  advance_to(s.t_s);
-  if (identification_ && identification_inputs_->admit(identification_inputs_->odometer, s.t_s))
-    identification_->add_odometer(s);
-  if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->odometer, s.t_s))
-    dead_reckoning_->add_odometer(s);
+  const OdometerSample s = arrive(sample);
+  if (Consumer::admits(identification_inputs_.get(), &Consumer::odometer, s.t_s)) identification_->add_odometer(s);
+  if (Consumer::admits(dead_reckoning_inputs_.get(), &Consumer::odometer, s.t_s)) dead_reckoning_->add_odometer(s);
 }
 
 void OfflinePipeline::add_gnss(const GnssSample& sample) {
-  const GnssSample s = as_on_the_wire(sample);
-  advance_to(s.t_s);
+  const GnssSample s = arrive(sample);
   last_gnss_t_s_ = s.t_s;
   calibration_.add_gnss(s);
-  if (identification_ && identification_inputs_->admit(identification_inputs_->gnss, s.t_s))
-    identification_->add_gnss(s);
-  if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->gnss, s.t_s))
-    dead_reckoning_->add_gnss(s);
+  if (Consumer::admits(identification_inputs_.get(), &Consumer::gnss, s.t_s)) identification_->add_gnss(s);
+  if (Consumer::admits(dead_reckoning_inputs_.get(), &Consumer::gnss, s.t_s)) dead_reckoning_->add_gnss(s);
 }
 
 void OfflinePipeline::add_ins(const InsSample& sample) {
-  const InsSample s = as_on_the_wire(sample);
-  advance_to(s.t_s);
+  const InsSample s = arrive(sample);
   if (config_.calibration.use_ins) calibration_.add_ins(s);
-  if (identification_ && identification_inputs_->admit(identification_inputs_->ins, s.t_s)) identification_->add_ins(s);
-  if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->ins, s.t_s)) dead_reckoning_->add_ins(s);
+  if (Consumer::admits(identification_inputs_.get(), &Consumer::ins, s.t_s)) identification_->add_ins(s);
+  if (Consumer::admits(dead_reckoning_inputs_.get(), &Consumer::ins, s.t_s)) dead_reckoning_->add_ins(s);
 }
 
 void OfflinePipeline::process(double complete_through_s) {
@@ -142,9 +138,9 @@ void OfflinePipeline::deliver_misalignments(const std::vector<calibration::Misal
   for (const calibration::MisalignmentOutput& m : outputs) {
     sink_.on_misalignment(m);
     const PublishedMisalignment p = calibration::published_misalignment(m);
-    if (identification_ && identification_inputs_->admit(identification_inputs_->misalignment, p.t_s))
+    if (Consumer::admits(identification_inputs_.get(), &Consumer::misalignment, p.t_s))
       identification_->apply_misalignment(p);
-    if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->misalignment, p.t_s))
+    if (Consumer::admits(dead_reckoning_inputs_.get(), &Consumer::misalignment, p.t_s))
       dead_reckoning_->on_misalignment(p);
   }
 }
@@ -152,7 +148,7 @@ void OfflinePipeline::deliver_misalignments(const std::vector<calibration::Misal
 void OfflinePipeline::deliver_scale_factors(const std::vector<identification::IdentificationOutput>& outputs) {
   for (const identification::IdentificationOutput& k : outputs) {
     sink_.on_scale_factor(k);
-    if (dead_reckoning_ && dead_reckoning_inputs_->admit(dead_reckoning_inputs_->scale_factor, k.t_s))
+    if (Consumer::admits(dead_reckoning_inputs_.get(), &Consumer::scale_factor, k.t_s))
       dead_reckoning_->on_scale_factor(identification::published_scale_factor(k, config_.identification_source),
                                        kNow_s);
   }

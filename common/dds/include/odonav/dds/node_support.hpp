@@ -12,7 +12,8 @@
 //   the node gives (the scale factor's 300 ms deadline);
 // - BurstThrottle: the pause that lets a KEEP_LAST history drain during a burst of writes;
 // - the options every node adds to its core's own, and the core's construction (a parameter it
-//   rejects is a configuration error).
+//   rejects is a configuration error);
+// - the estimation commands (reset, freeze, unfreeze) of the estimating nodes.
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -32,6 +33,7 @@
 #include "odonav/dds/time.hpp"
 #include "odonav/event_time_aligner.hpp"
 #include "odonav/frames.hpp"
+#include "odonav/msg/Command.h"
 #include "odonav/msg/GnssFix.h"
 #include "odonav/msg/InsAttitude.h"
 #include "odonav/msg/Misalignment.h"
@@ -245,5 +247,34 @@ class EstimatePublisher {
   uint64_t write_failures_ = 0;
   BurstThrottle throttle_;
 };
+
+/// What an estimating node (calibration, identification) replies to an accepted reset, freeze and
+/// unfreeze.
+struct EstimationCommandReplies {
+  const char* reset;
+  const char* freeze;
+  const char* unfreeze;
+};
+
+/// Runs COMMAND_RESET_ESTIMATION, COMMAND_FREEZE_ESTIMATION and COMMAND_UNFREEZE_ESTIMATION on
+/// core (its reset(), freeze(), unfreeze()) and returns the accepted acknowledgement with the node's
+/// reply; nullopt for any other command kind, which the node answers itself.
+template <class Core>
+std::optional<CommandAck> run_estimation_command(const odonav::msg::Command& c, Core& core,
+                                                 const EstimationCommandReplies& replies) {
+  using namespace odonav::msg;
+  switch (c.command()) {
+    case COMMAND_RESET_ESTIMATION:
+      core.reset();
+      return CommandAck{c.command_id(), COMMAND_RESULT_ACCEPTED, replies.reset};
+    case COMMAND_FREEZE_ESTIMATION:
+      core.freeze();
+      return CommandAck{c.command_id(), COMMAND_RESULT_ACCEPTED, replies.freeze};
+    case COMMAND_UNFREEZE_ESTIMATION:
+      core.unfreeze();
+      return CommandAck{c.command_id(), COMMAND_RESULT_ACCEPTED, replies.unfreeze};
+    default: return std::nullopt;
+  }
+}
 
 }  // namespace odonav::dds

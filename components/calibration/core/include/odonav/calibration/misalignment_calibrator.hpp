@@ -228,6 +228,7 @@ class MisalignmentCalibrator {
     }
   };
   // The calibrator's checkpoint fields, listed once for save_state() and restore_state().
+  friend struct odonav::StateAccess;  // save_fields() and restored_copy() reach state_fields
   template <class Archive, class Self>
   static void state_fields(Archive& a, Self& self);
   MisalignmentOutput process_epoch(const GnssSample& gnss);

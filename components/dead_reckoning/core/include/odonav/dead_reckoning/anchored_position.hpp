@@ -204,6 +204,7 @@ class AnchoredPositionFilter {
   void start(const Eigen::Vector3d& z, double sigma_h_m);
   void propagate(const Eigen::Vector3d& d_m, double dd_m, double dt_s);
   // The filter's checkpoint fields, listed once for save_state() and restore_state().
+  friend struct odonav::StateAccess;  // save_fields() and restored_copy() reach state_fields
   template <class Archive, class Self>
   static void state_fields(Archive& a, Self& self);
 

@@ -414,6 +414,7 @@ class DeadReckoner {
   HeldTracker held_[2];
 
   // The dead reckoner's checkpoint fields, listed once for save_state() and restore_state().
+  friend struct odonav::StateAccess;  // save_fields() and restored_copy() reach state_fields
   template <class Archive, class Self>
   static void state_fields(Archive& a, Self& self);
 };

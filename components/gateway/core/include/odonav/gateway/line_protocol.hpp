@@ -91,6 +91,10 @@ class LineDecoder {
 /// XOR of the bytes of `text`: the NMEA checksum of the characters between '$' and '*'.
 std::uint8_t line_checksum(std::string_view text);
 
+/// The value of a hexadecimal digit (0-9, A-F, a-f), -1 for any other character (NMEA checksums
+/// here, CAN identifiers and payloads in can_decoders.cpp).
+int hex_digit(char c);
+
 // Writers of the protocol (simulated devices, tests). Numbers are written in shortest
 // round-trip form, angles as the degrees the dataset files hold (recorded_degrees), so parsing
 // the line gives back exactly what read_dataset gives for the same sample. With `checksum`, the

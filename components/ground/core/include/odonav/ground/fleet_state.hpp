@@ -174,6 +174,10 @@ class FleetState {
   };
   Vehicle& vehicle(const std::string& id);
   void count(Vehicle& v, Stream s, double now_s);
+  /// Keeps view as the latest of its stream (the member slot of its vehicle), arrived at now_s (s,
+  /// steady clock); returns the vehicle. The caller holds mutex_.
+  template <class View>
+  Vehicle& keep_latest(std::optional<std::pair<View, Timed>> Vehicle::*slot, const View& view, double now_s);
   bool is_stale(const Timed& t, Stream s, double now_s) const;
 
   FleetStateConfig config_;

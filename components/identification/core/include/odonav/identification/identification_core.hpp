@@ -225,6 +225,7 @@ class IdentificationCore {
   BrakingStopCounters braking_stop_counters_;
 
   // The core's checkpoint fields, listed once for save_state() and restore_state().
+  friend struct odonav::StateAccess;  // save_fields() and restored_copy() reach state_fields
   template <class Archive, class Self>
   static void state_fields(Archive& a, Self& self);
 };

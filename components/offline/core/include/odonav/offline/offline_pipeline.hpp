@@ -81,6 +81,10 @@ class OfflinePipeline {
  private:
   struct Consumer;  // a component's aligner and its input streams
   void advance_to(double t_s);
+  /// A sensor sample as the nodes receive it (its stamp as the gateway's message carries it), after
+  /// advance_to its stamp.
+  template <class Sample>
+  Sample arrive(const Sample& sample);
   void process(double complete_through_s);
   void deliver_misalignments(const std::vector<calibration::MisalignmentOutput>& outputs);
   void deliver_scale_factors(const std::vector<identification::IdentificationOutput>& outputs);
