@@ -8,7 +8,9 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
+#include "odonav/dds/endpoints.hpp"
 #include "odonav/dds/health.hpp"
 #include "odonav/dds/silence_tracker.hpp"
 #include "odonav/dds/time.hpp"
@@ -187,4 +189,40 @@ TEST(MakeHealth, FillsEveryField) {
   EXPECT_EQ(static_cast<int>(odonav::msg::HEALTH_LEVEL_WARN), 1);
   EXPECT_EQ(static_cast<int>(odonav::msg::HEALTH_LEVEL_ERROR), 2);
   EXPECT_EQ(static_cast<int>(odonav::msg::HEALTH_LEVEL_STALE), 3);
+}
+
+// A key's instance handle depends on the key alone: fastddsgen's getKey() left the previous key's
+// bytes in the padding between Health's two key members (the same key then hashed differently after
+// another), and a participant's one type support per type computes keys on the writing thread and
+// on receive threads at once. Two threads computing the keys of two different Health samples at
+// once must each get their own sample's key, every time.
+TEST(ThreadSafeKeyType, KeysComputedOnTwoThreadsAtOnceAreEachTheirSamplesKeys) {
+  odonav::dds::detail::ThreadSafeKeyType<odonav::msg::HealthPubSubType> type;
+  odonav::msg::Health a, b;
+  a.vehicle_id("tracked-vehicle-with-a-long-name-0001");
+  a.component("odonav-identification");
+  b.vehicle_id("another-tracked-vehicle-named-0002");
+  b.component("odonav-dead-reckoning");
+  eprosima::fastrtps::rtps::InstanceHandle_t key_a, key_b;
+  ASSERT_TRUE(type.getKey(&a, &key_a));
+  ASSERT_TRUE(type.getKey(&b, &key_b));
+  ASSERT_NE(key_a, key_b);
+  eprosima::fastrtps::rtps::InstanceHandle_t again;
+  ASSERT_TRUE(type.getKey(&a, &again));
+  EXPECT_EQ(again, key_a);  // the same key after another one
+  auto hammer = [&type](odonav::msg::Health* sample, eprosima::fastrtps::rtps::InstanceHandle_t expected) {
+    int wrong = 0;
+    for (int i = 0; i < 100000; ++i) {
+      eprosima::fastrtps::rtps::InstanceHandle_t key;
+      type.getKey(sample, &key);
+      wrong += key == expected ? 0 : 1;
+    }
+    return wrong;
+  };
+  int wrong_a = 0, wrong_b = 0;
+  std::thread t([&] { wrong_a = hammer(&a, key_a); });
+  wrong_b = hammer(&b, key_b);
+  t.join();
+  EXPECT_EQ(wrong_a, 0);
+  EXPECT_EQ(wrong_b, 0);
 }

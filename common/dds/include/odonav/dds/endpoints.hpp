@@ -13,10 +13,12 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <functional>
 #include <map>
 #include <memory>
@@ -50,6 +52,32 @@ struct WriterSettings {
 };
 
 namespace detail {
+
+/// T's generated type support with a key hash that depends on the key alone, safe to compute on
+/// several threads at once. fastddsgen 2.x's getKey() serialises the key into a buffer of the type
+/// support and hashes it with an MD5 member of it, and:
+///  - it does not clear the buffer, so the alignment padding between two key members (Health's
+///    vehicle_id and component) keeps the bytes of the previous key serialised there: the same key
+///    hashed to another instance handle after another key had been computed;
+///  - a participant keeps one registered type support per type for all its writers and readers of
+///    that type: a writer computes its sample's key on the writing thread while a reader computes a
+///    received sample's on a receive thread (the recorder and the ground station publish Health and
+///    read it), one over the other's bytes.
+/// Here the buffer is zeroed before each key (its padding then reads 0 whatever came before) and
+/// one mutex per type support serialises getKey() (the other members are stateless).
+template <class PubSubType>
+class ThreadSafeKeyType : public PubSubType {
+ public:
+  bool getKey(void* data, eprosima::fastrtps::rtps::InstanceHandle_t* handle, bool force_md5 = false) override {
+    const std::lock_guard<std::mutex> lock(key_mutex_);
+    if (this->m_keyBuffer != nullptr)  // allocated with this length by the generated constructor
+      std::memset(this->m_keyBuffer, 0, std::max<std::size_t>(PubSubType::type::getKeyMaxCdrSerializedSize(), 16));
+    return PubSubType::getKey(data, handle, force_md5);
+  }
+
+ private:
+  std::mutex key_mutex_;
+};
 
 /// Counts matched remote endpoints, from the listener thread, and lets callers wait for them.
 class MatchCounter {
@@ -185,14 +213,17 @@ class Writer : public detail::WriterBase {
   /// Throws std::runtime_error naming the profile, topic and participant files when the profile
   /// does not exist or the writer cannot be created.
   Writer(const Participant& participant, const std::string& topic_name, const std::string& qos_profile)
-      : WriterBase(participant, topic_name, qos_profile,
-                   eprosima::fastdds::dds::TypeSupport(new typename DdsType<T>::PubSubType())) {}
+      : WriterBase(
+            participant, topic_name, qos_profile,
+            eprosima::fastdds::dds::TypeSupport(new detail::ThreadSafeKeyType<typename DdsType<T>::PubSubType>())) {}
   /// The same, with per-writer settings on top of the profile (ownership strength, persistence).
   /// Also throws std::runtime_error when the settings make the QoS inconsistent.
   Writer(const Participant& participant, const std::string& topic_name, const std::string& qos_profile,
          const WriterSettings& settings)
-      : WriterBase(participant, topic_name, qos_profile,
-                   eprosima::fastdds::dds::TypeSupport(new typename DdsType<T>::PubSubType()), settings) {}
+      : WriterBase(
+            participant, topic_name, qos_profile,
+            eprosima::fastdds::dds::TypeSupport(new detail::ThreadSafeKeyType<typename DdsType<T>::PubSubType>()),
+            settings) {}
 
   /// Publishes one sample. Returns false if the middleware refused it (for a RELIABLE writer whose
   /// history is full of unacknowledged samples, after the profile's max_blocking_time).
@@ -226,8 +257,9 @@ class Reader : public detail::ReaderBase {
   /// does not exist or the reader cannot be created.
   Reader(const Participant& participant, const std::string& topic_name, const std::string& qos_profile,
          DataCallback on_data = nullptr, SilenceCallback on_silence = nullptr)
-      : ReaderBase(participant, topic_name, qos_profile,
-                   eprosima::fastdds::dds::TypeSupport(new typename DdsType<T>::PubSubType())),
+      : ReaderBase(
+            participant, topic_name, qos_profile,
+            eprosima::fastdds::dds::TypeSupport(new detail::ThreadSafeKeyType<typename DdsType<T>::PubSubType>())),
         on_data_(std::move(on_data)),
         on_silence_(std::move(on_silence)) {
     open(static_cast<bool>(on_data_), static_cast<bool>(on_silence_));
