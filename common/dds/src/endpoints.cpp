@@ -54,7 +54,12 @@ WriterBase::WriterBase(const Participant& participant, const std::string& topic_
     : core_(participant.core()), topic_name_(topic_name) {
   auto& publisher = core_->publisher();
   DataWriterQos qos;
-  if (publisher.get_datawriter_qos_from_profile(qos_profile, qos) != ReturnCode_t::RETCODE_OK) {
+  bool has_profile = false;
+  {
+    const std::lock_guard<std::mutex> profiles_lock(xml_profiles_mutex());
+    has_profile = publisher.get_datawriter_qos_from_profile(qos_profile, qos) == ReturnCode_t::RETCODE_OK;
+  }
+  if (!has_profile) {
     throw std::runtime_error("odonav::dds::Writer: no data_writer QoS profile named '" + qos_profile + "' for topic '" +
                              topic_name + "' (" + core_->description() + ")");
   }
@@ -132,7 +137,12 @@ ReaderBase::ReaderBase(const Participant& participant, const std::string& topic_
                        eprosima::fastdds::dds::TypeSupport type)
     : core_(participant.core()), topic_name_(topic_name), qos_profile_(qos_profile) {
   DataReaderQos qos;
-  if (core_->subscriber().get_datareader_qos_from_profile(qos_profile, qos) != ReturnCode_t::RETCODE_OK) {
+  bool has_profile = false;
+  {
+    const std::lock_guard<std::mutex> profiles_lock(xml_profiles_mutex());
+    has_profile = core_->subscriber().get_datareader_qos_from_profile(qos_profile, qos) == ReturnCode_t::RETCODE_OK;
+  }
+  if (!has_profile) {
     throw std::runtime_error("odonav::dds::Reader: no data_reader QoS profile named '" + qos_profile + "' for topic '" +
                              topic_name + "' (" + core_->description() + ")");
   }

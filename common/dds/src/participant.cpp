@@ -98,6 +98,11 @@ bool has_property(const DomainParticipantQos& qos, const std::string& name) {
 
 namespace detail {
 
+std::mutex& xml_profiles_mutex() {
+  static std::mutex m;
+  return m;
+}
+
 ParticipantEventLog::~ParticipantEventLog() {
   if (!space_secure_discoveries_) return;
   const Counts c = counts();
@@ -414,12 +419,16 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
   }
 
   apply_fast_dds_log_verbosity();
+  std::unique_lock<std::mutex> profiles_lock(detail::xml_profiles_mutex());
   load_xml_file(profiles_file_, "participant profiles");
   load_xml_file(qos_file_, "QoS profiles");
 
   auto* factory = DomainParticipantFactory::get_instance();
   DomainParticipantQos qos;
-  if (factory->get_participant_qos_from_profile(options.participant_profile, qos) != ReturnCode_t::RETCODE_OK) {
+  const bool has_profile =
+      factory->get_participant_qos_from_profile(options.participant_profile, qos) == ReturnCode_t::RETCODE_OK;
+  profiles_lock.unlock();
+  if (!has_profile) {
     throw std::runtime_error("odonav::dds::Participant: no participant profile named '" + options.participant_profile +
                              "' in '" + profiles_file_ + "' (or in another loaded XML file)");
   }

@@ -57,6 +57,12 @@ std::optional<std::string> profiles_file_or_environment(const std::string& given
 inline constexpr const char* kFastDdsLogEnv = "ODONAV_FASTDDS_LOG";
 
 namespace detail {
+
+/// Held while this layer loads a Fast DDS XML profiles file or reads a QoS profile from the loaded
+/// ones: Fast DDS 2.9 keeps them in one process-wide table without a lock, and a process may build
+/// participants and endpoints on several threads at once.
+std::mutex& xml_profiles_mutex();
+
 /// Logs, through spdlog, what the participant learns about the others of its domain: a
 /// participant discovered, left (removed) or lost (dropped: its lease expired, e.g. a dead ECU or a
 /// cut link), and with DDS Security whether each one was authenticated (a refused one is warned
