@@ -35,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "odonav/residual_correlation.hpp"
 #include "odonav/scale_factor_estimator.hpp"
 
 namespace odonav {
@@ -318,6 +319,7 @@ class WindowRlsEstimator : public ScaleFactorEstimator {
   std::size_t since_resum_ = 0;
   uint64_t samples_used_ = 0;
   ResidualScaleTracker residual_scale_;
+  ResidualCorrelationTracker residual_correlation_;
   CusumChangeDetector change_;
   std::optional<uint64_t> change_began_;  // first sample of the last detected change (samples_used_ index)
 };

@@ -66,6 +66,10 @@ struct ScaleFactorEstimate {
   /// sigma_since the least-squares K and its sigma over the samples since the change began
   /// (m/pulse); 0 otherwise. docs/ALGORITHM.md "Honest sigma".
   double lag_sigma_m_per_pulse = 0.0;
+  /// sqrt(long-run variance / variance) of the residuals behind K (>= 1): the factor by which their
+  /// serial correlation widens sigma_m_per_pulse (ResidualCorrelationTracker); 1 when the estimator
+  /// does not report it (only lm_rls and vff_lm_rls do). docs/ALGORITHM.md "Honest sigma".
+  double correlation_factor = 1.0;
 };
 
 class ScaleFactorEstimator {

@@ -42,6 +42,7 @@ WindowRlsEstimator::WindowRlsEstimator(const ScaleFactorEstimatorParams& params,
       capacity_(params.window_length),
       resum_interval_(params.resum_interval == 0 ? params.window_length : params.resum_interval),
       residual_scale_(params.sigma_y_floor_m, params.sigma_y_ewma_alpha),
+      residual_correlation_(params.sigma_y_ewma_alpha),
       change_(params.vff_change_threshold, params.vff_change_drift) {
   params_.validate();
   buffer_.resize(capacity_);
@@ -75,6 +76,7 @@ void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
     if (variable_forgetting_ && params_.vff_change_threshold > 0.0 &&
         residual_scale_.count() >= kMinResidualsForOnlineScale)
       change_began = change_.add(eps / (std::sqrt(s) * residual_scale_.sigma_m()), samples_used_);
+    residual_correlation_.add(eps / std::sqrt(s), 3.0 * residual_scale_.sigma_m());
     residual_scale_.add(eps, s);
     // Ordinary RLS while the window fills (fewer than L held), the VFF law afterwards.
     if (variable_forgetting_ && held_ == capacity_) {
@@ -203,6 +205,7 @@ ScaleFactorEstimate WindowRlsEstimator::estimate() const {
   // least-squares K moves by -d sum w phi dv / sum w phi^2 (the prior does not move).
   e.dk_dlatency_m_per_pulse_per_s = -s_pdv_ / (s_pp_ + w0);
   e.lag_sigma_m_per_pulse = lag_sigma(e.k_m_per_pulse, residual_scale_.sigma_m());
+  e.correlation_factor = residual_correlation_.sigma_factor();
   return e;
 }
 
@@ -217,6 +220,7 @@ void WindowRlsEstimator::reset() {
   since_resum_ = 0;
   samples_used_ = 0;
   residual_scale_.reset();
+  residual_correlation_.reset();
   change_.reset();
   change_began_.reset();
 }
@@ -226,6 +230,7 @@ void WindowRlsEstimator::state_fields(Archive& a, Self& self) {
   a("s_pp", self.s_pp_)("s_py", self.s_py_)("s_pdv", self.s_pdv_)("log_weight", self.log_weight_)(
       "last_lambda", self.last_lambda_)("since_resum", self.since_resum_)("samples_used", self.samples_used_);
   residual_scale_fields(a, self.residual_scale_);
+  a.via("residual_correlation", self.residual_correlation_);
   change_detector_fields(a, self.change_);
   a("change_began", self.change_began_);  // null before any detected change
   // The window, oldest first, as (phi, y, Lambda, speed change) rows; restored from the start of the ring.

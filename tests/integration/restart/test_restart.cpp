@@ -167,7 +167,9 @@ TEST_F(IdentificationRestart, CorruptCheckpointsAreMovedAsideAndTheNodeStartsFro
   const std::string good = read_text(ckpt);
   ASSERT_NE(good.find("\"component\":\"identification\""), std::string::npos) << good.substr(0, 200);
   ASSERT_NE(good.find("\"format\":\"odonav-checkpoint\""), std::string::npos);
-  ASSERT_NE(good.find("\"version\":3}"), std::string::npos) << "the identification's version, last key";
+  ASSERT_NE(good.find("\"version\":" + std::to_string(identification::kIdentificationCheckpointVersion) + "}"),
+            std::string::npos)
+      << "the identification's version, last key";
   shm_clean();
   const std::string truncated = good.substr(0, good.size() / 2);
   run_over(103, truncated, dir + "/truncated.log", health, k);

@@ -264,7 +264,8 @@ TEST_F(CalibrationCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideNamedA
       {"identification checkpoint", sealed("identification", kCalibrationCheckpointVersion),
        "made by odonav-identification, this is odonav-calibration"},
       {"future version", sealed("calibration", kCalibrationCheckpointVersion + 1),
-       "checkpoint version 3, this build reads version 2"},
+       "checkpoint version " + std::to_string(kCalibrationCheckpointVersion + 1) + ", this build reads version " +
+           std::to_string(kCalibrationCheckpointVersion)},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);

@@ -380,13 +380,16 @@ TEST_F(Checkpoint, OtherEstimatorIsMovedAside) {
 
 TEST_F(Checkpoint, AnOlderVersionIsMovedAsideWithItsVersionNamed) {
   // Version 1 held the estimator's state only: a restart from it lost the builder's state (the
-  // GNSS latency in force among it), so it is not resumed from; version 2 was the text format.
+  // GNSS latency in force among it), so it is not resumed from; version 2 was the text format,
+  // version 3 had no residual correlation.
   auto e = fed_core(50);
   const StateJson payload = StateJson::parse(serialize_checkpoint(valid_checkpoint(*e))).at("payload");
   expect_moved_aside(seal_checkpoint(CheckpointIdentity{"identification", kIdentificationCheckpointVersion - 1,
                                                         kVehicle, "0123456789abcdef"},
                                      payload),
-                     kVehicle, "0123456789abcdef", "checkpoint version 2, this build reads version 3");
+                     kVehicle, "0123456789abcdef",
+                     "checkpoint version " + std::to_string(kIdentificationCheckpointVersion - 1) +
+                         ", this build reads version " + std::to_string(kIdentificationCheckpointVersion));
 }
 
 TEST_F(Checkpoint, AnOlderTextCheckpointIsMovedAsideNamedAsSuch) {

@@ -980,3 +980,93 @@ TEST(HonestSigma, SaveRestoreKeepsTheSpeedChangesAndTheChangeStart) {
   EXPECT_NEAR(a.window_sums().s_pdv, a.exact_window_sums().s_pdv, 1e-9);
   EXPECT_NEAR(a.window_sums().s_pdv, 20 * 80.0 * 0.1, 1e-9);
 }
+
+// ---------------------------------------------------------------------------------------------------
+// Serially correlated residuals.
+
+// The mean sigma factor of a tracker fed n residuals x_t = e_t + c e_(t-1), e white (fixed seed),
+// after the first 200 (its running means settled).
+double mean_correlation_factor(double c, unsigned seed, int n = 20000) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> e(0.0, 1.0);
+  ResidualCorrelationTracker tracker(0.02);
+  double previous = e(rng), sum = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double now = e(rng);
+    tracker.add(now + c * previous, 10.0);
+    previous = now;
+    if (i >= 200) sum += tracker.sigma_factor();
+  }
+  return sum / (n - 200);
+}
+
+TEST(ResidualCorrelation, FactorIsTheBartlettLongRunRatioAndNeverBelowOne) {
+  // Lag-1 correlation c / (1 + c^2), none beyond: the 3-lag Bartlett ratio is 1 + 2 (3/4) rho.
+  const double white = mean_correlation_factor(0.0, 1);
+  const double shared = mean_correlation_factor(1.0, 2);     // rho 0.5: sqrt(1.75) = 1.323
+  const double opposite = mean_correlation_factor(-1.0, 3);  // rho -0.5: the long-run ratio 0.25
+  std::printf("[ info ] mean correlation factor: white %.3f, rho +0.5 %.3f, rho -0.5 %.3f\n", white, shared, opposite);
+  EXPECT_GE(white, 1.0);
+  EXPECT_LT(white, 1.12);  // the running means' own noise, cut at 1 from below
+  EXPECT_NEAR(shared, std::sqrt(1.75), 0.06);
+  EXPECT_LT(opposite, 1.01);
+
+  ResidualCorrelationTracker t(0.02);
+  EXPECT_EQ(t.sigma_factor(), 1.0);
+  for (int i = 0; i < 3; ++i) t.add(1.0, 10.0);  // a constant: fully correlated, but too few yet
+  EXPECT_EQ(t.sigma_factor(), 1.0);
+  t.add(1.0, 10.0);
+  EXPECT_DOUBLE_EQ(t.sigma_factor(), 2.0);  // the largest: sqrt(1 + 3)
+  t.add(1e9, 3.0);                          // clipped: an outlier counts as 3
+  EXPECT_LE(t.sigma_factor(), 2.0);
+}
+
+TEST(ResidualCorrelation, StateRestoresExactlyAndRefusesNonFiniteValues) {
+  ResidualCorrelationTracker a(0.02), b(0.02);
+  for (int i = 0; i < 40; ++i) a.add(std::sin(0.3 * i), 10.0);
+  b.restore_state(a.state());
+  for (int i = 40; i < 60; ++i) {
+    a.add(std::sin(0.3 * i), 10.0);
+    b.add(std::sin(0.3 * i), 10.0);
+    EXPECT_EQ(a.sigma_factor(), b.sigma_factor()) << i;
+  }
+  ResidualCorrelationTracker::State bad = a.state();
+  bad.gamma[2] = std::nan("");
+  EXPECT_THROW(b.restore_state(bad), std::runtime_error);
+  bad = a.state();
+  bad.gamma[0] = -1.0;
+  EXPECT_THROW(b.restore_state(bad), std::runtime_error);
+  EXPECT_EQ(b.sigma_factor(), a.sigma_factor());  // unchanged by the refused states
+}
+
+TEST(ResidualCorrelation, WidenedSigmaMatchesTheScatterWhenSamplesShareAGnssSpeed) {
+  // 1 Hz samples whose distances are trapezoids of GNSS speeds with white errors: neighbours share
+  // one speed error (rho 0.5), so K scatters sqrt(2) times more than sigma_y / sqrt(S_pp) says.
+  // Over 300 independent runs of lm_rls (window 100) the widened sigma must describe the scatter.
+  ScaleFactorEstimatorParams params;
+  params.window_length = 100;
+  params.sample_interval_s = 1.0;
+  double sum_sq_error = 0.0, sum_sigma = 0.0, sum_widened = 0.0;
+  const int runs = 300;
+  for (int r = 0; r < runs; ++r) {
+    std::mt19937_64 rng(5000 + static_cast<unsigned>(r));
+    std::normal_distribution<double> speed_error(0.0, 0.05);
+    LmRlsEstimator lm(params);
+    double previous_error = speed_error(rng);
+    for (int i = 0; i < 300; ++i) {
+      const double error = speed_error(rng);
+      const double distance_m = 8.0;  // 800 pulses of 0.01 m over 1 s
+      lm.update(make_sample(1.0 * (i + 1), 800.0, distance_m + 0.5 * (previous_error + error), 1.0));
+      previous_error = error;
+    }
+    const ScaleFactorEstimate e = lm.estimate();
+    sum_sq_error += std::pow(e.k_m_per_pulse - 0.01, 2);
+    sum_sigma += e.sigma_m_per_pulse;
+    sum_widened += e.sigma_m_per_pulse * e.correlation_factor;
+  }
+  const double scatter = std::sqrt(sum_sq_error / runs);
+  std::printf("[ info ] 1 Hz trapezoid residuals: K scatter %.3g, mean sigma %.3g, widened %.3g m/pulse\n", scatter,
+              sum_sigma / runs, sum_widened / runs);
+  EXPECT_LT(sum_sigma / runs / scatter, 0.8);  // the plain sigma is optimistic
+  EXPECT_NEAR(sum_widened / runs / scatter, 1.0, 0.15);
+}

@@ -140,7 +140,12 @@ TEST(OfflineAcceptance, OnlineKBeatsCoarseKThroughTheOutageOnTerrain) {
 
 TEST(OfflineAcceptance, RealSmartLocDriveKWithinHalfPercentOfReferenceRatio) {
   const SmartLocK k = smartloc_k(default_params);
-  ASSERT_GT(k.converged, 50u);
+  // Its published sigma counts the residuals' correlation: since, few outputs claim 0.1 %
+  // (converged: 16 of 1 372, 174 before) while most claim 0.3 %; both groups are held to the
+  // reference.
+  ASSERT_GT(k.within_claim, 500u);
+  ASSERT_GE(k.converged, 10u);
+  EXPECT_NEAR(k.converged_median_m_per_pulse / k.reference_m_per_pulse, 1.0, 0.005);
   const double median = k.median_m_per_pulse, k_reference = k.reference_m_per_pulse;
   EXPECT_NEAR(median / k_reference, 1.0, 0.005) << "median " << median << " reference " << k_reference;
 }

@@ -132,6 +132,8 @@ void MisalignmentCalibrator::unfreeze() { frozen_ = false; }
 void MisalignmentCalibrator::reset() {
   heading_ = Regression{};
   pitch_ = Regression{};
+  heading_correlation_.reset();
+  pitch_correlation_.reset();
   samples_used_ = 0;
   last_used_forward_.reset();
   consecutive_innovation_rejections_ = 0;
@@ -167,6 +169,16 @@ MisalignmentCalibrator::RegressionSpread MisalignmentCalibrator::spread(const Re
   const double dof = static_cast<double>(samples_used_ - 1);
   const double s = std::max(params_.residual_std_floor_mps, std::sqrt(r.residual_sum_squares() / dof));
   return {s, s / std::sqrt(r.sum_phi2)};
+}
+
+double MisalignmentCalibrator::published_sigma_theta(const Regression& r,
+                                                     const ResidualCorrelationTracker& correlation) const {
+  const double dof = static_cast<double>(samples_used_ - 1);
+  const double sigma_v = params_.gnss_velocity_sigma_mps;
+  const double s = std::max(
+      params_.residual_std_floor_mps,
+      std::sqrt((r.residual_sum_squares() + kPriorResidualEpochs * sigma_v * sigma_v) / (dof + kPriorResidualEpochs)));
+  return s / std::sqrt(r.sum_phi2) * correlation.sigma_factor();
 }
 
 bool MisalignmentCalibrator::is_outlier(const GnssSample& g, const Eigen::Vector3d& v_b) {
@@ -212,8 +224,8 @@ MisalignmentOutput MisalignmentCalibrator::current() const {
     const double a_p = std::atan(theta_p * std::cos(a_h));
     o.misalignment = Misalignment{a_h, a_p};
     if (samples_used_ >= 2) {
-      const double sigma_theta_h = spread(heading_).sigma_theta;
-      const double sigma_theta_p = spread(pitch_).sigma_theta;
+      const double sigma_theta_h = published_sigma_theta(heading_, heading_correlation_);
+      const double sigma_theta_p = published_sigma_theta(pitch_, pitch_correlation_);
       // d atan(x)/dx = 1 / (1 + x^2); a_p depends on theta_p through x = theta_p cos a_h.
       const double x_p = theta_p * std::cos(a_h);
       o.sigma_heading_rad = sigma_theta_h / (1.0 + theta_h * theta_h);
@@ -316,6 +328,12 @@ MisalignmentOutput MisalignmentCalibrator::process_epoch(const GnssSample& g) {
   if (innovation_suspended_now_) ++counters_.innovation_suspended;
 
   const double phi = v_b.x();
+  if (samples_used_ >= 2) {
+    // A-priori residuals against the estimate so far, normalised as for RLS (E[r^2] = s^2).
+    const double norm = std::sqrt(1.0 + phi * phi / heading_.sum_phi2);
+    heading_correlation_.add((v_b.y() - heading_.theta() * phi) / norm, 3.0 * spread(heading_).residual_std_mps);
+    pitch_correlation_.add((v_b.z() - pitch_.theta() * phi) / norm, 3.0 * spread(pitch_).residual_std_mps);
+  }
   last_used_forward_ = std::make_pair(g.t_s, phi);
   heading_.sum_phi2 += phi * phi;
   heading_.sum_phi_y += phi * v_b.y();
@@ -344,6 +362,7 @@ void MisalignmentCalibrator::state_fields(Archive& a, Self& c) {
       .via(
           "motion_epochs", [&] { return c.motion_.state(); }, [&](const auto& epochs) { c.motion_.restore(epochs); })(
           "braking_snapshot", c.braking_snapshot_);
+  a.via("heading_correlation", c.heading_correlation_).via("pitch_correlation", c.pitch_correlation_);
   a.check("consecutive_innovation_rejections",
           c.consecutive_innovation_rejections_ >= 0 &&
               c.consecutive_innovation_rejections_ <= c.params_.innovation_max_consecutive_rejections,

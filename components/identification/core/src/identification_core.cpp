@@ -196,7 +196,8 @@ ScaleFactorEstimate honest_estimate(const ScaleFactorEstimate& own, double laten
                                     double converged_rel_sigma) {
   ScaleFactorEstimate e = own;
   if (!e.valid || !std::isfinite(e.k_m_per_pulse) || !(e.sigma_m_per_pulse > 0.0)) return e;
-  const double scatter = std::max(e.sigma_m_per_pulse, e.lag_sigma_m_per_pulse);
+  // The window's scatter widened by its residuals' serial correlation, or the lag after a change.
+  const double scatter = std::max(e.sigma_m_per_pulse * e.correlation_factor, e.lag_sigma_m_per_pulse);
   const double latency_part = e.dk_dlatency_m_per_pulse_per_s * latency_uncertainty_s;
   e.sigma_m_per_pulse = std::hypot(scatter, latency_part);
   e.converged = own.converged && latency_decided && e.k_m_per_pulse != 0.0 &&

@@ -22,7 +22,7 @@ namespace odonav::calibration {
 /// The envelope's component name and version of the calibration's checkpoint; the version is
 /// bumped whenever anything in the payload (the calibrator's state included) changes.
 inline constexpr const char* kCalibrationCheckpointComponent = "calibration";
-inline constexpr int kCalibrationCheckpointVersion = 2;
+inline constexpr int kCalibrationCheckpointVersion = 3;
 
 struct CalibrationCheckpoint {
   std::string vehicle_id;        ///< the vehicle whose data made the state.

@@ -12,7 +12,13 @@
 // running sums (order-independent up to rounding, O(1) per epoch).
 // One-sigma: sigma_theta = s / sqrt(sum phi^2), s = residual standard deviation of the regression
 // (sqrt(RSS / (n - 1)), floored at residual_std_floor_mps), mapped to angles through the derivative of
-// the inversion.
+// the inversion. What is published (and converged) differs in two ways, both for the first epochs
+// and for residuals that are not independent; the outlier gate keeps the plain sigma:
+//  - s^2 = (RSS + n0 sigma_v^2) / (n - 1 + n0): n0 = 3 pseudo-epochs of the assumed GNSS velocity
+//    noise (gnss_velocity_sigma_mps), so that two or three residuals that happen to agree cannot
+//    claim a fraction of the noise; after 100 epochs the pseudo-epochs weigh 3 %;
+//  - times the serial-correlation factor of the regression's a-priori residuals
+//    (ResidualCorrelationTracker, over about the last 50 used epochs).
 //
 // Event time: as the sample builder (sample_builder.hpp): add_gnss / add_ins in increasing time per
 // stream, process_until(watermark_s) with the contract that every input stamped <= watermark_s has
@@ -33,6 +39,7 @@
 #include "odonav/braking_stop.hpp"
 #include "odonav/event_time_aligner.hpp"
 #include "odonav/published_estimates.hpp"
+#include "odonav/residual_correlation.hpp"
 #include "odonav/results/output_files.hpp"
 #include "odonav/sensor_samples.hpp"
 #include "odonav/state_json.hpp"
@@ -199,7 +206,7 @@ class MisalignmentCalibrator {
   const MisalignmentCounters& counters() const { return counters_; }
 
   /// The state a restarted calibration needs to continue exactly (calibration_checkpoint.hpp;
-  /// checkpoint_state.hpp, every double exact): both regressions' sums, the used-epoch count, the
+  /// checkpoint_state.hpp, every double exact): both regressions' sums and residual correlations, the used-epoch count, the
   /// gates' state (speed-jump reference, consecutive innovation rejections), frozen, the last
   /// epoch's time, the counters, the motion phase and the braking snapshot. Not the buffered
   /// samples: after a restore the INS from restore_margin_s() before the last epoch and the GNSS
@@ -241,6 +248,9 @@ class MisalignmentCalibrator {
     double sigma_theta;
   };
   RegressionSpread spread(const Regression& r) const;
+  /// The published one-sigma of theta (dimensionless): see the top of this file.
+  double published_sigma_theta(const Regression& r, const ResidualCorrelationTracker& correlation) const;
+  static constexpr double kPriorResidualEpochs = 3.0;
   /// The braking-to-a-standstill rule for an epoch with forward speed speed_mps (NaN: none),
   /// before the epoch's own gates (braking_stop.hpp).
   void track_braking_stop(double t_s, double speed_mps);
@@ -251,6 +261,11 @@ class MisalignmentCalibrator {
   std::optional<double> last_gnss_t_s_;
   double watermark_s_ = -std::numeric_limits<double>::infinity();
   Regression heading_, pitch_;
+  // The a-priori residuals' serial correlation of each regression (m/s), weight 1/50 per epoch. A
+  // braking rollback keeps them: they describe the noise, not the estimate.
+  static constexpr double kResidualCorrelationAlpha = 0.02;
+  ResidualCorrelationTracker heading_correlation_{kResidualCorrelationAlpha};
+  ResidualCorrelationTracker pitch_correlation_{kResidualCorrelationAlpha};
   uint64_t samples_used_ = 0;
   /// Last used epoch (the speed-jump reference): time (s) and forward speed (m/s).
   std::optional<std::pair<double, double>> last_used_forward_;

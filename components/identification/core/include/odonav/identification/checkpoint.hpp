@@ -39,7 +39,7 @@ namespace odonav::identification {
 /// The envelope's component name and version of the identification's checkpoint; the version is
 /// bumped whenever anything in the payload (the core's state included) changes.
 inline constexpr const char* kIdentificationCheckpointComponent = "identification";
-inline constexpr int kIdentificationCheckpointVersion = 3;
+inline constexpr int kIdentificationCheckpointVersion = 4;
 
 /// The inputs of the identification, as the restart policy indexes them.
 enum class IdentificationInput { kOdometer, kGnss, kIns, kMisalignment };

@@ -85,8 +85,9 @@ struct IdentificationOutput {
 /// What K's published sigma and converged say (docs/ALGORITHM.md "Honest sigma of K"): the
 /// estimator's own sigma (the scatter of its residuals) says nothing of what all its samples share,
 /// so the published one-sigma is
-///   sigma = sqrt(max(sigma_own, sigma_lag)^2 + (dK/dlatency * u_latency)^2)
-/// with sigma_lag the lag after a detected change (own.lag_sigma_m_per_pulse), dK/dlatency
+///   sigma = sqrt(max(f * sigma_own, sigma_lag)^2 + (dK/dlatency * u_latency)^2)
+/// with f the serial-correlation factor of the residuals (own.correlation_factor), sigma_lag the
+/// lag after a detected change (own.lag_sigma_m_per_pulse), dK/dlatency
 /// (own.dk_dlatency_m_per_pulse_per_s) and u_latency the uncertainty (s) of the latency in force
 /// (SampleBuilder::latency_in_force_uncertainty_s); converged = own.converged and the latency
 /// decided and sigma / |K| < converged_rel_sigma. Unchanged when own has no value or no sigma.
