@@ -1,5 +1,5 @@
 // odonav-bench-accuracy: every estimator compared side by side against the simulator's truth, so the
-// choice of the main estimator and its defaults rests on measured figures (BENCHMARKS.md §4).
+// choice of the main estimator and its defaults rests on measured figures (BENCHMARKS.md §3).
 //
 // For every scenario (straight, ring, terrain, slow_robot, and variants such as terrain+1hz or
 // terrain+lat100) and every seed, simulates the drive in memory, runs the

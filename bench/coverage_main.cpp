@@ -9,7 +9,7 @@
 // a tracking estimator, which its sigma does not describe), and the GNSS latency's online estimate
 // against its own sigma (the published latency is the one in force, which lags it).
 //
-// It is a benchmark, not a test: it prints figures (Markdown tables, BENCHMARKS.md §12) and gates
+// It is a benchmark, not a test: it prints figures (Markdown tables, BENCHMARKS.md §11) and gates
 // nothing. One process, one thread. Options: --seeds N, --first-seed S, --scenarios, --real DIR.
 #include <algorithm>
 #include <chrono>

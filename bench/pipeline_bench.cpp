@@ -1,5 +1,5 @@
 // odonav-bench-pipeline: latency, CPU and memory of the distributed pipeline, to check the component
-// budgets on a real host (BENCHMARKS.md §6).
+// budgets on a real host (BENCHMARKS.md §5).
 //
 // Runs odonav-gateway (replay of a simulated dataset), odonav-calibration, odonav-identification and
 // odonav-dead-reckoning as separate processes on one host over the loopback profile, and measures:

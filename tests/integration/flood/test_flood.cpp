@@ -172,7 +172,7 @@ TEST(SecureStartUnderFlood, EveryProducerMatchedAndNoLegitimateLeaseLost) {
                                      << tail_of(log_of("odonav-recorder"));
   ASSERT_GE(gateway_matched_s, 0.0) << "the gateway never matched its readers\n" << tail_of(log_of("odonav-gateway"));
 
-  // The drive at real time (flow control at maximum speed is another matter: BENCHMARKS.md §6),
+  // The drive at real time (flow control at maximum speed is another matter: BENCHMARKS.md §5),
   // then the consumers in data-flow order.
   ChildProcess& gateway = *procs["odonav-gateway"];
   ASSERT_TRUE(gateway.wait_exit(120s)) << "the gateway did not reach the end of the data\n"

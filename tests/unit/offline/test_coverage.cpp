@@ -252,7 +252,7 @@ TEST(Coverage, ARecordingWithoutTruthUsesTheKReferenceAndTheFixesNotYetApplied) 
 
 // The published sigmas on the simulator, seeds 1-3, run as a user runs odonav-offline: only the
 // quantities whose sigmas meet a bound with a clear margin today (odonav-bench-coverage, BENCHMARKS.md
-// §12, has every quantity; the misalignment pitch, the GNSS latency at 1 Hz and the slow robot's
+// §11, has every quantity; the misalignment pitch, the GNSS latency at 1 Hz and the slow robot's
 // height do not meet one yet).
 std::map<std::string, QuantityCoverage> pooled_over_seeds(simulator::SimulationConfig cfg, const std::string& label) {
   std::map<std::string, QuantityCoverage> pooled;

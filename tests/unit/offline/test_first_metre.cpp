@@ -65,7 +65,7 @@ TEST(FirstMetre, TerrainSeed1DeadReckoningMeetsTheFinalGoal) {
 TEST(FirstMetre, AnRtkStartMeetsTheMaxAfter500mGoal) {
   // The max %D after 500 m is mostly the start fix's error: the simulator's GNSS error is 1.4 m per
   // axis of Gauss-Markov noise correlated over 60 s, which no origin built from the fixes of the
-  // first minute averages away (BENCHMARKS.md §5.1). What does meet the goal is a start fix of
+  // first minute averages away (BENCHMARKS.md §4.1). What does meet the goal is a start fix of
   // centimetres: the same drive with RTK-grade positions (the slow robot's 1 cm + 1 cm), the DR
   // unchanged.
   simulator::SimulationConfig cfg = terrain_config(1);
