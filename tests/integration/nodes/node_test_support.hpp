@@ -4,9 +4,11 @@
 // come from tests/support/child_process.hpp.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <functional>
+#include <limits>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -136,6 +138,12 @@ class Collector {
     std::lock_guard<std::mutex> lock(mutex_);
     return samples_.size();
   }
+  /// The sample time (s) of the latest sample received, -infinity before the first.
+  double latest_t_s() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return samples_.empty() ? -std::numeric_limits<double>::infinity()
+                            : dds::to_seconds(samples_.back().header().stamp());
+  }
   dds::Reader<T>& reader() { return reader_; }
   /// Waits until pred(samples) holds or timeout; returns whether it held.
   bool wait_until(const std::function<bool(const std::vector<T>&)>& pred, std::chrono::milliseconds timeout) {
@@ -167,19 +175,44 @@ struct TimedWrite {
   std::function<void()> write;
 };
 
-/// Replays writes in event-time order, pausing briefly every `chunk` writes so that no KEEP_LAST
-/// sensor writer can overwrite samples not yet delivered. (Waiting for acknowledgments instead is
-/// correct but slow here: readers acknowledge on the writer's periodic heartbeat, every 3 s by
-/// default.) The end waits for every writer in `flush` to be acknowledged.
+/// The sample time (s) of the node's latest output, -infinity before its first: how far the node
+/// under test has got.
+using ConsumerProgress = std::function<double()>;
+
+/// Replays writes in event-time order, pausing briefly every 50 writes. The KEEP_LAST histories of
+/// the sensor and estimate topics (3000 and 300 samples: 30 s) drop what a node has not taken when
+/// the replay runs that far ahead of it, which a loaded machine makes happen at full replay speed
+/// (a node then missed 250-480 odometer samples and dozens of misalignments). So the replay never
+/// writes more than 5 s of sample time beyond the node's `progress`, unless the node makes no
+/// progress for 5 s of wall time (it may be waiting, by design, for an input to fall silent).
+/// (Waiting for acknowledgments instead is not enough: an acknowledged sample can still be dropped
+/// from a full reader history.) The end waits for every writer in `flush` to be acknowledged.
 inline void replay(std::vector<TimedWrite> writes, const std::vector<dds::detail::WriterBase*>& flush,
-                   std::size_t chunk = 50) {
+                   const ConsumerProgress& progress) {
+  constexpr std::size_t kChunk = 50;
+  constexpr double kMaxLeadS = 5.0;
+  constexpr auto kMaxStall = std::chrono::seconds(5);
   std::stable_sort(writes.begin(), writes.end(), [](const TimedWrite& a, const TimedWrite& b) {
     return a.t_s < b.t_s || (a.t_s == b.t_s && a.order < b.order);
   });
+  // Before the node's first output, the lead counts from the first write.
+  const double start_s = writes.empty() ? 0.0 : writes.front().t_s;
   std::size_t n = 0;
   for (auto& w : writes) {
+    if (n % kChunk == 0) {
+      double reached_s = std::max(start_s, progress());
+      auto progressed_at = std::chrono::steady_clock::now();
+      while (w.t_s - reached_s > kMaxLeadS && std::chrono::steady_clock::now() - progressed_at < kMaxStall) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        const double now_s = std::max(start_s, progress());
+        if (now_s > reached_s) {
+          reached_s = now_s;
+          progressed_at = std::chrono::steady_clock::now();
+        }
+      }
+    }
     w.write();
-    if (++n % chunk == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    if (++n % kChunk == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
   for (auto* f : flush) f->wait_for_acknowledgments(std::chrono::milliseconds(5000));
 }

@@ -211,7 +211,7 @@ TEST_F(NodeProcess, CalibrationNodePublishesWhatTheCalibratorComputesAndDrainsOn
   ChildProcess node(binary("odonav-calibration"), node_args(domain, 10.0));
   ASSERT_TRUE(node.started());
   ASSERT_NO_FATAL_FAILURE(wait_matched({&gnss, &ins}, out.reader()));
-  replay(sensor_writes(d, nullptr, &gnss, &ins), {&gnss, &ins});
+  replay(sensor_writes(d, nullptr, &gnss, &ins), {&gnss, &ins}, [&out] { return out.latest_t_s(); });
   wait_quiet(out, expected.size());
   const std::size_t before_stop = without_repeats(out.samples()).size();
 
@@ -270,7 +270,7 @@ TEST_F(NodeProcess, IdentificationNodeEqualsTheCoreFedTheSameMisalignments) {
 
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   add_misalignment_writes(writes, mis, mis_writer);
-  replay(writes, {&odo, &gnss, &ins, &mis_writer});
+  replay(writes, {&odo, &gnss, &ins, &mis_writer}, [&out] { return out.latest_t_s(); });
   wait_quiet(out);
 
   // A set_k far outside [0.1, 10] x the nominal K (a metre per pulse: a typo, not a K): acknowledged
@@ -330,6 +330,7 @@ TEST_F(NodeProcess, DeadReckoningNodeEqualsTheDeadReckonerFedTheSameEstimates) {
   auto& [odo, gnss, ins, mis_writer] = writers;
   odonav::dds::Writer<msg::ScaleFactor> k_writer(p, topics::kScaleFactor.name, topics::kScaleFactor.writer_profile);
   Collector<msg::DeadReckoning> out(p, topics::kDeadReckoning);
+  Collector<msg::Health> health(p, topics::kHealth);
 
   ChildProcess node(binary("odonav-dead-reckoning"), node_args(domain, 10.0));
   ASSERT_TRUE(node.started());
@@ -339,10 +340,18 @@ TEST_F(NodeProcess, DeadReckoningNodeEqualsTheDeadReckonerFedTheSameEstimates) {
   add_misalignment_writes(writes, mis, mis_writer);
   for (const auto& k : k_messages)
     writes.push_back({odonav::dds::to_seconds(k.header().stamp()), 2, [&k_writer, k] { k_writer.write(k); }});
-  replay(writes, {&odo, &gnss, &ins, &mis_writer, &k_writer});
+  replay(writes, {&odo, &gnss, &ins, &mis_writer, &k_writer}, [&out] { return out.latest_t_s(); });
   wait_quiet(out, expected.size());
 
   ASSERT_NO_FATAL_FAILURE(stop_node(node));
+  // Every input reached the node (a sample dropped on the way would show as a missing or different row).
+  ASSERT_TRUE(
+      health.wait_until([](const auto& v) { return !v.empty() && v.back().reason() == "stopped: drained"; }, 10s));
+  const auto h = last_health(health, "odonav-dead-reckoning");
+  ASSERT_TRUE(h.has_value());
+  EXPECT_EQ(counter(*h, "odometer_in"), static_cast<double>(d.odometer.size()));
+  EXPECT_EQ(counter(*h, "ins_in"), static_cast<double>(d.ins.size()));
+  EXPECT_EQ(counter(*h, "misalignment_in"), static_cast<double>(mis.size()));
   const auto got = out.samples();
   expect_same_dead_reckoning(got, expected);
   std::size_t identified = 0;
@@ -367,7 +376,7 @@ TEST_F(NodeProcess, DeadReckoningWithoutIdentificationUsesTheNominalKAndSaysSo) 
   ASSERT_NO_FATAL_FAILURE(wait_matched({&odo, &gnss, &ins, &mis_writer}, out.reader()));
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   add_misalignment_writes(writes, mis, mis_writer);
-  replay(writes, {&odo, &gnss, &ins, &mis_writer});
+  replay(writes, {&odo, &gnss, &ins, &mis_writer}, [&out] { return out.latest_t_s(); });
 
   // No identification: after the maximum wait the scale-factor input is absent, counted and told.
   EXPECT_TRUE(health.wait_until(
@@ -429,7 +438,7 @@ TEST_F(NodeProcess, LateJoiningDeadReckoningGetsTheLastPublishedK) {
   auto writes = sensor_writes(d, &odo, &gnss, &ins);
   for (std::size_t i = 1; i < d.gnss.size(); ++i)  // later epochs: a different K
     writes.push_back({d.gnss[i].t_s, 2, [&k_writer, m = k_message(d.gnss[i].t_s, 0.0132)] { k_writer.write(m); }});
-  replay(writes, {&odo, &gnss, &ins, &k_writer});
+  replay(writes, {&odo, &gnss, &ins, &k_writer}, [&out] { return out.latest_t_s(); });
   wait_quiet(out, d.odometer.size() - 1);
   ASSERT_NO_FATAL_FAILURE(stop_node(node));
 
