@@ -8,6 +8,18 @@
 
 namespace odonav::test {
 
+/// Message text of the `Error` (a std::runtime_error by default) `make` throws; empty, and no test
+/// failure, if none: for checks that some calls are refused and others are not.
+template <class Error = std::runtime_error, class Make>
+std::string message_if_thrown(Make make) {
+  try {
+    make();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return {};
+}
+
 /// Message text of the `Error` (a std::runtime_error by default) `make` throws; empty (and a test
 /// failure) if none.
 template <class Error = std::runtime_error, class Make>
