@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "child_process.hpp"
+#include "locked_vector.hpp"
 #include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dds/endpoints.hpp"
@@ -124,18 +125,9 @@ template <class T>
 class Collector {
  public:
   Collector(const dds::Participant& p, const topics::TopicSpec& topic)
-      : reader_(p, topic.name, topic.reader_profile, [this](const T& s) {
-          std::lock_guard<std::mutex> lock(mutex_);
-          samples_.push_back(s);
-        }) {}
-  std::vector<T> samples() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return samples_;
-  }
-  std::size_t size() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return samples_.size();
-  }
+      : reader_(p, topic.name, topic.reader_profile, [this](const T& s) { samples_.push_back(s); }) {}
+  std::vector<T> samples() const { return samples_.copy(); }
+  std::size_t size() const { return samples_.size(); }
   dds::Reader<T>& reader() { return reader_; }
   /// Waits until pred(samples) holds or timeout; returns whether it held.
   bool wait_until(const std::function<bool(const std::vector<T>&)>& pred, std::chrono::milliseconds timeout) {
@@ -148,8 +140,7 @@ class Collector {
   }
 
  private:
-  mutable std::mutex mutex_;
-  std::vector<T> samples_;
+  LockedVector<T> samples_;
   dds::Reader<T> reader_;
 };
 
