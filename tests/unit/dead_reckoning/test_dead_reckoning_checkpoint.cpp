@@ -129,6 +129,12 @@ void expect_identical(const Published& a, const Published& b, const std::string&
   EXPECT_TRUE(same_bits(a.anchored.scale_error, b.anchored.scale_error)) << where;
 }
 
+std::size_t index_at(const std::vector<Event>& ev, double t_s) {
+  return static_cast<std::size_t>(
+      std::lower_bound(ev.begin(), ev.end(), t_s, [](const Event& e, double t) { return e.arrival_s < t; }) -
+      ev.begin());
+}
+
 class DeadReckoningCheckpointTest : public StateDirTest {
  protected:
   DeadReckoningCheckpointTest() : StateDirTest("dead-reckoning-vehicle-07.ckpt") {}
@@ -204,13 +210,13 @@ class DeadReckoningCheckpointTest : public StateDirTest {
       r.lifecycle.checkpoint_at_finish(r.state());
     }
   }
+  /// Starts `r` at steady clock 0 and feeds it the events up to event time `until_s`: a node killed
+  /// there, its checkpoints left in the state directory.
+  static void start_and_feed_until(Run& r, const Drive& dv, const std::vector<Event>& ev, double until_s) {
+    r.start(0.0);
+    feed(r, dv, ev, 0, index_at(ev, until_s), 0.0);
+  }
 };
-
-std::size_t index_at(const std::vector<Event>& ev, double t_s) {
-  return static_cast<std::size_t>(
-      std::lower_bound(ev.begin(), ev.end(), t_s, [](const Event& e, double t) { return e.arrival_s < t; }) -
-      ev.begin());
-}
 
 }  // namespace
 
@@ -298,8 +304,7 @@ TEST_F(DeadReckoningCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideName
   const Drive dv = drive();
   const std::vector<Event> ev = events_of(dv);
   Run r(settings(1.0));
-  r.start(0.0);
-  feed(r, dv, ev, 0, index_at(ev, 12.0), 0.0);
+  start_and_feed_until(r, dv, ev, 12.0);
   const std::string good = read_text(ckpt_);
   ASSERT_FALSE(good.empty());
   DeadReckoningCheckpoint c = parse_dead_reckoning_checkpoint(good);
@@ -355,8 +360,7 @@ TEST_F(DeadReckoningCheckpointTest, AHistoryStartingAfterTheCheckpointIsNamedAsL
   const Drive dv = drive();
   const std::vector<Event> ev = events_of(dv);
   Run first(settings(5.0));
-  first.start(0.0);
-  feed(first, dv, ev, 0, index_at(ev, 21.0), 0.0);
+  start_and_feed_until(first, dv, ev, 21.0);
   Run second(settings(5.0));
   second.start(100.0);
   ASSERT_TRUE(second.lifecycle.restored_t_s());
