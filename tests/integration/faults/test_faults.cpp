@@ -392,6 +392,16 @@ std::string missing_rows(const std::vector<Row>& got, const std::vector<Row>& re
   return out.str();
 }
 
+/// pipe against ref: as many rows, then expect_same(pipe row, ref row, "<what> row <i>") on each
+/// pair in turn, up to the first that fails fatally.
+template <class Row, class ExpectSame>
+void expect_each_row(const std::vector<Row>& pipe, const std::vector<Row>& ref, const char* what,
+                     ExpectSame expect_same) {
+  ASSERT_EQ(pipe.size(), ref.size());
+  for (std::size_t i = 0; i < ref.size(); ++i)
+    ASSERT_NO_FATAL_FAILURE(expect_same(pipe[i], ref[i], std::string(what) + " row " + std::to_string(i)));
+}
+
 /// The recorder's rows against odonav-offline's: every row present (the missing ones printed as
 /// runs) and equal row by row (the pipeline test's 1e-9).
 /// navigation: the navigation_position rows too (present, and equal to offline's).
@@ -450,47 +460,41 @@ void expect_rows_equal(const results::OutputRows& pipe, const results::OutputRow
 
   // Equal to the offline tool row by row (its tolerance: the pipeline test's 1e-9).
   constexpr double kTol = 1e-9;
-  ASSERT_EQ(pipe.misalignment.size(), ref.misalignment.size());
-  for (std::size_t i = 0; i < ref.misalignment.size(); ++i) {
-    ASSERT_NEAR(pipe.misalignment[i].t_s, ref.misalignment[i].t_s, kTol) << "misalignment row " << i;
-    ASSERT_NEAR(pipe.misalignment[i].heading_rad, ref.misalignment[i].heading_rad, kTol) << "misalignment row " << i;
-    ASSERT_NEAR(pipe.misalignment[i].pitch_rad, ref.misalignment[i].pitch_rad, kTol) << "misalignment row " << i;
-  }
-  ASSERT_EQ(pipe.scale_factor.size(), ref.scale_factor.size());
-  for (std::size_t i = 0; i < ref.scale_factor.size(); ++i) {
-    ASSERT_NEAR(pipe.scale_factor[i].t_s, ref.scale_factor[i].t_s, kTol) << "scale factor row " << i;
-    ASSERT_EQ(pipe.scale_factor[i].k_m_per_pulse.has_value(), ref.scale_factor[i].k_m_per_pulse.has_value())
-        << "scale factor row " << i;
-    if (ref.scale_factor[i].k_m_per_pulse) {
-      ASSERT_NEAR(*pipe.scale_factor[i].k_m_per_pulse, *ref.scale_factor[i].k_m_per_pulse,
-                  kTol * *ref.scale_factor[i].k_m_per_pulse)
-          << "scale factor row " << i;
-    }
-    ASSERT_EQ(pipe.scale_factor[i].samples_accepted, ref.scale_factor[i].samples_accepted) << "scale factor row " << i;
-  }
-  ASSERT_EQ(pipe.dead_reckoning.size(), ref.dead_reckoning.size());
-  for (std::size_t i = 0; i < ref.dead_reckoning.size(); ++i) {
-    const auto& a = pipe.dead_reckoning[i];
-    const auto& b = ref.dead_reckoning[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "dead-reckoning row " << i;
-    ASSERT_NEAR(a.lat_rad, b.lat_rad, kTol) << "dead-reckoning row " << i;
-    ASSERT_NEAR(a.lon_rad, b.lon_rad, kTol) << "dead-reckoning row " << i;
-    ASSERT_NEAR(a.distance_m, b.distance_m, kTol) << "dead-reckoning row " << i;
-    ASSERT_NEAR(a.k_m_per_pulse, b.k_m_per_pulse, kTol * b.k_m_per_pulse) << "dead-reckoning row " << i;
-  }
+  ASSERT_NO_FATAL_FAILURE(expect_each_row(pipe.misalignment, ref.misalignment, "misalignment",
+                                          [&](const auto& a, const auto& b, const std::string& row) {
+                                            ASSERT_NEAR(a.t_s, b.t_s, kTol) << row;
+                                            ASSERT_NEAR(a.heading_rad, b.heading_rad, kTol) << row;
+                                            ASSERT_NEAR(a.pitch_rad, b.pitch_rad, kTol) << row;
+                                          }));
+  ASSERT_NO_FATAL_FAILURE(expect_each_row(
+      pipe.scale_factor, ref.scale_factor, "scale factor", [&](const auto& a, const auto& b, const std::string& row) {
+        ASSERT_NEAR(a.t_s, b.t_s, kTol) << row;
+        ASSERT_EQ(a.k_m_per_pulse.has_value(), b.k_m_per_pulse.has_value()) << row;
+        if (b.k_m_per_pulse) {
+          ASSERT_NEAR(*a.k_m_per_pulse, *b.k_m_per_pulse, kTol * *b.k_m_per_pulse) << row;
+        }
+        ASSERT_EQ(a.samples_accepted, b.samples_accepted) << row;
+      }));
+  ASSERT_NO_FATAL_FAILURE(expect_each_row(pipe.dead_reckoning, ref.dead_reckoning, "dead-reckoning",
+                                          [&](const auto& a, const auto& b, const std::string& row) {
+                                            ASSERT_NEAR(a.t_s, b.t_s, kTol) << row;
+                                            ASSERT_NEAR(a.lat_rad, b.lat_rad, kTol) << row;
+                                            ASSERT_NEAR(a.lon_rad, b.lon_rad, kTol) << row;
+                                            ASSERT_NEAR(a.distance_m, b.distance_m, kTol) << row;
+                                            ASSERT_NEAR(a.k_m_per_pulse, b.k_m_per_pulse, kTol * b.k_m_per_pulse)
+                                                << row;
+                                          }));
   if (!navigation) return;
   ASSERT_FALSE(ref.navigation_position.empty());
-  ASSERT_EQ(pipe.navigation_position.size(), ref.navigation_position.size());
-  for (std::size_t i = 0; i < ref.navigation_position.size(); ++i) {
-    const auto& a = pipe.navigation_position[i];
-    const auto& b = ref.navigation_position[i];
-    ASSERT_NEAR(a.t_s, b.t_s, kTol) << "navigation position row " << i;
-    ASSERT_NEAR(a.lat_rad, b.lat_rad, kTol) << "navigation position row " << i;
-    ASSERT_NEAR(a.lon_rad, b.lon_rad, kTol) << "navigation position row " << i;
-    ASSERT_NEAR(a.east_m, b.east_m, kTol) << "navigation position row " << i;
-    ASSERT_NEAR(a.north_m, b.north_m, kTol) << "navigation position row " << i;
-    ASSERT_EQ(a.status, b.status) << "navigation position row " << i;
-  }
+  expect_each_row(pipe.navigation_position, ref.navigation_position, "navigation position",
+                  [&](const auto& a, const auto& b, const std::string& row) {
+                    ASSERT_NEAR(a.t_s, b.t_s, kTol) << row;
+                    ASSERT_NEAR(a.lat_rad, b.lat_rad, kTol) << row;
+                    ASSERT_NEAR(a.lon_rad, b.lon_rad, kTol) << row;
+                    ASSERT_NEAR(a.east_m, b.east_m, kTol) << row;
+                    ASSERT_NEAR(a.north_m, b.north_m, kTol) << row;
+                    ASSERT_EQ(a.status, b.status) << row;
+                  });
 }
 
 /// The recorder's rows in `out` against odonav-offline's in `offline_dir` (expect_rows_equal).
