@@ -124,6 +124,17 @@ struct SyntheticDrive {
     ins.t_s = t_s;
     ins.attitude = odonav::Attitude{heading_rad, 0.0, 0.0};
   }
+  // Advances by one GNSS period (10 steps of 10 ms), handing each step's odometer and INS samples
+  // to on_step(odo, ins).
+  template <class OnStep>
+  void gnss_period(OnStep on_step) {
+    odonav::OdometerSample odo;
+    odonav::InsSample ins;
+    for (int i = 0; i < 10; ++i) {
+      step(0.01, odo, ins);
+      on_step(odo, ins);
+    }
+  }
   odonav::GnssSample gnss() const {
     odonav::GnssSample g;
     g.t_s = t_s;
@@ -144,15 +155,12 @@ void BM_SampleBuilderEpoch(benchmark::State& state) {
   const bool feed_k = state.range(0) >= 2;
   odonav::SampleBuilder builder(params);
   SyntheticDrive drive;
-  odonav::OdometerSample odo;
-  odonav::InsSample ins;
   std::size_t samples = 0;
   for (auto _ : state) {
-    for (int i = 0; i < 10; ++i) {
-      drive.step(0.01, odo, ins);
+    drive.gnss_period([&](const odonav::OdometerSample& odo, const odonav::InsSample& ins) {
       builder.add_odometer(odo);
       builder.add_ins(ins);
-    }
+    });
     builder.add_gnss(drive.gnss());
     // The watermark lags one INS half-window behind, as it does in the components.
     for (const auto& epoch : builder.process_until(drive.t_s - 0.06)) {
@@ -190,14 +198,9 @@ void BM_DeadReckonerStep(benchmark::State& state) {
 void BM_MisalignmentUpdate(benchmark::State& state) {
   odonav::calibration::MisalignmentCalibrator calibrator;
   SyntheticDrive drive;
-  odonav::OdometerSample odo;
-  odonav::InsSample ins;
   std::size_t outputs = 0;
   for (auto _ : state) {
-    for (int i = 0; i < 10; ++i) {
-      drive.step(0.01, odo, ins);
-      calibrator.add_ins(ins);
-    }
+    drive.gnss_period([&](const odonav::OdometerSample&, const odonav::InsSample& ins) { calibrator.add_ins(ins); });
     calibrator.add_gnss(drive.gnss());
     outputs += calibrator.process_until(drive.t_s - 0.3).size();
   }

@@ -57,6 +57,7 @@
 #include <vector>
 
 #include "child_process.hpp"
+#include "locked_vector.hpp"
 #include "odonav/config.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dds/endpoints.hpp"
@@ -162,27 +163,17 @@ std::string load_average() {
 // (stamp, receive time) of one topic, in arrival order; thread-safe.
 class Arrivals {
  public:
-  void add(int64_t stamp, int64_t recv, uint32_t value = 0) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    rows_.push_back(Row{stamp, recv, value});
-  }
   struct Row {
     int64_t stamp_ns;
     int64_t recv_ns;
     uint32_t value;  // ScaleFactor: samples_accepted
   };
-  std::vector<Row> rows() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return rows_;
-  }
-  std::size_t size() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return rows_.size();
-  }
+  void add(int64_t stamp, int64_t recv, uint32_t value = 0) { rows_.push_back(Row{stamp, recv, value}); }
+  std::vector<Row> rows() const { return rows_.copy(); }
+  std::size_t size() const { return rows_.size(); }
 
  private:
-  mutable std::mutex mutex_;
-  std::vector<Row> rows_;
+  odonav::test::LockedVector<Row> rows_;
 };
 
 // Rows sorted by stamp, keeping the first arrival of each stamp.

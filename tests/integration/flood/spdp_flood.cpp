@@ -38,11 +38,11 @@
 #include <nlohmann/json.hpp>
 
 #include "odonav/config.hpp"
+#include "stop_signals.hpp"
 
 namespace {
 
-std::atomic<bool> g_stop{false};
-void on_signal(int) { g_stop.store(true); }
+using odonav::test::g_stop;
 
 // RTPS 2.3 constants (OMG DDSI-RTPS 2.3, sections 8.3 and 9.6).
 constexpr std::uint8_t kSubmessageInfoTs = 0x09;
@@ -322,10 +322,7 @@ int main(int argc, char** argv) {
   o.add_int("vendor-id", 0x0110, "RTPS vendor id announced (default 0x0110, Eclipse Cyclone DDS)", 0, 0xffff);
   o.add_bool("identity-token", false,
              "announce a PKI-DH identity token (credentials that never answer the handshake) instead of none");
-  struct sigaction sa {};
-  sa.sa_handler = on_signal;
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
+  odonav::test::stop_on_signals();
   try {
     if (o.parse(argc, argv) == odonav::ParseResult::kHelp) return 0;
     return run(o);

@@ -36,11 +36,11 @@
 #include "odonav/msg/Odometer.h"
 #include "odonav/msg/ScaleFactor.h"
 #include "odonav/topics.hpp"
+#include "stop_signals.hpp"
 
 namespace {
 
-std::atomic<bool> g_stop{false};
-void on_signal(int) { g_stop.store(true); }
+using odonav::test::g_stop;
 
 namespace topics = odonav::topics;
 namespace msg = odonav::msg;
@@ -170,10 +170,7 @@ int main(int argc, char** argv) {
   o.add_int("ownership-strength", 1000,
             "priority (source_priority, ownership strength) of the fake writer (identification's: 10)", 0, 1000000);
   odonav::dds::add_security_options(o);
-  struct sigaction sa {};
-  sa.sa_handler = on_signal;
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
+  odonav::test::stop_on_signals();
   try {
     if (o.parse(argc, argv) == odonav::ParseResult::kHelp) return 0;
   } catch (const odonav::ConfigError& e) {

@@ -234,6 +234,20 @@ class Rig {
   std::vector<Snapshot> snapshots_;
 };
 
+/// The recorder on the ground host writing to `out`; `common`: its domain, profile and vehicle flags.
+void start_recorder(Rig& rig, std::vector<std::string> common, const fs::path& out) {
+  common.insert(common.end(), {"--out", out.string()});
+  rig.start("odonav-recorder", "gs", "odonav-recorder", common);
+}
+
+/// The gateway on ECU1: the simulated terrain drive (kSeed, `duration_s`) at real time, once the
+/// four consumers matched; `common`: its domain, profile and vehicle flags.
+void start_gateway(Rig& rig, std::vector<std::string> common, double duration_s) {
+  common.insert(common.end(), {"--source", "sim:terrain", "--seed", std::to_string(kSeed), "--duration-s",
+                               std::to_string(duration_s), "--speed", "1", "--wait-for-readers", "4"});
+  rig.start("odonav-gateway", "ecu1", "odonav-gateway", common);
+}
+
 /// The simulated drive the gateway publishes (same scenario, seed and duration), for the truth and
 /// the installation values the components take as flags (as deploy/launch does).
 struct Drive {
@@ -373,11 +387,7 @@ TEST_F(MultiHost, PipelineAcrossHostsSurvivesAFiveSecondLinkCutOfEcu2) {
   };
 
   Rig rig(dir, net);
-  rig.start("odonav-recorder", "gs", "odonav-recorder", [&] {
-    auto a = common("gs");
-    a.insert(a.end(), {"--out", (dir / "out").string()});
-    return a;
-  }());
+  start_recorder(rig, common("gs"), dir / "out");
   rig.start("monitor", "gs", "odonav-ground",
             {"monitor", "--json", "--refresh-s", "0.5", "--domain", std::to_string(kDomain), "--profile",
              profile["gs"].string(), "--profile-name", "vehicle", "--vehicle", kVehicle});
@@ -398,12 +408,7 @@ TEST_F(MultiHost, PipelineAcrossHostsSurvivesAFiveSecondLinkCutOfEcu2) {
   }());
   std::string why;
   ASSERT_TRUE(rig.wait_for_log("odonav-recorder", "every producer matched", 60s, why)) << why;
-  rig.start("odonav-gateway", "ecu1", "odonav-gateway", [&] {
-    auto a = common("ecu1");
-    a.insert(a.end(), {"--source", "sim:terrain", "--seed", std::to_string(kSeed), "--duration-s",
-                       std::to_string(kDuration_s), "--speed", "1", "--wait-for-readers", "4"});
-    return a;
-  }());
+  start_gateway(rig, common("ecu1"), kDuration_s);
 
   // Run until DR navigates on an identified K, well into the drive.
   ASSERT_TRUE(rig.wait_snapshot(
@@ -580,11 +585,7 @@ TEST_F(MultiHost, SecurePipelineAcrossHostsKeepsIntrudersOut) {
   EXPECT_NE(denied.find("rt/odonav/scale_factor"), std::string::npos) << denied;
   rig.forget("denied");
 
-  rig.start("odonav-recorder", "gs", "odonav-recorder", [&] {
-    auto a = common("gs");
-    a.insert(a.end(), {"--out", (dir / "out").string()});
-    return a;
-  }());
+  start_recorder(rig, common("gs"), dir / "out");
   // The ground station takes its material from the environment (ODONAV_SECURITY_DIR).
   rig.start("monitor", "gs", "odonav-ground",
             {"monitor", "--json", "--refresh-s", "0.5", "--domain", std::to_string(kDomain), "--profile",
@@ -595,12 +596,7 @@ TEST_F(MultiHost, SecurePipelineAcrossHostsKeepsIntrudersOut) {
   rig.start("odonav-calibration", "ecu2", "odonav-calibration", node("ecu2", false));
   std::string why;
   ASSERT_TRUE(rig.wait_for_log("odonav-recorder", "every producer matched", 90s, why)) << why;
-  rig.start("odonav-gateway", "ecu1", "odonav-gateway", [&] {
-    auto a = common("ecu1");
-    a.insert(a.end(), {"--source", "sim:terrain", "--seed", std::to_string(kSeed), "--duration-s",
-                       std::to_string(kDuration_s), "--speed", "1", "--wait-for-readers", "4"});
-    return a;
-  }());
+  start_gateway(rig, common("ecu1"), kDuration_s);
   // The intruders on the ground host, for the whole drive, their fake stamps following the data's
   // event time (the gateway paces the data at real time from now).
   const std::string intrude_s = std::to_string(kDuration_s + 5.0);

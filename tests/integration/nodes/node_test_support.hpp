@@ -10,11 +10,13 @@
 #include <functional>
 #include <limits>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "child_process.hpp"
+#include "locked_vector.hpp"
 #include "odonav/simulator/simulator.hpp"
 #include "odonav/dataset.hpp"
 #include "odonav/dds/endpoints.hpp"
@@ -126,23 +128,13 @@ template <class T>
 class Collector {
  public:
   Collector(const dds::Participant& p, const topics::TopicSpec& topic)
-      : reader_(p, topic.name, topic.reader_profile, [this](const T& s) {
-          std::lock_guard<std::mutex> lock(mutex_);
-          samples_.push_back(s);
-        }) {}
-  std::vector<T> samples() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return samples_;
-  }
-  std::size_t size() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return samples_.size();
-  }
+      : reader_(p, topic.name, topic.reader_profile, [this](const T& s) { samples_.push_back(s); }) {}
+  std::vector<T> samples() const { return samples_.copy(); }
+  std::size_t size() const { return samples_.size(); }
   /// The sample time (s) of the latest sample received, -infinity before the first.
   double latest_t_s() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return samples_.empty() ? -std::numeric_limits<double>::infinity()
-                            : dds::to_seconds(samples_.back().header().stamp());
+    const std::optional<T> last = samples_.last();
+    return last ? dds::to_seconds(last->header().stamp()) : -std::numeric_limits<double>::infinity();
   }
   dds::Reader<T>& reader() { return reader_; }
   /// Waits until pred(samples) holds or timeout; returns whether it held.
@@ -156,8 +148,7 @@ class Collector {
   }
 
  private:
-  mutable std::mutex mutex_;
-  std::vector<T> samples_;
+  LockedVector<T> samples_;
   dds::Reader<T> reader_;
 };
 

@@ -131,6 +131,26 @@ void launch_ok(const std::vector<std::string>& args, const std::string& out, int
   expect_launch_ok(launch(args, out + ".launch.log", timeout_s), args[1], timeout_s);
 }
 
+/// What a replay of a ring drive without GNSS left: the dataset replayed and the pipeline's files.
+struct RingReplay {
+  std::string data, out;
+};
+
+/// ring_without_gnss(fresh_dir(name), duration_s, gap_start_s, gap_end_s) replayed by the pipeline
+/// with `launch_args` (pace, waits, domain) into fresh_dir(name)/out; fails the test unless the
+/// simulator and the launcher succeed.
+void replay_ring_without_gnss(const std::string& name, int duration_s, double gap_start_s, double gap_end_s,
+                              const std::vector<std::string>& launch_args, RingReplay& replay) {
+  const std::string dir = fresh_dir(name);
+  replay.data = ring_without_gnss(dir, duration_s, gap_start_s, gap_end_s);
+  ASSERT_FALSE(replay.data.empty()) << "odonav-simulator failed: " << dir << "/sim.log";
+  replay.out = dir + "/out";
+  std::vector<std::string> args{"--source", "replay:" + replay.data};
+  args.insert(args.end(), launch_args.begin(), launch_args.end());
+  args.insert(args.end(), {"--out", replay.out});
+  launch_ok(args, replay.out, 300);
+}
+
 class Pipeline : public odonav::test::ShmCleanTest {};
 
 /// Truth sample nearest in time (the simulator writes truth at the odometer's instants).
@@ -383,14 +403,12 @@ TEST_F(Pipeline, TwentyHertzGnssNearTheNorthPoleEqualsTheOfflineTool) {
 // declare GNSS absent after 5 s of wall time (13.5 s of the outage pass in wall time) and say so in
 // its health ("no gnss for N s"). The files still equal odonav-offline's.
 TEST_F(Pipeline, GnssAbsentForMinutesDeadReckoningKeepsPublishingOnHeldEstimatesWithoutWaiting) {
-  const std::string dir = fresh_dir("gnss-absent-minutes");
   const double gap_start_s = 50.0, gap_end_s = 185.0;
-  const std::string data = ring_without_gnss(dir, 200, gap_start_s, gap_end_s);
-  ASSERT_FALSE(data.empty()) << "odonav-simulator failed: " << dir << "/sim.log";
-  const std::string out = dir + "/out";
-  launch_ok({"--source", "replay:" + data, "--speed", "10", "--max-wait-s", "5", "--domain", "167", "--out", out}, out,
-            300);
-  expect_pipeline_equals_offline(data, out);
+  RingReplay replay;
+  ASSERT_NO_FATAL_FAILURE(replay_ring_without_gnss("gnss-absent-minutes", 200, gap_start_s, gap_end_s,
+                                                   {"--speed", "10", "--max-wait-s", "5", "--domain", "167"}, replay));
+  const std::string& out = replay.out;
+  expect_pipeline_equals_offline(replay.data, out);
   const results::OutputRows rows = results::read_output_rows(out);
   const results::ScaleFactorRow* before = nullptr;
   for (const results::ScaleFactorRow& r : rows.scale_factor)
@@ -484,13 +502,11 @@ TEST_F(Pipeline, ReplayAtRealTimeAndAtMaximumSpeedGiveIdenticalFilesAtEveryGnssR
 TEST_F(Pipeline, GnssRemovedMidRunIdentificationHoldsKAndDeadReckoningContinues) {
   // A 150 s ring drive whose GNSS stops for 30 s (no rows at all from t = 90 s to 120 s: the receiver
   // is gone, not just without a fix), replayed through the whole pipeline.
-  const std::string dir = fresh_dir("gnss-removed");
   const double gap_start_s = 90.0, gap_end_s = 120.0;
-  const std::string data = ring_without_gnss(dir, 150, gap_start_s, gap_end_s);
-  ASSERT_FALSE(data.empty()) << "odonav-simulator failed: " << dir << "/sim.log";
-  const std::string out = dir + "/out";
-  launch_ok({"--source", "replay:" + data, "--speed", "max", "--domain", "55", "--out", out}, out, 300);
-  const results::OutputRows rows = results::read_output_rows(out);
+  RingReplay replay;
+  ASSERT_NO_FATAL_FAILURE(replay_ring_without_gnss("gnss-removed", 150, gap_start_s, gap_end_s,
+                                                   {"--speed", "max", "--domain", "55"}, replay));
+  const results::OutputRows rows = results::read_output_rows(replay.out);
 
   // Identification holds K: no estimate inside the gap, and the first one after it is the last one
   // before it (the first epoch after a gap only starts a new sample chain).

@@ -24,9 +24,9 @@ using namespace odonav::synthetic;
 using namespace odonav::test;
 namespace fs = std::filesystem;
 
-const Misalignment kTrueMis{deg_to_rad(0.8), deg_to_rad(-0.5)};
+const Misalignment kTrueMis = checkpoint_misalignment();
 
-const Eigen::Vector3d kLeverArm_m(0.8, -0.3, 1.1);  // GNSS antenna in the body frame (forward-left-up)
+const Eigen::Vector3d kLeverArm_m = checkpoint_lever_arm_body_m();  // GNSS antenna in the body frame (forward-left-up)
 
 /// The calibrator compensates the lever arm with the yaw-rate window's body rate: the outputs
 /// depend on the INS before each epoch (the window), which a restart must feed again.
@@ -41,14 +41,8 @@ MisalignmentCalibratorParams test_params() {
 /// 10 deg to the left (then 50 innovation rejections in a row and the suspension), three sideways
 /// outliers, and a 0.8 s INS gap (attitude interpolated across it).
 SyntheticData gated_drive() {
-  const Trajectory t = circle(250.0, 10.0, deg_to_rad(30.0));
-  SensorConfig c;
-  c.duration_s = 90.0;
-  c.velocity_noise_mps = 0.05;
-  c.seed = 11;
-  c.misalignment = kTrueMis;
-  c.lever_arm_body_m = kLeverArm_m;
-  SyntheticData d = simulate(t, c);
+  const Trajectory t = checkpoint_circle();
+  SyntheticData d = simulate(t, checkpoint_sensors(90.0, 11));
   auto left = [&](std::size_t i) {
     const Eigen::Vector3d u = t.direction(d.gnss[i].t_s);
     return Eigen::Vector3d(-u.y(), u.x(), 0.0);
@@ -86,6 +80,13 @@ void expect_identical(const MisalignmentOutput& a, const MisalignmentOutput& b, 
   EXPECT_EQ(a.samples_used, b.samples_used) << where;
   EXPECT_EQ(a.converged, b.converged) << where;
   EXPECT_EQ(a.reason, b.reason) << where;
+}
+
+/// Gives `c` every sample of `d` and processes up to `t_s` (event time).
+void feed_all_until(MisalignmentCalibrator& c, const SyntheticData& d, double t_s) {
+  for (const auto& s : d.ins) c.add_ins(s);
+  for (const auto& s : d.gnss) c.add_gnss(s);
+  c.process_until(t_s);
 }
 
 class CalibrationCheckpointTest : public StateDirTest {
@@ -196,9 +197,7 @@ TEST_F(CalibrationCheckpointTest,
 TEST_F(CalibrationCheckpointTest, StateTextRoundTripsAndTheFileIsVersionedAndSelfDescribing) {
   const SyntheticData d = gated_drive();
   MisalignmentCalibrator a(test_params());
-  for (const auto& s : d.ins) a.add_ins(s);
-  for (const auto& s : d.gnss) a.add_gnss(s);
-  a.process_until(50.0);
+  feed_all_until(a, d, 50.0);
   const StateJson state = a.save_state();
   MisalignmentCalibrator b(test_params());
   b.restore_state(state);
@@ -229,9 +228,7 @@ TEST_F(CalibrationCheckpointTest, StateTextRoundTripsAndTheFileIsVersionedAndSel
 TEST_F(CalibrationCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideNamedAndChangeNothing) {
   const SyntheticData d = gated_drive();
   MisalignmentCalibrator a(test_params());
-  for (const auto& s : d.ins) a.add_ins(s);
-  for (const auto& s : d.gnss) a.add_gnss(s);
-  a.process_until(30.0);
+  feed_all_until(a, d, 30.0);
   const std::string good =
       serialize_calibration_checkpoint(CalibrationCheckpoint{kVehicle, kHash, a.current().t_s, a.save_state()});
   // A flipped bit in a digit after a decimal point: the text stays valid JSON, only the checksum

@@ -27,8 +27,8 @@ namespace fs = std::filesystem;
 
 constexpr double kEstimateLag_s = 0.05;  // estimates arrive this long after their GNSS epoch
 constexpr double kK = 0.0125;
-const Misalignment kTrueMis{deg_to_rad(0.8), deg_to_rad(-0.5)};
-const Eigen::Vector3d kLeverArm_m(0.8, -0.3, 1.1);
+const Misalignment kTrueMis = checkpoint_misalignment();
+const Eigen::Vector3d kLeverArm_m = checkpoint_lever_arm_body_m();
 
 DeadReckonerParams dr_params() {
   DeadReckonerParams p;
@@ -46,14 +46,9 @@ struct Drive {
   std::vector<std::pair<double, double>> k;                   // stamp = GNSS epoch, K (m/pulse)
 };
 Drive drive() {
-  SensorConfig c;
-  c.duration_s = 70.0;
-  c.velocity_noise_mps = 0.05;
-  c.seed = 5;
+  SensorConfig c = checkpoint_sensors(70.0, 5);
   c.k_m_per_pulse = kK;
-  c.misalignment = kTrueMis;
-  c.lever_arm_body_m = kLeverArm_m;
-  Drive r{simulate(circle(250.0, 10.0, deg_to_rad(30.0)), c), {}, {}};
+  Drive r{simulate(checkpoint_circle(), c), {}, {}};
   auto& g = r.d.gnss;
   g.erase(std::remove_if(g.begin(), g.end(), [](const GnssSample& s) { return s.t_s > 25.0 && s.t_s < 33.0; }),
           g.end());
@@ -134,6 +129,12 @@ void expect_identical(const Published& a, const Published& b, const std::string&
   EXPECT_TRUE(same_bits(a.anchored.scale_error, b.anchored.scale_error)) << where;
 }
 
+std::size_t index_at(const std::vector<Event>& ev, double t_s) {
+  return static_cast<std::size_t>(
+      std::lower_bound(ev.begin(), ev.end(), t_s, [](const Event& e, double t) { return e.arrival_s < t; }) -
+      ev.begin());
+}
+
 class DeadReckoningCheckpointTest : public StateDirTest {
  protected:
   DeadReckoningCheckpointTest() : StateDirTest("dead-reckoning-vehicle-07.ckpt") {}
@@ -150,6 +151,8 @@ class DeadReckoningCheckpointTest : public StateDirTest {
     std::vector<Published> published;
     explicit Run(const CheckpointSettings& s) : lifecycle(s, kVehicle) {}
     DeadReckoningStateRefs state() { return {core, anchor, consumer}; }
+    /// The node's start at wall clock kUnixTime_s, steady clock `steady_s` (restores a usable checkpoint).
+    void start(double steady_s) { lifecycle.start(state(), kUnixTime_s, steady_s); }
     void publish(std::vector<DeadReckoningOutput> outputs, double steady_s) {
       for (DeadReckoningOutput& o : lifecycle.outputs_to_publish(std::move(outputs), steady_s)) {
         const Misalignment applied = consumer.applied_misalignment.at_or_before(o.t_s).value_or(Misalignment{});
@@ -207,13 +210,13 @@ class DeadReckoningCheckpointTest : public StateDirTest {
       r.lifecycle.checkpoint_at_finish(r.state());
     }
   }
+  /// Starts `r` at steady clock 0 and feeds it the events up to event time `until_s`: a node killed
+  /// there, its checkpoints left in the state directory.
+  static void start_and_feed_until(Run& r, const Drive& dv, const std::vector<Event>& ev, double until_s) {
+    r.start(0.0);
+    feed(r, dv, ev, 0, index_at(ev, until_s), 0.0);
+  }
 };
-
-std::size_t index_at(const std::vector<Event>& ev, double t_s) {
-  return static_cast<std::size_t>(
-      std::lower_bound(ev.begin(), ev.end(), t_s, [](const Event& e, double t) { return e.arrival_s < t; }) -
-      ev.begin());
-}
 
 }  // namespace
 
@@ -241,12 +244,12 @@ TEST_F(DeadReckoningCheckpointTest,
     fs::remove_all(dir_);
     const std::size_t kill = index_at(ev, kill_t_s);
     Run first(settings(1.0));
-    first.lifecycle.start(first.state(), kUnixTime_s, 0.0);
+    first.start(0.0);
     feed(first, dv, ev, 0, kill, 0.0);  // no finish: kill -9
     EXPECT_GE(first.lifecycle.restart().checkpoints_written(), 2u);
 
     Run second(settings(1.0));
-    second.lifecycle.start(second.state(), kUnixTime_s, 100.0);
+    second.start(100.0);
     ASSERT_TRUE(second.lifecycle.restored_t_s());
     const double t_ckpt = *second.lifecycle.restored_t_s();
     EXPECT_LE(t_ckpt, first.published.back().dr.t_s);
@@ -301,8 +304,7 @@ TEST_F(DeadReckoningCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideName
   const Drive dv = drive();
   const std::vector<Event> ev = events_of(dv);
   Run r(settings(1.0));
-  r.lifecycle.start(r.state(), kUnixTime_s, 0.0);
-  feed(r, dv, ev, 0, index_at(ev, 12.0), 0.0);
+  start_and_feed_until(r, dv, ev, 12.0);
   const std::string good = read_text(ckpt_);
   ASSERT_FALSE(good.empty());
   DeadReckoningCheckpoint c = parse_dead_reckoning_checkpoint(good);
@@ -341,7 +343,7 @@ TEST_F(DeadReckoningCheckpointTest, CorruptOrForeignCheckpointsAreMovedAsideName
     write_checkpoint(k.text);
     Run fresh(settings(1.0));
     const StateJson fresh_core = fresh.core.save_state(), fresh_anchor = fresh.anchor.save_state();
-    fresh.lifecycle.start(fresh.state(), kUnixTime_s, 10.0);
+    fresh.start(10.0);
     EXPECT_EQ(fresh.core.save_state(), fresh_core) << "untouched";
     EXPECT_EQ(fresh.anchor.save_state(), fresh_anchor) << "untouched";
     EXPECT_EQ(fresh.consumer.misalignments_applied, 0u);
@@ -358,10 +360,9 @@ TEST_F(DeadReckoningCheckpointTest, AHistoryStartingAfterTheCheckpointIsNamedAsL
   const Drive dv = drive();
   const std::vector<Event> ev = events_of(dv);
   Run first(settings(5.0));
-  first.lifecycle.start(first.state(), kUnixTime_s, 0.0);
-  feed(first, dv, ev, 0, index_at(ev, 21.0), 0.0);
+  start_and_feed_until(first, dv, ev, 21.0);
   Run second(settings(5.0));
-  second.lifecycle.start(second.state(), kUnixTime_s, 100.0);
+  second.start(100.0);
   ASSERT_TRUE(second.lifecycle.restored_t_s());
   const double t_ckpt = *second.lifecycle.restored_t_s();
   EXPECT_NEAR(t_ckpt, 20.0, 0.05);

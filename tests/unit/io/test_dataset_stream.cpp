@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "odonav/simulator/simulator.hpp"
+#include "error_of.hpp"
 #include "io_test_data.hpp"
 #include "scratch_dir.hpp"
 #include "odonav/dataset.hpp"
@@ -139,12 +140,7 @@ std::size_t expect_stream_equals_read_dataset(const std::string& dir, BadRowPoli
 // The DatasetError text of `read`, empty when it does not throw.
 template <typename F>
 std::string error_of(F read) {
-  try {
-    read();
-  } catch (const DatasetError& e) {
-    return e.what();
-  }
-  return "";
+  return test::message_if_thrown<DatasetError>(read);
 }
 
 // The error of streaming `dir` to its end (opening included), empty when there is none.

@@ -71,6 +71,20 @@ Geodetic enu_point(const LocalEnuFrame& frame, double east_m, double north_m) {
 
 const Geodetic kOrigin{52.5 * kDegToRad, 13.4 * kDegToRad, 40.0};
 
+/// Reads `file` one row at a time: every row is checked by expect_same(row, whole[n], n) against
+/// `whole` (the file read at once), and the file holds `written` rows.
+template <class Row, class ExpectSame>
+void expect_read_row_by_row(const std::filesystem::path& file, const std::vector<Row>& whole, std::size_t written,
+                            ExpectSame expect_same) {
+  results::OutputFileReader reader(file.string());
+  std::size_t n = 0;
+  for (Row r; reader.next(r); ++n) {
+    ASSERT_LT(n, whole.size());
+    expect_same(r, whole[n], n);
+  }
+  EXPECT_EQ(n, written);
+}
+
 }  // namespace
 
 TEST(StreamingSummary, FedInStreamingOrderItGivesMakeSummarysFigures) {
@@ -354,29 +368,21 @@ TEST(StreamingSummary, OutputFilesReadRowByRowAreTheRowsWritten) {
   const results::OutputRows whole = results::read_output_rows(dir.string());
   ASSERT_FALSE(whole.dead_reckoning.empty());
   ASSERT_FALSE(whole.navigation_position.empty());
-  {
-    results::OutputFileReader reader((dir / "dead_reckoning.csv").string());
-    std::size_t n = 0;
-    for (results::DeadReckoningRow r; reader.next(r); ++n) {
-      ASSERT_LT(n, whole.dead_reckoning.size());
-      EXPECT_EQ(r.t_s, whole.dead_reckoning[n].t_s);
-      EXPECT_EQ(r.lat_rad, whole.dead_reckoning[n].lat_rad);
-      EXPECT_EQ(r.distance_m, whole.dead_reckoning[n].distance_m);
-      EXPECT_EQ(r.k_source, whole.dead_reckoning[n].k_source);
-      EXPECT_EQ(r.t_s, rows.dead_reckoning[n].t_s);  // and the rows written
-    }
-    EXPECT_EQ(n, rows.dead_reckoning.size());
-  }
-  {
-    results::OutputFileReader reader((dir / "scale_factor.csv").string());
-    std::size_t n = 0;
-    for (results::ScaleFactorRow r; reader.next(r); ++n) {
-      ASSERT_LT(n, whole.scale_factor.size());
-      EXPECT_EQ(r.k_by_estimator, whole.scale_factor[n].k_by_estimator);
-      EXPECT_EQ(r.samples_accepted, whole.scale_factor[n].samples_accepted);
-    }
-    EXPECT_EQ(n, rows.scale_factor.size());
-  }
+  expect_read_row_by_row<results::DeadReckoningRow>(
+      dir / "dead_reckoning.csv", whole.dead_reckoning, rows.dead_reckoning.size(),
+      [&](const results::DeadReckoningRow& r, const results::DeadReckoningRow& w, std::size_t n) {
+        EXPECT_EQ(r.t_s, w.t_s);
+        EXPECT_EQ(r.lat_rad, w.lat_rad);
+        EXPECT_EQ(r.distance_m, w.distance_m);
+        EXPECT_EQ(r.k_source, w.k_source);
+        EXPECT_EQ(r.t_s, rows.dead_reckoning[n].t_s);  // and the rows written
+      });
+  expect_read_row_by_row<results::ScaleFactorRow>(
+      dir / "scale_factor.csv", whole.scale_factor, rows.scale_factor.size(),
+      [&](const results::ScaleFactorRow& r, const results::ScaleFactorRow& w, std::size_t) {
+        EXPECT_EQ(r.k_by_estimator, w.k_by_estimator);
+        EXPECT_EQ(r.samples_accepted, w.samples_accepted);
+      });
   // A malformed value is named with its file, line and column.
   {
     std::ofstream bad(dir / "navigation_position.csv", std::ios::app);

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <string>
 
+#include "error_of.hpp"
 #include "odonav/safe_output.hpp"
 #include "scratch_dir.hpp"
 
@@ -26,12 +27,7 @@ using test::write_text;
 // The message of the OutputError `f` throws ("" when it throws none).
 template <class F>
 std::string refusal(F f) {
-  try {
-    f();
-  } catch (const OutputError& e) {
-    return e.what();
-  }
-  return "";
+  return test::message_if_thrown<OutputError>(f);
 }
 
 }  // namespace

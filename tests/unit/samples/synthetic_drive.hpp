@@ -145,6 +145,24 @@ inline SyntheticData simulate(const Trajectory& tr, const SensorConfig& c) {
   return d;
 }
 
+/// The circle of the checkpoint tests (calibration, dead reckoning): 250 m at 10 m/s (2.3 deg/s)
+/// from azimuth 30 deg, the INS turned by the installation misalignment checkpoint_misalignment(),
+/// the GNSS antenna at checkpoint_lever_arm_body_m() (1.4 m from the INS).
+inline Misalignment checkpoint_misalignment() { return Misalignment{deg_to_rad(0.8), deg_to_rad(-0.5)}; }
+inline Eigen::Vector3d checkpoint_lever_arm_body_m() { return Eigen::Vector3d(0.8, -0.3, 1.1); }
+inline Trajectory checkpoint_circle() { return circle(250.0, 10.0, deg_to_rad(30.0)); }
+
+/// The sensors on checkpoint_circle(): `duration_s` of data, 0.05 m/s velocity noise drawn with `seed`.
+inline SensorConfig checkpoint_sensors(double duration_s, uint32_t seed) {
+  SensorConfig c;
+  c.duration_s = duration_s;
+  c.velocity_noise_mps = 0.05;
+  c.seed = seed;
+  c.misalignment = checkpoint_misalignment();
+  c.lever_arm_body_m = checkpoint_lever_arm_body_m();
+  return c;
+}
+
 /// Adds every sample of `d` to `core` (add_odometer, add_ins, add_gnss): the whole odometer, then the
 /// INS, then the GNSS, for the tests that hand a core a drive at once.
 template <class Core>

@@ -47,6 +47,13 @@ std::vector<SampleBuilderEpoch> run_all(const SyntheticData& d, const SampleBuil
   return out;
 }
 
+// The counters of run_all(d, p, feedback), its epochs left out.
+SampleBuilderCounters counters_of(const SyntheticData& d, const SampleBuilderParams& p = {}, bool feedback = false) {
+  SampleBuilderCounters c;
+  run_all(d, p, feedback, &c);
+  return c;
+}
+
 SensorConfig accel_config() {
   SensorConfig c;
   c.duration_s = 20.0;
@@ -135,8 +142,7 @@ TEST(SampleBuilder, MinimumFixQualityGate) {
   for (std::size_t i = 100; i < d.gnss.size(); ++i) d.gnss[i].fix = 4;  // RTK fixed from t = 10 s
   SampleBuilderParams p;
   p.min_fix_rank = 2;
-  SampleBuilderCounters c;
-  run_all(d, p, false, &c);
+  SampleBuilderCounters c = counters_of(d, p, false);
   EXPECT_EQ(c.low_fix_quality, 100u);
   EXPECT_EQ(c.chain_starts, 1u);
   EXPECT_EQ(c.accepted, 100u);
@@ -207,7 +213,7 @@ TEST(SampleBuilder, DrivingBackwardsGivesTheSameSamplesAsForwards) {
   EXPECT_EQ(c.accepted, 0u);
   EXPECT_EQ(c.negative_speed, e.size());
   off.use_ins = false;
-  run_all(backwards, off, false, &c);
+  c = counters_of(backwards, off, false);
   EXPECT_EQ(c.accepted, 0u);
   EXPECT_EQ(c.reversing, e.size() - 1);
 }
@@ -225,9 +231,8 @@ TEST(SampleBuilder, GnssOutageBreaksTheChain) {
 TEST(SampleBuilder, YawRateGateAndStraightFlag) {
   SensorConfig cfg = accel_config();
   cfg.duration_s = 10.0;
-  SampleBuilderCounters c;
   // 10 m/s on a 20 m radius: 28.6 deg/s.
-  run_all(simulate(circle(20.0, 10.0, 0.0), cfg), {}, false, &c);
+  SampleBuilderCounters c = counters_of(simulate(circle(20.0, 10.0, 0.0), cfg), {}, false);
   EXPECT_EQ(c.yaw_rate, 100u);
   EXPECT_EQ(c.accepted, 0u);
   SampleBuilderParams off;
@@ -271,8 +276,7 @@ TEST(SampleBuilder, StuckOdometerGivesNoPulses) {
     if (frozen == 0) frozen = o.pulses;
     o.pulses = frozen;
   }
-  SampleBuilderCounters c;
-  run_all(d, {}, false, &c);
+  SampleBuilderCounters c = counters_of(d, {}, false);
   EXPECT_EQ(c.no_pulses, 50u);  // every interval after 15 s
   EXPECT_EQ(c.accepted, 150u);
 }
@@ -306,7 +310,7 @@ TEST(SampleBuilder, InnovationGateRejectsAnOutlierTheSpeedJumpGateLetsThrough) {
   EXPECT_EQ(e[151].status, EpochStatus::kChainStart);
   for (const auto& s : samples_of(e)) EXPECT_LT(std::abs(s.y_m - kK * s.phi_pulses), 2.0 * kK) << s.t_s;
   // Without a K estimate the same outlier passes (the innovation test needs K^).
-  run_all(d, p, false, &c);
+  c = counters_of(d, p, false);
   EXPECT_EQ(c.innovation, 0u);
 }
 
@@ -326,14 +330,13 @@ TEST(SampleBuilder, CrossTrackGateRejectsAVelocityGlitchAcrossTheOdometerAxis) {
   EXPECT_EQ(c.cross_track, 1u);
   EXPECT_EQ(c.accepted, 198u);
   // Clean epochs never trip it (straight, level, misalignment 0: the cross-track velocity is noise).
-  SampleBuilderCounters clean;
-  run_all(simulate(accel_drive(), accel_config()), {}, true, &clean);
+  SampleBuilderCounters clean = counters_of(simulate(accel_drive(), accel_config()), {}, true);
   EXPECT_EQ(clean.cross_track, 0u);
   // Off, the same glitch is accepted: at right angles it leaves the forward speed as it is, so no
   // other gate rejects it.
   SampleBuilderParams off;
   off.cross_track_gate_enabled = false;
-  run_all(d, off, true, &c);
+  c = counters_of(d, off, true);
   EXPECT_EQ(c.cross_track, 0u);
   EXPECT_EQ(c.accepted, 200u);
 }
@@ -346,8 +349,7 @@ TEST(SampleBuilder, InnovationGateIsSuspendedAfterALongRunSoAKJumpCanBeTracked) 
     d.odometer[i].pulses = at10 + static_cast<uint32_t>(std::llround((d.odometer[i].pulses - at10) * 1.25));
   SampleBuilderParams p;
   p.innovation_max_consecutive_rejections = 10;
-  SampleBuilderCounters c;
-  run_all(d, p, true, &c);
+  SampleBuilderCounters c = counters_of(d, p, true);
   EXPECT_EQ(c.innovation, 10u);
   EXPECT_GT(c.innovation_suspended, 0u);
   EXPECT_GT(c.accepted, 170u);
@@ -511,12 +513,11 @@ TEST(SampleBuilder, JumpGateUsesTheConfiguredNominalKAndMaximumSpeed) {
   // 10 m/s (16 + 2 per sample) rejects every sample above 18 pulses, i.e. above 11.25 m/s.
   SampleBuilderParams fast;
   fast.odometer_jump_gate.max_speed_mps = 25.0;
-  SampleBuilderCounters c;
-  run_all(simulate(accel_drive(), accel_config()), fast, false, &c);
+  SampleBuilderCounters c = counters_of(simulate(accel_drive(), accel_config()), fast, false);
   EXPECT_EQ(c.odometer_jumps_rejected, 0u);
   SampleBuilderParams slow;
   slow.odometer_jump_gate.max_speed_mps = 10.0;
-  run_all(simulate(accel_drive(), accel_config()), slow, false, &c);
+  c = counters_of(simulate(accel_drive(), accel_config()), slow, false);
   EXPECT_GT(c.odometer_jumps_rejected, 100u);
   SampleBuilderParams bad;
   bad.odometer_jump_gate.k_m_per_pulse = 0.0;
@@ -643,12 +644,11 @@ TEST(SampleBuilder, TheMinimumPulsesGateRejectsSamplesWithTooFewPulses) {
   c.duration_s = 2.0;
   SampleBuilderParams p;
   p.odometer_jump_gate.k_m_per_pulse = 0.05;
-  SampleBuilderCounters counters;
-  run_all(simulate(accel_drive(), c), p, false, &counters);
+  SampleBuilderCounters counters = counters_of(simulate(accel_drive(), c), p, false);
   EXPECT_EQ(counters.accepted, 0u);
   EXPECT_EQ(counters.min_speed, 20u);
   p.min_pulses = 8.0;
-  run_all(simulate(accel_drive(), c), p, false, &counters);
+  counters = counters_of(simulate(accel_drive(), c), p, false);
   EXPECT_EQ(counters.accepted, 20u);
 }
 
