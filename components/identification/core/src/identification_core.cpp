@@ -231,13 +231,7 @@ void IdentificationCore::state_fields(Archive& a, Self& c) {
   auto estimator = [&](const char* key, auto& e) {
     a.via(
         key, [&] { return e->save_state(); },
-        [&](const auto& state) {
-          try {
-            e->restore_state(state);
-          } catch (const std::exception& ex) {
-            throw CheckpointError("estimator " + e->name() + ": state refused: " + ex.what());
-          }
-        });
+        [&](const auto& state) { restore_or_refuse("estimator " + e->name() + ":", *e, state); });
   };
   a("accepted", c.accepted_)("rejected", c.rejected_)("frozen", c.frozen_)(
       "commanded_k_m_per_pulse", c.seed_k_m_per_pulse_)("last_gate_t_s", c.last_gate_t_s_)
@@ -255,13 +249,8 @@ void IdentificationCore::state_fields(Archive& a, Self& c) {
             if (states.size() != c.all_.size())
               throw CheckpointError("field 'side_by_side' holds " + std::to_string(states.size()) +
                                     " estimators, this core runs " + std::to_string(c.all_.size()));
-            for (std::size_t i = 0; i < states.size(); ++i) {
-              try {
-                c.all_[i]->restore_state(states[i]);
-              } catch (const std::exception& ex) {
-                throw CheckpointError("estimator " + c.all_[i]->name() + ": state refused: " + ex.what());
-              }
-            }
+            for (std::size_t i = 0; i < states.size(); ++i)
+              restore_or_refuse("estimator " + c.all_[i]->name() + ":", *c.all_[i], states[i]);
           })("braking_stop", c.braking_stop_counters_)
       .via(
           "motion_epochs", [&] { return c.motion_.state(); }, [&](const auto& v) { c.motion_.restore(v); })(
