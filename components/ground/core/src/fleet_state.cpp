@@ -282,6 +282,16 @@ std::string fit(const std::string& s, int width) {
 
 std::string pad(const std::string& s, std::size_t n) { return s.size() >= n ? s : s + std::string(n - s.size(), ' '); }
 
+// The line of one estimate of a vehicle: `text` writes the estimate's row when the vehicle has one
+// (the line marked when it is stale), else the line is `absent`.
+template <class View, class Text>
+Line item_line(const std::optional<ItemSnapshot<View>>& item, const char* absent, Text text) {
+  if (!item) return {absent, false};
+  std::ostringstream line;
+  text(line, item->view.row);
+  return {line.str(), item->stale};
+}
+
 std::vector<Line> vehicle_block(const VehicleSnapshot& v) {
   std::vector<Line> lines;
   std::ostringstream head;
@@ -295,35 +305,24 @@ std::vector<Line> vehicle_block(const VehicleSnapshot& v) {
   }
   lines.push_back({head.str(), v.stale});
 
-  std::ostringstream k;
-  if (v.scale_factor) {
-    const results::ScaleFactorRow& s = v.scale_factor->view.row;
+  lines.push_back(item_line(v.scale_factor, " K -", [&](std::ostringstream& k, const results::ScaleFactorRow& s) {
     k << " K " << printf_text("%.7f", s.k_m_per_pulse.value_or(0.0));
     if (s.sigma_m_per_pulse) k << " +-" << printf_text("%.7f", *s.sigma_m_per_pulse);
     k << " m/p " << s.estimator << (s.converged ? " conv" : " -") << (v.scale_factor->view.frozen ? " FROZEN" : "")
       << printf_text(" lambda %.4f", s.forgetting_factor) << printf_text(" fill %.0f%%", 100.0 * s.window_fill)
       << (v.scale_factor->stale ? " STALE" : "");
-  } else {
-    k << " K -";
-  }
-  lines.push_back({k.str(), v.scale_factor && v.scale_factor->stale});
+  }));
 
-  std::ostringstream m;
-  if (v.misalignment) {
-    const results::MisalignmentRow& a = v.misalignment->view.row;
-    m << " misalign hdg " << printf_text("%+.3f", rad_to_deg(a.heading_rad));
-    if (std::isfinite(a.heading_std_rad)) m << " +-" << printf_text("%.3f", rad_to_deg(a.heading_std_rad));
-    m << " pitch " << printf_text("%+.3f", rad_to_deg(a.pitch_rad));
-    if (std::isfinite(a.pitch_std_rad)) m << " +-" << printf_text("%.3f", rad_to_deg(a.pitch_std_rad));
-    m << " deg " << a.state << (v.misalignment->stale ? " STALE" : "");
-  } else {
-    m << " misalign -";
-  }
-  lines.push_back({m.str(), v.misalignment && v.misalignment->stale});
+  lines.push_back(
+      item_line(v.misalignment, " misalign -", [&](std::ostringstream& m, const results::MisalignmentRow& a) {
+        m << " misalign hdg " << printf_text("%+.3f", rad_to_deg(a.heading_rad));
+        if (std::isfinite(a.heading_std_rad)) m << " +-" << printf_text("%.3f", rad_to_deg(a.heading_std_rad));
+        m << " pitch " << printf_text("%+.3f", rad_to_deg(a.pitch_rad));
+        if (std::isfinite(a.pitch_std_rad)) m << " +-" << printf_text("%.3f", rad_to_deg(a.pitch_std_rad));
+        m << " deg " << a.state << (v.misalignment->stale ? " STALE" : "");
+      }));
 
-  std::ostringstream d;
-  if (v.dead_reckoning) {
-    const results::DeadReckoningRow& r = v.dead_reckoning->view.row;
+  lines.push_back(item_line(v.dead_reckoning, " DR -", [&](std::ostringstream& d, const results::DeadReckoningRow& r) {
     d << " DR err ";
     d << (std::isfinite(r.horizontal_error_m) ? printf_text("%.1f m", r.horizontal_error_m) : std::string("- m"));
     d << " " << (std::isfinite(r.error_percent) ? printf_text("%.2f %%D", r.error_percent) : std::string("- %D"));
@@ -336,10 +335,7 @@ std::vector<Line> vehicle_block(const VehicleSnapshot& v) {
       d << " missed " << v.dead_reckoning_missed << " in " << v.dead_reckoning_gaps << " gap(s), last "
         << printf_text("t=%.2f", v.dead_reckoning_last_gap->first_missing_t_s)
         << printf_text("-%.2f s", v.dead_reckoning_last_gap->last_missing_t_s);
-  } else {
-    d << " DR -";
-  }
-  lines.push_back({d.str(), v.dead_reckoning && v.dead_reckoning->stale});
+  }));
 
   std::ostringstream r;
   static const char* short_names[] = {"odo", "ins", "gnss", "mis", "k", "dr", "hlth"};
