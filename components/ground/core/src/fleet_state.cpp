@@ -205,41 +205,34 @@ nlohmann::json snapshot_json(const FleetSnapshot& snap) {
                             {"counters", counters}});
     }
     jv["components"] = components;
-    // The estimates: the output file's row (its column names and units) plus what only the topic has.
-    const auto item = [](const auto& snapshot, nlohmann::json j) {
-      j["age_s"] = snapshot.age_s;
-      j["stale"] = snapshot.stale;
+    // The estimates: the output file's row (its column names and units) plus what only the topic has
+    // (`extra` adds it), its age and staleness; null while the vehicle has none.
+    const auto item = [](const auto& snapshot, auto extra) {
+      if (!snapshot) return nlohmann::json();
+      nlohmann::json j = results::row_json(snapshot->view.row);
+      extra(j, snapshot->view);
+      j["age_s"] = snapshot->age_s;
+      j["stale"] = snapshot->stale;
       return j;
     };
-    jv["scale_factor"] = nullptr;
-    if (v.scale_factor) {
-      const ScaleFactorView& k = v.scale_factor->view;
-      nlohmann::json j = results::row_json(k.row);
+    jv["scale_factor"] = item(v.scale_factor, [](nlohmann::json& j, const ScaleFactorView& k) {
       j["frozen"] = k.frozen;
       j["source"] = k.source;
-      jv["scale_factor"] = item(*v.scale_factor, std::move(j));
-    }
-    jv["misalignment"] = v.misalignment ? item(*v.misalignment, results::row_json(v.misalignment->view.row)) : nullptr;
-    jv["dead_reckoning"] = nullptr;
-    if (v.dead_reckoning) {
-      const DeadReckoningView& d = v.dead_reckoning->view;
-      nlohmann::json j = results::row_json(d.row);
+    });
+    jv["misalignment"] = item(v.misalignment, [](nlohmann::json&, const MisalignmentView&) {});
+    jv["dead_reckoning"] = item(v.dead_reckoning, [](nlohmann::json& j, const DeadReckoningView& d) {
       j["origin_lat_deg"] = d.origin_latitude_deg;
       j["origin_lon_deg"] = d.origin_longitude_deg;
       j["origin_height_m"] = d.origin_height_m;
       j["gnss_valid"] = d.gnss_valid;
-      jv["dead_reckoning"] = item(*v.dead_reckoning, std::move(j));
-    }
-    jv["navigation"] = nullptr;
-    if (v.navigation) {
-      const results::NavigationPositionRow& n = v.navigation->view.row;
-      nlohmann::json j = results::row_json(n);
+    });
+    jv["navigation"] = item(v.navigation, [](nlohmann::json& j, const NavigationPositionView& view) {
+      const results::NavigationPositionRow& n = view.row;
       const double horizontal_var_m2 = n.var_east_m2 + n.var_north_m2;  // NaN when either is unknown
       j["horizontal_sigma_m"] = std::isfinite(horizontal_var_m2) && horizontal_var_m2 >= 0.0
                                     ? nlohmann::json(std::sqrt(horizontal_var_m2))
                                     : nlohmann::json();
-      jv["navigation"] = item(*v.navigation, std::move(j));
-    }
+    });
     if (v.gnss) {
       const auto& g = v.gnss->view;
       jv["gnss"] = {
