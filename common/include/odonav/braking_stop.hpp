@@ -72,6 +72,30 @@ enum class BrakingStopStep {
 /// snapshot was taken (count), nullopt without a snapshot.
 BrakingStopStep braking_stop_step(MotionPhase phase, bool active, std::optional<uint64_t> used_since);
 
+/// braking_stop_step applied to a component's braking snapshot (nullopt: none), for an epoch of
+/// phase `phase` (call it before the epoch's sample is used; active as for braking_stop_step).
+/// Snapshot has a member `used_since`: the samples used since it was taken (the component counts
+/// them). take() gives the snapshot to keep when a braking begins (nullopt: none yet);
+/// restore(snapshot) puts the component's estimates back. Returns the samples a rollback withdrew
+/// (> 0), 0 when nothing was rolled back.
+template <class Snapshot, class Take, class Restore>
+uint64_t apply_braking_stop(std::optional<Snapshot>& snapshot, MotionPhase phase, bool active, Take take,
+                            Restore restore) {
+  const std::optional<uint64_t> used_since = snapshot ? std::optional<uint64_t>(snapshot->used_since) : std::nullopt;
+  switch (braking_stop_step(phase, active, used_since)) {
+    case BrakingStopStep::kKeep: return 0;
+    case BrakingStopStep::kDrop: snapshot.reset(); return 0;
+    case BrakingStopStep::kSnapshot: snapshot = take(); return 0;
+    case BrakingStopStep::kRollBack: {
+      restore(*snapshot);
+      const uint64_t withdrawn = snapshot->used_since;
+      snapshot.reset();
+      return withdrawn;
+    }
+  }
+  return 0;
+}
+
 /// The phase of each epoch in turn (classify_motion against the latest epoch at least baseline_s
 /// earlier). Memory: the epochs of the last max_reference_age_s.
 class MotionPhaseTracker {

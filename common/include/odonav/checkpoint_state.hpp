@@ -52,6 +52,18 @@ class CheckpointError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Restores `state` into `target` (target.restore_state(state)); whatever that throws becomes a
+/// CheckpointError "<what> state refused: <why>", so a component's checkpoint load names the part
+/// of it that was refused. target is unchanged when it throws (restore_state's own rule).
+template <class Target, class State>
+void restore_or_refuse(const std::string& what, Target& target, const State& state) {
+  try {
+    target.restore_state(state);
+  } catch (const std::exception& e) {
+    throw CheckpointError(what + " state refused: " + e.what());
+  }
+}
+
 /// A double as checkpoint JSON: a number when finite, else "nan", "-nan", "inf" or "-inf".
 StateJson state_double(double v);
 /// Reads state_double's value (or any JSON number). Throws CheckpointError naming `field`.

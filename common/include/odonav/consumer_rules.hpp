@@ -5,12 +5,12 @@
 // include directory of odonav_core and every other common area library).
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <optional>
 #include <sstream>
 #include <string>
 
 #include "odonav/defaults.hpp"
+#include "odonav/printf_text.hpp"
 
 namespace odonav {
 
@@ -81,9 +81,7 @@ inline bool misalignment_applicable(bool converged, uint64_t samples_used, doubl
 /// the calibration has been silent (wall clock): "holding misalignment of t=40.0 s (calibration
 /// silent 5 s)".
 inline std::string held_misalignment_text(double held_t_s, double silent_s) {
-  char buf[96];
-  std::snprintf(buf, sizeof buf, "holding misalignment of t=%.1f s (calibration silent %.0f s)", held_t_s, silent_s);
-  return buf;
+  return printf_text("holding misalignment of t=%.1f s (calibration silent %.0f s)", held_t_s, silent_s);
 }
 
 /// Dead reckoning applies an identified K (valid: finite and > 0) when its estimator says converged

@@ -25,13 +25,14 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <cstdio>
 #include <limits>
 #include <map>
 #include <optional>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "odonav/printf_text.hpp"
 
 namespace odonav {
 
@@ -160,11 +161,7 @@ class SourceArbiter {
            std::to_string(f.priority) + ")";
   }
 
-  static std::string fmt(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.6g", v);
-    return buf;
-  }
+  static std::string fmt(double v) { return printf_text("%.6g", v); }
 
   /// Hands on the selected source's held samples in order; before each, any stamp between the last
   /// delivered one and it that another source holds (an epoch the selected source skipped). Then

@@ -2,8 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <stdexcept>
+
+#include "odonav/printf_text.hpp"
 
 namespace odonav {
 
@@ -44,10 +45,8 @@ std::optional<OutputGap> GapDetector::offer(double t_s) {
 }
 
 std::string describe_gap(const OutputGap& gap, const std::string& what) {
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "missed %llu %s outputs t=%.3f-%.3f s", static_cast<unsigned long long>(gap.missed),
-                what.c_str(), gap.first_missing_t_s, gap.last_missing_t_s);
-  return buf;
+  return printf_text("missed %llu %s outputs t=%.3f-%.3f s", static_cast<unsigned long long>(gap.missed), what.c_str(),
+                     gap.first_missing_t_s, gap.last_missing_t_s);
 }
 
 std::vector<OutputGap> missing_epochs(std::vector<double> epochs_s, std::vector<double> rows_s) {

@@ -2,8 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <stdexcept>
+
+#include "odonav/printf_text.hpp"
 
 namespace odonav {
 
@@ -60,9 +61,8 @@ std::vector<PeerTracker::SilentPeer> PeerTracker::silent(double now_s) const {
 std::optional<std::string> PeerTracker::reason(double now_s) const {
   const std::vector<SilentPeer> s = silent(now_s);
   if (s.empty()) return std::nullopt;
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.1f", s.front().silent_s);
-  std::string r = "no " + s.front().stream + " from " + s.front().peer + " for " + buf + " s";
+  std::string r =
+      "no " + s.front().stream + " from " + s.front().peer + " for " + printf_text("%.1f", s.front().silent_s) + " s";
   if (s.size() > 1) r += ", and " + std::to_string(s.size() - 1) + " more silent";
   return r;
 }

@@ -1,7 +1,6 @@
 #include "odonav/restart_policy.hpp"
 
 #include <algorithm>
-#include <cstdio>
 #include <filesystem>
 #include <limits>
 #include <utility>
@@ -10,6 +9,7 @@
 
 #include "odonav/checkpoint_file.hpp"
 #include "odonav/config.hpp"
+#include "odonav/printf_text.hpp"
 #include "odonav/safe_output.hpp"
 
 namespace odonav {
@@ -220,20 +220,18 @@ RestartHealthNotes RestartPolicy::health_notes() const {
   n.restore_note_until_s = restore_note_until_s_;
   n.checkpoint_errors = checkpoint_errors_;
   if (restored_t_s_ && (catch_up_outputs_ > 0 || lost_until_t_s_)) {
-    char buf[256];
     std::string note;
     if (lost_until_t_s_) {
-      std::snprintf(buf, sizeof buf,
-                    "lost t=%.1f-%.1f s after the checkpoint (older than the producers' 30 s history): its estimates "
-                    "are missing",
-                    *restored_t_s_, *lost_until_t_s_);
-      note = buf;
+      note = printf_text(
+          "lost t=%.1f-%.1f s after the checkpoint (older than the producers' 30 s history): its estimates are missing",
+          *restored_t_s_, *lost_until_t_s_);
     }
     if (catch_up_outputs_ > 0) {
-      std::snprintf(buf, sizeof buf, "%s: %llu estimates t=%.1f-%.1f s published late",
-                    catching_up_ ? "catching up from the checkpoint" : "caught up after restart",
-                    static_cast<unsigned long long>(catch_up_outputs_), *catch_up_first_t_s_, *catch_up_last_t_s_);
-      note = note.empty() ? std::string(buf) : note + "; " + buf;
+      const std::string late =
+          printf_text("%s: %llu estimates t=%.1f-%.1f s published late",
+                      catching_up_ ? "catching up from the checkpoint" : "caught up after restart",
+                      static_cast<unsigned long long>(catch_up_outputs_), *catch_up_first_t_s_, *catch_up_last_t_s_);
+      note = note.empty() ? late : note + "; " + late;
     }
     n.catch_up_note = note;
     n.catch_up_warn = lost_until_t_s_.has_value();

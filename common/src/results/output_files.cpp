@@ -69,6 +69,18 @@ const std::vector<std::string>& columns_of() {
   return columns;
 }
 
+// K (m/pulse) of each estimator that ran, by estimator name (ScaleFactorRow::k_by_estimator).
+using KByEstimator = std::vector<std::pair<std::string, std::optional<double>>>;
+
+// The value of a "k_<name>" column of scale_factor.csv: the K of estimator <name>, empty when it did
+// not run (the last entry wins). Compared in place: no temporary string per column and estimator.
+std::optional<double> k_of_column(const std::string& column, const KByEstimator& k_by_estimator) {
+  std::optional<double> k;
+  for (const auto& [name, value] : k_by_estimator)
+    if (column.size() == name.size() + 2 && column.compare(2, std::string::npos, name) == 0) k = value;
+  return k;
+}
+
 // One row into a CsvWriter, field by field in the table's order.
 struct WriteVisitor {
   CsvWriter& csv;
@@ -80,14 +92,8 @@ struct WriteVisitor {
   void text(const char*, const std::string& v) { csv.field(v); }
   void flag(const char*, bool v) { csv.field(v); }
   void count(const char*, uint64_t v) { csv.field(v); }
-  void estimators(const std::vector<std::pair<std::string, std::optional<double>>>& k_by_estimator) {
-    for (const std::string& column : scale_factor_estimator_columns()) {
-      std::optional<double> k;
-      // column is "k_" + name; compared in place (no temporary string per column and estimator).
-      for (const auto& [name, value] : k_by_estimator)
-        if (column.size() == name.size() + 2 && column.compare(2, std::string::npos, name) == 0) k = value;
-      csv.field(k);
-    }
+  void estimators(const KByEstimator& k_by_estimator) {
+    for (const std::string& column : scale_factor_estimator_columns()) csv.field(k_of_column(column, k_by_estimator));
   }
 };
 
@@ -104,13 +110,9 @@ struct JsonVisitor {
   void text(const char* n, const std::string& v) { j[n] = v; }
   void flag(const char* n, bool v) { j[n] = v; }
   void count(const char* n, uint64_t v) { j[n] = v; }
-  void estimators(const std::vector<std::pair<std::string, std::optional<double>>>& k_by_estimator) {
-    for (const std::string& column : scale_factor_estimator_columns()) {
-      std::optional<double> k;
-      for (const auto& [name, value] : k_by_estimator)
-        if (column == "k_" + name) k = value;
-      j[column] = known(k);
-    }
+  void estimators(const KByEstimator& k_by_estimator) {
+    for (const std::string& column : scale_factor_estimator_columns())
+      j[column] = known(k_of_column(column, k_by_estimator));
   }
 };
 

@@ -38,11 +38,7 @@ CalibrationCheckpointLoad load_calibration_checkpoint(const std::string& path, c
   static_cast<CheckpointFileLoad&>(result) =
       load_checkpoint_file(path, unix_time_s, expected, [&](const StateJson& payload) {
         const CalibrationCheckpoint c = checkpoint_from_payload<CalibrationCheckpoint>(expected, payload);
-        try {
-          calibrator.restore_state(c.calibrator_state);  // unchanged when it throws
-        } catch (const std::exception& e) {
-          throw CheckpointError(std::string("calibrator state refused: ") + e.what());
-        }
+        restore_or_refuse("calibrator", calibrator, c.calibrator_state);  // unchanged when it throws
         t_s = c.last_sample_t_s;
       });
   if (result.status == CheckpointLoadStatus::kRestored) result.restored_t_s = t_s;

@@ -1,10 +1,10 @@
 // The calibration's restart policy (calibration_lifecycle.hpp).
 #include "odonav/calibration/calibration_lifecycle.hpp"
 
-#include <cstdio>
 #include <utility>
 
 #include "odonav/frames.hpp"
+#include "odonav/printf_text.hpp"
 
 namespace odonav::calibration {
 
@@ -23,12 +23,10 @@ void CalibrationLifecycle::start(MisalignmentCalibrator& calibrator, int64_t uni
   if (!restart_.note_load(r, "starting from nothing", steady_now_s)) return;
   restored_output_ = calibrator.current();
   const MisalignmentOutput& o = *restored_output_;
-  char line[200];
-  std::snprintf(line, sizeof line,
-                "restored misalignment heading %.6f deg, pitch %.6f deg (%llu epochs used, %s) from checkpoint "
-                "(t=%.3f s)",
-                rad_to_deg(o.misalignment.heading_rad), rad_to_deg(o.misalignment.pitch_rad),
-                static_cast<unsigned long long>(o.samples_used), to_string(o.state), *r.restored_t_s);
+  const std::string line = printf_text(
+      "restored misalignment heading %.6f deg, pitch %.6f deg (%llu epochs used, %s) from checkpoint (t=%.3f s)",
+      rad_to_deg(o.misalignment.heading_rad), rad_to_deg(o.misalignment.pitch_rad),
+      static_cast<unsigned long long>(o.samples_used), to_string(o.state), *r.restored_t_s);
   restart_.note_restored(line, *r.restored_t_s, steady_now_s);
 }
 

@@ -142,27 +142,22 @@ void MisalignmentCalibrator::reset() {
 
 void MisalignmentCalibrator::track_braking_stop(double t_s, double speed_mps) {
   const MotionPhase phase = motion_.add(t_s, speed_mps);
-  const bool active = params_.braking_stop.enabled && !frozen_;
-  const std::optional<uint64_t> used_since =
-      braking_snapshot_ ? std::optional<uint64_t>(braking_snapshot_->used_since) : std::nullopt;
-  switch (braking_stop_step(phase, active, used_since)) {
-    case BrakingStopStep::kKeep: return;
-    case BrakingStopStep::kDrop: braking_snapshot_.reset(); return;
-    case BrakingStopStep::kSnapshot:
-      braking_snapshot_ =
-          BrakingSnapshot{heading_, pitch_, samples_used_, last_used_forward_, consecutive_innovation_rejections_, 0};
-      return;
-    case BrakingStopStep::kRollBack:
-      heading_ = braking_snapshot_->heading;
-      pitch_ = braking_snapshot_->pitch;
-      samples_used_ = braking_snapshot_->samples_used;
-      last_used_forward_ = braking_snapshot_->last_used_forward;
-      consecutive_innovation_rejections_ = braking_snapshot_->consecutive_innovation_rejections;
-      ++counters_.braking_stops;
-      counters_.braking_withdrawn += braking_snapshot_->used_since;
-      braking_snapshot_.reset();
-      return;
-  }
+  auto take = [&] {
+    return std::optional<BrakingSnapshot>(
+        BrakingSnapshot{heading_, pitch_, samples_used_, last_used_forward_, consecutive_innovation_rejections_, 0});
+  };
+  auto restore = [&](const BrakingSnapshot& snap) {
+    heading_ = snap.heading;
+    pitch_ = snap.pitch;
+    samples_used_ = snap.samples_used;
+    last_used_forward_ = snap.last_used_forward;
+    consecutive_innovation_rejections_ = snap.consecutive_innovation_rejections;
+  };
+  const uint64_t withdrawn =
+      apply_braking_stop(braking_snapshot_, phase, params_.braking_stop.enabled && !frozen_, take, restore);
+  if (withdrawn == 0) return;
+  ++counters_.braking_stops;
+  counters_.braking_withdrawn += withdrawn;
 }
 
 MisalignmentCalibrator::RegressionSpread MisalignmentCalibrator::spread(const Regression& r) const {

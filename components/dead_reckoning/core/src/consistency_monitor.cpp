@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
 #include "odonav/frames.hpp"
+#include "odonav/printf_text.hpp"
 
 namespace odonav::dead_reckoning {
 
@@ -14,12 +14,6 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Degrees per radian: an INS heading in radians read as degrees turns this many times too little.
 constexpr double kRadiansFactor = 180.0 / kPi;
-
-std::string format(const char* f, double a, double b = 0.0) {
-  char text[256];
-  std::snprintf(text, sizeof text, f, a, b);
-  return text;
-}
 }  // namespace
 
 const char* to_string(ConsistencyCheck check) {
@@ -35,14 +29,14 @@ std::optional<std::string> heading_rate_finding(double ratio, double turned_rad,
   if (!std::isfinite(ratio) || std::abs(ratio - 1.0) <= tolerance) return std::nullopt;
   const double turned_deg = rad_to_deg(turned_rad);
   if (ratio < 0.0)
-    return format(
+    return printf_text(
         "INS heading turns opposite to the GNSS course (ratio %.2f over %.0f deg of turns): heading "
         "sign convention?",
         ratio, turned_deg);
   if (ratio > 0.0 && std::abs(1.0 / ratio - kRadiansFactor) <= 0.25 * kRadiansFactor)
-    return format("INS heading moves %.0f times less than the GNSS course (over %.0f deg of turns): radians?",
-                  1.0 / ratio, turned_deg);
-  return format(
+    return printf_text("INS heading moves %.0f times less than the GNSS course (over %.0f deg of turns): radians?",
+                       1.0 / ratio, turned_deg);
+  return printf_text(
       "INS heading moves %.2f times as much as the GNSS course (over %.0f deg of turns): heading unit "
       "or another heading signal?",
       ratio, turned_deg);
@@ -51,7 +45,7 @@ std::optional<std::string> heading_rate_finding(double ratio, double turned_rad,
 std::optional<std::string> drift_growth_finding(double growth_percent, double allowed_percent, double floor_percent) {
   const double limit = std::max(allowed_percent, floor_percent);
   if (!std::isfinite(growth_percent) || growth_percent <= limit) return std::nullopt;
-  return format(
+  return printf_text(
       "dead reckoning drifts from valid GNSS at %.1f %%D while K and the misalignment say converged "
       "(%.1f %%D allowed): heading or odometer input wrong?",
       growth_percent, limit);
@@ -59,7 +53,7 @@ std::optional<std::string> drift_growth_finding(double growth_percent, double al
 
 std::optional<std::string> odometer_speed_finding(double ratio, double tolerance) {
   if (!std::isfinite(ratio) || std::abs(ratio - 1.0) <= tolerance) return std::nullopt;
-  return format(
+  return printf_text(
       "the odometer distance is %.3f times the GNSS distance with the K in force: the nominal K, the "
       "pulse counter's unit or the GNSS speed?",
       ratio);

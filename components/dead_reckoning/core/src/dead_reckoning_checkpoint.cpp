@@ -55,16 +55,8 @@ DeadReckoningCheckpointLoad load_dead_reckoning_checkpoint(const std::string& pa
         // Both cores restored into copies first: nothing changes unless both are usable.
         DeadReckoner core = state.core;
         AnchoredPositionFilter anchor = state.anchor;
-        try {
-          core.restore_state(c.dead_reckoner_state);
-        } catch (const std::exception& e) {
-          throw CheckpointError(std::string("dead reckoner state refused: ") + e.what());
-        }
-        try {
-          anchor.restore_state(c.anchor_state);
-        } catch (const std::exception& e) {
-          throw CheckpointError(std::string("anchored position state refused: ") + e.what());
-        }
+        restore_or_refuse("dead reckoner", core, c.dead_reckoner_state);
+        restore_or_refuse("anchored position", anchor, c.anchor_state);
         state.core = std::move(core);
         state.anchor = std::move(anchor);
         state.consumer.k_selection.restore_state(c.k_selection);

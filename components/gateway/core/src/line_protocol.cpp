@@ -1,7 +1,6 @@
 #include "odonav/gateway/line_protocol.hpp"
 
 #include <charconv>
-#include <cstdio>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -9,6 +8,7 @@
 
 #include "odonav/gateway/sensor_source.hpp"
 #include "odonav/frames.hpp"
+#include "odonav/printf_text.hpp"
 
 namespace odonav::gateway {
 
@@ -126,9 +126,7 @@ ParsedLine LineDecoder::parse_line(std::string_view line) {
     const int given = hex_digit(hh[0]) * 16 + hex_digit(hh[1]);
     const int computed = line_checksum(body);
     if (given != computed) {
-      char buf[64];
-      std::snprintf(buf, sizeof(buf), "checksum %02X, computed %02X", given, computed);
-      return reject(LineError::kBadChecksum, buf);
+      return reject(LineError::kBadChecksum, printf_text("checksum %02X, computed %02X", given, computed));
     }
   } else if (line.front() == '$') {
     return reject(LineError::kBadChecksum, "'$' line without '*HH' checksum");
@@ -215,10 +213,8 @@ ParsedLine LineDecoder::parse_line(std::string_view line) {
   // Per stream: each stream has its own clock edge (a GNSS line may lag the odometer by 100 ms).
   auto& last = last_t_s_[static_cast<std::size_t>(stream)];
   if (last && !(t_s > *last)) {
-    char buf[160];
-    std::snprintf(buf, sizeof(buf), "%s t=%.9g s does not increase (previous %.9g s)", std::string(type).c_str(), t_s,
-                  *last);
-    return reject(LineError::kTimeBackwards, buf);
+    return reject(LineError::kTimeBackwards, printf_text("%s t=%.9g s does not increase (previous %.9g s)",
+                                                         std::string(type).c_str(), t_s, *last));
   }
   last = t_s;
   ++counters_.samples[static_cast<std::size_t>(stream)];

@@ -2,22 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <sstream>
 #include <stdexcept>
 
 #include "odonav/frames.hpp"
+#include "odonav/printf_text.hpp"
 
 namespace odonav::ground {
 
 namespace {
 int index(Stream s) { return static_cast<int>(s); }
-
-std::string format(const char* fmt, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, a);
-  return buf;
-}
 }  // namespace
 
 const char* stream_name(Stream s) {
@@ -129,24 +123,20 @@ void FleetState::on_silence(const std::string& vehicle_id, Stream stream, const 
   const auto it = vehicles_.find(vehicle_id);
   if (it == vehicles_.end()) return;  // nothing known yet: nothing to mark
   Vehicle& v = it->second;
+  // The latest view of the stream, when there is one, is marked.
+  const auto mark = [silent](auto& latest) {
+    if (latest) latest->second.silent = silent;
+  };
   switch (stream) {
     case Stream::kHealth: {
       const auto c = v.components.find(component);
       if (c != v.components.end()) c->second.second.silent = silent;
       break;
     }
-    case Stream::kScaleFactor:
-      if (v.scale_factor) v.scale_factor->second.silent = silent;
-      break;
-    case Stream::kMisalignment:
-      if (v.misalignment) v.misalignment->second.silent = silent;
-      break;
-    case Stream::kDeadReckoning:
-      if (v.dead_reckoning) v.dead_reckoning->second.silent = silent;
-      break;
-    case Stream::kGnssFix:
-      if (v.gnss) v.gnss->second.silent = silent;
-      break;
+    case Stream::kScaleFactor: mark(v.scale_factor); break;
+    case Stream::kMisalignment: mark(v.misalignment); break;
+    case Stream::kDeadReckoning: mark(v.dead_reckoning); break;
+    case Stream::kGnssFix: mark(v.gnss); break;
     default: break;
   }
 }
@@ -215,41 +205,34 @@ nlohmann::json snapshot_json(const FleetSnapshot& snap) {
                             {"counters", counters}});
     }
     jv["components"] = components;
-    // The estimates: the output file's row (its column names and units) plus what only the topic has.
-    const auto item = [](const auto& snapshot, nlohmann::json j) {
-      j["age_s"] = snapshot.age_s;
-      j["stale"] = snapshot.stale;
+    // The estimates: the output file's row (its column names and units) plus what only the topic has
+    // (`extra` adds it), its age and staleness; null while the vehicle has none.
+    const auto item = [](const auto& snapshot, auto extra) {
+      if (!snapshot) return nlohmann::json();
+      nlohmann::json j = results::row_json(snapshot->view.row);
+      extra(j, snapshot->view);
+      j["age_s"] = snapshot->age_s;
+      j["stale"] = snapshot->stale;
       return j;
     };
-    jv["scale_factor"] = nullptr;
-    if (v.scale_factor) {
-      const ScaleFactorView& k = v.scale_factor->view;
-      nlohmann::json j = results::row_json(k.row);
+    jv["scale_factor"] = item(v.scale_factor, [](nlohmann::json& j, const ScaleFactorView& k) {
       j["frozen"] = k.frozen;
       j["source"] = k.source;
-      jv["scale_factor"] = item(*v.scale_factor, std::move(j));
-    }
-    jv["misalignment"] = v.misalignment ? item(*v.misalignment, results::row_json(v.misalignment->view.row)) : nullptr;
-    jv["dead_reckoning"] = nullptr;
-    if (v.dead_reckoning) {
-      const DeadReckoningView& d = v.dead_reckoning->view;
-      nlohmann::json j = results::row_json(d.row);
+    });
+    jv["misalignment"] = item(v.misalignment, [](nlohmann::json&, const MisalignmentView&) {});
+    jv["dead_reckoning"] = item(v.dead_reckoning, [](nlohmann::json& j, const DeadReckoningView& d) {
       j["origin_lat_deg"] = d.origin_latitude_deg;
       j["origin_lon_deg"] = d.origin_longitude_deg;
       j["origin_height_m"] = d.origin_height_m;
       j["gnss_valid"] = d.gnss_valid;
-      jv["dead_reckoning"] = item(*v.dead_reckoning, std::move(j));
-    }
-    jv["navigation"] = nullptr;
-    if (v.navigation) {
-      const results::NavigationPositionRow& n = v.navigation->view.row;
-      nlohmann::json j = results::row_json(n);
+    });
+    jv["navigation"] = item(v.navigation, [](nlohmann::json& j, const NavigationPositionView& view) {
+      const results::NavigationPositionRow& n = view.row;
       const double horizontal_var_m2 = n.var_east_m2 + n.var_north_m2;  // NaN when either is unknown
       j["horizontal_sigma_m"] = std::isfinite(horizontal_var_m2) && horizontal_var_m2 >= 0.0
                                     ? nlohmann::json(std::sqrt(horizontal_var_m2))
                                     : nlohmann::json();
-      jv["navigation"] = item(*v.navigation, std::move(j));
-    }
+    });
     if (v.gnss) {
       const auto& g = v.gnss->view;
       jv["gnss"] = {
@@ -292,76 +275,73 @@ std::string fit(const std::string& s, int width) {
 
 std::string pad(const std::string& s, std::size_t n) { return s.size() >= n ? s : s + std::string(n - s.size(), ' '); }
 
+// The line of one estimate of a vehicle: `text` writes the estimate's row when the vehicle has one
+// (the line marked when it is stale), else the line is `absent`.
+template <class View, class Text>
+Line item_line(const std::optional<ItemSnapshot<View>>& item, const char* absent, Text text) {
+  if (!item) return {absent, false};
+  std::ostringstream line;
+  text(line, item->view.row);
+  return {line.str(), item->stale};
+}
+
 std::vector<Line> vehicle_block(const VehicleSnapshot& v) {
   std::vector<Line> lines;
   std::ostringstream head;
   head << "== " << v.vehicle_id << (v.stale ? " [STALE]" : "") << " ";
   if (v.gnss) {
     head << " GNSS " << (v.gnss->view.valid ? "valid" : "INVALID") << " fix "
-         << fix_quality_name(v.gnss->view.fix_quality) << format(" %.1f m/s", v.gnss->view.speed_mps)
+         << fix_quality_name(v.gnss->view.fix_quality) << printf_text(" %.1f m/s", v.gnss->view.speed_mps)
          << (v.gnss->stale ? " STALE" : "");
   } else {
     head << " GNSS -";
   }
   lines.push_back({head.str(), v.stale});
 
-  std::ostringstream k;
-  if (v.scale_factor) {
-    const results::ScaleFactorRow& s = v.scale_factor->view.row;
-    k << " K " << format("%.7f", s.k_m_per_pulse.value_or(0.0));
-    if (s.sigma_m_per_pulse) k << " +-" << format("%.7f", *s.sigma_m_per_pulse);
+  lines.push_back(item_line(v.scale_factor, " K -", [&](std::ostringstream& k, const results::ScaleFactorRow& s) {
+    k << " K " << printf_text("%.7f", s.k_m_per_pulse.value_or(0.0));
+    if (s.sigma_m_per_pulse) k << " +-" << printf_text("%.7f", *s.sigma_m_per_pulse);
     k << " m/p " << s.estimator << (s.converged ? " conv" : " -") << (v.scale_factor->view.frozen ? " FROZEN" : "")
-      << format(" lambda %.4f", s.forgetting_factor) << format(" fill %.0f%%", 100.0 * s.window_fill)
+      << printf_text(" lambda %.4f", s.forgetting_factor) << printf_text(" fill %.0f%%", 100.0 * s.window_fill)
       << (v.scale_factor->stale ? " STALE" : "");
-  } else {
-    k << " K -";
-  }
-  lines.push_back({k.str(), v.scale_factor && v.scale_factor->stale});
+  }));
 
-  std::ostringstream m;
-  if (v.misalignment) {
-    const results::MisalignmentRow& a = v.misalignment->view.row;
-    m << " misalign hdg " << format("%+.3f", rad_to_deg(a.heading_rad));
-    if (std::isfinite(a.heading_std_rad)) m << " +-" << format("%.3f", rad_to_deg(a.heading_std_rad));
-    m << " pitch " << format("%+.3f", rad_to_deg(a.pitch_rad));
-    if (std::isfinite(a.pitch_std_rad)) m << " +-" << format("%.3f", rad_to_deg(a.pitch_std_rad));
-    m << " deg " << a.state << (v.misalignment->stale ? " STALE" : "");
-  } else {
-    m << " misalign -";
-  }
-  lines.push_back({m.str(), v.misalignment && v.misalignment->stale});
+  lines.push_back(
+      item_line(v.misalignment, " misalign -", [&](std::ostringstream& m, const results::MisalignmentRow& a) {
+        m << " misalign hdg " << printf_text("%+.3f", rad_to_deg(a.heading_rad));
+        if (std::isfinite(a.heading_std_rad)) m << " +-" << printf_text("%.3f", rad_to_deg(a.heading_std_rad));
+        m << " pitch " << printf_text("%+.3f", rad_to_deg(a.pitch_rad));
+        if (std::isfinite(a.pitch_std_rad)) m << " +-" << printf_text("%.3f", rad_to_deg(a.pitch_std_rad));
+        m << " deg " << a.state << (v.misalignment->stale ? " STALE" : "");
+      }));
 
-  std::ostringstream d;
-  if (v.dead_reckoning) {
-    const results::DeadReckoningRow& r = v.dead_reckoning->view.row;
+  lines.push_back(item_line(v.dead_reckoning, " DR -", [&](std::ostringstream& d, const results::DeadReckoningRow& r) {
     d << " DR err ";
-    d << (std::isfinite(r.horizontal_error_m) ? format("%.1f m", r.horizontal_error_m) : std::string("- m"));
-    d << " " << (std::isfinite(r.error_percent) ? format("%.2f %%D", r.error_percent) : std::string("- %D"));
-    d << format(" dist %.0f m", r.distance_m) << " K " << r.k_source;
+    d << (std::isfinite(r.horizontal_error_m) ? printf_text("%.1f m", r.horizontal_error_m) : std::string("- m"));
+    d << " " << (std::isfinite(r.error_percent) ? printf_text("%.2f %%D", r.error_percent) : std::string("- %D"));
+    d << printf_text(" dist %.0f m", r.distance_m) << " K " << r.k_source;
     // Which identification instance the K comes from (a hot standby publishes under its own name).
     if (v.scale_factor && !v.scale_factor->view.source.empty()) d << " from " << v.scale_factor->view.source;
     d << (v.dead_reckoning->stale ? " STALE" : "");
     // What never reached the ground (a fault on the vehicle or the link), from the stamps.
     if (v.dead_reckoning_missed > 0)
       d << " missed " << v.dead_reckoning_missed << " in " << v.dead_reckoning_gaps << " gap(s), last "
-        << format("t=%.2f", v.dead_reckoning_last_gap->first_missing_t_s)
-        << format("-%.2f s", v.dead_reckoning_last_gap->last_missing_t_s);
-  } else {
-    d << " DR -";
-  }
-  lines.push_back({d.str(), v.dead_reckoning && v.dead_reckoning->stale});
+        << printf_text("t=%.2f", v.dead_reckoning_last_gap->first_missing_t_s)
+        << printf_text("-%.2f s", v.dead_reckoning_last_gap->last_missing_t_s);
+  }));
 
   std::ostringstream r;
   static const char* short_names[] = {"odo", "ins", "gnss", "mis", "k", "dr", "hlth"};
   r << " Hz";
-  for (int s = 0; s < kStreamCount; ++s) r << " " << short_names[s] << " " << format("%.0f", v.rate_hz[s]);
+  for (int s = 0; s < kStreamCount; ++s) r << " " << short_names[s] << " " << printf_text("%.0f", v.rate_hz[s]);
   lines.push_back({r.str(), false});
 
   for (const ComponentSnapshot& c : v.components) {
     std::ostringstream l;
     l << "  " << pad(c.health.component, 22) << " ";
     if (c.stale) {
-      l << pad("STALE", 9) << format("silent %.1f s", c.age_s) << " (last " << health_state_name(c.health.state) << ")";
+      l << pad("STALE", 9) << printf_text("silent %.1f s", c.age_s) << " (last " << health_state_name(c.health.state)
+        << ")";
     } else {
       l << pad(health_state_name(c.health.state), 9) << pad(health_level_name(c.health.level), 6) << c.health.reason;
     }

@@ -1,13 +1,13 @@
 #include "odonav/ground/standard_channels.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
 #include "odonav/ground/cdr_writer.hpp"
 #include "odonav/ground/ros2msg_schema.hpp"
 #include "odonav/frames.hpp"
+#include "odonav/printf_text.hpp"
 
 namespace odonav::ground {
 
@@ -34,11 +34,7 @@ void header(CdrWriter& w, double stamp_s, const std::string& frame_id) {
   w.str(frame_id);
 }
 
-std::string number(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
-  return buf;
-}
+std::string number(double v) { return printf_text("%.9g", v); }
 
 }  // namespace
 

@@ -1,9 +1,10 @@
 #include "odonav/identification/checkpoint.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
+
+#include "odonav/printf_text.hpp"
 
 namespace odonav::identification {
 
@@ -44,11 +45,7 @@ CheckpointLoadResult load_identification_checkpoint(const std::string& path, con
     if (c.estimator_name != core.main_estimator_name())
       throw CheckpointError("made by estimator '" + c.estimator_name + "', this is '" + core.main_estimator_name() +
                             "'");
-    try {
-      core.restore_state(c.core_state);  // unchanged when it throws
-    } catch (const std::exception& e) {
-      throw CheckpointError(std::string("identification state refused: ") + e.what());
-    }
+    restore_or_refuse("identification", core, c.core_state);  // unchanged when it throws
     restored = std::move(c);
   });
   CheckpointLoadResult result;
@@ -65,14 +62,10 @@ std::string describe(const CheckpointLoadResult& r, const ScaleFactorEstimator& 
     case CheckpointLoadStatus::kNone: return "no checkpoint " + r.path + ": starting from nominal K";
     case CheckpointLoadStatus::kRestored: {
       const ScaleFactorEstimate e = estimator.estimate();
-      char buf[160];
       if (e.valid)
-        std::snprintf(buf, sizeof buf, "restored K=%.9g m/pulse from checkpoint (t=%.3f s)", e.k_m_per_pulse,
-                      r.checkpoint->last_sample_t_s);
-      else
-        std::snprintf(buf, sizeof buf, "restored estimator (no K yet) from checkpoint (t=%.3f s)",
-                      r.checkpoint->last_sample_t_s);
-      return buf;
+        return printf_text("restored K=%.9g m/pulse from checkpoint (t=%.3f s)", e.k_m_per_pulse,
+                           r.checkpoint->last_sample_t_s);
+      return printf_text("restored estimator (no K yet) from checkpoint (t=%.3f s)", r.checkpoint->last_sample_t_s);
     }
     case CheckpointLoadStatus::kMovedAside:
       return "checkpoint " + r.path + " was corrupt (" + r.reason + "): moved aside" +

@@ -117,35 +117,29 @@ TurnSlipEstimate IdentificationCore::turn_slip_estimate() const {
 }
 
 void IdentificationCore::track_braking_stop(const SampleBuilderEpoch& epoch, MotionPhase phase) {
-  const bool active = params_.braking_stop.enabled && !frozen_;
-  const std::optional<uint64_t> used_since =
-      braking_snapshot_ ? std::optional<uint64_t>(braking_snapshot_->samples) : std::nullopt;
-  switch (braking_stop_step(phase, active, used_since)) {
-    case BrakingStopStep::kKeep: return;
-    case BrakingStopStep::kDrop: braking_snapshot_.reset(); return;
-    case BrakingStopStep::kSnapshot: {
-      // Taken at the first braking epoch with a sample, so a snapshot always withdraws something.
-      if (!epoch.sample) return;
-      BrakingSnapshot snap;
-      auto state_of = [](const ScaleFactorEstimator& e) {
-        return withdraws_braking(e) ? std::make_shared<const StateJson>(e.save_state()) : nullptr;
-      };
-      snap.main = state_of(*main_);
-      for (const auto& e : all_) snap.all.push_back(state_of(*e));
-      braking_snapshot_ = std::move(snap);
-      return;
-    }
-    case BrakingStopStep::kRollBack:
-      if (withdraws_braking(*main_)) main_->restore_state(*braking_snapshot_->main);
-      for (std::size_t i = 0; i < all_.size(); ++i)
-        if (withdraws_braking(*all_[i])) all_[i]->restore_state(*braking_snapshot_->all[i]);
-      ++braking_stop_counters_.stops;
-      braking_stop_counters_.samples_withdrawn += braking_snapshot_->samples;
-      braking_snapshot_.reset();
-      // The innovation gate tests against the K the drive stopped with from the next epoch on.
-      feed_gate(epoch.t_s, main_estimate());
-      return;
-  }
+  auto take = [&]() -> std::optional<BrakingSnapshot> {
+    // Taken at the first braking epoch with a sample, so a snapshot always withdraws something.
+    if (!epoch.sample) return std::nullopt;
+    BrakingSnapshot snap;
+    auto state_of = [](const ScaleFactorEstimator& e) {
+      return withdraws_braking(e) ? std::make_shared<const StateJson>(e.save_state()) : nullptr;
+    };
+    snap.main = state_of(*main_);
+    for (const auto& e : all_) snap.all.push_back(state_of(*e));
+    return snap;
+  };
+  auto restore = [&](const BrakingSnapshot& snap) {
+    if (withdraws_braking(*main_)) main_->restore_state(*snap.main);
+    for (std::size_t i = 0; i < all_.size(); ++i)
+      if (withdraws_braking(*all_[i])) all_[i]->restore_state(*snap.all[i]);
+  };
+  const uint64_t withdrawn =
+      apply_braking_stop(braking_snapshot_, phase, params_.braking_stop.enabled && !frozen_, take, restore);
+  if (withdrawn == 0) return;
+  ++braking_stop_counters_.stops;
+  braking_stop_counters_.samples_withdrawn += withdrawn;
+  // The innovation gate tests against the K the drive stopped with from the next epoch on.
+  feed_gate(epoch.t_s, main_estimate());
 }
 
 IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoch) {
@@ -153,7 +147,7 @@ IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoc
   track_braking_stop(epoch, phase);
   if (epoch.sample && !frozen_) {
     ++accepted_;
-    if (braking_snapshot_) ++braking_snapshot_->samples;
+    if (braking_snapshot_) ++braking_snapshot_->used_since;
     main_->update(*epoch.sample);
     for (auto& e : all_) e->update(*epoch.sample);
     // Feed the gate from inside the callback, stamped with the sample time: it then applies from
@@ -231,13 +225,7 @@ void IdentificationCore::state_fields(Archive& a, Self& c) {
   auto estimator = [&](const char* key, auto& e) {
     a.via(
         key, [&] { return e->save_state(); },
-        [&](const auto& state) {
-          try {
-            e->restore_state(state);
-          } catch (const std::exception& ex) {
-            throw CheckpointError("estimator " + e->name() + ": state refused: " + ex.what());
-          }
-        });
+        [&](const auto& state) { restore_or_refuse("estimator " + e->name() + ":", *e, state); });
   };
   a("accepted", c.accepted_)("rejected", c.rejected_)("frozen", c.frozen_)(
       "commanded_k_m_per_pulse", c.seed_k_m_per_pulse_)("last_gate_t_s", c.last_gate_t_s_)
@@ -255,13 +243,8 @@ void IdentificationCore::state_fields(Archive& a, Self& c) {
             if (states.size() != c.all_.size())
               throw CheckpointError("field 'side_by_side' holds " + std::to_string(states.size()) +
                                     " estimators, this core runs " + std::to_string(c.all_.size()));
-            for (std::size_t i = 0; i < states.size(); ++i) {
-              try {
-                c.all_[i]->restore_state(states[i]);
-              } catch (const std::exception& ex) {
-                throw CheckpointError("estimator " + c.all_[i]->name() + ": state refused: " + ex.what());
-              }
-            }
+            for (std::size_t i = 0; i < states.size(); ++i)
+              restore_or_refuse("estimator " + c.all_[i]->name() + ":", *c.all_[i], states[i]);
           })("braking_stop", c.braking_stop_counters_)
       .via(
           "motion_epochs", [&] { return c.motion_.state(); }, [&](const auto& v) { c.motion_.restore(v); })(

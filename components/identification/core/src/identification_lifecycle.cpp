@@ -2,12 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <utility>
 
 #include <spdlog/spdlog.h>
 
 #include "odonav/consumer_rules.hpp"
+#include "odonav/printf_text.hpp"
 
 namespace odonav::identification {
 
@@ -18,11 +18,9 @@ std::string latency_not_decided_text(const GnssLatencyEstimate& l) {
   if (l.sigma_s < 0.0) {
     return "GNSS latency not decided (no estimate yet" + (l.reason.empty() ? std::string() : ": " + l.reason) + ")";
   }
-  char text[160];
-  std::snprintf(
-      text, sizeof text, "GNSS latency not decided (estimate %.1f +- %.1f ms from %llu samples, %.1f ms in force)",
-      1000.0 * l.estimate_s, 1000.0 * l.sigma_s, static_cast<unsigned long long>(l.samples), 1000.0 * l.applied_s);
-  return text;
+  return printf_text("GNSS latency not decided (estimate %.1f +- %.1f ms from %llu samples, %.1f ms in force)",
+                     1000.0 * l.estimate_s, 1000.0 * l.sigma_s, static_cast<unsigned long long>(l.samples),
+                     1000.0 * l.applied_s);
 }
 }  // namespace
 

@@ -79,19 +79,19 @@ class ScaleFactorSelection {
   /// COMMAND_RELEASE_K: identified K followed again from its next applicable estimate (always accepted).
   ScaleFactorCommandResult release_commanded_k();
 
-  bool commanded() const { return commanded_; }
+  bool commanded() const { return state_.commanded; }
   /// Stamp of the last K given to the DR (event time, s), if any.
-  std::optional<double> last_k_stamp_s() const { return last_k_stamp_s_; }
+  std::optional<double> last_k_stamp_s() const { return state_.last_k_stamp_s; }
   /// ScaleFactor.source followed ("" before the first ScaleFactor).
-  const std::string& k_source() const { return k_source_; }
+  const std::string& k_source() const { return state_.k_source; }
   /// ScaleFactor.source of the identified K in force ("" while the nominal or a commanded K is):
   /// its later estimates replace it without having to beat the nominal K again.
-  const std::string& in_force_source() const { return in_force_source_; }
+  const std::string& in_force_source() const { return state_.in_force_source; }
   /// "K source changed from 'a' to 'b' at t=T s" of the last change ("" none), and when it happened
   /// (wall clock, s; -inf none).
   const std::string& k_source_note() const { return k_source_note_; }
   double k_source_changed_at_s() const { return k_source_changed_at_s_; }
-  const ScaleFactorSelectionCounters& counters() const { return counters_; }
+  const ScaleFactorSelectionCounters& counters() const { return state_.counters; }
 
   /// What a checkpoint keeps (the source-change note is about the wall clock: not kept).
   struct State {
@@ -101,27 +101,17 @@ class ScaleFactorSelection {
     std::string in_force_source;
     ScaleFactorSelectionCounters counters;
   };
-  State state() const { return {commanded_, last_k_stamp_s_, k_source_, in_force_source_, counters_}; }
-  void restore_state(const State& s) {
-    commanded_ = s.commanded;
-    last_k_stamp_s_ = s.last_k_stamp_s;
-    k_source_ = s.k_source;
-    in_force_source_ = s.in_force_source;
-    counters_ = s.counters;
-  }
+  State state() const { return state_; }
+  void restore_state(const State& s) { state_ = s; }
 
  private:
   void track_source(const std::string& source, double t_s, double now_s);
 
   double nominal_k_m_per_pulse_;
   double nominal_k_rel_sigma_;
-  bool commanded_ = false;
-  std::optional<double> last_k_stamp_s_;
-  std::string k_source_;
-  std::string in_force_source_;
+  State state_;  ///< the selection's memory: what a checkpoint keeps
   std::string k_source_note_;
   double k_source_changed_at_s_ = -std::numeric_limits<double>::infinity();
-  ScaleFactorSelectionCounters counters_;
 };
 
 /// When a count last changed (wall clock, s): the pulse-jump WARN window starts at each new total.

@@ -216,10 +216,10 @@ class IdentificationCore {
   struct BrakingSnapshot {
     std::shared_ptr<const StateJson> main;
     std::vector<std::shared_ptr<const StateJson>> all;
-    uint64_t samples = 0;
+    uint64_t used_since = 0;
     template <class Archive, class Self>  // checkpoint fields (checkpoint_state.hpp)
     static void state_fields(Archive& a, Self& s) {
-      a("main", s.main)("all", s.all)("samples", s.samples);
+      a("main", s.main)("all", s.all)("samples", s.used_since);
     }
   };
   std::optional<BrakingSnapshot> braking_snapshot_;
