@@ -57,16 +57,6 @@ synthetic::SyntheticData drive(double duration_s) {
   return synthetic::simulate(synthetic::wavy_drive(), c);
 }
 
-/// The dead reckoning's saved state (core, anchored filter, consumer rules) into a checkpoint.
-void set_state(dead_reckoning::DeadReckoningCheckpoint& c, const dead_reckoning::DeadReckoningStateRefs& s) {
-  c.k_selection = s.consumer.k_selection.state();
-  c.applied_misalignment = s.consumer.applied_misalignment.state();
-  c.misalignments_applied = s.consumer.misalignments_applied;
-  c.held_misalignment_t_s = s.consumer.held_misalignment_t_s;
-  c.dead_reckoner_state = s.core.save_state();
-  c.anchor_state = s.anchor.save_state();
-}
-
 class CheckpointRoundTrip : public ::testing::Test {
  protected:
   test::ScratchDir scratch_;
@@ -151,7 +141,7 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
     c.config_hash = kHash;
     c.last_output_t_s = cut_s;
     c.fed_until_s = {60.0, 60.0, 49.99, 12.0, std::nullopt};
-    set_state(c, dead_reckoning::DeadReckoningStateRefs{core, anchor, consumer});
+    dead_reckoning::save_state_into(c, dead_reckoning::DeadReckoningStateRefs{core, anchor, consumer});
     ASSERT_FALSE(c.dead_reckoner_state.at("gnss").empty()) << "inputs buffered ahead are in it";
     const std::string text = dead_reckoning::serialize_dead_reckoning_checkpoint(c);
     const std::string path = dead_reckoning::dead_reckoning_checkpoint_path(dir_.string(), kVehicle);
@@ -163,7 +153,7 @@ TEST_F(CheckpointRoundTrip, EveryComponentsCheckpointSavedRestoredAndSavedAgainI
         path, kVehicle, kHash, dead_reckoning::DeadReckoningStateRefs{core2, anchor2, consumer2}, kUnixTime_s);
     ASSERT_EQ(r.status, CheckpointLoadStatus::kRestored) << r.reason;
     dead_reckoning::DeadReckoningCheckpoint again = *r.checkpoint;
-    set_state(again, dead_reckoning::DeadReckoningStateRefs{core2, anchor2, consumer2});
+    dead_reckoning::save_state_into(again, dead_reckoning::DeadReckoningStateRefs{core2, anchor2, consumer2});
     EXPECT_EQ(dead_reckoning::serialize_dead_reckoning_checkpoint(again), text);
   }
 }

@@ -39,6 +39,15 @@ std::string serialize_dead_reckoning_checkpoint(const DeadReckoningCheckpoint& c
   return kKind.seal(c);
 }
 
+void save_state_into(DeadReckoningCheckpoint& checkpoint, const DeadReckoningStateRefs& state) {
+  checkpoint.k_selection = state.consumer.k_selection.state();
+  checkpoint.applied_misalignment = state.consumer.applied_misalignment.state();
+  checkpoint.misalignments_applied = state.consumer.misalignments_applied;
+  checkpoint.held_misalignment_t_s = state.consumer.held_misalignment_t_s;
+  checkpoint.dead_reckoner_state = state.core.save_state();
+  checkpoint.anchor_state = state.anchor.save_state();
+}
+
 DeadReckoningCheckpoint parse_dead_reckoning_checkpoint(const std::string& text) {
   return kKind.parse<DeadReckoningCheckpoint>(text);
 }

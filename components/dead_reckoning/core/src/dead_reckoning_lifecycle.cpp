@@ -62,12 +62,7 @@ std::string DeadReckoningLifecycle::text_of(const DeadReckoningStateRefs& state,
   c.last_output_t_s = t_s;
   const auto& taken = restart_.taken_until_t_s();
   std::copy(taken.begin(), taken.end(), c.fed_until_s.begin());
-  c.k_selection = state.consumer.k_selection.state();
-  c.applied_misalignment = state.consumer.applied_misalignment.state();
-  c.misalignments_applied = state.consumer.misalignments_applied;
-  c.held_misalignment_t_s = state.consumer.held_misalignment_t_s;
-  c.dead_reckoner_state = state.core.save_state();
-  c.anchor_state = state.anchor.save_state();
+  save_state_into(c, state);
   return serialize_dead_reckoning_checkpoint(c);
 }
 

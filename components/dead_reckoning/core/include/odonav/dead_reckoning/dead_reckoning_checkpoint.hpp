@@ -78,6 +78,11 @@ struct DeadReckoningCheckpoint {
   StateJson anchor_state;         ///< AnchoredPositionFilter::save_state()
 };
 
+/// Copies the saved state of `state` (core, anchored filter, consumer rules) into `checkpoint`'s
+/// state fields, the counterpart of what load_dead_reckoning_checkpoint restores; identity, times and
+/// input marks are left as they are.
+void save_state_into(DeadReckoningCheckpoint& checkpoint, const DeadReckoningStateRefs& state);
+
 /// `<state_dir>/dead-reckoning-<vehicle_id>.ckpt` (std::invalid_argument for a bad vehicle id).
 std::string dead_reckoning_checkpoint_path(const std::string& state_dir, const std::string& vehicle_id);
 /// The file text (std::invalid_argument for an empty vehicle / hash or a non-finite time).
