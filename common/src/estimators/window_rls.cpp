@@ -73,10 +73,12 @@ void WindowRlsEstimator::update(const ScaleFactorSample& sample) {
     const double s = 1.0 + phi * phi / s_pp_total;
     // The detector normalises by the residual scale observed so far (not the model's): it then
     // holds whatever the samples' real noise is, e.g. the trapezoid correction's at low rates.
+    const double sqrt_s = std::sqrt(s);
+    const double scale_m = residual_scale_.sigma_m();  // before this sample's own residual is added
     if (variable_forgetting_ && params_.vff_change_threshold > 0.0 &&
         residual_scale_.count() >= kMinResidualsForOnlineScale)
-      change_began = change_.add(eps / (std::sqrt(s) * residual_scale_.sigma_m()), samples_used_);
-    residual_correlation_.add(eps / std::sqrt(s), 3.0 * residual_scale_.sigma_m());
+      change_began = change_.add(eps / (sqrt_s * scale_m), samples_used_);
+    residual_correlation_.add(eps / sqrt_s, 3.0 * scale_m);
     residual_scale_.add(eps, s);
     // Ordinary RLS while the window fills (fewer than L held), the VFF law afterwards.
     if (variable_forgetting_ && held_ == capacity_) {

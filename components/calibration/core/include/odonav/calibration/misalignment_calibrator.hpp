@@ -206,11 +206,11 @@ class MisalignmentCalibrator {
   const MisalignmentCounters& counters() const { return counters_; }
 
   /// The state a restarted calibration needs to continue exactly (calibration_checkpoint.hpp;
-  /// checkpoint_state.hpp, every double exact): both regressions' sums and residual correlations, the used-epoch count, the
-  /// gates' state (speed-jump reference, consecutive innovation rejections), frozen, the last
-  /// epoch's time, the counters, the motion phase and the braking snapshot. Not the buffered
-  /// samples: after a restore the INS from restore_margin_s() before the last epoch and the GNSS
-  /// after it are fed again.
+  /// checkpoint_state.hpp, every double exact): both regressions' sums and residual correlations,
+  /// the used-epoch count, the gates' state (speed-jump reference, consecutive innovation
+  /// rejections), frozen, the last epoch's time, the counters, the motion phase and the braking
+  /// snapshot. Not the buffered samples: after a restore the INS from restore_margin_s() before the
+  /// last epoch and the GNSS after it are fed again.
   StateJson save_state() const;
   /// Restores save_state()'s state into this calibrator, which must have been made with the same
   /// parameters (the checkpoint's configuration hash says so) and fed nothing yet. Throws
