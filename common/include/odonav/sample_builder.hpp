@@ -397,8 +397,10 @@ class SampleBuilder {
   /// knows it now (docs/ALGORITHM.md "Honest sigma of K"): 0 with a fixed latency or estimation
   /// off; else hypot(estimate - applied, sigma) of the online estimate when it has one, else the
   /// sigma the value in force was applied with, else hypot(...) of the open block's own fit (as
-  /// start_latency_k, from 10 samples on), else latency_prior_sigma_s. What K's published sigma adds as |dK/dlatency| times it.
-  double latency_in_force_uncertainty_s() const;
+  /// start_latency_k, from 10 samples on), else latency_prior_sigma_s; each least-squares sigma
+  /// times sigma_factor (>= 1: the residuals' serial correlation, widen_latency_sigma). What K's
+  /// published sigma adds as |dK/dlatency| times it.
+  double latency_in_force_uncertainty_s(double sigma_factor) const;
   /// Whether the latency in force is decided (docs/ALGORITHM.md "Honest sigma of K"): fixed or
   /// estimation off, or an estimate was applied, or the online estimate confirms the value in
   /// force (its sigma at most latency_apply_coarse_sigma_s and the value in force within 3 of its

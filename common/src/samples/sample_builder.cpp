@@ -340,16 +340,17 @@ std::optional<SampleBuilder::StartLatencyK> SampleBuilder::start_latency_k() con
   return StartLatencyK{k0 + f * (k1 - k0), own.estimate_s, own.sigma_s};
 }
 
-double SampleBuilder::latency_in_force_uncertainty_s() const {
+double SampleBuilder::latency_in_force_uncertainty_s(double sigma_factor) const {
   if (latency_.fixed || latency_candidates_s_.empty()) return 0.0;
-  if (latency_.sigma_s >= 0.0) return std::hypot(latency_.estimate_s - latency_.applied_s, latency_.sigma_s);
+  if (latency_.sigma_s >= 0.0)
+    return std::hypot(latency_.estimate_s - latency_.applied_s, sigma_factor * latency_.sigma_s);
   // Sums restarted after an application: what was known when the value in force was applied.
-  if (latency_.applied_sigma_s >= 0.0) return latency_.applied_sigma_s;
+  if (latency_.applied_sigma_s >= 0.0) return sigma_factor * latency_.applied_sigma_s;
   // No estimate over the sums yet: the open block's own (coarser) fit, as start_latency_k uses.
   std::vector<double> block(latency_candidates_s_.size());
   GnssLatencyEstimate own;
   if (weighted_block_residuals(block) && fit_latency(block, latency_block_samples_, 1, own, kLatencyBlockMinSamples))
-    return std::hypot(own.estimate_s - latency_.applied_s, own.sigma_s);
+    return std::hypot(own.estimate_s - latency_.applied_s, sigma_factor * own.sigma_s);
   return params_.latency_prior_sigma_s;
 }
 

@@ -59,5 +59,34 @@ TEST(HonestEstimate, NoValueOrNoSigmaIsLeftAsItIs) {
   EXPECT_EQ(honest_estimate(commanded, 0.1, true, 0.001).sigma_m_per_pulse, 0.0);
 }
 
+// The latency is fitted to the same samples as K: its least-squares sigmas are widened by K's
+// residual correlation factor; the estimates stay, and a fixed or unknown sigma is left as it is.
+TEST(WidenLatencySigma, TimesTheResidualCorrelationFactorOfK) {
+  GnssLatencyEstimate l;
+  l.applied_s = 0.09;
+  l.applied_sigma_s = 0.010;
+  l.estimate_s = 0.1;
+  l.sigma_s = 0.004;
+  widen_latency_sigma(l, 1.4);
+  EXPECT_DOUBLE_EQ(l.applied_sigma_s, 0.014);
+  EXPECT_DOUBLE_EQ(l.sigma_s, 0.004 * 1.4);
+  EXPECT_EQ(l.applied_s, 0.09);
+  EXPECT_EQ(l.estimate_s, 0.1);
+  GnssLatencyEstimate none;  // nothing applied, no estimate: -1 stays -1
+  widen_latency_sigma(none, 1.4);
+  EXPECT_EQ(none.applied_sigma_s, -1.0);
+  EXPECT_EQ(none.sigma_s, -1.0);
+  GnssLatencyEstimate fixed;  // --gnss-latency-s: exact by definition
+  fixed.fixed = true;
+  fixed.applied_s = fixed.estimate_s = 0.05;
+  fixed.applied_sigma_s = fixed.sigma_s = 0.0;
+  widen_latency_sigma(fixed, 2.0);
+  EXPECT_EQ(fixed.applied_sigma_s, 0.0);
+  EXPECT_EQ(fixed.sigma_s, 0.0);
+  GnssLatencyEstimate uncorrelated = l;
+  widen_latency_sigma(uncorrelated, 1.0);
+  EXPECT_EQ(uncorrelated.sigma_s, l.sigma_s);
+}
+
 }  // namespace
 }  // namespace odonav::identification

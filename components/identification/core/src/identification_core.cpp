@@ -76,9 +76,15 @@ IdentificationOutput IdentificationCore::set_k(double k, double t_s) {
   out.samples_accepted = accepted_;
   out.samples_rejected = rejected_;
   out.frozen = frozen_;
-  out.latency = builder_.latency();
+  out.latency = latency();
   feed_gate(t_s, out.main);
   return out;
+}
+
+GnssLatencyEstimate IdentificationCore::latency() const {
+  GnssLatencyEstimate l = builder_.latency();
+  widen_latency_sigma(l, main_->estimate().correlation_factor);
+  return l;
 }
 
 ScaleFactorEstimate IdentificationCore::main_estimate() const {
@@ -166,6 +172,7 @@ IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoc
   out.samples_rejected = rejected_;
   out.frozen = frozen_;
   out.latency = epoch.latency;
+  widen_latency_sigma(out.latency, out.main.correlation_factor);
   out.turn_slip = turn_slip_estimate();
   out.turn_slip_threshold_radps = turn_slip_threshold_radps();
   out.motion_phase = phase;
@@ -174,16 +181,22 @@ IdentificationOutput IdentificationCore::on_epoch(const SampleBuilderEpoch& epoc
   // Only what is published changes: the estimators and the builder's innovation gate keep the
   // estimator's own K and sigma (feed_gate above), and a commanded or frozen K is never replaced.
   const ScaleFactorEstimate own = out.main;
-  out.main = honest_estimate(own, builder_.latency_in_force_uncertainty_s(), out.latency_decided);
+  out.main = honest_estimate(own, builder_.latency_in_force_uncertainty_s(own.correlation_factor), out.latency_decided);
   if (out.main.valid && !out.main.converged && !frozen_ && !seed_k_m_per_pulse_) {
     if (const auto start = builder_.start_latency_k()) {
       // K at the block's own latency estimate: off by its sigma times K's sensitivity at most.
-      out.main = honest_estimate(own, start->latency_sigma_s, false);
+      out.main = honest_estimate(own, own.correlation_factor * start->latency_sigma_s, false);
       out.main.k_m_per_pulse = start->k_m_per_pulse;
       out.k_from_start_latency = true;
     }
   }
   return out;
+}
+
+void widen_latency_sigma(GnssLatencyEstimate& latency, double correlation_factor) {
+  if (!(correlation_factor > 1.0) || latency.fixed) return;
+  if (latency.sigma_s > 0.0) latency.sigma_s *= correlation_factor;
+  if (latency.applied_sigma_s > 0.0) latency.applied_sigma_s *= correlation_factor;
 }
 
 ScaleFactorEstimate honest_estimate(const ScaleFactorEstimate& own, double latency_uncertainty_s, bool latency_decided,

@@ -91,6 +91,12 @@ struct IdentificationOutput {
 /// (own.dk_dlatency_m_per_pulse_per_s) and u_latency the uncertainty (s) of the latency in force
 /// (SampleBuilder::latency_in_force_uncertainty_s); converged = own.converged and the latency
 /// decided and sigma / |K| < converged_rel_sigma. Unchanged when own has no value or no sigma.
+/// The GNSS latency's least-squares sigmas (s) widened by the K samples' residual correlation
+/// factor (ScaleFactorEstimate::correlation_factor, >= 1): the latency is fitted to the same
+/// samples as K, whose neighbours share a GNSS velocity, so its plain sigma counts too many
+/// independent residuals, as K's does. Estimates are untouched; a fixed latency keeps sigma 0.
+void widen_latency_sigma(GnssLatencyEstimate& latency, double correlation_factor);
+
 ScaleFactorEstimate honest_estimate(const ScaleFactorEstimate& own, double latency_uncertainty_s, bool latency_decided,
                                     double converged_rel_sigma);
 
@@ -169,8 +175,9 @@ class IdentificationCore {
   /// and the yaw rate (rad/s) beyond which it applies (the yaw-rate gate).
   TurnSlipEstimate turn_slip_estimate() const;
   double turn_slip_threshold_radps() const { return params_.builder.max_yaw_rate_rad_s; }
-  /// The GNSS latency in force and its online estimate (sample_builder.hpp).
-  const GnssLatencyEstimate& latency() const { return builder_.latency(); }
+  /// The GNSS latency in force and its online estimate (sample_builder.hpp), with the sigmas
+  /// widened as published (widen_latency_sigma).
+  GnssLatencyEstimate latency() const;
   /// The main estimator.
   ScaleFactorEstimator& main_estimator() { return *main_; }
   const ScaleFactorEstimator& main_estimator() const { return *main_; }
