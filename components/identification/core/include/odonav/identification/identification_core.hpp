@@ -82,6 +82,12 @@ struct IdentificationOutput {
   bool latency_decided = false;
 };
 
+/// The GNSS latency's least-squares sigmas (s) widened by the K samples' residual correlation
+/// factor (ScaleFactorEstimate::correlation_factor, >= 1): the latency is fitted to the same
+/// samples as K, whose neighbours share a GNSS velocity, so its plain sigma counts too many
+/// independent residuals, as K's does. Estimates are untouched; a fixed latency keeps sigma 0.
+void widen_latency_sigma(GnssLatencyEstimate& latency, double correlation_factor);
+
 /// What K's published sigma and converged say (docs/ALGORITHM.md "Honest sigma of K"): the
 /// estimator's own sigma (the scatter of its residuals) says nothing of what all its samples share,
 /// so the published one-sigma is
@@ -89,14 +95,9 @@ struct IdentificationOutput {
 /// with f the serial-correlation factor of the residuals (own.correlation_factor), sigma_lag the
 /// lag after a detected change (own.lag_sigma_m_per_pulse), dK/dlatency
 /// (own.dk_dlatency_m_per_pulse_per_s) and u_latency the uncertainty (s) of the latency in force
-/// (SampleBuilder::latency_in_force_uncertainty_s); converged = own.converged and the latency
-/// decided and sigma / |K| < converged_rel_sigma. Unchanged when own has no value or no sigma.
-/// The GNSS latency's least-squares sigmas (s) widened by the K samples' residual correlation
-/// factor (ScaleFactorEstimate::correlation_factor, >= 1): the latency is fitted to the same
-/// samples as K, whose neighbours share a GNSS velocity, so its plain sigma counts too many
-/// independent residuals, as K's does. Estimates are untouched; a fixed latency keeps sigma 0.
-void widen_latency_sigma(GnssLatencyEstimate& latency, double correlation_factor);
-
+/// (SampleBuilder::latency_in_force_uncertainty_s, its sigmas times f); converged = own.converged
+/// and the latency decided and sigma / |K| < converged_rel_sigma. Unchanged when own has no value
+/// or no sigma.
 ScaleFactorEstimate honest_estimate(const ScaleFactorEstimate& own, double latency_uncertainty_s, bool latency_decided,
                                     double converged_rel_sigma);
 
