@@ -312,12 +312,28 @@ bool SampleBuilder::weighted_block_residuals(std::vector<double>& out) const {
 }
 
 bool SampleBuilder::block_consistent(const std::vector<double>& block) const {
-  if (!latency_closed_fit_) return true;
+  // The reference: the closed blocks' estimate, or right after a restart (no closed block yet) the
+  // value just applied, which the samples before the restart determined. Without it the first block
+  // after a restart was taken on its own, and one that one K cannot describe (the true K stepped
+  // inside it) then excluded every later, correct block as inconsistent with it.
+  double reference_s = 0.0, reference_sigma_s = 0.0;
+  GnssLatencyEstimate closed;
+  if (latency_closed_fit_ && fit_latency(latency_closed_chi2_, latency_closed_samples_, latency_closed_blocks_, closed,
+                                         kLatencyBlockMinSamples)) {
+    reference_s = closed.estimate_s;
+    reference_sigma_s = closed.sigma_s;
+  } else if (latency_closed_blocks_ == 0 && latency_.applied_sigma_s > 0.0) {
+    reference_s = latency_.applied_s;
+    reference_sigma_s = latency_.applied_sigma_s;
+  } else {
+    return true;
+  }
   // The block's own parabola (not its smallest candidate: the sums wiggle from candidate to
-  // candidate by more than the latency's own signal over one block).
+  // candidate by more than the latency's own signal over one block), against both sigmas: the
+  // reference's alone is not small while it rests on one or two blocks.
   GnssLatencyEstimate own;
   if (!fit_latency(block, latency_block_samples_, 1, own, kLatencyBlockMinSamples)) return false;
-  return std::abs(own.estimate_s - *latency_closed_fit_) <= kLatencyBlockMaxSigmas * own.sigma_s;
+  return std::abs(own.estimate_s - reference_s) <= kLatencyBlockMaxSigmas * std::hypot(own.sigma_s, reference_sigma_s);
 }
 
 std::optional<SampleBuilder::StartLatencyK> SampleBuilder::start_latency_k() const {
