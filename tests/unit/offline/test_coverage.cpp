@@ -399,9 +399,9 @@ TEST(Coverage, OnlineGnssLatencyIsNotLockedOntoOneBadBlockAfterARestart) {
     const results::ScaleFactorRow last = to_output_rows(r, p.identification.estimator_name).scale_factor.back();
     ASSERT_TRUE(last.gnss_latency_sigma_s) << seed;
     const double z_end = (last.gnss_latency_s - cfg.gnss_latency_s) / *last.gnss_latency_sigma_s;
-    std::printf("seed %llu: online estimate within 3 sigma %.1f %% of %zu; in force at the end %.4f s, %.1f sigma off\n",
-                static_cast<unsigned long long>(seed), 100.0 * online.fraction_within(3), online.n,
-                last.gnss_latency_s, z_end);
+    std::printf(
+        "seed %llu: online estimate within 3 sigma %.1f %% of %zu; in force at the end %.4f s, %.1f sigma off\n",
+        static_cast<unsigned long long>(seed), 100.0 * online.fraction_within(3), online.n, last.gnss_latency_s, z_end);
     // Measured: online 100 / 98.1 / 96.9 % within 3 sigma, in force at the end 0.8 / 0.1 / 1.0 sigma
     // off (45.6 / 82.2 / 83.5 % and 4.6 / 0.1 / 1.0 before).
     EXPECT_GT(online.n, 500u) << seed;
