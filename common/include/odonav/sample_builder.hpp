@@ -401,6 +401,12 @@ class SampleBuilder {
   /// times sigma_factor (>= 1: the residuals' serial correlation, widen_latency_sigma). What K's
   /// published sigma adds as |dK/dlatency| times it.
   double latency_in_force_uncertainty_s(double sigma_factor) const;
+  /// The serial-correlation factor (>= 1) of the samples' residuals, K's
+  /// (ScaleFactorEstimate::correlation_factor): the latency search judges whether an estimate
+  /// differs significantly from the value in force (the apply rules, latency_decided,
+  /// start_latency_k) against factor * sigma; its thresholds on sigma stay on the plain one. 1 until
+  /// set; not part of the saved state (the caller sets it again after a restore).
+  void set_latency_sigma_factor(double factor) { latency_sigma_factor_ = factor >= 1.0 ? factor : 1.0; }
   /// Whether the latency in force is decided (docs/ALGORITHM.md "Honest sigma of K"): fixed or
   /// estimation off, or an estimate was applied, or the online estimate confirms the value in
   /// force (its sigma at most latency_apply_coarse_sigma_s and the value in force within 3 of its
@@ -565,6 +571,7 @@ class SampleBuilder {
   uint64_t latency_samples_ = 0;                      ///< samples in latency_chi2_.
   double latency_sums_applied_s_ = 0.0;               ///< the applied latency the sums were collected at.
   uint64_t latency_restarts_ = 0;
+  double latency_sigma_factor_ = 1.0;  // set_latency_sigma_factor; not saved
 };
 
 }  // namespace odonav

@@ -345,7 +345,7 @@ std::optional<SampleBuilder::StartLatencyK> SampleBuilder::start_latency_k() con
   if (!weighted_block_residuals(block)) return std::nullopt;
   GnssLatencyEstimate own;
   if (!fit_latency(block, latency_block_samples_, 1, own, kLatencyBlockMinSamples)) return std::nullopt;
-  if (!beats_nominal(own.estimate_s, latency_.applied_s, own.sigma_s)) return std::nullopt;
+  if (!beats_nominal(own.estimate_s, latency_.applied_s, latency_sigma_factor_ * own.sigma_s)) return std::nullopt;
   // The block's K at its estimate, linear between the two candidates around it.
   const double x = (own.estimate_s - latency_candidates_s_.front()) / params_.latency_search_step_s;
   const std::size_t i = std::min(n - 2, static_cast<std::size_t>(std::max(0.0, std::floor(x))));
@@ -376,7 +376,7 @@ bool SampleBuilder::latency_decided() const {
   // force (beats_nominal, 3 sigma: the test a provisional estimate passes). Within 2 sigma the
   // estimate's own wandering at 1 Hz (sigma 5-10 ms) left drives unconverged at their end.
   return latency_.sigma_s >= 0.0 && latency_.sigma_s <= params_.latency_apply_coarse_sigma_s &&
-         !beats_nominal(latency_.estimate_s, latency_.applied_s, latency_.sigma_s);
+         !beats_nominal(latency_.estimate_s, latency_.applied_s, latency_sigma_factor_ * latency_.sigma_s);
 }
 
 void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {
@@ -443,16 +443,19 @@ void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {
   // 100 ms spoils every sample long before the estimate is within a few ms).
   // Each change of the applied value moves K a little (0.1 % per 10 ms at 1 m/s^2 and 10 m/s), so a
   // change must be significant, not the estimate's own wandering.
+  // The thresholds on sigma are precision requirements; whether a change is significant is judged
+  // against the honest sigma (the residuals' serial correlation counted, set_latency_sigma_factor):
+  // against the plain one a 1 Hz drive without latency had 40.8 ms applied at 5.2 plain sigmas.
   const double change_s = std::abs(latency_.estimate_s - applied_s);
-  const bool precise = latency_.sigma_s <= params_.latency_apply_sigma_s && change_s > latency_.sigma_s;
-  const bool clearly_off =
-      latency_.sigma_s <= params_.latency_apply_coarse_sigma_s && change_s > 5.0 * latency_.sigma_s;
+  const double honest_sigma_s = latency_sigma_factor_ * latency_.sigma_s;
+  const bool precise = latency_.sigma_s <= params_.latency_apply_sigma_s && change_s > honest_sigma_s;
+  const bool clearly_off = latency_.sigma_s <= params_.latency_apply_coarse_sigma_s && change_s > 5.0 * honest_sigma_s;
   // Or one that knows the latency clearly better than the value in force did when it was applied:
   // at 1 Hz sigma ends near 5 ms and never meets the precise rule, so without this the first coarse
   // estimate (sigma 10-12 ms, up to 34 ms off on terrain) would stay in force for the whole drive.
   const bool refined = applied_sigma_s > 0.0 &&
                        latency_.sigma_s <= params_.latency_refine_sigma_fraction * applied_sigma_s &&
-                       change_s > latency_.sigma_s;
+                       change_s > honest_sigma_s;
   if (!precise && !clearly_off && !refined) return;
   latency_.applied_s = latency_.estimate_s;
   latency_.applied_sigma_s = latency_.sigma_s;

@@ -688,6 +688,36 @@ TEST(SampleBuilder, GnssLatencyIsEstimatedOnlineAndCompensated) {
   }
 }
 
+// Whether an estimate differs significantly from the latency in force is judged against its sigma
+// times the residuals' correlation factor (set_latency_sigma_factor, K's): the estimate itself does
+// not change, only the decision to apply it. A factor below 1 never makes the test stricter.
+TEST(SampleBuilder, GnssLatencyIsAppliedOnlyWhenItsChangeIsSignificantAgainstTheHonestSigma) {
+  SensorConfig c;
+  c.duration_s = 300.0;
+  c.velocity_noise_mps = 0.02;
+  c.gnss_latency_s = 0.1;
+  const SyntheticData d = simulate(wavy_drive(), c);
+  const auto run = [&](double factor) {
+    SampleBuilder b;
+    b.set_latency_sigma_factor(factor);
+    for (const auto& s : d.odometer) b.add_odometer(s);
+    for (const auto& s : d.gnss) b.add_gnss(s);
+    for (const auto& s : d.ins) b.add_ins(s);
+    FeedbackK fk;
+    b.finish([&](const SampleBuilderEpoch& e) { fk.attach(b, e); });
+    return b.latency();
+  };
+  const GnssLatencyEstimate plain = run(1.0);
+  EXPECT_NEAR(plain.applied_s, 0.1, 0.003);
+  // 100 ms against a sigma below 2 ms: 50 plain sigmas, but not 5 of 1000 times that.
+  const GnssLatencyEstimate strict = run(1000.0);
+  EXPECT_EQ(strict.applied_s, 0.0);
+  EXPECT_NEAR(strict.estimate_s, 0.1, 0.003);
+  EXPECT_LT(strict.sigma_s, 0.002);
+  const GnssLatencyEstimate below_one = run(0.5);
+  EXPECT_EQ(below_one.applied_s, plain.applied_s);
+}
+
 // The latency sums fit a K of their own per candidate and block: the K estimate fed back only arms
 // the innovation gate. Here the true K steps by +3 % halfway while the estimate fed back stays at
 // the old value (off by 3 % for the second half, as a lagging estimator is for a while): the

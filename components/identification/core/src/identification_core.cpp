@@ -99,6 +99,8 @@ ScaleFactorEstimate IdentificationCore::main_estimate() const {
 }
 
 void IdentificationCore::feed_gate(double t_s, const ScaleFactorEstimate& est) {
+  // The latency is fitted to the same samples: its significance tests count their correlation.
+  builder_.set_latency_sigma_factor(est.correlation_factor);
   if (!est.valid) return;
   // Strictly after the last one (the builder's history needs increasing stamps); a commanded K at
   // the time of the last processed epoch then applies from the next epoch on.
@@ -272,6 +274,7 @@ StateJson IdentificationCore::save_state() const { return save_fields(*this); }
 void IdentificationCore::restore_state(const StateJson& state) {
   // Restored into a copy: this one changes only when everything was read.
   *this = restored_copy(IdentificationCore(params_), state, "identification");
+  builder_.set_latency_sigma_factor(main_->estimate().correlation_factor);
 }
 
 bool IdentificationCore::apply_misalignment(const PublishedMisalignment& m) {
