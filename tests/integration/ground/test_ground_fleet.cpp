@@ -67,9 +67,11 @@ TEST_F(GroundFleet, MonitorShowsTwoRealVehiclesAndMarksAKilledComponentStale) {
                      << fleet[0]->logs_tail() << fleet[1]->logs_tail() << monitor.err();
   std::cerr << "both vehicles complete and K converged after " << seconds_since(t0) << " s\n";
 
-  // `monitor --once --json`: one document listing both vehicles with everything.
+  // `monitor --once --json`: one document listing both vehicles with everything. A new participant
+  // discovers the two vehicles' ten participants and hears each component's 1 Hz health within the
+  // settle time: 2 s once left one component out while the whole test suite loaded both cores.
   const RunResult once = run(binary("odonav-ground"),
-                             ground_args("monitor", kDomain, {"--once", "--json", "--settle-s", "2"}), dir, "once");
+                             ground_args("monitor", kDomain, {"--once", "--json", "--settle-s", "4"}), dir, "once");
   ASSERT_EQ(once.exit_code, 0) << once.err;
   const json snap = json::parse(once.out);
   ASSERT_EQ(snap.at("vehicles").size(), vehicles.size()) << once.out;
