@@ -528,10 +528,14 @@ class SampleBuilder {
   /// scaled by the block's residual variance: (samples - 1) / its smallest sum. False when the
   /// block has too few samples or no residual.
   bool weighted_block_residuals(std::vector<double>& out) const;
-  /// Whether the open block (its weighted_block_residuals) agrees with the closed blocks' latency:
-  /// its own parabola's vertex within 5 of its sigmas of it (true while there is no closed estimate;
+  /// Whether the open block (its weighted_block_residuals) agrees with the reference latency: the
+  /// closed blocks' estimate or, before any block closed after a restart, the value applied. Its own
+  /// parabola's vertex within 5 hypot(own sigma, reference sigma) of it (true without a reference;
   /// false when the block gives no vertex of its own).
   bool block_consistent(const std::vector<double>& block) const;
+  /// Fits the closed blocks' sums: latency_closed_fit_ and latency_closed_sigma_s_ (none when the
+  /// fit fails). After every closed block and after a restore (the sigma is not saved).
+  void fit_closed_blocks();
   /// Clears the latency sums (closed blocks and the open one).
   void restart_latency_sums();
 
@@ -559,6 +563,7 @@ class SampleBuilder {
   uint64_t latency_closed_blocks_ = 0;
   uint64_t latency_closed_samples_ = 0;
   std::optional<double> latency_closed_fit_;  ///< the closed blocks' latency estimate (s), if any.
+  double latency_closed_sigma_s_ = -1.0;      ///< its sigma (s); fit_closed_blocks, not saved.
   /// The open block (from latency_block_start_s_, the end stamp of its first sample): sum y^2 and,
   /// per candidate, sum y phi and sum phi^2 (m^2, m pulses, pulses^2).
   double latency_block_start_s_ = 0.0;

@@ -286,6 +286,7 @@ void SampleBuilder::restart_latency_sums() {
   latency_closed_blocks_ = 0;
   latency_closed_samples_ = 0;
   latency_closed_fit_.reset();
+  latency_closed_sigma_s_ = -1.0;
   latency_.blocks_left_out = 0;
   std::fill(latency_block_yphi_.begin(), latency_block_yphi_.end(), 0.0);
   std::fill(latency_block_phiphi_.begin(), latency_block_phiphi_.end(), 0.0);
@@ -311,17 +312,26 @@ bool SampleBuilder::weighted_block_residuals(std::vector<double>& out) const {
   return true;
 }
 
+void SampleBuilder::fit_closed_blocks() {
+  GnssLatencyEstimate closed;
+  latency_closed_fit_.reset();
+  latency_closed_sigma_s_ = -1.0;
+  if (fit_latency(latency_closed_chi2_, latency_closed_samples_, latency_closed_blocks_, closed,
+                  kLatencyBlockMinSamples)) {
+    latency_closed_fit_ = closed.estimate_s;
+    latency_closed_sigma_s_ = closed.sigma_s;
+  }
+}
+
 bool SampleBuilder::block_consistent(const std::vector<double>& block) const {
   // The reference: the closed blocks' estimate, or right after a restart (no closed block yet) the
   // value just applied, which the samples before the restart determined. Without it the first block
   // after a restart was taken on its own, and one that one K cannot describe (the true K stepped
   // inside it) then excluded every later, correct block as inconsistent with it.
   double reference_s = 0.0, reference_sigma_s = 0.0;
-  GnssLatencyEstimate closed;
-  if (latency_closed_fit_ && fit_latency(latency_closed_chi2_, latency_closed_samples_, latency_closed_blocks_, closed,
-                                         kLatencyBlockMinSamples)) {
-    reference_s = closed.estimate_s;
-    reference_sigma_s = closed.sigma_s;
+  if (latency_closed_fit_) {
+    reference_s = *latency_closed_fit_;
+    reference_sigma_s = latency_closed_sigma_s_;
   } else if (latency_closed_blocks_ == 0 && latency_.applied_sigma_s > 0.0) {
     reference_s = latency_.applied_s;
     reference_sigma_s = latency_.applied_sigma_s;
@@ -407,11 +417,7 @@ void SampleBuilder::update_latency(double t0_s, double t1_s, double y_m) {
         for (std::size_t i = 0; i < n; ++i) latency_closed_chi2_[i] += block[i];
         ++latency_closed_blocks_;
         latency_closed_samples_ += latency_block_samples_;
-        GnssLatencyEstimate closed;
-        latency_closed_fit_.reset();
-        if (fit_latency(latency_closed_chi2_, latency_closed_samples_, latency_closed_blocks_, closed,
-                        kLatencyBlockMinSamples))
-          latency_closed_fit_ = closed.estimate_s;
+        fit_closed_blocks();
       } else {
         ++latency_.blocks_left_out;
       }

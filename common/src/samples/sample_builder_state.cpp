@@ -64,6 +64,9 @@ StateJson SampleBuilder::save_state() const { return save_fields(*this); }
 void SampleBuilder::restore_state(const StateJson& state) {
   // Restored into a copy: this one changes only when everything was read.
   *this = restored_copy(SampleBuilder(params_), state, "sample_builder");
+  // The closed fit's sigma is not saved: the same fit of the restored sums gives it (and the saved
+  // estimate).
+  fit_closed_blocks();
 }
 
 }  // namespace odonav
